@@ -1,0 +1,309 @@
+// The `gradphoton` command: render, diff, info, bench. Argument parsing by CLI11.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <iostream>
+#include <random>
+#include <sstream>
+
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "integrators/integrator.h"
+#include "io/display.h"
+#include "io/exr.h"
+#include "io/metrics.h"
+#include "scene/accel.h"
+#include "scene/loader.h"
+
+namespace fs = std::filesystem;
+using namespace gp;
+
+namespace {
+
+std::atomic<ProgressSink*> g_sink{nullptr};
+
+void on_sigint(int) {
+  if (ProgressSink* s = g_sink.load()) s->cancel_flag = true;  // finish with the image so far
+}
+
+// Progress bar on stderr (only when it is a terminal) and checkpoint snapshots.
+class CliProgress : public ProgressSink {
+ public:
+  CliProgress(const Integrator& integ, std::vector<double> checkpoints, std::string out)
+      : integ_(integ), checkpoints_(std::move(checkpoints)), out_(std::move(out)), tty_(isatty(2)) {
+    std::sort(checkpoints_.begin(), checkpoints_.end());
+  }
+  void on_pass(const Stats& s, double fraction) override {
+    while (next_ < checkpoints_.size() && s.seconds >= checkpoints_[next_]) {
+      Film film;
+      integ_.develop(film);
+      const std::string path = checkpoint_path(checkpoints_[next_]);
+      write_exr(path, film);
+      written.push_back(path);
+      ++next_;
+    }
+    if (!tty_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (fraction < 1 && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    const int width = 30, filled = static_cast<int>(std::clamp(fraction, 0.0, 1.0) * width);
+    fmt::print(stderr, "\r[{}{}] {:3.0f}%  pass {}  {:.1f}s  {:.1f} Mrays/s ", std::string(filled, '#'),
+               std::string(width - filled, ' '), 100 * std::max(0.0, fraction), s.passes, s.seconds,
+               s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
+  }
+  void finish() {
+    if (tty_) fmt::print(stderr, "\n");
+  }
+  std::string checkpoint_path(double t) const {
+    fs::path p(out_);
+    return (p.parent_path() / fmt::format("{}.{:g}s{}", p.stem().string(), t, p.extension().string())).string();
+  }
+  std::vector<std::string> written;
+
+ private:
+  const Integrator& integ_;
+  std::vector<double> checkpoints_;
+  size_t next_ = 0;
+  std::string out_;
+  bool tty_;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+void print_warnings(const Scene& scene) {
+  for (const auto& line : scene.warnings.summary()) fmt::print(stderr, "warning: {}\n", line);
+}
+
+std::string scene_summary(const Scene& scene) {
+  std::ostringstream s;
+  const Bounds3& b = scene.bounds();
+  s << fmt::format("scene      {}\n", scene.source);
+  s << fmt::format("meshes     {}\ntriangles  {}\n", scene.meshes.size(), scene.triangle_count());
+  s << fmt::format("materials  {}\n", scene.materials.size());
+  for (const Material& m : scene.materials)
+    s << fmt::format("  {:<16} {}{}{}\n", m.name, to_string(m.type),
+                     m.type == MaterialType::Conductor || m.type == MaterialType::Dielectric
+                         ? fmt::format(" roughness {:g}", m.roughness) : "",
+                     m.is_emissive() ? fmt::format(" emits {:g}", m.radiance().average()) : "");
+  size_t area = 0;
+  for (const Light& l : scene.light_set().lights()) area += l.type == LightType::Area;
+  s << fmt::format("lights     {} ({} emissive triangles)\n", scene.light_set().lights().size(), area);
+  for (const Light& l : scene.lights) {
+    const char* kind = l.type == LightType::Point ? "point" : l.type == LightType::Spot ? "spot"
+                     : l.type == LightType::Directional ? "sun" : "environment";
+    s << fmt::format("  {:<16} {}\n", l.name, kind);
+  }
+  s << fmt::format("bounds     [{:g} {:g} {:g}] .. [{:g} {:g} {:g}]\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
+  s << fmt::format("camera     {}x{}, fov {:g} deg{}\n", scene.camera.width, scene.camera.height,
+                   scene.camera.fov_degrees,
+                   scene.camera.aperture_radius > 0 ? fmt::format(", aperture {:g} m", scene.camera.aperture_radius) : "");
+  s << fmt::format("warnings   {}\n", scene.warnings.total());
+  return s.str();
+}
+
+// ---- render ----
+struct RenderArgs {
+  std::string scene, method = "pt", out, png;
+  double seconds = 0;
+  int64_t passes = 0;
+  int width = 0, height = 0, threads = 0, max_depth = 0;
+  uint64_t seed = 0;
+  std::vector<double> checkpoints;
+  std::vector<std::string> params;
+};
+
+void make_parent_dirs(const std::string& path) {
+  const fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty()) fs::create_directories(parent);
+}
+
+int run_render(const RenderArgs& a) {
+  make_parent_dirs(a.out);
+  if (!a.png.empty()) make_parent_dirs(a.png);
+  Scene scene = load_scene(a.scene);
+  print_warnings(scene);
+  if (a.width > 0) scene.camera.width = a.width;
+  if (a.height > 0) scene.camera.height = a.height;
+  Params params;
+  params.set("seed", a.seed);
+  params.set("threads", a.threads);
+  if (a.max_depth > 0) params.set("max_depth", a.max_depth);
+  for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
+    const std::string value = kv.substr(eq + 1);
+    auto parsed = nlohmann::json::parse(value, nullptr, false);
+    params.set(kv.substr(0, eq), parsed.is_discarded() ? nlohmann::json(value) : parsed);
+  }
+  auto integrator = make_integrator(a.method, scene, params);
+  for (const auto& name : params.unused())
+    fmt::print(stderr, "warning: parameter '{}' is not used by method '{}'\n", name, a.method);
+
+  StopRule stop;
+  stop.seconds = a.seconds;
+  stop.passes = a.passes;
+  if (stop.seconds <= 0 && stop.passes <= 0) stop.passes = 16;
+  CliProgress progress(*integrator, a.checkpoints, a.out);
+  g_sink = &progress;
+  std::signal(SIGINT, on_sigint);
+  run_progressive(*integrator, stop, &progress);
+  progress.finish();
+  g_sink = nullptr;
+
+  Film film;
+  integrator->develop(film);
+  write_exr(a.out, film);
+  const Stats& s = integrator->stats();
+  fmt::print("method     {}\n", integrator->name());
+  fmt::print("passes     {}\npaths      {}\nrays       {}\n", s.passes, s.paths, s.rays);
+  fmt::print("seconds    {:.3f}\nMrays/s    {:.2f}\n", s.seconds, s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
+  if (s.invalid_samples) fmt::print("discarded  {} NaN/Inf samples\n", s.invalid_samples);
+  for (const auto& [k, v] : s.extra) fmt::print("{:<10} {:g}\n", k, v);
+  if (progress.cancel_flag) fmt::print("cancelled  yes (image so far written)\n");
+  fmt::print("exr        {}\n", a.out);
+  for (const auto& p : progress.written) fmt::print("checkpoint {}\n", p);
+  if (!a.png.empty()) {
+    write_png(a.png, film);
+    fmt::print("png        {} ({})\n", a.png, describe_display({}));
+  }
+  return 0;
+}
+
+// ---- diff ----
+int run_diff(const std::string& a_path, const std::string& ref_path, const std::string& pass_name,
+             const std::string& png) {
+  const Film a = read_exr(a_path), ref = read_exr(ref_path);
+  if (!a.has_pass(pass_name)) throw std::runtime_error(fmt::format("{}: no pass '{}'", a_path, pass_name));
+  if (!ref.has_pass(pass_name)) throw std::runtime_error(fmt::format("{}: no pass '{}'", ref_path, pass_name));
+  if (a.width() != ref.width() || a.height() != ref.height())
+    throw std::runtime_error(fmt::format("{} is {}x{} but {} is {}x{}", a_path, a.width(), a.height(), ref_path,
+                                         ref.width(), ref.height()));
+  const DiffResult d = diff_images(a.pass(pass_name), ref.pass(pass_name), a.width(), a.height());
+  fmt::print("relMSE     {:.6g}\nRMSE       {:.6g}\nmean ratio {:.6g}\n", d.rel_mse, d.rmse, d.mean_ratio);
+  if (d.nonfinite) fmt::print("non-finite {}\n", d.nonfinite);
+  if (!png.empty()) {
+    float vmax = 0;
+    for (float v : d.per_pixel_rel_se) vmax = std::max(vmax, v);
+    write_false_color_png(png, d.per_pixel_rel_se, a.width(), a.height(), vmax > 0 ? vmax : 1.0f);
+    fmt::print("error png  {} (scale 0..{:.3g})\n", png, vmax);
+  }
+  return 0;
+}
+
+// ---- bench ----
+// Raw Embree throughput on random rays inside the scene bounds, next to the path tracer's
+// ray rate on the same scene, in one run.
+int run_bench(const std::string& scene_path, double seconds, int threads) {
+  Scene scene = load_scene(scene_path);
+  const Accelerator& accel = scene.accelerator();
+  const Bounds3 b = scene.bounds();
+  constexpr size_t kBatch = 1 << 20;
+  std::vector<Ray> rays(kBatch);
+  std::mt19937 gen(7);
+  std::uniform_real_distribution<float> U(0.0f, 1.0f);
+  for (Ray& r : rays) {
+    const Vec3 o(lerp(U(gen), b.lo.x, b.hi.x), lerp(U(gen), b.lo.y, b.hi.y), lerp(U(gen), b.lo.z, b.hi.z));
+    r = Ray(o, sample_uniform_sphere({U(gen), U(gen)}));
+  }
+  auto measure = [&](bool occlusion) {
+    using clock = std::chrono::steady_clock;
+    const auto t0 = clock::now();
+    size_t traced = 0;
+    std::atomic<size_t> hits{0};
+    while (std::chrono::duration<double>(clock::now() - t0).count() < seconds) {
+      parallel_for(kBatch, threads, [&](size_t lo, size_t hi) {
+        size_t h = 0;
+        RawHit hit;
+        for (size_t i = lo; i < hi; ++i) h += occlusion ? accel.occluded(rays[i]) : accel.intersect(rays[i], hit);
+        hits += h;
+      });
+      traced += kBatch;
+    }
+    const double dt = std::chrono::duration<double>(clock::now() - t0).count();
+    return std::pair{traced / dt * 1e-6, static_cast<double>(hits) / traced};
+  };
+  const auto [closest, closest_hits] = measure(false);
+  const auto [occl, occl_hits] = measure(true);
+  Params params;
+  params.set("threads", threads);
+  auto pt = make_integrator("pt", scene, params);
+  StopRule stop;
+  stop.seconds = seconds;
+  run_progressive(*pt, stop, nullptr);
+  const Stats& s = pt->stats();
+  const double pt_rate = s.rays / s.seconds * 1e-6;
+  fmt::print("scene                   {} ({} triangles)\n", scene_path, scene.triangle_count());
+  fmt::print("threads                 {}\n", resolve_thread_count(threads));
+  fmt::print("embree closest-hit      {:.2f} Mrays/s (random rays in the bounds, {:.0f}% hit)\n", closest, 100 * closest_hits);
+  fmt::print("embree occlusion        {:.2f} Mrays/s\n", occl);
+  fmt::print("path tracer             {:.2f} Mrays/s ({} passes, {:.2f} s)\n", pt_rate, s.passes, s.seconds);
+  fmt::print("path tracer / closest   {:.2f}\n", pt_rate / closest);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"gradphoton: a physically based renderer for caustics, glass and dispersion"};
+  app.set_version_flag("--version", GRADPHOTON_VERSION);
+  app.require_subcommand(1);
+
+  RenderArgs ra;
+  std::string methods;
+  for (const auto& n : integrator_names()) methods += (methods.empty() ? "" : "|") + n;
+  auto* render = app.add_subcommand("render", "Render a scene progressively to a multi-layer EXR");
+  render->add_option("scene", ra.scene, "Scene file (JSON, see docs/scene-format.md)")->required()->check(CLI::ExistingFile);
+  render->add_option("--method", ra.method, "Rendering method: " + methods)->capture_default_str();
+  render->add_option("--time", ra.seconds, "Stop after this many seconds of rendering");
+  render->add_option("--passes", ra.passes, "Stop after this many passes (default 16 if no --time)");
+  render->add_option("--width", ra.width, "Image width (overrides the scene)");
+  render->add_option("--height", ra.height, "Image height (overrides the scene)");
+  render->add_option("--threads", ra.threads, "Worker threads (0 = all cores)")->capture_default_str();
+  render->add_option("--seed", ra.seed, "Random seed")->capture_default_str();
+  render->add_option("--max-depth", ra.max_depth, "Longest path in segments");
+  render->add_option("-o,--output", ra.out, "Output EXR (one layer per pass)")->required();
+  render->add_option("--png", ra.png, "Also write a display PNG through OpenColorIO");
+  render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
+      ->delimiter(',');
+  render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
+
+  std::string diff_a, diff_ref, diff_pass = "combined", diff_png;
+  auto* diff = app.add_subcommand("diff", "Compare an EXR with a reference: relMSE, RMSE, mean ratio");
+  diff->add_option("image", diff_a, "Image EXR")->required()->check(CLI::ExistingFile);
+  diff->add_option("reference", diff_ref, "Reference EXR")->required()->check(CLI::ExistingFile);
+  diff->add_option("--pass", diff_pass, "Pass to compare")->capture_default_str();
+  diff->add_option("--png", diff_png, "Write a false-colour per-pixel relative error PNG");
+
+  std::string info_scene;
+  auto* info = app.add_subcommand("info", "Print a scene summary and its warnings");
+  info->add_option("scene", info_scene, "Scene file")->required()->check(CLI::ExistingFile);
+
+  std::string bench_scene;
+  double bench_seconds = 3;
+  int bench_threads = 0;
+  auto* bench = app.add_subcommand("bench", "Raw Embree ray throughput next to the path tracer's, same scene");
+  bench->add_option("scene", bench_scene, "Scene file")->required()->check(CLI::ExistingFile);
+  bench->add_option("--seconds", bench_seconds, "Seconds per measurement")->capture_default_str();
+  bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)")->capture_default_str();
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (*render) return run_render(ra);
+    if (*diff) return run_diff(diff_a, diff_ref, diff_pass, diff_png);
+    if (*info) {
+      Scene scene = load_scene(info_scene);
+      fmt::print("{}", scene_summary(scene));
+      print_warnings(scene);
+      return 0;
+    }
+    if (*bench) return run_bench(bench_scene, bench_seconds, bench_threads);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}

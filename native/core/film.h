@@ -1,0 +1,49 @@
+// Film: named image passes, each with 1 (scalar) or 3 (RGB) float channels, row-major,
+// row 0 at the top of the image. Integrators keep their own accumulators and write
+// finished estimates here in develop(); the EXR writer, the Python module and Blender read it.
+#pragma once
+
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/color.h"
+
+namespace gp {
+
+// Pass names shared by C++, Python and the addon: define them once, here.
+namespace pass {
+inline constexpr std::string_view kCombined = "combined";
+}  // namespace pass
+
+struct Pass {
+  int channels = 3;          // 1 or 3
+  std::vector<float> data;   // width * height * channels
+};
+
+class Film {
+ public:
+  Film() = default;
+  Film(int width, int height) : width_(width), height_(height) {}
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  size_t pixel_count() const { return static_cast<size_t>(width_) * height_; }
+
+  // Creates the pass (zero-filled) if missing; returns it.
+  Pass& add_pass(std::string_view name, int channels);
+  bool has_pass(std::string_view name) const { return passes_.count(std::string(name)) > 0; }
+  const Pass& pass(std::string_view name) const;  // throws std::out_of_range naming the pass
+  Pass& pass(std::string_view name);
+  const std::map<std::string, Pass, std::less<>>& passes() const { return passes_; }
+
+  RGB rgb(std::string_view name, int x, int y) const;
+  void set_rgb(std::string_view name, int x, int y, const RGB& c);
+
+ private:
+  int width_ = 0, height_ = 0;
+  std::map<std::string, Pass, std::less<>> passes_;
+};
+
+}  // namespace gp

@@ -1,0 +1,118 @@
+// Small fixed-size vector maths for the renderer. Plain structs on purpose: Embree and the
+// integrators want float triples, and Eigen is kept for the dense/sparse systems it is good at.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace gp {
+
+inline constexpr float kPi = 3.14159265358979323846f;
+inline constexpr float kInvPi = 1.0f / kPi;
+inline constexpr float kInv2Pi = 1.0f / (2.0f * kPi);
+inline constexpr float kInv4Pi = 1.0f / (4.0f * kPi);
+inline constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
+struct Vec2 {
+  float x = 0, y = 0;
+  constexpr Vec2() = default;
+  constexpr Vec2(float x_, float y_) : x(x_), y(y_) {}
+  Vec2 operator+(Vec2 b) const { return {x + b.x, y + b.y}; }
+  Vec2 operator-(Vec2 b) const { return {x - b.x, y - b.y}; }
+  Vec2 operator*(float s) const { return {x * s, y * s}; }
+};
+
+struct Vec3 {
+  float x = 0, y = 0, z = 0;
+  constexpr Vec3() = default;
+  constexpr Vec3(float x_, float y_, float z_) : x(x_), y(y_), z(z_) {}
+  constexpr explicit Vec3(float s) : x(s), y(s), z(s) {}
+  float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+  float& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
+  Vec3 operator+(const Vec3& b) const { return {x + b.x, y + b.y, z + b.z}; }
+  Vec3 operator-(const Vec3& b) const { return {x - b.x, y - b.y, z - b.z}; }
+  Vec3 operator-() const { return {-x, -y, -z}; }
+  Vec3 operator*(float s) const { return {x * s, y * s, z * s}; }
+  Vec3 operator/(float s) const { float inv = 1.0f / s; return {x * inv, y * inv, z * inv}; }
+  Vec3& operator+=(const Vec3& b) { x += b.x; y += b.y; z += b.z; return *this; }
+  Vec3& operator-=(const Vec3& b) { x -= b.x; y -= b.y; z -= b.z; return *this; }
+  Vec3& operator*=(float s) { x *= s; y *= s; z *= s; return *this; }
+};
+inline Vec3 operator*(float s, const Vec3& v) { return v * s; }
+
+inline float dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline float absdot(const Vec3& a, const Vec3& b) { return std::abs(dot(a, b)); }
+inline Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+inline float length_squared(const Vec3& v) { return dot(v, v); }
+inline float length(const Vec3& v) { return std::sqrt(dot(v, v)); }
+inline Vec3 normalize(const Vec3& v) { return v / length(v); }
+inline Vec3 vmin(const Vec3& a, const Vec3& b) {
+  return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)};
+}
+inline Vec3 vmax(const Vec3& a, const Vec3& b) {
+  return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)};
+}
+inline float max_component(const Vec3& v) { return std::max(v.x, std::max(v.y, v.z)); }
+inline bool is_finite(const Vec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+// Reflect wo about n (both pointing away from the surface).
+inline Vec3 reflect(const Vec3& wo, const Vec3& n) { return -wo + n * (2.0f * dot(wo, n)); }
+
+inline float clamp(float v, float lo, float hi) { return std::min(std::max(v, lo), hi); }
+inline float safe_sqrt(float v) { return std::sqrt(std::max(0.0f, v)); }
+inline float sqr(float v) { return v * v; }
+inline float lerp(float t, float a, float b) { return a + t * (b - a); }
+
+struct Bounds3 {
+  Vec3 lo{kInfinity}, hi{-kInfinity};
+  void extend(const Vec3& p) { lo = vmin(lo, p); hi = vmax(hi, p); }
+  bool empty() const { return lo.x > hi.x; }
+  Vec3 diagonal() const { return hi - lo; }
+  Vec3 center() const { return (lo + hi) * 0.5f; }
+};
+
+struct Ray {
+  Vec3 o, d;
+  float tmin = 0.0f, tmax = kInfinity;
+  Ray() = default;
+  Ray(const Vec3& o_, const Vec3& d_, float tmin_ = 0.0f, float tmax_ = kInfinity)
+      : o(o_), d(d_), tmin(tmin_), tmax(tmax_) {}
+  Vec3 at(float t) const { return o + d * t; }
+};
+
+// Row-major affine 4x4 transform (last row 0 0 0 1 implied for points/vectors).
+struct Transform {
+  float m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  Vec3 point(const Vec3& p) const {
+    return {m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
+            m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
+            m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
+  }
+  Vec3 vector(const Vec3& v) const {
+    return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
+            m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+            m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
+  }
+  Transform operator*(const Transform& b) const {
+    Transform r;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        r.m[i][j] = 0;
+        for (int k = 0; k < 4; ++k) r.m[i][j] += m[i][k] * b.m[k][j];
+      }
+    return r;
+  }
+  // Normals transform by the inverse transpose of the 3x3 part.
+  Vec3 normal(const Vec3& n) const;
+  static Transform translate(const Vec3& t);
+  static Transform scale(const Vec3& s);
+  // Rotation by `degrees` about `axis` (right-handed).
+  static Transform rotate(float degrees, const Vec3& axis);
+};
+
+}  // namespace gp

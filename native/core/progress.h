@@ -1,0 +1,35 @@
+// Progress, cancellation and statistics: one small object shared by the CLI, the Python
+// module and Blender (DESIGN.md, "The progressive interface").
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+
+namespace gp {
+
+// Counters an integrator reports. `extra` holds method-specific counts by name
+// (e.g. shift failures by reason) so new methods add statistics without new fields.
+struct Stats {
+  int64_t passes = 0;
+  int64_t paths = 0;            // camera paths (or photon paths) traced
+  int64_t rays = 0;             // closest-hit + occlusion rays
+  int64_t invalid_samples = 0;  // NaN/Inf contributions discarded before reaching a pass
+  double seconds = 0;           // wall-clock time inside iterate()
+  std::map<std::string, double> extra;
+};
+
+// Callbacks from a render loop. Methods may be called from the rendering thread only.
+class ProgressSink {
+ public:
+  virtual ~ProgressSink() = default;
+  // After every pass; `fraction` is the share of the stop rule done, in [0,1] (or <0 if unknown).
+  virtual void on_pass(const Stats& stats, double fraction) {}
+  // Polled between tiles; returning true stops the current pass early and ends the render.
+  virtual bool cancelled() { return cancel_flag.load(std::memory_order_relaxed); }
+  std::atomic<bool> cancel_flag{false};
+};
+
+}  // namespace gp

@@ -1,0 +1,52 @@
+// Warps from the unit square to the domains the integrators sample, with their densities,
+// a discrete distribution for light selection, and the MIS heuristics.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "core/math.h"
+
+namespace gp {
+
+Vec2 sample_uniform_disk_concentric(Vec2 u);
+Vec3 sample_cosine_hemisphere(Vec2 u);            // local frame, z up
+inline float cosine_hemisphere_pdf(float cos_theta) { return cos_theta * kInvPi; }
+Vec3 sample_uniform_sphere(Vec2 u);
+inline float uniform_sphere_pdf() { return kInv4Pi; }
+Vec3 sample_uniform_hemisphere(Vec2 u);
+inline float uniform_hemisphere_pdf() { return kInv2Pi; }
+// Uniform direction inside a cone around +z with cos of the half-angle `cos_max`.
+Vec3 sample_uniform_cone(Vec2 u, float cos_max);
+inline float uniform_cone_pdf(float cos_max) { return 1.0f / (2.0f * kPi * (1.0f - cos_max)); }
+// Barycentrics (b0, b1) uniform over a triangle (the third is 1 - b0 - b1).
+Vec2 sample_uniform_triangle(Vec2 u);
+
+// Power heuristic with beta = 2 (Veach 1997, eq. 9.13), for one sample of each strategy.
+inline float power_heuristic(float pdf_a, float pdf_b) {
+  const float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
+  if (std::isinf(a)) return 1.0f;
+  return a + b > 0 ? a / (a + b) : 0.0f;
+}
+inline float balance_heuristic(float pdf_a, float pdf_b) {
+  return pdf_a + pdf_b > 0 ? pdf_a / (pdf_a + pdf_b) : 0.0f;
+}
+
+// Piecewise-constant discrete distribution: sample an index with probability w_i / sum(w).
+class DiscreteDistribution {
+ public:
+  DiscreteDistribution() = default;
+  explicit DiscreteDistribution(std::span<const float> weights);
+  bool empty() const { return pmf_.empty(); }
+  size_t size() const { return pmf_.size(); }
+  float total() const { return total_; }
+  float pmf(size_t i) const { return pmf_[i]; }
+  // Returns the index; `u_remapped` (optional) receives u rescaled to [0,1) within the bucket.
+  size_t sample(float u, float* u_remapped = nullptr) const;
+
+ private:
+  std::vector<float> pmf_, cdf_;
+  float total_ = 0;
+};
+
+}  // namespace gp

@@ -1,0 +1,44 @@
+#include "integrators/integrator.h"
+
+#include <chrono>
+
+#include "integrators/path_tracer.h"
+
+namespace gp {
+
+void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink) {
+  if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0)
+    throw ParamError("no stop rule: give a time budget, a pass count or a target error");
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  for (;;) {
+    if (sink && sink->cancelled()) return;
+    integrator.iterate(sink);
+    const Stats& s = integrator.stats();
+    const double elapsed = std::chrono::duration<double>(clock::now() - start).count();
+    double fraction = -1;
+    if (stop.passes > 0) fraction = static_cast<double>(s.passes) / stop.passes;
+    if (stop.seconds > 0) fraction = std::max(fraction, elapsed / stop.seconds);
+    const double err = integrator.estimated_error();
+    if (stop.target_error > 0 && err < 0 && stop.seconds <= 0 && stop.passes <= 0)
+      throw ParamError("method '" + integrator.name() +
+                       "' has no error estimate: give a time budget or a pass count");
+    const bool error_reached = stop.target_error > 0 && err >= 0 && err <= stop.target_error;
+    if (sink) sink->on_pass(s, std::min(1.0, fraction));
+    if ((stop.passes > 0 && s.passes >= stop.passes) || (stop.seconds > 0 && elapsed >= stop.seconds) ||
+        error_reached)
+      return;
+  }
+}
+
+std::vector<std::string> integrator_names() { return {"pt"}; }
+
+std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
+                                            const Params& params) {
+  if (method == "pt") return std::make_unique<PathTracer>(scene, params);
+  std::string known;
+  for (const auto& n : integrator_names()) known += (known.empty() ? "" : ", ") + n;
+  throw ParamError("unknown method '" + method + "' (known: " + known + ")");
+}
+
+}  // namespace gp

@@ -1,0 +1,51 @@
+// The progressive interface every method implements (DESIGN.md, "The progressive interface"):
+// iterate() performs one pass, develop() writes the current estimate into a Film, and
+// run_progressive() calls iterate() until a stop rule fires.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/film.h"
+#include "core/params.h"
+#include "core/progress.h"
+#include "scene/scene.h"
+
+namespace gp {
+
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+  virtual std::string name() const = 0;
+  // One pass over the image. Polls `sink->cancelled()` and may return early, leaving the
+  // estimate consistent (pixels not reached keep their earlier samples).
+  virtual void iterate(ProgressSink* sink) = 0;
+  // Writes every pass of the current estimate into `film` (sized to the camera).
+  virtual void develop(Film& film) const = 0;
+  // Current average estimated relative error, or < 0 when the method has no estimate.
+  virtual double estimated_error() const { return -1.0; }
+  const Stats& stats() const { return stats_; }
+
+ protected:
+  Stats stats_;
+};
+
+// Stop rules; zero means "not set". At least one of seconds / passes / target_error is needed.
+struct StopRule {
+  double seconds = 0;
+  int64_t passes = 0;
+  double target_error = 0;
+};
+
+// Calls iterate() until a rule fires or the sink cancels; reports after every pass.
+void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink);
+
+// Builds a method by name ("pt", ...). Unknown names and parameters with wrong types throw
+// ParamError; unread parameters are left in `params.unused()` for the caller to report.
+std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
+                                            const Params& params);
+// Names make_integrator accepts, for --help texts and the Blender enum.
+std::vector<std::string> integrator_names();
+
+}  // namespace gp

@@ -1,0 +1,158 @@
+#include "integrators/path_tracer.h"
+
+#include <chrono>
+
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+PathTracer::PathTracer(const Scene& scene, const Params& params)
+    : scene_(scene),
+      max_depth_(params.get<int>("max_depth", 32)),
+      rr_depth_(params.get<int>("rr_depth", 3)),
+      threads_(params.get<int>("threads", 0)),
+      tile_size_(params.get<int>("tile_size", 16)),
+      seed_(params.get<uint64_t>("seed", 0)),
+      width_(scene.camera.width),
+      height_(scene.camera.height) {
+  if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
+  if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
+  if (threads_ < 0) throw ParamError("threads must be >= 0");
+  if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
+  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  sum_.assign(static_cast<size_t>(width_) * height_ * 3, 0.0);
+  samples_.assign(static_cast<size_t>(width_) * height_, 0);
+}
+
+RGB PathTracer::Li(Ray ray, Rng& rng, int64_t& rays) const {
+  const LightSet& lights = scene_.light_set();
+  RGB L(0.0f), beta(1.0f);
+  bool specular_bounce = false;
+  float prev_pdf = 0;  // solid-angle pdf of the BSDF sample that produced `ray`
+  Vec3 prev_p;
+  for (int depth = 0;; ++depth) {
+    ++rays;
+    const auto hit = scene_.intersect(ray);
+
+    // ---- Emission found by the ray: full weight for camera and specular rays, MIS otherwise
+    if (!hit) {
+      const RGB Le = lights.environment_radiance(ray.d);
+      if (!Le.is_black()) {
+        const float w = (depth == 0 || specular_bounce) ? 1.0f : power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
+        L += beta * Le * w;
+      }
+      break;
+    }
+    if (hit->light >= 0) {
+      const RGB Le = lights.area_radiance(hit->light, -ray.d);
+      if (!Le.is_black()) {
+        const float w = (depth == 0 || specular_bounce)
+                            ? 1.0f
+                            : power_heuristic(prev_pdf, lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
+        L += beta * Le * w;
+      }
+    }
+    if (depth + 1 >= max_depth_) break;
+
+    const Bsdf bsdf(scene_.material(hit->material));
+    if (bsdf.is_black()) break;
+    const Vec3 wo = hit->frame.to_local(-ray.d);
+    if (wo.z == 0) break;
+
+    // ---- Emitter sampling (next-event estimation) ----
+    if (!bsdf.is_delta() && !lights.empty()) {
+      const float u_light = rng.uniform();
+      const Vec2 u2(rng.uniform(), rng.uniform());
+      if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+        const Vec3 wi = hit->frame.to_local(ls->wi);
+        const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
+        if (!f.is_black()) {
+          ++rays;
+          bool blocked;
+          if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
+            const Light& al = lights.lights()[ls->light];
+            blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist, al.n);
+          } else {
+            const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
+            const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+            blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
+          }
+          if (!blocked) {
+            const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, bsdf.pdf(wo, wi));
+            L += beta * f * ls->L * (w / ls->pdf);
+          }
+        }
+      }
+    }
+
+    // ---- BSDF sampling ----
+    const float uc = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    const auto bs = bsdf.sample(wo, uc, u);
+    if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+    beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+    specular_bounce = bs->delta;
+    prev_pdf = bs->pdf;
+    prev_p = hit->p;
+    const Vec3 wi = hit->frame.to_world(bs->wi);
+    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+
+    // ---- Russian roulette ----
+    if (depth + 1 >= rr_depth_) {
+      const float q = std::max(0.05f, 1.0f - beta.max_component());
+      if (rng.uniform() < q) break;
+      beta = beta / (1.0f - q);
+    }
+  }
+  return L;
+}
+
+void PathTracer::iterate(ProgressSink* sink) {
+  const auto start = std::chrono::steady_clock::now();
+  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  std::atomic<int64_t> rays{0}, paths{0}, invalid{0};
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        int64_t tile_rays = 0, tile_paths = 0, tile_invalid = 0;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            const size_t pixel = static_cast<size_t>(y) * width_ + x;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(x + rng.uniform(), y + rng.uniform());  // box filter
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            const RGB L = Li(scene_.camera.generate_ray(film, lens), rng, tile_rays);
+            ++tile_paths;
+            ++samples_[pixel];
+            if (!L.is_finite()) {  // discard and count: NaN/Inf never reaches a pass
+              ++tile_invalid;
+              continue;
+            }
+            sum_[3 * pixel] += L.r;
+            sum_[3 * pixel + 1] += L.g;
+            sum_[3 * pixel + 2] += L.b;
+          }
+        rays += tile_rays;
+        paths += tile_paths;
+        invalid += tile_invalid;
+      },
+      [sink] { return sink && sink->cancelled(); });
+  stats_.passes += 1;
+  stats_.rays += rays;
+  stats_.paths += paths;
+  stats_.invalid_samples += invalid;
+  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void PathTracer::develop(Film& film) const {
+  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+  Pass& p = film.add_pass(pass::kCombined, 3);
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    const double inv = samples_[i] ? 1.0 / samples_[i] : 0.0;
+    for (int c = 0; c < 3; ++c) p.data[3 * i + c] = static_cast<float>(sum_[3 * i + c] * inv);
+  }
+}
+
+}  // namespace gp

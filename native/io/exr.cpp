@@ -1,0 +1,150 @@
+#include "io/exr.h"
+
+#include <algorithm>
+#include <exception>
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+#include <vector>
+
+#include <ImathBox.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+
+namespace gp {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& what, const std::string& path, const std::string& why) {
+  throw std::runtime_error(what + " '" + path + "': " + why);
+}
+
+// Splits "a.b.R" into {"a.b", "R"}; "R" into {"", "R"}.
+std::pair<std::string, std::string> split_channel(const std::string& name) {
+  const auto dot = name.rfind('.');
+  if (dot == std::string::npos) return {"", name};
+  return {name.substr(0, dot), name.substr(dot + 1)};
+}
+
+}  // namespace
+
+void write_exr(const std::string& path, const Film& film) {
+  const int w = film.width(), h = film.height();
+  if (w <= 0 || h <= 0) fail("cannot write EXR", path, "film is empty (" + std::to_string(w) + "x" + std::to_string(h) + ")");
+  if (film.passes().empty()) fail("cannot write EXR", path, "film has no passes");
+
+  static const char* kRGB[3] = {"R", "G", "B"};
+  try {
+    Imf::Header header(w, h);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    header.lineOrder() = Imf::INCREASING_Y;
+    header.insert("software", Imf::StringAttribute("gradphoton"));
+    Imf::FrameBuffer fb;
+    for (const auto& [name, pass] : film.passes()) {
+      const size_t expected = film.pixel_count() * static_cast<size_t>(pass.channels);
+      if ((pass.channels != 1 && pass.channels != 3) || pass.data.size() != expected)
+        fail("cannot write EXR", path,
+             "pass '" + name + "' has " + std::to_string(pass.data.size()) + " values for " +
+                 std::to_string(pass.channels) + " channels, expected " + std::to_string(expected));
+      const size_t xs = sizeof(float) * pass.channels;
+      const size_t ys = xs * static_cast<size_t>(w);
+      // OpenEXR's FrameBuffer wants non-const pointers but only reads when writing.
+      char* base = reinterpret_cast<char*>(const_cast<float*>(pass.data.data()));
+      for (int c = 0; c < pass.channels; ++c) {
+        const std::string ch = name + "." + (pass.channels == 1 ? std::string("V") : std::string(kRGB[c]));
+        header.channels().insert(ch, Imf::Channel(Imf::FLOAT));
+        fb.insert(ch, Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
+      }
+    }
+    Imf::OutputFile out(path.c_str(), header);
+    out.setFrameBuffer(fb);
+    out.writePixels(h);
+  } catch (const std::runtime_error& e) {
+    const std::string msg = e.what();
+    if (msg.find(path) != std::string::npos) throw;
+    fail("cannot write EXR", path, msg);
+  } catch (const std::exception& e) {
+    fail("cannot write EXR", path, e.what());
+  }
+}
+
+Film read_exr(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail("cannot read EXR", path, "no such file");
+  if (std::filesystem::is_directory(path, ec)) fail("cannot read EXR", path, "is a directory");
+
+  try {
+    Imf::InputFile in(path.c_str());
+    const Imf::Header& header = in.header();
+    const Imath::Box2i dw = header.dataWindow();
+    const int64_t w64 = int64_t(dw.max.x) - dw.min.x + 1, h64 = int64_t(dw.max.y) - dw.min.y + 1;
+    if (w64 <= 0 || h64 <= 0 || w64 > (1 << 20) || h64 > (1 << 20))
+      fail("cannot read EXR", path, "bad data window");
+    const int w = int(w64), h = int(h64);
+
+    // Group channels into layers by the prefix before the last '.'.
+    std::map<std::string, std::vector<std::string>> layers;  // layer -> suffixes
+    for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
+      const Imf::Channel& ch = it.channel();
+      if (ch.xSampling != 1 || ch.ySampling != 1)
+        fail("cannot read EXR", path, std::string("subsampled channel '") + it.name() + "' is not supported");
+      auto [layer, suffix] = split_channel(it.name());
+      layers[layer].push_back(suffix);
+    }
+    if (layers.empty()) fail("cannot read EXR", path, "no channels");
+
+    // Decide which pass every channel goes to: (pass name, channels, channel index).
+    struct Target { std::string pass; int channels; int index; };
+    std::map<std::string, Target> targets;  // full channel name -> target
+    auto full = [](const std::string& layer, const std::string& s) {
+      return layer.empty() ? s : layer + "." + s;
+    };
+    for (const auto& [layer, suffixes] : layers) {
+      auto has = [&](const char* s) { return std::find(suffixes.begin(), suffixes.end(), s) != suffixes.end(); };
+      const std::string layer_pass = layer.empty() ? std::string(pass::kCombined) : layer;
+      std::vector<std::string> used;
+      const char* const* triple = nullptr;
+      static const char* kRGB[3] = {"R", "G", "B"};
+      static const char* kXYZ[3] = {"X", "Y", "Z"};
+      if (has("R") && has("G") && has("B")) triple = kRGB;
+      else if (has("X") && has("Y") && has("Z")) triple = kXYZ;
+      if (triple) {
+        for (int c = 0; c < 3; ++c) {
+          targets[full(layer, triple[c])] = {layer_pass, 3, c};
+          used.push_back(triple[c]);
+        }
+      } else if (suffixes.size() == 1) {
+        targets[full(layer, suffixes[0])] = {layer.empty() ? suffixes[0] : layer, 1, 0};
+        continue;
+      }
+      for (const auto& s : suffixes)
+        if (std::find(used.begin(), used.end(), s) == used.end())
+          targets[full(layer, s)] = {full(layer, s), 1, 0};
+    }
+
+    Film film(w, h);
+    Imf::FrameBuffer fb;
+    for (const auto& [chname, t] : targets) {
+      if (film.has_pass(t.pass) && film.pass(t.pass).channels != t.channels)
+        fail("cannot read EXR", path, "channel '" + chname + "' clashes with pass '" + t.pass + "'");
+      Pass& p = film.add_pass(t.pass, t.channels);
+      const size_t xs = sizeof(float) * t.channels;
+      fb.insert(chname, Imf::Slice::Make(Imf::FLOAT, p.data.data() + t.index, dw, xs, xs * size_t(w)));
+    }
+    in.setFrameBuffer(fb);
+    in.readPixels(dw.min.y, dw.max.y);
+    return film;
+  } catch (const std::runtime_error& e) {
+    const std::string msg = e.what();
+    if (msg.find(path) != std::string::npos) throw;
+    fail("cannot read EXR", path, msg);
+  } catch (const std::exception& e) {
+    fail("cannot read EXR", path, e.what());
+  }
+}
+
+}  // namespace gp

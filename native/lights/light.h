@@ -1,0 +1,81 @@
+// Lights: emissive triangles (area lights), point, spot, directional (sun), constant
+// environment. Units are radiometric; the Blender addon converts Blender's conventions.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/color.h"
+#include "core/math.h"
+#include "core/sampling.h"
+
+namespace gp {
+
+enum class LightType { Area, Point, Spot, Directional, Environment };
+
+struct Light {
+  LightType type = LightType::Point;
+  std::string name;
+  // Area, Environment: radiance (W sr^-1 m^-2). Point, Spot: intensity (W sr^-1).
+  // Directional: irradiance on a surface facing the light (W m^-2).
+  RGB emit{1.0f};
+  Vec3 position;                 // point, spot
+  Vec3 direction{0, 0, -1};      // spot axis / direction the sun's light travels (unit)
+  // Spot cone (Blender's spot_size and spot_blend): cos of the half angle, and the width of
+  // the smoothstep blend in cosine units ((1 - cos_half) * blend), as Cycles does.
+  float spot_cos_half = 0.7071f;
+  float spot_smooth = 0.0f;
+  // Area light triangle (world space), unit geometric normal, area.
+  Vec3 p0, p1, p2, n;
+  float area = 0.0f;
+  bool two_sided = false;
+  int mesh = -1, prim = -1;      // the emissive triangle this light is
+
+  bool is_delta() const { return type == LightType::Point || type == LightType::Spot || type == LightType::Directional; }
+  bool is_infinite() const { return type == LightType::Directional || type == LightType::Environment; }
+};
+
+// Incident radiance from one light at a reference point, for next-event estimation.
+struct LightSample {
+  RGB L;                 // radiance arriving along -wi (for delta lights: intensity/d^2 or E)
+  Vec3 wi;               // unit direction from the reference point towards the light
+  float dist = kInfinity;  // distance to the light sample (infinity for distant lights)
+  float pdf = 0;         // solid-angle pdf including the light-selection probability; delta: pmf
+  bool delta = false;
+  int light = -1;
+};
+
+// All lights of a scene with a power-proportional selection distribution.
+class LightSet {
+ public:
+  LightSet() = default;
+  // scene_bounds give distant lights their power (pi r^2 E) and the environment its extent.
+  LightSet(std::vector<Light> lights, const Bounds3& scene_bounds);
+
+  const std::vector<Light>& lights() const { return lights_; }
+  bool empty() const { return lights_.empty(); }
+  int environment() const { return environment_; }
+  float selection_pmf(int light) const { return select_.empty() ? 0.0f : select_.pmf(light); }
+
+  std::optional<LightSample> sample_li(const Vec3& p, float u_select, Vec2 u) const;
+  // Solid-angle pdf (selection included) that sample_li would pick the point `p_light` of
+  // area light `light` as seen from `p` along unit wi (MIS weight when a BSDF ray hits it).
+  float pdf_area(int light, const Vec3& p, const Vec3& p_light, const Vec3& wi) const;
+  // Solid-angle pdf of sampling direction wi from the environment (0 if none).
+  float pdf_environment(const Vec3& wi) const;
+  // Radiance seen along a ray that leaves the scene.
+  RGB environment_radiance(const Vec3& dir) const;
+  // Radiance leaving area light `light` towards direction w (away from the light).
+  RGB area_radiance(int light, const Vec3& w) const;
+  float power(int light) const;
+
+ private:
+  float spot_falloff(const Light& l, const Vec3& w_from_light) const;
+  std::vector<Light> lights_;
+  DiscreteDistribution select_;
+  int environment_ = -1;
+  float scene_radius_ = 1.0f;
+};
+
+}  // namespace gp

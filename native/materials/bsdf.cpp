@@ -1,0 +1,430 @@
+// BSDFs of the closed material set: Lambertian diffuse, conductor (smooth mirror or GGX
+// microfacet with Schlick Fresnel) and dielectric (smooth or GGX rough glass after Walter et
+// al. 2007, arranged as pbrt-v4's DielectricBxDF), plus the black BSDF of emission-only
+// materials.
+//
+// Every BSDF is two-sided: wo may lie on either side of the shading frame. Diffuse and
+// conductor mirror themselves into the hemisphere of wo; the dielectric treats +z as the
+// outside (IOR 1) and -z as the inside (IOR material.ior), so wo.z < 0 inverts eta.
+//
+// References:
+//   [Walter07] Walter, Marschner, Li, Torrance 2007, "Microfacet Models for Refraction
+//              through Rough Surfaces" (EGSR).
+//   [Heitz14]  Heitz 2014, "Understanding the Masking-Shadowing Function in
+//              Microfacet-Based BRDFs" (JCGT 3(2)).
+//   [Heitz18]  Heitz 2018, "Sampling the GGX Distribution of Visible Normals" (JCGT 7(4)).
+//   [Veach97]  Veach 1997, thesis, ch. 5 (non-symmetric scattering at refraction).
+//   [pbrt-v4]  Pharr, Jakob, Humphreys, "Physically Based Rendering", 4th ed., ch. 9.
+#include "materials/bsdf.h"
+
+#include "core/frame.h"
+#include "core/sampling.h"
+
+namespace gp {
+
+namespace {
+
+// ---- GGX (Trowbridge–Reitz) microfacet distribution, isotropic ----
+
+struct Ggx {
+  float alpha;
+
+  // Normal distribution, [Walter07] eq. 33, written as alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2)
+  // with sin^2 = x^2 + y^2 so that it stays accurate near the pole (1 - z^2 would cancel).
+  // wm must be unit length and face +z (the chi+ factor).
+  float D(const Vec3& wm) const {
+    if (wm.z <= 0) return 0;
+    const float a2 = alpha * alpha;
+    const float d = wm.x * wm.x + wm.y * wm.y + a2 * wm.z * wm.z;
+    if (d <= 0) return 0;
+    return a2 / (kPi * d * d);
+  }
+
+  // Smith auxiliary function Lambda, [Heitz14] eq. 86: (sqrt(1 + alpha^2 tan^2) - 1) / 2.
+  float lambda(const Vec3& w) const {
+    const float z2 = w.z * w.z;
+    if (z2 == 0) return kInfinity;
+    const float a2_tan2 = alpha * alpha * (w.x * w.x + w.y * w.y) / z2;
+    // Rewritten as a2_tan2 / (2 (1 + sqrt(1 + a2_tan2))) to avoid cancellation for small alpha.
+    return a2_tan2 / (2.0f * (1.0f + std::sqrt(1.0f + a2_tan2)));
+  }
+
+  // Smith masking, [Heitz14] eq. 43.
+  float G1(const Vec3& w) const { return 1.0f / (1.0f + lambda(w)); }
+
+  // Height-correlated masking-shadowing, [Heitz14] eq. 99.
+  float G(const Vec3& wo, const Vec3& wi) const { return 1.0f / (1.0f + lambda(wo) + lambda(wi)); }
+
+  // Distribution of normals visible from w, [Heitz14] eq. 38 / [Heitz18] eq. 2:
+  // D_w(wm) = G1(w) max(0, w.wm) D(wm) / cos(w). Two-sided: w below the surface is mirrored.
+  float D_visible(const Vec3& w, const Vec3& wm) const {
+    const float cos_w = std::abs(w.z);
+    if (cos_w == 0) return 0;
+    return G1(w) / cos_w * D(wm) * absdot(w, wm);
+  }
+
+  // Samples D_visible, [Heitz18] listing 1, with the polar disk warp of its §4.2.
+  Vec3 sample_visible(Vec3 w, Vec2 u) const {
+    if (w.z < 0) w = -w;  // two-sided: sample the normals visible from the mirrored direction
+    // §3.2: stretch the view direction into the hemisphere configuration.
+    const Vec3 wh = normalize(Vec3(alpha * w.x, alpha * w.y, w.z));
+    // §4.1: orthonormal basis around wh (any T1 when wh is the pole).
+    const float len2 = wh.x * wh.x + wh.y * wh.y;
+    const Vec3 t1 = len2 > 0 ? Vec3(-wh.y, wh.x, 0) / std::sqrt(len2) : Vec3(1, 0, 0);
+    const Vec3 t2 = cross(wh, t1);
+    // §4.2: uniform point on the projected area: a disk whose lower half is squashed.
+    const float r = std::sqrt(u.x);
+    const float phi = 2.0f * kPi * u.y;
+    const float p1 = r * std::cos(phi);
+    float p2 = r * std::sin(phi);
+    const float s = 0.5f * (1.0f + wh.z);
+    p2 = (1.0f - s) * safe_sqrt(1.0f - p1 * p1) + s * p2;
+    // §4.3: reproject onto the hemisphere.
+    const Vec3 nh = t1 * p1 + t2 * p2 + wh * safe_sqrt(1.0f - p1 * p1 - p2 * p2);
+    // §3.4: unstretch. z is kept off 0 (as pbrt-v4) so wm never lies in the tangent plane.
+    return normalize(Vec3(alpha * nh.x, alpha * nh.y, std::max(1e-6f, nh.z)));
+  }
+};
+
+// ---- Fresnel ----
+
+// Schlick 1994 approximation with per-channel normal-incidence reflectance f0.
+RGB fresnel_schlick(const RGB& f0, float cos_i) {
+  const float m = clamp(1.0f - cos_i, 0.0f, 1.0f);
+  const float m5 = (m * m) * (m * m) * m;
+  return f0 + (RGB(1.0f) - f0) * m5;
+}
+
+// Refraction of wi about n (same side as wi or not) for relative IOR eta = n_t / n_i seen from
+// the side n points to; pbrt-v4 Refract(). Returns false on total internal reflection.
+// etap receives the relative IOR actually crossed (inverted when wi is below n).
+bool refract(const Vec3& wi, Vec3 n, float eta, float* etap, Vec3* wt) {
+  float cos_i = dot(n, wi);
+  if (cos_i < 0) {  // wi on the inside: flip the interface
+    eta = 1.0f / eta;
+    cos_i = -cos_i;
+    n = -n;
+  }
+  const float sin2_i = std::max(0.0f, 1.0f - cos_i * cos_i);
+  const float sin2_t = sin2_i / (eta * eta);  // Snell's law
+  if (sin2_t >= 1.0f) return false;
+  const float cos_t = safe_sqrt(1.0f - sin2_t);
+  *wt = -wi / eta + n * (cos_i / eta - cos_t);
+  if (etap) *etap = eta;
+  return true;
+}
+
+// Mirror direction about the shading normal.
+Vec3 mirror_z(const Vec3& w) { return {-w.x, -w.y, w.z}; }
+
+bool valid_sample(const RGB& f, float pdf) {
+  return pdf > 0 && std::isfinite(pdf) && f.is_finite();
+}
+
+// ---- Diffuse ----
+
+RGB diffuse_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+  return same_hemisphere(wo, wi) ? m.color * kInvPi : RGB(0.0f);
+}
+
+float diffuse_pdf(const Vec3& wo, const Vec3& wi) {
+  return same_hemisphere(wo, wi) ? cosine_hemisphere_pdf(abs_cos_theta(wi)) : 0.0f;
+}
+
+std::optional<BsdfSample> diffuse_sample(const Material& m, const Vec3& wo, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  Vec3 wi = sample_cosine_hemisphere(u);
+  if (wo.z < 0) wi.z = -wi.z;
+  const float pdf = cosine_hemisphere_pdf(abs_cos_theta(wi));
+  if (pdf <= 0) return std::nullopt;  // wi in the tangent plane
+  BsdfSample s;
+  s.f = m.color * kInvPi;
+  s.wi = wi;
+  s.pdf = pdf;
+  return s;
+}
+
+// ---- Conductor ----
+
+RGB conductor_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+  if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+  const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
+  if (cos_o == 0 || cos_i == 0) return RGB(0.0f);
+  Vec3 wm = wi + wo;
+  if (length_squared(wm) == 0) return RGB(0.0f);
+  wm = normalize(wm);
+  if (wm.z < 0) wm = -wm;
+  const Ggx ggx{m.roughness};
+  // Cook–Torrance microfacet BRDF, [Walter07] eq. 20.
+  return fresnel_schlick(m.color, absdot(wo, wm)) *
+         (ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o));
+}
+
+float conductor_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+  if (!same_hemisphere(wo, wi)) return 0.0f;
+  Vec3 wm = wi + wo;
+  if (length_squared(wm) == 0) return 0.0f;
+  wm = normalize(wm);
+  if (wm.z < 0) wm = -wm;
+  const float wo_dot_wm = absdot(wo, wm);
+  if (wo_dot_wm == 0) return 0.0f;
+  // Visible-normal density times the reflection Jacobian dwm/dwi = 1 / (4 |wo.wm|),
+  // [Walter07] eq. 14.
+  return Ggx{m.roughness}.D_visible(wo, wm) / (4.0f * wo_dot_wm);
+}
+
+std::optional<BsdfSample> conductor_sample(const Material& m, const Vec3& wo, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  if (m.roughness < kSmoothAlpha) {
+    // Perfect mirror: f = F / |cos| so that f |cos| / pdf = F with a unit Dirac pdf.
+    BsdfSample s;
+    s.wi = mirror_z(wo);
+    s.f = fresnel_schlick(m.color, abs_cos_theta(wo)) / abs_cos_theta(wo);
+    s.pdf = 1.0f;
+    s.delta = true;
+    return s;
+  }
+  const Ggx ggx{m.roughness};
+  const Vec3 wm = ggx.sample_visible(wo, u);
+  const Vec3 wi = reflect(wo, wm);
+  if (!same_hemisphere(wo, wi)) return std::nullopt;  // reflected below the horizon
+  const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
+  const float wo_dot_wm = absdot(wo, wm);
+  if (cos_i == 0 || wo_dot_wm == 0) return std::nullopt;
+  BsdfSample s;
+  s.wi = wi;
+  s.pdf = ggx.D_visible(wo, wm) / (4.0f * wo_dot_wm);  // [Walter07] eq. 14
+  s.f = fresnel_schlick(m.color, wo_dot_wm) *
+        (ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o));  // [Walter07] eq. 20
+  if (!valid_sample(s.f, s.pdf)) return std::nullopt;
+  return s;
+}
+
+// ---- Dielectric ----
+
+bool dielectric_is_smooth(const Material& m) { return m.roughness < kSmoothAlpha || m.ior == 1.0f; }
+
+// Generalized half vector of a reflection or refraction pair, [Walter07] eq. 16 in pbrt-v4's
+// form wm = wo + etap wi, faced to +z. Returns false for degenerate pairs (grazing directions,
+// zero-length half vector) and for pairs whose microfacet is back-facing to wo or wi, which no
+// microfacet can produce. etap is the IOR on wi's side over the IOR on wo's side.
+bool dielectric_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, Vec3* wm,
+                            float* etap, bool* reflect_pair) {
+  const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
+  if (cos_o == 0 || cos_i == 0) return false;
+  *reflect_pair = cos_i * cos_o > 0;
+  *etap = *reflect_pair ? 1.0f : (cos_o > 0 ? m.ior : 1.0f / m.ior);
+  Vec3 h = wi * *etap + wo;
+  if (length_squared(h) == 0) return false;
+  h = normalize(h);
+  if (h.z < 0) h = -h;
+  if (dot(h, wi) * cos_i < 0 || dot(h, wo) * cos_o < 0) return false;
+  *wm = h;
+  return true;
+}
+
+// Fresnel reflectance at microfacet wm for the pair (wo, wi). A refraction pair has the same F
+// seen from either side, but from the dense side near the critical angle cos_t = sqrt(1 -
+// sin^2_t) cancels and float round-off in wm.w becomes a large error in 1 - F; evaluated from
+// the outside direction F is well conditioned (and eval stays reciprocal to float precision).
+float dielectric_fresnel(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wm,
+                         bool reflect_pair) {
+  const Vec3& w = (reflect_pair || wo.z > 0) ? wo : wi;
+  return fresnel_dielectric(dot(w, wm), m.ior);
+}
+
+RGB dielectric_eval(const Material& m, const Vec3& wo, const Vec3& wi, TransportMode mode) {
+  if (dielectric_is_smooth(m)) return RGB(0.0f);
+  Vec3 wm;
+  float etap;
+  bool reflect_pair;
+  if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return RGB(0.0f);
+  const Ggx ggx{m.roughness};
+  const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
+  const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
+  if (reflect_pair) {
+    // [Walter07] eq. 20.
+    return m.color * (ggx.D(wm) * ggx.G(wo, wi) * F / std::abs(4.0f * cos_i * cos_o));
+  }
+  // [Walter07] eq. 21 divided through by eta_o^2 (pbrt-v4's form). This is the importance
+  // (adjoint) BTDF; radiance reaching wo's medium scales by 1/etap^2 ([Veach97] §5.2).
+  const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * cos_i * cos_o;
+  if (denom == 0) return RGB(0.0f);
+  float ft = ggx.D(wm) * (1.0f - F) * ggx.G(wo, wi) * std::abs(dot(wi, wm) * dot(wo, wm) / denom);
+  if (mode == TransportMode::Radiance) ft /= sqr(etap);
+  return m.color * ft;
+}
+
+float dielectric_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+  if (dielectric_is_smooth(m)) return 0.0f;
+  Vec3 wm;
+  float etap;
+  bool reflect_pair;
+  if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return 0.0f;
+  // Lobe selection probability: Fresnel at the microfacet.
+  const float R = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
+  const float T = 1.0f - R;
+  const Ggx ggx{m.roughness};
+  if (reflect_pair) {
+    const float wo_dot_wm = absdot(wo, wm);
+    if (wo_dot_wm == 0) return 0.0f;
+    return ggx.D_visible(wo, wm) / (4.0f * wo_dot_wm) * R;  // [Walter07] eq. 14
+  }
+  // Refraction Jacobian dwm/dwi, [Walter07] eq. 17 divided through by eta_o^2.
+  const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap);
+  if (denom == 0) return 0.0f;
+  const float dwm_dwi = absdot(wi, wm) / denom;
+  return ggx.D_visible(wo, wm) * dwm_dwi * T;
+}
+
+std::optional<BsdfSample> dielectric_sample_smooth(const Material& m, const Vec3& wo, float uc,
+                                                   TransportMode mode) {
+  if (wo.z == 0) return std::nullopt;
+  const float R = fresnel_dielectric(cos_theta(wo), m.ior);
+  const float T = 1.0f - R;
+  BsdfSample s;
+  s.delta = true;
+  if (uc < R / (R + T)) {
+    // Specular reflection: f = R / |cos| chosen with probability R.
+    s.wi = mirror_z(wo);
+    s.f = m.color * (R / abs_cos_theta(s.wi));
+    s.pdf = R / (R + T);
+    return s;
+  }
+  Vec3 wi;
+  float etap = 1.0f;
+  if (!refract(wo, Vec3(0, 0, 1), m.ior, &etap, &wi) || wi.z == 0) return std::nullopt;
+  float ft = T / abs_cos_theta(wi);
+  // Radiance crossing into wo's medium scales by (eta_o / eta_i)^2 = 1 / etap^2, [Veach97] §5.2.
+  if (mode == TransportMode::Radiance) ft /= sqr(etap);
+  s.wi = wi;
+  s.f = m.color * ft;
+  s.pdf = T / (R + T);
+  s.transmission = true;
+  s.eta = etap;
+  return s;
+}
+
+std::optional<BsdfSample> dielectric_sample(const Material& m, const Vec3& wo, float uc, Vec2 u,
+                                            TransportMode mode) {
+  if (dielectric_is_smooth(m)) return dielectric_sample_smooth(m, wo, uc, mode);
+  if (wo.z == 0) return std::nullopt;
+  const Ggx ggx{m.roughness};
+  const Vec3 wm = ggx.sample_visible(wo, u);
+  const float wo_dot_wm = dot(wo, wm);
+  if (wo_dot_wm == 0) return std::nullopt;
+  const float R = fresnel_dielectric(wo_dot_wm, m.ior);
+  const float T = 1.0f - R;
+  const float cos_o = cos_theta(wo);
+  BsdfSample s;
+  if (uc < R / (R + T)) {
+    const Vec3 wi = reflect(wo, wm);
+    if (!same_hemisphere(wo, wi)) return std::nullopt;
+    const float cos_i = cos_theta(wi);
+    s.wi = wi;
+    s.pdf = ggx.D_visible(wo, wm) / (4.0f * std::abs(wo_dot_wm)) * R / (R + T);        // eq. 14
+    s.f = m.color * (ggx.D(wm) * ggx.G(wo, wi) * R / std::abs(4.0f * cos_i * cos_o));  // eq. 20
+  } else {
+    Vec3 wi;
+    float etap = 1.0f;
+    if (!refract(wo, wm, m.ior, &etap, &wi)) return std::nullopt;  // TIR has T = 0 anyway
+    if (same_hemisphere(wo, wi) || wi.z == 0) return std::nullopt;
+    // T as eval() computes it (from the outside direction); it differs from the selection
+    // probability above only by round-off near the critical angle, and cancels in f / pdf.
+    const float T_pair = 1.0f - dielectric_fresnel(m, wo, wi, wm, false);
+    const float cos_i = cos_theta(wi);
+    const float wi_dot_wm = dot(wi, wm);
+    const float denom = sqr(wi_dot_wm + wo_dot_wm / etap);
+    if (denom == 0) return std::nullopt;
+    const float dwm_dwi = std::abs(wi_dot_wm) / denom;  // [Walter07] eq. 17
+    s.pdf = ggx.D_visible(wo, wm) * dwm_dwi * T_pair;
+    float ft = T_pair * ggx.D(wm) * ggx.G(wo, wi) *  // [Walter07] eq. 21
+               std::abs(wi_dot_wm * wo_dot_wm / (cos_i * cos_o * denom));
+    if (mode == TransportMode::Radiance) ft /= sqr(etap);
+    s.wi = wi;
+    s.f = m.color * ft;
+    s.transmission = true;
+    s.eta = etap;
+  }
+  if (!valid_sample(s.f, s.pdf)) return std::nullopt;
+  return s;
+}
+
+}  // namespace
+
+// Exact unpolarized Fresnel reflectance (average of the s and p Fresnel equations).
+float fresnel_dielectric(float cos_i, float eta) {
+  cos_i = clamp(cos_i, -1.0f, 1.0f);
+  if (cos_i < 0) {  // from the inside: swap the media
+    eta = 1.0f / eta;
+    cos_i = -cos_i;
+  }
+  const float sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);  // Snell's law
+  if (sin2_t >= 1.0f) return 1.0f;                            // total internal reflection
+  const float cos_t = safe_sqrt(1.0f - sin2_t);
+  const float r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  const float r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  return 0.5f * (r_parl * r_parl + r_perp * r_perp);
+}
+
+RGB Bsdf::eval(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
+  switch (m_->type) {
+    case MaterialType::Diffuse: return diffuse_eval(*m_, wo, wi);
+    case MaterialType::Conductor:
+      return m_->roughness < kSmoothAlpha ? RGB(0.0f) : conductor_eval(*m_, wo, wi);
+    case MaterialType::Dielectric: return dielectric_eval(*m_, wo, wi, mode);
+    case MaterialType::Emission: return RGB(0.0f);
+  }
+  return RGB(0.0f);
+}
+
+float Bsdf::pdf(const Vec3& wo, const Vec3& wi) const {
+  switch (m_->type) {
+    case MaterialType::Diffuse: return diffuse_pdf(wo, wi);
+    case MaterialType::Conductor:
+      return m_->roughness < kSmoothAlpha ? 0.0f : conductor_pdf(*m_, wo, wi);
+    case MaterialType::Dielectric: return dielectric_pdf(*m_, wo, wi);
+    case MaterialType::Emission: return 0.0f;
+  }
+  return 0.0f;
+}
+
+std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
+  switch (m_->type) {
+    case MaterialType::Diffuse: return diffuse_sample(*m_, wo, u);
+    case MaterialType::Conductor: return conductor_sample(*m_, wo, u);
+    case MaterialType::Dielectric: return dielectric_sample(*m_, wo, uc, u, mode);
+    case MaterialType::Emission: return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+bool Bsdf::is_delta() const {
+  switch (m_->type) {
+    case MaterialType::Conductor: return m_->roughness < kSmoothAlpha;
+    case MaterialType::Dielectric: return dielectric_is_smooth(*m_);
+    default: return false;
+  }
+}
+
+bool Bsdf::is_black() const {
+  switch (m_->type) {
+    case MaterialType::Emission: return true;
+    // A black conductor still reflects at grazing angles (Schlick), so only these two qualify.
+    case MaterialType::Diffuse:
+    case MaterialType::Dielectric: return m_->color.is_black();
+    default: return false;
+  }
+}
+
+bool Bsdf::is_diffuse_for_photons(float threshold) const {
+  switch (m_->type) {
+    case MaterialType::Diffuse: return true;
+    case MaterialType::Conductor:
+    case MaterialType::Dielectric: return m_->roughness > threshold;
+    case MaterialType::Emission: return false;
+  }
+  return false;
+}
+
+}  // namespace gp

@@ -1,0 +1,59 @@
+// BSDFs of the closed material set, evaluated in the local shading frame (normal = +z).
+// Conventions (pbrt's): wo and wi both point away from the surface; eval() returns f without
+// the cosine; pdf() is per solid angle of wi; sample() returns f, pdf and wi for one lobe
+// chosen stochastically, with `delta` set for smooth (Dirac) lobes, whose f and pdf are the
+// Dirac weights (their ratio is what matters). Transport mode selects the radiance or the
+// importance (photon) form of refraction, which differ by eta^2 (Veach 1997, §5.2).
+#pragma once
+
+#include <optional>
+
+#include "core/color.h"
+#include "core/math.h"
+#include "materials/material.h"
+
+namespace gp {
+
+enum class TransportMode { Radiance, Importance };
+
+// GGX alpha below which a conductor or dielectric is treated as smooth (a Dirac lobe), as
+// pbrt-v4's TrowbridgeReitzDistribution::EffectivelySmooth: below it D overflows float and
+// no sampler or density estimator could resolve the lobe anyway. is_delta() follows it.
+inline constexpr float kSmoothAlpha = 1e-3f;
+
+struct BsdfSample {
+  RGB f;                 // BSDF value (Dirac weight for delta lobes)
+  Vec3 wi;               // sampled direction, local frame
+  float pdf = 0;         // solid-angle pdf (Dirac weight for delta lobes)
+  bool delta = false;    // sampled a smooth (specular) lobe
+  bool transmission = false;
+  float eta = 1.0f;      // relative IOR crossed (1 for reflection)
+};
+
+class Bsdf {
+ public:
+  explicit Bsdf(const Material& m) : m_(&m) {}
+
+  RGB eval(const Vec3& wo, const Vec3& wi, TransportMode mode = TransportMode::Radiance) const;
+  float pdf(const Vec3& wo, const Vec3& wi) const;
+  // uc picks the lobe (reflection/transmission), u the direction.
+  std::optional<BsdfSample> sample(const Vec3& wo, float uc, Vec2 u,
+                                   TransportMode mode = TransportMode::Radiance) const;
+
+  // True when every lobe is a Dirac delta (conductor/dielectric with roughness < kSmoothAlpha,
+  // or a dielectric of IOR 1, which only passes light straight through): eval/pdf are zero.
+  bool is_delta() const;
+  // True when the BSDF scatters nothing (emission-only material).
+  bool is_black() const;
+  // Photon-method classification: diffuse when roughness > threshold (GPM §4.3).
+  bool is_diffuse_for_photons(float threshold = kDefaultSpecularThreshold) const;
+
+ private:
+  const Material* m_;
+};
+
+// Fresnel reflectance of a dielectric interface for cos_i (signed: < 0 means from inside)
+// and relative IOR eta = n_inside / n_outside.
+float fresnel_dielectric(float cos_i, float eta);
+
+}  // namespace gp

@@ -1,0 +1,95 @@
+#include "scene/accel.h"
+
+#include <embree3/rtcore.h>
+#include <fmt/format.h>
+
+#include <stdexcept>
+
+#include "scene/scene.h"
+
+namespace gp {
+
+struct Accelerator::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+};
+
+// Embree is C: never throw through it. Errors are polled after each build step instead.
+static void check_device(RTCDevice device, const char* what) {
+  const RTCError code = rtcGetDeviceError(device);
+  if (code != RTC_ERROR_NONE)
+    throw std::runtime_error(fmt::format("Embree error {} while {}", static_cast<int>(code), what));
+}
+
+Accelerator::Accelerator(const std::vector<Mesh>& meshes) : impl_(std::make_unique<Impl>()) {
+  impl_->device = rtcNewDevice(nullptr);
+  if (!impl_->device) throw std::runtime_error("cannot create Embree device");
+  impl_->scene = rtcNewScene(impl_->device);
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    const Mesh& m = meshes[i];
+    RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    // Embree-owned buffers (a copy): Embree may read up to 16 bytes past a shared vertex
+    // buffer, and owning them keeps the accelerator valid if a Mesh vector reallocates.
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), m.positions.size()));
+    std::copy(&m.positions.data()->x, &m.positions.data()->x + 3 * m.positions.size(), vb);
+    auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangle_count()));
+    std::copy(m.indices.begin(), m.indices.end(), ib);
+    rtcCommitGeometry(g);
+    rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(i));
+    rtcReleaseGeometry(g);
+  }
+  rtcCommitScene(impl_->scene);
+  check_device(impl_->device, "building the scene");
+}
+
+Accelerator::~Accelerator() {
+  if (impl_->scene) rtcReleaseScene(impl_->scene);
+  if (impl_->device) rtcReleaseDevice(impl_->device);
+}
+
+bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh;
+  rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
+  rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
+  rh.ray.tnear = ray.tmin;
+  rh.ray.tfar = ray.tmax;
+  rh.ray.time = 0;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+  hit.t = rh.ray.tfar;
+  hit.u = rh.hit.u;
+  hit.v = rh.hit.v;
+  hit.ng = Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+  hit.geom = static_cast<int>(rh.hit.geomID);
+  hit.prim = static_cast<int>(rh.hit.primID);
+  return true;
+}
+
+bool Accelerator::occluded(const Ray& ray) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRay r;
+  r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
+  r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
+  r.tnear = ray.tmin;
+  r.tfar = ray.tmax;
+  r.time = 0;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+  rtcOccluded1(impl_->scene, &ctx, &r);
+  return r.tfar < 0;  // Embree sets tfar = -inf on a hit
+}
+
+}  // namespace gp

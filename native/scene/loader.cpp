@@ -1,0 +1,794 @@
+// JSON scene loader. The format is documented in docs/scene-format.md; keep the two in step.
+//
+// Every value is read through a helper that knows its JSON path ("/objects/3/radius"), so a
+// wrong value fails with SceneError("<file>: <path>: <what is wrong>"). Keys a reader does not
+// know are counted warnings ("unknown key"), the way pbrt reports unused parameters.
+#include "scene/loader.h"
+
+#include <fmt/format.h>
+#include <tiny_obj_loader.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <string_view>
+#include <unordered_map>
+
+#include "scene/shapes.h"
+
+namespace gp {
+
+namespace {
+
+// ordered_json keeps the file's order: materials get indices in the order they are written.
+using json = nlohmann::ordered_json;
+
+// RFC 6901 escaping of one JSON Pointer token.
+std::string pointer_token(std::string_view key) {
+  std::string out;
+  for (char c : key) {
+    if (c == '~') out += "~0";
+    else if (c == '/') out += "~1";
+    else out += c;
+  }
+  return out;
+}
+std::string sub(const std::string& path, std::string_view key) { return path + "/" + pointer_token(key); }
+std::string sub(const std::string& path, size_t index) { return fmt::format("{}/{}", path, index); }
+
+// Finds the byte offset of a JSON error when the DOM parser's exception does not carry one
+// (number overflow such as 1e999 is reported as out_of_range without a position).
+struct ErrorPositionFinder : nlohmann::json_sax<json> {
+  size_t position = 0;
+  bool null() override { return true; }
+  bool boolean(bool) override { return true; }
+  bool number_integer(number_integer_t) override { return true; }
+  bool number_unsigned(number_unsigned_t) override { return true; }
+  bool number_float(number_float_t, const string_t&) override { return true; }
+  bool string(string_t&) override { return true; }
+  bool binary(binary_t&) override { return true; }
+  bool start_object(size_t) override { return true; }
+  bool key(string_t&) override { return true; }
+  bool end_object() override { return true; }
+  bool start_array(size_t) override { return true; }
+  bool end_array() override { return true; }
+  bool parse_error(size_t pos, const std::string&, const nlohmann::detail::exception&) override {
+    position = pos;
+    return false;
+  }
+};
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (size_t i = 0; i < items.size(); ++i) out += (i ? ", " : "") + items[i];
+  return out;
+}
+
+// Gives tinyobjloader the usemtl names found in the OBJ text as if an .mtl had defined them,
+// so faces keep their material names; .mtl contents are not used (materials come from the
+// scene file).
+class UsemtlNames : public tinyobj::MaterialReader {
+ public:
+  explicit UsemtlNames(std::vector<std::string> names) : names_(std::move(names)) {}
+  bool operator()(const std::string&, std::vector<tinyobj::material_t>* materials,
+                  std::map<std::string, int>* map, std::string*, std::string*) override {
+    for (const std::string& n : names_)
+      if (map->find(n) == map->end()) {
+        tinyobj::material_t m;
+        m.name = n;
+        map->emplace(n, static_cast<int>(materials->size()));
+        materials->push_back(m);
+      }
+    return true;
+  }
+
+ private:
+  std::vector<std::string> names_;
+};
+
+constexpr const char* kUsemtlMtllib = "__gradphoton_usemtl_names__";
+
+class Loader {
+ public:
+  Loader(std::string file, std::string base_dir, Scene& scene)
+      : file_(std::move(file)), base_dir_(std::move(base_dir)), scene_(scene) {}
+
+  void load(const json& root) {
+    if (!root.is_object()) fail("", fmt::format("the scene must be a JSON object, not {}", root.type_name()));
+    check_keys(root, "", {"description", "camera", "materials", "objects", "lights", "environment"});
+    if (const json* d = find(root, "description")) get_string(*d, "/description");
+    if (const json* m = find(root, "materials")) load_materials(*m, "/materials");
+    if (const json* c = find(root, "camera")) load_camera(*c, "/camera");
+    if (const json* o = find(root, "objects")) {
+      require_array(*o, "/objects");
+      for (size_t i = 0; i < o->size(); ++i) load_object((*o)[i], sub("/objects", i));
+    }
+    if (const json* l = find(root, "lights")) {
+      require_array(*l, "/lights");
+      for (size_t i = 0; i < l->size(); ++i) load_light((*l)[i], sub("/lights", i));
+    }
+    if (const json* e = find(root, "environment")) load_environment(*e, "/environment");
+  }
+
+ private:
+  // ---- Errors, warnings and typed access ----
+
+  [[noreturn]] void fail(const std::string& path, const std::string& message) const {
+    throw SceneError(fmt::format("{}: {}: {}", file_, path.empty() ? "/" : path, message));
+  }
+
+  void check_keys(const json& obj, const std::string& path, std::initializer_list<std::string_view> allowed) {
+    for (auto it = obj.begin(); it != obj.end(); ++it)
+      if (std::find(allowed.begin(), allowed.end(), std::string_view(it.key())) == allowed.end())
+        scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(path, it.key())));
+  }
+
+  static const json* find(const json& obj, const char* key) {
+    auto it = obj.find(key);
+    return it == obj.end() ? nullptr : &*it;
+  }
+  const json& need(const json& obj, const char* key, const std::string& path) const {
+    const json* j = find(obj, key);
+    if (!j) fail(path, fmt::format("missing required key '{}'", key));
+    return *j;
+  }
+
+  void require_object(const json& j, const std::string& path) const {
+    if (!j.is_object()) fail(path, fmt::format("expected an object, got {}", describe(j)));
+  }
+  void require_array(const json& j, const std::string& path) const {
+    if (!j.is_array()) fail(path, fmt::format("expected an array, got {}", describe(j)));
+  }
+  static std::string describe(const json& j) {
+    std::string text = j.dump();
+    if (text.size() > 40) text = text.substr(0, 37) + "...";
+    return fmt::format("{} {}", j.type_name(), text);
+  }
+
+  float get_float(const json& j, const std::string& path) const {
+    if (!j.is_number()) fail(path, fmt::format("expected a number, got {}", describe(j)));
+    const double d = j.get<double>();
+    const float f = static_cast<float>(d);
+    if (!std::isfinite(d) || !std::isfinite(f)) fail(path, fmt::format("number {} is not finite as a 32-bit float", d));
+    return f;
+  }
+  float get_nonnegative(const json& j, const std::string& path) const {
+    const float f = get_float(j, path);
+    if (f < 0) fail(path, fmt::format("must not be negative (got {})", f));
+    return f;
+  }
+  float get_positive(const json& j, const std::string& path) const {
+    const float f = get_float(j, path);
+    if (!(f > 0)) fail(path, fmt::format("must be positive (got {})", f));
+    return f;
+  }
+  float get_in_range(const json& j, const std::string& path, float lo, float hi) const {
+    const float f = get_float(j, path);
+    if (f < lo || f > hi) fail(path, fmt::format("must be in [{}, {}] (got {})", lo, hi, f));
+    return f;
+  }
+  int64_t get_int(const json& j, const std::string& path, int64_t lo, int64_t hi) const {
+    if (!j.is_number_integer()) fail(path, fmt::format("expected an integer, got {}", describe(j)));
+    if (j.is_number_unsigned() && j.get<uint64_t>() > static_cast<uint64_t>(hi))
+      fail(path, fmt::format("must be in [{}, {}] (got {})", lo, hi, j.dump()));
+    const int64_t v = j.get<int64_t>();
+    if (v < lo || v > hi) fail(path, fmt::format("must be in [{}, {}] (got {})", lo, hi, v));
+    return v;
+  }
+  bool get_bool(const json& j, const std::string& path) const {
+    if (!j.is_boolean()) fail(path, fmt::format("expected true or false, got {}", describe(j)));
+    return j.get<bool>();
+  }
+  std::string get_string(const json& j, const std::string& path) const {
+    if (!j.is_string()) fail(path, fmt::format("expected a string, got {}", describe(j)));
+    return j.get<std::string>();
+  }
+  void require_length(const json& j, const std::string& path, size_t n, const char* what) const {
+    if (!j.is_array() || j.size() != n)
+      fail(path, fmt::format("expected {} (an array of {} numbers), got {}", what, n, describe(j)));
+  }
+  Vec3 get_vec3(const json& j, const std::string& path) const {
+    require_length(j, path, 3, "a vector [x, y, z]");
+    return {get_float(j[0], sub(path, 0)), get_float(j[1], sub(path, 1)), get_float(j[2], sub(path, 2))};
+  }
+  Vec2 get_vec2(const json& j, const std::string& path) const {
+    require_length(j, path, 2, "a pair [u, v]");
+    return {get_float(j[0], sub(path, 0)), get_float(j[1], sub(path, 1))};
+  }
+  Vec3 get_direction(const json& j, const std::string& path) const {
+    const Vec3 d = get_vec3(j, path);
+    const float len = length(d);
+    if (!(len > 0) || !std::isfinite(len)) fail(path, "direction must be a non-zero vector");
+    return d / len;
+  }
+  // A colour: [r, g, b] or one number (grey); components must not be negative.
+  RGB get_color(const json& j, const std::string& path) const {
+    if (j.is_number()) {
+      const float g = get_nonnegative(j, path);
+      return RGB(g);
+    }
+    if (!j.is_array() || j.size() != 3)
+      fail(path, fmt::format("expected a colour [r, g, b] or a single number, got {}", describe(j)));
+    return {get_nonnegative(j[0], sub(path, 0)), get_nonnegative(j[1], sub(path, 1)),
+            get_nonnegative(j[2], sub(path, 2))};
+  }
+  // 16 numbers, row-major; must be affine (last row 0 0 0 1) with an invertible linear part.
+  Transform get_matrix(const json& j, const std::string& path) const {
+    require_length(j, path, 16, "a row-major 4x4 matrix");
+    Transform t;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) t.m[r][c] = get_float(j[4 * r + c], sub(path, 4 * r + c));
+    if (t.m[3][0] != 0 || t.m[3][1] != 0 || t.m[3][2] != 0 || t.m[3][3] != 1)
+      fail(path, "the last row must be [0, 0, 0, 1] (affine transforms only)");
+    if (linear_determinant(t) == 0) fail(path, "the matrix is singular (its 3x3 part has determinant 0)");
+    return t;
+  }
+
+  // ---- Materials ----
+
+  void load_materials(const json& mats, const std::string& path) {
+    require_object(mats, path);
+    for (auto it = mats.begin(); it != mats.end(); ++it) {
+      const std::string mpath = sub(path, it.key());
+      const json& m = it.value();
+      require_object(m, mpath);
+      Material mat;
+      mat.name = it.key();
+      const std::string type = get_string(need(m, "type", mpath), sub(mpath, "type"));
+      std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided"};
+      if (type == "diffuse") {
+        mat.type = MaterialType::Diffuse;
+        keys.push_back("color");
+      } else if (type == "conductor") {
+        mat.type = MaterialType::Conductor;
+        keys.insert(keys.end(), {"color", "roughness"});
+      } else if (type == "dielectric") {
+        mat.type = MaterialType::Dielectric;
+        mat.color = RGB(1.0f);
+        keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe"});
+      } else if (type == "emission") {
+        mat.type = MaterialType::Emission;
+        mat.emission = RGB(1.0f);
+      } else {
+        fail(sub(mpath, "type"),
+             fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission)", type));
+      }
+      for (auto k = m.begin(); k != m.end(); ++k)
+        if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
+          scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(mpath, k.key())));
+      if (const json* c = find(m, "color")) mat.color = get_color(*c, sub(mpath, "color"));
+      if (const json* r = find(m, "roughness")) mat.roughness = get_in_range(*r, sub(mpath, "roughness"), 0.0f, 1.0f);
+      if (const json* n = find(m, "ior")) mat.ior = get_positive(*n, sub(mpath, "ior"));
+      if (find(m, "cauchy_b") && find(m, "abbe")) fail(mpath, "give either 'cauchy_b' or 'abbe', not both");
+      if (const json* b = find(m, "cauchy_b")) mat.cauchy_b = get_nonnegative(*b, sub(mpath, "cauchy_b"));
+      if (const json* v = find(m, "abbe")) {
+        // Abbe number V = (n_d - 1) / (n_F - n_C); with Cauchy n = A + B / lambda^2 and
+        // n_d = ior: B = (n_d - 1) / V / (1 / lambda_F^2 - 1 / lambda_C^2), lambdas in um.
+        const float abbe = get_positive(*v, sub(mpath, "abbe"));
+        constexpr double kLambdaF = 0.4861, kLambdaC = 0.6563;
+        const double denom = 1.0 / (kLambdaF * kLambdaF) - 1.0 / (kLambdaC * kLambdaC);
+        mat.cauchy_b = static_cast<float>((mat.ior - 1.0) / abbe / denom);
+        if (mat.cauchy_b < 0) fail(sub(mpath, "abbe"), "needs ior >= 1 (dispersion from an Abbe number)");
+      }
+      if (const json* e = find(m, "emission")) mat.emission = get_color(*e, sub(mpath, "emission"));
+      mat.emission_strength = 1.0f;
+      if (const json* s = find(m, "strength")) mat.emission_strength = get_nonnegative(*s, sub(mpath, "strength"));
+      if (const json* t = find(m, "two_sided")) mat.two_sided = get_bool(*t, sub(mpath, "two_sided"));
+      if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
+      material_index_[mat.name] = static_cast<uint32_t>(scene_.materials.size());
+      scene_.materials.push_back(std::move(mat));
+    }
+  }
+
+  uint32_t material_by_name(const json& j, const std::string& path) const {
+    const std::string name = get_string(j, path);
+    auto it = material_index_.find(name);
+    if (it == material_index_.end()) fail(path, fmt::format("unknown material '{}' (known: {})", name, known_materials()));
+    return it->second;
+  }
+  std::string known_materials() const {
+    std::vector<std::string> names;
+    for (const auto& [n, i] : material_index_) names.push_back(n);
+    return names.empty() ? "none defined" : join(names);
+  }
+
+  // ---- Camera ----
+
+  void load_camera(const json& c, const std::string& path) {
+    require_object(c, path);
+    check_keys(c, path, {"position", "look_at", "up", "matrix", "fov", "sensor_fit", "width", "height",
+                         "aperture_radius", "focus_distance"});
+    Camera cam;
+    if (const json* m = find(c, "matrix")) {
+      if (find(c, "position") || find(c, "look_at") || find(c, "up"))
+        fail(path, "give either 'matrix' or 'position'/'look_at'/'up', not both");
+      cam.camera_to_world = get_matrix(*m, sub(path, "matrix"));
+    } else {
+      if (!find(c, "position") || !find(c, "look_at"))
+        fail(path, "needs 'position' and 'look_at' (with optional 'up'), or 'matrix'");
+      const Vec3 eye = get_vec3(*find(c, "position"), sub(path, "position"));
+      const Vec3 target = get_vec3(*find(c, "look_at"), sub(path, "look_at"));
+      Vec3 up{0, 0, 1};
+      if (const json* u = find(c, "up")) up = get_direction(*u, sub(path, "up"));
+      const Vec3 d = target - eye;
+      if (!(length(d) > 0)) fail(sub(path, "look_at"), "look_at equals position");
+      const Vec3 f = normalize(d);
+      const Vec3 x = cross(f, up);
+      if (!(length(x) > 1e-6f)) fail(sub(path, "up"), "up is parallel to the viewing direction");
+      const Vec3 right = normalize(x), cam_up = cross(right, f);
+      // Blender's camera: +X right, +Y up, looking down -Z.
+      const Vec3 cols[4] = {right, cam_up, -f, eye};
+      for (int r = 0; r < 3; ++r)
+        for (int k = 0; k < 4; ++k) cam.camera_to_world.m[r][k] = cols[k][r];
+    }
+    if (const json* f = find(c, "fov")) {
+      cam.fov_degrees = get_float(*f, sub(path, "fov"));
+      if (!(cam.fov_degrees > 0 && cam.fov_degrees < 180))
+        fail(sub(path, "fov"), fmt::format("must be between 0 and 180 degrees (got {})", cam.fov_degrees));
+    }
+    if (const json* s = find(c, "sensor_fit")) {
+      const std::string fit = get_string(*s, sub(path, "sensor_fit"));
+      if (fit == "auto") cam.sensor_fit = SensorFit::Auto;
+      else if (fit == "horizontal") cam.sensor_fit = SensorFit::Horizontal;
+      else if (fit == "vertical") cam.sensor_fit = SensorFit::Vertical;
+      else fail(sub(path, "sensor_fit"), fmt::format("unknown sensor fit '{}' (known: auto, horizontal, vertical)", fit));
+    }
+    if (const json* w = find(c, "width")) cam.width = static_cast<int>(get_int(*w, sub(path, "width"), 1, 65536));
+    if (const json* h = find(c, "height")) cam.height = static_cast<int>(get_int(*h, sub(path, "height"), 1, 65536));
+    if (const json* a = find(c, "aperture_radius")) cam.aperture_radius = get_nonnegative(*a, sub(path, "aperture_radius"));
+    if (const json* d = find(c, "focus_distance")) cam.focus_distance = get_positive(*d, sub(path, "focus_distance"));
+    scene_.camera = cam;
+  }
+
+  // ---- Transforms ----
+
+  Transform load_transform(const json& t, const std::string& path) {
+    require_object(t, path);
+    check_keys(t, path, {"translate", "rotate", "scale", "matrix"});
+    if (const json* m = find(t, "matrix")) {
+      if (find(t, "translate") || find(t, "rotate") || find(t, "scale"))
+        fail(path, "give either 'matrix' or 'translate'/'rotate'/'scale', not both");
+      return get_matrix(*m, sub(path, "matrix"));
+    }
+    // Blender's order: scale, then rotate (each rotation in list order), then translate.
+    Transform result;
+    if (const json* s = find(t, "scale")) {
+      const std::string spath = sub(path, "scale");
+      const Vec3 sv = s->is_number() ? Vec3(get_float(*s, spath)) : get_vec3(*s, spath);
+      if (sv.x == 0 || sv.y == 0 || sv.z == 0) fail(spath, "scale must not be zero");
+      result = Transform::scale(sv);
+    }
+    if (const json* r = find(t, "rotate")) {
+      const std::string rpath = sub(path, "rotate");
+      auto one = [&](const json& j, const std::string& p) {
+        if (!j.is_array() || j.size() != 4)
+          fail(p, fmt::format("expected a rotation [degrees, axis_x, axis_y, axis_z], got {}", describe(j)));
+        const float deg = get_float(j[0], sub(p, 0));
+        const Vec3 axis{get_float(j[1], sub(p, 1)), get_float(j[2], sub(p, 2)), get_float(j[3], sub(p, 3))};
+        if (!(length(axis) > 0)) fail(p, "the rotation axis must be a non-zero vector");
+        return Transform::rotate(deg, axis);
+      };
+      if (r->is_array() && !r->empty() && (*r)[0].is_array()) {
+        for (size_t i = 0; i < r->size(); ++i) result = one((*r)[i], sub(rpath, i)) * result;
+      } else {
+        result = one(*r, rpath) * result;
+      }
+    }
+    if (const json* tr = find(t, "translate")) result = Transform::translate(get_vec3(*tr, sub(path, "translate"))) * result;
+    return result;
+  }
+
+  // ---- Objects ----
+
+  void load_object(const json& o, const std::string& path) {
+    require_object(o, path);
+    const std::string type = get_string(need(o, "type", path), sub(path, "type"));
+    std::string name = path;
+    if (const json* n = find(o, "name")) name = get_string(*n, sub(path, "name"));
+    const std::initializer_list<std::string_view> common = {"type", "name", "material", "transform"};
+    auto keys = [&](std::initializer_list<std::string_view> extra) {
+      std::vector<std::string_view> all(common);
+      all.insert(all.end(), extra);
+      for (auto it = o.begin(); it != o.end(); ++it)
+        if (std::find(all.begin(), all.end(), std::string_view(it.key())) == all.end())
+          scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(path, it.key())));
+    };
+    auto material = [&]() { return material_by_name(need(o, "material", path), sub(path, "material")); };
+    auto center = [&]() {
+      const json* c = find(o, "center");
+      return c ? get_vec3(*c, sub(path, "center")) : Vec3(0.0f);
+    };
+    auto segments = [&](const char* key, int def) {
+      const json* s = find(o, key);
+      return s ? static_cast<int>(get_int(*s, sub(path, key), 3, 4096)) : def;
+    };
+
+    Mesh mesh;
+    if (type == "sphere") {
+      keys({"center", "radius", "segments"});
+      const Vec3 c = center();
+      const float r = get_positive(need(o, "radius", path), sub(path, "radius"));
+      mesh = make_sphere(c, r, segments("segments", 48), material());
+    } else if (type == "quad") {
+      keys({"center", "u", "v", "corners"});
+      if (const json* corners = find(o, "corners")) {
+        if (find(o, "center") || find(o, "u") || find(o, "v"))
+          fail(path, "give either 'corners' or 'center'/'u'/'v', not both");
+        const std::string cpath = sub(path, "corners");
+        if (!corners->is_array() || corners->size() != 4)
+          fail(cpath, fmt::format("expected 4 corners [[x,y,z], ...], got {}", describe(*corners)));
+        Vec3 p[4];
+        for (size_t i = 0; i < 4; ++i) p[i] = get_vec3((*corners)[i], sub(cpath, i));
+        if (!(length(cross(p[1] - p[0], p[2] - p[0])) > 0) || !(length(cross(p[2] - p[0], p[3] - p[0])) > 0))
+          fail(cpath, "the corners are degenerate (zero area)");
+        mesh = make_quad_corners(p[0], p[1], p[2], p[3], material());
+      } else {
+        const Vec3 c = center();
+        const Vec3 u = get_vec3(need(o, "u", path), sub(path, "u"));
+        const Vec3 v = get_vec3(need(o, "v", path), sub(path, "v"));
+        if (!(length(cross(u, v)) > 0)) fail(path, "'u' and 'v' must be non-zero and not parallel");
+        mesh = make_quad(c, u, v, material());
+      }
+    } else if (type == "box") {
+      keys({"min", "max"});
+      const Vec3 lo = get_vec3(need(o, "min", path), sub(path, "min"));
+      const Vec3 hi = get_vec3(need(o, "max", path), sub(path, "max"));
+      if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z))
+        fail(path, fmt::format("'min' must be below 'max' on every axis (size {} x {} x {})", hi.x - lo.x, hi.y - lo.y,
+                               hi.z - lo.z));
+      mesh = make_box(lo, hi, material());
+    } else if (type == "torus") {
+      keys({"center", "major_radius", "minor_radius", "segments_major", "segments_minor"});
+      const Vec3 c = center();
+      const float major = get_positive(need(o, "major_radius", path), sub(path, "major_radius"));
+      const float minor = get_positive(need(o, "minor_radius", path), sub(path, "minor_radius"));
+      if (!(minor < major)) fail(sub(path, "minor_radius"), fmt::format("must be below major_radius ({} >= {})", minor, major));
+      mesh = make_torus(c, major, minor, segments("segments_major", 48), segments("segments_minor", 24), material());
+    } else if (type == "disk") {
+      keys({"center", "radius", "segments"});
+      const Vec3 c = center();
+      const float r = get_positive(need(o, "radius", path), sub(path, "radius"));
+      mesh = make_disk(c, r, segments("segments", 48), material());
+    } else if (type == "mesh") {
+      keys({"positions", "indices", "normals", "uvs", "materials", "material_indices"});
+      mesh = load_inline_mesh(o, path, name);
+    } else if (type == "obj") {
+      keys({"file"});
+      mesh = load_obj(o, path, name);
+    } else {
+      fail(sub(path, "type"), fmt::format("unknown object type '{}' (known: mesh, obj, sphere, quad, box, torus, disk)", type));
+    }
+    mesh.name = name;
+    if (const json* t = find(o, "transform")) {
+      const std::string tpath = sub(path, "transform");
+      apply_transform(mesh, load_transform(*t, tpath));
+      for (size_t v = 0; v < mesh.positions.size(); ++v)
+        if (!is_finite(mesh.positions[v])) fail(tpath, fmt::format("transformed vertex {} of '{}' is not finite", v, name));
+    }
+    scene_.meshes.push_back(std::move(mesh));
+  }
+
+  Mesh load_inline_mesh(const json& o, const std::string& path, const std::string& name) {
+    Mesh mesh;
+    const std::string ppath = sub(path, "positions"), ipath = sub(path, "indices");
+    const json& pos = need(o, "positions", path);
+    require_array(pos, ppath);
+    for (size_t i = 0; i < pos.size(); ++i) mesh.positions.push_back(get_vec3(pos[i], sub(ppath, i)));
+    const json& idx = need(o, "indices", path);
+    require_array(idx, ipath);
+    for (size_t t = 0; t < idx.size(); ++t) {
+      const std::string tpath = sub(ipath, t);
+      if (!idx[t].is_array() || idx[t].size() != 3)
+        fail(tpath, fmt::format("expected a triangle [i, j, k], got {}", describe(idx[t])));
+      for (size_t k = 0; k < 3; ++k) {
+        const uint32_t v = static_cast<uint32_t>(get_int(idx[t][k], sub(tpath, k), 0, std::numeric_limits<uint32_t>::max()));
+        if (v >= mesh.positions.size())
+          fail(tpath, fmt::format("triangle {} of '{}' uses vertex {} but the mesh has {} vertices", t, name, v,
+                                  mesh.positions.size()));
+        mesh.indices.push_back(v);
+      }
+    }
+    if (const json* n = find(o, "normals")) {
+      const std::string npath = sub(path, "normals");
+      require_array(*n, npath);
+      if (n->size() != mesh.positions.size())
+        fail(npath, fmt::format("{} normals for {} positions (one per vertex)", n->size(), mesh.positions.size()));
+      for (size_t i = 0; i < n->size(); ++i) mesh.normals.push_back(get_direction((*n)[i], sub(npath, i)));
+    }
+    if (const json* uv = find(o, "uvs")) {
+      const std::string upath = sub(path, "uvs");
+      require_array(*uv, upath);
+      if (uv->size() != mesh.positions.size())
+        fail(upath, fmt::format("{} uvs for {} positions (one per vertex)", uv->size(), mesh.positions.size()));
+      for (size_t i = 0; i < uv->size(); ++i) mesh.uvs.push_back(get_vec2((*uv)[i], sub(upath, i)));
+    }
+    const size_t tris = mesh.triangle_count();
+    const json* single = find(o, "material");
+    const json* list = find(o, "materials");
+    if (single && list) fail(path, "give either 'material' or 'materials' with 'material_indices', not both");
+    if (single) {
+      mesh.material_ids.assign(tris, material_by_name(*single, sub(path, "material")));
+    } else if (list) {
+      const std::string lpath = sub(path, "materials"), mipath = sub(path, "material_indices");
+      require_array(*list, lpath);
+      if (list->empty()) fail(lpath, "needs at least one material name");
+      std::vector<uint32_t> ids;
+      for (size_t i = 0; i < list->size(); ++i) ids.push_back(material_by_name((*list)[i], sub(lpath, i)));
+      const json& mi = need(o, "material_indices", path);
+      require_array(mi, mipath);
+      if (mi.size() != tris) fail(mipath, fmt::format("{} entries for {} triangles (one per triangle)", mi.size(), tris));
+      for (size_t t = 0; t < tris; ++t)
+        mesh.material_ids.push_back(ids[get_int(mi[t], sub(mipath, t), 0, static_cast<int64_t>(ids.size()) - 1)]);
+    } else {
+      fail(path, "needs 'material' (or 'materials' with 'material_indices')");
+    }
+    return mesh;
+  }
+
+  Mesh load_obj(const json& o, const std::string& path, const std::string& name) {
+    const std::string fpath = sub(path, "file");
+    const std::string rel = get_string(need(o, "file", path), fpath);
+    std::filesystem::path file(rel);
+    if (file.is_relative() && !base_dir_.empty()) file = std::filesystem::path(base_dir_) / file;
+    std::ifstream in(file, std::ios::binary);
+    if (!in) fail(fpath, fmt::format("cannot open OBJ file '{}' ({})", file.string(), std::strerror(errno)));
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    const std::string text = buffer.str();
+
+    // usemtl names, so that faces keep them (see UsemtlNames).
+    std::vector<std::string> usemtl;
+    {
+      std::istringstream lines(text);
+      std::string line;
+      while (std::getline(lines, line)) {
+        std::istringstream words(line);
+        std::string w, n;
+        if (words >> w && w == "usemtl" && words >> n && std::find(usemtl.begin(), usemtl.end(), n) == usemtl.end())
+          usemtl.push_back(n);
+      }
+    }
+    std::istringstream stream(std::string("mtllib ") + kUsemtlMtllib + "\n" + text);
+    UsemtlNames reader(usemtl);
+    tinyobj::attrib_t attrib;
+    std::vector<tinyobj::shape_t> shapes;
+    std::vector<tinyobj::material_t> obj_materials;
+    std::string warn, err;
+    const bool ok = tinyobj::LoadObj(&attrib, &shapes, &obj_materials, &warn, &err, &stream, &reader, true, false);
+    if (!ok || !err.empty()) fail(fpath, fmt::format("OBJ file '{}': {}", file.string(), err.empty() ? "cannot be parsed" : err));
+
+    std::optional<uint32_t> fallback;
+    if (const json* m = find(o, "material")) fallback = material_by_name(*m, sub(path, "material"));
+    // OBJ material id -> scene material (resolved once per name).
+    std::vector<std::optional<uint32_t>> resolved(obj_materials.size());
+    for (size_t i = 0; i < obj_materials.size(); ++i) {
+      auto it = material_index_.find(obj_materials[i].name);
+      if (it != material_index_.end()) resolved[i] = it->second;
+    }
+
+    const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3, nt = attrib.texcoords.size() / 2;
+    bool all_normals = true, all_uvs = true;
+    for (const auto& s : shapes)
+      for (const auto& ix : s.mesh.indices) {
+        all_normals = all_normals && ix.normal_index >= 0;
+        all_uvs = all_uvs && ix.texcoord_index >= 0;
+      }
+    struct Key {
+      int v, n, t;
+      bool operator==(const Key&) const = default;
+    };
+    struct KeyHash {
+      size_t operator()(const Key& k) const {
+        return std::hash<int64_t>()((int64_t(k.v) * 1000003 + k.n) * 1000003 + k.t);
+      }
+    };
+    std::unordered_map<Key, uint32_t, KeyHash> vertex_of;
+    std::vector<std::string> warned_names;
+    Mesh mesh;
+    size_t face_number = 0;
+    for (const auto& s : shapes) {
+      size_t offset = 0;
+      for (size_t f = 0; f < s.mesh.num_face_vertices.size(); ++f, ++face_number) {
+        const size_t fv = s.mesh.num_face_vertices[f];
+        if (fv != 3) fail(fpath, fmt::format("OBJ file '{}': face {} has {} vertices after triangulation", file.string(), face_number, fv));
+        for (size_t k = 0; k < 3; ++k) {
+          const tinyobj::index_t ix = s.mesh.indices[offset + k];
+          if (ix.vertex_index < 0 || static_cast<size_t>(ix.vertex_index) >= nv)
+            fail(fpath, fmt::format("OBJ file '{}': face {} of '{}' uses vertex {} but the file has {} vertices",
+                                    file.string(), face_number, name, ix.vertex_index + 1, nv));
+          if (all_normals && static_cast<size_t>(ix.normal_index) >= nn)
+            fail(fpath, fmt::format("OBJ file '{}': face {} uses normal {} but the file has {} normals", file.string(),
+                                    face_number, ix.normal_index + 1, nn));
+          if (all_uvs && static_cast<size_t>(ix.texcoord_index) >= nt)
+            fail(fpath, fmt::format("OBJ file '{}': face {} uses texture coordinate {} but the file has {}",
+                                    file.string(), face_number, ix.texcoord_index + 1, nt));
+          const Key key{ix.vertex_index, all_normals ? ix.normal_index : -1, all_uvs ? ix.texcoord_index : -1};
+          auto [it, inserted] = vertex_of.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+          if (inserted) {
+            const float* p = &attrib.vertices[3 * key.v];
+            const Vec3 position{p[0], p[1], p[2]};
+            if (!is_finite(position))
+              fail(fpath, fmt::format("OBJ file '{}': vertex {} is not finite", file.string(), key.v + 1));
+            mesh.positions.push_back(position);
+            if (all_normals) {
+              const float* n = &attrib.normals[3 * key.n];
+              const Vec3 normal{n[0], n[1], n[2]};
+              const float len = length(normal);
+              mesh.normals.push_back(len > 0 && std::isfinite(len) ? normal / len : normal);
+            }
+            if (all_uvs) mesh.uvs.push_back(Vec2(attrib.texcoords[2 * key.t], attrib.texcoords[2 * key.t + 1]));
+          }
+          mesh.indices.push_back(it->second);
+        }
+        offset += fv;
+        const int id = f < s.mesh.material_ids.size() ? s.mesh.material_ids[f] : -1;
+        if (id >= 0 && static_cast<size_t>(id) < resolved.size() && resolved[id]) {
+          mesh.material_ids.push_back(*resolved[id]);
+          continue;
+        }
+        const bool named = id >= 0 && static_cast<size_t>(id) < obj_materials.size();
+        if (!fallback) {
+          if (named)
+            fail(fpath, fmt::format("OBJ file '{}': usemtl '{}' is not a scene material (known: {}) and the object has "
+                                    "no fallback 'material'", file.string(), obj_materials[id].name, known_materials()));
+          fail(path, fmt::format("OBJ file '{}' has faces without usemtl; give the object a 'material'", file.string()));
+        }
+        if (named && std::find(warned_names.begin(), warned_names.end(), obj_materials[id].name) == warned_names.end()) {
+          warned_names.push_back(obj_materials[id].name);
+          scene_.warnings.add("obj material not in scene",
+                              fmt::format("{}: {}: usemtl '{}' in '{}' uses the fallback material", file_, fpath,
+                                          obj_materials[id].name, file.string()));
+        }
+        mesh.material_ids.push_back(*fallback);
+      }
+    }
+    {
+      // Faces tinyobjloader could not triangulate because of bad indices are dropped with a
+      // warning; that is an error here, like a bad index in a triangle above.
+      std::istringstream lines(warn);
+      std::string line;
+      while (std::getline(lines, line)) {
+        if (line.empty()) continue;
+        if (line.find("out of bounds") != std::string::npos) fail(fpath, fmt::format("OBJ file '{}': {}", file.string(), line));
+        scene_.warnings.add("obj warning", fmt::format("{}: {}: {}", file_, file.string(), line));
+      }
+    }
+    if (mesh.indices.empty()) scene_.warnings.add("empty object", fmt::format("{}: {}: '{}' has no faces", file_, fpath, file.string()));
+    return mesh;
+  }
+
+  // ---- Lights ----
+
+  // "intensity"/"irradiance" as a colour, or a scalar `power_key` times "color" scaled by
+  // `power_scale`.
+  RGB light_value(const json& l, const std::string& path, const char* direct_key, const char* power_key, float power_scale) {
+    const json* direct = find(l, direct_key);
+    const json* power = find(l, power_key);
+    if (direct && power) fail(path, fmt::format("give either '{}' or '{}' (with 'color'), not both", direct_key, power_key));
+    if (!direct && !power) fail(path, fmt::format("needs '{}' or '{}' (with optional 'color')", direct_key, power_key));
+    if (direct) {
+      if (find(l, "color")) fail(sub(path, "color"), fmt::format("'color' goes with '{}'; '{}' is already a colour", power_key, direct_key));
+      return get_color(*direct, sub(path, direct_key));
+    }
+    RGB color(1.0f);
+    if (const json* c = find(l, "color")) color = get_color(*c, sub(path, "color"));
+    return color * (get_nonnegative(*power, sub(path, power_key)) * power_scale);
+  }
+
+  void load_light(const json& l, const std::string& path) {
+    require_object(l, path);
+    const std::string type = get_string(need(l, "type", path), sub(path, "type"));
+    Light light;
+    light.name = path;
+    if (const json* n = find(l, "name")) light.name = get_string(*n, sub(path, "name"));
+    if (type == "point") {
+      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color"});
+      light.type = LightType::Point;
+      light.position = get_vec3(need(l, "position", path), sub(path, "position"));
+      light.emit = light_value(l, path, "intensity", "power", kInv4Pi);
+    } else if (type == "spot") {
+      check_keys(l, path, {"type", "name", "position", "direction", "look_at", "spot_size", "spot_blend", "intensity",
+                           "power", "color"});
+      light.type = LightType::Spot;
+      light.position = get_vec3(need(l, "position", path), sub(path, "position"));
+      const json* d = find(l, "direction");
+      const json* at = find(l, "look_at");
+      if (d && at) fail(path, "give either 'direction' or 'look_at', not both");
+      if (d) {
+        light.direction = get_direction(*d, sub(path, "direction"));
+      } else if (at) {
+        const Vec3 to = get_vec3(*at, sub(path, "look_at")) - light.position;
+        if (!(length(to) > 0)) fail(sub(path, "look_at"), "look_at equals position");
+        light.direction = normalize(to);
+      } else {
+        fail(path, "needs 'direction' or 'look_at'");
+      }
+      float size = 45.0f, blend = 0.15f;  // Blender's defaults
+      if (const json* s = find(l, "spot_size")) {
+        size = get_float(*s, sub(path, "spot_size"));
+        if (!(size > 0 && size <= 180)) fail(sub(path, "spot_size"), fmt::format("must be in (0, 180] degrees (got {})", size));
+      }
+      if (const json* b = find(l, "spot_blend")) blend = get_in_range(*b, sub(path, "spot_blend"), 0.0f, 1.0f);
+      light.spot_cos_half = std::cos(0.5f * size * kPi / 180.0f);
+      light.spot_smooth = (1.0f - light.spot_cos_half) * blend;
+      light.emit = light_value(l, path, "intensity", "power", kInv4Pi);
+    } else if (type == "sun") {
+      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color"});
+      light.type = LightType::Directional;
+      light.direction = get_direction(need(l, "direction", path), sub(path, "direction"));
+      light.emit = light_value(l, path, "irradiance", "strength", 1.0f);
+    } else {
+      fail(sub(path, "type"), fmt::format("unknown light type '{}' (known: point, spot, sun)", type));
+    }
+    scene_.lights.push_back(std::move(light));
+  }
+
+  void load_environment(const json& e, const std::string& path) {
+    require_object(e, path);
+    check_keys(e, path, {"color", "strength"});
+    RGB color(1.0f);
+    float strength = 1.0f;
+    if (const json* c = find(e, "color")) color = get_color(*c, sub(path, "color"));
+    if (const json* s = find(e, "strength")) strength = get_nonnegative(*s, sub(path, "strength"));
+    const RGB radiance = color * strength;
+    if (radiance.is_black()) return;
+    Light env;
+    env.type = LightType::Environment;
+    env.name = "environment";
+    env.emit = radiance;
+    scene_.lights.push_back(std::move(env));
+  }
+
+  std::string file_, base_dir_;
+  Scene& scene_;
+  std::map<std::string, uint32_t> material_index_;
+};
+
+}  // namespace
+
+Scene load_scene_from_string(const std::string& json_text, const std::string& base_dir,
+                             const std::string& name_for_messages) {
+  json root;
+  try {
+    // Comments (// and /* */) are accepted as an extension; the bundled scenes are strict JSON.
+    root = json::parse(json_text, nullptr, true, true);
+  } catch (const json::parse_error& e) {
+    throw SceneError(fmt::format("{}: JSON syntax error at byte {}: {}", name_for_messages, e.byte, e.what()));
+  } catch (const json::exception& e) {
+    ErrorPositionFinder finder;
+    json::sax_parse(json_text, &finder, json::input_format_t::json, true, true);
+    throw SceneError(fmt::format("{}: JSON error at byte {}: {}", name_for_messages, finder.position, e.what()));
+  }
+  Scene scene;
+  scene.source = name_for_messages;
+  Loader(name_for_messages, base_dir, scene).load(root);
+  try {
+    scene.finalize();
+  } catch (const SceneError&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    // Scene::finalize's messages start with scene.source and name the mesh.
+    throw SceneError(e.what());
+  }
+  return scene;
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(fmt::format("{}: cannot open scene file ({})", path, std::strerror(errno)));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) throw SceneError(fmt::format("{}: cannot read scene file", path));
+  return load_scene_from_string(buffer.str(), std::filesystem::path(path).parent_path().string(), path);
+}
+
+}  // namespace gp

@@ -1,0 +1,144 @@
+#include "scene/scene.h"
+
+#include <fmt/format.h>
+
+#include <cstring>
+#include <stdexcept>
+
+#include "scene/accel.h"
+
+namespace gp {
+
+Scene::Scene() = default;
+Scene::~Scene() = default;
+Scene::Scene(Scene&&) noexcept = default;
+Scene& Scene::operator=(Scene&&) noexcept = default;
+
+Vec3 offset_ray_origin(const Vec3& p, const Vec3& ng, const Vec3& w) {
+  // Move p along the normal (on w's side) by a few ULPs in integer space, or by a small
+  // fixed amount near the origin where ULPs are tiny (Wächter & Binder 2019).
+  constexpr float kOrigin = 1.0f / 32.0f, kFloatScale = 1.0f / 65536.0f, kIntScale = 256.0f;
+  const Vec3 n = dot(ng, w) < 0 ? -ng : ng;
+  Vec3 out;
+  for (int i = 0; i < 3; ++i) {
+    const int of_i = static_cast<int>(kIntScale * n[i]);
+    const float pi = p[i];
+    int32_t bits;
+    std::memcpy(&bits, &pi, 4);
+    bits += (p[i] < 0) ? -of_i : of_i;
+    float p_i;
+    std::memcpy(&p_i, &bits, 4);
+    out[i] = std::abs(p[i]) < kOrigin ? p[i] + kFloatScale * n[i] : p_i;
+  }
+  return out;
+}
+
+size_t Scene::triangle_count() const {
+  size_t n = 0;
+  for (const Mesh& m : meshes) n += m.triangle_count();
+  return n;
+}
+
+void Scene::finalize() {
+  bounds_ = Bounds3();
+  std::vector<Light> all_lights = lights;
+  triangle_light_.assign(meshes.size(), {});
+  for (size_t mi = 0; mi < meshes.size(); ++mi) {
+    const Mesh& m = meshes[mi];
+    const std::string where = fmt::format("{}: mesh '{}'", source, m.name);
+    if (m.indices.size() % 3 != 0)
+      throw std::runtime_error(fmt::format("{}: index count {} is not a multiple of 3", where, m.indices.size()));
+    if (m.material_ids.size() != m.triangle_count())
+      throw std::runtime_error(fmt::format("{}: {} material ids for {} triangles", where,
+                                           m.material_ids.size(), m.triangle_count()));
+    if (!m.normals.empty() && m.normals.size() != m.positions.size())
+      throw std::runtime_error(fmt::format("{}: {} normals for {} positions", where, m.normals.size(), m.positions.size()));
+    if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
+      throw std::runtime_error(fmt::format("{}: {} uvs for {} positions", where, m.uvs.size(), m.positions.size()));
+    for (size_t v = 0; v < m.positions.size(); ++v) {
+      if (!is_finite(m.positions[v]))
+        throw std::runtime_error(fmt::format("{}: vertex {} is not finite", where, v));
+      bounds_.extend(m.positions[v]);
+    }
+    for (size_t k = 0; k < m.indices.size(); ++k)
+      if (m.indices[k] >= m.positions.size())
+        throw std::runtime_error(fmt::format("{}: triangle {} uses vertex {} but the mesh has {} vertices",
+                                             where, k / 3, m.indices[k], m.positions.size()));
+    triangle_light_[mi].assign(m.triangle_count(), -1);
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+      const uint32_t mat = m.material_ids[t];
+      if (mat >= materials.size())
+        throw std::runtime_error(fmt::format("{}: triangle {} has material index {} but there are {} materials",
+                                             where, t, mat, materials.size()));
+      const Vec3 &a = m.positions[m.indices[3 * t]], &b = m.positions[m.indices[3 * t + 1]],
+                 &c = m.positions[m.indices[3 * t + 2]];
+      const Vec3 nc = cross(b - a, c - a);
+      const float area = 0.5f * length(nc);
+      if (!(area > 0)) {
+        warnings.add("zero-area triangle", fmt::format("{} triangle {}", where, t));
+        continue;
+      }
+      const Material& mtl = materials[mat];
+      if (mtl.is_emissive()) {
+        Light l;
+        l.type = LightType::Area;
+        l.name = fmt::format("{}#{}", m.name, t);
+        l.emit = mtl.radiance();
+        l.p0 = a; l.p1 = b; l.p2 = c;
+        l.n = nc / (2.0f * area);
+        l.area = area;
+        l.two_sided = mtl.two_sided;
+        l.mesh = static_cast<int>(mi);
+        l.prim = static_cast<int>(t);
+        triangle_light_[mi][t] = static_cast<int32_t>(all_lights.size());
+        all_lights.push_back(l);
+      }
+    }
+  }
+  for (const Light& l : lights)
+    if (!l.emit.is_finite())
+      throw std::runtime_error(fmt::format("{}: light '{}' has a non-finite value", source, l.name));
+  if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
+  light_set_ = LightSet(std::move(all_lights), bounds_);
+  accel_ = std::make_unique<Accelerator>(meshes);
+}
+
+std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
+  RawHit raw;
+  if (!accel_->intersect(ray, raw)) return std::nullopt;
+  const Mesh& m = meshes[raw.geom];
+  const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
+  const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
+  SurfaceHit h;
+  h.t = raw.t;
+  // Interpolating the vertices is more precise than o + t d far from the ray origin.
+  h.p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
+  h.ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
+  h.ns = h.ng;
+  if (!m.normals.empty()) {
+    const Vec3 n = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
+    const float len = length(n);
+    if (len > 0 && std::isfinite(len)) h.ns = n / len;
+    if (dot(h.ns, h.ng) < 0) h.ns = -h.ns;  // shading normal on the geometric side
+  }
+  if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
+  else h.uv = Vec2(b1, b2);
+  h.frame = Frame(h.ns);
+  h.mesh = raw.geom;
+  h.prim = raw.prim;
+  h.material = static_cast<int>(m.material_ids[raw.prim]);
+  h.light = triangle_light_[raw.geom][raw.prim];
+  return h;
+}
+
+bool Scene::occluded(const Ray& ray) const { return accel_->occluded(ray); }
+
+bool Scene::occluded_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
+  const Vec3 o = offset_ray_origin(p0, n0, p1 - p0);
+  const Vec3 e = offset_ray_origin(p1, n1, p0 - p1);
+  const Vec3 d = e - o;
+  // Unnormalised direction: the segment is t in (0, 1); stop just short of the end point.
+  return accel_->occluded(Ray(o, d, 0.0f, 1.0f - 1e-4f));
+}
+
+}  // namespace gp

@@ -1,0 +1,114 @@
+#!/usr/bin/python3
+"""Error against time for every (scene, method): the chart gradphoton is judged by.
+
+For each scene, renders a reference (a long path-traced run with a fixed seed and pass count,
+cached under build/references/), then runs every method with --checkpoints, diffs each
+snapshot against the reference with `gradphoton diff` (relMSE of the gradient-domain photon
+paper), writes a CSV and draws one log-log chart per scene with all its methods.
+
+    scripts/convergence.py --scenes cornell-box torus-glass --methods pt \
+        --checkpoints 1,2,4,8,16 --ref-passes 4096 --width 160 --height 120
+"""
+import argparse
+import csv
+import pathlib
+import re
+import subprocess
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+CLI = ROOT / "build" / "gradphoton"
+
+
+def run(cmd):
+    print("+", " ".join(str(c) for c in cmd), file=sys.stderr)
+    return subprocess.run([str(c) for c in cmd], check=True, capture_output=True, text=True).stdout
+
+
+def size_args(args):
+    out = []
+    if args.width:
+        out += ["--width", args.width]
+    if args.height:
+        out += ["--height", args.height]
+    return out
+
+
+def reference(scene, args):
+    """Long fixed-seed path-traced render, cached by scene, size and pass count."""
+    ref_dir = ROOT / "build" / "references"
+    ref_dir.mkdir(parents=True, exist_ok=True)
+    tag = f"{scene}-{args.width or 'w'}x{args.height or 'h'}-pt-{args.ref_passes}p-seed{args.ref_seed}"
+    path = ref_dir / f"{tag}.exr"
+    scene_file = ROOT / "scenes" / f"{scene}.json"
+    if not path.exists() or path.stat().st_mtime < scene_file.stat().st_mtime:
+        run([CLI, "render", scene_file, "--method", "pt", "--passes", args.ref_passes,
+             "--seed", args.ref_seed, "-o", path, *size_args(args)])
+    return path
+
+
+def rel_mse(image, ref):
+    out = run([CLI, "diff", image, ref])
+    return float(re.search(r"relMSE\s+(\S+)", out).group(1))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenes", nargs="+", default=["cornell-box", "cornell-glass", "torus-glass"])
+    ap.add_argument("--methods", nargs="+", default=["pt"])
+    ap.add_argument("--checkpoints", default="1,2,4,8,16,32", help="seconds, comma separated")
+    ap.add_argument("--ref-passes", type=int, default=4096)
+    ap.add_argument("--ref-seed", type=int, default=1000003)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--width", type=int, default=0)
+    ap.add_argument("--height", type=int, default=0)
+    ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "convergence")
+    args = ap.parse_args()
+
+    checkpoints = [float(t) for t in args.checkpoints.split(",")]
+    work = ROOT / "build" / "convergence"
+    work.mkdir(parents=True, exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for scene in args.scenes:
+        ref = reference(scene, args)
+        for method in args.methods:
+            out = work / f"{scene}-{method}.exr"
+            run([CLI, "render", ROOT / "scenes" / f"{scene}.json", "--method", method,
+                 "--time", max(checkpoints), "--checkpoints", ",".join(f"{t:g}" for t in checkpoints),
+                 "--seed", args.seed, "-o", out, *size_args(args)])
+            for t in checkpoints:
+                snap = work / f"{scene}-{method}.{t:g}s.exr"
+                if snap.exists():
+                    rows.append({"scene": scene, "method": method, "seconds": t, "relmse": rel_mse(snap, ref)})
+                    print(f"{scene:14s} {method:8s} {t:8g} s  relMSE {rows[-1]['relmse']:.5g}")
+
+    csv_path = args.out / "convergence.csv"
+    with open(csv_path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["scene", "method", "seconds", "relmse"])
+        w.writeheader()
+        w.writerows(rows)
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    for scene in args.scenes:
+        fig, ax = plt.subplots(figsize=(5, 4))
+        for method in args.methods:
+            pts = [(r["seconds"], r["relmse"]) for r in rows if r["scene"] == scene and r["method"] == method]
+            if pts:
+                ax.loglog(*zip(*pts), marker="o", label=method)
+        ax.set_xlabel("render time (s)")
+        ax.set_ylabel("relMSE")
+        ax.set_title(scene)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(args.out / f"{scene}.png", dpi=100)
+        plt.close(fig)
+    print(f"wrote {csv_path} and one chart per scene in {args.out}")
+
+
+if __name__ == "__main__":
+    main()

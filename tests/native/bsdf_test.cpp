@@ -1,0 +1,847 @@
+// Tests of materials/bsdf: chi-square goodness of fit of every non-delta sampler against its
+// own pdf (after pbrt-v4's src/pbrt/bsdfs_test.cpp and Mitsuba 3's chi2.py), sample/eval
+// consistency, reciprocity, Fresnel energy conservation and white-furnace albedo bounds.
+#include "materials/bsdf.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <functional>
+#include <mutex>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "core/frame.h"
+#include "core/parallel.h"
+#include "core/rng.h"
+
+namespace gp {
+namespace {
+
+// ============================================================================================
+// Chi-square goodness-of-fit helper
+// ============================================================================================
+
+// Regularized upper incomplete gamma function Q(a, x) = Gamma(a, x) / Gamma(a), the p-value of
+// a chi-square statistic chi2 with k degrees of freedom being Q(k / 2, chi2 / 2). Series for
+// P = 1 - Q when x < a + 1, Lentz's continued fraction for Q otherwise (Numerical Recipes,
+// 3rd ed., §6.2, gser/gcf).
+double gamma_q(double a, double x) {
+  if (a <= 0 || x < 0) return std::nan("");
+  if (x == 0) return 1.0;
+  const double log_prefactor = -x + a * std::log(x) - std::lgamma(a);
+  if (x < a + 1) {
+    double ap = a, term = 1.0 / a, sum = term;
+    for (int n = 0; n < 10000; ++n) {
+      ap += 1;
+      term *= x / ap;
+      sum += term;
+      if (std::abs(term) < std::abs(sum) * 1e-16) break;
+    }
+    return std::max(0.0, 1.0 - sum * std::exp(log_prefactor));
+  }
+  constexpr double kTiny = 1e-300;
+  double b = x + 1 - a, c = 1 / kTiny, d = 1 / b, h = d;
+  for (int i = 1; i < 10000; ++i) {
+    const double an = -i * (i - a);
+    b += 2;
+    d = an * d + b;
+    if (std::abs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::abs(c) < kTiny) c = kTiny;
+    d = 1 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1) < 1e-16) break;
+  }
+  return std::exp(log_prefactor) * h;
+}
+
+// Adaptive Simpson quadrature with Richardson extrapolation and Lyness's stopping rule, as in
+// pbrt-v4's bsdfs_test.cpp.
+double adaptive_simpson(const std::function<double(double)>& f, double x0, double x1, double eps,
+                        int max_depth) {
+  auto integrate = [&](auto&& self, double a, double b, double c, double fa, double fb, double fc,
+                       double whole, double tol, int depth) -> double {
+    const double d = 0.5 * (a + b), e = 0.5 * (b + c);
+    const double fd = f(d), fe = f(e);
+    const double h = c - a;
+    const double left = h / 12 * (fa + 4 * fd + fb), right = h / 12 * (fb + 4 * fe + fc);
+    const double both = left + right;
+    if (depth <= 0 || std::abs(both - whole) < 15 * tol) return both + (both - whole) / 15;
+    return self(self, a, d, b, fa, fd, fb, left, tol / 2, depth - 1) +
+           self(self, b, e, c, fb, fe, fc, right, tol / 2, depth - 1);
+  };
+  const double a = x0, b = 0.5 * (x0 + x1), c = x1;
+  const double fa = f(a), fb = f(b), fc = f(c);
+  return integrate(integrate, a, b, c, fa, fb, fc, (c - a) / 6 * (fa + 4 * fb + fc), eps,
+                   max_depth);
+}
+
+// Nested adaptive Simpson over [x0,x1] x [y0,y1]. The rectangle is first cut into k x k panels
+// so that a lobe narrower than a bin cannot slip between the first few nodes.
+double integrate_2d(const std::function<double(double, double)>& f, double x0, double x1, double y0,
+                    double y1, double eps, int k = 4, int max_depth = 6) {
+  double sum = 0;
+  const double dx = (x1 - x0) / k, dy = (y1 - y0) / k;
+  // Half of each panel's share of eps for the outer integral, half for the inner ones (an
+  // inner error e adds e dy to the outer integral).
+  const double panel_eps = 0.5 * eps / (k * k);
+  for (int j = 0; j < k; ++j) {
+    const double ya = y0 + j * dy, yb = ya + dy;
+    for (int i = 0; i < k; ++i) {
+      const double xa = x0 + i * dx, xb = xa + dx;
+      auto inner = [&](double y) {
+        return adaptive_simpson([&](double x) { return f(x, y); }, xa, xb, panel_eps / dy,
+                                max_depth);
+      };
+      sum += adaptive_simpson(inner, ya, yb, panel_eps, max_depth);
+    }
+  }
+  return sum;
+}
+
+// The sphere of directions binned uniformly in (cos theta, phi): equal solid angle per bin and
+// a unit Jacobian, d omega = d cos(theta) d phi.
+constexpr int kCosThetaRes = 20;
+constexpr int kPhiRes = 40;
+constexpr int kSamples = 400000;
+constexpr double kMinExpected = 5;
+constexpr double kSignificance = 0.01;
+
+Vec3 direction(double cos_theta, double phi) {
+  const double sin_theta = std::sqrt(std::max(0.0, 1 - cos_theta * cos_theta));
+  return {static_cast<float>(sin_theta * std::cos(phi)),
+          static_cast<float>(sin_theta * std::sin(phi)), static_cast<float>(cos_theta)};
+}
+
+int bin_of(const Vec3& w) {
+  const double c = clamp(w.z, -1.0f, 1.0f);
+  double phi = std::atan2(static_cast<double>(w.y), static_cast<double>(w.x));
+  if (phi < 0) phi += 2 * M_PI;
+  const int ci = std::min(static_cast<int>((c + 1) * 0.5 * kCosThetaRes), kCosThetaRes - 1);
+  const int pi = std::min(static_cast<int>(phi / (2 * M_PI) * kPhiRes), kPhiRes - 1);
+  return ci * kPhiRes + pi;
+}
+
+struct Chi2Result {
+  double statistic = 0;
+  int dof = 0;
+  double p_value = 0;
+  double pdf_integral = 0;        // integral of pdf over the sphere (<= 1: rejected samples)
+  double accepted_fraction = 0;   // samples that came back (non-delta)
+  size_t zero_expected_hits = 0;  // samples in bins of zero expected count
+  std::string error;              // set when the test could not be run
+};
+
+using Sampler = std::function<std::optional<BsdfSample>(float uc, Vec2 u)>;
+using Density = std::function<float(const Vec3& wi)>;
+
+// Draws kSamples directions from `sample` (called from several threads), histograms the
+// non-delta ones, integrates `pdf` over every bin for the expected counts, pools bins with
+// expected < 5 (pbrt-v4's Chi2Test) and returns Pearson's statistic with its p-value. Samples
+// that do not come back (below the horizon, TIR) form one more cell, expected where the pdf
+// integrates to less than one, so the cells' counts sum to kSamples and dof = cells - 1 holds.
+Chi2Result chi2_test(const Sampler& sample, const Density& pdf, uint64_t seed) {
+  constexpr int kBins = kCosThetaRes * kPhiRes;
+  constexpr int kChunk = 1 << 14;
+  constexpr int kChunks = (kSamples + kChunk - 1) / kChunk;
+
+  // ---- Observed counts: fixed chunks with their own streams, so any thread count agrees ----
+  std::vector<double> observed(kBins, 0.0);
+  size_t accepted = 0;
+  std::mutex merge;
+  parallel_for(kChunks, 0, [&](size_t begin, size_t end) {
+    for (size_t chunk = begin; chunk < end; ++chunk) {
+      Rng rng = Rng::for_key(seed, chunk, 0x5eed);
+      std::vector<double> local(kBins, 0.0);
+      size_t local_accepted = 0;
+      const int n = std::min<int>(kChunk, kSamples - static_cast<int>(chunk) * kChunk);
+      for (int i = 0; i < n; ++i) {
+        const float uc = rng.uniform();
+        const Vec2 u(rng.uniform(), rng.uniform());
+        const auto s = sample(uc, u);
+        if (!s || s->delta) continue;
+        local[bin_of(s->wi)] += 1;
+        ++local_accepted;
+      }
+      std::lock_guard lock(merge);
+      for (int b = 0; b < kBins; ++b) observed[b] += local[b];
+      accepted += local_accepted;
+    }
+  });
+
+  // ---- Expected counts: the pdf integrated over each bin ----
+  std::vector<double> expected(kBins, 0.0);
+  const double dc = 2.0 / kCosThetaRes, dphi = 2 * M_PI / kPhiRes;
+  parallel_for(kBins, 0, [&](size_t begin, size_t end) {
+    for (size_t b = begin; b < end; ++b) {
+      const int ci = static_cast<int>(b) / kPhiRes, pi = static_cast<int>(b) % kPhiRes;
+      const double c0 = -1 + ci * dc, phi0 = pi * dphi;
+      auto f = [&](double phi, double c) { return static_cast<double>(pdf(direction(c, phi))); };
+      // Absolute tolerance 1e-8 per bin: ~0.004 counts at 4e5 samples.
+      expected[b] = integrate_2d(f, phi0, phi0 + dphi, c0, c0 + dc, 1e-8) * kSamples;
+    }
+  });
+
+  Chi2Result r;
+  r.pdf_integral = std::accumulate(expected.begin(), expected.end(), 0.0) / kSamples;
+  r.accepted_fraction = static_cast<double>(accepted) / kSamples;
+
+  // The cell of samples that did not come back.
+  observed.push_back(static_cast<double>(kSamples - accepted));
+  expected.push_back(std::max(0.0, kSamples - r.pdf_integral * kSamples));
+
+  // ---- Pool low-expectation cells, then Pearson's statistic ----
+  std::vector<int> order(kBins + 1);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return expected[a] < expected[b]; });
+  double pooled_obs = 0, pooled_exp = 0;
+  for (int b : order) {
+    if (expected[b] == 0) {
+      // Samples where the pdf is zero: the sampler and pdf disagree about the support.
+      r.zero_expected_hits += static_cast<size_t>(observed[b]);
+    } else if (expected[b] < kMinExpected || (pooled_exp > 0 && pooled_exp < kMinExpected)) {
+      pooled_obs += observed[b];
+      pooled_exp += expected[b];
+    } else {
+      r.statistic += (observed[b] - expected[b]) * (observed[b] - expected[b]) / expected[b];
+      ++r.dof;
+    }
+  }
+  if (pooled_exp > 0) {
+    r.statistic += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
+    ++r.dof;
+  }
+  r.dof -= 1;  // the counts are constrained by their sum; no fitted parameters
+  if (r.dof <= 0) {
+    r.error = fmt::format("too few degrees of freedom ({})", r.dof);
+    return r;
+  }
+  r.p_value = gamma_q(0.5 * r.dof, 0.5 * r.statistic);
+  return r;
+}
+
+// ============================================================================================
+// Cases
+// ============================================================================================
+
+Material make(MaterialType type, float alpha, RGB color = RGB(1.0f), float ior = 1.5f) {
+  Material m;
+  m.type = type;
+  m.roughness = alpha;
+  m.color = color;
+  m.ior = ior;
+  return m;
+}
+
+// wo at the given cos(theta) (negative: below the surface) and a fixed, off-axis azimuth.
+Vec3 wo_at(float cos_theta_o, float phi = 0.7f) {
+  const float s = safe_sqrt(1 - cos_theta_o * cos_theta_o);
+  return {s * std::cos(phi), s * std::sin(phi), cos_theta_o};
+}
+
+struct Chi2Case {
+  std::string name;
+  Material material;
+  Vec3 wo;
+};
+
+constexpr float kCosThetaO[] = {0.9f, 0.5f, 0.15f};
+
+std::vector<Chi2Case> diffuse_cases() {
+  std::vector<Chi2Case> cases;
+  for (float c : kCosThetaO)
+    cases.push_back(
+        {fmt::format("diffuse cos_o={}", c), make(MaterialType::Diffuse, 0, RGB(0.7f)), wo_at(c)});
+  cases.push_back({"diffuse from below cos_o=-0.5", make(MaterialType::Diffuse, 0), wo_at(-0.5f)});
+  return cases;
+}
+
+std::vector<Chi2Case> conductor_cases() {
+  std::vector<Chi2Case> cases;
+  for (float alpha : {0.05f, 0.2f, 0.6f})
+    for (float c : kCosThetaO)
+      cases.push_back({fmt::format("conductor alpha={} cos_o={}", alpha, c),
+                       make(MaterialType::Conductor, alpha, RGB(0.9f, 0.6f, 0.3f)), wo_at(c)});
+  cases.push_back({"conductor from below alpha=0.2 cos_o=-0.5",
+                   make(MaterialType::Conductor, 0.2f, RGB(0.9f)), wo_at(-0.5f)});
+  return cases;
+}
+
+std::vector<Chi2Case> dielectric_cases() {
+  std::vector<Chi2Case> cases;
+  for (float alpha : {0.1f, 0.3f, 0.7f})
+    for (float ior : {1.33f, 1.5f, 2.0f})
+      for (float side : {1.0f, -1.0f})
+        for (float c : kCosThetaO)
+          cases.push_back({fmt::format("dielectric alpha={} ior={} {} cos_o={}", alpha, ior,
+                                       side > 0 ? "outside" : "inside", c),
+                           make(MaterialType::Dielectric, alpha, RGB(1.0f), ior), wo_at(side * c)});
+  return cases;
+}
+
+// Number of chi-square tests in this file, for the Sidak correction of the significance level.
+const size_t kNumChi2Tests =
+    diffuse_cases().size() + conductor_cases().size() + dielectric_cases().size();
+
+double sidak_alpha() {
+  return 1 - std::pow(1 - kSignificance, 1.0 / static_cast<double>(kNumChi2Tests));
+}
+
+// Relative difference, with an absolute floor `abs_floor` below which values count as equal:
+// near-back-facing microfacets give |wi.wm| ~ 0, where float cancellation leaves tiny values
+// with large relative noise (typical BSDF values are 0.1..100).
+float rel_diff(float a, float b, float abs_floor = 1e-12f) {
+  const float scale = std::max(std::abs(a), std::abs(b));
+  return scale < 1e-12f ? 0.0f : std::max(0.0f, std::abs(a - b) - abs_floor) / scale;
+}
+float rel_diff(const RGB& a, const RGB& b, float abs_floor = 1e-12f) {
+  return std::max({rel_diff(a.r, b.r, abs_floor), rel_diff(a.g, b.g, abs_floor),
+                   rel_diff(a.b, b.b, abs_floor)});
+}
+
+// Runs the chi-square test of one case and checks, for every 4th sample (to save time), that
+// sample() returns the f (in both transport modes) and pdf that eval() and pdf() give at the
+// sampled wi.
+void check_case(const Chi2Case& c, uint64_t seed) {
+  SCOPED_TRACE(c.name);
+  const Bsdf bsdf(c.material);
+  std::atomic<size_t> mismatches{0}, samples{0};
+  const Sampler sampler = [&](float uc, Vec2 u) {
+    auto s = bsdf.sample(c.wo, uc, u, TransportMode::Radiance);
+    // Rng::uniform() is (24 random bits) * 2^-24, so the low bits of u.y pick a fair subset.
+    if (!s || s->delta || (static_cast<uint32_t>(u.y * 0x1p24f) & 3u) != 0) return s;
+    ++samples;
+    const auto s_imp = bsdf.sample(c.wo, uc, u, TransportMode::Importance);
+    const float tol = 2e-3f;  // float round-off of the recomputed half vector
+    const bool ok = s_imp && s_imp->wi.x == s->wi.x && s_imp->wi.y == s->wi.y &&
+                    s_imp->wi.z == s->wi.z && s_imp->pdf == s->pdf &&
+                    rel_diff(s->pdf, bsdf.pdf(c.wo, s->wi)) < tol &&
+                    rel_diff(s->f, bsdf.eval(c.wo, s->wi, TransportMode::Radiance)) < tol &&
+                    rel_diff(s_imp->f, bsdf.eval(c.wo, s->wi, TransportMode::Importance)) < tol &&
+                    s->f.is_finite() && std::isfinite(s->pdf) && s->pdf > 0;
+    if (!ok) ++mismatches;
+    return s;
+  };
+  const Density density = [&](const Vec3& wi) { return bsdf.pdf(c.wo, wi); };
+  const Chi2Result r = chi2_test(sampler, density, seed);
+
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_GT(samples.load(), kSamples / 40u);
+  // A few samples may disagree at the float noise floor (grazing half vectors); pbrt-v4's
+  // tests accept the same order of slack.
+  EXPECT_LE(mismatches.load(), samples.load() / 10000) << "sample() disagrees with eval()/pdf()";
+  EXPECT_LE(r.pdf_integral, 1.0 + 1e-3);
+  EXPECT_NEAR(r.pdf_integral, r.accepted_fraction, 5e-3)
+      << "pdf mass differs from the fraction of samples returned";
+  EXPECT_LE(r.zero_expected_hits, kSamples / 100000u) << "samples where the pdf is zero";
+  EXPECT_GE(r.p_value, sidak_alpha())
+      << "chi2 = " << r.statistic << ", dof = " << r.dof << ", p = " << r.p_value;
+}
+
+// ============================================================================================
+// Tests
+// ============================================================================================
+
+TEST(Chi2Helper, IncompleteGammaMatchesClosedForms) {
+  for (double x : {0.01, 0.5, 1.0, 3.0, 10.0, 40.0}) {
+    EXPECT_NEAR(gamma_q(1.0, x), std::exp(-x), 1e-12);             // Q(1, x) = e^-x
+    EXPECT_NEAR(gamma_q(0.5, x), std::erfc(std::sqrt(x)), 1e-12);  // Q(1/2, x) = erfc
+    // Integer a: Q(k, x) = e^-x sum_{j<k} x^j / j!.
+    double term = 1, sum = 0;
+    for (int j = 0; j < 5; ++j) {
+      sum += term;
+      term *= x / (j + 1);
+    }
+    EXPECT_NEAR(gamma_q(5.0, x), std::exp(-x) * sum, 1e-12);
+  }
+  // Chi-square with 100 dof at 100 and at 200 (reference values from mpmath.gammainc).
+  EXPECT_NEAR(gamma_q(50.0, 50.0), 0.481191684527957, 1e-12);
+  EXPECT_NEAR(gamma_q(50.0, 100.0) / 1.17845007209794e-8, 1.0, 1e-9);
+}
+
+TEST(Chi2Helper, RejectsMismatchedPdf) {
+  // The test has power: samples from GGX alpha = 0.2 against the pdf of alpha = 0.21, and rough
+  // glass of IOR 1.5 against the pdf of IOR 1.45, must both be rejected.
+  const Vec3 wo = wo_at(0.5f);
+  const Material m_sample = make(MaterialType::Conductor, 0.2f);
+  const Material m_pdf = make(MaterialType::Conductor, 0.21f);
+  const Bsdf bs(m_sample), bp(m_pdf);
+  const Chi2Result r = chi2_test([&](float uc, Vec2 u) { return bs.sample(wo, uc, u); },
+                                 [&](const Vec3& wi) { return bp.pdf(wo, wi); }, 1);
+  EXPECT_LT(r.p_value, sidak_alpha());
+
+  const Material g_sample = make(MaterialType::Dielectric, 0.3f, RGB(1.0f), 1.5f);
+  const Material g_pdf = make(MaterialType::Dielectric, 0.3f, RGB(1.0f), 1.45f);
+  const Bsdf gs(g_sample), gpdf(g_pdf);
+  const Chi2Result rg = chi2_test([&](float uc, Vec2 u) { return gs.sample(wo, uc, u); },
+                                  [&](const Vec3& wi) { return gpdf.pdf(wo, wi); }, 2);
+  EXPECT_LT(rg.p_value, sidak_alpha());
+}
+
+TEST(BsdfChi2, Diffuse) {
+  uint64_t seed = 100;
+  for (const auto& c : diffuse_cases()) check_case(c, seed++);
+}
+
+TEST(BsdfChi2, RoughConductor) {
+  uint64_t seed = 200;
+  for (const auto& c : conductor_cases()) check_case(c, seed++);
+}
+
+TEST(BsdfChi2, RoughDielectric) {
+  uint64_t seed = 300;
+  for (const auto& c : dielectric_cases()) check_case(c, seed++);
+}
+
+// ---- Reciprocity ----
+
+// Uniform directions on the sphere from a fixed stream.
+Vec3 random_direction(Rng& rng) {
+  const float z = 1 - 2 * rng.uniform();
+  const float r = safe_sqrt(1 - z * z), phi = 2 * kPi * rng.uniform();
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+TEST(BsdfReciprocity, DiffuseAndRoughConductor) {
+  Rng rng(7, 0);
+  std::vector<Material> materials = {make(MaterialType::Diffuse, 0, RGB(0.3f, 0.5f, 0.7f))};
+  for (float alpha : {0.05f, 0.2f, 0.6f})
+    materials.push_back(make(MaterialType::Conductor, alpha, RGB(0.9f, 0.5f, 0.1f)));
+  for (const auto& m : materials) {
+    const Bsdf bsdf(m);
+    int nonzero = 0;
+    for (int i = 0; i < 20000; ++i) {
+      const Vec3 wo = random_direction(rng), wi = random_direction(rng);
+      const RGB a = bsdf.eval(wo, wi), b = bsdf.eval(wi, wo);
+      if (!a.is_black()) ++nonzero;
+      ASSERT_LT(rel_diff(a, b), 1e-4f) << to_string(m.type) << " alpha " << m.roughness;
+    }
+    EXPECT_GT(nonzero, 5000);  // about half the pairs share a hemisphere
+  }
+}
+
+// Rough dielectric. Let eta_o and eta_i be the IORs on the sides of wo and wi, and
+// etap = eta_i / eta_o (what the code calls etap). The radiance BTDF is
+//   f_R(wo, wi) = f*(wo, wi) / etap^2 with
+//   f*(wo, wi) = (1 - F) D G |wi.wm| |wo.wm| / (|cos_i cos_o| (wi.wm + wo.wm / etap)^2),
+// where wm, F, D and G are the same for (wo, wi) and (wi, wo). Swapping the arguments inverts
+// etap, and (wo.wm + wi.wm etap)^2 = etap^2 (wi.wm + wo.wm / etap)^2, so
+//   f*(wi, wo) = f*(wo, wi) / etap^2 = f_R(wo, wi)   and   f_R(wi, wo) = f*(wo, wi).
+// Hence (1) the importance BTDF is the adjoint of the radiance one, f_I(wo, wi) = f_R(wi, wo),
+// and (2) Veach's generalized reciprocity (thesis eq. 5.14, with f_s(wi -> wo) = f(wo, wi)):
+//   f_R(wo, wi) / eta_o^2 = f_R(wi, wo) / eta_i^2.
+// Reflection pairs are plainly symmetric.
+TEST(BsdfReciprocity, RoughDielectric) {
+  Rng rng(11, 0);
+  for (float alpha : {0.1f, 0.3f, 0.7f})
+    for (float ior : {1.33f, 1.5f, 2.0f}) {
+      const Material m = make(MaterialType::Dielectric, alpha, RGB(1.0f), ior);
+      const Bsdf bsdf(m);
+      int transmissions = 0, reflections = 0;
+      for (int i = 0; i < 20000; ++i) {
+        const Vec3 wo = random_direction(rng), wi = random_direction(rng);
+        const RGB f_r = bsdf.eval(wo, wi, TransportMode::Radiance);
+        const RGB f_r_swapped = bsdf.eval(wi, wo, TransportMode::Radiance);
+        const RGB f_i = bsdf.eval(wo, wi, TransportMode::Importance);
+        SCOPED_TRACE(fmt::format("alpha {} ior {}", alpha, ior));
+        if (same_hemisphere(wo, wi)) {
+          if (!f_r.is_black()) ++reflections;
+          // Looser than for the conductor: from inside near the critical angle F is steep, so
+          // the round-off difference between wo.wm and wi.wm shows.
+          ASSERT_LT(rel_diff(f_r, f_r_swapped, 1e-5f), 1e-3f);
+          ASSERT_EQ(f_r.r, f_i.r);  // transport mode only affects refraction
+          continue;
+        }
+        if (!f_r.is_black()) ++transmissions;
+        const float eta_o = wo.z > 0 ? 1.0f : ior, eta_i = wi.z > 0 ? 1.0f : ior;
+        ASSERT_LT(rel_diff(f_r.r / sqr(eta_o), f_r_swapped.r / sqr(eta_i), 1e-5f), 1e-3f);
+        ASSERT_LT(rel_diff(f_i.r, f_r_swapped.r, 1e-5f), 1e-3f);
+      }
+      EXPECT_GT(transmissions, 1000);
+      EXPECT_GT(reflections, 1000);
+    }
+}
+
+// ---- Reference values ----
+
+// Independent double-precision transcription of the rough lobes in Walter et al. 2007's own
+// notation: i is the direction light arrives from, o the one it leaves along, eta_i and eta_o
+// the IORs on their sides. The chi-square test cannot see errors in f that are not in the pdf
+// (G, F, the eta^2 scaling), so f is checked against these formulas.
+namespace walter {
+
+using D3 = std::array<double, 3>;
+double dot3(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+D3 normalized(const D3& v) {
+  const double l = std::sqrt(dot3(v, v));
+  return {v[0] / l, v[1] / l, v[2] / l};
+}
+D3 to_d3(const Vec3& v) { return normalized({v.x, v.y, v.z}); }
+double tan2(const D3& v) { return (v[0] * v[0] + v[1] * v[1]) / (v[2] * v[2]); }
+
+double D(const D3& m, double a) {  // eq. 33
+  if (m[2] <= 0) return 0;
+  const double c2 = m[2] * m[2];
+  return a * a / (kPi * c2 * c2 * sqr(a * a + tan2(m)));
+}
+// Smith G1 (eq. 34) without its chi+ factor; Lambda = 1 / G1 - 1 gives the height-correlated
+// G2 = 1 / (1 + Lambda_i + Lambda_o) (Heitz 2014 eq. 99) with the chi+ factors of eq. 34.
+double G1(const D3& v, double a) { return 2 / (1 + std::sqrt(1 + a * a * tan2(v))); }
+double G2(const D3& i, const D3& o, const D3& m, double a) {
+  if (dot3(i, m) / i[2] <= 0 || dot3(o, m) / o[2] <= 0) return 0;
+  return 1 / (1 + (1 / G1(i, a) - 1) + (1 / G1(o, a) - 1));
+}
+// Unpolarized dielectric Fresnel in the form of eq. 22 (eta = eta_t / eta_i, c = |i.m|).
+double F(double c, double eta) {
+  const double g2 = eta * eta - 1 + c * c;
+  if (g2 < 0) return 1;  // total internal reflection
+  const double g = std::sqrt(g2);
+  return 0.5 * sqr((g - c) / (g + c)) * (1 + sqr((c * (g + c) - 1) / (c * (g - c) + 1)));
+}
+
+// Radiance BSDF value for light from i scattered into o; `ior` inside (z < 0), 1 outside.
+double dielectric(const D3& i, const D3& o, double a, double ior) {
+  const double eta_i = i[2] > 0 ? 1 : ior, eta_o = o[2] > 0 ? 1 : ior;
+  if (i[2] * o[2] > 0) {  // reflection, eqs. 13 and 20
+    D3 h = normalized({i[0] + o[0], i[1] + o[1], i[2] + o[2]});
+    if (h[2] < 0) h = {-h[0], -h[1], -h[2]};
+    const double eta_t = i[2] > 0 ? ior : 1.0;
+    return F(std::abs(dot3(i, h)), eta_t / eta_i) * G2(i, o, h, a) * D(h, a) /
+           (4 * std::abs(i[2] * o[2]));
+  }
+  // Refraction, eqs. 16 and 21.
+  D3 h = normalized({-(eta_i * i[0] + eta_o * o[0]), -(eta_i * i[1] + eta_o * o[1]),
+                     -(eta_i * i[2] + eta_o * o[2])});
+  if (h[2] < 0) h = {-h[0], -h[1], -h[2]};
+  const double ih = dot3(i, h), oh = dot3(o, h);
+  return std::abs(ih * oh / (i[2] * o[2])) * eta_o * eta_o * (1 - F(std::abs(ih), eta_o / eta_i)) *
+         G2(i, o, h, a) * D(h, a) / sqr(eta_i * ih + eta_o * oh);
+}
+
+double conductor(const D3& i, const D3& o, double a, double f0) {
+  if (i[2] * o[2] <= 0) return 0;
+  D3 h = normalized({i[0] + o[0], i[1] + o[1], i[2] + o[2]});
+  if (h[2] < 0) h = {-h[0], -h[1], -h[2]};
+  const double schlick = f0 + (1 - f0) * std::pow(1 - std::abs(dot3(i, h)), 5);
+  return schlick * G2(i, o, h, a) * D(h, a) / (4 * std::abs(i[2] * o[2]));
+}
+
+}  // namespace walter
+
+TEST(BsdfReference, RoughLobesMatchWalterFormulas) {
+  Rng rng(13, 0);
+  for (float alpha : {0.1f, 0.3f, 0.7f}) {
+    const Material cond = make(MaterialType::Conductor, alpha, RGB(0.9f, 0.6f, 0.3f));
+    for (int k = 0; k < 2000; ++k) {
+      const Vec3 wo = random_direction(rng), wi = random_direction(rng);
+      const RGB f = Bsdf(cond).eval(wo, wi);
+      for (int c = 0; c < 3; ++c)
+        ASSERT_LT(rel_diff(f[c],
+                           static_cast<float>(walter::conductor(
+                               walter::to_d3(wi), walter::to_d3(wo), alpha, cond.color[c])),
+                           1e-5f),
+                  1e-3f);
+    }
+    for (float ior : {1.33f, 1.5f, 2.0f}) {
+      SCOPED_TRACE(fmt::format("alpha {} ior {}", alpha, ior));
+      const Material glass = make(MaterialType::Dielectric, alpha, RGB(1.0f), ior);
+      const Bsdf bsdf(glass);
+      int nonzero = 0;
+      for (int k = 0; k < 2000; ++k) {
+        const Vec3 wo = random_direction(rng), wi = random_direction(rng);
+        const auto i = walter::to_d3(wi), o = walter::to_d3(wo);
+        // Radiance mode is Walter's BTDF with light from wi; importance mode is its adjoint.
+        const float ref_radiance = static_cast<float>(walter::dielectric(i, o, alpha, ior));
+        const float ref_importance = static_cast<float>(walter::dielectric(o, i, alpha, ior));
+        if (ref_radiance > 0) ++nonzero;
+        ASSERT_LT(rel_diff(bsdf.eval(wo, wi, TransportMode::Radiance).r, ref_radiance, 1e-5f),
+                  1e-3f)
+            << "wo " << wo.z << " wi " << wi.z;
+        ASSERT_LT(rel_diff(bsdf.eval(wo, wi, TransportMode::Importance).r, ref_importance, 1e-5f),
+                  1e-3f)
+            << "wo " << wo.z << " wi " << wi.z;
+      }
+      EXPECT_GT(nonzero, 500);
+    }
+  }
+}
+
+// ---- Fresnel and smooth dielectric ----
+
+// Transmittance from the Fresnel amplitude coefficients (Hecht, Optics, §4.6), independent of
+// fresnel_dielectric: T = (n_t cos_t) / (n_i cos_i) * (|t_s|^2 + |t_p|^2) / 2.
+double fresnel_transmittance(double cos_i, double eta) {
+  double n_i = 1, n_t = eta;
+  if (cos_i < 0) {
+    std::swap(n_i, n_t);
+    cos_i = -cos_i;
+  }
+  const double sin_t = n_i / n_t * std::sqrt(std::max(0.0, 1 - cos_i * cos_i));
+  if (sin_t >= 1) return 0;
+  const double cos_t = std::sqrt(1 - sin_t * sin_t);
+  const double t_s = 2 * n_i * cos_i / (n_i * cos_i + n_t * cos_t);
+  const double t_p = 2 * n_i * cos_i / (n_t * cos_i + n_i * cos_t);
+  return n_t * cos_t / (n_i * cos_i) * 0.5 * (t_s * t_s + t_p * t_p);
+}
+
+TEST(Fresnel, DielectricReflectancePlusTransmittanceIsOne) {
+  for (float eta : {1.33f, 1.5f, 2.0f, 0.75f}) {
+    // Normal incidence: ((eta - 1) / (eta + 1))^2.
+    EXPECT_NEAR(fresnel_dielectric(1.0f, eta), sqr((eta - 1) / (eta + 1)), 1e-6f);
+    for (int k = -99; k <= 99; ++k) {
+      const float cos_i = k / 100.0f;
+      if (cos_i == 0) continue;
+      const float R = fresnel_dielectric(cos_i, eta);
+      EXPECT_GE(R, 0.0f);
+      EXPECT_LE(R, 1.0f);
+      EXPECT_NEAR(R + fresnel_transmittance(cos_i, eta), 1.0, 1e-5) << "cos_i " << cos_i;
+    }
+  }
+  // Same reflectance from both sides at corresponding angles (Stokes relations).
+  const float cos_i = 0.6f, eta = 1.5f;
+  const float cos_t = std::sqrt(1 - (1 - cos_i * cos_i) / (eta * eta));
+  EXPECT_NEAR(fresnel_dielectric(cos_i, eta), fresnel_dielectric(-cos_t, eta), 1e-6f);
+  // Beyond the critical angle from inside: total internal reflection.
+  EXPECT_EQ(fresnel_dielectric(-0.5f, 1.5f), 1.0f);
+  EXPECT_EQ(fresnel_dielectric(0.0f, 1.5f), 1.0f);
+}
+
+TEST(SmoothDielectric, ImportanceWeightIsOneAndLobesFollowFresnel) {
+  constexpr int kN = 100000;
+  for (float ior : {1.33f, 1.5f, 2.0f})
+    for (float side : {1.0f, -1.0f})
+      for (float c : {0.95f, 0.6f, 0.3f, 0.05f}) {
+        const Material m = make(MaterialType::Dielectric, 0.0f, RGB(1.0f), ior);
+        const Bsdf bsdf(m);
+        const Vec3 wo = wo_at(side * c);
+        SCOPED_TRACE(fmt::format("ior {} cos_o {}", ior, wo.z));
+        const float R = fresnel_dielectric(wo.z, ior);
+        Rng rng(static_cast<uint64_t>(ior * 100), static_cast<uint64_t>(wo.z * 1000 + 1000));
+        double sum_importance = 0;
+        int reflected = 0, failed = 0;
+        for (int i = 0; i < kN; ++i) {
+          const float uc = rng.uniform();
+          const Vec2 u(rng.uniform(), rng.uniform());
+          const auto s = bsdf.sample(wo, uc, u, TransportMode::Importance);
+          const auto s_rad = bsdf.sample(wo, uc, u, TransportMode::Radiance);
+          if (!s || !s_rad) {
+            ++failed;
+            continue;
+          }
+          ASSERT_TRUE(s->delta);
+          const float w = s->f.r * abs_cos_theta(s->wi) / s->pdf;
+          ASSERT_NEAR(w, 1.0f, 1e-5f);
+          sum_importance += w;
+          const float w_rad = s_rad->f.r * abs_cos_theta(s_rad->wi) / s_rad->pdf;
+          if (s->transmission) {
+            // Snell's law and the reported eta; radiance weight 1 / eta^2.
+            const float eta_expected = wo.z > 0 ? ior : 1 / ior;
+            ASSERT_NEAR(s->eta, eta_expected, 1e-6f);
+            ASSERT_NEAR(std::sqrt(sin2_theta(s->wi)) * s->eta, std::sqrt(sin2_theta(wo)), 1e-5f);
+            ASSERT_FALSE(same_hemisphere(wo, s->wi));
+            ASSERT_NEAR(w_rad, 1 / sqr(s->eta), 1e-5f);
+          } else {
+            ++reflected;
+            ASSERT_NEAR(s->wi.z, wo.z, 1e-7f);
+            ASSERT_NEAR(w_rad, 1.0f, 1e-5f);
+          }
+        }
+        EXPECT_EQ(failed, 0);
+        EXPECT_NEAR(sum_importance / kN, 1.0, 1e-5);
+        // Reflection frequency ~ Binomial(kN, R): within 5 standard deviations.
+        EXPECT_NEAR(static_cast<double>(reflected) / kN, R, 5 * std::sqrt(R * (1 - R) / kN) + 1e-6);
+      }
+}
+
+TEST(SmoothDielectric, TotalInternalReflection) {
+  const Material m = make(MaterialType::Dielectric, 0.0f, RGB(1.0f), 1.5f);
+  const Bsdf bsdf(m);
+  // From inside at sin(theta) > 1 / 1.5 every sample reflects with weight 1.
+  for (float c : {-0.7f, -0.5f, -0.1f}) {
+    const Vec3 wo = wo_at(c);
+    EXPECT_EQ(fresnel_dielectric(c, 1.5f), 1.0f);
+    Rng rng(3, static_cast<uint64_t>(-c * 100));
+    for (int i = 0; i < 1000; ++i) {
+      const auto s = bsdf.sample(wo, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+      ASSERT_TRUE(s.has_value());
+      EXPECT_FALSE(s->transmission);
+      EXPECT_NEAR(s->wi.z, wo.z, 1e-7f);
+      EXPECT_NEAR(s->f.r * abs_cos_theta(s->wi) / s->pdf, 1.0f, 1e-6f);
+    }
+  }
+  // Rough glass from inside at grazing incidence reflects at least as much as it transmits.
+  const Material rough = make(MaterialType::Dielectric, 0.1f, RGB(1.0f), 1.5f);
+  const Bsdf rough_bsdf(rough);
+  Rng rng(5, 0);
+  int transmitted = 0, returned = 0;
+  for (int i = 0; i < 10000; ++i) {
+    const auto s =
+        rough_bsdf.sample(wo_at(-0.2f), rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+    if (!s) continue;
+    ++returned;
+    if (s->transmission) ++transmitted;
+  }
+  EXPECT_LT(transmitted, returned / 20);
+}
+
+TEST(SmoothConductor, MirrorWithSchlickFresnel) {
+  const RGB f0(0.9f, 0.6f, 0.3f);
+  const Material m = make(MaterialType::Conductor, 0.0f, f0);
+  const Bsdf bsdf(m);
+  EXPECT_TRUE(bsdf.is_delta());
+  for (float c : {1.0f, 0.5f, 0.1f, -0.5f}) {
+    const Vec3 wo = wo_at(c);
+    const auto s = bsdf.sample(wo, 0.3f, Vec2(0.2f, 0.8f));
+    ASSERT_TRUE(s.has_value());
+    EXPECT_TRUE(s->delta);
+    EXPECT_NEAR(s->wi.x, -wo.x, 1e-7f);
+    EXPECT_NEAR(s->wi.y, -wo.y, 1e-7f);
+    EXPECT_NEAR(s->wi.z, wo.z, 1e-7f);
+    const float m5 = std::pow(1 - std::abs(c), 5.0f);
+    const RGB weight = s->f * (abs_cos_theta(s->wi) / s->pdf);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(weight[k], f0[k] + (1 - f0[k]) * m5, 1e-5f);
+    EXPECT_TRUE(bsdf.eval(wo, s->wi).is_black());
+    EXPECT_EQ(bsdf.pdf(wo, s->wi), 0.0f);
+  }
+}
+
+// ---- White furnace ----
+
+// Mean of f |cos| / pdf over n samples (failed samples count as zero), and the largest weight.
+std::pair<double, double> albedo(const Bsdf& bsdf, const Vec3& wo, TransportMode mode, int n,
+                                 uint64_t seed) {
+  Rng rng(seed, 0);
+  double sum = 0, max_weight = 0;
+  for (int i = 0; i < n; ++i) {
+    const float uc = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    const auto s = bsdf.sample(wo, uc, u, mode);
+    if (!s) continue;
+    const double w = s->f.r * abs_cos_theta(s->wi) / s->pdf;
+    sum += w;
+    max_weight = std::max(max_weight, w);
+  }
+  return {sum / n, max_weight};
+}
+
+TEST(BsdfFurnace, DiffuseAlbedoOneIsExact) {
+  const Material m = make(MaterialType::Diffuse, 0, RGB(1.0f));
+  const Bsdf bsdf(m);
+  for (float c : {0.9f, 0.3f, -0.6f}) {
+    const auto [mean, max_weight] = albedo(bsdf, wo_at(c), TransportMode::Radiance, 100000, 1);
+    EXPECT_NEAR(mean, 1.0, 1e-5);
+    EXPECT_NEAR(max_weight, 1.0, 1e-5);
+  }
+}
+
+TEST(BsdfFurnace, RoughConductorLosesLittleEnergy) {
+  // Single-scattering GGX with F = 1: weight G2 / G1(wo) <= 1 per sample; the lost energy is
+  // multiple scattering between microfacets, a few percent at alpha = 0.2.
+  const Material m = make(MaterialType::Conductor, 0.2f, RGB(1.0f));
+  const Bsdf bsdf(m);
+  for (float c : {0.9f, 0.5f, 0.15f, -0.5f}) {
+    SCOPED_TRACE(fmt::format("cos_o {}", c));
+    const auto [mean, max_weight] = albedo(bsdf, wo_at(c), TransportMode::Radiance, 200000, 2);
+    EXPECT_LE(max_weight, 1.0 + 1e-4);
+    EXPECT_LE(mean, 1.0);
+    EXPECT_GT(mean, 0.8);
+  }
+}
+
+TEST(BsdfFurnace, RoughDielectricImportanceAlbedoAtMostOne) {
+  // In importance mode each sample weighs G2 / G1(wo) <= 1 whichever lobe it took. The lower
+  // bound only catches gross loss: single scattering keeps ~0.52 at worst here (alpha 0.7,
+  // IOR 2, from inside at normal incidence).
+  for (float alpha : {0.1f, 0.3f, 0.7f})
+    for (float ior : {1.33f, 1.5f, 2.0f})
+      for (float c : {0.9f, 0.5f, 0.15f, -0.9f, -0.5f, -0.15f}) {
+        SCOPED_TRACE(fmt::format("alpha {} ior {} cos_o {}", alpha, ior, c));
+        const Material m = make(MaterialType::Dielectric, alpha, RGB(1.0f), ior);
+        const Bsdf bsdf(m);
+        const auto [mean, max_weight] = albedo(bsdf, wo_at(c), TransportMode::Importance, 20000, 3);
+        EXPECT_LE(max_weight, 1.0 + 1e-4);
+        EXPECT_LE(mean, 1.0 + 1e-4);
+        EXPECT_GT(mean, 0.5);
+      }
+}
+
+// ---- Classification and degenerate input ----
+
+TEST(Bsdf, Classification) {
+  const Material diffuse = make(MaterialType::Diffuse, 0);
+  const Material mirror = make(MaterialType::Conductor, 0);
+  const Material glossy = make(MaterialType::Conductor, 0.03f);
+  const Material rough_glass = make(MaterialType::Dielectric, 0.3f);
+  const Material glass = make(MaterialType::Dielectric, 0);
+  const Material emitter = make(MaterialType::Emission, 0);
+  EXPECT_FALSE(Bsdf(diffuse).is_delta());
+  EXPECT_TRUE(Bsdf(mirror).is_delta());
+  EXPECT_FALSE(Bsdf(glossy).is_delta());
+  EXPECT_TRUE(Bsdf(glass).is_delta());
+  EXPECT_FALSE(Bsdf(rough_glass).is_delta());
+  EXPECT_FALSE(Bsdf(emitter).is_delta());
+
+  EXPECT_TRUE(Bsdf(diffuse).is_diffuse_for_photons());
+  EXPECT_FALSE(Bsdf(mirror).is_diffuse_for_photons());
+  EXPECT_FALSE(Bsdf(glossy).is_diffuse_for_photons());  // 0.03 <= 0.05
+  EXPECT_TRUE(Bsdf(glossy).is_diffuse_for_photons(0.01f));
+  EXPECT_TRUE(Bsdf(rough_glass).is_diffuse_for_photons());
+  EXPECT_FALSE(Bsdf(glass).is_diffuse_for_photons());
+  EXPECT_FALSE(Bsdf(emitter).is_diffuse_for_photons());
+
+  EXPECT_TRUE(Bsdf(emitter).is_black());
+  EXPECT_FALSE(Bsdf(diffuse).is_black());
+  EXPECT_FALSE(Bsdf(glass).is_black());
+  const Vec3 wo = wo_at(0.5f), wi = wo_at(0.7f, 2.0f);
+  EXPECT_TRUE(Bsdf(emitter).eval(wo, wi).is_black());
+  EXPECT_EQ(Bsdf(emitter).pdf(wo, wi), 0.0f);
+  EXPECT_FALSE(Bsdf(emitter).sample(wo, 0.5f, Vec2(0.5f, 0.5f)).has_value());
+  // Delta BSDFs have no density to evaluate.
+  EXPECT_TRUE(Bsdf(glass).eval(wo, Vec3(-wo.x, -wo.y, wo.z)).is_black());
+  EXPECT_EQ(Bsdf(glass).pdf(wo, Vec3(-wo.x, -wo.y, wo.z)), 0.0f);
+}
+
+TEST(Bsdf, DegenerateInputGivesZeroNotNaN) {
+  std::vector<Material> materials = {make(MaterialType::Diffuse, 0)};
+  for (float alpha : {0.0f, 0.001f, 0.05f, 0.7f, 1.0f}) {
+    materials.push_back(make(MaterialType::Conductor, alpha));
+    for (float ior : {1.0f, 1.5f})
+      materials.push_back(make(MaterialType::Dielectric, alpha, RGB(1.0f), ior));
+  }
+  const std::vector<Vec3> dirs = {{0, 0, 1},        {0, 0, -1},      {1, 0, 0},
+                                  {0, -1, 0},       {0.6f, 0, 0.8f}, {-0.6f, 0, 0.8f},
+                                  {0.6f, 0, -0.8f}, {1, 0, 1e-8f},   {1, 0, -1e-8f}};
+  const std::vector<float> us = {0.0f, 0.5f, 0.99999994f};
+  for (const auto& m : materials) {
+    const Bsdf bsdf(m);
+    for (const Vec3& wo : dirs) {
+      for (const Vec3& wi : dirs)
+        for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
+          const RGB f = bsdf.eval(wo, wi, mode);
+          const float pdf = bsdf.pdf(wo, wi);
+          ASSERT_TRUE(f.is_finite()) << to_string(m.type) << " " << m.roughness;
+          ASSERT_TRUE(std::isfinite(pdf)) << to_string(m.type) << " " << m.roughness;
+        }
+      for (float uc : us)
+        for (float u0 : us)
+          for (float u1 : us) {
+            const auto s = bsdf.sample(wo, uc, Vec2(u0, u1));
+            if (!s) continue;
+            ASSERT_TRUE(s->f.is_finite() && std::isfinite(s->pdf) && s->pdf > 0 && is_finite(s->wi))
+                << to_string(m.type) << " " << m.roughness;
+          }
+    }
+    // Grazing wo never yields a sample.
+    EXPECT_FALSE(bsdf.sample(Vec3(1, 0, 0), 0.5f, Vec2(0.5f, 0.5f)).has_value());
+  }
+}
+
+}  // namespace
+}  // namespace gp
