@@ -7,10 +7,11 @@ snapshot against the reference with `gradphoton diff` (relMSE of the gradient-do
 paper), writes a CSV and draws one log-log chart per scene with all its methods.
 
     scripts/convergence.py --scenes cornell-box torus-glass --methods pt \
-        --checkpoints 1,2,4,8,16 --ref-passes 4096 --width 160 --height 120
+        --checkpoints 1,2,4,8,16 --ref-passes 4096 --scale 0.5
 """
 import argparse
 import csv
+import json
 import pathlib
 import re
 import subprocess
@@ -25,25 +26,23 @@ def run(cmd):
     return subprocess.run([str(c) for c in cmd], check=True, capture_output=True, text=True).stdout
 
 
-def size_args(args):
-    out = []
-    if args.width:
-        out += ["--width", args.width]
-    if args.height:
-        out += ["--height", args.height]
-    return out
+def size_args(scene, args):
+    """--width/--height scaled from the scene's own camera, keeping its aspect ratio."""
+    cam = json.loads((ROOT / "scenes" / f"{scene}.json").read_text()).get("camera", {})
+    w, h = cam.get("width", 256), cam.get("height", 256)
+    return ["--width", max(1, round(w * args.scale)), "--height", max(1, round(h * args.scale))]
 
 
 def reference(scene, args):
     """Long fixed-seed path-traced render, cached by scene, size and pass count."""
     ref_dir = ROOT / "build" / "references"
     ref_dir.mkdir(parents=True, exist_ok=True)
-    tag = f"{scene}-{args.width or 'w'}x{args.height or 'h'}-pt-{args.ref_passes}p-seed{args.ref_seed}"
+    tag = f"{scene}-x{args.scale:g}-pt-{args.ref_passes}p-seed{args.ref_seed}"
     path = ref_dir / f"{tag}.exr"
     scene_file = ROOT / "scenes" / f"{scene}.json"
     if not path.exists() or path.stat().st_mtime < scene_file.stat().st_mtime:
         run([CLI, "render", scene_file, "--method", "pt", "--passes", args.ref_passes,
-             "--seed", args.ref_seed, "-o", path, *size_args(args)])
+             "--seed", args.ref_seed, "-o", path, *size_args(scene, args)])
     return path
 
 
@@ -60,8 +59,7 @@ def main():
     ap.add_argument("--ref-passes", type=int, default=4096)
     ap.add_argument("--ref-seed", type=int, default=1000003)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--width", type=int, default=0)
-    ap.add_argument("--height", type=int, default=0)
+    ap.add_argument("--scale", type=float, default=0.5, help="image size relative to the scene's camera")
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "convergence")
     args = ap.parse_args()
 
@@ -76,7 +74,7 @@ def main():
             out = work / f"{scene}-{method}.exr"
             run([CLI, "render", ROOT / "scenes" / f"{scene}.json", "--method", method,
                  "--time", max(checkpoints), "--checkpoints", ",".join(f"{t:g}" for t in checkpoints),
-                 "--seed", args.seed, "-o", out, *size_args(args)])
+                 "--seed", args.seed, "-o", out, *size_args(scene, args)])
             for t in checkpoints:
                 snap = work / f"{scene}-{method}.{t:g}s.exr"
                 if snap.exists():

@@ -12,10 +12,16 @@ namespace gp {
 
 // Counters an integrator reports. `extra` holds method-specific counts by name
 // (e.g. shift failures by reason) so new methods add statistics without new fields.
+// Rays one worker traced; summed into Stats after each tile.
+struct RayCounts {
+  int64_t closest = 0, shadow = 0;
+};
+
 struct Stats {
   int64_t passes = 0;
   int64_t paths = 0;            // camera paths (or photon paths) traced
   int64_t rays = 0;             // closest-hit + occlusion rays
+  int64_t shadow_rays = 0;      // the occlusion share of `rays`
   int64_t invalid_samples = 0;  // NaN/Inf contributions discarded before reaching a pass
   double seconds = 0;           // wall-clock time inside iterate()
   std::map<std::string, double> extra;

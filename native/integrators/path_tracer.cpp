@@ -26,14 +26,14 @@ PathTracer::PathTracer(const Scene& scene, const Params& params)
   samples_.assign(static_cast<size_t>(width_) * height_, 0);
 }
 
-RGB PathTracer::Li(Ray ray, Rng& rng, int64_t& rays) const {
+RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
   const LightSet& lights = scene_.light_set();
   RGB L(0.0f), beta(1.0f);
   bool specular_bounce = false;
   float prev_pdf = 0;  // solid-angle pdf of the BSDF sample that produced `ray`
   Vec3 prev_p;
   for (int depth = 0;; ++depth) {
-    ++rays;
+    ++rays.closest;
     const auto hit = scene_.intersect(ray);
 
     // ---- Emission found by the ray: full weight for camera and specular rays, MIS otherwise
@@ -69,7 +69,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, int64_t& rays) const {
         const Vec3 wi = hit->frame.to_local(ls->wi);
         const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
         if (!f.is_black()) {
-          ++rays;
+          ++rays.shadow;
           bool blocked;
           if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
             const Light& al = lights.lights()[ls->light];
@@ -112,11 +112,12 @@ RGB PathTracer::Li(Ray ray, Rng& rng, int64_t& rays) const {
 void PathTracer::iterate(ProgressSink* sink) {
   const auto start = std::chrono::steady_clock::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
-  std::atomic<int64_t> rays{0}, paths{0}, invalid{0};
+  std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
       [&](const Tile& tile) {
-        int64_t tile_rays = 0, tile_paths = 0, tile_invalid = 0;
+        RayCounts tile_rays;
+        int64_t tile_paths = 0, tile_invalid = 0;
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
@@ -134,13 +135,15 @@ void PathTracer::iterate(ProgressSink* sink) {
             sum_[3 * pixel + 1] += L.g;
             sum_[3 * pixel + 2] += L.b;
           }
-        rays += tile_rays;
+        closest += tile_rays.closest;
+        shadow += tile_rays.shadow;
         paths += tile_paths;
         invalid += tile_invalid;
       },
       [sink] { return sink && sink->cancelled(); });
   stats_.passes += 1;
-  stats_.rays += rays;
+  stats_.rays += closest + shadow;
+  stats_.shadow_rays += shadow;
   stats_.paths += paths;
   stats_.invalid_samples += invalid;
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

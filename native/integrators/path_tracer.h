@@ -28,8 +28,8 @@ class PathTracer : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 
-  // Radiance along one camera ray (exposed for tests). `rays` counts traced rays.
-  RGB Li(Ray ray, Rng& rng, int64_t& rays) const;
+  // Radiance along one camera ray (exposed for tests); counts the rays it traces.
+  RGB Li(Ray ray, Rng& rng, RayCounts& rays) const;
 
  private:
   const Scene& scene_;

@@ -3,11 +3,28 @@
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
 
+#include <atomic>
+#include <mutex>
 #include <stdexcept>
 
 #include "scene/scene.h"
 
 namespace gp {
+
+namespace {
+std::atomic<RayRecorder*> g_recorder{nullptr};
+std::mutex g_recorder_mutex;
+
+void record(const Ray& ray, bool shadow) {
+  RayRecorder* r = g_recorder.load(std::memory_order_relaxed);
+  if (!r) return;
+  std::lock_guard lock(g_recorder_mutex);
+  auto& v = shadow ? r->shadow : r->closest;
+  if (v.size() < r->limit) v.push_back(ray);
+}
+}  // namespace
+
+void Accelerator::record_rays(RayRecorder* recorder) { g_recorder.store(recorder); }
 
 struct Accelerator::Impl {
   RTCDevice device = nullptr;
@@ -52,6 +69,7 @@ Accelerator::~Accelerator() {
 }
 
 bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
+  record(ray, false);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRayHit rh;
@@ -77,6 +95,7 @@ bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
 }
 
 bool Accelerator::occluded(const Ray& ray) const {
+  record(ray, true);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRay r;

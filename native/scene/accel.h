@@ -17,6 +17,13 @@ struct RawHit {
   int geom = -1, prim = -1;
 };
 
+// Copies of the rays traced while it is installed, so a benchmark can replay an integrator's
+// exact rays through raw Embree. Off (one relaxed atomic load per ray) unless installed.
+struct RayRecorder {
+  std::vector<Ray> closest, shadow;
+  size_t limit = 1 << 22;  // per kind
+};
+
 class Accelerator {
  public:
   explicit Accelerator(const std::vector<Mesh>& meshes);
@@ -26,6 +33,8 @@ class Accelerator {
 
   bool intersect(const Ray& ray, RawHit& hit) const;
   bool occluded(const Ray& ray) const;
+  // Installs (or with nullptr removes) the recorder for all threads; not re-entrant.
+  static void record_rays(RayRecorder* recorder);
 
  private:
   struct Impl;
