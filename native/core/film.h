@@ -12,9 +12,20 @@
 
 namespace gp {
 
-// Pass names shared by C++, Python and the addon: define them once, here.
+// Pass names shared by C++, Python and the addon: define them once, here. The Python module
+// exposes kAll so the addon registers exactly these with Blender (tested there).
 namespace pass {
 inline constexpr std::string_view kCombined = "combined";
+
+struct Info {
+  std::string_view name;
+  int channels;             // 1 or 3
+  std::string_view label;   // human-readable, for Blender's pass list
+};
+// Every pass any method may produce. A method's develop() writes a subset.
+inline constexpr Info kAll[] = {
+    {kCombined, 3, "Combined"},
+};
 }  // namespace pass
 
 struct Pass {
