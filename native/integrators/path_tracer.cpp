@@ -72,8 +72,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
           ++rays.shadow;
           bool blocked;
           if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
-            const Light& al = lights.lights()[ls->light];
-            blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist, al.n);
+            blocked = scene_.occluded_between(hit->p, hit->ng, ls->p, ls->n);
           } else {
             const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
             const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);

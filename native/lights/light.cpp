@@ -61,6 +61,8 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
       if (!l.two_sided && cos_l <= 0) return std::nullopt;
       if (cos_l == 0) return std::nullopt;
       s.L = l.emit;
+      s.p = q;
+      s.n = l.n;
       s.pdf = pmf * d2 / (std::abs(cos_l) * l.area);  // area pdf 1/A to solid angle
       return s;
     }

@@ -41,6 +41,7 @@ struct LightSample {
   RGB L;                 // radiance arriving along -wi (for delta lights: intensity/d^2 or E)
   Vec3 wi;               // unit direction from the reference point towards the light
   float dist = kInfinity;  // distance to the light sample (infinity for distant lights)
+  Vec3 p, n;             // the sampled point and its unit normal (area lights only)
   float pdf = 0;         // solid-angle pdf including the light-selection probability; delta: pmf
   bool delta = false;
   int light = -1;
