@@ -1,0 +1,68 @@
+"""The `gradphoton` command end to end: render with checkpoints, diff, info, clear errors."""
+import pathlib
+import re
+import subprocess
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+CLI = ROOT / "build" / "gradphoton"
+CORNELL = ROOT / "scenes" / "cornell-box.json"
+
+
+def run(*args, ok=True):
+    p = subprocess.run([str(CLI), *map(str, args)], capture_output=True, text=True, timeout=300)
+    if ok:
+        assert p.returncode == 0, p.stderr
+    return p
+
+
+def test_render_writes_exr_png_and_checkpoints(tmp_path):
+    out = tmp_path / "sub" / "box.exr"
+    p = run("render", CORNELL, "--passes", 6, "--width", 48, "--height", 40, "--checkpoints", "0,0.001",
+            "-o", out, "--png", tmp_path / "box.png")
+    assert out.exists() and (tmp_path / "box.png").exists()
+    assert (tmp_path / "sub" / "box.0s.exr").exists() and (tmp_path / "sub" / "box.0.001s.exr").exists()
+    assert re.search(r"passes\s+6", p.stdout)
+    assert re.search(r"Mrays/s\s+[0-9.]+", p.stdout)
+
+
+def test_diff_of_an_image_with_itself_is_zero_and_against_noise_is_not(tmp_path):
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    run("render", CORNELL, "--passes", 2, "--width", 32, "--height", 32, "--seed", 1, "-o", a)
+    run("render", CORNELL, "--passes", 2, "--width", 32, "--height", 32, "--seed", 2, "-o", b)
+    same = run("diff", a, a).stdout
+    assert float(re.search(r"relMSE\s+(\S+)", same).group(1)) == 0.0
+    assert float(re.search(r"mean ratio\s+(\S+)", same).group(1)) == 1.0
+    other = run("diff", a, b, "--png", tmp_path / "err.png").stdout
+    assert float(re.search(r"relMSE\s+(\S+)", other).group(1)) > 0.0
+    assert (tmp_path / "err.png").exists()
+
+
+def test_info_summarises_the_scene():
+    out = run("info", ROOT / "scenes" / "cornell-glass.json").stdout
+    assert re.search(r"triangles\s+\d+", out)
+    assert "dielectric" in out and "conductor" in out
+    assert re.search(r"warnings\s+0", out)
+
+
+@pytest.mark.parametrize("scene_text, expected", [
+    ('{"materials": {"a": {"type": "diffuse"}}, "objects": [{"type": "sphere", "radius": 1, "material": "b"}]}',
+     "/objects/0/material"),
+    ('{"objects": [{"type": "sphere", "radius": "big", "material": "a"}]', "bad.json"),
+])
+def test_bad_scenes_give_one_clear_error(tmp_path, scene_text, expected):
+    bad = tmp_path / "bad.json"
+    bad.write_text(scene_text)
+    p = run("render", bad, "-o", tmp_path / "x.exr", ok=False)
+    assert p.returncode != 0
+    assert p.stderr.startswith("error: ") and expected in p.stderr
+    assert "Traceback" not in p.stderr and len(p.stderr.splitlines()) <= 3
+
+
+def test_unknown_method_and_parameter_are_reported(tmp_path):
+    p = run("render", CORNELL, "--method", "nope", "-o", tmp_path / "x.exr", ok=False)
+    assert p.returncode != 0 and "unknown method 'nope'" in p.stderr
+    p = run("render", CORNELL, "--passes", 1, "--width", 8, "--height", 8, "--param", "max_dpeth=3",
+            "-o", tmp_path / "y.exr")
+    assert "max_dpeth" in p.stderr
