@@ -1,7 +1,5 @@
 #include "integrators/integrator.h"
 
-#include <chrono>
-
 #include "integrators/path_tracer.h"
 
 namespace gp {
@@ -9,13 +7,11 @@ namespace gp {
 void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink) {
   if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0)
     throw ParamError("no stop rule: give a time budget, a pass count or a target error");
-  using clock = std::chrono::steady_clock;
-  const auto start = clock::now();
   for (;;) {
     if (sink && sink->cancelled()) return;
     integrator.iterate(sink);
     const Stats& s = integrator.stats();
-    const double elapsed = std::chrono::duration<double>(clock::now() - start).count();
+    const double elapsed = s.seconds;
     double fraction = -1;
     if (stop.passes > 0) fraction = static_cast<double>(s.passes) / stop.passes;
     if (stop.seconds > 0) fraction = std::max(fraction, elapsed / stop.seconds);

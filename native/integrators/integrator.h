@@ -38,7 +38,10 @@ struct StopRule {
   double target_error = 0;
 };
 
-// Calls iterate() until a rule fires or the sink cancels; reports after every pass.
+// Calls iterate() until a rule fires or the sink cancels; reports after every pass. Rules
+// compare the integrator's totals (Stats::passes, and Stats::seconds: render time inside
+// iterate(), excluding the sink's work such as writing checkpoints), so a second call continues
+// to a larger total.
 void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink);
 
 // Builds a method by name ("pt", ...). Unknown names and parameters with wrong types throw
