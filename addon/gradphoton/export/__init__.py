@@ -79,7 +79,7 @@ def export_scene(depsgraph, *, export_uvs=False):
         elif kind == 'LIGHT':
             light.add_light(out, inst, mats, w)
         # cameras, empties, armatures: nothing to render
-    out.meshes = [m for m in meshes.values() if m.triangle_count > 0]
+    out.meshes = [m for m in meshes.values() if m.triangle_count > 0] + out.meshes  # area lights first added
     out.description["camera"], out.width, out.height, out.border = camera.export_camera(scene, w)
     env = world.export_world(scene.world, w)
     if env:

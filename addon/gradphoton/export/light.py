@@ -66,7 +66,9 @@ def _add_area(out, ob, la, m, name, color, warnings):
         area_local = sx * sy
     else:
         a = np.linspace(0, 2 * np.pi, DISK_SEGMENTS, endpoint=False)
-        ring = np.stack([0.5 * sx * np.cos(a), 0.5 * sy * np.sin(a), np.zeros_like(a)], 1)
+        # Polygon scaled to the ellipse's exact area, so the emitted power matches too.
+        k = math.sqrt((2 * math.pi / DISK_SEGMENTS) / math.sin(2 * math.pi / DISK_SEGMENTS))
+        ring = np.stack([0.5 * k * sx * np.cos(a), 0.5 * k * sy * np.sin(a), np.zeros_like(a)], 1)
         pos = np.vstack([[[0, 0, 0]], ring]).astype(np.float32)
         j = np.arange(DISK_SEGMENTS, dtype=np.uint32)
         idx = np.stack([np.zeros_like(j), (j + 1) % DISK_SEGMENTS + 1, j + 1], 1).astype(np.uint32)
