@@ -114,8 +114,9 @@ class RenderSession:
     """The render loop. Blender callbacks are injected so tests can drive it (e.g. a
     test_break that fires after some time to measure cancellation latency)."""
 
-    def __init__(self, engine):
+    def __init__(self, engine, test_break=None):
         self.engine = engine
+        self.test_break = test_break or engine.test_break
         self.session = None
         self.cancel_latency = None  # seconds from test_break() to the loop's end
 
@@ -183,8 +184,7 @@ class RenderSession:
 
     def _iterate_cancellable(self):
         """Runs one pass; returns the time test_break() fired, or None."""
-        engine = self.engine
-        if engine.test_break():
+        if self.test_break():
             self.session.cancel()
             return time.perf_counter()
         worker = threading.Thread(target=self.session.iterate, name="gradphoton pass")
@@ -192,7 +192,7 @@ class RenderSession:
         fired = None
         while worker.is_alive():
             worker.join(POLL_SECONDS)
-            if fired is None and engine.test_break():
+            if fired is None and self.test_break():
                 fired = time.perf_counter()
                 self.session.cancel()
         return fired
