@@ -137,3 +137,14 @@ def test_materials_map_onto_the_closed_set(empty_scene):
                               "roughness": pytest.approx(0.09), "ior": pytest.approx(1.6), "abbe": 40.0}
     assert table["Gold"]["type"] == "conductor" and table["Gold"]["roughness"] == pytest.approx(0.25)
     assert not w
+
+
+def test_export_operator_writes_a_scene_the_cli_loads(empty_scene, out_dir):
+    scenes.brightness_scene(empty_scene, "area_disk")
+    bpy.ops.mesh.primitive_monkey_add()
+    path = str(out_dir / "scene.json")
+    assert bpy.ops.gradphoton.export_scene(filepath=path) == {'FINISHED'}
+    direct = export_current().build(native.get())
+    loaded = native.get().load_scene(path)
+    assert loaded.triangle_count == direct.triangle_count == 2 + 64 + 968
+    assert loaded.light_count == direct.light_count
