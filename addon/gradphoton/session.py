@@ -14,6 +14,7 @@ from . import export, native
 from .properties import METHOD_PARAMS
 
 POLL_SECONDS = 0.02
+LAST = None  # the latest RenderSession (tests and the UI test inspect it)
 
 
 def blender_passes():
@@ -119,6 +120,11 @@ class RenderSession:
         self.test_break = test_break or engine.test_break
         self.session = None
         self.cancel_latency = None  # seconds from test_break() to the loop's end
+        self.updates = []           # (seconds, passes) of every image sent to Blender
+        self.break_at = None        # wall clock (time.time()) when test_break() first fired
+        self.finished_at = None     # wall clock when render() returned
+        global LAST
+        LAST = self
 
     def render(self, depsgraph):
         engine = self.engine
@@ -166,12 +172,14 @@ class RenderSession:
                 if done or now - last_update >= interval:
                     self._write(result, passes, window)
                     engine.update_result(result)
+                    self.updates.append((now, n))
                     last_update = now
                     interval = min(2.0, interval * 1.5)
                 engine.update_stats("", progress.status(stats, error))
                 engine.update_progress(progress.fraction(n, error))
                 if cancelled_at is not None:
                     self.cancel_latency = time.perf_counter() - cancelled_at
+                    self.break_at = time.time() - self.cancel_latency
                     break
                 if done:
                     break
@@ -181,6 +189,7 @@ class RenderSession:
                     break
         finally:
             engine.end_result(result)
+            self.finished_at = time.time()
 
     def _iterate_cancellable(self):
         """Runs one pass; returns the time test_break() fired, or None."""
