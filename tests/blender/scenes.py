@@ -140,3 +140,41 @@ def render_to_exr(scene, path):
     scene.render.filepath = path
     bpy.ops.render.render(write_still=True)
     return path
+
+
+def glass_material(name, ior=1.5):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    g = nt.nodes.new("ShaderNodeBsdfGlass")
+    g.inputs["Roughness"].default_value = 0.0
+    g.inputs["IOR"].default_value = ior
+    g.distribution = 'SHARP'
+    nt.links.new(g.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def cornell_glass(scene):
+    """Cornell box (x, y in [-1, 1], z in [0, 2]) with a glass sphere and a 0.5 m ceiling light."""
+    set_world(scene)
+    white, red, green = (diffuse_material("White", (0.73, 0.73, 0.73)), diffuse_material("Red", (0.63, 0.065, 0.05)),
+                         diffuse_material("Green", (0.14, 0.45, 0.09)))
+    quads = {  # inward-facing walls
+        "Floor": ([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], white),
+        "Ceiling": ([(-1, -1, 2), (-1, 1, 2), (1, 1, 2), (1, -1, 2)], white),
+        "Back": ([(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], white),
+        "Left": ([(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], red),
+        "Right": ([(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], green),
+    }
+    for name, (v, m) in quads.items():
+        add_mesh_object(scene, name, v, [(0, 1, 2, 3)], m)
+    add_mesh_object(scene, "Light", [(-0.25, -0.25, 1.99), (-0.25, 0.25, 1.99), (0.25, 0.25, 1.99),
+                                     (0.25, -0.25, 1.99)], [(0, 1, 2, 3)], emission_material("Lamp", 17.0))
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.4, location=(0.3, 0.2, 0.4))
+    sphere = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    sphere.data.materials.append(glass_material("Glass"))
+    add_camera(scene, (0, -3.9, 1), (0, 0, 1), lens=50.0)
