@@ -9,6 +9,7 @@
 #include "core/film.h"
 #include "integrators/integrator.h"
 #include "io/exr.h"
+#include "scene/builder.h"
 #include "scene/loader.h"
 
 namespace py = pybind11;
@@ -20,6 +21,36 @@ namespace {
 Params params_from_dict(const py::dict& d) {
   py::object dumps = py::module_::import("json").attr("dumps");
   return Params(nlohmann::json::parse(dumps(d).cast<std::string>()));
+}
+
+// Row-major (K, 4, 4) float array -> transforms.
+std::vector<Transform> transforms_from_array(const py::object& obj) {
+  std::vector<Transform> out;
+  if (obj.is_none()) return out;
+  auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!a || !(a.ndim() == 3 || a.ndim() == 2) || a.shape(a.ndim() - 1) != 4 || a.shape(a.ndim() - 2) != 4)
+    throw py::value_error("matrices must be a (4, 4) or (K, 4, 4) array");
+  const size_t k = a.ndim() == 3 ? a.shape(0) : 1;
+  out.resize(k);
+  const float* d = a.data();
+  for (size_t i = 0; i < k; ++i)
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) out[i].m[r][c] = d[16 * i + 4 * r + c];
+  return out;
+}
+
+// Checks dtype, layout and shape without converting: a silent conversion of a million-vertex
+// array would hide a slow path, so the wrong dtype is an error that says which one to use.
+template <typename T>
+py::array_t<T> exact_array(const py::object& obj, const char* what, int columns, const char* dtype) {
+  if (!py::isinstance<py::array_t<T>>(obj))
+    throw py::type_error(std::string(what) + " must be a numpy " + dtype + " array");
+  py::array_t<T> a = obj.cast<py::array_t<T>>();
+  if (!(a.flags() & py::array::c_style)) throw py::type_error(std::string(what) + " must be C-contiguous");
+  const bool ok = columns == 1 ? (a.ndim() == 1) : (a.ndim() == 2 && a.shape(1) == columns) || (a.ndim() == 1 && a.shape(0) % columns == 0);
+  if (!ok)
+    throw py::value_error(std::string(what) + " must have shape (N, " + std::to_string(columns) + ")");
+  return a;
 }
 
 // One progressive render: owns the scene and the integrator.
@@ -73,6 +104,7 @@ class Session {
     return d;
   }
   const std::vector<std::string>& unused() const { return unused_; }
+  double estimated_error() const { return integrator_->estimated_error(); }
 
  private:
   std::shared_ptr<Scene> scene_;
@@ -88,6 +120,26 @@ PYBIND11_MODULE(_native, m) {
   m.attr("__version__") = GRADPHOTON_VERSION;
   m.attr("PASS_COMBINED") = std::string(pass::kCombined);
   m.def("methods", &integrator_names, "Names of the rendering methods");
+  m.def("passes", []() {
+    py::list out;
+    for (const pass::Info& p : pass::kAll)
+      out.append(py::make_tuple(std::string(p.name), p.channels, std::string(p.label)));
+    return out;
+  }, "Every pass any method may produce: [(name, channels, label)] (film.h pass::kAll)");
+  m.def("read_exr", [](const std::string& path) {
+    Film film;
+    {
+      py::gil_scoped_release release;
+      film = read_exr(path);
+    }
+    py::dict out;
+    for (const auto& [name, p] : film.passes()) {
+      py::array_t<float> a({film.height(), film.width(), p.channels});
+      std::copy(p.data.begin(), p.data.end(), a.mutable_data());
+      out[py::str(name)] = a;
+    }
+    return out;
+  }, py::arg("path"), "Read an EXR: {pass name: float32 array (H, W, C)}, row 0 at the top");
 
   py::register_exception<SceneError>(m, "SceneError", PyExc_ValueError);
   py::register_exception<ParamError>(m, "ParamError", PyExc_ValueError);
@@ -115,6 +167,61 @@ PYBIND11_MODULE(_native, m) {
     return std::make_shared<Scene>(load_scene_from_string(text, base_dir, "<json>"));
   }, py::arg("text"), py::arg("base_dir") = ".", "Load a scene from JSON text");
 
+  py::class_<SceneBuilder>(m, "SceneBuilder",
+                           "A Scene from numpy arrays (exporters): description for the small parts, arrays for meshes")
+      .def(py::init<std::string>(), py::arg("source") = "<builder>")
+      .def("set_description", &SceneBuilder::set_description, py::arg("json_text"),
+           "Camera, materials, lights, environment in the JSON scene format")
+      .def("add_mesh",
+           [](SceneBuilder& b, const std::string& name, const py::object& positions, const py::object& indices,
+              const std::vector<std::string>& materials, const py::object& material_ids, const py::object& normals,
+              const py::object& uvs, const py::object& matrices, const std::vector<std::string>& instance_names) {
+             MeshArrays in;
+             in.name = name;
+             in.materials = materials;
+             auto pos = exact_array<float>(positions, "positions", 3, "float32");
+             auto idx = exact_array<uint32_t>(indices, "indices", 3, "uint32");
+             in.positions = pos.data();
+             in.vertex_count = pos.size() / 3;
+             in.indices = idx.data();
+             in.triangle_count = idx.size() / 3;
+             py::array_t<uint32_t> mid;
+             py::array_t<float> nrm, uv;
+             if (!material_ids.is_none()) {
+               mid = exact_array<uint32_t>(material_ids, "material_ids", 1, "uint32");
+               if (static_cast<size_t>(mid.size()) != in.triangle_count)
+                 throw py::value_error("object '" + name + "': material_ids needs one entry per triangle");
+               in.material_ids = mid.data();
+             }
+             if (!normals.is_none()) {
+               nrm = exact_array<float>(normals, "normals", 3, "float32");
+               if (static_cast<size_t>(nrm.size()) != 3 * in.vertex_count)
+                 throw py::value_error("object '" + name + "': normals needs one entry per vertex");
+               in.normals = nrm.data();
+             }
+             if (!uvs.is_none()) {
+               uv = exact_array<float>(uvs, "uvs", 2, "float32");
+               if (static_cast<size_t>(uv.size()) != 2 * in.vertex_count)
+                 throw py::value_error("object '" + name + "': uvs needs one entry per vertex");
+               in.uvs = uv.data();
+             }
+             in.instances = transforms_from_array(matrices);
+             in.instance_names = instance_names;
+             py::gil_scoped_release release;
+             b.add_mesh(in);
+           },
+           py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("materials"),
+           py::arg("material_ids") = py::none(), py::arg("normals") = py::none(), py::arg("uvs") = py::none(),
+           py::arg("matrices") = py::none(), py::arg("instance_names") = std::vector<std::string>(),
+           "Add a mesh: positions float32 (N,3), indices uint32 (M,3), material names with optional uint32 "
+           "material_ids (M,), optional float32 normals (N,3) and uvs (N,2), optional (K,4,4) object-to-world "
+           "matrices (one world-space copy per matrix)")
+      .def_property_readonly("triangle_count", &SceneBuilder::triangle_count)
+      .def("finalize", [](SceneBuilder& b) {
+        py::gil_scoped_release release;
+        return std::make_shared<Scene>(b.finalize());
+      }, "Validate and build the scene (errors name the object)");
+
   py::class_<Session>(m, "Session")
       .def(py::init<std::shared_ptr<Scene>, const std::string&, const py::dict&>(), py::arg("scene"),
            py::arg("method") = "pt", py::arg("params") = py::dict())
@@ -126,5 +233,7 @@ PYBIND11_MODULE(_native, m) {
       .def("develop", &Session::develop, "Current passes as {name: float32 array (H, W, C)}")
       .def("write_exr", &Session::write_exr_file, py::arg("path"))
       .def_property_readonly("stats", &Session::stats)
-      .def_property_readonly("unused_params", &Session::unused);
+      .def_property_readonly("unused_params", &Session::unused)
+      .def_property_readonly("estimated_error", &Session::estimated_error,
+                             "Current estimated relative error, or < 0 when the method has none");
 }

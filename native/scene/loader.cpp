@@ -755,8 +755,8 @@ class Loader {
 
 }  // namespace
 
-Scene load_scene_from_string(const std::string& json_text, const std::string& base_dir,
-                             const std::string& name_for_messages) {
+Scene parse_scene_from_string(const std::string& json_text, const std::string& base_dir,
+                              const std::string& name_for_messages) {
   json root;
   try {
     // Comments (// and /* */) are accepted as an extension; the bundled scenes are strict JSON.
@@ -771,6 +771,12 @@ Scene load_scene_from_string(const std::string& json_text, const std::string& ba
   Scene scene;
   scene.source = name_for_messages;
   Loader(name_for_messages, base_dir, scene).load(root);
+  return scene;
+}
+
+Scene load_scene_from_string(const std::string& json_text, const std::string& base_dir,
+                             const std::string& name_for_messages) {
+  Scene scene = parse_scene_from_string(json_text, base_dir, name_for_messages);
   try {
     scene.finalize();
   } catch (const SceneError&) {

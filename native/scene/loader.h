@@ -31,4 +31,10 @@ Scene load_scene(const std::string& path);
 Scene load_scene_from_string(const std::string& json_text, const std::string& base_dir,
                              const std::string& name_for_messages);
 
+// Same as load_scene_from_string but without finalize(): the scene builder (scene/builder.h)
+// parses the small parts of a scene (camera, materials, lights, environment) through here so
+// their units and validation are defined once, then adds array meshes and finalizes.
+Scene parse_scene_from_string(const std::string& json_text, const std::string& base_dir,
+                              const std::string& name_for_messages);
+
 }  // namespace gp

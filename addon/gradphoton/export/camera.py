@@ -1,0 +1,54 @@
+"""Camera: Blender's scene camera -> the core's camera (same conventions: -Z view, +Y up, field
+of view on the fitted axis). Resolution with percentage; border as a pixel window; depth of
+field as Cycles: aperture radius = focal length / (2 f-stop), focus distance from the focus
+object (along the view axis) or the distance field. Shift, orthographic and panoramic cameras
+are approximated (counted warnings)."""
+import math
+
+import numpy as np
+
+
+def resolution(render):
+    s = render.resolution_percentage / 100.0
+    return max(1, int(render.resolution_x * s)), max(1, int(render.resolution_y * s))
+
+
+def export_camera(scene, warnings):
+    render = scene.render
+    width, height = resolution(render)
+    border = None
+    if render.use_border:
+        x0, x1 = int(render.border_min_x * width), int(render.border_max_x * width)
+        y0, y1 = int(render.border_min_y * height), int(render.border_max_y * height)
+        if x1 > x0 and y1 > y0 and (x1 - x0, y1 - y0) != (width, height):
+            border = (x0, y0, x1 - x0, y1 - y0)
+    ob = scene.camera
+    d = {"width": width, "height": height}
+    if ob is None:
+        warnings.add("no scene camera (default view)", scene.name)
+        d["matrix"] = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 5, 0, 0, 0, 1]
+        return d, width, height, border
+    cam = ob.data
+    mw = ob.matrix_world
+    rot = mw.to_quaternion().to_matrix()  # drop scale: the core wants a rigid camera
+    t = mw.translation
+    d["matrix"] = [rot[0][0], rot[0][1], rot[0][2], t[0], rot[1][0], rot[1][1], rot[1][2], t[1],
+                   rot[2][0], rot[2][1], rot[2][2], t[2], 0, 0, 0, 1]
+    if cam.type != 'PERSP':
+        warnings.add("only perspective cameras (rendered as perspective)", f"{ob.name} ({cam.type})")
+    if cam.shift_x != 0 or cam.shift_y != 0:
+        warnings.add("camera shift ignored", ob.name)
+    fit = cam.sensor_fit
+    sensor = cam.sensor_height if fit == 'VERTICAL' else cam.sensor_width
+    d["fov"] = math.degrees(2.0 * math.atan(0.5 * sensor / cam.lens))
+    d["sensor_fit"] = {'AUTO': "auto", 'HORIZONTAL': "horizontal", 'VERTICAL': "vertical"}[fit]
+    if cam.dof.use_dof and cam.dof.aperture_fstop > 0:
+        d["aperture_radius"] = 0.5 * cam.lens * 1e-3 / cam.dof.aperture_fstop
+        focus = cam.dof.focus_distance
+        if cam.dof.focus_object is not None:
+            fo = cam.dof.focus_object.matrix_world.translation
+            view = -np.array([mw[0][2], mw[1][2], mw[2][2]])
+            view /= np.linalg.norm(view)
+            focus = float(np.dot(np.array(fo - t), view))
+        d["focus_distance"] = max(1e-4, focus)
+    return d, width, height, border

@@ -1,0 +1,89 @@
+"""Lights: Blender's watts -> the core's radiometric units, following Cycles so that a scene
+lit by these renders equally bright in both (tested against Cycles in tests/blender):
+
+  point, spot  power P [W]      -> intensity I = P color / (4 pi)  W/sr   ("power" key)
+  sun          strength S       -> irradiance E = S color           W/m^2  ("strength" key)
+  area         power P [W]      -> one-sided emissive quad/disk/ellipse facing the light's -Z,
+                                   radiance L = P color / (4 A)     W/(sr m^2)
+               (Cycles: eval_fac = 0.25 * invarea for area lights; A in world units, so the
+               object's scale changes the area as in Cycles)
+
+Soft-shadow radii (point/spot radius, sun angle) and area-light spread are not modelled: the
+core's point, spot and sun lights are delta lights; each use is a counted warning.
+"""
+import math
+
+import numpy as np
+
+DISK_SEGMENTS = 64
+
+
+def _dir(m):  # the light's -Z axis in world space
+    d = -np.array([m[0][2], m[1][2], m[2][2]], dtype=np.float64)
+    return (d / np.linalg.norm(d)).tolist()
+
+
+def _pos(m):
+    return [m[0][3], m[1][3], m[2][3]]
+
+
+def add_light(out, inst, mats, warnings):
+    ob = inst.object
+    la = ob.data
+    m = np.array(inst.matrix_world, dtype=np.float64)
+    name = ob.name if not inst.is_instance else f"{ob.name} [{inst.random_id & 0xffff}]"
+    color = [la.color[0], la.color[1], la.color[2]]
+    if la.type in {'POINT', 'SPOT'}:
+        if la.shadow_soft_size > 0:
+            warnings.add("light radius ignored (hard shadows)", ob.name)
+        d = {"type": la.type.lower(), "name": name, "position": _pos(m), "power": max(0.0, la.energy), "color": color}
+        if la.type == 'SPOT':
+            d.update({"direction": _dir(m), "spot_size": min(180.0, math.degrees(la.spot_size)),
+                      "spot_blend": min(1.0, max(0.0, la.spot_blend))})
+        out.description["lights"].append(d)
+    elif la.type == 'SUN':
+        out.description["lights"].append(
+            {"type": "sun", "name": name, "direction": _dir(m), "strength": max(0.0, la.energy), "color": color})
+    elif la.type == 'AREA':
+        _add_area(out, ob, la, m, name, color, warnings)
+    else:
+        warnings.add("unsupported light type", f"{ob.name} ({la.type})")
+
+
+def _add_area(out, ob, la, m, name, color, warnings):
+    from .mesh import MeshRecord
+    sx = la.size
+    sy = la.size_y if la.shape in {'RECTANGLE', 'ELLIPSE'} else la.size
+    if sx <= 0 or sy <= 0:
+        return
+    if abs(getattr(la, "spread", math.pi) - math.pi) > 1e-4:
+        warnings.add("area light spread ignored (180 degrees)", ob.name)
+    if la.shape in {'SQUARE', 'RECTANGLE'}:
+        # Winding such that the geometric normal is the light's local -Z (its emitting side).
+        pos = np.array([[-sx / 2, -sy / 2, 0], [-sx / 2, sy / 2, 0], [sx / 2, sy / 2, 0], [sx / 2, -sy / 2, 0]],
+                       np.float32)
+        idx = np.array([[0, 1, 2], [0, 2, 3]], np.uint32)
+        area_local = sx * sy
+    else:
+        a = np.linspace(0, 2 * np.pi, DISK_SEGMENTS, endpoint=False)
+        # Polygon scaled to the ellipse's exact area, so the emitted power matches too.
+        k = math.sqrt((2 * math.pi / DISK_SEGMENTS) / math.sin(2 * math.pi / DISK_SEGMENTS))
+        ring = np.stack([0.5 * k * sx * np.cos(a), 0.5 * k * sy * np.sin(a), np.zeros_like(a)], 1)
+        pos = np.vstack([[[0, 0, 0]], ring]).astype(np.float32)
+        j = np.arange(DISK_SEGMENTS, dtype=np.uint32)
+        idx = np.stack([np.zeros_like(j), (j + 1) % DISK_SEGMENTS + 1, j + 1], 1).astype(np.uint32)
+        area_local = math.pi * sx * sy / 4  # the exact ellipse, as Cycles
+    # World area: the local unit square spans |M ex x M ey|.
+    scale = float(np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
+    area = area_local * scale
+    if area <= 0:
+        return
+    mat_name = f"__light_{name}"
+    out.description["materials"][mat_name] = {
+        "type": "emission", "emission": color, "strength": max(0.0, la.energy) / (4.0 * area), "two_sided": False}
+    rec = MeshRecord(name)
+    rec.positions, rec.indices, rec.triangle_count = pos, idx, len(idx)
+    rec.materials = [mat_name]
+    rec.matrices.append(m.astype(np.float32))
+    rec.instance_names.append(name)
+    out.meshes.append(rec)

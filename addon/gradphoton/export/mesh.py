@@ -1,0 +1,97 @@
+"""Meshes: evaluated geometry (modifiers applied) triangulated by Blender's loop triangles and
+read with foreach_get into numpy arrays of the exact dtypes the core takes (float32 positions,
+uint32 indices), so no Python loop runs per vertex or per triangle.
+
+A mesh is exported per vertex when it is all smooth (vertex normals) or all flat (no normals:
+the core shades flat by the triangle normal). Mixed smooth/flat faces, auto smooth and custom
+split normals (and UVs, when asked for) need per-corner data: then every face corner becomes a
+vertex and its split normal is used. Instances of one mesh share one record with one matrix
+per instance.
+"""
+import numpy as np
+
+GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT'}
+
+
+class MeshRecord:
+    def __init__(self, name):
+        self.name = name
+        self.positions = self.indices = self.normals = self.uvs = self.material_ids = None
+        self.materials = []
+        self.matrices = []
+        self.instance_names = []
+        self.triangle_count = 0
+
+
+def mesh_arrays(me, export_uvs=False):
+    """(positions float32 (N,3), indices uint32 (M,3), normals float32 (N,3) or None,
+    uvs float32 (N,2) or None, material_index uint32 (M,)) of a Blender mesh."""
+    me.calc_loop_triangles()
+    tris = me.loop_triangles
+    nt, nv = len(tris), len(me.vertices)
+    co = np.empty(nv * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    mat = np.empty(nt, np.uint32)
+    tris.foreach_get("material_index", mat)
+    smooth = np.empty(nt, bool)
+    tris.foreach_get("use_smooth", smooth)
+    uv_layer = me.uv_layers.active if export_uvs else None
+    all_smooth = bool(smooth.all()) if nt else True
+    per_corner = (uv_layer is not None or me.has_custom_normals or
+                  (me.use_auto_smooth and all_smooth) or not (all_smooth or not smooth.any()))
+    if not per_corner:
+        idx = np.empty(nt * 3, np.uint32)
+        tris.foreach_get("vertices", idx)
+        normals = None
+        if all_smooth and nt:
+            normals = np.empty(nv * 3, np.float32)
+            me.vertex_normals.foreach_get("vector", normals)
+            normals = normals.reshape(nv, 3)
+        return co.reshape(nv, 3), idx.reshape(nt, 3), normals, None, mat
+    # Per corner: vertex k of the output is loop k.
+    nl = len(me.loops)
+    loop_vert = np.empty(nl, np.uint32)
+    me.loops.foreach_get("vertex_index", loop_vert)
+    idx = np.empty(nt * 3, np.uint32)
+    tris.foreach_get("loops", idx)
+    me.calc_normals_split()
+    normals = np.empty(nl * 3, np.float32)
+    me.loops.foreach_get("normal", normals)
+    uvs = None
+    if uv_layer is not None:
+        uvs = np.empty(nl * 2, np.float32)
+        uv_layer.data.foreach_get("uv", uvs)
+        uvs = uvs.reshape(nl, 2)
+    return co.reshape(nv, 3)[loop_vert], idx.reshape(nt, 3), normals.reshape(nl, 3), uvs, mat
+
+
+def add_instance(records, inst, mats, warnings, export_uvs):
+    """Adds one depsgraph instance of a geometry object to `records` (key -> MeshRecord)."""
+    ob = inst.object
+    slots = [s.material for s in ob.material_slots]
+    names = [mats.name_for(m) for m in slots] or [mats.name_for(None)]
+    data_key = ob.data.as_pointer() if (ob.type == 'MESH' and ob.data is not None) else ob.as_pointer()
+    key = (data_key, tuple(names))
+    rec = records.get(key)
+    if rec is None:
+        rec = MeshRecord(ob.name)
+        if ob.type == 'MESH':
+            me, owner = ob.data, None
+        else:
+            me, owner = ob.to_mesh(), ob
+        try:
+            if me is not None and len(me.polygons):
+                pos, idx, nrm, uvs, mat = mesh_arrays(me, export_uvs)
+                rec.positions, rec.indices, rec.normals, rec.uvs = pos, idx, nrm, uvs
+                rec.triangle_count = len(idx)
+                if len(names) > 1:
+                    np.minimum(mat, len(names) - 1, out=mat)  # Blender clamps slot indices too
+                    rec.material_ids = mat
+        finally:
+            if owner is not None:
+                owner.to_mesh_clear()
+        rec.materials = names
+        records[key] = rec
+    rec.matrices.append(np.array(inst.matrix_world, dtype=np.float32))
+    n = len(rec.matrices)
+    rec.instance_names.append(ob.name if n == 1 else f"{ob.name} [{n - 1}]")

@@ -1,0 +1,129 @@
+"""Settings: Scene.gradphoton (render), ViewLayer.gradphoton (passes), Material.gradphoton.
+
+Method names and pass names come from the native module (`_native.methods()`,
+`_native.passes()`); nothing here lists them. Method parameters are the union of what the
+methods read; parameters a method does not read are dropped silently by the session.
+"""
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty)
+
+from . import native
+
+# Readable labels for method names the core may offer; unknown names show as themselves.
+METHOD_LABELS = {
+    "pt": ("Path Tracing", "Unidirectional path tracing with next-event estimation and MIS (reference)"),
+    "ppm": ("Progressive Photon Mapping", "Hachisuka et al. 2008 (thesis ch. 5)"),
+    "sppm": ("Stochastic PPM", "Stochastic progressive photon mapping (thesis ch. 7)"),
+    "appm": ("Adaptive Photon Tracing", "Adaptive MCMC photon tracing (thesis ch. 8)"),
+    "hybrid_ppm": ("Multisampled PPM", "MIS of path tracing and SPPM (thesis ch. 9)"),
+    "gpt": ("Gradient-Domain PT", "Gradient-domain path tracing (KMA15)"),
+    "gpm": ("Gradient-Domain Photons", "Gradient-domain photon density estimation"),
+    "spectral": ("Spectral PT", "Spectral path tracing with hero wavelengths"),
+    "gdmlt": ("Gradient-Domain MLT", "Gradient-domain Metropolis light transport"),
+}
+
+_method_items = []  # Blender needs dynamic enum strings kept alive
+
+
+def method_items(self, context):
+    _method_items.clear()
+    for i, name in enumerate(native.methods() or ["pt"]):
+        label, desc = METHOD_LABELS.get(name, (name, name))
+        _method_items.append((name, label, desc, i))
+    return _method_items
+
+
+# Native parameter name -> property name on GradphotonRenderSettings. The session sends every
+# one of these; each method reads its own (Session.unused_params lists the others).
+METHOD_PARAMS = {
+    "max_depth": "max_depth",
+    "seed": "seed",
+    "threads": "threads",
+    "photons_per_pass": "photons_per_pass",
+    "alpha": "alpha",
+    "initial_radius": "initial_radius",
+    "poisson_alpha": "poisson_alpha",
+    "reconstruction": "reconstruction",
+}
+
+
+class GradphotonRenderSettings(bpy.types.PropertyGroup):
+    method: EnumProperty(name="Method", items=method_items, description="Light transport method")
+    stop_rule: EnumProperty(
+        name="Stop", default="PASSES",
+        items=[("TIME", "Time", "Render for a wall-clock budget"),
+               ("PASSES", "Passes", "Render a number of passes (samples per pixel for path tracing)"),
+               ("ERROR", "Target Error", "Render until the estimated relative error is reached")])
+    time_limit: FloatProperty(name="Time Limit", default=10.0, min=0.01, unit='TIME_ABSOLUTE', subtype='TIME_ABSOLUTE',
+                              description="Seconds of rendering")
+    passes: IntProperty(name="Passes", default=64, min=1, description="Number of passes")
+    target_error: FloatProperty(name="Target Error", default=0.05, min=1e-4, max=1.0,
+                                description="Estimated relative error to stop at (methods with an error estimate)")
+    max_depth: IntProperty(name="Max Bounces", default=32, min=1, max=1024,
+                           description="Longest path in segments (camera ray = 1)")
+    seed: IntProperty(name="Seed", default=0, min=0, description="Random seed")
+    threads: IntProperty(name="Threads", default=0, min=0, max=1024, description="Worker threads (0 = all cores)")
+    photons_per_pass: IntProperty(name="Photons per Pass", default=200000, min=1000,
+                                  description="Photon paths traced per pass (photon methods)")
+    alpha: FloatProperty(name="Alpha", default=0.7, min=0.01, max=1.0,
+                         description="Radius reduction of progressive photon mapping (thesis eq. 5.9; 0.7)")
+    initial_radius: FloatProperty(name="Initial Radius", default=0.0, min=0.0, unit='LENGTH', subtype='DISTANCE',
+                                  description="Initial photon gather radius (0 = automatic from the scene size)")
+    poisson_alpha: FloatProperty(name="Poisson Lambda", default=0.2, min=0.0,
+                                 description="Weight of the primal image in the screened Poisson reconstruction")
+    reconstruction: EnumProperty(name="Reconstruction", default="L2",
+                                 items=[("L2", "L2", "Screened Poisson, least squares"),
+                                        ("L1", "L1", "Screened Poisson, L1 by iteratively reweighted least squares")])
+    export_uvs: BoolProperty(name="Export UVs", default=False,
+                             description="Export UV maps (splits vertices at UV seams; no material uses UVs yet)")
+
+
+def _pass_toggles_class():
+    """ViewLayer.gradphoton: one use_pass_<name> per pass of the core's table but Combined."""
+    annotations = {}
+    for name, channels, label in native.passes():
+        if name == "combined":
+            continue
+        annotations["use_pass_" + name] = BoolProperty(
+            name=label, default=False, description=f"Render the {label} pass ({channels} channel(s))",
+            update=lambda self, context: context.view_layer.update_render_passes())
+    return type("GradphotonViewLayerSettings", (bpy.types.PropertyGroup,), {"__annotations__": annotations})
+
+
+class GradphotonMaterialSettings(bpy.types.PropertyGroup):
+    dispersion: EnumProperty(
+        name="Dispersion", default="NONE",
+        items=[("NONE", "None", "No dispersion"),
+               ("ABBE", "Abbe Number", "Dispersion from the Abbe number V (with the IOR as n_d)"),
+               ("CAUCHY", "Cauchy B", "Cauchy's law n = A + B / lambda^2, B in um^2")],
+        description="Dispersion of glass (spectral methods)")
+    abbe: FloatProperty(name="Abbe Number", default=64.0, min=1.0, max=200.0, description="Abbe number V (BK7: 64)")
+    cauchy_b: FloatProperty(name="Cauchy B", default=0.0042, min=0.0, max=1.0, precision=5,
+                            description="Cauchy B in um^2 (BK7: 0.0042)")
+    classification: EnumProperty(
+        name="Photon Surface", default="AUTO",
+        items=[("AUTO", "Automatic", "Specular when the roughness is below the threshold"),
+               ("DIFFUSE", "Diffuse", "Always store photons here"),
+               ("SPECULAR", "Specular", "Never store photons here")],
+        description="Diffuse/specular classification for photon methods (not yet read by the core)")
+
+
+_classes = []
+
+
+def register():
+    global _classes
+    _classes = [GradphotonRenderSettings, _pass_toggles_class(), GradphotonMaterialSettings]
+    for c in _classes:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.gradphoton = PointerProperty(type=_classes[0])
+    bpy.types.ViewLayer.gradphoton = PointerProperty(type=_classes[1])
+    bpy.types.Material.gradphoton = PointerProperty(type=_classes[2])
+
+
+def unregister():
+    del bpy.types.Material.gradphoton
+    del bpy.types.ViewLayer.gradphoton
+    del bpy.types.Scene.gradphoton
+    for c in reversed(_classes):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,219 @@
+"""One render: export, then a progressive loop on the native Session with Blender's progress,
+stats, cancellation and passes. engine.py delegates here; nothing here is a Blender class.
+
+Cancellation: each pass runs in a worker thread (the native call releases the GIL); the render
+thread polls test_break() every 20 ms and calls Session.cancel(), which stops the pass between
+tiles; the image so far is kept and returned.
+"""
+import threading
+import time
+
+import numpy as np
+
+from . import export, native
+from .properties import METHOD_PARAMS
+
+POLL_SECONDS = 0.02
+LAST = None  # the latest RenderSession (tests and the UI test inspect it)
+
+
+def blender_passes():
+    """[(native name, Blender pass name, channels, chan_id, type)] for every pass of the core."""
+    out = []
+    for name, channels, label in native.passes():
+        if name == "combined":
+            out.append((name, "Combined", 4, "RGBA", 'COLOR'))
+        else:
+            out.append((name, label, channels, "RGB" if channels == 3 else "X", 'COLOR' if channels == 3 else 'VALUE'))
+    return out
+
+
+def enabled_passes(view_layer):
+    settings = getattr(view_layer, "gradphoton", None)
+    return [p for p in blender_passes()
+            if p[0] == "combined" or (settings is not None and getattr(settings, "use_pass_" + p[0], False))]
+
+
+def register_passes(engine, scene, view_layer):
+    for name, bl_name, channels, chan_id, kind in enabled_passes(view_layer):
+        engine.register_pass(scene, view_layer, bl_name, channels, chan_id, kind)
+
+
+def params_of(settings):
+    p = {}
+    for key, prop in METHOD_PARAMS.items():
+        p[key] = getattr(settings, prop)
+    return p
+
+
+def to_blender_pixels(img, channels, window=None):
+    """(H, W, C) top-row-first float array -> (H*W, channels) bottom-row-first for foreach_set."""
+    if window is not None:
+        x0, y0, w, h = window
+        H = img.shape[0]
+        img = img[H - (y0 + h):H - y0, x0:x0 + w]
+    img = img[::-1]
+    c = img.shape[2]
+    if channels == 4 and c == 3:
+        out = np.ones(img.shape[:2] + (4,), np.float32)
+        out[..., :3] = img
+    elif channels == c:
+        out = np.ascontiguousarray(img, dtype=np.float32)
+    else:
+        out = np.zeros(img.shape[:2] + (channels,), np.float32)
+        out[..., :min(c, channels)] = img[..., :min(c, channels)]
+    return out.reshape(-1, channels)
+
+
+class Progress:
+    """Stop rule bookkeeping: fraction done and the status line."""
+
+    def __init__(self, settings):
+        self.rule = settings.stop_rule
+        self.seconds = settings.time_limit
+        self.passes = settings.passes
+        self.target = settings.target_error
+        self.start = time.perf_counter()
+
+    def elapsed(self):
+        return time.perf_counter() - self.start
+
+    def fraction(self, passes, error):
+        if self.rule == 'TIME':
+            return min(1.0, self.elapsed() / self.seconds)
+        if self.rule == 'PASSES':
+            return min(1.0, passes / self.passes)
+        if error is None or error < 0 or error <= self.target:
+            return 1.0 if error is not None and 0 <= error <= self.target else 0.0
+        return min(1.0, (self.target / error) ** 2)  # error ~ 1/sqrt(work)
+
+    def done(self, passes, error):
+        if self.rule == 'TIME':
+            return self.elapsed() >= self.seconds
+        if self.rule == 'PASSES':
+            return passes >= self.passes
+        return error is not None and 0 <= error <= self.target
+
+    def status(self, stats, error):
+        f = self.fraction(stats.get("passes", 0), error)
+        el = self.elapsed()
+        parts = [f"Pass {stats.get('passes', 0)}"]
+        photons = stats.get("photons")
+        if photons:
+            parts.append(f"{int(photons):,} photons")
+        else:
+            parts.append(f"{int(stats.get('paths', 0)):,} paths")
+        if error is not None and error >= 0:
+            parts.append(f"error {error:.4f}")
+        if 0 < f < 1:
+            parts.append(f"{el * (1 - f) / f:.1f} s left")
+        parts.append(f"{el:.1f} s")
+        return " | ".join(parts)
+
+
+class RenderSession:
+    """The render loop. Blender callbacks are injected so tests can drive it (e.g. a
+    test_break that fires after some time to measure cancellation latency)."""
+
+    def __init__(self, engine, test_break=None):
+        self.engine = engine
+        self.test_break = test_break or engine.test_break
+        self.session = None
+        self.cancel_latency = None  # seconds from test_break() to the loop's end
+        self.updates = []           # (seconds, passes) of every image sent to Blender
+        self.break_at = None        # wall clock (time.time()) when test_break() first fired
+        self.finished_at = None     # wall clock when render() returned
+        global LAST
+        LAST = self
+
+    def render(self, depsgraph):
+        engine = self.engine
+        try:
+            N = native.get()
+        except RuntimeError as e:
+            engine.report({'ERROR'}, str(e))
+            return
+        scene = depsgraph.scene
+        view_layer = depsgraph.view_layer
+        settings = scene.gradphoton
+        try:
+            engine.update_stats("", "Exporting scene")
+            exported = export.export_scene(depsgraph, export_uvs=settings.export_uvs)
+            if exported.warnings:
+                engine.report({'WARNING'}, exported.warnings.summary())
+            engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
+            nscene = exported.build(N)
+            self.session = N.Session(nscene, settings.method, params_of(settings))
+        except (ValueError, TypeError, RuntimeError) as e:  # SceneError, ParamError: one readable line
+            engine.report({'ERROR'}, f"gradphoton: {e}")
+            return
+        for w in nscene.warnings:
+            engine.report({'WARNING'}, f"gradphoton scene: {w}")
+        unused = [u for u in self.session.unused_params if u not in METHOD_PARAMS]
+        if unused:
+            engine.report({'WARNING'}, f"gradphoton: parameters not used by {settings.method}: {', '.join(unused)}")
+        W, H = exported.width, exported.height
+        window = exported.border
+        rw, rh = (window[2], window[3]) if window else (W, H)
+        passes = enabled_passes(view_layer)
+        result = engine.begin_result(0, 0, rw, rh, layer=view_layer.name)
+        progress = Progress(settings)
+        last_update = -1.0
+        interval = 0.25
+        n = 0
+        try:
+            while True:
+                cancelled_at = self._iterate_cancellable()
+                stats = self.session.stats
+                n = stats.get("passes", n + 1)
+                error = self.session.estimated_error
+                done = cancelled_at is not None or progress.done(n, error)
+                now = progress.elapsed()
+                if done or now - last_update >= interval:
+                    self._write(result, passes, window)
+                    engine.update_result(result)
+                    self.updates.append((now, n))
+                    last_update = now
+                    interval = min(2.0, interval * 1.5)
+                engine.update_stats("", progress.status(stats, error))
+                engine.update_progress(progress.fraction(n, error))
+                if cancelled_at is not None:
+                    self.cancel_latency = time.perf_counter() - cancelled_at
+                    self.break_at = time.time() - self.cancel_latency
+                    break
+                if done:
+                    break
+                if settings.stop_rule == 'ERROR' and error < 0 and n >= 1:
+                    engine.report({'ERROR'}, f"gradphoton: method '{settings.method}' has no error estimate; "
+                                             "choose a time or pass stop rule")
+                    break
+        finally:
+            engine.end_result(result)
+            self.finished_at = time.time()
+
+    def _iterate_cancellable(self):
+        """Runs one pass; returns the time test_break() fired, or None."""
+        if self.test_break():
+            self.session.cancel()
+            return time.perf_counter()
+        worker = threading.Thread(target=self.session.iterate, name="gradphoton pass")
+        worker.start()
+        fired = None
+        while worker.is_alive():
+            worker.join(POLL_SECONDS)
+            if fired is None and self.test_break():
+                fired = time.perf_counter()
+                self.session.cancel()
+        return fired
+
+    def _write(self, result, passes, window):
+        images = self.session.develop()
+        layer = result.layers[0]
+        for name, bl_name, channels, _, _ in passes:
+            rp = layer.passes.find_by_name(bl_name, "")
+            if rp is None:
+                continue
+            img = images.get(name)
+            if img is None:
+                continue  # the method does not produce this pass: Blender keeps it zero
+            rp.rect.foreach_set(to_blender_pixels(img, channels, window))

@@ -1,0 +1,180 @@
+"""Small scenes built in Blender for the tests and benchmarks."""
+import math
+
+import bpy
+from mathutils import Vector
+
+
+def look_at(ob, target):
+    d = Vector(target) - ob.location
+    ob.rotation_euler = d.to_track_quat('-Z', 'Y').to_euler()
+
+
+def add_camera(scene, location=(0, 0, 10), target=(0, 0, 0), lens=50.0):
+    cam = bpy.data.cameras.new("Camera")
+    cam.lens = lens
+    ob = bpy.data.objects.new("Camera", cam)
+    scene.collection.objects.link(ob)
+    ob.location = location
+    look_at(ob, target)
+    scene.camera = ob
+    return ob
+
+
+def diffuse_material(name, color=(0.8, 0.8, 0.8)):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    d.inputs["Color"].default_value = (*color, 1)
+    nt.links.new(d.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def emission_material(name, strength, color=(1, 1, 1)):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    e = nt.nodes.new("ShaderNodeEmission")
+    e.inputs["Color"].default_value = (*color, 1)
+    e.inputs["Strength"].default_value = strength
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def add_mesh_object(scene, name, verts, faces, material=None):
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    ob = bpy.data.objects.new(name, me)
+    scene.collection.objects.link(ob)
+    if material is not None:
+        me.materials.append(material)
+    return ob
+
+
+def add_plane(scene, name, size, material=None, location=(0, 0, 0)):
+    s = size / 2
+    ob = add_mesh_object(scene, name, [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [(0, 1, 2, 3)], material)
+    ob.location = location
+    return ob
+
+
+def set_world(scene, color=(0, 0, 0), strength=0.0):
+    w = scene.world
+    w.use_nodes = True
+    bg = w.node_tree.nodes.get("Background")
+    bg.inputs["Color"].default_value = (*color, 1)
+    bg.inputs["Strength"].default_value = strength
+
+
+LIGHT_AT = (3.0, 0.0, 2.0)  # outside the camera's view; every light aims at the origin
+
+# name -> (Blender light type, shape or None, power/strength, extra settings)
+LIGHT_CASES = {
+    "point": ('POINT', None, 400.0, {}),
+    "spot": ('SPOT', None, 600.0, {"spot_size": math.radians(70), "spot_blend": 0.3}),
+    "sun": ('SUN', None, 2.0, {"angle": 0.0}),
+    "area_square": ('AREA', 'SQUARE', 300.0, {"size": 1.0}),
+    "area_rectangle": ('AREA', 'RECTANGLE', 300.0, {"size": 1.5, "size_y": 0.5}),
+    "area_disk": ('AREA', 'DISK', 300.0, {"size": 1.0}),
+    "area_ellipse": ('AREA', 'ELLIPSE', 300.0, {"size": 1.2, "size_y": 0.6}),
+}
+
+
+def brightness_scene(scene, case):
+    """A diffuse floor seen from above, lit by one light of `case` (a LIGHT_CASES key,
+    'emissive_mesh' or 'world'); nothing but the floor is in view."""
+    set_world(scene)
+    add_plane(scene, "Floor", 40.0, diffuse_material("Floor", (0.7, 0.7, 0.7)))
+    add_camera(scene, (0, 0, 10), (0, 0, 0), lens=60.0)
+    if case == "world":
+        set_world(scene, (0.6, 0.7, 0.8), 1.5)
+    elif case == "emissive_mesh":
+        ob = add_plane(scene, "Panel", 1.0, emission_material("Panel", 20.0, (1.0, 0.9, 0.8)), LIGHT_AT)
+        look_at(ob, (0, 0, 0))
+    else:
+        kind, shape, power, extra = LIGHT_CASES[case]
+        la = bpy.data.lights.new(case, kind)
+        la.energy = power
+        la.color = (1.0, 0.9, 0.8)
+        if kind in {'POINT', 'SPOT'}:
+            la.shadow_soft_size = 0.0
+        if shape:
+            la.shape = shape
+        for k, v in extra.items():
+            setattr(la, k, v)
+        ob = bpy.data.objects.new(case, la)
+        scene.collection.objects.link(ob)
+        ob.location = LIGHT_AT
+        look_at(ob, (0, 0, 0))
+    return scene
+
+
+def configure_cycles(scene, samples, bounces=4):
+    scene.render.engine = 'CYCLES'
+    c = scene.cycles
+    c.device = 'CPU'
+    c.samples = samples
+    c.use_denoising = False
+    c.use_adaptive_sampling = False
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
+    c.transparent_max_bounces = bounces
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.caustics_reflective = c.caustics_refractive = True
+    c.blur_glossy = 0.0
+    c.seed = 1
+    scene.render.threads_mode = 'FIXED'
+    scene.render.threads = 2
+
+
+def render_to_exr(scene, path):
+    scene.render.image_settings.file_format = 'OPEN_EXR'
+    scene.render.image_settings.color_depth = '32'
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return path
+
+
+def glass_material(name, ior=1.5):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    g = nt.nodes.new("ShaderNodeBsdfGlass")
+    g.inputs["Roughness"].default_value = 0.0
+    g.inputs["IOR"].default_value = ior
+    g.distribution = 'SHARP'
+    nt.links.new(g.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def cornell_glass(scene):
+    """Cornell box (x, y in [-1, 1], z in [0, 2]) with a glass sphere and a 0.5 m ceiling light."""
+    set_world(scene)
+    white, red, green = (diffuse_material("White", (0.73, 0.73, 0.73)), diffuse_material("Red", (0.63, 0.065, 0.05)),
+                         diffuse_material("Green", (0.14, 0.45, 0.09)))
+    quads = {  # inward-facing walls
+        "Floor": ([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], white),
+        "Ceiling": ([(-1, -1, 2), (-1, 1, 2), (1, 1, 2), (1, -1, 2)], white),
+        "Back": ([(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], white),
+        "Left": ([(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], red),
+        "Right": ([(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], green),
+    }
+    for name, (v, m) in quads.items():
+        add_mesh_object(scene, name, v, [(0, 1, 2, 3)], m)
+    add_mesh_object(scene, "Light", [(-0.25, -0.25, 1.99), (-0.25, 0.25, 1.99), (0.25, 0.25, 1.99),
+                                     (0.25, -0.25, 1.99)], [(0, 1, 2, 3)], emission_material("Lamp", 17.0))
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.4, location=(0.3, 0.2, 0.4))
+    sphere = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    sphere.data.materials.append(glass_material("Glass"))
+    add_camera(scene, (0, -3.9, 1), (0, 0, 1), lens=50.0)

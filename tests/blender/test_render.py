@@ -1,0 +1,157 @@
+"""Rendering: batch renders of a saved .blend in a subprocess (`blender -b file -E GRADPHOTON
+-f 1`), every registered pass in the multilayer EXR and on the compositor's Render Layers node,
+one warning for unsupported nodes, cancellation latency, and pass names taken from the core."""
+import os
+import subprocess
+import sys
+import time
+
+import bpy
+import numpy as np
+import pytest
+
+import scenes
+from gradphoton import native, session
+from gradphoton.engine import GradphotonRenderEngine
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ENABLE = ("import sys, addon_utils; sys.path.insert(0, %r); "
+          "addon_utils.enable('gradphoton', default_set=True)" % os.path.join(ROOT, "addon"))
+
+
+def small_scene(scene):
+    scenes.add_plane(scene, "Floor", 20.0, scenes.diffuse_material("Floor"))
+    bpy.ops.mesh.primitive_monkey_add(location=(0, 0, 1))
+    la = bpy.data.lights.new("Sun", 'SUN')
+    la.energy = 3.0
+    ob = bpy.data.objects.new("Sun", la)
+    scene.collection.objects.link(ob)
+    ob.rotation_euler = (0.5, 0.3, 0)
+    scenes.add_camera(scene, (0, -6, 3), (0, 0, 0.8))
+    for name, channels, label in native.get().passes():
+        if name != "combined":
+            setattr(scene.view_layers[0].gradphoton, "use_pass_" + name, True)
+
+
+def batch_render(blend, out_prefix, *extra):
+    cmd = ["blender", "-b", "--factory-startup", blend, "--python-expr", ENABLE, "-E", "GRADPHOTON",
+           "-o", out_prefix + "####", "-F", "OPEN_EXR_MULTILAYER", *extra]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+
+
+def test_batch_render_writes_every_registered_pass(empty_scene, out_dir):
+    small_scene(empty_scene)
+    blend = str(out_dir / "small.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    r = batch_render(blend, str(out_dir / "frame_"), "-f", "1")
+    assert r.returncode == 0, r.stdout + r.stderr
+    exr = native.get().read_exr(str(out_dir / "frame_0001.exr"))
+    expected = {f"ViewLayer.{bl}" for _, bl, _, _, _ in session.enabled_passes(empty_scene.view_layers[0])}
+    got = {k for k in exr if not k.endswith(".A")}
+    assert got == expected, (got, expected)
+    combined = exr["ViewLayer.Combined"]
+    assert combined.shape == (24, 32, 3) and combined.mean() > 0.01
+    # Blender's rows run bottom to top: the floor (bright) fills the bottom, sky (black) the top
+    assert combined[-1].mean() > combined[0].mean()
+
+
+def test_animation_frames(empty_scene, out_dir):
+    small_scene(empty_scene)
+    empty_scene.frame_start, empty_scene.frame_end = 1, 2
+    blend = str(out_dir / "anim.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    r = batch_render(blend, str(out_dir / "anim_"), "-a")
+    assert r.returncode == 0, r.stderr
+    assert os.path.exists(out_dir / "anim_0001.exr") and os.path.exists(out_dir / "anim_0002.exr")
+
+
+def test_compositor_render_layers_node_shows_the_passes(empty_scene):
+    small_scene(empty_scene)
+    empty_scene.use_nodes = True
+    node = empty_scene.node_tree.nodes.new("CompositorNodeRLayers")
+    empty_scene.view_layers[0].update_render_passes()
+    outputs = {o.name for o in node.outputs if o.enabled}
+    for _, bl_name, _, _, _ in session.enabled_passes(empty_scene.view_layers[0]):
+        assert ("Image" if bl_name == "Combined" else bl_name) in outputs, outputs
+
+
+def test_pass_names_are_the_cores():
+    """The addon registers exactly the core's passes (film.h pass::kAll), and its view-layer
+    toggles are those passes but Combined."""
+    core = native.get().passes()
+    assert [(n, c) for n, _, c, _, _ in session.blender_passes()] == [(n, 4 if n == "combined" else c)
+                                                                       for n, c, _ in core]
+    toggles = {p for p in bpy.types.ViewLayer.bl_rna.properties["gradphoton"].fixed_type.properties.keys()
+               if p.startswith("use_pass_")}
+    assert toggles == {"use_pass_" + n for n, _, _ in core if n != "combined"}
+    from gradphoton import properties
+    assert [i[0] for i in properties.method_items(None, None)] == list(native.get().methods())
+
+
+def test_unsupported_node_one_warning_and_still_renders(empty_scene, out_dir):
+    small_scene(empty_scene)
+    m = bpy.data.materials["Floor"]
+    nt = m.node_tree
+    noise = nt.nodes.new("ShaderNodeTexNoise")
+    nt.links.new(noise.outputs["Color"], nt.nodes["Diffuse BSDF"].inputs["Color"])
+    toon = bpy.data.materials.new("Toon")
+    toon.use_nodes = True
+    tn = toon.node_tree
+    t = tn.nodes.new("ShaderNodeBsdfToon")
+    tn.links.new(t.outputs[0], tn.nodes["Material Output"].inputs["Surface"])
+    bpy.data.objects["Suzanne"].data.materials.append(toon)
+    blend = str(out_dir / "warn.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    r = batch_render(blend, str(out_dir / "warn_"), "-f", "1")
+    assert r.returncode == 0, r.stderr
+    lines = [l for l in (r.stdout + r.stderr).splitlines() if "gradphoton approximated" in l]
+    assert len(lines) == 1, lines
+    assert "Noise Texture" in lines[0] or "Color" in lines[0]
+    assert "Toon" in lines[0]
+    assert native.get().read_exr(str(out_dir / "warn_0001.exr"))["ViewLayer.Combined"].mean() > 0.01
+
+
+class _CancelAfter(GradphotonRenderEngine):
+    """The engine with test_break() firing after a delay (Esc pressed mid-render)."""
+    bl_idname = "GRADPHOTON_CANCEL_TEST"
+    bl_label = "gradphoton (cancel test)"
+    delay = 0.6
+    record = {}
+
+    def render(self, depsgraph):
+        start, fired = time.perf_counter(), []
+
+        def test_break():
+            if time.perf_counter() - start >= self.delay:
+                fired.append(time.perf_counter())
+                return True
+            return self.test_break()
+
+        self.session = session.RenderSession(self, test_break=test_break)
+        self.session.render(depsgraph)
+        type(self).record.update(latency=time.perf_counter() - fired[0] if fired else None,
+                                 passes=self.session.session.stats["passes"])
+
+
+def test_cancel_returns_fast_and_keeps_the_image(empty_scene, out_dir):
+    bpy.utils.register_class(_CancelAfter)
+    try:
+        small_scene(empty_scene)
+        empty_scene.render.engine = _CancelAfter.bl_idname
+        empty_scene.render.resolution_x, empty_scene.render.resolution_y = 1920, 1080
+        empty_scene.gradphoton.stop_rule = 'TIME'
+        empty_scene.gradphoton.time_limit = 60.0
+        t0 = time.perf_counter()
+        bpy.ops.render.render()
+        total = time.perf_counter() - t0
+        latency = _CancelAfter.record["latency"]
+        print(f"CANCEL latency {latency:.3f} s after Esc, render returned after {total:.2f} s, "
+              f"{_CancelAfter.record['passes']} passes")
+        assert latency is not None and latency < 0.5
+        path = str(out_dir / "cancelled.exr")
+        empty_scene.render.image_settings.file_format = 'OPEN_EXR'
+        bpy.data.images["Render Result"].save_render(path)
+        img = native.get().read_exr(path)["combined"]
+        assert img.mean() > 0.01  # the image so far is kept
+    finally:
+        bpy.utils.unregister_class(_CancelAfter)
