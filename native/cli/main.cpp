@@ -8,6 +8,7 @@
 #include <csignal>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "core/parallel.h"
@@ -111,6 +112,11 @@ struct RenderArgs {
   int64_t passes = 0;
   int width = 0, height = 0, threads = 0, max_depth = 0;
   uint64_t seed = 0;
+  // Photon methods (ppm, sppm): set only when given, so each method keeps its defaults.
+  std::optional<double> alpha, radius, confidence;
+  std::optional<int64_t> photons;
+  std::optional<std::string> hash;
+  double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
 };
@@ -131,6 +137,11 @@ int run_render(const RenderArgs& a) {
   params.set("seed", a.seed);
   params.set("threads", a.threads);
   if (a.max_depth > 0) params.set("max_depth", a.max_depth);
+  if (a.alpha) params.set("alpha", *a.alpha);
+  if (a.radius) params.set("radius", *a.radius);
+  if (a.confidence) params.set("confidence", *a.confidence);
+  if (a.photons) params.set("photons", *a.photons);
+  if (a.hash) params.set("hash", *a.hash);
   for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
@@ -145,7 +156,8 @@ int run_render(const RenderArgs& a) {
   StopRule stop;
   stop.seconds = a.seconds;
   stop.passes = a.passes;
-  if (stop.seconds <= 0 && stop.passes <= 0) stop.passes = 16;
+  stop.target_error = a.target_error;
+  if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0) stop.passes = 16;
   CliProgress progress(*integrator, a.checkpoints, a.out);
   g_sink = &progress;
   std::signal(SIGINT, on_sigint);
@@ -160,8 +172,9 @@ int run_render(const RenderArgs& a) {
   fmt::print("method     {}\n", integrator->name());
   fmt::print("passes     {}\npaths      {}\nrays       {}\n", s.passes, s.paths, s.rays);
   fmt::print("seconds    {:.3f}\nMrays/s    {:.2f}\n", s.seconds, s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
+  if (const double err = integrator->estimated_error(); err >= 0) fmt::print("est. error {:.4g}\n", err);
   if (s.invalid_samples) fmt::print("discarded  {} NaN/Inf samples\n", s.invalid_samples);
-  for (const auto& [k, v] : s.extra) fmt::print("{:<10} {:g}\n", k, v);
+  for (const auto& [k, v] : s.extra) fmt::print("{:<16} {:g}\n", k, v);
   if (progress.cancel_flag) fmt::print("cancelled  yes (image so far written)\n");
   fmt::print("exr        {}\n", a.out);
   for (const auto& p : progress.written) fmt::print("checkpoint {}\n", p);
@@ -278,6 +291,13 @@ int main(int argc, char** argv) {
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
+  render->add_option("--alpha", ra.alpha, "ppm/sppm: fraction of new photons kept per pass, in (0,1) (default 0.7)");
+  render->add_option("--photons", ra.photons, "ppm/sppm: photons emitted per pass (default 100000)");
+  render->add_option("--radius", ra.radius, "ppm/sppm: initial gathering radius in metres (default: from the pixel footprint)");
+  render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
+  render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
+  render->add_option("--target-error", ra.target_error,
+                     "Stop when the average estimated relative error falls below this (ppm/sppm)");
 
   std::string diff_a, diff_ref, diff_pass = "combined", diff_png;
   auto* diff = app.add_subcommand("diff", "Compare an EXR with a reference: relMSE, RMSE, mean ratio");
