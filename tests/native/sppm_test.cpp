@@ -152,3 +152,18 @@ TEST(Sppm, ErrorEstimateFallsAndStopsTheRender) {
 
 }  // namespace
 }  // namespace gp
+
+namespace gp {
+namespace {
+
+TEST(Sppm, StochasticHashingGivesTheSameImageInExpectation) {
+  Params p = photon_params(20000);
+  p.set("hash", "stochastic");
+  const Film st = render("sppm", cornell(40, 40), 48, p);
+  const DiffResult d = diff_images(st.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);
+  EXPECT_NEAR(d.mean_ratio, 1.0, 0.03);
+  EXPECT_LT(d.rel_mse, 0.06);
+}
+
+}  // namespace
+}  // namespace gp
