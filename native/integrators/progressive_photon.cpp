@@ -271,6 +271,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   stats_.invalid_samples += invalid + invalid_phi + ps.invalid;
   stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
   stats_.extra["photons stored"] += static_cast<double>(ps.stored);
+  stats_.extra["photon rays"] += static_cast<double>(ps.rays);
   stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
   stats_.extra["estimated error"] = estimated_error_;
   stats_.seconds += seconds_since(start);
