@@ -8,6 +8,9 @@ paper), writes a CSV and draws one log-log chart per scene with all its methods.
 
     scripts/convergence.py --scenes cornell-box torus-glass --methods pt \
         --checkpoints 1,2,4,8,16 --ref-passes 4096 --scale 0.5
+    scripts/convergence.py --methods pt sppm --scenes torus-glass cornell-glass --scale 0.375
+
+Any name make_integrator knows works in --methods (pt, ppm, sppm); each runs with its defaults.
 """
 import argparse
 import csv

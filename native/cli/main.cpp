@@ -8,11 +8,13 @@
 #include <csignal>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "integrators/integrator.h"
+#include "integrators/photon_tracer.h"
 #include "io/display.h"
 #include "io/exr.h"
 #include "io/metrics.h"
@@ -111,6 +113,11 @@ struct RenderArgs {
   int64_t passes = 0;
   int width = 0, height = 0, threads = 0, max_depth = 0;
   uint64_t seed = 0;
+  // Photon methods (ppm, sppm): set only when given, so each method keeps its defaults.
+  std::optional<double> alpha, radius, confidence;
+  std::optional<int64_t> photons;
+  std::optional<std::string> hash;
+  double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
 };
@@ -131,6 +138,11 @@ int run_render(const RenderArgs& a) {
   params.set("seed", a.seed);
   params.set("threads", a.threads);
   if (a.max_depth > 0) params.set("max_depth", a.max_depth);
+  if (a.alpha) params.set("alpha", *a.alpha);
+  if (a.radius) params.set("radius", *a.radius);
+  if (a.confidence) params.set("confidence", *a.confidence);
+  if (a.photons) params.set("photons", *a.photons);
+  if (a.hash) params.set("hash", *a.hash);
   for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
@@ -145,7 +157,8 @@ int run_render(const RenderArgs& a) {
   StopRule stop;
   stop.seconds = a.seconds;
   stop.passes = a.passes;
-  if (stop.seconds <= 0 && stop.passes <= 0) stop.passes = 16;
+  stop.target_error = a.target_error;
+  if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0) stop.passes = 16;
   CliProgress progress(*integrator, a.checkpoints, a.out);
   g_sink = &progress;
   std::signal(SIGINT, on_sigint);
@@ -160,8 +173,9 @@ int run_render(const RenderArgs& a) {
   fmt::print("method     {}\n", integrator->name());
   fmt::print("passes     {}\npaths      {}\nrays       {}\n", s.passes, s.paths, s.rays);
   fmt::print("seconds    {:.3f}\nMrays/s    {:.2f}\n", s.seconds, s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
+  if (const double err = integrator->estimated_error(); err >= 0) fmt::print("est. error {:.4g}\n", err);
   if (s.invalid_samples) fmt::print("discarded  {} NaN/Inf samples\n", s.invalid_samples);
-  for (const auto& [k, v] : s.extra) fmt::print("{:<10} {:g}\n", k, v);
+  for (const auto& [k, v] : s.extra) fmt::print("{:<16} {:g}\n", k, v);
   if (progress.cancel_flag) fmt::print("cancelled  yes (image so far written)\n");
   fmt::print("exr        {}\n", a.out);
   for (const auto& p : progress.written) fmt::print("checkpoint {}\n", p);
@@ -174,7 +188,7 @@ int run_render(const RenderArgs& a) {
 
 // ---- diff ----
 int run_diff(const std::string& a_path, const std::string& ref_path, const std::string& pass_name,
-             const std::string& png) {
+             const std::string& png, const std::string& error_pass) {
   const Film a = read_exr(a_path), ref = read_exr(ref_path);
   if (!a.has_pass(pass_name)) throw std::runtime_error(fmt::format("{}: no pass '{}'", a_path, pass_name));
   if (!ref.has_pass(pass_name)) throw std::runtime_error(fmt::format("{}: no pass '{}'", ref_path, pass_name));
@@ -184,6 +198,23 @@ int run_diff(const std::string& a_path, const std::string& ref_path, const std::
   const DiffResult d = diff_images(a.pass(pass_name), ref.pass(pass_name), a.width(), a.height());
   fmt::print("relMSE     {:.6g}\nRMSE       {:.6g}\nmean ratio {:.6g}\n", d.rel_mse, d.rmse, d.mean_ratio);
   if (d.nonfinite) fmt::print("non-finite {}\n", d.nonfinite);
+  if (!error_pass.empty()) {
+    // Calibration of an error estimate (thesis Figure 6.6): the share of pixels whose
+    // estimated relative error bound is at least the actual relative error against the
+    // reference, |L - L_ref| / L on luminance, over pixels with L > 0.
+    if (!a.has_pass(error_pass)) throw std::runtime_error(fmt::format("{}: no pass '{}'", a_path, error_pass));
+    const Pass& e = a.pass(error_pass);
+    size_t covered = 0, n = 0;
+    for (int y = 0; y < a.height(); ++y)
+      for (int x = 0; x < a.width(); ++x) {
+        const float L = a.rgb(pass_name, x, y).luminance(), R = ref.rgb(pass_name, x, y).luminance();
+        if (!(L > 0)) continue;
+        ++n;
+        covered += e.data[static_cast<size_t>(y) * a.width() + x] >= std::abs(L - R) / L;
+      }
+    fmt::print("coverage   {:.4f} ({} of {} pixels: estimated bound >= actual error)\n",
+               n ? double(covered) / n : 0.0, covered, n);
+  }
   if (!png.empty()) {
     float vmax = 0;
     for (float v : d.per_pixel_rel_se) vmax = std::max(vmax, v);
@@ -253,6 +284,72 @@ int run_bench(const std::string& scene_path, double seconds, int threads) {
   return 0;
 }
 
+// ---- bench-photons ----
+// Photon tracing rate beside raw Embree on the photon tracer's own rays, and the SPPM photon
+// pass split into tracing, lookup (hash-grid build + gathering) and update, in one run.
+int run_bench_photons(const std::string& scene_path, int64_t photons, int passes, int threads,
+                      const std::string& hash, int width) {
+  Scene scene = load_scene(scene_path);
+  if (width > 0) {
+    scene.camera.height = std::max(1, static_cast<int>(std::lround(double(scene.camera.height) * width / scene.camera.width)));
+    scene.camera.width = width;
+  }
+  const Accelerator& accel = scene.accelerator();
+  // Raw rate: replay one photon pass's rays (all closest-hit) through bare Embree.
+  RayRecorder recorded;
+  recorded.limit = 1 << 22;
+  {
+    PhotonTracer tracer(scene, 32, kDefaultSpecularThreshold, 0, threads);
+    std::vector<Photon> out;
+    Accelerator::record_rays(&recorded);
+    tracer.trace(std::min<int64_t>(photons, 1 << 21), 0, 0, out);
+    Accelerator::record_rays(nullptr);
+  }
+  double raw = 0;
+  {
+    using clock = std::chrono::steady_clock;
+    const auto t0 = clock::now();
+    size_t traced = 0;
+    std::atomic<size_t> hits{0};
+    while (std::chrono::duration<double>(clock::now() - t0).count() < 2.0) {
+      parallel_for(recorded.closest.size(), threads, [&](size_t lo, size_t hi) {
+        size_t h = 0;
+        RawHit hit;
+        for (size_t i = lo; i < hi; ++i) h += accel.intersect(recorded.closest[i], hit);
+        hits += h;
+      });
+      traced += recorded.closest.size();
+    }
+    raw = traced / std::chrono::duration<double>(clock::now() - t0).count() * 1e-6;
+  }
+  Params params;
+  params.set("photons", photons);
+  params.set("threads", threads);
+  params.set("hash", hash);
+  auto sppm = make_integrator("sppm", scene, params);
+  sppm->iterate(nullptr);  // warm-up pass (first allocations), not counted
+  const Stats before = sppm->stats();
+  for (int i = 0; i < passes; ++i) sppm->iterate(nullptr);
+  const Stats& s = sppm->stats();
+  auto delta = [&](const char* k) { return (s.extra.at(k) - before.extra.at(k)) / passes; };
+  const double trace = delta("trace seconds"), lookup = delta("lookup seconds"), update = delta("update seconds"),
+               eye = delta("eye seconds");
+  const double photon_rays = delta("photon rays");
+  const double rate = photon_rays / trace * 1e-6;
+  fmt::print("scene                   {} ({} triangles, {}x{} pixels)\n", scene_path, scene.triangle_count(),
+             scene.camera.width, scene.camera.height);
+  fmt::print("threads                 {}\n", resolve_thread_count(threads));
+  fmt::print("photons per pass        {} (hash {}), {} passes timed\n", photons, hash, passes);
+  fmt::print("embree closest-hit      {:.2f} Mrays/s (replaying {} photon rays)\n", raw, recorded.closest.size());
+  fmt::print("photon tracing          {:.2f} Mrays/s, {:.2f} Mphotons/s ({:.2f} rays per photon)\n", rate,
+             photons / trace * 1e-6, photon_rays / photons);
+  fmt::print("photon tracing / embree {:.2f}\n", rate / raw);
+  fmt::print("photon pass (ms)        trace {:.1f}  lookup {:.1f}  update {:.1f}  (eye pass {:.1f})\n", 1e3 * trace,
+             1e3 * lookup, 1e3 * update, 1e3 * eye);
+  fmt::print("(lookup + update) / trace {:.2f}\n", (lookup + update) / trace);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -278,13 +375,22 @@ int main(int argc, char** argv) {
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
+  render->add_option("--alpha", ra.alpha, "ppm/sppm: fraction of new photons kept per pass, in (0,1) (default 0.7)");
+  render->add_option("--photons", ra.photons, "ppm/sppm: photons emitted per pass (default 100000)");
+  render->add_option("--radius", ra.radius, "ppm/sppm: initial gathering radius in metres (default: from the pixel footprint)");
+  render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
+  render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
+  render->add_option("--target-error", ra.target_error,
+                     "Stop when the average estimated relative error falls below this (ppm/sppm)");
 
-  std::string diff_a, diff_ref, diff_pass = "combined", diff_png;
+  std::string diff_a, diff_ref, diff_pass = "combined", diff_png, diff_error_pass;
   auto* diff = app.add_subcommand("diff", "Compare an EXR with a reference: relMSE, RMSE, mean ratio");
   diff->add_option("image", diff_a, "Image EXR")->required()->check(CLI::ExistingFile);
   diff->add_option("reference", diff_ref, "Reference EXR")->required()->check(CLI::ExistingFile);
   diff->add_option("--pass", diff_pass, "Pass to compare")->capture_default_str();
   diff->add_option("--png", diff_png, "Write a false-colour per-pixel relative error PNG");
+  diff->add_option("--error-pass", diff_error_pass,
+                   "Also report how often this estimated-relative-error pass bounds the actual error (e.g. error)");
 
   std::string info_scene;
   auto* info = app.add_subcommand("info", "Print a scene summary and its warnings");
@@ -298,10 +404,22 @@ int main(int argc, char** argv) {
   bench->add_option("--seconds", bench_seconds, "Seconds per measurement")->capture_default_str();
   bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)")->capture_default_str();
 
+  std::string bp_scene, bp_hash = "exact";
+  int64_t bp_photons = 1000000;
+  int bp_passes = 3, bp_threads = 0, bp_width = 0;
+  auto* bench_photons = app.add_subcommand(
+      "bench-photons", "Photon tracing rate beside raw Embree; SPPM pass time split into trace, lookup, update");
+  bench_photons->add_option("scene", bp_scene, "Scene file")->required()->check(CLI::ExistingFile);
+  bench_photons->add_option("--photons", bp_photons, "Photons per pass")->capture_default_str();
+  bench_photons->add_option("--passes", bp_passes, "Passes timed (after one warm-up pass)")->capture_default_str();
+  bench_photons->add_option("--threads", bp_threads, "Worker threads (0 = all cores)")->capture_default_str();
+  bench_photons->add_option("--hash", bp_hash, "exact|stochastic")->capture_default_str();
+  bench_photons->add_option("--width", bp_width, "Image width (height keeps the aspect ratio; default: the scene's)");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*render) return run_render(ra);
-    if (*diff) return run_diff(diff_a, diff_ref, diff_pass, diff_png);
+    if (*diff) return run_diff(diff_a, diff_ref, diff_pass, diff_png, diff_error_pass);
     if (*info) {
       Scene scene = load_scene(info_scene);
       fmt::print("{}", scene_summary(scene));
@@ -309,6 +427,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*bench) return run_bench(bench_scene, bench_seconds, bench_threads);
+    if (*bench_photons) return run_bench_photons(bp_scene, bp_photons, bp_passes, bp_threads, bp_hash, bp_width);
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return 1;

@@ -16,6 +16,9 @@ namespace gp {
 // exposes kAll so the addon registers exactly these with Blender (tested there).
 namespace pass {
 inline constexpr std::string_view kCombined = "combined";
+inline constexpr std::string_view kError = "error";               // estimated relative error (thesis eq. 6.13)
+inline constexpr std::string_view kRadius = "radius";             // photon gathering radius (m)
+inline constexpr std::string_view kPhotonCount = "photon_count";  // accumulated photon count N
 
 struct Info {
   std::string_view name;
@@ -25,6 +28,9 @@ struct Info {
 // Every pass any method may produce. A method's develop() writes a subset.
 inline constexpr Info kAll[] = {
     {kCombined, 3, "Combined"},
+    {kError, 1, "Estimated Error"},
+    {kRadius, 1, "Photon Radius"},
+    {kPhotonCount, 1, "Photon Count"},
 };
 }  // namespace pass
 

@@ -1,10 +1,14 @@
 #include "lights/light.h"
 
+#include "core/frame.h"
+
 namespace gp {
 
 LightSet::LightSet(std::vector<Light> lights, const Bounds3& scene_bounds)
     : lights_(std::move(lights)) {
   scene_radius_ = scene_bounds.empty() ? 1.0f : 0.5f * length(scene_bounds.diagonal());
+  if (!(scene_radius_ > 0)) scene_radius_ = 1.0f;
+  scene_center_ = scene_bounds.empty() ? Vec3() : scene_bounds.center();
   std::vector<float> weights;
   for (size_t i = 0; i < lights_.size(); ++i) {
     if (lights_[i].type == LightType::Environment) environment_ = static_cast<int>(i);
@@ -115,6 +119,76 @@ RGB LightSet::area_radiance(int i, const Vec3& w) const {
   const Light& l = lights_[i];
   const float c = dot(l.n, w);
   return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
+}
+
+std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Vec2 u_dir) const {
+  if (select_.empty()) return std::nullopt;
+  const int i = static_cast<int>(select_.sample(u_select));
+  const float pmf = select_.pmf(i);
+  if (!(pmf > 0)) return std::nullopt;
+  const Light& l = lights_[i];
+  PhotonEmission e;
+  e.light = i;
+  switch (l.type) {
+    case LightType::Area: {
+      // Le cos / (pdf_pos * pdf_dir) = Le cos / ((1/A) (cos/pi)) = Le pi A (per side).
+      const Vec2 b = sample_uniform_triangle(u_pos);
+      e.o = l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
+      Vec3 n = l.n;
+      float side_scale = 1.0f;
+      if (l.two_sided) {  // pick a face with probability 1/2, reusing the first direction number
+        if (u_dir.x < 0.5f) {
+          u_dir.x *= 2.0f;
+        } else {
+          u_dir.x = std::min(2.0f * u_dir.x - 1.0f, 0x1.fffffep-1f);
+          n = -n;
+        }
+        side_scale = 2.0f;
+      }
+      const Vec3 local = sample_cosine_hemisphere(u_dir);
+      if (local.z <= 0) return std::nullopt;
+      e.d = normalize(Frame(n).to_world(local));
+      e.n = n;
+      e.power = l.emit * (kPi * l.area * side_scale / pmf);
+      return e;
+    }
+    case LightType::Point:
+      e.o = l.position;
+      e.d = sample_uniform_sphere(u_dir);
+      e.power = l.emit * (1.0f / (uniform_sphere_pdf() * pmf));
+      return e;
+    case LightType::Spot: {
+      // Uniform directions in the cone, weighted by the falloff (which includes the cosine
+      // to the axis and the smoothstep blend), exactly the intensity sample_li sees.
+      const Vec3 local = sample_uniform_cone(u_dir, l.spot_cos_half);
+      e.o = l.position;
+      e.d = normalize(Frame(l.direction).to_world(local));
+      const float falloff = spot_falloff(l, e.d);
+      if (!(falloff > 0)) return std::nullopt;
+      e.power = l.emit * (falloff / (uniform_cone_pdf(l.spot_cos_half) * pmf));
+      return e;
+    }
+    case LightType::Directional:
+    case LightType::Environment: {
+      // Direction of travel, then a point on the disk of radius r perpendicular to it,
+      // centred on the scene and pushed back by r so the whole scene lies ahead of it.
+      const float r = scene_radius_;
+      float dir_pdf = 1.0f;
+      Vec3 d = l.direction;
+      if (l.type == LightType::Environment) {
+        d = -sample_uniform_sphere(u_dir);  // radiance arrives from -d: any direction
+        dir_pdf = uniform_sphere_pdf();
+      }
+      const Vec2 disk = sample_uniform_disk_concentric(u_pos) * r;
+      const Frame f(d);
+      e.o = scene_center_ + (f.s * disk.x + f.t * disk.y) - d * r;
+      e.d = d;
+      // Directional: E * (pi r^2). Environment: L * (pi r^2) / pdf_dir.
+      e.power = l.emit * (kPi * r * r / (dir_pdf * pmf));
+      return e;
+    }
+  }
+  return std::nullopt;
 }
 
 }  // namespace gp

@@ -47,6 +47,17 @@ struct LightSample {
   int light = -1;
 };
 
+// One photon leaving a light (photon tracing, thesis §5.3.4 "photon tracing passes"): its
+// origin, unit direction of travel and the flux it carries, divided by every sampling
+// probability (light selection included), so that the mean over emitted photons is the
+// total emitted power.
+struct PhotonEmission {
+  Vec3 o, d;
+  Vec3 n;                 // surface normal at the origin (area lights), else zero
+  RGB power;              // W, already divided by all pdfs
+  int light = -1;
+};
+
 // All lights of a scene with a power-proportional selection distribution.
 class LightSet {
  public:
@@ -70,6 +81,13 @@ class LightSet {
   // Radiance leaving area light `light` towards direction w (away from the light).
   RGB area_radiance(int light, const Vec3& w) const;
   float power(int light) const;
+  // Emission sampling for photon tracing: picks a light in proportion to power(), then a
+  // point and a direction on it. Area: uniform point, cosine-weighted direction about the
+  // emitting side (two-sided lights pick a side with probability 1/2). Point: uniform
+  // sphere. Spot: uniform cone, weighted by the same Blender/Cycles falloff that sample_li
+  // uses. Directional and environment: a disk of the scene's bounding radius perpendicular
+  // to the direction, placed outside the bounds (constant environment: uniform direction).
+  std::optional<PhotonEmission> sample_le(float u_select, Vec2 u_pos, Vec2 u_dir) const;
 
  private:
   float spot_falloff(const Light& l, const Vec3& w_from_light) const;
@@ -77,6 +95,7 @@ class LightSet {
   DiscreteDistribution select_;
   int environment_ = -1;
   float scene_radius_ = 1.0f;
+  Vec3 scene_center_;
 };
 
 }  // namespace gp

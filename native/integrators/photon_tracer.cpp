@@ -1,0 +1,97 @@
+#include "integrators/photon_tracer.h"
+
+#include <atomic>
+
+#include "core/parallel.h"
+#include "core/rng.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+PhotonTracer::PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed,
+                           int threads)
+    : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads) {}
+
+PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposit_bounce,
+                                    std::vector<Photon>& out) {
+  PhotonPassStats stats;
+  stats.emitted = count;
+  const LightSet& lights = scene_.light_set();
+  const size_t n_chunks = static_cast<size_t>((count + kChunk - 1) / kChunk);
+  if (chunks_.size() < n_chunks) chunks_.resize(n_chunks);
+  std::atomic<int64_t> rays{0}, invalid{0};
+  if (!lights.empty() && count > 0) {
+    parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
+      int64_t local_rays = 0, local_invalid = 0;
+      for (size_t c = lo; c < hi; ++c) {
+        std::vector<Photon>& dst = chunks_[c];
+        dst.clear();
+        Rng rng = Rng::for_key(seed_ ^ 0x70686f746f6e73ULL, c, pass);
+        const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
+        for (int64_t k = begin; k < end; ++k) {
+          // ---- Emission ----
+          const float us = rng.uniform();
+          const Vec2 up(rng.uniform(), rng.uniform()), ud(rng.uniform(), rng.uniform());
+          const auto em = lights.sample_le(us, up, ud);
+          if (!em || em->power.is_black()) continue;
+          RGB beta = em->power;
+          Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0
+                        ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
+                        : Ray(em->o, em->d);
+          for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
+            ++local_rays;
+            const auto hit = scene_.intersect(ray);
+            if (!hit) break;
+            const Bsdf bsdf(scene_.material(hit->material));
+            if (bsdf.is_black()) break;
+            // ---- Deposit at diffuse vertices ----
+            if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
+              if (beta.is_finite())
+                dst.push_back(Photon{hit->p, -ray.d, beta});
+              else
+                ++local_invalid;
+            }
+            if (bounce + 2 > max_depth_) break;
+            // ---- Scattering (adjoint BSDF) ----
+            const Vec3 wo_world = -ray.d;
+            const Vec3 wo = hit->frame.to_local(wo_world);
+            if (wo.z == 0) break;
+            const float uc = rng.uniform();
+            const Vec2 u(rng.uniform(), rng.uniform());
+            const auto bs = bsdf.sample(wo, uc, u, TransportMode::Importance);
+            if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+            const Vec3 wi_world = hit->frame.to_world(bs->wi);
+            // Shading-normal correction of the adjoint BSDF (Veach 1997, eq. 5.20).
+            const float denom = std::abs(dot(wo_world, hit->ng)) * std::abs(dot(wi_world, hit->ns));
+            if (denom == 0) break;
+            const float correction = std::abs(dot(wo_world, hit->ns)) * std::abs(dot(wi_world, hit->ng)) / denom;
+            const RGB beta_new = beta * bs->f * (std::abs(bs->wi.z) / bs->pdf * correction);
+            // ---- Russian roulette: keep the photon's power roughly constant ----
+            const float m_old = beta.max_component(), m_new = beta_new.max_component();
+            if (!(m_new > 0) || !(m_old > 0)) break;
+            const float p_continue = std::min(1.0f, m_new / m_old);
+            if (rng.uniform() >= p_continue) break;
+            beta = beta_new / p_continue;
+            ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+          }
+        }
+      }
+      rays += local_rays;
+      invalid += local_invalid;
+    });
+  }
+  // ---- Concatenate in chunk order (independent of the thread count) ----
+  std::vector<size_t> offset(n_chunks + 1, 0);
+  for (size_t c = 0; c < n_chunks; ++c) offset[c + 1] = offset[c] + chunks_[c].size();
+  out.resize(offset[n_chunks]);
+  parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
+    for (size_t c = lo; c < hi; ++c) std::copy(chunks_[c].begin(), chunks_[c].end(), out.begin() + offset[c]);
+  });
+  for (size_t c = 0; c < n_chunks; ++c) chunks_[c].clear();
+  stats.stored = static_cast<int64_t>(out.size());
+  stats.rays = rays;
+  stats.invalid = invalid;
+  return stats;
+}
+
+}  // namespace gp

@@ -1,0 +1,56 @@
+// Photon tracing shared by the progressive photon mapping family (thesis ch. 5, §5.3.4
+// "photon tracing passes"): photons leave the lights in proportion to their power
+// (LightSet::sample_le), scatter with the importance (adjoint) form of the BSDFs, are ended
+// by Russian roulette, and are deposited at every vertex whose BSDF is diffuse for photon
+// methods (Bsdf::is_diffuse_for_photons: roughness above the specular threshold).
+//
+// Photons are traced in fixed chunks, each drawing from its own random stream keyed by
+// (seed, chunk, pass), and concatenated in chunk order: the photon list (and so the image)
+// does not depend on the thread count. Stored power is not divided by the number of emitted
+// photons; estimators divide by it (thesis eq. 5.10 / 5.13).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/color.h"
+#include "core/math.h"
+#include "scene/scene.h"
+
+namespace gp {
+
+struct Photon {
+  Vec3 p;       // where it landed
+  Vec3 wi;      // unit world direction back towards where it came from
+  RGB power;    // flux it carries (W), before division by the number of emitted photons
+};
+
+struct PhotonPassStats {
+  int64_t emitted = 0;   // photon paths started (including those whose emission sample failed)
+  int64_t stored = 0;    // photons deposited
+  int64_t rays = 0;      // closest-hit rays traced
+  int64_t invalid = 0;   // deposits dropped because their power was NaN/Inf
+};
+
+class PhotonTracer {
+ public:
+  // max_depth: longest photon path in segments; min_deposit_bounce: deposits happen from this
+  // many scattering events on (0 = also the first hit from the light; 1 = skip direct light).
+  PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads);
+
+  // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
+  // memory stays flat over passes).
+  PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out);
+
+  static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
+
+ private:
+  const Scene& scene_;
+  int max_depth_;
+  float threshold_;
+  uint64_t seed_;
+  int threads_;
+  std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
+};
+
+}  // namespace gp

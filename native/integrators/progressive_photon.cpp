@@ -1,0 +1,332 @@
+#include "integrators/progressive_photon.h"
+
+#include <atomic>
+#include <chrono>
+
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+namespace {
+using clock_type = std::chrono::steady_clock;
+double seconds_since(clock_type::time_point t0) {
+  return std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+}  // namespace
+
+ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee)
+    : scene_(scene),
+      retrace_(retrace),
+      nee_(nee),
+      alpha_(params.get<double>("alpha", 0.7)),
+      radius_(params.get<double>("radius", 0.0)),
+      confidence_(params.get<double>("confidence", 0.5)),
+      photons_per_pass_(params.get<int64_t>("photons", 100000)),
+      max_depth_(params.get<int>("max_depth", 32)),
+      rr_depth_(params.get<int>("rr_depth", 3)),
+      threads_(params.get<int>("threads", 0)),
+      tile_size_(params.get<int>("tile_size", 16)),
+      threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
+      seed_(params.get<uint64_t>("seed", 0)),
+      width_(scene.camera.width),
+      height_(scene.camera.height),
+      tracer_(scene, max_depth_, threshold_, seed_, threads_) {
+  const std::string hash = params.get<std::string>("hash", "exact");
+  if (hash == "exact") hash_mode_ = PhotonHashMode::Exact;
+  else if (hash == "stochastic") hash_mode_ = PhotonHashMode::Stochastic;
+  else throw ParamError("parameter 'hash' must be 'exact' or 'stochastic' (got '" + hash + "')");
+  if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
+  if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
+  if (!(confidence_ > 0 && confidence_ < 1)) throw ParamError("parameter 'confidence' must be in (0, 1)");
+  if (photons_per_pass_ < 1) throw ParamError("parameter 'photons' must be at least 1");
+  if (max_depth_ < 1) throw ParamError("parameter 'max_depth' must be at least 1");
+  if (rr_depth_ < 0) throw ParamError("parameter 'rr_depth' must be >= 0");
+  if (threads_ < 0) throw ParamError("parameter 'threads' must be >= 0");
+  if (tile_size_ < 1) throw ParamError("parameter 'tile_size' must be >= 1");
+  if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
+  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  const size_t n = static_cast<size_t>(width_) * height_;
+  px_.assign(n, PixelState{});
+  vp_.assign(n, VisiblePoint{});
+  pass_direct_.assign(n, RGB(0.0f));
+  first_r_.assign(n, 0.0f);
+  gather_m_.assign(n, 0.0f);
+  gather_lap_.assign(n, 0.0f);
+  gather_phi_.assign(n, RGB(0.0f));
+  error_.assign(n, 0.0f);
+  pixel_spread_ = 2.0f * scene.camera.tan_half_extent().x / width_;
+  if (scene.light_set().empty())
+    stats_.extra["warning: no lights"] = 1;  // the image is black; reported, never a hang
+}
+
+// ---- Eye pass: follow specular (and glossy) bounces to the first photon-diffuse vertex ----
+void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
+                                        std::atomic<int64_t>& invalid_out) {
+  const LightSet& lights = scene_.light_set();
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        int64_t rays = 0, invalid = 0;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            const size_t pixel = static_cast<size_t>(y) * width_ + x;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(x + rng.uniform(), y + rng.uniform());
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            Ray ray = scene_.camera.generate_ray(film, lens);
+            RGB beta(1.0f), Ld(0.0f);
+            VisiblePoint vp;
+            float path_length = 0;
+            for (int depth = 0; depth < max_depth_; ++depth) {
+              ++rays;
+              const auto hit = scene_.intersect(ray);
+              // Emission seen along the camera path: only at depth 0 or after specular/glossy
+              // bounces, which no photon covers, so nothing is counted twice.
+              if (!hit) {
+                Ld += beta * lights.environment_radiance(ray.d);
+                break;
+              }
+              path_length += hit->t;
+              if (hit->light >= 0) Ld += beta * lights.area_radiance(hit->light, -ray.d);
+              const Bsdf bsdf(scene_.material(hit->material));
+              if (bsdf.is_black()) break;
+              const Vec3 wo = hit->frame.to_local(-ray.d);
+              if (wo.z == 0) break;
+              if (bsdf.is_diffuse_for_photons(threshold_)) {
+                // ---- Measurement point; direct light by NEE when photons skip it ----
+                if (nee_ && !lights.empty()) {
+                  const float u_light = rng.uniform();
+                  const Vec2 u2(rng.uniform(), rng.uniform());
+                  if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+                    const Vec3 wi = hit->frame.to_local(ls->wi);
+                    const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
+                    if (!f.is_black()) {
+                      ++rays;
+                      bool blocked;
+                      if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
+                        blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist,
+                                                          lights.lights()[ls->light].n);
+                      } else {
+                        const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
+                        const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+                        blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
+                      }
+                      if (!blocked) Ld += beta * f * ls->L / ls->pdf;
+                    }
+                  }
+                }
+                vp.p = hit->p;
+                vp.frame = hit->frame;
+                vp.wo = wo;
+                vp.beta = beta;
+                vp.material = hit->material;
+                break;
+              }
+              // ---- Specular or glossy vertex: continue by BSDF sampling ----
+              const float uc = rng.uniform();
+              const Vec2 u(rng.uniform(), rng.uniform());
+              const auto bs = bsdf.sample(wo, uc, u);
+              if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+              beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+              const Vec3 wi = hit->frame.to_world(bs->wi);
+              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              if (depth + 1 >= rr_depth_) {
+                const float q = std::max(0.05f, 1.0f - beta.max_component());
+                if (rng.uniform() < q) break;
+                beta = beta / (1.0f - q);
+              }
+            }
+            if (!Ld.is_finite()) {
+              ++invalid;
+              Ld = RGB(0.0f);
+            }
+            if (vp.material >= 0 && !vp.beta.is_finite()) {
+              ++invalid;
+              vp.material = -1;
+            }
+            pass_direct_[pixel] = Ld;
+            vp_[pixel] = vp;
+            // Initial radius from the pixel footprint: the cone one pixel subtends, grown
+            // along the eye path (a ray-cone stand-in for ray differentials), two pixels wide.
+            first_r_[pixel] = vp.material >= 0 ? 2.0f * pixel_spread_ * path_length : 0.0f;
+          }
+        rays_out += rays;
+        invalid_out += invalid;
+      },
+      [sink] { return sink && sink->cancelled(); });
+}
+
+void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
+  const auto start = clock_type::now();
+  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  const size_t n_pixels = px_.size();
+  std::atomic<int64_t> rays{0}, invalid{0};
+
+  // ---- Measurement points (every pass for SPPM, once for PPM) ----
+  const auto t_eye = clock_type::now();
+  if (retrace_ || !have_points_) {
+    eye_pass(pass, sink, rays, invalid);
+    if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
+    have_points_ = true;
+    const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
+    for (size_t i = 0; i < n_pixels; ++i)
+      if (px_[i].r2 == 0 && vp_[i].material >= 0) {
+        const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
+        px_[i].r2 = r * r;
+      }
+  }
+  stats_.extra["eye seconds"] += seconds_since(t_eye);
+
+  // ---- Photon pass ----
+  const auto t_trace = clock_type::now();
+  const PhotonPassStats ps = tracer_.trace(photons_per_pass_, pass, nee_ ? 1 : 0, photons_);
+  stats_.extra["trace seconds"] += seconds_since(t_trace);
+  if (sink && sink->cancelled()) return;
+
+  // ---- Lookup: hash grid of this pass's photons, gathered by every measurement point ----
+  const auto t_lookup = clock_type::now();
+  double max_r2 = 0;
+  for (size_t i = 0; i < n_pixels; ++i)
+    if (vp_[i].material >= 0) max_r2 = std::max(max_r2, px_[i].r2);
+  const float max_r = static_cast<float>(std::sqrt(max_r2));
+  const bool have_photons = !photons_.empty() && max_r > 0;
+  if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);  // §10.2.2
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    for (size_t i = lo; i < hi; ++i) {
+      gather_m_[i] = 0;
+      gather_lap_[i] = 0;
+      gather_phi_[i] = RGB(0.0f);
+      const VisiblePoint& vp = vp_[i];
+      if (!have_photons || vp.material < 0) continue;
+      const Bsdf bsdf(scene_.material(vp.material));
+      const float R = static_cast<float>(std::sqrt(px_[i].r2));
+      double m = 0, lap = 0;
+      RGB phi(0.0f);
+      grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
+        const Vec3 wi = vp.frame.to_local(ph.wi);
+        if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
+        m += weight;
+        const RGB contrib = vp.beta * bsdf.eval(vp.wo, wi) * ph.power * weight;  // eq. 5.11 / 7.4
+        phi += contrib;
+        lap += contrib.luminance() * error_kernel::laplacian(d2, R);  // §6.4, eq. 6.31 (2nd order)
+      });
+      gather_m_[i] = static_cast<float>(m);
+      gather_lap_[i] = static_cast<float>(lap);
+      gather_phi_[i] = phi;
+    }
+  });
+  stats_.extra["lookup seconds"] += seconds_since(t_lookup);
+
+  // ---- Update: radius, count, flux and the error statistics of every pixel ----
+  const auto t_update = clock_type::now();
+  emitted_total_ += ps.emitted;
+  const double ne_pass = static_cast<double>(ps.emitted);
+  const double ne_total = static_cast<double>(emitted_total_);
+  std::atomic<int64_t> invalid_phi{0};
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    int64_t bad = 0;
+    for (size_t i = lo; i < hi; ++i) {
+      PixelState& s = px_[i];
+      RGB phi = gather_phi_[i];
+      double lap_j = gather_lap_[i];
+      if (!phi.is_finite() || !std::isfinite(lap_j)) {  // discard and count: NaN/Inf never reaches a pass
+        ++bad;
+        phi = RGB(0.0f);
+        lap_j = 0;
+      }
+      const RGB Ld = pass_direct_[i];  // PPM: its fixed eye path's emission, every pass
+      const double r2_query = s.r2;
+      const PhotonStatsUpdate u = progressive_update(s.n, s.r2, gather_m_[i], alpha_);
+      for (int c = 0; c < 3; ++c) {
+        s.tau[c] = (s.tau[c] + phi[c]) * u.ratio;  // thesis eq. 5.12 / 7.5
+        s.direct[c] += Ld[c];
+      }
+      s.lap = (s.lap + lap_j) * u.ratio;  // thesis eq. 6.32: derivatives scale like the flux
+      s.n = u.n_new;
+      s.r2 = u.r2_new;
+      // Bias-corrected sample of this pass, x_j = L_p,j - B'_j (eq. 6.22): the pass's own
+      // estimate with the query radius, minus the disc-kernel bias at that radius (eq. 6.17)
+      // from the progressive Laplacian (eq. 6.20).
+      double x = Ld.luminance();
+      if (r2_query > 0) {
+        const double lap_L = s.r2 > 0 ? s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+        x += phi.luminance() / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
+      }
+      s.err.add(x);
+    }
+    invalid_phi += bad;
+  });
+  stats_.passes += 1;
+  update_error_estimate();
+  stats_.extra["update seconds"] += seconds_since(t_update);
+
+  // ---- Statistics ----
+  double sum_r = 0, n_r = 0;
+  for (const PixelState& s : px_)
+    if (s.r2 > 0) { sum_r += std::sqrt(s.r2); n_r += 1; }
+  stats_.rays += rays + ps.rays;
+  stats_.paths += ps.emitted;
+  stats_.invalid_samples += invalid + invalid_phi + ps.invalid;
+  stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
+  stats_.extra["photons stored"] += static_cast<double>(ps.stored);
+  stats_.extra["photon rays"] += static_cast<double>(ps.rays);
+  stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
+  stats_.extra["estimated error"] = estimated_error_;
+  stats_.seconds += seconds_since(start);
+}
+
+void ProgressivePhotonMapping::update_error_estimate() {
+  const double i = static_cast<double>(stats_.passes);
+  const double ne_total = static_cast<double>(emitted_total_);
+  // t(i, 1 - beta/2) with 1 - beta the user's confidence (eq. 6.10; the thesis uses i dof).
+  const double t_q = student_t_quantile(i, 0.5 * (1.0 + confidence_));
+  double sum = 0;
+  size_t count = 0;
+  for (size_t k = 0; k < px_.size(); ++k) {
+    const PixelState& s = px_[k];
+    const double L = pixel_radiance(k).luminance();
+    double rel = 0;
+    if (L > 0) {
+      const double lap_L = s.r2 > 0 && ne_total > 0 ? s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+      const double bias = error_kernel::kBiasDisc * s.r2 * lap_L;            // eq. 6.20
+      rel = relative_bound(interval_half_width(t_q, s.err), bias, L);     // eq. 6.10, 6.13
+      sum += rel;
+      ++count;
+    }
+    error_[k] = static_cast<float>(std::min(rel, 1e30));
+  }
+  if (count > 0) estimated_error_ = sum / count;                       // eq. 6.33
+  else estimated_error_ = scene_.light_set().empty() ? 0.0 : INFINITY;  // no lights: black is exact
+}
+
+RGB ProgressivePhotonMapping::pixel_radiance(size_t i) const {
+  const PixelState& s = px_[i];
+  const double passes = static_cast<double>(stats_.passes);
+  if (passes <= 0) return RGB(0.0f);
+  RGB L;
+  for (int c = 0; c < 3; ++c) {
+    double v = s.direct[c] / passes;
+    if (s.r2 > 0 && emitted_total_ > 0) v += s.tau[c] / (static_cast<double>(emitted_total_) * M_PI * s.r2);  // eq. 5.13 / 7.1
+    L[c] = static_cast<float>(v);
+  }
+  return L;
+}
+
+void ProgressivePhotonMapping::develop(Film& film) const {
+  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+  Pass& combined = film.add_pass(pass::kCombined, 3);
+  Pass& error = film.add_pass(pass::kError, 1);
+  Pass& radius = film.add_pass(pass::kRadius, 1);
+  Pass& count = film.add_pass(pass::kPhotonCount, 1);
+  for (size_t i = 0; i < px_.size(); ++i) {
+    const RGB L = pixel_radiance(i);
+    for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = L[c];
+    error.data[i] = error_[i];
+    radius.data[i] = static_cast<float>(std::sqrt(px_[i].r2));
+    count.data[i] = static_cast<float>(px_[i].n);
+  }
+}
+
+}  // namespace gp

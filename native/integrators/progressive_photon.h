@@ -1,0 +1,96 @@
+// Shared machinery of progressive photon mapping (PPM, thesis ch. 5) and stochastic
+// progressive photon mapping (SPPM, ch. 7): per-pixel measurement statistics (radius,
+// accumulated count and flux), one photon pass per iterate(), gathering through a photon
+// hash grid (exact or stochastic, ch. 10) and the progressive error estimate of ch. 6.
+// ppm.h and sppm.h hold the two methods' documentation and parameter tables.
+//
+// Gathering (each measurement point queries the grid of this pass's photons) rather than
+// splatting: every pixel sums its own photons in a fixed order, so no atomics, no
+// thread-count dependence, and the smooth-kernel Laplacian of §6.4 is computed where the
+// point's radius is known.
+#pragma once
+
+#include <vector>
+
+#include "accel/photon_hash.h"
+#include "core/frame.h"
+#include "core/rng.h"
+#include "integrators/error_estimate.h"
+#include "integrators/integrator.h"
+#include "integrators/photon_tracer.h"
+
+namespace gp {
+
+// Radius and flux update of one measurement point after a photon pass (thesis eq. 5.7, 5.9,
+// 5.12; with shared statistics eq. 7.2, 7.3, 7.5). `m` photons found, carrying `phi`.
+struct PhotonStatsUpdate {
+  double n_new, r2_new, ratio;  // ratio = (N + alpha M) / (N + M) = R_new^2 / R^2
+};
+inline PhotonStatsUpdate progressive_update(double n, double r2, double m, double alpha) {
+  if (!(m > 0)) return {n, r2, 1.0};
+  const double ratio = (n + alpha * m) / (n + m);
+  return {n + alpha * m,  // thesis eq. 5.7
+          r2 * ratio,     // thesis eq. 5.9 (squared): R^2 (N + alpha M) / (N + M)
+          ratio};         // thesis eq. 5.12: tau_new = (tau_N + tau_M) * ratio
+}
+
+class ProgressivePhotonMapping : public Integrator {
+ public:
+  // retrace: new measurement points every pass (SPPM) or once (PPM).
+  // nee: direct light at the measurement point by next-event estimation and photons only
+  //      after one bounce (SPPM), or every photon deposit (PPM, as the thesis' ch. 5).
+  ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee);
+  void iterate(ProgressSink* sink) override;
+  void develop(Film& film) const override;
+  double estimated_error() const override { return estimated_error_; }
+
+  // Radiance (RGB) of pixel i as the image shows it, for tests.
+  RGB pixel_radiance(size_t i) const;
+
+ protected:
+  struct VisiblePoint {
+    Vec3 p;
+    Frame frame;
+    Vec3 wo;            // local
+    RGB beta;           // eye path throughput up to the point
+    int material = -1;  // -1: no measurement point this pass
+  };
+  struct PixelState {
+    double r2 = 0;                 // R_i^2 (0 until the pixel first sees a diffuse surface)
+    double n = 0;                  // N_i
+    double tau[3] = {0, 0, 0};     // flux within R_i, not divided by the photons emitted
+    double lap = 0;                // smooth-kernel Laplacian of the luminance flux (§6.4)
+    double direct[3] = {0, 0, 0};  // sum over passes of the eye path's own light (Le, NEE)
+    ErrorStats err;                // bias-corrected per-pass samples (eq. 6.22)
+  };
+
+  void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+  void update_error_estimate();
+
+  const Scene& scene_;
+  bool retrace_, nee_;
+  double alpha_, radius_, confidence_;
+  int64_t photons_per_pass_;
+  PhotonHashMode hash_mode_;
+  int max_depth_, rr_depth_, threads_, tile_size_;
+  float threshold_;
+  uint64_t seed_;
+  int width_, height_;
+  float pixel_spread_;  // angle one pixel subtends (ray-cone approximation of ray differentials)
+
+  PhotonTracer tracer_;
+  PhotonHashGrid grid_;
+  std::vector<Photon> photons_;        // this pass only; cleared (capacity kept) every pass
+  std::vector<VisiblePoint> vp_;
+  std::vector<RGB> pass_direct_;       // this pass's eye-path light per pixel
+  std::vector<float> first_r_;         // footprint radius proposed by the eye pass
+  std::vector<PixelState> px_;
+  std::vector<float> gather_m_, gather_lap_;
+  std::vector<RGB> gather_phi_;
+  bool have_points_ = false;
+  double estimated_error_ = INFINITY;
+  std::vector<float> error_;           // per-pixel relative bound (eq. 6.13)
+  int64_t emitted_total_ = 0;
+};
+
+}  // namespace gp

@@ -1,0 +1,40 @@
+// Stochastic progressive photon mapping (SPPM): thesis ch. 7 (Hachisuka, Jensen 2009).
+// Every iterate() re-traces one camera path per pixel (jittered in the pixel and on the lens,
+// through specular and glossy bounces) to a new measurement point, then gathers one photon
+// pass there into statistics shared by the whole pixel: radius eq. 7.3, count eq. 7.2, flux
+// eq. 7.4-7.5, radiance eq. 7.1. Anti-aliasing, depth of field and glossy-seen-through-
+// specular converge because the statistics are shared over the pixel (§7.3).
+//
+// Light at the measurement point: direct light by next-event estimation (one light sample,
+// no MIS because the camera path ends there) and everything else from photons deposited
+// after at least one bounce; emission is added where the camera path meets it at depth 0 or
+// after a specular/glossy bounce. Each light path is thus counted by exactly one estimator.
+// The error estimate (thesis ch. 6) treats each pixel as one measurement point whose per-pass
+// sample is this pass's direct light plus its photon estimate.
+//
+// Parameters (defaults):
+//   photons             100000  photons emitted per pass
+//   alpha               0.7     fraction of new photons kept (eq. 7.2)
+//   radius              0       initial radius in metres; 0 = from the pixel footprint
+//                               (the pixel's cone grown along the eye path, two pixels wide)
+//   confidence          0.5     confidence 1 - beta of the error bound (eq. 6.10)
+//   hash                exact   photon lookup: exact | stochastic (thesis ch. 10)
+//   specular_threshold  0.05    roughness at or below which a surface is specular for photons
+//   max_depth           32      longest eye or photon path in segments
+//   rr_depth            3       eye-path depth from which Russian roulette may end it
+//   seed 0, threads 0, tile_size 16 as for "pt"
+//
+// Passes: combined, error, radius, photon_count.
+#pragma once
+
+#include "integrators/progressive_photon.h"
+
+namespace gp {
+
+class Sppm : public ProgressivePhotonMapping {
+ public:
+  Sppm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {}
+  std::string name() const override { return "sppm"; }
+};
+
+}  // namespace gp

@@ -1,0 +1,169 @@
+// PPM and SPPM: the radius/flux update against hand-computed values of thesis eq. 5.9/5.12,
+// convergence to the path-traced reference on the Cornell box, determinism, parameters, and
+// the error estimate with its stop rule.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "integrators/error_estimate.h"
+#include "integrators/integrator.h"
+#include "integrators/progressive_photon.h"
+#include "io/metrics.h"
+#include "scene/loader.h"
+
+namespace gp {
+namespace {
+
+Scene cornell(int w, int h) {
+  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
+  s.camera.width = w;
+  s.camera.height = h;
+  return s;
+}
+
+Film render(const std::string& method, const Scene& scene, int passes, Params p) {
+  auto integ = make_integrator(method, scene, p);
+  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
+  Film film;
+  integ->develop(film);
+  return film;
+}
+
+Params photon_params(int64_t photons, uint64_t seed = 1, int threads = 0) {
+  Params p;
+  p.set("photons", photons);
+  p.set("seed", seed);
+  p.set("threads", threads);
+  return p;
+}
+
+// The PT reference is shared by the tests of this file (rendered once).
+const Film& cornell_reference() {
+  static const Film ref = [] {
+    Params p;
+    p.set("seed", 99);
+    return render("pt", cornell(40, 40), 512, p);
+  }();
+  return ref;
+}
+
+TEST(PhotonUpdate, RadiusAndFluxFollowEquations5_9And5_12) {
+  // N = 10, R^2 = 4, M = 5, alpha = 0.7: N' = 10 + 3.5 = 13.5, ratio = 13.5 / 15 = 0.9,
+  // R'^2 = 3.6 (R' = 2 sqrt(0.9) = 1.897...), tau' = (tau + phi) * 0.9.
+  const PhotonStatsUpdate u = progressive_update(10, 4, 5, 0.7);
+  EXPECT_DOUBLE_EQ(u.n_new, 13.5);
+  EXPECT_DOUBLE_EQ(u.ratio, 0.9);
+  EXPECT_DOUBLE_EQ(u.r2_new, 3.6);
+  EXPECT_NEAR(std::sqrt(u.r2_new), 1.8973665961, 1e-9);
+  // First pass (N = 0): N' = alpha M, R'^2 = alpha R^2.
+  const PhotonStatsUpdate first = progressive_update(0, 1, 8, 0.7);
+  EXPECT_DOUBLE_EQ(first.n_new, 5.6);
+  EXPECT_NEAR(first.r2_new, 0.7, 1e-15);
+  // No photons: nothing changes (thesis §5.3.3, unlit points keep their radius).
+  const PhotonStatsUpdate none = progressive_update(3, 2, 0, 0.7);
+  EXPECT_EQ(none.n_new, 3);
+  EXPECT_EQ(none.r2_new, 2);
+  EXPECT_EQ(none.ratio, 1);
+}
+
+TEST(ErrorEstimate, KernelAndQuantiles) {
+  using namespace error_kernel;
+  EXPECT_DOUBLE_EQ(K(0), 1);
+  EXPECT_NEAR(K(1 - 1e-12), 0, 1e-9);
+  EXPECT_NEAR(dK(1 - 1e-9), 0, 1e-9);
+  // Integral of K over the unit disk is k1 = 2 pi / 7 (appendix 6.8.1).
+  double integral = 0;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    const double t = (i + 0.5) / n;
+    integral += K(t) * 2 * M_PI * t / n;
+  }
+  EXPECT_NEAR(integral, kK1, 1e-6);
+  EXPECT_NEAR(normal_quantile(0.975), 1.959963985, 1e-6);
+  EXPECT_NEAR(student_t_quantile(1, 0.95), 6.313751515, 1e-6);
+  EXPECT_NEAR(student_t_quantile(2, 0.95), 2.919985580, 1e-6);
+  EXPECT_NEAR(student_t_quantile(5, 0.95), 2.015048373, 2e-3);
+  EXPECT_NEAR(student_t_quantile(30, 0.975), 2.042272456, 1e-4);
+  EXPECT_NEAR(student_t_quantile(10, 0.75), 0.699812061, 1e-3);
+}
+
+TEST(Sppm, ConvergesToThePathTracedCornellBox) {
+  const Film sppm = render("sppm", cornell(40, 40), 48, photon_params(20000));
+  const DiffResult d = diff_images(sppm.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);
+  EXPECT_NEAR(d.mean_ratio, 1.0, 0.03);
+  EXPECT_LT(d.rel_mse, 0.03);
+  for (const char* name : {"error", "radius", "photon_count"}) EXPECT_TRUE(sppm.has_pass(name)) << name;
+}
+
+TEST(Ppm, ConvergesInMeanOnTheCornellBox) {
+  // One fixed measurement point per pixel: aliased edges, so compare the image mean.
+  const Film ppm = render("ppm", cornell(40, 40), 48, photon_params(20000));
+  const DiffResult d = diff_images(ppm.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);
+  EXPECT_NEAR(d.mean_ratio, 1.0, 0.05);
+}
+
+TEST(Sppm, SameImageWhateverTheThreadCount) {
+  const Scene s = cornell(24, 20);
+  const Film one = render("sppm", s, 3, photon_params(5000, 4, 1));
+  const Film two = render("sppm", s, 3, photon_params(5000, 4, 2));
+  const Film other = render("sppm", s, 3, photon_params(5000, 5, 2));
+  EXPECT_EQ(one.pass(pass::kCombined).data, two.pass(pass::kCombined).data);
+  EXPECT_EQ(one.pass(pass::kError).data, two.pass(pass::kError).data);
+  EXPECT_NE(one.pass(pass::kCombined).data, other.pass(pass::kCombined).data);
+}
+
+TEST(Sppm, RejectsBadParametersByName) {
+  const Scene s = cornell(8, 8);
+  for (auto [name, value] : std::vector<std::pair<std::string, nlohmann::json>>{
+           {"alpha", 1.0}, {"alpha", 0.0}, {"photons", 0}, {"radius", -1.0}, {"confidence", 1.5},
+           {"hash", "fuzzy"}, {"alpha", "x"}}) {
+    Params p(nlohmann::json{{name, value}});
+    try {
+      make_integrator("sppm", s, p);
+      ADD_FAILURE() << name << " = " << value.dump() << " accepted";
+    } catch (const ParamError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+  Params typo(nlohmann::json{{"alhpa", 0.5}});
+  make_integrator("ppm", s, typo);
+  EXPECT_EQ(typo.unused(), std::vector<std::string>{"alhpa"});
+}
+
+TEST(Sppm, ErrorEstimateFallsAndStopsTheRender) {
+  const Scene s = cornell(24, 24);
+  auto integ = make_integrator("sppm", s, photon_params(10000));
+  EXPECT_GT(integ->estimated_error(), 1e10) << "no estimate before two passes";
+  run_progressive(*integ, StopRule{0, 4, 0}, nullptr);
+  const double e4 = integ->estimated_error();
+  run_progressive(*integ, StopRule{0, 32, 0}, nullptr);
+  const double e32 = integ->estimated_error();
+  EXPECT_TRUE(std::isfinite(e4));
+  EXPECT_LT(e32, e4);
+  // Render until error: stops as soon as the average estimate is below the target.
+  auto until = make_integrator("sppm", s, photon_params(10000));
+  run_progressive(*until, StopRule{0, 2000, 0.5 * e4}, nullptr);
+  EXPECT_LE(until->estimated_error(), 0.5 * e4);
+  EXPECT_LT(until->stats().passes, 2000);
+  EXPECT_GT(until->stats().passes, 4);
+  EXPECT_EQ(until->stats().extra.at("estimated error"), until->estimated_error());
+}
+
+}  // namespace
+}  // namespace gp
+
+namespace gp {
+namespace {
+
+TEST(Sppm, StochasticHashingGivesTheSameImageInExpectation) {
+  Params p = photon_params(20000);
+  p.set("hash", "stochastic");
+  const Film st = render("sppm", cornell(40, 40), 48, p);
+  const DiffResult d = diff_images(st.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);
+  EXPECT_NEAR(d.mean_ratio, 1.0, 0.03);
+  EXPECT_LT(d.rel_mse, 0.06);
+}
+
+}  // namespace
+}  // namespace gp
