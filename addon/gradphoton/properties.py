@@ -39,12 +39,18 @@ METHOD_PARAMS = {
     "max_depth": "max_depth",
     "seed": "seed",
     "threads": "threads",
-    "photons_per_pass": "photons_per_pass",
+    "photons": "photons_per_pass",
     "alpha": "alpha",
-    "initial_radius": "initial_radius",
-    "poisson_alpha": "poisson_alpha",
-    "reconstruction": "reconstruction",
+    "radius": "initial_radius",
+    "confidence": "confidence",
+    "hash": "photon_hash",
+    "lambda": "poisson_lambda",
+    "recon": "reconstruction",
 }
+
+# Which parameter groups the panel shows for a method (the core reads only its own).
+PHOTON_METHODS = {"ppm", "sppm", "gpm", "appm", "msppm"}
+GRADIENT_METHODS = {"gpt", "gpm", "gdmlt"}
 
 
 class GradphotonRenderSettings(bpy.types.PropertyGroup):
@@ -63,17 +69,22 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
                            description="Longest path in segments (camera ray = 1)")
     seed: IntProperty(name="Seed", default=0, min=0, description="Random seed")
     threads: IntProperty(name="Threads", default=0, min=0, max=1024, description="Worker threads (0 = all cores)")
-    photons_per_pass: IntProperty(name="Photons per Pass", default=200000, min=1000,
+    photons_per_pass: IntProperty(name="Photons per Pass", default=100000, min=1000,
                                   description="Photon paths traced per pass (photon methods)")
     alpha: FloatProperty(name="Alpha", default=0.7, min=0.01, max=1.0,
                          description="Radius reduction of progressive photon mapping (thesis eq. 5.9; 0.7)")
     initial_radius: FloatProperty(name="Initial Radius", default=0.0, min=0.0, unit='LENGTH', subtype='DISTANCE',
-                                  description="Initial photon gather radius (0 = automatic from the scene size)")
-    poisson_alpha: FloatProperty(name="Poisson Lambda", default=0.2, min=0.0,
-                                 description="Weight of the primal image in the screened Poisson reconstruction")
-    reconstruction: EnumProperty(name="Reconstruction", default="L2",
-                                 items=[("L2", "L2", "Screened Poisson, least squares"),
-                                        ("L1", "L1", "Screened Poisson, L1 by iteratively reweighted least squares")])
+                                  description="Initial photon gather radius (0 = automatic from the pixel footprint)")
+    confidence: FloatProperty(name="Confidence", default=0.5, min=0.01, max=0.999,
+                              description="Confidence of the estimated error bound (thesis eq. 6.10)")
+    photon_hash: EnumProperty(name="Photon Lookup", default="exact",
+                              items=[("exact", "Exact", "Spatial hash grid with every photon"),
+                                     ("stochastic", "Stochastic", "One photon per cell, flux scaled (thesis ch. 10)")])
+    poisson_lambda: FloatProperty(name="Poisson Lambda", default=0.2, min=0.0,
+                                  description="Weight of the primal image in the screened Poisson reconstruction")
+    reconstruction: EnumProperty(name="Reconstruction", default="l2",
+                                 items=[("l2", "L2", "Screened Poisson, least squares"),
+                                        ("l1", "L1", "Screened Poisson, L1 by iteratively reweighted least squares")])
     export_uvs: BoolProperty(name="Export UVs", default=False,
                              description="Export UV maps (splits vertices at UV seams; no material uses UVs yet)")
 

@@ -4,6 +4,7 @@ added to their COMPAT_ENGINES, as other engines do."""
 import bpy
 
 from . import native
+from .properties import GRADIENT_METHODS, PHOTON_METHODS
 
 ENGINE = "GRADPHOTON"
 
@@ -46,14 +47,17 @@ class GRADPHOTON_PT_method(GradphotonPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         s = context.scene.gradphoton
         layout.prop(s, "max_depth")
-        if s.method != "pt":
+        if s.method in PHOTON_METHODS:
             col = layout.column(heading="Photons")
             col.prop(s, "photons_per_pass")
             col.prop(s, "alpha")
             col.prop(s, "initial_radius")
+            col.prop(s, "photon_hash")
+            col.prop(s, "confidence")
+        if s.method in GRADIENT_METHODS:
             col = layout.column(heading="Reconstruction")
             col.prop(s, "reconstruction")
-            col.prop(s, "poisson_alpha")
+            col.prop(s, "poisson_lambda")
 
 
 class GRADPHOTON_PT_performance(GradphotonPanel, bpy.types.Panel):

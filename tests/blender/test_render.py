@@ -55,6 +55,23 @@ def test_batch_render_writes_every_registered_pass(empty_scene, out_dir):
     assert combined[-1].mean() > combined[0].mean()
 
 
+def test_sppm_batch_render_fills_its_own_passes(empty_scene, out_dir):
+    """A photon method writes its error, radius and photon-count passes into the EXR."""
+    small_scene(empty_scene)
+    settings = empty_scene.gradphoton
+    settings.method, settings.photons_per_pass, settings.passes = "sppm", 20000, 4
+    blend = str(out_dir / "sppm.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    r = batch_render(blend, str(out_dir / "sppm_"), "-f", "1")
+    assert r.returncode == 0, r.stdout + r.stderr
+    exr = native.get().read_exr(str(out_dir / "sppm_0001.exr"))
+    labels = {n: label for n, _, label in native.get().passes()}
+    for name in ("error", "radius", "photon_count"):
+        img = exr[f"ViewLayer.{labels[name]}"]
+        assert np.isfinite(img).all() and img.max() > 0, name
+    assert exr["ViewLayer.Combined"].mean() > 0.01
+
+
 def test_animation_frames(empty_scene, out_dir):
     small_scene(empty_scene)
     empty_scene.frame_start, empty_scene.frame_end = 1, 2
