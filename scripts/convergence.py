@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """Error against time for every (scene, method): the chart gradphoton is judged by.
 
-For each scene, renders a reference (a long path-traced run with a fixed seed and pass count,
-cached under build/references/), then runs every method with --checkpoints, diffs each
-snapshot against the reference with `gradphoton diff` (relMSE of the gradient-domain photon
-paper), writes a CSV and draws one log-log chart per scene with all its methods.
+For each scene, renders a reference (a long run, path traced unless --ref-method says
+otherwise, with a fixed seed and pass count, cached under build/references/), then runs every
+method with --checkpoints, diffs each snapshot against the reference with `gradphoton diff`
+(relMSE of the gradient-domain photon paper), writes a CSV and draws one log-log chart per
+scene with all its methods.
 
     scripts/convergence.py --scenes cornell-box torus-glass --methods pt \
         --checkpoints 1,2,4,8,16 --ref-passes 4096 --scale 0.5
@@ -40,11 +41,11 @@ def reference(scene, args):
     """Long fixed-seed path-traced render, cached by scene, size and pass count."""
     ref_dir = ROOT / "build" / "references"
     ref_dir.mkdir(parents=True, exist_ok=True)
-    tag = f"{scene}-x{args.scale:g}-pt-{args.ref_passes}p-seed{args.ref_seed}"
+    tag = f"{scene}-x{args.scale:g}-{args.ref_method}-{args.ref_passes}p-seed{args.ref_seed}"
     path = ref_dir / f"{tag}.exr"
     scene_file = ROOT / "scenes" / f"{scene}.json"
     if not path.exists() or path.stat().st_mtime < scene_file.stat().st_mtime:
-        run([CLI, "render", scene_file, "--method", "pt", "--passes", args.ref_passes,
+        run([CLI, "render", scene_file, "--method", args.ref_method, "--passes", args.ref_passes,
              "--seed", args.ref_seed, "-o", path, *size_args(scene, args)])
     return path
 
@@ -60,6 +61,8 @@ def main():
     ap.add_argument("--methods", nargs="+", default=["pt"])
     ap.add_argument("--checkpoints", default="1,2,4,8,16,32", help="seconds, comma separated")
     ap.add_argument("--ref-passes", type=int, default=4096)
+    ap.add_argument("--ref-method", default="pt",
+                    help="method of the reference (pt; a long sppm run is cleaner on SDS scenes)")
     ap.add_argument("--ref-seed", type=int, default=1000003)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scale", type=float, default=0.5, help="image size relative to the scene's camera")

@@ -5,6 +5,7 @@
 #include <span>
 #include <vector>
 
+#include "core/color.h"
 #include "core/math.h"
 
 namespace gp {
@@ -30,6 +31,15 @@ inline float power_heuristic(float pdf_a, float pdf_b) {
 }
 inline float balance_heuristic(float pdf_a, float pdf_b) {
   return pdf_a + pdf_b > 0 ? pdf_a / (pdf_a + pdf_b) : 0.0f;
+}
+
+// Russian roulette on a path throughput: the path survives with probability
+// 1 - q, q = max(0.05, 1 - max(beta)), and beta is divided by it. Returns false when it ends.
+inline bool russian_roulette(RGB& beta, float u) {
+  const float q = std::max(0.05f, 1.0f - beta.max_component());
+  if (u < q) return false;
+  beta = beta / (1.0f - q);
+  return true;
 }
 
 // Piecewise-constant discrete distribution: sample an index with probability w_i / sum(w).

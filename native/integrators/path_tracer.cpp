@@ -99,11 +99,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
 
     // ---- Russian roulette ----
-    if (depth + 1 >= rr_depth_) {
-      const float q = std::max(0.05f, 1.0f - beta.max_component());
-      if (rng.uniform() < q) break;
-      beta = beta / (1.0f - q);
-    }
+    if (depth + 1 >= rr_depth_ && !russian_roulette(beta, rng.uniform())) break;
   }
   return L;
 }

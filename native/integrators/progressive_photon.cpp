@@ -132,11 +132,7 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
               beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
               const Vec3 wi = hit->frame.to_world(bs->wi);
               ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
-              if (depth + 1 >= rr_depth_) {
-                const float q = std::max(0.05f, 1.0f - beta.max_component());
-                if (rng.uniform() < q) break;
-                beta = beta / (1.0f - q);
-              }
+              if (depth + 1 >= rr_depth_ && !russian_roulette(beta, rng.uniform())) break;
             }
             if (!Ld.is_finite()) {
               ++invalid;

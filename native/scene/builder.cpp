@@ -129,13 +129,7 @@ Scene SceneBuilder::finalize() {
     scene.meshes.push_back(std::move(p.mesh));
   }
   meshes_.clear();
-  try {
-    scene.finalize();
-  } catch (const SceneError&) {
-    throw;
-  } catch (const std::runtime_error& e) {
-    throw SceneError(e.what());
-  }
+  finalize_scene(scene);
   return scene;
 }
 

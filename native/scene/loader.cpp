@@ -777,6 +777,11 @@ Scene parse_scene_from_string(const std::string& json_text, const std::string& b
 Scene load_scene_from_string(const std::string& json_text, const std::string& base_dir,
                              const std::string& name_for_messages) {
   Scene scene = parse_scene_from_string(json_text, base_dir, name_for_messages);
+  finalize_scene(scene);
+  return scene;
+}
+
+void finalize_scene(Scene& scene) {
   try {
     scene.finalize();
   } catch (const SceneError&) {
@@ -785,7 +790,6 @@ Scene load_scene_from_string(const std::string& json_text, const std::string& ba
     // Scene::finalize's messages start with scene.source and name the mesh.
     throw SceneError(e.what());
   }
-  return scene;
 }
 
 Scene load_scene(const std::string& path) {

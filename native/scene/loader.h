@@ -37,4 +37,7 @@ Scene load_scene_from_string(const std::string& json_text, const std::string& ba
 Scene parse_scene_from_string(const std::string& json_text, const std::string& base_dir,
                               const std::string& name_for_messages);
 
+// scene.finalize() with its errors (which name the mesh) turned into SceneError.
+void finalize_scene(Scene& scene);
+
 }  // namespace gp
