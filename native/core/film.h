@@ -16,6 +16,12 @@ namespace gp {
 // exposes kAll so the addon registers exactly these with Blender (tested there).
 namespace pass {
 inline constexpr std::string_view kCombined = "combined";
+// Gradient-domain methods: the primal (throughput) image and the forward-difference gradients
+// G_x(x, y) = I(x+1, y) - I(x, y), G_y(x, y) = I(x, y+1) - I(x, y) (row 0 at the top) that the
+// screened Poisson reconstruction turns into `combined` (reconstruction/poisson.h).
+inline constexpr std::string_view kPrimal = "primal";
+inline constexpr std::string_view kGradientX = "gradient_x";
+inline constexpr std::string_view kGradientY = "gradient_y";
 
 struct Info {
   std::string_view name;
@@ -25,6 +31,9 @@ struct Info {
 // Every pass any method may produce. A method's develop() writes a subset.
 inline constexpr Info kAll[] = {
     {kCombined, 3, "Combined"},
+    {kPrimal, 3, "Primal"},
+    {kGradientX, 3, "Gradient X"},
+    {kGradientY, 3, "Gradient Y"},
 };
 }  // namespace pass
 
