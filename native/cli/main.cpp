@@ -108,7 +108,8 @@ std::string scene_summary(const Scene& scene) {
 
 // ---- render ----
 struct RenderArgs {
-  std::string scene, method = "pt", out, png;
+  std::string scene, method = "pt", out, png, recon;
+  double lambda = 0;
   double seconds = 0;
   int64_t passes = 0;
   int width = 0, height = 0, threads = 0, max_depth = 0;
@@ -133,6 +134,8 @@ int run_render(const RenderArgs& a) {
   params.set("seed", a.seed);
   params.set("threads", a.threads);
   if (a.max_depth > 0) params.set("max_depth", a.max_depth);
+  if (!a.recon.empty()) params.set("recon", a.recon);
+  if (a.lambda > 0) params.set("lambda", a.lambda);
   for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
@@ -362,6 +365,10 @@ int main(int argc, char** argv) {
   render->add_option("--png", ra.png, "Also write a display PNG through OpenColorIO");
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
+  render->add_option("--recon", ra.recon, "Gradient methods: screened Poisson reconstruction l2 (default) or l1")
+      ->check(CLI::IsMember({"l1", "l2"}));
+  render->add_option("--lambda", ra.lambda, "Gradient methods: weight of the primal image (default 0.2)")
+      ->check(CLI::PositiveNumber);
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
 
   std::string diff_a, diff_ref, diff_pass = "combined", diff_png;
