@@ -85,3 +85,24 @@ def test_cli_reconstruct_from_one_or_two_exrs(tmp_path):
     p = subprocess.run([str(CLI), "reconstruct", str(tmp_path / "primal.exr"), "-o", str(tmp_path / "x.exr")],
                        capture_output=True, text=True)
     assert p.returncode != 0 and "gradient_x" in p.stderr
+
+
+def test_gpt_session_and_cli_flags(tmp_path):
+    scene = _native.load_scene(str(ROOT / "scenes" / "cornell-box.json"))
+    scene.width, scene.height = 24, 20
+    session = _native.Session(scene, "gpt", {"seed": 2, "recon": "l1", "lambda": 0.3})
+    session.run(passes=2)
+    passes = session.develop()
+    assert set(passes) == {"combined", "primal", "gradient_x", "gradient_y"}
+    assert all(np.isfinite(a).all() and a.shape == (20, 24, 3) for a in passes.values())
+    assert any(k.startswith("shift failed: ") for k in session.stats)
+    out = tmp_path / "gpt.exr"
+    p = subprocess.run([str(CLI), "render", str(ROOT / "scenes" / "cornell-box.json"), "--method", "gpt",
+                        "--recon", "l1", "--lambda", "0.5", "--passes", "2", "--width", "16", "--height", "16",
+                        "-o", str(out)], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert "warning" not in p.stderr  # recon and lambda are read by gpt
+    assert set(_native.read_exr(str(out))) == {"combined", "primal", "gradient_x", "gradient_y"}
+    p = subprocess.run([str(CLI), "render", str(ROOT / "scenes" / "cornell-box.json"), "--method", "gpt",
+                        "--recon", "l3", "-o", str(out)], capture_output=True, text=True)
+    assert p.returncode != 0
