@@ -19,6 +19,12 @@ inline constexpr std::string_view kCombined = "combined";
 inline constexpr std::string_view kError = "error";               // estimated relative error (thesis eq. 6.13)
 inline constexpr std::string_view kRadius = "radius";             // photon gathering radius (m)
 inline constexpr std::string_view kPhotonCount = "photon_count";  // accumulated photon count N
+// Gradient-domain methods: the primal (throughput) image and the forward-difference gradients
+// G_x(x, y) = I(x+1, y) - I(x, y), G_y(x, y) = I(x, y+1) - I(x, y) (row 0 at the top) that the
+// screened Poisson reconstruction turns into `combined` (reconstruction/poisson.h).
+inline constexpr std::string_view kPrimal = "primal";
+inline constexpr std::string_view kGradientX = "gradient_x";
+inline constexpr std::string_view kGradientY = "gradient_y";
 
 struct Info {
   std::string_view name;
@@ -31,6 +37,9 @@ inline constexpr Info kAll[] = {
     {kError, 1, "Estimated Error"},
     {kRadius, 1, "Photon Radius"},
     {kPhotonCount, 1, "Photon Count"},
+    {kPrimal, 3, "Primal"},
+    {kGradientX, 3, "Gradient X"},
+    {kGradientY, 3, "Gradient Y"},
 };
 }  // namespace pass
 

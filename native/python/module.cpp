@@ -9,6 +9,7 @@
 #include "core/film.h"
 #include "integrators/integrator.h"
 #include "io/exr.h"
+#include "reconstruction/poisson.h"
 #include "scene/builder.h"
 #include "scene/loader.h"
 
@@ -140,6 +141,58 @@ PYBIND11_MODULE(_native, m) {
     }
     return out;
   }, py::arg("path"), "Read an EXR: {pass name: float32 array (H, W, C)}, row 0 at the top");
+
+  m.def("write_exr", [](const std::string& path, const py::dict& passes) {
+    Film film;
+    for (const auto& [key, value] : passes) {
+      if (!py::isinstance<py::array_t<float>>(value)) throw py::type_error("passes must be numpy float32 arrays");
+      auto a = value.cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+      if (a.ndim() != 3 || (a.shape(2) != 1 && a.shape(2) != 3))
+        throw py::value_error("passes must have shape (H, W, 1) or (H, W, 3)");
+      if (film.width() == 0) film = Film(static_cast<int>(a.shape(1)), static_cast<int>(a.shape(0)));
+      if (a.shape(0) != film.height() || a.shape(1) != film.width())
+        throw py::value_error("all passes must have the same height and width");
+      Pass& p = film.add_pass(key.cast<std::string>(), static_cast<int>(a.shape(2)));
+      std::copy(a.data(), a.data() + a.size(), p.data.begin());
+    }
+    py::gil_scoped_release release;
+    write_exr(path, film);
+  }, py::arg("path"), py::arg("passes"), "Write {pass name: float32 array (H, W, C)} as a multi-layer EXR");
+  m.def("reconstruct", [](const py::object& primal, const py::object& gx, const py::object& gy, double lam,
+                          const std::string& method, int threads) {
+    auto check = [](const py::object& obj, const char* what) {
+      if (!py::isinstance<py::array_t<float>>(obj)) throw py::type_error(std::string(what) + " must be a numpy float32 array");
+      auto a = obj.cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+      if (a.ndim() != 3) throw py::value_error(std::string(what) + " must have shape (H, W, C)");
+      return a;
+    };
+    auto p = check(primal, "primal"), x = check(gx, "gx"), y = check(gy, "gy");
+    for (int d = 0; d < 3; ++d)
+      if (x.shape(d) != p.shape(d) || y.shape(d) != p.shape(d))
+        throw py::value_error("primal, gx and gy must have the same shape");
+    const int h = static_cast<int>(p.shape(0)), w = static_cast<int>(p.shape(1)), c = static_cast<int>(p.shape(2));
+    ReconOptions o;
+    try {
+      o.norm = parse_recon_norm(method);
+    } catch (const std::invalid_argument& e) {
+      throw py::value_error(e.what());
+    }
+    o.lambda = lam;
+    o.threads = threads;
+    if (!(lam > 0)) throw py::value_error("lam must be > 0");
+    std::vector<float> vp(p.data(), p.data() + p.size()), vx(x.data(), x.data() + x.size()),
+        vy(y.data(), y.data() + y.size()), r;
+    {
+      py::gil_scoped_release release;
+      r = screened_poisson(vp, vx, vy, w, h, c, o);
+    }
+    py::array_t<float> out({h, w, c});
+    std::copy(r.begin(), r.end(), out.mutable_data());
+    return out;
+  }, py::arg("primal"), py::arg("gx"), py::arg("gy"), py::arg("lam") = 0.2, py::arg("method") = "l2",
+     py::arg("threads") = 0,
+     "Screened Poisson reconstruction (gradient-domain photon paper eq. 3) of float32 (H, W, C) arrays: "
+     "gx[y, x] = I[y, x+1] - I[y, x], gy[y, x] = I[y+1, x] - I[y, x]; method 'l2' (exact, DCT) or 'l1' (IRLS)");
 
   py::register_exception<SceneError>(m, "SceneError", PyExc_ValueError);
   py::register_exception<ParamError>(m, "ParamError", PyExc_ValueError);

@@ -1,0 +1,481 @@
+// Gradient-domain path tracing (see gpt.h for the method, parameters and references).
+#include "integrators/gradient/gpt.h"
+
+#include <chrono>
+#include <mutex>
+
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "integrators/gradient/shift.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+namespace {
+
+constexpr int kOffsetX[4] = {1, -1, 0, 0};
+constexpr int kOffsetY[4] = {0, 0, 1, -1};
+// Right and down offsets estimate I(offset) - I(base); left and up estimate I(base) - I(offset),
+// the forward difference stored at the offset pixel.
+constexpr float kSign[4] = {1, -1, 1, -1};
+
+enum class Link { NotConnected, RecentlyConnected, Connected };
+
+// One offset path while the base path is traced.
+struct Offset {
+  bool exists = false;        // inside the image
+  ShiftFailure failure = ShiftFailure::None;
+  Link link = Link::NotConnected;
+  std::optional<SurfaceHit> hit;  // own vertex while NotConnected
+  Ray ray;                     // own ray while NotConnected
+  Vec3 wo;                     // world direction towards the previous vertex (RecentlyConnected)
+  RGB beta{1.0f};              // throughput in the base path's measure (Jacobians included)
+  double ratio = 1;            // p(T x) |T'| / p(x) of the prefix, for the gradient MIS
+  float prev_pdf = 0;          // own solid-angle BSDF pdf of the last segment (its NEE/BSDF MIS)
+  Vec3 prev_p;                 // own previous vertex
+  bool alive() const { return exists && failure == ShiftFailure::None; }
+};
+
+// Offset for a delta vertex: the same lobe (reflection or transmission) from the offset's own
+// wo, with its Dirac weights; sample() picks the lobe from uc.
+std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, bool transmission) {
+  const float uc = transmission ? 1.0f - 0x1p-24f : 0.0f;
+  auto s = bsdf.sample(wo, uc, Vec2(0.5f, 0.5f));
+  if (!s || s->transmission != transmission) return std::nullopt;
+  return s;
+}
+
+}  // namespace
+
+GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
+    : scene_(scene),
+      max_depth_(params.get<int>("max_depth", 32)),
+      rr_depth_(params.get<int>("rr_depth", 3)),
+      threads_(params.get<int>("threads", 0)),
+      tile_size_(params.get<int>("tile_size", 16)),
+      seed_(params.get<uint64_t>("seed", 0)),
+      width_(scene.camera.width),
+      height_(scene.camera.height) {
+  if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
+  if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
+  if (threads_ < 0) throw ParamError("threads must be >= 0");
+  if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
+  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  const std::string recon = params.get<std::string>("recon", "l2");
+  try {
+    recon_.norm = parse_recon_norm(recon);
+  } catch (const std::invalid_argument& e) {
+    throw ParamError(std::string("parameter 'recon': ") + e.what());
+  }
+  recon_.lambda = params.get<double>("lambda", 0.2);
+  if (!(recon_.lambda > 0)) throw ParamError("lambda must be > 0");
+  recon_.threads = threads_;
+  const size_t n = static_cast<size_t>(width_) * height_;
+  primal_.assign(3 * n, 0.0);
+  direct_.assign(3 * n, 0.0);
+  grad_.assign(12 * n, 0.0);
+  samples_.assign(n, 0);
+}
+
+GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Rng& rng, RayCounts& rays,
+                                                     std::map<std::string, double>* failures) const {
+  const LightSet& lights = scene_.light_set();
+  Sample out;
+  out.primal = out.direct = RGB(0.0f);
+  Offset off[4];
+  for (int d = 0; d < 4; ++d) {
+    out.diff[d] = RGB(0.0f);
+    const int px = static_cast<int>(film.x) + kOffsetX[d], py = static_cast<int>(film.y) + kOffsetY[d];
+    out.has[d] = off[d].exists = px >= 0 && px < width_ && py >= 0 && py < height_;
+    if (!off[d].exists) continue;
+    // Same sub-pixel position and lens sample one pixel over: the camera's Jacobian is 1.
+    off[d].ray = scene_.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]), lens);
+  }
+  auto fail = [&](Offset& o, ShiftFailure f) {
+    o.failure = f;
+    if (failures) (*failures)[std::string(failure_stat_name(f))] += 1;
+  };
+  // One contribution of the base (c) and of each offset (c_off[d]) to their pixels, made with
+  // the same strategy; `ratio[d]` = p(T x)|T'| / p(x) of the whole strategy's path.
+  auto add = [&](const RGB& c, const RGB* c_off, const double* ratio, bool direct_only) {
+    if (direct_only) {
+      out.direct += c;
+      return;
+    }
+    out.primal += c;
+    for (int d = 0; d < 4; ++d) {
+      if (!off[d].exists) continue;
+      const bool ok = off[d].alive();
+      const float w = ok ? static_cast<float>(1.0 / (1.0 + ratio[d])) : 1.0f;  // balance heuristic
+      const RGB co = ok ? c_off[d] : RGB(0.0f);
+      out.diff[d] += (co - c) * (w * kSign[d]);
+    }
+  };
+
+  Ray ray = scene_.camera.generate_ray(film, lens);
+  RGB beta(1.0f);
+  bool specular_bounce = false, all_delta = true;
+  float prev_pdf = 0;
+  Vec3 prev_p;
+  ++rays.closest;
+  std::optional<SurfaceHit> hit = scene_.intersect(ray);
+  for (int d = 0; d < 4; ++d)
+    if (off[d].alive()) {
+      ++rays.closest;
+      off[d].hit = scene_.intersect(off[d].ray);
+    }
+
+  for (int depth = 0;; ++depth) {
+    // ---- Emission found by the last ray (camera or BSDF sample) ----
+    {
+      RGB c(0.0f), c_off[4];
+      double ratio[4];
+      float w_base = 1.0f;
+      if (!hit) {
+        const RGB Le = lights.environment_radiance(ray.d);
+        if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
+        c = beta * Le * w_base;
+      } else if (hit->light >= 0) {
+        const RGB Le = lights.area_radiance(hit->light, -ray.d);
+        if (!(depth == 0 || specular_bounce))
+          w_base = power_heuristic(prev_pdf, lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
+        c = beta * Le * w_base;
+      }
+      const bool direct_only = all_delta;  // emitters seen directly or through delta vertices only
+      if (!direct_only) {
+        for (int d = 0; d < 4; ++d) {
+          Offset& o = off[d];
+          c_off[d] = RGB(0.0f);
+          ratio[d] = o.ratio;
+          if (!o.alive()) continue;
+          if (o.link == Link::Connected) {  // same vertices and last segment, own MIS pdf
+            RGB Le(0.0f);
+            float pdf_light = 0;
+            if (!hit) {
+              Le = lights.environment_radiance(ray.d);
+              pdf_light = lights.pdf_environment(ray.d);
+            } else if (hit->light >= 0) {
+              Le = lights.area_radiance(hit->light, -ray.d);
+              pdf_light = lights.pdf_area(hit->light, prev_p, hit->p, ray.d);
+            }
+            c_off[d] = o.beta * Le * (specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, pdf_light));
+          } else if (o.link == Link::RecentlyConnected) {  // reconnected onto this very vertex
+            if (hit && hit->light >= 0) {
+              const float w = specular_bounce ? 1.0f
+                                              : power_heuristic(o.prev_pdf, lights.pdf_area(hit->light, o.prev_p, hit->p, -o.wo));
+              c_off[d] = o.beta * lights.area_radiance(hit->light, o.wo) * w;
+            } else if (!hit) {  // reconnected at infinity: same direction
+              const float w = specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, lights.pdf_environment(ray.d));
+              c_off[d] = o.beta * lights.environment_radiance(ray.d) * w;
+            }
+          } else {  // own vertex
+            if (!o.hit) {
+              if (hit) {
+                fail(o, ShiftFailure::Missed);
+                continue;
+              }
+              const float w = specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, lights.pdf_environment(o.ray.d));
+              c_off[d] = o.beta * lights.environment_radiance(o.ray.d) * w;
+            } else if (!hit) {
+              fail(o, ShiftFailure::Occluded);  // the base escaped, the offset did not
+              continue;
+            } else if (o.hit->light >= 0) {
+              const float w = specular_bounce
+                                  ? 1.0f
+                                  : power_heuristic(o.prev_pdf, lights.pdf_area(o.hit->light, o.prev_p, o.hit->p, o.ray.d));
+              c_off[d] = o.beta * lights.area_radiance(o.hit->light, -o.ray.d) * w;
+            }
+          }
+        }
+      }
+      add(c, c_off, ratio, direct_only);
+    }
+    if (!hit || depth + 1 >= max_depth_) break;
+
+    const Bsdf bsdf(scene_.material(hit->material));
+    if (bsdf.is_black()) break;
+    const Vec3 wo = hit->frame.to_local(-ray.d);
+    if (wo.z == 0) break;
+    const VertexKind kind = classify_vertex(scene_.material(hit->material));
+
+    // ---- Offset vertices: kinds must match for the shift to be invertible ----
+    for (int d = 0; d < 4; ++d) {
+      Offset& o = off[d];
+      if (!o.alive() || o.link != Link::NotConnected) continue;
+      if (!o.hit) {
+        fail(o, ShiftFailure::Missed);
+        continue;
+      }
+      if (classify_vertex(scene_.material(o.hit->material)) != kind || Bsdf(scene_.material(o.hit->material)).is_black())
+        fail(o, ShiftFailure::NotInvertible);
+    }
+
+    // ---- Emitter sampling (next-event estimation), shifted to the same light point ----
+    if (!bsdf.is_delta() && !lights.empty()) {
+      const float u_light = rng.uniform();
+      const Vec2 u2(rng.uniform(), rng.uniform());
+      RGB c(0.0f), c_off[4];
+      double ratio[4];
+      // Radiance through one vertex from the light sample drawn with (u_light, u2), with its
+      // NEE/BSDF MIS weight; 0 if blocked. `visible` skips the shadow ray when it is known.
+      int base_visible = -1;  // unknown
+      auto nee = [&](const SurfaceHit& v, const Bsdf& b, const Vec3& wo_l, int* visible) -> RGB {
+        auto ls = lights.sample_li(v.p, u_light, u2);
+        if (!ls || ls->pdf <= 0 || ls->L.is_black()) return RGB(0.0f);
+        const Vec3 wi = v.frame.to_local(ls->wi);
+        const RGB f = b.eval(wo_l, wi) * std::abs(wi.z);
+        if (f.is_black()) return RGB(0.0f);
+        if (!visible || *visible < 0) {
+          ++rays.shadow;
+          bool blocked;
+          if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
+            blocked = scene_.occluded_between(v.p, v.ng, ls->p, ls->n);
+          } else {
+            const Vec3 org = offset_ray_origin(v.p, v.ng, ls->wi);
+            const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+            blocked = scene_.occluded(Ray(org, ls->wi, 0.0f, tmax));
+          }
+          if (visible) *visible = blocked ? 0 : 1;
+          if (blocked) return RGB(0.0f);
+        } else if (*visible == 0) {
+          return RGB(0.0f);
+        }
+        const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, b.pdf(wo_l, wi));
+        return f * ls->L * (w / ls->pdf);
+      };
+      const RGB L_base = nee(*hit, bsdf, wo, &base_visible);
+      c = beta * L_base;
+      for (int d = 0; d < 4; ++d) {
+        Offset& o = off[d];
+        c_off[d] = RGB(0.0f);
+        ratio[d] = o.ratio;  // the light point is shared: same area density on both sides
+        if (!o.alive()) continue;
+        if (o.link == Link::Connected) {  // same vertex, same wo: same value
+          c_off[d] = o.beta * L_base;
+        } else if (o.link == Link::RecentlyConnected) {  // same vertex and light point: same visibility
+          c_off[d] = o.beta * nee(*hit, bsdf, hit->frame.to_local(o.wo), &base_visible);
+        } else {
+          const Bsdf ob(scene_.material(o.hit->material));
+          c_off[d] = o.beta * nee(*o.hit, ob, o.hit->frame.to_local(-o.ray.d), nullptr);
+        }
+      }
+      add(c, c_off, ratio, false);
+    }
+
+    // ---- BSDF sampling of the base, then the shift of each offset ----
+    const float uc = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    const auto bs = bsdf.sample(wo, uc, u);
+    if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+    const RGB base_factor = bs->f * (std::abs(bs->wi.z) / bs->pdf);
+    const Vec3 wi_world = hit->frame.to_world(bs->wi);
+    const Ray next_ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+    ++rays.closest;
+    const std::optional<SurfaceHit> next = scene_.intersect(next_ray);
+    // Reconnection needs diffuse here and a diffuse (or emitting) vertex next, or no vertex at all.
+    const bool next_diffuse =
+        !next || next->light >= 0 || classify_vertex(scene_.material(next->material)) == VertexKind::Diffuse;
+    const bool can_reconnect = kind == VertexKind::Diffuse && next_diffuse;
+
+    for (int d = 0; d < 4; ++d) {
+      Offset& o = off[d];
+      if (!o.alive()) continue;
+      if (o.link == Link::Connected) {
+        o.beta *= base_factor;
+        o.prev_pdf = bs->pdf;
+        o.prev_p = hit->p;
+        continue;
+      }
+      if (o.link == Link::RecentlyConnected) {  // shared vertex, own incoming direction
+        const Vec3 owo = hit->frame.to_local(o.wo);
+        const float pdf = bsdf.pdf(owo, bs->wi);
+        o.beta *= bsdf.eval(owo, bs->wi) * (std::abs(bs->wi.z) / bs->pdf);
+        o.ratio *= pdf / bs->pdf;
+        o.prev_pdf = pdf;
+        o.prev_p = hit->p;
+        o.link = Link::Connected;
+        continue;
+      }
+      const SurfaceHit& ov = *o.hit;
+      const Bsdf ob(scene_.material(ov.material));
+      const Vec3 owo = ov.frame.to_local(-o.ray.d);
+      if (can_reconnect) {
+        Vec3 wi_o;
+        double jac = 1.0;
+        if (next) {  // ---- reconnection onto the base's next vertex ----
+          const ReconnectShift rs = shift_reconnect(hit->p, ov.p, next->p, next->ng);
+          if (!rs.ok()) {
+            fail(o, rs.failure);
+            continue;
+          }
+          ++rays.shadow;
+          if (scene_.occluded_between(ov.p, ov.ng, next->p, next->ng)) {
+            fail(o, ShiftFailure::Occluded);
+            continue;
+          }
+          wi_o = rs.wi;
+          jac = rs.jacobian;
+          o.link = Link::RecentlyConnected;
+          o.wo = -wi_o;
+        } else {  // ---- reconnection at infinity: same direction, Jacobian 1 ----
+          wi_o = wi_world;
+          o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_o), wi_o);
+          ++rays.closest;
+          const auto oh = scene_.intersect(o.ray);
+          if (oh) {
+            fail(o, ShiftFailure::Occluded);
+            continue;
+          }
+          o.hit.reset();
+        }
+        const Vec3 wi_l = ov.frame.to_local(wi_o);
+        const float pdf = ob.pdf(owo, wi_l);
+        o.beta *= ob.eval(owo, wi_l) * static_cast<float>(std::abs(wi_l.z) * jac / bs->pdf);
+        o.ratio *= pdf * jac / bs->pdf;
+        o.prev_pdf = pdf;
+        o.prev_p = ov.p;
+        continue;
+      }
+      // ---- half-vector copy (glossy and non-reconnectable diffuse vertices) or delta lobe ----
+      Vec3 wi_l;
+      float pdf;
+      RGB f_cos;
+      double jac = 1.0;
+      if (bs->delta) {
+        const auto os = sample_same_lobe(ob, owo, bs->transmission);
+        if (!os) {
+          fail(o, bs->transmission ? ShiftFailure::TotalInternalReflection : ShiftFailure::NotInvertible);
+          continue;
+        }
+        wi_l = os->wi;
+        pdf = os->pdf;
+        f_cos = os->f * std::abs(wi_l.z);
+      } else {
+        const DirectionShift hs = shift_half_vector(scene_.material(ov.material), wo, bs->wi, owo);
+        if (!hs.ok()) {
+          fail(o, hs.failure);
+          continue;
+        }
+        wi_l = hs.wi;
+        jac = hs.jacobian;
+        pdf = ob.pdf(owo, wi_l);
+        f_cos = ob.eval(owo, wi_l) * std::abs(wi_l.z);
+      }
+      o.beta *= f_cos * static_cast<float>(jac / bs->pdf);
+      o.ratio *= pdf * jac / bs->pdf;
+      o.prev_pdf = pdf;
+      o.prev_p = ov.p;
+      const Vec3 wi_w = ov.frame.to_world(wi_l);
+      o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
+      ++rays.closest;
+      o.hit = scene_.intersect(o.ray);
+    }
+
+    beta *= base_factor;
+    specular_bounce = bs->delta;
+    all_delta = all_delta && bs->delta;
+    prev_pdf = bs->pdf;
+    prev_p = hit->p;
+    ray = next_ray;
+    hit = next;
+
+    // ---- Russian roulette: one decision for the base and its offsets ----
+    if (depth + 1 >= rr_depth_) {
+      const float q = std::max(0.05f, 1.0f - beta.max_component());
+      if (rng.uniform() < q) break;
+      beta = beta / (1.0f - q);
+      for (Offset& o : off) o.beta = o.beta / (1.0f - q);
+    }
+  }
+  return out;
+}
+
+void GradientPathTracer::iterate(ProgressSink* sink) {
+  const auto start = std::chrono::steady_clock::now();
+  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
+  std::mutex failures_mutex;
+  std::map<std::string, double> failures;
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        RayCounts tile_rays;
+        int64_t tile_paths = 0, tile_invalid = 0;
+        std::map<std::string, double> tile_failures;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            const size_t pixel = static_cast<size_t>(y) * width_ + x;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(x + rng.uniform(), y + rng.uniform());  // box filter
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            const Sample s = trace(film, lens, rng, tile_rays, &tile_failures);
+            ++tile_paths;
+            ++samples_[pixel];
+            bool finite = s.primal.is_finite() && s.direct.is_finite();
+            for (const RGB& g : s.diff) finite = finite && g.is_finite();
+            if (!finite) {  // discard and count: NaN/Inf never reaches a pass
+              ++tile_invalid;
+              continue;
+            }
+            for (int c = 0; c < 3; ++c) {
+              primal_[3 * pixel + c] += s.primal[c];
+              direct_[3 * pixel + c] += s.direct[c];
+              for (int d = 0; d < 4; ++d) grad_[12 * pixel + 3 * d + c] += s.diff[d][c];
+            }
+          }
+        closest += tile_rays.closest;
+        shadow += tile_rays.shadow;
+        paths += tile_paths;
+        invalid += tile_invalid;
+        std::lock_guard<std::mutex> lock(failures_mutex);
+        for (const auto& [k, v] : tile_failures) failures[k] += v;
+      },
+      [sink] { return sink && sink->cancelled(); });
+  stats_.passes += 1;
+  stats_.rays += closest + shadow;
+  stats_.shadow_rays += shadow;
+  stats_.paths += paths;
+  stats_.invalid_samples += invalid;
+  for (const auto& [k, v] : failures) stats_.extra[k] += v;
+  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void GradientPathTracer::develop(Film& film) const {
+  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+  const size_t n = samples_.size();
+  std::vector<double> primal(3 * n), direct(3 * n), gx(3 * n, 0.0), gy(3 * n, 0.0);
+  auto inv = [&](size_t i) { return samples_[i] ? 1.0 / samples_[i] : 0.0; };
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      for (int c = 0; c < 3; ++c) {
+        primal[3 * i + c] = primal_[3 * i + c] * inv(i);
+        direct[3 * i + c] = direct_[3 * i + c] * inv(i);
+        // Each difference from both of its pixels; their MIS weights sum to one.
+        if (x + 1 < width_)
+          gx[3 * i + c] = grad_[12 * i + 3 * kRight + c] * inv(i) + grad_[12 * (i + 1) + 3 * kLeft + c] * inv(i + 1);
+        if (y + 1 < height_) {
+          const size_t j = i + width_;
+          gy[3 * i + c] = grad_[12 * i + 3 * kDown + c] * inv(i) + grad_[12 * j + 3 * kUp + c] * inv(j);
+        }
+      }
+    }
+  const std::vector<double> rec = screened_poisson(primal, gx, gy, width_, height_, 3, recon_);
+  // The gradient passes describe the whole primal pass: the direct light's forward differences
+  // are added, so `gradphoton reconstruct` of this film's primal and gradients gives `combined`
+  // back (exactly for L2, which is linear and reproduces consistent data).
+  std::vector<double> dx, dy;
+  forward_differences(direct, width_, height_, 3, &dx, &dy);
+  Pass& comb = film.add_pass(pass::kCombined, 3);
+  Pass& prim = film.add_pass(pass::kPrimal, 3);
+  Pass& px = film.add_pass(pass::kGradientX, 3);
+  Pass& py = film.add_pass(pass::kGradientY, 3);
+  for (size_t k = 0; k < 3 * n; ++k) {
+    comb.data[k] = static_cast<float>(rec[k] + direct[k]);
+    prim.data[k] = static_cast<float>(primal[k] + direct[k]);
+    px.data[k] = static_cast<float>(gx[k] + dx[k]);
+    py.data[k] = static_cast<float>(gy[k] + dy[k]);
+  }
+}
+
+}  // namespace gp

@@ -1,0 +1,151 @@
+// Half-vector copy and reconnection shifts (see shift.h).
+#include "integrators/gradient/shift.h"
+
+#include "materials/bsdf.h"
+
+namespace gp {
+
+std::string_view failure_stat_name(ShiftFailure f) {
+  switch (f) {
+    case ShiftFailure::None: return "shift ok";
+    case ShiftFailure::Occluded: return "shift failed: occluded";
+    case ShiftFailure::NotInvertible: return "shift failed: not invertible";
+    case ShiftFailure::ZeroLength: return "shift failed: zero length";
+    case ShiftFailure::TotalInternalReflection: return "shift failed: total internal reflection";
+    case ShiftFailure::Missed: return "shift failed: offset left the scene";
+  }
+  return "shift failed: ?";
+}
+
+VertexKind classify_vertex(const Material& m, float threshold) {
+  const Bsdf bsdf(m);
+  if (bsdf.is_diffuse_for_photons(threshold)) return VertexKind::Diffuse;
+  if (bsdf.is_delta()) return VertexKind::Delta;
+  return VertexKind::Glossy;
+}
+
+namespace {
+
+// Refraction of w about the microfacet normal h (any side) for the interior IOR `ior` below +z;
+// false on total internal reflection.
+bool refract_about(const Vec3& w, Vec3 h, float ior, Vec3* wt) {
+  float cos_i = dot(h, w);
+  float eta = ior;
+  if (cos_i < 0) {
+    eta = 1.0f / ior;
+    cos_i = -cos_i;
+    h = -h;
+  }
+  const float sin2_t = std::max(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
+  if (sin2_t >= 1.0f) return false;
+  const float cos_t = std::sqrt(1.0f - sin2_t);
+  *wt = -w / eta + h * (cos_i / eta - cos_t);
+  return true;
+}
+
+}  // namespace
+
+DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset) {
+  DirectionShift r;
+  if (wo.z == 0 || wi.z == 0 || wo_offset.z == 0) {
+    r.failure = ShiftFailure::ZeroLength;
+    return r;
+  }
+  // The offset must see the surface from the same side, or the lobe (and eta) would change.
+  if ((wo.z > 0) != (wo_offset.z > 0)) {
+    r.failure = ShiftFailure::NotInvertible;
+    return r;
+  }
+  const bool reflection = wo.z * wi.z > 0;
+  const bool delta = Bsdf(m).is_delta();
+  if (reflection) {
+    Vec3 h = delta ? Vec3(0, 0, 1) : wo + wi;
+    if (length_squared(h) == 0) {
+      r.failure = ShiftFailure::ZeroLength;
+      return r;
+    }
+    h = normalize(h);
+    r.wi = reflect(wo_offset, h);
+    if (r.wi.z * wo_offset.z <= 0) {  // reflected below the horizon: no such offset path
+      r.failure = ShiftFailure::NotInvertible;
+      return r;
+    }
+    const double wo_h = std::abs(dot(wo, h));
+    r.jacobian = delta ? 1.0 : (wo_h > 0 ? std::abs(dot(wo_offset, h)) / wo_h : 0.0);
+    if (!(r.jacobian > 0)) r.failure = ShiftFailure::ZeroLength;
+    return r;
+  }
+  if (m.type != MaterialType::Dielectric) {  // only dielectrics transmit
+    r.failure = ShiftFailure::NotInvertible;
+    return r;
+  }
+  // Generalized half-vector (Walter07 eq. 16) with etap = IOR on wi's side / IOR on wo's side.
+  const float etap = wo.z > 0 ? m.ior : 1.0f / m.ior;
+  Vec3 h = delta ? Vec3(0, 0, 1) : wo + wi * etap;
+  if (length_squared(h) == 0) {
+    r.failure = ShiftFailure::ZeroLength;
+    return r;
+  }
+  h = normalize(h);
+  if (h.z < 0) h = -h;
+  if (!refract_about(wo_offset, h, m.ior, &r.wi)) {
+    r.failure = ShiftFailure::TotalInternalReflection;
+    return r;
+  }
+  if (r.wi.z * wo_offset.z >= 0) {  // "refracted" to the wrong side of the macro-surface
+    r.failure = ShiftFailure::NotInvertible;
+    return r;
+  }
+  if (delta) {
+    r.jacobian = 1.0;
+    return r;
+  }
+  // |d omega_h / d omega_i| for base and offset, Walter07 eq. 17 (divided through by eta_o^2).
+  auto dwh_dwi = [&](const Vec3& o, const Vec3& i) {
+    const double d = dot(i, h) + dot(o, h) / etap;
+    return d != 0 ? std::abs(dot(i, h)) / (d * d) : 0.0;
+  };
+  const double base = dwh_dwi(wo, wi), offset = dwh_dwi(wo_offset, r.wi);
+  r.jacobian = offset > 0 ? base / offset : 0.0;
+  if (!(r.jacobian > 0) || !std::isfinite(r.jacobian)) r.failure = ShiftFailure::ZeroLength;
+  return r;
+}
+
+ReconnectShift shift_reconnect(const Vec3& base_p, const Vec3& offset_p, const Vec3& target, const Vec3& n_target) {
+  ReconnectShift r;
+  const Vec3 d_base = target - base_p, d_off = target - offset_p;
+  const double l2_base = length_squared(d_base), l2_off = length_squared(d_off);
+  if (l2_off <= 0 || l2_base <= 0) {
+    r.failure = ShiftFailure::ZeroLength;
+    return r;
+  }
+  r.distance = static_cast<float>(std::sqrt(l2_off));
+  r.wi = d_off / r.distance;
+  const double cos_base = std::abs(dot(n_target, d_base)) / std::sqrt(l2_base);
+  const double cos_off = std::abs(dot(n_target, r.wi));
+  if (cos_base <= 0 || cos_off <= 0) {
+    r.failure = ShiftFailure::ZeroLength;
+    return r;
+  }
+  r.jacobian = (cos_off / l2_off) / (cos_base / l2_base);
+  return r;
+}
+
+double solid_angle_to_area_jacobian(double j_omega, const Vec3& z_i, const Vec3& n_i, const Vec3& z_next,
+                                    const Vec3& n_next, const Vec3& zo_i, const Vec3& no_i, const Vec3& zo_next,
+                                    const Vec3& no_next, bool is_specular) {
+  if (is_specular) return 1.0;  // eq. 4, last sentence
+  auto G = [](const Vec3& a, const Vec3& na, const Vec3& b, const Vec3& nb) {
+    const Vec3 d = b - a;
+    const double l2 = length_squared(d);
+    if (l2 <= 0) return 0.0;
+    const Vec3 w = d / std::sqrt(static_cast<float>(l2));
+    return std::abs(dot(na, w)) * std::abs(dot(nb, w)) / l2;
+  };
+  auto cosine = [](const Vec3& a, const Vec3& na, const Vec3& b) { return std::abs(dot(na, normalize(b - a))); };
+  const double g_off = G(zo_i, no_i, zo_next, no_next), c_off = cosine(zo_i, no_i, zo_next);
+  if (g_off <= 0 || c_off <= 0) return 0.0;
+  return j_omega * (G(z_i, n_i, z_next, n_next) / g_off) * (cosine(z_i, n_i, z_next) / c_off);  // eq. 4
+}
+
+}  // namespace gp

@@ -1,0 +1,139 @@
+// Screened Poisson reconstruction (reconstruction/poisson.h): exactness of the L2 solve,
+// the limits in lambda, and the robustness of L1 to outlier gradients.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "reconstruction/poisson.h"
+
+namespace gp {
+namespace {
+
+// A smooth image with an edge and some noise: anything but a constant.
+std::vector<double> test_image(int w, int h, int c, uint32_t seed = 7) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<double> img(static_cast<size_t>(w) * h * c);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int k = 0; k < c; ++k)
+        img[(static_cast<size_t>(y) * w + x) * c + k] =
+            1.0 + 0.5 * std::sin(0.3 * x + k) * std::cos(0.2 * y) + (x > w / 2 ? 2.0 : 0.0) + 0.1 * u(rng);
+  return img;
+}
+
+double max_abs_diff(const std::vector<double>& a, const std::vector<double>& b) {
+  double m = 0;
+  for (size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+TEST(ScreenedPoisson, ExactGradientsReconstructTheImageToMachinePrecisionL2) {
+  // Odd, non-square size so that a transposed axis or a wrong DCT length would show.
+  const int w = 37, h = 23, c = 3;
+  const auto img = test_image(w, h, c);
+  std::vector<double> gx, gy;
+  forward_differences(img, w, h, c, &gx, &gy);
+  // Gradients across the border do not exist: garbage there must not matter.
+  for (int y = 0; y < h; ++y)
+    for (int k = 0; k < c; ++k) gx[(static_cast<size_t>(y) * w + w - 1) * c + k] = 1e6;
+  // A primal that is off by a constant and noisy: the exact gradients pin the image down up
+  // to the mean, which the primal's mean fixes. With a primal equal to the image: exact.
+  for (double lambda : {0.2, 0.05, 5.0}) {
+    ReconOptions o;
+    o.lambda = lambda;
+    const auto rec = screened_poisson(img, gx, gy, w, h, c, o);
+    EXPECT_LT(max_abs_diff(rec, img), 1e-10) << "lambda " << lambda;
+  }
+}
+
+TEST(ScreenedPoisson, L2ResultSatisfiesTheNormalEquations) {
+  // Independent of the DCT: noisy primal and gradients, check the residual of
+  // (lambda^2 + Dx^T Dx + Dy^T Dy) I = lambda^2 I0 + Dx^T Gx + Dy^T Gy directly.
+  const int w = 19, h = 30;
+  const auto p = test_image(w, h, 1, 1), gx = test_image(w, h, 1, 2), gy = test_image(w, h, 1, 3);
+  ReconOptions o;
+  o.lambda = 0.3;
+  const auto I = screened_poisson(p, gx, gy, w, h, 1, o);
+  double worst = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      double lhs = 0.09 * I[i], rhs = 0.09 * p[i];
+      if (x > 0) lhs += I[i] - I[i - 1], rhs += gx[i - 1];
+      if (x < w - 1) lhs -= I[i + 1] - I[i], rhs -= gx[i];
+      if (y > 0) lhs += I[i] - I[i - w], rhs += gy[i - w];
+      if (y < h - 1) lhs -= I[i + w] - I[i], rhs -= gy[i];
+      worst = std::max(worst, std::abs(lhs - rhs));
+    }
+  EXPECT_LT(worst, 1e-10);
+}
+
+TEST(ScreenedPoisson, LargeLambdaReturnsThePrimal) {
+  const int w = 24, h = 16, c = 3;
+  const auto primal = test_image(w, h, c, 4);
+  const auto gx = test_image(w, h, c, 5), gy = test_image(w, h, c, 6);  // unrelated gradients
+  for (ReconNorm norm : {ReconNorm::L2, ReconNorm::L1}) {
+    ReconOptions o;
+    o.norm = norm;
+    o.lambda = 1e5;
+    EXPECT_LT(max_abs_diff(screened_poisson(primal, gx, gy, w, h, c, o), primal), 1e-3)
+        << (norm == ReconNorm::L2 ? "L2" : "L1");
+  }
+}
+
+TEST(ScreenedPoisson, L1IgnoresAnOutlierGradientWhereL2ShowsTheDipole) {
+  const int w = 40, h = 40;
+  const auto img = test_image(w, h, 1);
+  std::vector<double> gx, gy;
+  forward_differences(img, w, h, 1, &gx, &gy);
+  const size_t at = 20 * w + 20;
+  gx[at] += 25.0;  // one firefly in the gradient
+  ReconOptions l2;
+  ReconOptions l1;
+  l1.norm = ReconNorm::L1;
+  const auto r2 = screened_poisson(img, gx, gy, w, h, 1, l2);
+  const auto r1 = screened_poisson(img, gx, gy, w, h, 1, l1);
+  const double e2 = max_abs_diff(r2, img), e1 = max_abs_diff(r1, img);
+  // The L2 dipole: the two pixels of the outlier's difference are pushed apart.
+  EXPECT_GT(e2, 1.0);
+  EXPECT_LT(r2[at] - img[at], -0.5);
+  EXPECT_GT(r2[at + 1] - img[at + 1], 0.5);
+  EXPECT_LT(e1, 0.05 * e2) << "L1 max error " << e1 << ", L2 max error " << e2;
+}
+
+TEST(ScreenedPoisson, L1OfConsistentDataIsTheImage) {
+  const int w = 31, h = 17, c = 3;
+  const auto img = test_image(w, h, c);
+  std::vector<double> gx, gy;
+  forward_differences(img, w, h, c, &gx, &gy);
+  ReconOptions o;
+  o.norm = ReconNorm::L1;
+  EXPECT_LT(max_abs_diff(screened_poisson(img, gx, gy, w, h, c, o), img), 1e-6);
+}
+
+TEST(ScreenedPoisson, SameResultWhateverTheThreadCount) {
+  const int w = 50, h = 33, c = 3;
+  const auto p = test_image(w, h, c, 1), gx = test_image(w, h, c, 2), gy = test_image(w, h, c, 3);
+  for (ReconNorm norm : {ReconNorm::L2, ReconNorm::L1}) {
+    ReconOptions a, b;
+    a.norm = b.norm = norm;
+    a.threads = 1;
+    b.threads = 2;
+    EXPECT_EQ(screened_poisson(p, gx, gy, w, h, c, a), screened_poisson(p, gx, gy, w, h, c, b));
+  }
+}
+
+TEST(ScreenedPoisson, RejectsBadInput) {
+  std::vector<double> a(12), b(11);
+  EXPECT_THROW(screened_poisson(a, a, b, 2, 2, 3), std::invalid_argument);
+  ReconOptions o;
+  o.lambda = 0;
+  EXPECT_THROW(screened_poisson(a, a, a, 2, 2, 3, o), std::invalid_argument);
+  EXPECT_THROW(parse_recon_norm("l3"), std::invalid_argument);
+  EXPECT_EQ(parse_recon_norm("l1"), ReconNorm::L1);
+}
+
+}  // namespace
+}  // namespace gp
