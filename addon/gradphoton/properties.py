@@ -111,6 +111,9 @@ class GradphotonMaterialSettings(bpy.types.PropertyGroup):
     abbe: FloatProperty(name="Abbe Number", default=64.0, min=1.0, max=200.0, description="Abbe number V (BK7: 64)")
     cauchy_b: FloatProperty(name="Cauchy B", default=0.0042, min=0.0, max=1.0, precision=5,
                             description="Cauchy B in um^2 (BK7: 0.0042)")
+    emission_one_sided: BoolProperty(
+        name="One-Sided Emission", default=False,
+        description="Emit from the front face only (Cycles always emits from both faces of a mesh)")
     classification: EnumProperty(
         name="Photon Surface", default="AUTO",
         items=[("AUTO", "Automatic", "Specular when the roughness is below the threshold"),

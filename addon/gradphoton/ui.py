@@ -110,6 +110,7 @@ class GRADPHOTON_PT_material(GradphotonPanel, bpy.types.Panel):
             layout.prop(m, "abbe")
         elif m.dispersion == 'CAUCHY':
             layout.prop(m, "cauchy_b")
+        layout.prop(m, "emission_one_sided")
         layout.prop(m, "classification")
 
 

@@ -18,6 +18,16 @@ using namespace gp;
 
 namespace {
 
+// A numpy copy of a contiguous native array.
+template <typename T>
+py::array_t<T> to_array(const T* data, std::vector<size_t> shape) {
+  py::array_t<T> a(shape);
+  size_t n = 1;
+  for (size_t d : shape) n *= d;
+  if (n) std::copy(data, data + n, a.mutable_data());
+  return a;
+}
+
 // Python dict -> Params, through JSON text (values are plain numbers, strings and lists).
 Params params_from_dict(const py::dict& d) {
   py::object dumps = py::module_::import("json").attr("dumps");
@@ -209,7 +219,69 @@ PYBIND11_MODULE(_native, m) {
       .def_property("width", [](const Scene& s) { return s.camera.width; },
                     [](Scene& s, int w) { s.camera.width = w; })
       .def_property("height", [](const Scene& s) { return s.camera.height; },
-                    [](Scene& s, int h) { s.camera.height = h; });
+                    [](Scene& s, int h) { s.camera.height = h; })
+      // ---- Read-only views for importers (scripts/json_to_blend.py): the loaded, tessellated scene
+      .def("meshes", [](const Scene& s) {
+        py::list out;
+        for (const Mesh& m : s.meshes) {
+          py::dict d;
+          d["name"] = m.name;
+          d["positions"] = to_array(&m.positions.data()->x, {m.positions.size(), size_t{3}});
+          d["indices"] = to_array(m.indices.data(), {m.triangle_count(), size_t{3}});
+          d["material_ids"] = to_array(m.material_ids.data(), {m.material_ids.size()});
+          d["normals"] = m.normals.empty() ? py::object(py::none())
+                                           : py::object(to_array(&m.normals.data()->x, {m.normals.size(), size_t{3}}));
+          out.append(d);
+        }
+        return out;
+      }, "Meshes as {name, positions (N,3) float32, indices (M,3) uint32, material_ids (M,), normals or None}")
+      .def("materials", [](const Scene& s) {
+        py::list out;
+        for (const Material& m : s.materials) {
+          py::dict d;
+          d["name"] = m.name;
+          d["type"] = to_string(m.type);
+          d["color"] = py::make_tuple(m.color.r, m.color.g, m.color.b);
+          d["roughness"] = m.roughness;
+          d["ior"] = m.ior;
+          d["cauchy_b"] = m.cauchy_b;
+          d["emission"] = py::make_tuple(m.emission.r, m.emission.g, m.emission.b);
+          d["strength"] = m.emission_strength;
+          d["two_sided"] = m.two_sided;
+          out.append(d);
+        }
+        return out;
+      }, "Materials as dicts in the scene format's units (roughness = GGX alpha)")
+      .def("lights", [](const Scene& s) {
+        py::list out;
+        static const char* kinds[] = {"area", "point", "spot", "sun", "environment"};
+        for (const Light& l : s.lights) {
+          py::dict d;
+          d["name"] = l.name;
+          d["type"] = kinds[static_cast<int>(l.type)];
+          d["emit"] = py::make_tuple(l.emit.r, l.emit.g, l.emit.b);  // intensity, irradiance or radiance
+          d["position"] = py::make_tuple(l.position.x, l.position.y, l.position.z);
+          d["direction"] = py::make_tuple(l.direction.x, l.direction.y, l.direction.z);
+          d["spot_cos_half"] = l.spot_cos_half;
+          d["spot_smooth"] = l.spot_smooth;
+          out.append(d);
+        }
+        return out;
+      }, "Point, spot, sun and environment lights (emissive meshes are in meshes/materials)")
+      .def("camera", [](const Scene& s) {
+        const Camera& c = s.camera;
+        py::dict d;
+        py::list rows;
+        for (const auto& row : c.camera_to_world.m) rows.append(py::make_tuple(row[0], row[1], row[2], row[3]));
+        d["matrix"] = rows;
+        d["fov"] = c.fov_degrees;
+        d["sensor_fit"] = c.sensor_fit == SensorFit::Auto ? "auto" : c.sensor_fit == SensorFit::Horizontal ? "horizontal" : "vertical";
+        d["width"] = c.width;
+        d["height"] = c.height;
+        d["aperture_radius"] = c.aperture_radius;
+        d["focus_distance"] = c.focus_distance;
+        return d;
+      }, "Camera: camera-to-world matrix rows (looks down -Z, +Y up), fov in degrees, size, lens");
 
   m.def("load_scene", [](const std::string& path) {
     py::gil_scoped_release release;

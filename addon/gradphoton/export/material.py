@@ -84,7 +84,14 @@ class MaterialExporter:
         else:
             self.w.add("unsupported shader node rendered as grey diffuse", f"'{mat.name}': {node.name}")
             d = {"type": "diffuse", "color": 0.8}
-        return self._dispersion(d, mat)
+        return self._one_sided(self._dispersion(d, mat), mat)
+
+    @staticmethod
+    def _one_sided(d, mat):
+        gp = getattr(mat, "gradphoton", None)
+        if gp is not None and gp.emission_one_sided and "strength" in d:
+            d["two_sided"] = False
+        return d
 
     def _principled(self, node, mat):
         base = _rgb(self._value(node, "Base Color", mat))
