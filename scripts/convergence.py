@@ -11,7 +11,9 @@ scene with all its methods.
         --checkpoints 1,2,4,8,16 --ref-passes 4096 --scale 0.5
     scripts/convergence.py --methods pt sppm --scenes torus-glass cornell-glass --scale 0.375
 
-Any name make_integrator knows works in --methods (pt, ppm, sppm); each runs with its defaults.
+Any name make_integrator knows works in --methods (pt, ppm, sppm, gpt, ...), with its defaults
+or with parameters after a colon: `gpt:recon=l1`, `sppm:photons=1000000,alpha=0.9` (passed as
+--param; the whole spec is the label on the chart).
 """
 import argparse
 import csv
@@ -41,13 +43,26 @@ def reference(scene, args):
     """Long fixed-seed path-traced render, cached by scene, size and pass count."""
     ref_dir = ROOT / "build" / "references"
     ref_dir.mkdir(parents=True, exist_ok=True)
-    tag = f"{scene}-x{args.scale:g}-{args.ref_method}-{args.ref_passes}p-seed{args.ref_seed}"
+    tag = f"{scene}-x{args.scale:g}-{file_tag(args.ref_method)}-{args.ref_passes}p-seed{args.ref_seed}"
     path = ref_dir / f"{tag}.exr"
     scene_file = ROOT / "scenes" / f"{scene}.json"
     if not path.exists() or path.stat().st_mtime < scene_file.stat().st_mtime:
-        run([CLI, "render", scene_file, "--method", args.ref_method, "--passes", args.ref_passes,
+        run([CLI, "render", scene_file, *method_args(args.ref_method), "--passes", args.ref_passes,
              "--seed", args.ref_seed, "-o", path, *size_args(scene, args)])
     return path
+
+
+def method_args(spec):
+    """'gpt:recon=l1,lambda=0.2' -> ['--method', 'gpt', '--param', 'recon=l1', '--param', 'lambda=0.2']."""
+    name, _, params = spec.partition(":")
+    out = ["--method", name]
+    for kv in filter(None, params.split(",")):
+        out += ["--param", kv]
+    return out
+
+
+def file_tag(spec):
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", spec)
 
 
 def rel_mse(image, ref):
@@ -77,15 +92,15 @@ def main():
     for scene in args.scenes:
         ref = reference(scene, args)
         for method in args.methods:
-            out = work / f"{scene}-{method}.exr"
-            run([CLI, "render", ROOT / "scenes" / f"{scene}.json", "--method", method,
+            out = work / f"{scene}-{file_tag(method)}.exr"
+            run([CLI, "render", ROOT / "scenes" / f"{scene}.json", *method_args(method),
                  "--time", max(checkpoints), "--checkpoints", ",".join(f"{t:g}" for t in checkpoints),
                  "--seed", args.seed, "-o", out, *size_args(scene, args)])
             for t in checkpoints:
-                snap = work / f"{scene}-{method}.{t:g}s.exr"
+                snap = work / f"{scene}-{file_tag(method)}.{t:g}s.exr"
                 if snap.exists():
                     rows.append({"scene": scene, "method": method, "seconds": t, "relmse": rel_mse(snap, ref)})
-                    print(f"{scene:14s} {method:8s} {t:8g} s  relMSE {rows[-1]['relmse']:.5g}")
+                    print(f"{scene:14s} {method:14s} {t:8g} s  relMSE {rows[-1]['relmse']:.5g}")
 
     csv_path = args.out / "convergence.csv"
     with open(csv_path, "w", newline="") as f:
