@@ -26,6 +26,7 @@ def main():
     ap.add_argument("--confidences", default="0.5,0.9")
     ap.add_argument("--photons", type=int, default=20000)
     ap.add_argument("--ref-passes", type=int, default=2048)
+    ap.add_argument("--ref-method", default="pt", help="method of the reference (as in convergence.py)")
     ap.add_argument("--ref-seed", type=int, default=1000003)
     ap.add_argument("--scale", type=float, default=0.1875)
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "error-calibration.md")
