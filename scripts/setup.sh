@@ -11,7 +11,7 @@ PACKAGES=(
   pybind11-dev nlohmann-json3-dev libtinyobjloader-dev libeigen3-dev libfftw3-dev
   libcli11-dev libfmt-dev libgtest-dev libbenchmark-dev
   python3-dev python3-numpy python3-matplotlib python3-pytest
-  blender xvfb xauth xdotool
+  blender xvfb xauth xdotool libgl1-mesa-dri
 )
 
 missing=()
