@@ -161,6 +161,14 @@ int run_render(const RenderArgs& a) {
   fmt::print("passes     {}\npaths      {}\nrays       {}\n", s.passes, s.paths, s.rays);
   fmt::print("seconds    {:.3f}\nMrays/s    {:.2f}\n", s.seconds, s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
   if (s.invalid_samples) fmt::print("discarded  {} NaN/Inf samples\n", s.invalid_samples);
+  {  // image mean of the combined pass, for quick comparisons between methods and modes
+    const Pass& c = film.pass(pass::kCombined);
+    double m[3] = {0, 0, 0};
+    for (size_t i = 0; i < film.pixel_count(); ++i)
+      for (int k = 0; k < 3; ++k) m[k] += c.data[3 * i + k];
+    const double n = std::max<double>(1.0, static_cast<double>(film.pixel_count()));
+    fmt::print("mean rgb   {:.6g} {:.6g} {:.6g}\n", m[0] / n, m[1] / n, m[2] / n);
+  }
   for (const auto& [k, v] : s.extra) fmt::print("{:<10} {:g}\n", k, v);
   if (progress.cancel_flag) fmt::print("cancelled  yes (image so far written)\n");
   fmt::print("exr        {}\n", a.out);
