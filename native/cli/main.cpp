@@ -8,11 +8,13 @@
 #include <csignal>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "integrators/integrator.h"
+#include "integrators/spectral/spectral_pt.h"
 #include "io/display.h"
 #include "io/exr.h"
 #include "io/metrics.h"
@@ -113,6 +115,10 @@ struct RenderArgs {
   uint64_t seed = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
+  // Spectral mode and spectral gradient sampling (docs/spectral.md); unset = method defaults.
+  std::string spectral;
+  std::optional<double> delta, tau;
+  std::optional<int> bins;
 };
 
 void make_parent_dirs(const std::string& path) {
@@ -131,6 +137,10 @@ int run_render(const RenderArgs& a) {
   params.set("seed", a.seed);
   params.set("threads", a.threads);
   if (a.max_depth > 0) params.set("max_depth", a.max_depth);
+  if (!a.spectral.empty()) params.set("spectral", a.spectral);
+  if (a.delta) params.set("delta", *a.delta);
+  if (a.tau) params.set("tau", *a.tau);
+  if (a.bins) params.set("bins", *a.bins);
   for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
@@ -158,6 +168,12 @@ int run_render(const RenderArgs& a) {
   write_exr(a.out, film);
   const Stats& s = integrator->stats();
   fmt::print("method     {}\n", integrator->name());
+  if (a.method == "pt" && integrator->name() != "pt") {
+    const std::string why = first_dispersive_material(scene);
+    fmt::print("spectral   on: {} (method pt ran as {})\n",
+               why.empty() ? std::string("forced by --spectral spectral") : "dispersive material '" + why + "'",
+               integrator->name());
+  }
   fmt::print("passes     {}\npaths      {}\nrays       {}\n", s.passes, s.paths, s.rays);
   fmt::print("seconds    {:.3f}\nMrays/s    {:.2f}\n", s.seconds, s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
   if (s.invalid_samples) fmt::print("discarded  {} NaN/Inf samples\n", s.invalid_samples);
@@ -286,6 +302,12 @@ int main(int argc, char** argv) {
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
+  render->add_option("--spectral", ra.spectral,
+                     "Spectral mode: auto (spectral only with a dispersive material), rgb or spectral")
+      ->check(CLI::IsMember({"auto", "rgb", "spectral"}));
+  render->add_option("--delta", ra.delta, "sgpt: wavelength shift as a fraction of 360-830 nm (default 0.15)");
+  render->add_option("--tau", ra.tau, "sgpt: shift threshold tau of the paper's eq. 16 (default 0)");
+  render->add_option("--bins", ra.bins, "sgpt: spectral bins per pixel (default 15)");
 
   std::string diff_a, diff_ref, diff_pass = "combined", diff_png;
   auto* diff = app.add_subcommand("diff", "Compare an EXR with a reference: relMSE, RMSE, mean ratio");
