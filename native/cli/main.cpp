@@ -177,13 +177,18 @@ int run_render(const RenderArgs& a) {
   fmt::print("passes     {}\npaths      {}\nrays       {}\n", s.passes, s.paths, s.rays);
   fmt::print("seconds    {:.3f}\nMrays/s    {:.2f}\n", s.seconds, s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
   if (s.invalid_samples) fmt::print("discarded  {} NaN/Inf samples\n", s.invalid_samples);
-  {  // image mean of the combined pass, for quick comparisons between methods and modes
-    const Pass& c = film.pass(pass::kCombined);
+  // Image mean of the combined pass (and of the other passes), for quick comparisons between
+  // methods and modes.
+  for (const auto& [name, p] : film.passes()) {
     double m[3] = {0, 0, 0};
     for (size_t i = 0; i < film.pixel_count(); ++i)
-      for (int k = 0; k < 3; ++k) m[k] += c.data[3 * i + k];
+      for (int k = 0; k < p.channels; ++k) m[k] += p.data[p.channels * i + k];
     const double n = std::max<double>(1.0, static_cast<double>(film.pixel_count()));
-    fmt::print("mean rgb   {:.6g} {:.6g} {:.6g}\n", m[0] / n, m[1] / n, m[2] / n);
+    const std::string label = name == pass::kCombined ? "mean rgb" : "mean " + name;
+    if (p.channels == 3)
+      fmt::print("{:<10} {:.6g} {:.6g} {:.6g}\n", label, m[0] / n, m[1] / n, m[2] / n);
+    else
+      fmt::print("{:<10} {:.6g}\n", label, m[0] / n);
   }
   for (const auto& [k, v] : s.extra) fmt::print("{:<10} {:g}\n", k, v);
   if (progress.cancel_flag) fmt::print("cancelled  yes (image so far written)\n");

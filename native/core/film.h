@@ -16,6 +16,10 @@ namespace gp {
 // exposes kAll so the addon registers exactly these with Blender (tested there).
 namespace pass {
 inline constexpr std::string_view kCombined = "combined";
+// Spectral gradient sampling (integrators/spectral/sgpt): the base paths' spectrum before the
+// 1D Poisson reconstruction, and the RMS of the per-pixel spectral gradients.
+inline constexpr std::string_view kSpectralPrimal = "spectral_primal";
+inline constexpr std::string_view kSpectralGradient = "spectral_gradient";
 
 struct Info {
   std::string_view name;
@@ -25,6 +29,8 @@ struct Info {
 // Every pass any method may produce. A method's develop() writes a subset.
 inline constexpr Info kAll[] = {
     {kCombined, 3, "Combined"},
+    {kSpectralPrimal, 3, "Spectral Primal"},
+    {kSpectralGradient, 1, "Spectral Gradient"},
 };
 }  // namespace pass
 

@@ -1,6 +1,7 @@
 #include "integrators/integrator.h"
 
 #include "integrators/path_tracer.h"
+#include "integrators/spectral/sgpt.h"
 #include "integrators/spectral/spectral_pt.h"
 
 namespace gp {
@@ -28,7 +29,7 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
   }
 }
 
-std::vector<std::string> integrator_names() { return {"pt", "spt", "spt-hero"}; }
+std::vector<std::string> integrator_names() { return {"pt", "spt", "spt-hero", "sgpt"}; }
 
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
                                             const Params& params) {
@@ -44,6 +45,11 @@ std::unique_ptr<Integrator> make_integrator(const std::string& method, const Sce
     if (mode == SpectralMode::Rgb)
       throw ParamError("method '" + method + "' is spectral; spectral mode 'rgb' needs method 'pt'");
     return std::make_unique<SpectralPathTracer>(scene, params, method == "spt-hero");
+  }
+  if (method == "sgpt") {
+    if (mode == SpectralMode::Rgb)
+      throw ParamError("method 'sgpt' is spectral; spectral mode 'rgb' needs method 'pt'");
+    return std::make_unique<SpectralGradientPathTracer>(scene, params);
   }
   std::string known;
   for (const auto& n : integrator_names()) known += (known.empty() ? "" : ", ") + n;
