@@ -133,7 +133,7 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
   samples_.assign(n, 0);
 }
 
-void SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays,
+bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays,
                                               ShiftCounts& counts) {
   const LightSet& lights = scene_.light_set();
   const double bin_width = double(kLambdaRange) / bins_;
@@ -215,15 +215,11 @@ void SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     }
   }
 
-  double* I = &primal_[pixel * bins_];
-  double* G = &gradient_[pixel * bins_];
+  // This sample's estimates, added to the pixel only if all are finite (NaN/Inf are counted).
+  std::vector<double> G(bins_, 0.0);
   double sample_sum = 0;
   for (size_t k = 0; k < K; ++k)
     if (fx[k] > 0 && px[k] > 0) sample_sum += fx[k] / px[k];
-  I[bin] += sample_sum;
-  // The same sample with the exact CMF at lambda (no binning), for the primal colour.
-  const RGB c = xyz_to_rgb(cie_xyz_bar(lambda) * static_cast<float>(sample_sum / cie_y_integral()));
-  for (int k = 0; k < 3; ++k) rgb_[3 * pixel + k] += c[k];
 
   // ---- The two offsets: lambda + delta (forward gradient of bin j) and lambda - delta ----
   for (int sign : {+1, -1}) {
@@ -388,12 +384,24 @@ void SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       }
     }
   }
+
+  bool finite = std::isfinite(sample_sum);
+  for (double g : G) finite &= std::isfinite(g);
+  if (!finite) return false;
+  double* I = &primal_[pixel * bins_];
+  double* Gp = &gradient_[pixel * bins_];
+  I[bin] += sample_sum;
+  for (int j = 0; j < bins_; ++j) Gp[j] += G[j];
+  // The same sample with the exact CMF at lambda (no binning), for the primal colour.
+  const RGB c = xyz_to_rgb(cie_xyz_bar(lambda) * static_cast<float>(sample_sum / cie_y_integral()));
+  for (int k = 0; k < 3; ++k) rgb_[3 * pixel + k] += c[k];
+  return true;
 }
 
 void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
   const auto start = std::chrono::steady_clock::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
-  std::atomic<int64_t> closest{0}, shadow{0}, paths{0};
+  std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
   std::mutex counts_mutex;
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
@@ -407,7 +415,7 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
             Rng rng = Rng::for_key(seed_, pixel, pass);
             const Vec2 film(x + rng.uniform(), y + rng.uniform());
             const Vec2 lens(rng.uniform(), rng.uniform());
-            sample_pixel(pixel, rng, scene_.camera.generate_ray(film, lens), tile_rays, tc);
+            if (!sample_pixel(pixel, rng, scene_.camera.generate_ray(film, lens), tile_rays, tc)) ++invalid;
             ++samples_[pixel];
             ++tile_paths;
           }
@@ -423,6 +431,7 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
         counts_.failed_mismatch += tc.failed_mismatch;
       },
       [sink] { return sink && sink->cancelled(); });
+  stats_.invalid_samples += invalid;
   stats_.passes += 1;
   stats_.rays += closest + shadow;
   stats_.shadow_rays += shadow;

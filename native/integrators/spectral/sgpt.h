@@ -65,8 +65,9 @@ class SpectralGradientPathTracer : public Integrator {
   };
 
  private:
-  // Adds one sample's primal and gradient estimates for pixel `pixel`.
-  void sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays, ShiftCounts& counts);
+  // Adds one sample's primal and gradient estimates for pixel `pixel`; false (and nothing
+  // added) when any of them is NaN/Inf.
+  bool sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays, ShiftCounts& counts);
   RGB bins_to_rgb(const double* bins) const;
 
   const Scene& scene_;
