@@ -368,7 +368,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         y_dir = normalize(xn.hit.p - yh.p);
         wo_y = xn.hit.frame.to_local(-y_dir);
         y.reset();
-      } else if (state == State::Same) {
+      } else if (state == State::Same && !diverge_now) {
         y_dir = x.hit.frame.to_world(x.wi);
       } else {  // diverged (now or before): trace the offset's own ray
         const Vec3 d = yh.frame.to_world(wi_y);
