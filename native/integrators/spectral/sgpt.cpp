@@ -445,6 +445,18 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+void SpectralGradientPathTracer::image_totals(std::vector<double>* primal, std::vector<double>* gradient) const {
+  primal->assign(bins_, 0.0);
+  gradient->assign(bins_, 0.0);
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    const double w = samples_[i] ? 1.0 / (samples_[i] * static_cast<double>(samples_.size())) : 0.0;
+    for (int j = 0; j < bins_; ++j) {
+      (*primal)[j] += primal_[i * bins_ + j] * w;
+      (*gradient)[j] += gradient_[i * bins_ + j] * w;
+    }
+  }
+}
+
 RGB SpectralGradientPathTracer::bins_to_rgb(const double* b) const {
   RGB c(0.0f);
   for (int j = 0; j < bins_; ++j) c += bin_rgb_[j] * static_cast<float>(b[j]);

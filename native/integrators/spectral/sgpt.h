@@ -57,6 +57,9 @@ class SpectralGradientPathTracer : public Integrator {
 
   int bins() const { return bins_; }
   int stride() const { return stride_; }
+  // Image averages of the per-pixel estimates: primal bins I_j and gradients G_j (for tests:
+  // E[G_j] = E[I_{j+s}] - E[I_j] when the shift and its weights are right).
+  void image_totals(std::vector<double>* primal, std::vector<double>* gradient) const;
 
   // Shift statistics by outcome (also in stats().extra).
   struct ShiftCounts {
