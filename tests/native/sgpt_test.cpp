@@ -172,8 +172,9 @@ TEST(Sgpt, ConvergesToTheSptReferenceOnThePrism) {
 
 TEST(Sgpt, GradientsMatchPrimalDifferencesThroughDispersiveGlass) {
   // E[G_j] = E[I_{j+s}] - E[I_j]: checked on image totals, where the shift runs through smooth
-  // and rough dispersive refraction, half-vector copies and reconnections.
-  for (float rough : {0.0f, 0.15f}) {
+  // and rough dispersive refraction, half-vector copies and reconnections; for one wavelength
+  // per path (§3) and for four (the hero combination of §3.4, eq. 17-18).
+  for (auto [rough, wavelengths] : {std::pair{0.0f, 1}, {0.15f, 1}, {0.0f, 4}, {0.15f, 4}}) {
     const Scene s = load_scene_from_string(
         std::string(R"({"camera": {"position": [0, -1.6, 1.0], "look_at": [0, 0, 0.3], "fov": 40, "width": 16, "height": 16},
       "materials": {"floor": {"type": "diffuse", "color": [0.8, 0.7, 0.5]},
@@ -189,6 +190,7 @@ TEST(Sgpt, GradientsMatchPrimalDifferencesThroughDispersiveGlass) {
     p.set("seed", 21);
     p.set("max_depth", 8);
     p.set("rr_depth", 8);
+    p.set("wavelengths", wavelengths);
     SpectralGradientPathTracer sg(s, p);
     run_progressive(sg, StopRule{0, 1024, 0}, nullptr);
     std::vector<double> I, G;
@@ -199,7 +201,7 @@ TEST(Sgpt, GradientsMatchPrimalDifferencesThroughDispersiveGlass) {
     for (int j = 0; j < B; ++j) {
       const double want = I[(j + st) % B] - I[j];
       worst = std::max(worst, std::abs(G[j] - want) / scale);
-      EXPECT_NEAR(G[j], want, 0.04 * scale) << "roughness " << rough << " bin " << j;
+      EXPECT_NEAR(G[j], want, 0.04 * scale) << "roughness " << rough << " wavelengths " << wavelengths << " bin " << j;
     }
     EXPECT_GT(sg.stats().extra.at("shifted_pairs"), 0);
   }
@@ -212,22 +214,25 @@ TEST(Sgpt, ColouredFurnaceAndPasses) {
     "environment": {"color": [0.5, 1.0, 2.0], "strength": 1},
     "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 32, "material": "white"}]})",
       ".", "furnace.json");
-  Params p;
-  p.set("seed", 4);
-  auto integ = make_integrator("sgpt", s, p);
-  run_progressive(*integ, StopRule{0, 512, 0}, nullptr);
-  Film f;
-  integ->develop(f);
-  ASSERT_TRUE(f.has_pass(pass::kSpectralPrimal));
-  ASSERT_TRUE(f.has_pass(pass::kSpectralGradient));
-  double m[3] = {0, 0, 0};
-  for (int y = 0; y < f.height(); ++y)
-    for (int x = 0; x < f.width(); ++x)
-      for (int k = 0; k < 3; ++k) m[k] += f.rgb(pass::kCombined, x, y)[k] / (f.width() * f.height());
-  EXPECT_NEAR(m[0], 0.5, 0.015);
-  EXPECT_NEAR(m[1], 1.0, 0.03);
-  EXPECT_NEAR(m[2], 2.0, 0.06);
-  EXPECT_GT(integ->stats().extra.at("shifted_pairs"), 0);
+  for (int wavelengths : {1, 4}) {
+    Params p;
+    p.set("seed", 4);
+    p.set("wavelengths", wavelengths);
+    auto integ = make_integrator("sgpt", s, p);
+    run_progressive(*integ, StopRule{0, 512, 0}, nullptr);
+    Film f;
+    integ->develop(f);
+    ASSERT_TRUE(f.has_pass(pass::kSpectralPrimal));
+    ASSERT_TRUE(f.has_pass(pass::kSpectralGradient));
+    double m[3] = {0, 0, 0};
+    for (int y = 0; y < f.height(); ++y)
+      for (int x = 0; x < f.width(); ++x)
+        for (int k = 0; k < 3; ++k) m[k] += f.rgb(pass::kCombined, x, y)[k] / (f.width() * f.height());
+    EXPECT_NEAR(m[0], 0.5, 0.015);
+    EXPECT_NEAR(m[1], 1.0, 0.03);
+    EXPECT_NEAR(m[2], 2.0, 0.06);
+    EXPECT_GT(integ->stats().extra.at("shifted_pairs"), 0);
+  }
 }
 
 TEST(Sgpt, ParametersAreValidated) {
@@ -240,6 +245,7 @@ TEST(Sgpt, ParametersAreValidated) {
   EXPECT_THROW(make("bins", 2), ParamError);
   EXPECT_THROW(make("delta", 0.0), ParamError);
   EXPECT_THROW(make("tau", -1.0), ParamError);
+  EXPECT_THROW(make("wavelengths", 9), ParamError);
   EXPECT_NO_THROW(make("bins", 30));
 }
 

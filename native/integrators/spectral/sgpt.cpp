@@ -90,6 +90,7 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
     : scene_(scene),
       spectra_(scene),
       bins_(params.get<int>("bins", 15)),
+      count_(params.get<int>("wavelengths", 1)),
       stride_(1),
       max_depth_(params.get<int>("max_depth", 32)),
       rr_depth_(params.get<int>("rr_depth", 3)),
@@ -103,6 +104,8 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
       height_(scene.camera.height),
       poisson_(2, 1, 1.0) {
   if (bins_ < 3 || bins_ > 256) throw ParamError("bins must be in 3..256");
+  if (count_ < 1 || count_ > kMaxWavelengths)
+    throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
   if (!(delta_ > 0 && delta_ < 1)) throw ParamError("delta must be in (0, 1) (a fraction of 360-830 nm)");
   if (!(tau_ >= 0)) throw ParamError("tau must be >= 0");
   if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
@@ -135,12 +138,19 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
 
 bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays,
                                               ShiftCounts& counts) {
+  using Values = SpectralValues;
   const LightSet& lights = scene_.light_set();
+  const int C = count_;
   const double bin_width = double(kLambdaRange) / bins_;
-  const float lambda = kLambdaMin + rng.uniform() * kLambdaRange;
-  const int bin = std::min(bins_ - 1, static_cast<int>((lambda - kLambdaMin) / bin_width));
+  // Hero wavelength and its C - 1 rotations (§3.4; C = 1 is plain §3). Each keeps its position
+  // inside its bin, so lambda_j +- delta lands in bin b_j +- s.
+  const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), C);
+  const float lambda = wl.lambda[0];
+  std::array<int, kMaxWavelengths> bin{};
+  for (int j = 0; j < C; ++j)
+    bin[j] = std::min(bins_ - 1, static_cast<int>((wl.lambda[j] - kLambdaMin) / bin_width));
 
-  // ---- Base path at lambda: BSDF sampling only, recorded for the shifts ----
+  // ---- Base path at the hero wavelength: BSDF sampling only, recorded for the shifts ----
   BasePath base;
   base.camera_ray = ray;
   for (int depth = 0;; ++depth) {
@@ -172,7 +182,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     const Vec3 wi = hit->frame.to_world(bs->wi);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     if (depth + 1 >= rr_depth_) {
-      // Survival from the spectral throughput so far (recomputed: cheap at these depths).
+      // Survival from the hero's throughput so far (recomputed: cheap at these depths).
       float beta = 1.0f;
       for (const BaseVertex& u : base.v) {
         const Material mu = monochromatic(scene_.material(u.hit.material), spectra_.albedo[u.hit.material], lambda);
@@ -194,39 +204,75 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     if (h->light < 0 || lights.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
     return spectra_.light[h->light](l);
   };
+  // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l. The direction was
+  // chosen for the hero (or the offset's hero): a smooth dispersive refraction has no density
+  // for any other wavelength.
+  auto scatter_at = [&](int material, float l, const Vec3& wo, const Vec3& wi, bool delta,
+                        bool transmission, float uc, Vec2 u, bool hero) -> Scatter {
+    const Material& mat = scene_.material(material);
+    if (!hero && delta && transmission && is_dispersive(mat)) return {};
+    const Material m = monochromatic(mat, spectra_.albedo[material], l);
+    return delta ? delta_scatter(m, wo, wi, transmission, uc, u) : smooth_scatter(m, wo, wi);
+  };
 
-  // ---- Base contributions per path length (k vertices, then emission) ----
+  // ---- Base contributions per path length (k vertices, then emission), per wavelength ----
   const size_t K = base.v.size() + (base.escaped ? 1 : 0);  // emission events
-  std::vector<float> fx(K, 0.0f), px(K, 0.0f);
+  std::vector<Values> fx(K, Values{}), px(K, Values{});
+  std::vector<float> px_sum(K, 0.0f);  // sum over the set of p(x, lambda_k): eq. 4's denominator
   {
-    float F = 1.0f, P = SampledWavelengths::pdf();
+    Values F{}, P{};
+    for (int j = 0; j < C; ++j) {
+      F[j] = 1.0f;
+      P[j] = SampledWavelengths::pdf();
+    }
     Vec3 dir = base.camera_ray.d;
     for (size_t k = 0; k < K; ++k) {
       const bool is_escape = k == base.v.size();
-      fx[k] = F * emitted(is_escape ? nullptr : &base.v[k].hit, dir, lambda);
-      px[k] = P;
+      for (int j = 0; j < C; ++j) {
+        fx[k][j] = F[j] * emitted(is_escape ? nullptr : &base.v[k].hit, dir, wl.lambda[j]);
+        px[k][j] = P[j];
+        px_sum[k] += P[j];
+      }
       if (is_escape || !base.v[k].scattered) break;
       const BaseVertex& v = base.v[k];
-      const Material m = monochromatic(scene_.material(v.hit.material), spectra_.albedo[v.hit.material], lambda);
-      const Scatter s = v.delta ? delta_scatter(m, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(m, v.wo, v.wi);
-      F *= s.f_cos;
-      P *= v.pdf * v.rr;
+      for (int j = 0; j < C; ++j) {
+        const Scatter s = scatter_at(v.hit.material, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
+        F[j] *= s.f_cos;
+        P[j] *= s.pdf * v.rr;
+      }
       dir = v.hit.frame.to_world(v.wi);
     }
   }
 
   // This sample's estimates, added to the pixel only if all are finite (NaN/Inf are counted).
+  // Primal: f(x, lambda_j) / sum_k p(x, lambda_k) (eq. 3-4) into bin b_j.
   std::vector<double> G(bins_, 0.0);
-  double sample_sum = 0;
+  Values primal{};
   for (size_t k = 0; k < K; ++k)
-    if (fx[k] > 0 && px[k] > 0) sample_sum += fx[k] / px[k];
+    for (int j = 0; j < C; ++j)
+      if (fx[k][j] > 0 && px_sum[k] > 0) primal[j] += fx[k][j] / px_sum[k];
+  // Standard-sampling share of the remaining base contributions once an offset has failed.
+  auto standard_rest = [&](size_t from, int sign, const std::array<int, kMaxWavelengths>& gbin) {
+    for (size_t r = from; r < K; ++r)
+      for (int j = 0; j < C; ++j)
+        if (fx[r][j] > 0) G[gbin[j]] += (sign > 0 ? -1.0 : 1.0) * fx[r][j] / px_sum[r];
+  };
 
   // ---- The two offsets: lambda + delta (forward gradient of bin j) and lambda - delta ----
   for (int sign : {+1, -1}) {
-    const float lambda2 = wrap_wavelength(static_cast<float>(lambda + sign * stride_ * bin_width));
-    const int gbin = sign > 0 ? bin : (bin - stride_ + bins_) % bins_;  // G_gbin = I_{gbin+s} - I_gbin
+    Values lambda2{};
+    std::array<int, kMaxWavelengths> gbin{};  // G_gbin = I_{gbin+s} - I_gbin
+    for (int j = 0; j < C; ++j) {
+      lambda2[j] = wrap_wavelength(static_cast<float>(wl.lambda[j] + sign * stride_ * bin_width));
+      gbin[j] = sign > 0 ? bin[j] : (bin[j] - stride_ + bins_) % bins_;
+    }
     enum class State { Same, Reconnected, Diverged, Failed } state = State::Same;
-    float F2 = 1.0f, P2 = SampledWavelengths::pdf(), J = 1.0f;
+    Values F2{}, P2{};
+    for (int j = 0; j < C; ++j) {
+      F2[j] = 1.0f;
+      P2[j] = SampledWavelengths::pdf();
+    }
+    float J = 1.0f;
     std::optional<SurfaceHit> y;   // the offset's own vertex while diverged
     Vec3 wo_y;                     // offset's local wo at its current vertex
     Vec3 y_dir = base.camera_ray.d;  // direction of the ray that reached the offset vertex
@@ -236,56 +282,48 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       const bool is_escape = k == base.v.size();
       // Offset vertex k and its emission.
       const SurfaceHit* yk = nullptr;
-      float fy = 0.0f;
       if (state == State::Same || state == State::Reconnected) {
         yk = is_escape ? nullptr : &base.v[k].hit;
         if (state == State::Same) wo_y = is_escape ? Vec3() : base.v[k].wo;
-        fy = F2 * emitted(yk, y_dir, lambda2);
       } else if (state == State::Diverged) {
         yk = y_escaped ? nullptr : &*y;
-        fy = F2 * emitted(yk, y_dir, lambda2);
       }
-      // Pair (x, y) for this path length: eq. 9-11 with the threshold of eq. 15-16.
-      const float fyJ = fy * J, pyJ = P2 * J;
-      if (fx[k] > 0 || fyJ > 0) {
-        const float cx = fx[k] / px[k], cy = fyJ / px[k];
-        if (state != State::Failed && std::min(cx, cy) > tau_ && px[k] + pyJ > 0) {
-          const float g = (fyJ - fx[k]) / (px[k] + pyJ);  // w (f(y)|S'| - f(x)) / p(x), eq. 10
-          G[gbin] += sign > 0 ? g : -g;
+      // Pairs (x, lambda_j), (y, lambda'_j) for this path length: eq. 9-11 (C = 1) or eq. 17-18,
+      // with the threshold of eq. 15-16.
+      float denom = 0;  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
+      for (int i = 0; i < C; ++i) denom += px[k][i] + P2[i] * J;
+      for (int j = 0; j < C; ++j) {
+        const float fyJ = F2[j] * emitted(yk, y_dir, lambda2[j]) * J;
+        if (!(fx[k][j] > 0 || fyJ > 0)) continue;
+        const float cx = fx[k][j] / px_sum[k], cy = fyJ / px_sum[k];
+        if (std::min(cx, cy) > tau_ && denom > 0) {
+          const float g = (fyJ - fx[k][j]) / denom;  // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
+          G[gbin[j]] += sign > 0 ? g : -g;
           ++counts.shifted;
         } else {
-          G[gbin] += sign > 0 ? -cx : cx;  // standard sampling of the I_lambda term (eq. 15)
-          if (state != State::Failed) ++counts.below_tau;
+          G[gbin[j]] += sign > 0 ? -cx : cx;  // standard sampling of the I_lambda term (eq. 15)
+          ++counts.below_tau;
         }
       }
-      if (is_escape || !base.v[k].scattered || state == State::Failed) {
-        if (state == State::Failed) {
-          // Remaining base contributions still need their standard-sampling share.
-          for (size_t r = k + 1; r < K; ++r)
-            if (fx[r] > 0) G[gbin] += sign > 0 ? -fx[r] / px[r] : fx[r] / px[r];
-        }
-        break;
-      }
+      if (is_escape || !base.v[k].scattered) break;
       if (state == State::Diverged && y_escaped) {  // the offset left the scene, the base did not
-        state = State::Failed;
         ++counts.failed_mismatch;
-        for (size_t r = k + 1; r < K; ++r)
-          if (fx[r] > 0) G[gbin] += sign > 0 ? -fx[r] / px[r] : fx[r] / px[r];
+        standard_rest(k + 1, sign, gbin);
         break;
       }
 
-      // ---- Scatter: the offset's outgoing direction at its vertex k ----
+      // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry) ----
       const BaseVertex& x = base.v[k];
       const Material& mat_x = scene_.material(x.hit.material);
       const Material mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], lambda);
       const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
       const Material& mat_y = scene_.material(yh.material);
-      const Material my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2);
-      Scatter s2;
+      const Material my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
       Vec3 wi_y;  // local at the offset vertex
-      bool diverge_now = false, reconnect_now = false;
+      bool ok = true, diverge_now = false, reconnect_now = false;
+      bool delta_y = x.delta;  // the lobe the offset follows: the base's
       auto fail = [&](int64_t& counter) {
-        state = State::Failed;
+        ok = false;
         ++counter;
       };
       if (state == State::Same || state == State::Reconnected) {
@@ -298,19 +336,12 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
             fail(counts.failed_tir);
           } else {
             wi_y = *wi2;
-            if (x.delta) {
-              s2 = delta_scatter(my, wo_y, wi_y, true, x.uc, x.u);
-            } else {
-              s2 = smooth_scatter(my, wo_y, wi_y);
-              J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, true);  // eq. 13
-            }
+            if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, true);  // eq. 13
             diverge_now = true;
           }
         } else {
           wi_y = x.wi;  // wavelength-independent direction: the offset follows the base
-          s2 = x.delta ? delta_scatter(my, wo_y, wi_y, x.transmission, x.uc, x.u) : smooth_scatter(my, wo_y, wi_y);
         }
-        if (state == State::Reconnected) state = State::Same;
       } else {  // Diverged
         const bool next_connectable =
             k + 1 < base.v.size() && connectable(scene_.material(base.v[k + 1].hit.material));
@@ -323,14 +354,13 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           } else {
             const Vec3 d = normalize(xn.hit.p - yh.p);
             wi_y = yh.frame.to_local(d);
-            s2 = smooth_scatter(my, wo_y, wi_y);
             J *= reconnection_jacobian(x.hit.p, yh.p, xn.hit.p, xn.hit.ng);
             reconnect_now = true;
+            delta_y = false;
           }
         } else {
           // ---- Half-vector copy at the offset's own vertex ----
-          const bool y_delta = Bsdf(my).is_delta();
-          if (y_delta != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
+          if (Bsdf(my).is_delta() != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
             fail(counts.failed_mismatch);
           } else {
             const Etas e = etas_of(mx, x.wo, x.transmission), e2 = etas_of(my, wo_y, x.transmission);
@@ -340,27 +370,27 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
               fail(counts.failed_tir);
             } else {
               wi_y = *wi2;
-              if (x.delta) {
-                s2 = delta_scatter(my, wo_y, wi_y, x.transmission, x.uc, x.u);
-              } else {
-                s2 = smooth_scatter(my, wo_y, wi_y);
-                J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, x.transmission);
-              }
+              if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, x.transmission);
             }
           }
         }
       }
-      if (state == State::Failed || s2.pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
-        if (state != State::Failed) {
-          state = State::Failed;
-          ++counts.failed_mismatch;
-        }
-        for (size_t r = k + 1; r < K; ++r)
-          if (fx[r] > 0) G[gbin] += sign > 0 ? -fx[r] / px[r] : fx[r] / px[r];
+      // The offset's BSDF at each of its wavelengths along the chosen direction.
+      std::array<Scatter, kMaxWavelengths> s2{};
+      if (ok)
+        for (int j = 0; j < C; ++j)
+          s2[j] = scatter_at(yh.material, lambda2[j], wo_y, wi_y, delta_y, x.transmission && !reconnect_now,
+                             x.uc, x.u, j == 0);
+      if (!ok || s2[0].pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
+        if (ok) ++counts.failed_mismatch;
+        standard_rest(k + 1, sign, gbin);
         break;
       }
-      F2 *= s2.f_cos;
-      P2 *= s2.pdf * x.rr;  // the offset inherits the base's roulette decisions
+      for (int j = 0; j < C; ++j) {
+        F2[j] *= s2[j].f_cos;
+        P2[j] *= s2[j].pdf * x.rr;  // the offset inherits the base's roulette decisions
+      }
+      if (state == State::Reconnected) state = State::Same;
       // ---- Next offset vertex ----
       if (reconnect_now) {
         const BaseVertex& xn = base.v[k + 1];
@@ -378,22 +408,27 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         y_dir = d;
         y_escaped = !y;
         if (y) wo_y = y->frame.to_local(-d);
-        if (diverge_now) state = State::Diverged;
-        // The base ended in an escape at k + 1 but the offset hit something: the pair's last
-        // event is the offset's emission at its hit, evaluated at the top of the loop.
+        state = State::Diverged;
+        // If the base ends in an escape at k + 1 while the offset hit something, the pair's
+        // last event is the offset's emission at its hit, evaluated at the top of the loop.
       }
     }
   }
 
-  bool finite = std::isfinite(sample_sum);
+  bool finite = true;
+  for (int j = 0; j < C; ++j) finite &= std::isfinite(primal[j]);
   for (double g : G) finite &= std::isfinite(g);
   if (!finite) return false;
   double* I = &primal_[pixel * bins_];
   double* Gp = &gradient_[pixel * bins_];
-  I[bin] += sample_sum;
+  Vec3 xyz(0, 0, 0);
+  for (int j = 0; j < C; ++j) {
+    I[bin[j]] += primal[j];
+    // The same sample with the exact CMF at lambda_j (no binning), for the primal colour.
+    xyz = xyz + cie_xyz_bar(wl.lambda[j]) * static_cast<float>(primal[j]);
+  }
   for (int j = 0; j < bins_; ++j) Gp[j] += G[j];
-  // The same sample with the exact CMF at lambda (no binning), for the primal colour.
-  const RGB c = xyz_to_rgb(cie_xyz_bar(lambda) * static_cast<float>(sample_sum / cie_y_integral()));
+  const RGB c = xyz_to_rgb(xyz * (1.0f / cie_y_integral()));
   for (int k = 0; k < 3; ++k) rgb_[3 * pixel + k] += c[k];
   return true;
 }

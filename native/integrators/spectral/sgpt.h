@@ -18,11 +18,17 @@
 //   - paths are sampled by the BSDF only (no next-event estimation): the shift of NEE and its
 //     MIS would double the code for little gain on caustic scenes; as a consequence lights
 //     must be hittable (area or environment lights; delta lights are rejected).
-//   - the hero-wavelength combination of §3.4 (eq. 17-18) is not implemented (the paper
-//     reports its gain over plain hero sampling as small).
+//
+// With `wavelengths` C > 1 the base path carries the hero and C - 1 rotations and each offset
+// their shifted copies (§3.4): every wavelength of the set contributes its pair, weighted by
+// eq. 18 over the 2C techniques; a smooth dispersive refraction leaves only the hero's pair.
+// tau compares f / sum_k p(x, lambda_k) of the two paths of a pair (the paper's eq. 16 compares
+// f): with tau = 0 the decision is "both paths contribute", symmetric between the two
+// directions of a pair; with tau > 0 it is symmetric only approximately.
 //
 // Parameters (defaults):
 //   bins         15     spectral bins per pixel (CLI --bins)
+//   wavelengths  1      wavelengths per path C (1 = §3; > 1 = hero combination, §3.4), 1..8
 //   delta        0.15   wavelength shift as a fraction of the domain (CLI --delta)
 //   tau          0      shift threshold of eq. 16 on the per-sample contribution (CLI --tau)
 //   alpha        0.2    screened Poisson weight of the primal (eq. 14)
@@ -75,7 +81,7 @@ class SpectralGradientPathTracer : public Integrator {
 
   const Scene& scene_;
   SceneSpectra spectra_;
-  int bins_, stride_, max_depth_, rr_depth_, threads_, tile_size_;
+  int bins_, count_, stride_, max_depth_, rr_depth_, threads_, tile_size_;
   double delta_, tau_, alpha_;
   uint64_t seed_;
   int width_, height_;
