@@ -19,6 +19,9 @@ METHOD_LABELS = {
     "gpt": ("Gradient-Domain PT", "Gradient-domain path tracing (KMA15)"),
     "gpm": ("Gradient-Domain Photons", "Gradient-domain photon density estimation"),
     "spectral": ("Spectral PT", "Spectral path tracing with hero wavelengths"),
+    "spt": ("Spectral PT (1 wavelength)", "Spectral path tracing, one wavelength per path, Cauchy dispersion"),
+    "spt-hero": ("Spectral PT (hero)", "Spectral path tracing with hero wavelengths (4 per path), Cauchy dispersion"),
+    "sgpt": ("Spectral Gradient PT", "Spectral gradient sampling with 1D Poisson reconstruction (Petitjean et al. 2018)"),
     "gdmlt": ("Gradient-Domain MLT", "Gradient-domain Metropolis light transport"),
 }
 

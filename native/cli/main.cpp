@@ -16,6 +16,7 @@
 #include "core/sampling.h"
 #include "integrators/integrator.h"
 #include "integrators/photon_tracer.h"
+#include "integrators/spectral/spectral_pt.h"
 #include "io/display.h"
 #include "io/exr.h"
 #include "io/metrics.h"
@@ -123,6 +124,10 @@ struct RenderArgs {
   double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
+  // Spectral mode and spectral gradient sampling (docs/spectral.md); unset = method defaults.
+  std::string spectral;
+  std::optional<double> delta, tau;
+  std::optional<int> bins;
 };
 
 void make_parent_dirs(const std::string& path) {
@@ -148,6 +153,10 @@ int run_render(const RenderArgs& a) {
   if (a.hash) params.set("hash", *a.hash);
   if (!a.recon.empty()) params.set("recon", a.recon);
   if (a.lambda > 0) params.set("lambda", a.lambda);
+  if (!a.spectral.empty()) params.set("spectral", a.spectral);
+  if (a.delta) params.set("delta", *a.delta);
+  if (a.tau) params.set("tau", *a.tau);
+  if (a.bins) params.set("bins", *a.bins);
   for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
@@ -176,10 +185,29 @@ int run_render(const RenderArgs& a) {
   write_exr(a.out, film);
   const Stats& s = integrator->stats();
   fmt::print("method     {}\n", integrator->name());
+  if (a.method == "pt" && integrator->name() != "pt") {
+    const std::string why = first_dispersive_material(scene);
+    fmt::print("spectral   on: {} (method pt ran as {})\n",
+               why.empty() ? std::string("forced by --spectral spectral") : "dispersive material '" + why + "'",
+               integrator->name());
+  }
   fmt::print("passes     {}\npaths      {}\nrays       {}\n", s.passes, s.paths, s.rays);
   fmt::print("seconds    {:.3f}\nMrays/s    {:.2f}\n", s.seconds, s.seconds > 0 ? s.rays / s.seconds * 1e-6 : 0.0);
   if (const double err = integrator->estimated_error(); err >= 0) fmt::print("est. error {:.4g}\n", err);
   if (s.invalid_samples) fmt::print("discarded  {} NaN/Inf samples\n", s.invalid_samples);
+  // Image mean of the combined pass (and of the other passes), for quick comparisons between
+  // methods and modes.
+  for (const auto& [name, p] : film.passes()) {
+    double m[3] = {0, 0, 0};
+    for (size_t i = 0; i < film.pixel_count(); ++i)
+      for (int k = 0; k < p.channels; ++k) m[k] += p.data[p.channels * i + k];
+    const double n = std::max<double>(1.0, static_cast<double>(film.pixel_count()));
+    const std::string label = name == pass::kCombined ? "mean rgb" : "mean " + name;
+    if (p.channels == 3)
+      fmt::print("{:<10} {:.6g} {:.6g} {:.6g}\n", label, m[0] / n, m[1] / n, m[2] / n);
+    else
+      fmt::print("{:<10} {:.6g}\n", label, m[0] / n);
+  }
   for (const auto& [k, v] : s.extra) fmt::print("{:<16} {:g}\n", k, v);
   if (progress.cancel_flag) fmt::print("cancelled  yes (image so far written)\n");
   fmt::print("exr        {}\n", a.out);
@@ -474,6 +502,12 @@ int main(int argc, char** argv) {
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
   render->add_option("--target-error", ra.target_error,
                      "Stop when the average estimated relative error falls below this (ppm/sppm)");
+  render->add_option("--spectral", ra.spectral,
+                     "Spectral mode: auto (spectral only with a dispersive material), rgb or spectral")
+      ->check(CLI::IsMember({"auto", "rgb", "spectral"}));
+  render->add_option("--delta", ra.delta, "sgpt: wavelength shift as a fraction of 360-830 nm (default 0.15)");
+  render->add_option("--tau", ra.tau, "sgpt: shift threshold tau of the paper's eq. 16 (default 0)");
+  render->add_option("--bins", ra.bins, "sgpt: spectral bins per pixel (default 15)");
 
   std::string diff_a, diff_ref, diff_pass = "combined", diff_png, diff_error_pass;
   auto* diff = app.add_subcommand("diff", "Compare an EXR with a reference: relMSE, RMSE, mean ratio");

@@ -25,6 +25,10 @@ inline constexpr std::string_view kPhotonCount = "photon_count";  // accumulated
 inline constexpr std::string_view kPrimal = "primal";
 inline constexpr std::string_view kGradientX = "gradient_x";
 inline constexpr std::string_view kGradientY = "gradient_y";
+// Spectral gradient sampling (integrators/spectral/sgpt): the base paths' spectrum before the
+// 1D Poisson reconstruction, and the RMS of the per-pixel spectral gradients.
+inline constexpr std::string_view kSpectralPrimal = "spectral_primal";
+inline constexpr std::string_view kSpectralGradient = "spectral_gradient";
 
 struct Info {
   std::string_view name;
@@ -40,6 +44,8 @@ inline constexpr Info kAll[] = {
     {kPrimal, 3, "Primal"},
     {kGradientX, 3, "Gradient X"},
     {kGradientY, 3, "Gradient Y"},
+    {kSpectralPrimal, 3, "Spectral Primal"},
+    {kSpectralGradient, 1, "Spectral Gradient"},
 };
 }  // namespace pass
 

@@ -4,6 +4,8 @@
 #include "integrators/path_tracer.h"
 #include "integrators/ppm.h"
 #include "integrators/sppm.h"
+#include "integrators/spectral/sgpt.h"
+#include "integrators/spectral/spectral_pt.h"
 
 namespace gp {
 
@@ -30,14 +32,31 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
   }
 }
 
-std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "gpt"}; }
+std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "gpt", "spt", "spt-hero", "sgpt"}; }
 
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
                                             const Params& params) {
-  if (method == "pt") return std::make_unique<PathTracer>(scene, params);
+  // Spectral mode (parameter `spectral`, CLI --spectral): `pt` turns into the hero-wavelength
+  // spectral path tracer when the mode asks for it; in "auto" only dispersive scenes do, so a
+  // scene without dispersion runs the RGB path tracer exactly as before.
+  const SpectralMode mode = parse_spectral_mode(params.get<std::string>("spectral", "auto"));
+  if (method == "pt") {
+    if (use_spectral(mode, scene)) return std::make_unique<SpectralPathTracer>(scene, params, true);
+    return std::make_unique<PathTracer>(scene, params);
+  }
   if (method == "ppm") return std::make_unique<Ppm>(scene, params);
   if (method == "sppm") return std::make_unique<Sppm>(scene, params);
   if (method == "gpt") return std::make_unique<GradientPathTracer>(scene, params);
+  if (method == "spt" || method == "spt-hero") {
+    if (mode == SpectralMode::Rgb)
+      throw ParamError("method '" + method + "' is spectral; spectral mode 'rgb' needs method 'pt'");
+    return std::make_unique<SpectralPathTracer>(scene, params, method == "spt-hero");
+  }
+  if (method == "sgpt") {
+    if (mode == SpectralMode::Rgb)
+      throw ParamError("method 'sgpt' is spectral; spectral mode 'rgb' needs method 'pt'");
+    return std::make_unique<SpectralGradientPathTracer>(scene, params);
+  }
   std::string known;
   for (const auto& n : integrator_names()) known += (known.empty() ? "" : ", ") + n;
   throw ParamError("unknown method '" + method + "' (known: " + known + ")");

@@ -66,3 +66,22 @@ def test_unknown_method_and_parameter_are_reported(tmp_path):
     p = run("render", CORNELL, "--passes", 1, "--width", 8, "--height", 8, "--param", "max_dpeth=3",
             "-o", tmp_path / "y.exr")
     assert "max_dpeth" in p.stderr
+
+
+def test_spectral_mode_flag_and_summary(tmp_path):
+    # auto: a scene without dispersion stays RGB; --spectral spectral forces spectral; a
+    # dispersive scene (prism) turns pt into spt-hero and says so.
+    out = tmp_path / "s.exr"
+    plain = run("render", CORNELL, "--passes", 1, "--width", 16, "--height", 16, "-o", out).stdout
+    assert re.search(r"method\s+pt\n", plain) and not re.search(r"^spectral ", plain, re.M)
+    forced = run("render", CORNELL, "--passes", 1, "--width", 16, "--height", 16, "--spectral", "spectral",
+                 "-o", out).stdout
+    assert re.search(r"method\s+spt-hero", forced) and "forced by --spectral spectral" in forced
+    prism = run("render", ROOT / "scenes" / "prism.json", "--passes", 1, "--width", 16, "--height", 12,
+                "-o", out).stdout
+    assert re.search(r"spectral\s+on: dispersive material", prism)
+    rgb = run("render", ROOT / "scenes" / "prism.json", "--passes", 1, "--width", 16, "--height", 12,
+              "--spectral", "rgb", "-o", out).stdout
+    assert re.search(r"method\s+pt\n", rgb)
+    bad = run("render", CORNELL, "--spectral", "maybe", "-o", out, ok=False)
+    assert bad.returncode != 0 and "maybe" in bad.stderr

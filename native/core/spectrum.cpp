@@ -1,0 +1,204 @@
+#include "core/spectrum.h"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+
+namespace gp {
+
+namespace {
+
+// Piecewise Gaussian of Wyman et al. 2013, eq. 1: different widths left and right of the mean.
+double lobe(double x, double mu, double sigma_left, double sigma_right) {
+  const double t = (x - mu) / (x < mu ? sigma_left : sigma_right);
+  return std::exp(-0.5 * t * t);
+}
+
+// The integration grid shared by every quadrature here: 5 nm trapezoid over the domain.
+constexpr int kSteps = 94;
+double grid_lambda(int i) { return kLambdaMin + double(kLambdaRange) * i / kSteps; }
+double grid_weight(int i) { return (i == 0 || i == kSteps ? 0.5 : 1.0) * kLambdaRange / kSteps; }
+
+// Tables built once: the XYZ -> RGB matrix and the RGB-weighted CMFs on the grid.
+struct Tables {
+  double y_integral = 0;
+  Eigen::Matrix3d xyz_to_rgb;
+  // rgb_bar[i] = xyz_to_rgb * cmf(lambda_i) * weight_i / y_integral: RGB of s is sum s_i rgb_bar_i.
+  std::array<Eigen::Vector3d, kSteps + 1> rgb_bar;
+
+  Tables() {
+    Eigen::Vector3d white(0, 0, 0);
+    std::array<Eigen::Vector3d, kSteps + 1> xyz;
+    for (int i = 0; i <= kSteps; ++i) {
+      const Vec3 c = cie_xyz_bar(static_cast<float>(grid_lambda(i)));
+      xyz[i] = Eigen::Vector3d(c.x, c.y, c.z);
+      white += xyz[i] * grid_weight(i);
+    }
+    y_integral = white.y();
+    white /= y_integral;  // equal-energy white of the fit (about (1, 1, 1))
+    // Rec.709 / sRGB primaries with the D65 white (IEC 61966-2-1), XYZ -> linear RGB.
+    Eigen::Matrix3d m709;
+    m709 << 3.2404542, -1.5371385, -0.4985314,
+           -0.9692660, 1.8760108, 0.0415560,
+            0.0556434, -0.2040259, 1.0572252;
+    // Bradford chromatic adaptation from the equal-energy white to D65 (Lam 1985).
+    Eigen::Matrix3d bradford;
+    bradford << 0.8951, 0.2664, -0.1614,
+               -0.7502, 1.7135, 0.0367,
+                0.0389, -0.0685, 1.0296;
+    const Eigen::Vector3d d65(0.95047, 1.0, 1.08883);
+    const Eigen::Vector3d gain = (bradford * d65).cwiseQuotient(bradford * white);
+    Eigen::Matrix3d m = m709 * bradford.inverse() * gain.asDiagonal() * bradford;
+    // The published matrix maps D65 to (1, 1, 1) only to 4 digits: make white exact.
+    const Eigen::Vector3d w_rgb = m * white;
+    for (int r = 0; r < 3; ++r) m.row(r) /= w_rgb[r];
+    xyz_to_rgb = m;
+    for (int i = 0; i <= kSteps; ++i) rgb_bar[i] = m * xyz[i] * (grid_weight(i) / y_integral);
+  }
+};
+
+const Tables& tables() {
+  static const Tables t;
+  return t;
+}
+
+// Jakob & Hanika 2019, eq. 3: algebraic sigmoid mapping R to (0, 1), and its derivative.
+double sigmoid(double x) { return 0.5 + x / (2.0 * std::sqrt(1.0 + x * x)); }
+double sigmoid_derivative(double x) { return 0.5 / std::pow(1.0 + x * x, 1.5); }
+
+double grid_t(int i) { return double(i) / kSteps; }  // (lambda - min) / range on the grid
+
+Eigen::Vector3d fit_rgb(const Eigen::Vector3d& c) {
+  const Tables& tb = tables();
+  Eigen::Vector3d rgb(0, 0, 0);
+  for (int i = 0; i <= kSteps; ++i) {
+    const double t = grid_t(i);
+    rgb += tb.rgb_bar[i] * sigmoid(c[0] * t * t + c[1] * t + c[2]);
+  }
+  return rgb;
+}
+
+// Gauss–Newton fit of the three coefficients to an RGB target, with continuation from grey
+// 0.5 (c = 0) towards the target in small steps, as Jakob & Hanika build their table (§4);
+// Levenberg–Marquardt damping keeps steps sane for saturated colours.
+Eigen::Vector3d fit_coefficients(const Eigen::Vector3d& target) {
+  const Tables& tb = tables();
+  Eigen::Vector3d c(0, 0, 0);
+  constexpr int kContinuation = 16;
+  for (int k = 1; k <= kContinuation; ++k) {
+    const double a = double(k) / kContinuation;
+    const Eigen::Vector3d goal = Eigen::Vector3d::Constant(0.5) * (1 - a) + target * a;
+    double lm = 1e-6;
+    for (int it = 0; it < 40; ++it) {
+      Eigen::Vector3d rgb(0, 0, 0);
+      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+      for (int i = 0; i <= kSteps; ++i) {
+        const double t = grid_t(i);
+        const double x = c[0] * t * t + c[1] * t + c[2];
+        rgb += tb.rgb_bar[i] * sigmoid(x);
+        const double d = sigmoid_derivative(x);
+        J.col(0) += tb.rgb_bar[i] * (d * t * t);
+        J.col(1) += tb.rgb_bar[i] * (d * t);
+        J.col(2) += tb.rgb_bar[i] * d;
+      }
+      const Eigen::Vector3d r = rgb - goal;
+      const double err = r.squaredNorm();
+      if (err < 1e-14) break;
+      // Damped normal equations; accept the step if it reduces the residual.
+      bool improved = false;
+      for (int tries = 0; tries < 12 && !improved; ++tries) {
+        const Eigen::Matrix3d A = J.transpose() * J + lm * Eigen::Matrix3d::Identity();
+        const Eigen::Vector3d step = A.ldlt().solve(-J.transpose() * r);
+        const Eigen::Vector3d cn = c + step;
+        if ((fit_rgb(cn) - goal).squaredNorm() < err) {
+          c = cn;
+          lm = std::max(lm * 0.1, 1e-12);
+          improved = true;
+        } else {
+          lm *= 10;
+        }
+      }
+      if (!improved) break;
+    }
+  }
+  return c;
+}
+
+}  // namespace
+
+float wrap_wavelength(float lambda) {
+  float l = std::fmod(lambda - kLambdaMin, kLambdaRange);
+  if (l < 0) l += kLambdaRange;
+  const float w = kLambdaMin + l;
+  return w >= kLambdaMax ? kLambdaMin : w;
+}
+
+SampledWavelengths SampledWavelengths::sample_uniform(float u, int count) {
+  SampledWavelengths wl;
+  wl.count = count;
+  const float hero = kLambdaMin + u * kLambdaRange;
+  const float spacing = kLambdaRange / count;
+  for (int j = 0; j < count; ++j) wl.lambda[j] = wrap_wavelength(hero + j * spacing);
+  return wl;
+}
+
+Vec3 cie_xyz_bar(float lambda) {
+  // Wyman, Sloan & Shirley 2013, §2.2 "multi-lobe" fit (their eq. 2; lambda in nm).
+  const double l = lambda;
+  const double x = 1.056 * lobe(l, 599.8, 37.9, 31.0) + 0.362 * lobe(l, 442.0, 16.0, 26.7) -
+                   0.065 * lobe(l, 501.1, 20.4, 26.2);
+  const double y = 0.821 * lobe(l, 568.8, 46.9, 40.5) + 0.286 * lobe(l, 530.9, 16.3, 31.1);
+  const double z = 1.217 * lobe(l, 437.0, 11.8, 36.0) + 0.681 * lobe(l, 459.0, 26.0, 13.8);
+  return Vec3(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+}
+
+float cie_y_integral() { return static_cast<float>(tables().y_integral); }
+
+RGB xyz_to_rgb(const Vec3& xyz) {
+  const Eigen::Vector3d v = tables().xyz_to_rgb * Eigen::Vector3d(xyz.x, xyz.y, xyz.z);
+  return RGB(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+}
+
+RGB sample_to_rgb(const SpectralValues& L, const SampledWavelengths& wl) {
+  Vec3 xyz(0, 0, 0);
+  for (int j = 0; j < wl.count; ++j) xyz = xyz + cie_xyz_bar(wl.lambda[j]) * L[j];
+  // Monte Carlo estimate of the XYZ integrals: mean over the set of L cmf / pdf, and Y(1) = 1.
+  const float norm = 1.0f / (wl.count * SampledWavelengths::pdf() * cie_y_integral());
+  return xyz_to_rgb(xyz * norm);
+}
+
+RgbSpectrum RgbSpectrum::reflectance(const RGB& in) {
+  RgbSpectrum s;
+  const RGB rgb(clamp(in.r, 0, 1), clamp(in.g, 0, 1), clamp(in.b, 0, 1));
+  if (rgb.r == rgb.g && rgb.g == rgb.b) {  // greys (white and black included) are exact
+    s.constant_ = true;
+    s.value_ = rgb.r;
+    return s;
+  }
+  const Eigen::Vector3d c = fit_coefficients(Eigen::Vector3d(rgb.r, rgb.g, rgb.b));
+  s.constant_ = false;
+  s.c0_ = static_cast<float>(c[0]);
+  s.c1_ = static_cast<float>(c[1]);
+  s.c2_ = static_cast<float>(c[2]);
+  return s;
+}
+
+RgbSpectrum RgbSpectrum::illuminant(const RGB& rgb) {
+  const float m = std::max(0.0f, rgb.max_component());
+  if (m <= 0) return reflectance(RGB(0.0f));
+  RgbSpectrum s = reflectance(rgb / m);
+  s.scale_ = m;
+  return s;
+}
+
+float RgbSpectrum::operator()(float lambda) const {
+  if (constant_) return value_ * scale_;
+  const double t = (double(lambda) - kLambdaMin) / kLambdaRange;
+  return static_cast<float>(sigmoid((c0_ * t + c1_) * t + c2_)) * scale_;
+}
+
+RGB RgbSpectrum::to_rgb() const {
+  return spectrum_to_rgb([this](float l) { return (*this)(l); });
+}
+
+}  // namespace gp

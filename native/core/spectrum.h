@@ -1,0 +1,111 @@
+// Spectral core (DESIGN.md "Units": spectral mode 360–830 nm through CIE 1931 XYZ): the
+// wavelength domain, hero-wavelength sets, the colour matching functions, XYZ -> scene-linear
+// Rec.709, and RGB -> smooth spectrum upsampling for reflectances and illuminants.
+//
+// Choices (docs/spectral.md has the reasoning and numbers):
+//  - CMFs: the multi-lobe piecewise-Gaussian fit of Wyman, Sloan & Shirley 2013 ("Simple
+//    Analytic Approximations to the CIE XYZ Color Matching Functions", JCGT 2(2)), instead of
+//    the tabulated CIE data: no large table, error well below the noise of a render.
+//  - Upsampling: Jakob & Hanika 2019 ("A Low-Dimensional Function Space for Efficient Spectral
+//    Upsampling"), s(lambda) = sigmoid(c0 t^2 + c1 t + c2). Their precomputed 3D coefficient
+//    table exists to make textures fast; our materials and lights carry constant colours, so the
+//    three coefficients are fitted here, once per colour, by the same Gauss–Newton
+//    optimisation with continuation from grey that produces their table. Greys (white
+//    included) are exact constants.
+//  - White point: the spectral pipeline is normalised so that the constant spectrum 1 maps to
+//    RGB (1, 1, 1) (Bradford adaptation of the fit's equal-energy white to D65, then the
+//    Rec.709 matrix). Reflectances and illuminants are both fitted in that space, so a white
+//    light on a white wall renders white in both modes and no D65 table is needed.
+//  - Wavelength sampling: uniform hero wavelength plus C - 1 equally spaced rotations (Wilkie
+//    et al. 2014); every member of the set is then marginally uniform, so the hero MIS weights
+//    (spectral gradient sampling eq. 3-4) reduce to ratios of path pdfs.
+#pragma once
+
+#include <array>
+
+#include "core/color.h"
+#include "core/math.h"
+
+namespace gp {
+
+inline constexpr float kLambdaMin = 360.0f;  // nm
+inline constexpr float kLambdaMax = 830.0f;  // nm
+inline constexpr float kLambdaRange = kLambdaMax - kLambdaMin;
+inline constexpr int kMaxWavelengths = 8;    // most wavelengths one path may carry
+
+// Values at the wavelengths of a SampledWavelengths (only the first `count` are meaningful).
+using SpectralValues = std::array<float, kMaxWavelengths>;
+
+// Wraps a wavelength into [kLambdaMin, kLambdaMax) (the spectrum is treated as cyclic, as in
+// spectral gradient sampling §4).
+float wrap_wavelength(float lambda);
+
+// A hero wavelength and count - 1 rotations, equally spaced over the domain (WND*14).
+struct SampledWavelengths {
+  int count = 1;
+  std::array<float, kMaxWavelengths> lambda{};
+  // u in [0, 1) places the hero uniformly; count in [1, kMaxWavelengths].
+  static SampledWavelengths sample_uniform(float u, int count);
+  // Marginal density of each member (uniform over the domain).
+  static constexpr float pdf() { return 1.0f / kLambdaRange; }
+};
+
+// CIE 1931 2-degree colour matching functions (x-bar, y-bar, z-bar) at lambda (nm), from the
+// Wyman–Sloan–Shirley 2013 multi-lobe fit.
+Vec3 cie_xyz_bar(float lambda);
+// Integral of y-bar over [kLambdaMin, kLambdaMax] (nm), for normalising XYZ so Y(1) = 1.
+float cie_y_integral();
+
+// XYZ (normalised so the constant spectrum 1 has Y = 1) to scene-linear Rec.709, adapted so the
+// constant spectrum 1 maps to RGB (1, 1, 1).
+RGB xyz_to_rgb(const Vec3& xyz);
+// XYZ (Y-normalised) of the spectrum s integrated over the domain (5 nm trapezoid), as RGB.
+template <typename F>
+RGB spectrum_to_rgb(F&& s);
+
+// One Monte Carlo sample of spectral radiance L at the wavelengths `wl` to an RGB estimate:
+// the average over the set of L(lambda_j) cmf(lambda_j) / pdf(lambda_j), normalised and converted.
+RGB sample_to_rgb(const SpectralValues& L, const SampledWavelengths& wl);
+
+// Smooth spectrum from an RGB colour: Jakob–Hanika sigmoid polynomial, optionally scaled.
+class RgbSpectrum {
+ public:
+  RgbSpectrum() = default;
+  // Bounded spectrum in [0, 1] for a reflectance (components clamped to [0, 1]).
+  static RgbSpectrum reflectance(const RGB& rgb);
+  // Unbounded spectrum for emission: scale * reflectance(rgb / scale) with scale = max(rgb).
+  static RgbSpectrum illuminant(const RGB& rgb);
+
+  float operator()(float lambda) const;
+  // The RGB the spectrum integrates to (what the fit was aiming at), for tests and reports.
+  RGB to_rgb() const;
+  bool is_constant() const { return constant_; }
+
+ private:
+  bool constant_ = true;
+  float value_ = 0;               // the constant (grey) value, before scale
+  float c0_ = 0, c1_ = 0, c2_ = 0;  // polynomial in t = (lambda - kLambdaMin) / kLambdaRange
+  float scale_ = 1;
+};
+
+// Cauchy's equation n(lambda) = A + B / lambda^2 with lambda in micrometres (spectral gradient
+// sampling §4, [JW01]).
+inline float cauchy_ior(float a, float b_um2, float lambda_nm) {
+  const float l_um = lambda_nm * 1e-3f;
+  return a + b_um2 / (l_um * l_um);
+}
+
+// ---- template definition ----
+template <typename F>
+RGB spectrum_to_rgb(F&& s) {
+  constexpr int kSteps = 94;  // 5 nm
+  Vec3 xyz(0, 0, 0);
+  for (int i = 0; i <= kSteps; ++i) {
+    const float lambda = kLambdaMin + kLambdaRange * i / kSteps;
+    const float w = (i == 0 || i == kSteps) ? 0.5f : 1.0f;
+    xyz = xyz + cie_xyz_bar(lambda) * (w * s(lambda));
+  }
+  return xyz_to_rgb(xyz * (kLambdaRange / kSteps / cie_y_integral()));
+}
+
+}  // namespace gp

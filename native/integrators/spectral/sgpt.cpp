@@ -1,0 +1,534 @@
+#include "integrators/spectral/sgpt.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <optional>
+
+#include "core/frame.h"
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "integrators/spectral/spectral_shift.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+namespace {
+
+// One vertex of the base path: the surface x_k, the direction back to x_{k-1}, and how the
+// base continued from it.
+struct BaseVertex {
+  SurfaceHit hit;
+  Vec3 wo;                    // local, towards x_{k-1}
+  bool scattered = false;     // has a sampled continuation (wi below is set)
+  Vec3 wi;                    // local sampled direction
+  float uc = 0;               // the sampler's random numbers (delta lobes are re-sampled with them)
+  Vec2 u;
+  bool delta = false, transmission = false;
+  float pdf = 0;              // BSDF pdf (solid angle, or lobe probability for delta lobes)
+  float rr = 1;               // Russian roulette survival probability after this vertex
+};
+
+struct BasePath {
+  Ray camera_ray;
+  std::vector<BaseVertex> v;
+  bool escaped = false;       // the last ray left the scene
+  Ray escape_ray;             // that ray (world space), from v.back() or the camera
+};
+
+bool connectable(const Material& m) {
+  switch (m.type) {
+    case MaterialType::Diffuse:
+    case MaterialType::Emission: return true;
+    case MaterialType::Conductor: return m.roughness >= kDefaultSpecularThreshold;
+    case MaterialType::Dielectric: return !is_dispersive(m) && m.roughness >= kDefaultSpecularThreshold;
+  }
+  return false;
+}
+
+// BSDF value (times |cos wi|) and sampling pdf of the pair (wo, wi) for material m, where `delta`
+// says the base sampled a Dirac lobe: then f and pdf are the lobe's Dirac weight and selection
+// probability, which only a dielectric or a smooth mirror has.
+struct Scatter {
+  float f_cos = 0, pdf = 0;
+};
+Scatter delta_scatter(const Material& m, const Vec3& wo, const Vec3& wi, bool transmission, float uc, Vec2 u) {
+  Scatter s;
+  if (m.type == MaterialType::Dielectric) {
+    const float R = fresnel_dielectric(cos_theta(wo), m.ior);
+    if (!transmission) {
+      s.f_cos = m.color.r * R;
+      s.pdf = R;
+    } else {
+      const Etas e = dielectric_etas(m.ior, wo.z, true);
+      s.f_cos = m.color.r * (1.0f - R) / sqr(e.wi / e.wo);  // radiance crossing, [Veach97] 5.2
+      s.pdf = 1.0f - R;
+    }
+    return s;
+  }
+  // Smooth conductor: a single lobe; sample it with the base's numbers.
+  if (auto bs = Bsdf(m).sample(wo, uc, u); bs && !bs->transmission) {
+    s.f_cos = bs->f[0] * std::abs(bs->wi.z);
+    s.pdf = bs->pdf;
+  }
+  return s;
+}
+Scatter smooth_scatter(const Material& m, const Vec3& wo, const Vec3& wi) {
+  const Bsdf b(m);
+  return {b.eval(wo, wi)[0] * std::abs(wi.z), b.pdf(wo, wi)};
+}
+
+Etas etas_of(const Material& m, const Vec3& wo, bool transmission) {
+  return m.type == MaterialType::Dielectric ? dielectric_etas(m.ior, wo.z, transmission) : Etas{};
+}
+
+}  // namespace
+
+SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const Params& params)
+    : scene_(scene),
+      spectra_(scene),
+      bins_(params.get<int>("bins", 15)),
+      count_(params.get<int>("wavelengths", 1)),
+      stride_(1),
+      max_depth_(params.get<int>("max_depth", 32)),
+      rr_depth_(params.get<int>("rr_depth", 3)),
+      threads_(params.get<int>("threads", 0)),
+      tile_size_(params.get<int>("tile_size", 16)),
+      delta_(params.get<double>("delta", 0.15)),
+      tau_(params.get<double>("tau", 0.0)),
+      alpha_(params.get<double>("alpha", 0.2)),
+      seed_(params.get<uint64_t>("seed", 0)),
+      width_(scene.camera.width),
+      height_(scene.camera.height),
+      poisson_(2, 1, 1.0) {
+  if (bins_ < 3 || bins_ > 256) throw ParamError("bins must be in 3..256");
+  if (count_ < 1 || count_ > kMaxWavelengths)
+    throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
+  if (!(delta_ > 0 && delta_ < 1)) throw ParamError("delta must be in (0, 1) (a fraction of 360-830 nm)");
+  if (!(tau_ >= 0)) throw ParamError("tau must be >= 0");
+  if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
+  if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
+  if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
+  if (threads_ < 0) throw ParamError("threads must be >= 0");
+  if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
+  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  for (const Light& l : scene.light_set().lights())
+    if (l.is_delta())
+      throw ParamError("sgpt samples paths by the BSDF only and cannot reach point, spot or sun light '" +
+                       l.name + "'; use spt-hero");
+  stride_ = std::clamp(static_cast<int>(std::lround(delta_ * bins_)), 1, bins_ - 1);
+  poisson_ = SpectralPoisson(bins_, stride_, alpha_);
+  // RGB of each bin's unit integral: the bin's mean CMF (1 nm steps) through the XYZ matrix.
+  const double width = double(kLambdaRange) / bins_;
+  for (int j = 0; j < bins_; ++j) {
+    Vec3 xyz(0, 0, 0);
+    const int steps = std::max(4, static_cast<int>(width));
+    for (int i = 0; i < steps; ++i)
+      xyz = xyz + cie_xyz_bar(static_cast<float>(kLambdaMin + width * (j + (i + 0.5) / steps)));
+    bin_rgb_.push_back(xyz_to_rgb(xyz * static_cast<float>(1.0 / (steps * cie_y_integral()))));
+  }
+  const size_t n = static_cast<size_t>(width_) * height_;
+  primal_.assign(n * bins_, 0.0);
+  rgb_.assign(n * 3, 0.0);
+  gradient_.assign(n * bins_, 0.0);
+  samples_.assign(n, 0);
+}
+
+bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays,
+                                              ShiftCounts& counts) {
+  using Values = SpectralValues;
+  const LightSet& lights = scene_.light_set();
+  const int C = count_;
+  const double bin_width = double(kLambdaRange) / bins_;
+  // Hero wavelength and its C - 1 rotations (§3.4; C = 1 is plain §3). Each keeps its position
+  // inside its bin, so lambda_j +- delta lands in bin b_j +- s.
+  const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), C);
+  const float lambda = wl.lambda[0];
+  std::array<int, kMaxWavelengths> bin{};
+  for (int j = 0; j < C; ++j)
+    bin[j] = std::min(bins_ - 1, static_cast<int>((wl.lambda[j] - kLambdaMin) / bin_width));
+
+  // ---- Base path at the hero wavelength: BSDF sampling only, recorded for the shifts ----
+  BasePath base;
+  base.camera_ray = ray;
+  for (int depth = 0;; ++depth) {
+    ++rays.closest;
+    const auto hit = scene_.intersect(ray);
+    if (!hit) {
+      base.escaped = true;
+      base.escape_ray = ray;
+      break;
+    }
+    BaseVertex bv;
+    bv.hit = *hit;
+    bv.wo = hit->frame.to_local(-ray.d);
+    base.v.push_back(bv);
+    if (depth + 1 >= max_depth_) break;
+    const Material& mat = scene_.material(hit->material);
+    if (Bsdf(mat).is_black() || bv.wo.z == 0) break;
+    const Material m = monochromatic(mat, spectra_.albedo[hit->material], lambda);
+    BaseVertex& v = base.v.back();
+    v.uc = rng.uniform();
+    v.u = Vec2(rng.uniform(), rng.uniform());
+    const auto bs = Bsdf(m).sample(v.wo, v.uc, v.u);
+    if (!bs || bs->pdf <= 0 || bs->f[0] <= 0) break;
+    v.scattered = true;
+    v.wi = bs->wi;
+    v.delta = bs->delta;
+    v.transmission = bs->transmission;
+    v.pdf = bs->pdf;
+    const Vec3 wi = hit->frame.to_world(bs->wi);
+    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    if (depth + 1 >= rr_depth_) {
+      // Survival from the hero's throughput so far (recomputed: cheap at these depths).
+      float beta = 1.0f;
+      for (const BaseVertex& u : base.v) {
+        const Material mu = monochromatic(scene_.material(u.hit.material), spectra_.albedo[u.hit.material], lambda);
+        beta *= u.delta ? delta_scatter(mu, u.wo, u.wi, u.transmission, u.uc, u.u).f_cos / u.pdf
+                        : smooth_scatter(mu, u.wo, u.wi).f_cos / u.pdf;
+      }
+      const float survive = std::min(1.0f, std::max(0.05f, beta));
+      if (rng.uniform() >= survive) break;
+      v.rr = survive;
+    }
+  }
+
+  // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l.
+  auto emitted = [&](const SurfaceHit* h, const Vec3& dir_in, float l) -> float {
+    if (!h) {
+      const int env = lights.environment();
+      return env >= 0 ? spectra_.light[env](l) : 0.0f;
+    }
+    if (h->light < 0 || lights.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
+    return spectra_.light[h->light](l);
+  };
+  // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l. The direction was
+  // chosen for the hero (or the offset's hero): a smooth dispersive refraction has no density
+  // for any other wavelength.
+  auto scatter_at = [&](int material, float l, const Vec3& wo, const Vec3& wi, bool delta,
+                        bool transmission, float uc, Vec2 u, bool hero) -> Scatter {
+    const Material& mat = scene_.material(material);
+    if (!hero && delta && transmission && is_dispersive(mat)) return {};
+    const Material m = monochromatic(mat, spectra_.albedo[material], l);
+    return delta ? delta_scatter(m, wo, wi, transmission, uc, u) : smooth_scatter(m, wo, wi);
+  };
+
+  // ---- Base contributions per path length (k vertices, then emission), per wavelength ----
+  const size_t K = base.v.size() + (base.escaped ? 1 : 0);  // emission events
+  std::vector<Values> fx(K, Values{}), px(K, Values{});
+  std::vector<float> px_sum(K, 0.0f);  // sum over the set of p(x, lambda_k): eq. 4's denominator
+  {
+    Values F{}, P{};
+    for (int j = 0; j < C; ++j) {
+      F[j] = 1.0f;
+      P[j] = SampledWavelengths::pdf();
+    }
+    Vec3 dir = base.camera_ray.d;
+    for (size_t k = 0; k < K; ++k) {
+      const bool is_escape = k == base.v.size();
+      for (int j = 0; j < C; ++j) {
+        fx[k][j] = F[j] * emitted(is_escape ? nullptr : &base.v[k].hit, dir, wl.lambda[j]);
+        px[k][j] = P[j];
+        px_sum[k] += P[j];
+      }
+      if (is_escape || !base.v[k].scattered) break;
+      const BaseVertex& v = base.v[k];
+      for (int j = 0; j < C; ++j) {
+        const Scatter s = scatter_at(v.hit.material, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
+        F[j] *= s.f_cos;
+        P[j] *= s.pdf * v.rr;
+      }
+      dir = v.hit.frame.to_world(v.wi);
+    }
+  }
+
+  // This sample's estimates, added to the pixel only if all are finite (NaN/Inf are counted).
+  // Primal: f(x, lambda_j) / sum_k p(x, lambda_k) (eq. 3-4) into bin b_j.
+  std::vector<double> G(bins_, 0.0);
+  Values primal{};
+  for (size_t k = 0; k < K; ++k)
+    for (int j = 0; j < C; ++j)
+      if (fx[k][j] > 0 && px_sum[k] > 0) primal[j] += fx[k][j] / px_sum[k];
+  // Standard-sampling share of the remaining base contributions once an offset has failed.
+  auto standard_rest = [&](size_t from, int sign, const std::array<int, kMaxWavelengths>& gbin) {
+    for (size_t r = from; r < K; ++r)
+      for (int j = 0; j < C; ++j)
+        if (fx[r][j] > 0) G[gbin[j]] += (sign > 0 ? -1.0 : 1.0) * fx[r][j] / px_sum[r];
+  };
+
+  // ---- The two offsets: lambda + delta (forward gradient of bin j) and lambda - delta ----
+  for (int sign : {+1, -1}) {
+    Values lambda2{};
+    std::array<int, kMaxWavelengths> gbin{};  // G_gbin = I_{gbin+s} - I_gbin
+    for (int j = 0; j < C; ++j) {
+      lambda2[j] = wrap_wavelength(static_cast<float>(wl.lambda[j] + sign * stride_ * bin_width));
+      gbin[j] = sign > 0 ? bin[j] : (bin[j] - stride_ + bins_) % bins_;
+    }
+    enum class State { Same, Reconnected, Diverged, Failed } state = State::Same;
+    Values F2{}, P2{};
+    for (int j = 0; j < C; ++j) {
+      F2[j] = 1.0f;
+      P2[j] = SampledWavelengths::pdf();
+    }
+    float J = 1.0f;
+    std::optional<SurfaceHit> y;   // the offset's own vertex while diverged
+    Vec3 wo_y;                     // offset's local wo at its current vertex
+    Vec3 y_dir = base.camera_ray.d;  // direction of the ray that reached the offset vertex
+    bool y_escaped = false;
+    ++counts.attempts;
+    for (size_t k = 0; k < K; ++k) {
+      const bool is_escape = k == base.v.size();
+      // Offset vertex k and its emission.
+      const SurfaceHit* yk = nullptr;
+      if (state == State::Same || state == State::Reconnected) {
+        yk = is_escape ? nullptr : &base.v[k].hit;
+        if (state == State::Same) wo_y = is_escape ? Vec3() : base.v[k].wo;
+      } else if (state == State::Diverged) {
+        yk = y_escaped ? nullptr : &*y;
+      }
+      // Pairs (x, lambda_j), (y, lambda'_j) for this path length: eq. 9-11 (C = 1) or eq. 17-18,
+      // with the threshold of eq. 15-16.
+      float denom = 0;  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
+      for (int i = 0; i < C; ++i) denom += px[k][i] + P2[i] * J;
+      for (int j = 0; j < C; ++j) {
+        const float fyJ = F2[j] * emitted(yk, y_dir, lambda2[j]) * J;
+        if (!(fx[k][j] > 0 || fyJ > 0)) continue;
+        const float cx = fx[k][j] / px_sum[k], cy = fyJ / px_sum[k];
+        if (std::min(cx, cy) > tau_ && denom > 0) {
+          const float g = (fyJ - fx[k][j]) / denom;  // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
+          G[gbin[j]] += sign > 0 ? g : -g;
+          ++counts.shifted;
+        } else {
+          G[gbin[j]] += sign > 0 ? -cx : cx;  // standard sampling of the I_lambda term (eq. 15)
+          ++counts.below_tau;
+        }
+      }
+      if (is_escape || !base.v[k].scattered) break;
+      if (state == State::Diverged && y_escaped) {  // the offset left the scene, the base did not
+        ++counts.failed_mismatch;
+        standard_rest(k + 1, sign, gbin);
+        break;
+      }
+
+      // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry) ----
+      const BaseVertex& x = base.v[k];
+      const Material& mat_x = scene_.material(x.hit.material);
+      const Material mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], lambda);
+      const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
+      const Material& mat_y = scene_.material(yh.material);
+      const Material my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
+      Vec3 wi_y;  // local at the offset vertex
+      bool ok = true, diverge_now = false, reconnect_now = false;
+      bool delta_y = x.delta;  // the lobe the offset follows: the base's
+      auto fail = [&](int64_t& counter) {
+        ok = false;
+        ++counter;
+      };
+      if (state == State::Same || state == State::Reconnected) {
+        if (is_dispersive(mat_x) && x.transmission) {
+          // First wavelength-dependent interaction: copy the generalised half vector (eq. 12).
+          const Etas e = etas_of(mx, x.wo, true), e2 = etas_of(my, wo_y, true);
+          const auto h = half_vector(x.wo, x.wi, e, true);
+          const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, true) : std::nullopt;
+          if (!wi2) {
+            fail(counts.failed_tir);
+          } else {
+            wi_y = *wi2;
+            if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, true);  // eq. 13
+            diverge_now = true;
+          }
+        } else {
+          wi_y = x.wi;  // wavelength-independent direction: the offset follows the base
+        }
+      } else {  // Diverged
+        const bool next_connectable =
+            k + 1 < base.v.size() && connectable(scene_.material(base.v[k + 1].hit.material));
+        if (connectable(mat_x) && connectable(mat_y) && next_connectable && !x.delta) {
+          // ---- Reconnection to x_{k+1} ----
+          const BaseVertex& xn = base.v[k + 1];
+          ++rays.shadow;
+          if (scene_.occluded_between(yh.p, yh.ng, xn.hit.p, xn.hit.ng)) {
+            fail(counts.failed_blocked);
+          } else {
+            const Vec3 d = normalize(xn.hit.p - yh.p);
+            wi_y = yh.frame.to_local(d);
+            J *= reconnection_jacobian(x.hit.p, yh.p, xn.hit.p, xn.hit.ng);
+            reconnect_now = true;
+            delta_y = false;
+          }
+        } else {
+          // ---- Half-vector copy at the offset's own vertex ----
+          if (Bsdf(my).is_delta() != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
+            fail(counts.failed_mismatch);
+          } else {
+            const Etas e = etas_of(mx, x.wo, x.transmission), e2 = etas_of(my, wo_y, x.transmission);
+            const auto h = half_vector(x.wo, x.wi, e, x.transmission);
+            const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, x.transmission) : std::nullopt;
+            if (!wi2) {
+              fail(counts.failed_tir);
+            } else {
+              wi_y = *wi2;
+              if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, x.transmission);
+            }
+          }
+        }
+      }
+      // The offset's BSDF at each of its wavelengths along the chosen direction.
+      std::array<Scatter, kMaxWavelengths> s2{};
+      if (ok)
+        for (int j = 0; j < C; ++j)
+          s2[j] = scatter_at(yh.material, lambda2[j], wo_y, wi_y, delta_y, x.transmission && !reconnect_now,
+                             x.uc, x.u, j == 0);
+      if (!ok || s2[0].pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
+        if (ok) ++counts.failed_mismatch;
+        standard_rest(k + 1, sign, gbin);
+        break;
+      }
+      for (int j = 0; j < C; ++j) {
+        F2[j] *= s2[j].f_cos;
+        P2[j] *= s2[j].pdf * x.rr;  // the offset inherits the base's roulette decisions
+      }
+      if (state == State::Reconnected) state = State::Same;
+      // ---- Next offset vertex ----
+      if (reconnect_now) {
+        const BaseVertex& xn = base.v[k + 1];
+        state = State::Reconnected;
+        y_dir = normalize(xn.hit.p - yh.p);
+        wo_y = xn.hit.frame.to_local(-y_dir);
+        y.reset();
+      } else if (state == State::Same && !diverge_now) {
+        y_dir = x.hit.frame.to_world(x.wi);
+      } else {  // diverged (now or before): trace the offset's own ray
+        const Vec3 d = yh.frame.to_world(wi_y);
+        const Ray r(offset_ray_origin(yh.p, yh.ng, d), d);
+        ++rays.closest;
+        y = scene_.intersect(r);
+        y_dir = d;
+        y_escaped = !y;
+        if (y) wo_y = y->frame.to_local(-d);
+        state = State::Diverged;
+        // If the base ends in an escape at k + 1 while the offset hit something, the pair's
+        // last event is the offset's emission at its hit, evaluated at the top of the loop.
+      }
+    }
+  }
+
+  bool finite = true;
+  for (int j = 0; j < C; ++j) finite &= std::isfinite(primal[j]);
+  for (double g : G) finite &= std::isfinite(g);
+  if (!finite) return false;
+  double* I = &primal_[pixel * bins_];
+  double* Gp = &gradient_[pixel * bins_];
+  Vec3 xyz(0, 0, 0);
+  for (int j = 0; j < C; ++j) {
+    I[bin[j]] += primal[j];
+    // The same sample with the exact CMF at lambda_j (no binning), for the primal colour.
+    xyz = xyz + cie_xyz_bar(wl.lambda[j]) * static_cast<float>(primal[j]);
+  }
+  for (int j = 0; j < bins_; ++j) Gp[j] += G[j];
+  const RGB c = xyz_to_rgb(xyz * (1.0f / cie_y_integral()));
+  for (int k = 0; k < 3; ++k) rgb_[3 * pixel + k] += c[k];
+  return true;
+}
+
+void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
+  const auto start = std::chrono::steady_clock::now();
+  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
+  std::mutex counts_mutex;
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        RayCounts tile_rays;
+        ShiftCounts tc;
+        int64_t tile_paths = 0;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            const size_t pixel = static_cast<size_t>(y) * width_ + x;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(x + rng.uniform(), y + rng.uniform());
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            if (!sample_pixel(pixel, rng, scene_.camera.generate_ray(film, lens), tile_rays, tc)) ++invalid;
+            ++samples_[pixel];
+            ++tile_paths;
+          }
+        closest += tile_rays.closest;
+        shadow += tile_rays.shadow;
+        paths += tile_paths;
+        std::lock_guard<std::mutex> lock(counts_mutex);
+        counts_.attempts += tc.attempts;
+        counts_.shifted += tc.shifted;
+        counts_.below_tau += tc.below_tau;
+        counts_.failed_tir += tc.failed_tir;
+        counts_.failed_blocked += tc.failed_blocked;
+        counts_.failed_mismatch += tc.failed_mismatch;
+      },
+      [sink] { return sink && sink->cancelled(); });
+  stats_.invalid_samples += invalid;
+  stats_.passes += 1;
+  stats_.rays += closest + shadow;
+  stats_.shadow_rays += shadow;
+  stats_.paths += paths;
+  stats_.extra["shift_attempts"] = static_cast<double>(counts_.attempts);
+  stats_.extra["shifted_pairs"] = static_cast<double>(counts_.shifted);
+  stats_.extra["standard_pairs"] = static_cast<double>(counts_.below_tau);
+  stats_.extra["shift_fail_tir"] = static_cast<double>(counts_.failed_tir);
+  stats_.extra["shift_fail_blocked"] = static_cast<double>(counts_.failed_blocked);
+  stats_.extra["shift_fail_mismatch"] = static_cast<double>(counts_.failed_mismatch);
+  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void SpectralGradientPathTracer::image_totals(std::vector<double>* primal, std::vector<double>* gradient) const {
+  primal->assign(bins_, 0.0);
+  gradient->assign(bins_, 0.0);
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    const double w = samples_[i] ? 1.0 / (samples_[i] * static_cast<double>(samples_.size())) : 0.0;
+    for (int j = 0; j < bins_; ++j) {
+      (*primal)[j] += primal_[i * bins_ + j] * w;
+      (*gradient)[j] += gradient_[i * bins_ + j] * w;
+    }
+  }
+}
+
+RGB SpectralGradientPathTracer::bins_to_rgb(const double* b) const {
+  RGB c(0.0f);
+  for (int j = 0; j < bins_; ++j) c += bin_rgb_[j] * static_cast<float>(b[j]);
+  return c;
+}
+
+void SpectralGradientPathTracer::develop(Film& film) const {
+  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+  Pass& combined = film.add_pass(pass::kCombined, 3);
+  Pass& primal = film.add_pass(pass::kSpectralPrimal, 3);
+  Pass& grad = film.add_pass(pass::kSpectralGradient, 1);
+  std::vector<double> I(bins_), G(bins_);
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    const double inv = samples_[i] ? 1.0 / samples_[i] : 0.0;
+    double g2 = 0;
+    bool finite = true;
+    for (int j = 0; j < bins_; ++j) {
+      I[j] = primal_[i * bins_ + j] * inv;
+      G[j] = gradient_[i * bins_ + j] * inv;
+      g2 += G[j] * G[j];
+      finite &= std::isfinite(I[j]) && std::isfinite(G[j]);
+    }
+    if (!finite) std::fill(G.begin(), G.end(), 0.0);
+    std::vector<double> rec = poisson_.solve(I, G);  // eq. 14
+    // The reconstruction is linear and unbiased, so its correction rec - I has zero mean: it
+    // is added (at bin resolution) to the primal colour computed with the exact CMFs, which
+    // keeps the binning out of the expected colour.
+    for (int j = 0; j < bins_; ++j) rec[j] -= I[j];
+    const RGB p(static_cast<float>(rgb_[3 * i] * inv), static_cast<float>(rgb_[3 * i + 1] * inv),
+                static_cast<float>(rgb_[3 * i + 2] * inv));
+    const RGB c = p + bins_to_rgb(rec.data());
+    for (int k = 0; k < 3; ++k) {
+      combined.data[3 * i + k] = c[k];
+      primal.data[3 * i + k] = p[k];
+    }
+    grad.data[i] = static_cast<float>(std::sqrt(g2 / bins_));
+  }
+}
+
+}  // namespace gp

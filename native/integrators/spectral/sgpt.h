@@ -1,0 +1,97 @@
+// Spectral gradient sampling (Petitjean, Bauszat, Eisemann 2018, §3): per pixel, a discretised
+// spectrum I (B bins over 360-830 nm) and its spectral gradients G_j = I_{j+s} - I_j estimated
+// from pairs of correlated paths, then a 1D screened Poisson reconstruction (eq. 14).
+//
+// Each sample traces a base path at one uniformly sampled wavelength lambda (bin j) and shifts it
+// to lambda + delta and lambda - delta (cyclic, eq. 9) with the spectral shift of §3.1
+// (spectral_shift.h): the offset is the base path until the first wavelength-dependent
+// (dispersive) refraction, copies the generalised half vector (eq. 12) through dispersive and
+// specular vertices with the Jacobian of eq. 13, and reconnects to the base path at two
+// consecutive connectable (neither near-specular nor dispersive) vertices. Pairs are weighted
+// by the symmetric balance heuristic (eq. 10-11); pairs whose smaller contribution is <= tau
+// fall back to standard sampling (eq. 15-16). The base path alone gives the primal I.
+//
+// Differences from the paper, deliberately:
+//   - delta is snapped to a whole number of bins s = round(delta * B) (s >= 1), so the
+//     gradient of bin j pairs it exactly with bin j + s (for B = 15, delta 0.15 -> 2 bins =
+//     62.7 nm); the shifted wavelength keeps its position inside the bin.
+//   - paths are sampled by the BSDF only (no next-event estimation): the shift of NEE and its
+//     MIS would double the code for little gain on caustic scenes; as a consequence lights
+//     must be hittable (area or environment lights; delta lights are rejected).
+//
+// With `wavelengths` C > 1 the base path carries the hero and C - 1 rotations and each offset
+// their shifted copies (§3.4): every wavelength of the set contributes its pair, weighted by
+// eq. 18 over the 2C techniques; a smooth dispersive refraction leaves only the hero's pair.
+// tau compares f / sum_k p(x, lambda_k) of the two paths of a pair (the paper's eq. 16 compares
+// f): with tau = 0 the decision is "both paths contribute", symmetric between the two
+// directions of a pair; with tau > 0 it is symmetric only approximately.
+//
+// Parameters (defaults):
+//   bins         15     spectral bins per pixel (CLI --bins)
+//   wavelengths  1      wavelengths per path C (1 = §3; > 1 = hero combination, §3.4), 1..8
+//   delta        0.15   wavelength shift as a fraction of the domain (CLI --delta)
+//   tau          0      shift threshold of eq. 16 on the per-sample contribution (CLI --tau)
+//   alpha        0.2    screened Poisson weight of the primal (eq. 14)
+//   max_depth    32     longest path in segments
+//   rr_depth     3      depth from which Russian roulette may end paths
+//   seed, threads, tile_size  as pt
+//
+// Colour: the primal colour is summed per sample with the exact CMFs at lambda (as spt does);
+// the reconstruction's correction (I' - I, zero-mean because the L2 solve is linear and
+// unbiased) is added at bin resolution. So binning changes the noise, not the expected colour.
+//
+// Passes: combined (reconstructed), spectral_primal (the base paths' colour, no
+// reconstruction), spectral_gradient (RMS of the B gradient estimates).
+#pragma once
+
+#include <vector>
+
+#include "core/rng.h"
+#include "core/spectrum.h"
+#include "integrators/integrator.h"
+#include "integrators/spectral/spectral_pt.h"
+#include "reconstruction/spectral_poisson.h"
+
+namespace gp {
+
+class SpectralGradientPathTracer : public Integrator {
+ public:
+  SpectralGradientPathTracer(const Scene& scene, const Params& params);
+  std::string name() const override { return "sgpt"; }
+  void iterate(ProgressSink* sink) override;
+  void develop(Film& film) const override;
+
+  int bins() const { return bins_; }
+  int stride() const { return stride_; }
+  // Image averages of the per-pixel estimates: primal bins I_j and gradients G_j (for tests:
+  // E[G_j] = E[I_{j+s}] - E[I_j] when the shift and its weights are right).
+  void image_totals(std::vector<double>* primal, std::vector<double>* gradient) const;
+
+  // Shift statistics by outcome (also in stats().extra).
+  struct ShiftCounts {
+    int64_t attempts = 0, shifted = 0, below_tau = 0, failed_tir = 0, failed_blocked = 0,
+            failed_mismatch = 0;
+  };
+
+ private:
+  // Adds one sample's primal and gradient estimates for pixel `pixel`; false (and nothing
+  // added) when any of them is NaN/Inf.
+  bool sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays, ShiftCounts& counts);
+  RGB bins_to_rgb(const double* bins) const;
+
+  const Scene& scene_;
+  SceneSpectra spectra_;
+  int bins_, count_, stride_, max_depth_, rr_depth_, threads_, tile_size_;
+  double delta_, tau_, alpha_;
+  uint64_t seed_;
+  int width_, height_;
+  SpectralPoisson poisson_;
+  std::vector<RGB> bin_rgb_;       // RGB of a unit bin integral, per bin
+  std::vector<double> primal_;     // per pixel, per bin: sums of f / p
+  std::vector<double> rgb_;        // per pixel: RGB sums of the base samples, exact CMFs
+  std::vector<double> gradient_;   // per pixel, per bin: sums of the G_j estimates
+  std::vector<uint32_t> samples_;
+  ShiftCounts counts_;
+};
+
+}  // namespace gp

@@ -1,0 +1,288 @@
+#include "integrators/spectral/spectral_pt.h"
+
+#include <chrono>
+
+#include "core/frame.h"
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+std::string first_dispersive_material(const Scene& scene) {
+  for (const Material& m : scene.materials)
+    if (is_dispersive(m)) return m.name.empty() ? "(unnamed)" : m.name;
+  return "";
+}
+
+SpectralMode parse_spectral_mode(const std::string& s) {
+  if (s == "auto") return SpectralMode::Auto;
+  if (s == "rgb") return SpectralMode::Rgb;
+  if (s == "spectral") return SpectralMode::Spectral;
+  throw ParamError("spectral mode must be auto, rgb or spectral, got '" + s + "'");
+}
+
+bool use_spectral(SpectralMode mode, const Scene& scene) {
+  switch (mode) {
+    case SpectralMode::Rgb: return false;
+    case SpectralMode::Spectral: return true;
+    case SpectralMode::Auto: return !first_dispersive_material(scene).empty();
+  }
+  return false;
+}
+
+SceneSpectra::SceneSpectra(const Scene& scene) {
+  for (const Material& m : scene.materials) albedo.push_back(RgbSpectrum::reflectance(m.color));
+  for (const Light& l : scene.light_set().lights()) light.push_back(RgbSpectrum::illuminant(l.emit));
+}
+
+Material monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda) {
+  Material out;  // field by field: the name string is not needed per wavelength
+  out.type = m.type;
+  out.color = RGB(albedo(lambda));
+  out.roughness = m.roughness;
+  out.ior = is_dispersive(m) ? cauchy_ior(m.ior, m.cauchy_b, lambda) : m.ior;
+  out.two_sided = m.two_sided;
+  return out;
+}
+
+SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params, bool hero)
+    : scene_(scene),
+      spectra_(scene),
+      hero_(hero),
+      max_depth_(params.get<int>("max_depth", 32)),
+      rr_depth_(params.get<int>("rr_depth", 3)),
+      count_(params.get<int>("wavelengths", hero ? 4 : 1)),
+      threads_(params.get<int>("threads", 0)),
+      tile_size_(params.get<int>("tile_size", 16)),
+      seed_(params.get<uint64_t>("seed", 0)),
+      width_(scene.camera.width),
+      height_(scene.camera.height) {
+  if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
+  if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
+  if (count_ < 1 || count_ > kMaxWavelengths)
+    throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
+  if (threads_ < 0) throw ParamError("threads must be >= 0");
+  if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
+  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  sum_.assign(static_cast<size_t>(width_) * height_ * 3, 0.0);
+  samples_.assign(static_cast<size_t>(width_) * height_, 0);
+}
+
+namespace {
+
+float mean(const SpectralValues& v, int n) {
+  float s = 0;
+  for (int k = 0; k < n; ++k) s += v[k];
+  return s / n;
+}
+
+// Spectral radiance of a light sample: lights scale their RGB emission by grey factors only
+// (distance, spot falloff), so the factor read off the brightest channel applies to the spectrum.
+float light_scale(const LightSample& ls, const Light& l) {
+  const float m = l.emit.max_component();
+  if (m <= 0) return 0.0f;
+  const int c = l.emit.r == m ? 0 : (l.emit.g == m ? 1 : 2);
+  return ls.L[c] / l.emit[c];
+}
+
+}  // namespace
+
+SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng,
+                                      RayCounts& rays) const {
+  const LightSet& lights = scene_.light_set();
+  const int C = wl.count;
+  // beta: throughput divided by the hero's path pdf. r_u: p(x | lambda_k) / p(x | hero) of the
+  // BSDF-sampled path (eq. 4's ratios). r_l: the same without the last BSDF pdf, divided by
+  // the hero's last pdf, times which the light pdf gives the NEE strategy's ratio.
+  SpectralValues L{}, beta{}, r_u{}, r_l{};
+  for (int k = 0; k < C; ++k) beta[k] = r_u[k] = 1.0f;
+  bool specular_bounce = false;
+  Vec3 prev_p;
+  std::array<Material, kMaxWavelengths> mk;
+
+  // Emission found by a ray: balance heuristic over C wavelengths x {BSDF, light} strategies.
+  auto add_emission = [&](const RgbSpectrum& spec, float pdf_light, bool full) {
+    float denom = 0;
+    for (int k = 0; k < C; ++k) denom += full ? r_u[k] : r_u[k] + r_l[k] * pdf_light;
+    denom /= C;
+    if (denom <= 0) return;
+    for (int j = 0; j < C; ++j) L[j] += beta[j] * spec(wl.lambda[j]) / denom;  // eq. 3-4
+  };
+
+  for (int depth = 0;; ++depth) {
+    ++rays.closest;
+    const auto hit = scene_.intersect(ray);
+
+    // ---- Emission found by the ray ----
+    if (!hit) {
+      const int env = lights.environment();
+      if (env >= 0) {
+        const bool full = depth == 0 || specular_bounce;
+        add_emission(spectra_.light[env], full ? 0.0f : lights.pdf_environment(ray.d), full);
+      }
+      break;
+    }
+    if (hit->light >= 0 && !lights.area_radiance(hit->light, -ray.d).is_black()) {
+      const bool full = depth == 0 || specular_bounce;
+      add_emission(spectra_.light[hit->light],
+                   full ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d), full);
+    }
+    if (depth + 1 >= max_depth_) break;
+
+    const Material& base = scene_.material(hit->material);
+    const bool dispersive = is_dispersive(base);
+    for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_.albedo[hit->material], wl.lambda[k]);
+    const Bsdf hero_bsdf(mk[0]);
+    if (Bsdf(base).is_black()) break;
+    const Vec3 wo = hit->frame.to_local(-ray.d);
+    if (wo.z == 0) break;
+
+    // ---- Emitter sampling (next-event estimation) ----
+    if (!hero_bsdf.is_delta() && !lights.empty()) {
+      const float u_light = rng.uniform();
+      const Vec2 u2(rng.uniform(), rng.uniform());
+      if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+        const Vec3 wi = hit->frame.to_local(ls->wi);
+        SpectralValues f{}, pdf{};
+        bool any = false;
+        for (int k = 0; k < C; ++k) {
+          const Bsdf b(mk[k]);
+          f[k] = b.eval(wo, wi)[0] * std::abs(wi.z);  // grey material: any channel
+          // The pdf only depends on the wavelength through a dispersive IOR.
+          pdf[k] = (k == 0 || dispersive) ? b.pdf(wo, wi) : pdf[0];
+          any |= f[k] > 0;
+        }
+        if (any) {
+          ++rays.shadow;
+          bool blocked;
+          if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
+            blocked = scene_.occluded_between(hit->p, hit->ng, ls->p, ls->n);
+          } else {
+            const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
+            const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+            blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
+          }
+          if (!blocked) {
+            float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
+            for (int k = 0; k < C; ++k) denom += r_u[k] * (ls->pdf + (ls->delta ? 0.0f : pdf[k]));
+            denom /= C;
+            const float scale = light_scale(*ls, lights.lights()[ls->light]);
+            const RgbSpectrum& spec = spectra_.light[ls->light];
+            if (denom > 0)
+              for (int j = 0; j < C; ++j) L[j] += beta[j] * f[j] * scale * spec(wl.lambda[j]) / denom;
+          }
+        }
+      }
+    }
+
+    // ---- BSDF sampling (driven by the hero wavelength) ----
+    const float uc = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    const auto bs = hero_bsdf.sample(wo, uc, u);
+    if (!bs || bs->pdf <= 0) break;
+    SpectralValues f{}, pdf{};
+    f[0] = bs->f[0];
+    pdf[0] = bs->pdf;
+    for (int k = 1; k < C; ++k) {
+      const Bsdf b(mk[k]);
+      if (!dispersive) {
+        // Same direction and pdf for every wavelength; delta lobes are re-sampled with the
+        // same random numbers (lobe choice and direction do not depend on the colour).
+        if (bs->delta) {
+          const auto sk = b.sample(wo, uc, u);
+          f[k] = sk ? sk->f[0] : 0.0f;
+        } else {
+          f[k] = b.eval(wo, bs->wi)[0];
+        }
+        pdf[k] = bs->pdf;
+      } else if (!bs->delta) {  // rough dispersive dielectric: evaluate each wavelength
+        f[k] = b.eval(wo, bs->wi)[0];
+        pdf[k] = b.pdf(wo, bs->wi);
+      } else if (!bs->transmission) {  // smooth dispersive reflection: same mirror direction
+        const float R = fresnel_dielectric(cos_theta(wo), mk[k].ior);
+        f[k] = mk[k].color.r * R / std::abs(bs->wi.z);
+        pdf[k] = R;  // lobe selection probability R / (R + T)
+      } else {  // smooth dispersive refraction: no other wavelength goes this way
+        f[k] = 0.0f;
+        pdf[k] = 0.0f;
+      }
+    }
+    bool alive = false;
+    for (int k = 0; k < C; ++k) {
+      beta[k] *= f[k] * std::abs(bs->wi.z) / bs->pdf;
+      r_l[k] = r_u[k] / bs->pdf;
+      r_u[k] *= pdf[k] / bs->pdf;
+      alive |= beta[k] > 0;
+    }
+    if (!alive) break;
+    specular_bounce = bs->delta;
+    prev_p = hit->p;
+    const Vec3 wi = hit->frame.to_world(bs->wi);
+    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+
+    // ---- Russian roulette (on the MIS-weighted throughput) ----
+    if (depth + 1 >= rr_depth_) {
+      const float ru = mean(r_u, C);
+      float bmax = 0;
+      for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
+      const float q = std::max(0.05f, 1.0f - (ru > 0 ? bmax / ru : 0.0f));
+      if (rng.uniform() < q) break;
+      for (int k = 0; k < C; ++k) beta[k] /= 1.0f - q;
+    }
+  }
+  return L;
+}
+
+void SpectralPathTracer::iterate(ProgressSink* sink) {
+  const auto start = std::chrono::steady_clock::now();
+  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        RayCounts tile_rays;
+        int64_t tile_paths = 0, tile_invalid = 0;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            const size_t pixel = static_cast<size_t>(y) * width_ + x;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(x + rng.uniform(), y + rng.uniform());  // box filter
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
+            const SpectralValues Ls = Li(scene_.camera.generate_ray(film, lens), wl, rng, tile_rays);
+            const RGB L = sample_to_rgb(Ls, wl);
+            ++tile_paths;
+            ++samples_[pixel];
+            if (!L.is_finite()) {  // discard and count: NaN/Inf never reaches a pass
+              ++tile_invalid;
+              continue;
+            }
+            sum_[3 * pixel] += L.r;
+            sum_[3 * pixel + 1] += L.g;
+            sum_[3 * pixel + 2] += L.b;
+          }
+        closest += tile_rays.closest;
+        shadow += tile_rays.shadow;
+        paths += tile_paths;
+        invalid += tile_invalid;
+      },
+      [sink] { return sink && sink->cancelled(); });
+  stats_.passes += 1;
+  stats_.rays += closest + shadow;
+  stats_.shadow_rays += shadow;
+  stats_.paths += paths;
+  stats_.invalid_samples += invalid;
+  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void SpectralPathTracer::develop(Film& film) const {
+  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+  Pass& p = film.add_pass(pass::kCombined, 3);
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    const double inv = samples_[i] ? 1.0 / samples_[i] : 0.0;
+    for (int c = 0; c < 3; ++c) p.data[3 * i + c] = static_cast<float>(sum_[3 * i + c] * inv);
+  }
+}
+
+}  // namespace gp

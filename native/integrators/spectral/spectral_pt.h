@@ -1,0 +1,88 @@
+// Spectral path tracer: the reference path tracer's estimator (NEE + MIS, Russian roulette,
+// depth limit) carried out at sampled wavelengths instead of RGB, with Cauchy dispersion in
+// dielectrics (n = A + B / lambda^2) and spectra upsampled from the scene's RGB colours
+// (core/spectrum.h). Each path carries C wavelengths: a uniformly sampled hero wavelength that
+// drives every sampling decision and C - 1 rotations of it (hero wavelength sampling, Wilkie et
+// al. 2014 [WND*14]). The contributions to the C wavelengths are combined with the balance
+// heuristic over the wavelengths' path pdfs (spectral gradient sampling, eq. 3-4), extended to
+// the two strategies of NEE and BSDF sampling in the "rescaled path probability" form (ratios
+// r_k = p(x | lambda_k) / p(x | lambda_hero), as pbrt-v4's PathIntegrator). Non-dispersive
+// vertices leave the ratios at 1 (the sampled direction does not depend on the wavelength);
+// a rough dispersive dielectric scales them by its per-wavelength pdfs; a smooth dispersive
+// refraction sets them to 0 for every wavelength but the hero's, which then carries the path
+// alone (C = 1 is plain single-wavelength spectral path tracing).
+//
+// Methods: `spt` (C = 1) and `spt-hero` (C = 4); `pt` on a dispersive scene in spectral mode
+// "auto" (see spectral_mode()) runs `spt-hero`.
+//
+// Parameters (defaults):
+//   max_depth    32     longest path in segments (camera ray = 1)
+//   rr_depth     3      depth from which Russian roulette may end paths
+//   wavelengths  1 / 4  wavelengths per path C (spt / spt-hero), 1..8
+//   seed         0      random seed
+//   threads      0      worker threads (0 = all cores)
+//   tile_size    16     pixels per tile edge (scheduling only; does not change the image)
+//
+// Passes: combined (RGB through CIE XYZ).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/rng.h"
+#include "core/spectrum.h"
+#include "integrators/integrator.h"
+#include "materials/material.h"
+
+namespace gp {
+
+// True when the material's scattering depends on the wavelength through its IOR (a dielectric
+// with a non-zero Cauchy B).
+inline bool is_dispersive(const Material& m) {
+  return m.type == MaterialType::Dielectric && m.cauchy_b != 0.0f;
+}
+// Name of the first dispersive material of the scene, or "" when there is none.
+std::string first_dispersive_material(const Scene& scene);
+
+// Spectral mode selection (`--spectral auto|rgb|spectral`, parameter `spectral`): `rgb` and
+// `spectral` force the mode; `auto` renders spectrally only when the scene has a dispersive
+// material. Throws ParamError for other values.
+enum class SpectralMode { Auto, Rgb, Spectral };
+SpectralMode parse_spectral_mode(const std::string& s);
+bool use_spectral(SpectralMode mode, const Scene& scene);
+
+// Spectra of a scene's colours, upsampled once (materials by index, lights by LightSet index).
+struct SceneSpectra {
+  explicit SceneSpectra(const Scene& scene);
+  std::vector<RgbSpectrum> albedo;  // Material::color as a reflectance
+  std::vector<RgbSpectrum> light;   // Light::emit as an illuminant
+};
+
+// The material seen by one wavelength: Cauchy IOR at lambda and a grey colour equal to the
+// upsampled colour spectrum there, so the RGB Bsdf evaluates it unchanged.
+Material monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda);
+
+class SpectralPathTracer : public Integrator {
+ public:
+  // `hero` selects the default C (4, else 1) and the method name.
+  SpectralPathTracer(const Scene& scene, const Params& params, bool hero);
+  std::string name() const override { return hero_ ? "spt-hero" : "spt"; }
+  void iterate(ProgressSink* sink) override;
+  void develop(Film& film) const override;
+
+  int wavelengths() const { return count_; }
+  // Spectral radiance at the wavelengths `wl` along one camera ray (exposed for tests).
+  SpectralValues Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays) const;
+
+ private:
+  const Scene& scene_;
+  SceneSpectra spectra_;
+  bool hero_;
+  int max_depth_, rr_depth_, count_, threads_, tile_size_;
+  uint64_t seed_;
+  int width_, height_;
+  std::vector<double> sum_;        // RGB sums per pixel
+  std::vector<uint32_t> samples_;  // samples per pixel
+};
+
+}  // namespace gp

@@ -1,0 +1,253 @@
+// Spectral gradient sampling: the eq. 13 Jacobian against finite differences, the 1D screened
+// Poisson reconstruction (eq. 14) against known spectra, and sgpt / spt-hero against a long
+// spt reference on the prism scene.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "core/rng.h"
+#include "core/sampling.h"
+#include "integrators/integrator.h"
+#include "integrators/spectral/sgpt.h"
+#include "integrators/spectral/spectral_shift.h"
+#include "reconstruction/spectral_poisson.h"
+#include "scene/loader.h"
+
+namespace gp {
+namespace {
+
+// Solid angle spanned by the images of a small patch around w, over the patch's own.
+template <typename Map>
+double finite_difference_jacobian(const Vec3& w, Map&& map) {
+  const Vec3 t1 = normalize(std::abs(w.z) < 0.9f ? cross(w, Vec3(0, 0, 1)) : cross(w, Vec3(1, 0, 0)));
+  const Vec3 t2 = cross(w, t1);
+  const float eps = 2e-3f;
+  const Vec3 a = normalize(w + t1 * eps), b = normalize(w + t2 * eps);
+  const Vec3 m0 = map(w), ma = map(a), mb = map(b);
+  const double base = std::abs(dot(cross(a - w, b - w), w));
+  const double image = std::abs(dot(cross(ma - m0, mb - m0), m0));
+  return image / base;
+}
+
+TEST(SpectralShift, RefractionJacobianMatchesFiniteDifferences) {
+  // A rough dispersive interface: base at n = 1.52, offset at n = 1.56 (another wavelength).
+  // The base's wi varies; the half vector follows (eq. 12) and is copied to the offset.
+  struct Case {
+    Vec3 wo, wo_offset;
+  };
+  const Case cases[] = {
+      {normalize(Vec3(0.3f, -0.2f, 0.9f)), normalize(Vec3(0.3f, -0.2f, 0.9f))},     // first divergence
+      {normalize(Vec3(0.3f, -0.2f, 0.9f)), normalize(Vec3(0.25f, -0.1f, 0.95f))},   // diverged offset
+      {normalize(Vec3(-0.2f, 0.4f, -0.8f)), normalize(Vec3(-0.25f, 0.35f, -0.85f))},  // from inside
+  };
+  for (const Case& c : cases) {
+    const Etas e = dielectric_etas(1.52f, c.wo.z, true), e2 = dielectric_etas(1.56f, c.wo_offset.z, true);
+    // A refracted direction of wo through a tilted microfacet.
+    const Vec3 m = normalize(Vec3(0.1f, 0.05f, 1.0f));
+    const auto wi = copy_half_vector(c.wo, m, e, true);
+    ASSERT_TRUE(wi.has_value());
+    const auto h = half_vector(c.wo, *wi, e, true);
+    ASSERT_TRUE(h.has_value());
+    EXPECT_NEAR(dot(*h, m), 1.0f, 1e-4f);  // eq. 12 recovers the microfacet
+    const auto wi2 = copy_half_vector(c.wo_offset, *h, e2, true);
+    ASSERT_TRUE(wi2.has_value());
+    const float J = half_vector_jacobian(c.wo, *wi, e, c.wo_offset, *wi2, e2, *h, true);
+    const double fd = finite_difference_jacobian(*wi, [&](const Vec3& w) {
+      const Vec3 hw = *half_vector(c.wo, w, e, true);
+      return *copy_half_vector(c.wo_offset, hw, e2, true);
+    });
+    EXPECT_NEAR(J, fd, 2e-2 * fd) << "wo " << c.wo.x << " " << c.wo.y << " " << c.wo.z;
+    EXPECT_GT(std::abs(J - 1.0), 1e-3) << "the test should exercise a non-trivial Jacobian";
+  }
+}
+
+TEST(SpectralShift, ReflectionJacobianMatchesFiniteDifferences) {
+  const Vec3 wo = normalize(Vec3(0.3f, -0.2f, 0.9f)), wo2 = normalize(Vec3(0.1f, 0.3f, 0.8f));
+  const Vec3 wi = normalize(Vec3(-0.5f, 0.1f, 0.7f));
+  const auto h = half_vector(wo, wi, Etas{}, false);
+  const auto wi2 = copy_half_vector(wo2, *h, Etas{}, false);
+  ASSERT_TRUE(wi2.has_value());
+  const float J = half_vector_jacobian(wo, wi, Etas{}, wo2, *wi2, Etas{}, *h, false);
+  const double fd = finite_difference_jacobian(wi, [&](const Vec3& w) {
+    return *copy_half_vector(wo2, *half_vector(wo, w, Etas{}, false), Etas{}, false);
+  });
+  EXPECT_NEAR(J, fd, 2e-2 * fd);
+}
+
+TEST(SpectralPoisson, ExactInputsAreAFixedPoint) {
+  // A smooth spectrum and its exact cyclic gradients: the minimiser of eq. 14 is the spectrum.
+  const int B = 15, s = 2;
+  std::vector<double> I(B), G(B);
+  for (int j = 0; j < B; ++j) I[j] = 1.0 + 0.5 * std::sin(0.7 * j) + 0.1 * j;
+  for (int j = 0; j < B; ++j) G[j] = I[(j + s) % B] - I[j];
+  const SpectralPoisson p(B, s, 0.2);
+  const auto r = p.solve(I, G);
+  for (int j = 0; j < B; ++j) EXPECT_NEAR(r[j], I[j], 1e-9) << j;
+}
+
+TEST(SpectralPoisson, ExactGradientsRecoverTheSpectrumFromANoisyPrimal) {
+  // With exact gradients the shape is determined (the cyclic stride-2 difference on 15 bins has
+  // only constants in its null space): the reconstruction filters zero-mean primal noise, keeps
+  // the primal's total (eq. 14 preserves the sum), and as alpha -> 0 leaves only the noise mean.
+  const int B = 15, s = 2;
+  std::vector<double> truth(B), noisy(B), G(B);
+  Rng rng(3, 0);
+  for (int j = 0; j < B; ++j) truth[j] = 2.0 + std::cos(0.4 * j);
+  double noise_mean = 0, noisy_err = 0, noisy_sum = 0;
+  for (int j = 0; j < B; ++j) {
+    const double n = (rng.uniform() - 0.5) * 1.0;
+    noisy[j] = truth[j] + n;
+    noise_mean += n / B;
+    noisy_err += n * n;
+    noisy_sum += noisy[j];
+  }
+  for (int j = 0; j < B; ++j) G[j] = truth[(j + s) % B] - truth[j];
+  const auto r = SpectralPoisson(B, s, 0.2).solve(noisy, G);
+  double err = 0, sum = 0;
+  for (int j = 0; j < B; ++j) {
+    err += (r[j] - truth[j]) * (r[j] - truth[j]);
+    sum += r[j];
+  }
+  EXPECT_LT(err, 0.3 * noisy_err);
+  EXPECT_NEAR(sum, noisy_sum, 1e-9);
+  const auto r0 = SpectralPoisson(B, s, 1e-7).solve(noisy, G);
+  for (int j = 0; j < B; ++j) EXPECT_NEAR(r0[j], truth[j] + noise_mean, 1e-5) << j;
+}
+
+TEST(SpectralPoisson, RejectsBadSetups) {
+  EXPECT_THROW(SpectralPoisson(15, 0, 0.2), std::invalid_argument);
+  EXPECT_THROW(SpectralPoisson(15, 15, 0.2), std::invalid_argument);
+  EXPECT_THROW(SpectralPoisson(15, 2, 0.0), std::invalid_argument);
+}
+
+// scenes/prism.json made test-friendly: a wider slit and light (lower variance), small image.
+Scene test_prism() {
+  std::ifstream in(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/prism.json");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  nlohmann::json j = nlohmann::json::parse(ss.str());
+  for (auto& o : j["objects"]) {
+    const std::string name = o["name"];
+    if (name == "strip light") o["u"] = {0, 0.1, 0};
+    if (name == "tunnel left" || name == "tunnel right") o["center"][1] = o["center"][1].get<double>() * 2.4;
+    if (name == "tunnel top" || name == "tunnel bottom" || name == "tunnel back")
+      for (const char* key : {"u", "v"})
+        if (o[key][1].get<double>() != 0) o[key][1] = o[key][1].get<double>() * 2.4;
+  }
+  j["materials"]["light"]["strength"] = 16;
+  j["camera"]["width"] = 24;
+  j["camera"]["height"] = 18;
+  return load_scene_from_string(j.dump(), std::string(GRADPHOTON_SOURCE_DIR) + "/scenes", "prism.json");
+}
+
+RGB mean_of(const Scene& s, const std::string& method, int passes, uint64_t seed) {
+  Params p;
+  p.set("seed", seed);
+  p.set("max_depth", 6);  // no Russian roulette: its rare, heavy paths would dominate the noise
+  p.set("rr_depth", 6);
+  auto integ = make_integrator(method, s, p);
+  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
+  Film f;
+  integ->develop(f);
+  double m[3] = {0, 0, 0};
+  for (int y = 0; y < f.height(); ++y)
+    for (int x = 0; x < f.width(); ++x)
+      for (int k = 0; k < 3; ++k) m[k] += f.rgb(pass::kCombined, x, y)[k];
+  const double n = double(f.width()) * f.height();
+  return RGB(float(m[0] / n), float(m[1] / n), float(m[2] / n));
+}
+
+TEST(Sgpt, ConvergesToTheSptReferenceOnThePrism) {
+  const Scene s = test_prism();
+  const RGB ref = mean_of(s, "spt", 8192, 11);
+  const RGB hero = mean_of(s, "spt-hero", 2048, 12);
+  const RGB sg = mean_of(s, "sgpt", 2048, 13);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(hero[c] / ref[c], 1.0, 0.05) << "spt-hero channel " << c;
+    EXPECT_NEAR(sg[c] / ref[c], 1.0, 0.05) << "sgpt channel " << c;
+  }
+}
+
+TEST(Sgpt, GradientsMatchPrimalDifferencesThroughDispersiveGlass) {
+  // E[G_j] = E[I_{j+s}] - E[I_j]: checked on image totals, where the shift runs through smooth
+  // and rough dispersive refraction, half-vector copies and reconnections; for one wavelength
+  // per path (§3) and for four (the hero combination of §3.4, eq. 17-18).
+  for (auto [rough, wavelengths] : {std::pair{0.0f, 1}, {0.15f, 1}, {0.0f, 4}, {0.15f, 4}}) {
+    const Scene s = load_scene_from_string(
+        std::string(R"({"camera": {"position": [0, -1.6, 1.0], "look_at": [0, 0, 0.3], "fov": 40, "width": 16, "height": 16},
+      "materials": {"floor": {"type": "diffuse", "color": [0.8, 0.7, 0.5]},
+                    "glass": {"type": "dielectric", "ior": 1.6, "cauchy_b": 0.03, "roughness": )") +
+            std::to_string(rough) + R"(},
+                    "light": {"type": "emission", "emission": [1, 0.9, 0.8], "strength": 2}},
+      "environment": {"color": [0.1, 0.2, 0.4]},
+      "objects": [{"type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "floor"},
+                  {"type": "sphere", "center": [0, 0, 0.45], "radius": 0.4, "segments": 24, "material": "glass"},
+                  {"type": "quad", "center": [0, 0, 2], "u": [0, 1, 0], "v": [1, 0, 0], "material": "light"}]})",
+        ".", "glass.json");
+    Params p;
+    p.set("seed", 21);
+    p.set("max_depth", 8);
+    p.set("rr_depth", 8);
+    p.set("wavelengths", wavelengths);
+    SpectralGradientPathTracer sg(s, p);
+    run_progressive(sg, StopRule{0, 1024, 0}, nullptr);
+    std::vector<double> I, G;
+    sg.image_totals(&I, &G);
+    const int B = sg.bins(), st = sg.stride();
+    double scale = 0, worst = 0;
+    for (int j = 0; j < B; ++j) scale = std::max(scale, I[j]);
+    for (int j = 0; j < B; ++j) {
+      const double want = I[(j + st) % B] - I[j];
+      worst = std::max(worst, std::abs(G[j] - want) / scale);
+      EXPECT_NEAR(G[j], want, 0.04 * scale) << "roughness " << rough << " wavelengths " << wavelengths << " bin " << j;
+    }
+    EXPECT_GT(sg.stats().extra.at("shifted_pairs"), 0);
+  }
+}
+
+TEST(Sgpt, ColouredFurnaceAndPasses) {
+  const Scene s = load_scene_from_string(
+      R"({"camera": {"position": [0, -3, 0], "look_at": [0, 0, 0], "fov": 40, "width": 12, "height": 12},
+    "materials": {"white": {"type": "diffuse", "color": 1}},
+    "environment": {"color": [0.5, 1.0, 2.0], "strength": 1},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 32, "material": "white"}]})",
+      ".", "furnace.json");
+  for (int wavelengths : {1, 4}) {
+    Params p;
+    p.set("seed", 4);
+    p.set("wavelengths", wavelengths);
+    auto integ = make_integrator("sgpt", s, p);
+    run_progressive(*integ, StopRule{0, 512, 0}, nullptr);
+    Film f;
+    integ->develop(f);
+    ASSERT_TRUE(f.has_pass(pass::kSpectralPrimal));
+    ASSERT_TRUE(f.has_pass(pass::kSpectralGradient));
+    double m[3] = {0, 0, 0};
+    for (int y = 0; y < f.height(); ++y)
+      for (int x = 0; x < f.width(); ++x)
+        for (int k = 0; k < 3; ++k) m[k] += f.rgb(pass::kCombined, x, y)[k] / (f.width() * f.height());
+    EXPECT_NEAR(m[0], 0.5, 0.015);
+    EXPECT_NEAR(m[1], 1.0, 0.03);
+    EXPECT_NEAR(m[2], 2.0, 0.06);
+    EXPECT_GT(integ->stats().extra.at("shifted_pairs"), 0);
+  }
+}
+
+TEST(Sgpt, ParametersAreValidated) {
+  const Scene s = test_prism();
+  auto make = [&](const char* k, nlohmann::json v) {
+    Params p;
+    p.set(k, v);
+    return make_integrator("sgpt", s, p);
+  };
+  EXPECT_THROW(make("bins", 2), ParamError);
+  EXPECT_THROW(make("delta", 0.0), ParamError);
+  EXPECT_THROW(make("tau", -1.0), ParamError);
+  EXPECT_THROW(make("wavelengths", 9), ParamError);
+  EXPECT_NO_THROW(make("bins", 30));
+}
+
+}  // namespace
+}  // namespace gp
