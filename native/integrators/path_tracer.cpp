@@ -16,14 +16,13 @@ PathTracer::PathTracer(const Scene& scene, const Params& params)
       tile_size_(params.get<int>("tile_size", 16)),
       seed_(params.get<uint64_t>("seed", 0)),
       width_(scene.camera.width),
-      height_(scene.camera.height) {
+      height_(scene.camera.height),
+      estimate_(std::max(1, width_), std::max(1, height_)) {  // sizes checked just below
   if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
   if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
   if (threads_ < 0) throw ParamError("threads must be >= 0");
   if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
   if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
-  sum_.assign(static_cast<size_t>(width_) * height_ * 3, 0.0);
-  samples_.assign(static_cast<size_t>(width_) * height_, 0);
 }
 
 RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
@@ -105,52 +104,12 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
 }
 
 void PathTracer::iterate(ProgressSink* sink) {
-  const auto start = std::chrono::steady_clock::now();
-  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
-  std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
-  parallel_for_tiles(
-      width_, height_, tile_size_, threads_,
-      [&](const Tile& tile) {
-        RayCounts tile_rays;
-        int64_t tile_paths = 0, tile_invalid = 0;
-        for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) {
-            const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            Rng rng = Rng::for_key(seed_, pixel, pass);
-            const Vec2 film(x + rng.uniform(), y + rng.uniform());  // box filter
-            const Vec2 lens(rng.uniform(), rng.uniform());
-            const RGB L = Li(scene_.camera.generate_ray(film, lens), rng, tile_rays);
-            ++tile_paths;
-            ++samples_[pixel];
-            if (!L.is_finite()) {  // discard and count: NaN/Inf never reaches a pass
-              ++tile_invalid;
-              continue;
-            }
-            sum_[3 * pixel] += L.r;
-            sum_[3 * pixel + 1] += L.g;
-            sum_[3 * pixel + 2] += L.b;
-          }
-        closest += tile_rays.closest;
-        shadow += tile_rays.shadow;
-        paths += tile_paths;
-        invalid += tile_invalid;
-      },
-      [sink] { return sink && sink->cancelled(); });
-  stats_.passes += 1;
-  stats_.rays += closest + shadow;
-  stats_.shadow_rays += shadow;
-  stats_.paths += paths;
-  stats_.invalid_samples += invalid;
-  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  estimate_.run_pass(seed_, tile_size_, threads_, sink, stats_,
+                     [this](Rng& rng, Vec2 film, Vec2 lens, RayCounts& rays) {
+                       return Li(scene_.camera.generate_ray(film, lens), rng, rays);
+                     });
 }
 
-void PathTracer::develop(Film& film) const {
-  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
-  Pass& p = film.add_pass(pass::kCombined, 3);
-  for (size_t i = 0; i < samples_.size(); ++i) {
-    const double inv = samples_[i] ? 1.0 / samples_[i] : 0.0;
-    for (int c = 0; c < 3; ++c) p.data[3 * i + c] = static_cast<float>(sum_[3 * i + c] * inv);
-  }
-}
+void PathTracer::develop(Film& film) const { estimate_.develop(film, pass::kCombined); }
 
 }  // namespace gp

@@ -18,6 +18,7 @@
 
 #include "core/rng.h"
 #include "integrators/integrator.h"
+#include "integrators/pixel_estimate.h"
 
 namespace gp {
 
@@ -36,8 +37,7 @@ class PathTracer : public Integrator {
   int max_depth_, rr_depth_, threads_, tile_size_;
   uint64_t seed_;
   int width_, height_;
-  std::vector<double> sum_;        // RGB sums per pixel
-  std::vector<uint32_t> samples_;  // samples per pixel (a cancelled pass leaves some short)
+  PixelEstimate estimate_;
 };
 
 }  // namespace gp

@@ -32,6 +32,7 @@
 #include "core/rng.h"
 #include "core/spectrum.h"
 #include "integrators/integrator.h"
+#include "integrators/pixel_estimate.h"
 #include "materials/material.h"
 
 namespace gp {
@@ -81,8 +82,7 @@ class SpectralPathTracer : public Integrator {
   int max_depth_, rr_depth_, count_, threads_, tile_size_;
   uint64_t seed_;
   int width_, height_;
-  std::vector<double> sum_;        // RGB sums per pixel
-  std::vector<uint32_t> samples_;  // samples per pixel
+  PixelEstimate estimate_;
 };
 
 }  // namespace gp

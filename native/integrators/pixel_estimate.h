@@ -1,0 +1,87 @@
+// One-sample-per-pixel progressive estimate, shared by the path tracers (RGB and spectral):
+// each pass visits every pixel in parallel tiles, draws the pixel's own random stream
+// Rng::for_key(seed, pixel, pass) (so the image does not depend on the thread count), a
+// box-filtered film position and a lens sample, and averages what the estimator returns.
+// NaN/Inf estimates are discarded and counted: they never reach a pass.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <string_view>
+#include <vector>
+
+#include "core/film.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "core/rng.h"
+
+namespace gp {
+
+class PixelEstimate {
+ public:
+  PixelEstimate(int width, int height)
+      : width_(width), height_(height), sum_(static_cast<size_t>(width) * height * 3, 0.0),
+        samples_(static_cast<size_t>(width) * height, 0) {}
+
+  // One pass: estimate(rng, film, lens, rays) -> RGB per pixel. Updates `stats` (passes,
+  // paths, rays, shadow rays, invalid samples, seconds). A cancelled pass leaves the pixels it
+  // did not reach with one sample fewer.
+  template <typename Estimator>
+  void run_pass(uint64_t seed, int tile_size, int threads, ProgressSink* sink, Stats& stats,
+                const Estimator& estimate) {
+    const auto start = std::chrono::steady_clock::now();
+    const uint64_t pass = static_cast<uint64_t>(stats.passes);
+    std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
+    parallel_for_tiles(
+        width_, height_, tile_size, threads,
+        [&](const Tile& tile) {
+          RayCounts tile_rays;
+          int64_t tile_paths = 0, tile_invalid = 0;
+          for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x) {
+              const size_t pixel = static_cast<size_t>(y) * width_ + x;
+              Rng rng = Rng::for_key(seed, pixel, pass);
+              const Vec2 film(x + rng.uniform(), y + rng.uniform());  // box filter
+              const Vec2 lens(rng.uniform(), rng.uniform());
+              const RGB L = estimate(rng, film, lens, tile_rays);
+              ++tile_paths;
+              ++samples_[pixel];
+              if (!L.is_finite()) {
+                ++tile_invalid;
+                continue;
+              }
+              sum_[3 * pixel] += L.r;
+              sum_[3 * pixel + 1] += L.g;
+              sum_[3 * pixel + 2] += L.b;
+            }
+          closest += tile_rays.closest;
+          shadow += tile_rays.shadow;
+          paths += tile_paths;
+          invalid += tile_invalid;
+        },
+        [sink] { return sink && sink->cancelled(); });
+    stats.passes += 1;
+    stats.rays += closest + shadow;
+    stats.shadow_rays += shadow;
+    stats.paths += paths;
+    stats.invalid_samples += invalid;
+    stats.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
+  // The mean of every pixel's samples into pass `name` (RGB) of `film`, sized to the image.
+  void develop(Film& film, std::string_view name) const {
+    if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+    Pass& p = film.add_pass(name, 3);
+    for (size_t i = 0; i < samples_.size(); ++i) {
+      const double inv = samples_[i] ? 1.0 / samples_[i] : 0.0;
+      for (int c = 0; c < 3; ++c) p.data[3 * i + c] = static_cast<float>(sum_[3 * i + c] * inv);
+    }
+  }
+
+ private:
+  int width_, height_;
+  std::vector<double> sum_;        // RGB sums per pixel
+  std::vector<uint32_t> samples_;  // samples per pixel
+};
+
+}  // namespace gp
