@@ -29,13 +29,15 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
   }
 }
 
-std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm"}; }
+std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "sppm-adaptive"}; }
 
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
                                             const Params& params) {
   if (method == "pt") return std::make_unique<PathTracer>(scene, params);
   if (method == "ppm") return std::make_unique<Ppm>(scene, params);
   if (method == "sppm") return std::make_unique<Sppm>(scene, params);
+  // SPPM with photon_sampler defaulting to "adaptive" (thesis ch. 8), for scripts/convergence.py.
+  if (method == "sppm-adaptive") return std::make_unique<Sppm>(scene, params, "adaptive");
   std::string known;
   for (const auto& n : integrator_names()) known += (known.empty() ? "" : ", ") + n;
   throw ParamError("unknown method '" + method + "' (known: " + known + ")");

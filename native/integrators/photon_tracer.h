@@ -4,7 +4,15 @@
 // by Russian roulette, and are deposited at every vertex whose BSDF is diffuse for photon
 // methods (Bsdf::is_diffuse_for_photons: roughness above the specular threshold).
 //
-// Photons are traced in fixed chunks, each drawing from its own random stream keyed by
+// A photon path is a function of its primary samples, a point of the unit hypercube (thesis
+// §8.2.1-8.2.2, after Kelemen et al.): trace_path() reads them one by one from a
+// PrimarySamples source in a fixed order (emission: light choice, 2 for the position, 2 for
+// the direction; every bounce: lobe choice, 2 for the direction, 1 for Russian roulette), so
+// coordinate k always means the same thing. Uniform photon tracing feeds it fresh uniform
+// numbers (RngSamples, used by trace()); the adaptive MCMC sampler (adaptive_photons.h) feeds
+// it stored and mutated coordinates.
+//
+// trace() works in fixed chunks, each drawing from its own random stream keyed by
 // (seed, chunk, pass), and concatenated in chunk order: the photon list (and so the image)
 // does not depend on the thread count. Stored power is not divided by the number of emitted
 // photons; estimators divide by it (thesis eq. 5.10 / 5.13).
@@ -15,6 +23,7 @@
 
 #include "core/color.h"
 #include "core/math.h"
+#include "core/rng.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -32,6 +41,23 @@ struct PhotonPassStats {
   int64_t invalid = 0;   // deposits dropped because their power was NaN/Inf
 };
 
+// Source of the primary samples (coordinates in [0, 1)) one photon path consumes in order.
+class PrimarySamples {
+ public:
+  virtual ~PrimarySamples() = default;
+  virtual float next() = 0;
+};
+
+// Fresh uniform numbers from an Rng: ordinary (uniform) photon tracing.
+class RngSamples final : public PrimarySamples {
+ public:
+  explicit RngSamples(Rng& rng) : rng_(rng) {}
+  float next() override { return rng_.uniform(); }
+
+ private:
+  Rng& rng_;
+};
+
 class PhotonTracer {
  public:
   // max_depth: longest photon path in segments; min_deposit_bounce: deposits happen from this
@@ -41,6 +67,15 @@ class PhotonTracer {
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
   // memory stays flat over passes).
   PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out);
+
+  // Traces one photon path from the primary samples `u`, appending its deposits to `out`.
+  // Returns the closest-hit rays traced; deposits with NaN/Inf power are dropped and counted
+  // in `invalid`. Thread-safe (const).
+  int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid) const;
+
+  int max_depth() const { return max_depth_; }
+  int threads() const { return threads_; }
+  uint64_t seed() const { return seed_; }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
 
