@@ -117,6 +117,7 @@ struct RenderArgs {
   std::optional<double> alpha, radius, confidence;
   std::optional<int64_t> photons;
   std::optional<std::string> hash;
+  std::optional<std::string> photon_sampler;
   double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
@@ -143,6 +144,7 @@ int run_render(const RenderArgs& a) {
   if (a.confidence) params.set("confidence", *a.confidence);
   if (a.photons) params.set("photons", *a.photons);
   if (a.hash) params.set("hash", *a.hash);
+  if (a.photon_sampler) params.set("photon_sampler", *a.photon_sampler);
   for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
@@ -380,6 +382,9 @@ int main(int argc, char** argv) {
   render->add_option("--radius", ra.radius, "ppm/sppm: initial gathering radius in metres (default: from the pixel footprint)");
   render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
+  render->add_option("--photon-sampler", ra.photon_sampler,
+                     "ppm/sppm: photon paths by uniform sampling or by adaptive MCMC on their visibility "
+                     "(thesis ch. 8), uniform|adaptive (default uniform)");
   render->add_option("--target-error", ra.target_error,
                      "Stop when the average estimated relative error falls below this (ppm/sppm)");
 

@@ -66,3 +66,13 @@ def test_unknown_method_and_parameter_are_reported(tmp_path):
     p = run("render", CORNELL, "--passes", 1, "--width", 8, "--height", 8, "--param", "max_dpeth=3",
             "-o", tmp_path / "y.exr")
     assert "max_dpeth" in p.stderr
+
+
+def test_photon_sampler_flag_reports_the_adaptive_statistics(tmp_path):
+    door = ROOT / "scenes" / "door-ajar.json"
+    p = run("render", door, "--method", "sppm", "--photon-sampler", "adaptive", "--photons", 20000, "--passes", 2,
+            "--width", 24, "--height", 18, "-o", tmp_path / "a.exr")
+    for name in ("acceptance rate", "mutation size", "V_c", "uniform count", "visible count"):
+        assert re.search(name + r"\s+[0-9.e+-]+", p.stdout), name
+    bad = run("render", door, "--method", "sppm", "--photon-sampler", "mcmc", "-o", tmp_path / "b.exr", ok=False)
+    assert bad.returncode != 0 and "photon_sampler" in bad.stderr
