@@ -10,7 +10,12 @@ paper), writes a CSV and draws one log-log chart per scene with all its methods.
         --checkpoints 1,2,4,8,16 --ref-passes 4096 --scale 0.5
     scripts/convergence.py --methods pt sppm --scenes torus-glass cornell-glass --scale 0.375
 
-Any name make_integrator knows works in --methods (pt, ppm, sppm); each runs with its defaults.
+Any name make_integrator knows works in --methods (pt, ppm, sppm, sppm-adaptive); each runs with
+its defaults. --csv names the table under --out (default convergence.csv), so runs for different
+documents do not overwrite each other:
+
+    scripts/convergence.py --scenes door-ajar --methods pt sppm sppm-adaptive --scale 0.5 \
+        --checkpoints 2,4,8,16,32 --ref-passes 8192 --csv adaptive.csv
 """
 import argparse
 import csv
@@ -64,6 +69,7 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scale", type=float, default=0.5, help="image size relative to the scene's camera")
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "convergence")
+    ap.add_argument("--csv", default="convergence.csv", help="name of the table written under --out")
     args = ap.parse_args()
 
     checkpoints = [float(t) for t in args.checkpoints.split(",")]
@@ -84,7 +90,7 @@ def main():
                     rows.append({"scene": scene, "method": method, "seconds": t, "relmse": rel_mse(snap, ref)})
                     print(f"{scene:14s} {method:8s} {t:8g} s  relMSE {rows[-1]['relmse']:.5g}")
 
-    csv_path = args.out / "convergence.csv"
+    csv_path = args.out / args.csv
     with open(csv_path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=["scene", "method", "seconds", "relmse"])
         w.writeheader()
