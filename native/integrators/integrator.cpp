@@ -1,5 +1,6 @@
 #include "integrators/integrator.h"
 
+#include "integrators/hybrid_ppm.h"
 #include "integrators/path_tracer.h"
 #include "integrators/ppm.h"
 #include "integrators/sppm.h"
@@ -29,7 +30,7 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
   }
 }
 
-std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "sppm-adaptive"}; }
+std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "sppm-adaptive", "msppm"}; }
 
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
                                             const Params& params) {
@@ -38,6 +39,7 @@ std::unique_ptr<Integrator> make_integrator(const std::string& method, const Sce
   if (method == "sppm") return std::make_unique<Sppm>(scene, params);
   // SPPM with photon_sampler defaulting to "adaptive" (thesis ch. 8), for scripts/convergence.py.
   if (method == "sppm-adaptive") return std::make_unique<Sppm>(scene, params, "adaptive");
+  if (method == "msppm") return std::make_unique<HybridPpm>(scene, params);
   std::string known;
   for (const auto& n : integrator_names()) known += (known.empty() ? "" : ", ") + n;
   throw ParamError("unknown method '" + method + "' (known: " + known + ")");

@@ -13,7 +13,7 @@ PhotonTracer::PhotonTracer(const Scene& scene, int max_depth, float specular_thr
     : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads) {}
 
 int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& dst,
-                                 int64_t& invalid) const {
+                                 int64_t& invalid, PhotonPathRecord* record) const {
   const LightSet& lights = scene_.light_set();
   if (lights.empty()) return 0;
   int64_t rays = 0;
@@ -25,18 +25,44 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   RGB beta = em->power;
   Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0 ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
                                                           : Ray(em->o, em->d);
+  const bool distant = lights.lights()[em->light].is_infinite();
+  float pdf_dir_prev = em->pdf_dir;  // solid-angle density of the segment being traced
+  if (record) {
+    PhotonPathVertex lv;
+    lv.p = em->o;
+    lv.ng = em->n;
+    lv.wi = em->d;
+    lv.pdf_fwd = distant ? em->pdf_dir : em->pdf_pos;
+    lv.light = em->light;
+    lv.start = true;
+    record->vertices.push_back(lv);
+  }
   for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
     ++rays;
     const auto hit = scene_.intersect(ray);
     if (!hit) break;
     const Bsdf bsdf(scene_.material(hit->material));
     if (bsdf.is_black()) break;
+    if (record) {
+      PhotonPathVertex v;
+      v.p = hit->p;
+      v.ng = hit->ng;
+      v.frame = hit->frame;
+      v.wi = -ray.d;
+      const float cos_in = std::abs(dot(hit->ng, ray.d));
+      v.pdf_fwd = bounce == 0 && distant ? em->pdf_pos * cos_in : pdf_dir_prev * cos_in / (hit->t * hit->t);
+      v.material = hit->material;
+      v.delta = bsdf.is_delta();
+      record->vertices.push_back(v);
+    }
     // ---- Deposit at diffuse vertices ----
     if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
-      if (beta.is_finite())
+      if (beta.is_finite()) {
         dst.push_back(Photon{hit->p, -ray.d, beta});
-      else
+        if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
+      } else {
         ++invalid;
+      }
     }
     if (bounce + 2 > max_depth_) break;
     // ---- Scattering (adjoint BSDF) ----
@@ -47,6 +73,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     const float u0 = u.next(), u1 = u.next();
     const auto bs = bsdf.sample(wo, uc, Vec2(u0, u1), TransportMode::Importance);
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+    pdf_dir_prev = bsdf.is_delta() ? 1.0f : bs->pdf;
     const Vec3 wi_world = hit->frame.to_world(bs->wi);
     // Shading-normal correction of the adjoint BSDF (Veach 1997, eq. 5.20).
     const float denom = std::abs(dot(wo_world, hit->ng)) * std::abs(dot(wi_world, hit->ns));

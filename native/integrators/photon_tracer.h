@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/color.h"
+#include "core/frame.h"
 #include "core/math.h"
 #include "core/rng.h"
 #include "scene/scene.h"
@@ -32,6 +33,27 @@ struct Photon {
   Vec3 p;       // where it landed
   Vec3 wi;      // unit world direction back towards where it came from
   RGB power;    // flux it carries (W), before division by the number of emitted photons
+};
+
+// Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to
+// the photon at the previous bounce"), for the path densities of multisampled PPM
+// (hybrid_ppm.h). A path's vertices are consecutive: its light vertex (start = true), then
+// every surface hit in order, specular ones included.
+struct PhotonPathVertex {
+  Vec3 p, ng;       // light vertex: origin on the light (or on the emission disk) and its normal
+  Frame frame;      // shading frame (surface vertices)
+  Vec3 wi;          // surface: unit direction towards the previous vertex; light: direction of travel
+  float pdf_fwd;    // area density the light side sampled this vertex with (light vertex: see
+                    // PhotonEmission; distant lights: pdf_dir, and the first hit pdf_pos |cos|)
+  int material = -1;
+  int light = -1;   // light vertex: the light
+  bool delta = false;  // specular BSDF: its direction density counts as 1 on both sides
+  bool start = false;
+};
+struct PhotonPathRecord {
+  std::vector<PhotonPathVertex> vertices;
+  std::vector<uint32_t> deposit_vertex;  // per deposit appended to `out`: its vertex index
+  void clear() { vertices.clear(); deposit_vertex.clear(); }
 };
 
 struct PhotonPassStats {
@@ -71,7 +93,9 @@ class PhotonTracer {
   // Traces one photon path from the primary samples `u`, appending its deposits to `out`.
   // Returns the closest-hit rays traced; deposits with NaN/Inf power are dropped and counted
   // in `invalid`. Thread-safe (const).
-  int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid) const;
+  // With `record`, the path's vertices and the vertex of every deposit are appended to it.
+  int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid,
+                     PhotonPathRecord* record = nullptr) const;
 
   int max_depth() const { return max_depth_; }
   int threads() const { return threads_; }
