@@ -377,9 +377,9 @@ int main(int argc, char** argv) {
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
-  render->add_option("--alpha", ra.alpha, "ppm/sppm: fraction of new photons kept per pass, in (0,1) (default 0.7)");
-  render->add_option("--photons", ra.photons, "ppm/sppm: photons emitted per pass (default 100000)");
-  render->add_option("--radius", ra.radius, "ppm/sppm: initial gathering radius in metres (default: from the pixel footprint)");
+  render->add_option("--alpha", ra.alpha, "ppm/sppm/msppm: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6)");
+  render->add_option("--photons", ra.photons, "ppm/sppm/msppm: photons emitted per pass (default 100000; msppm: one per pixel)");
+  render->add_option("--radius", ra.radius, "ppm/sppm/msppm: initial gathering radius in metres (default: from the pixel footprint)");
   render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
   render->add_option("--photon-sampler", ra.photon_sampler,

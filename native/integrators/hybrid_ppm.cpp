@@ -94,7 +94,12 @@ double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, do
     if (lv.light >= 0 && k >= 2) lights.emission_pdf(lv.light, travel, e_pos, e_dir);
   }
   // E[i]: camera side samples y_i (i >= 2); E[1] = 1 (the pixel, common to all techniques).
-  std::vector<double> E(k + 1, 1.0), L(k + 1, 1.0);
+  // Scratch per thread (this runs once per gathered photon: no allocations).
+  thread_local std::vector<double> E, L, PE, SL;
+  E.assign(k + 1, 1.0);
+  L.assign(k + 1, 1.0);
+  PE.assign(k + 1, 1.0);
+  SL.assign(k + 2, 1.0);
   for (int i = 2; i <= k; ++i) E[i] = dir_pdf(i - 1, i - 2, i) * to_area(i - 1, i);
   // L[i]: light side samples y_i (i <= k).
   if (k >= 2) {
@@ -119,7 +124,6 @@ double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, do
   const bool hit_ok = lv.light >= 0 && (lights.lights()[lv.light].type == LightType::Area ||
                                         lights.lights()[lv.light].type == LightType::Environment);
   // Prefix products of E, suffix products of L.
-  std::vector<double> PE(k + 1, 1.0), SL(k + 2, 1.0);
   for (int i = 2; i <= k; ++i) PE[i] = PE[i - 1] * E[i];
   for (int i = k; i >= 1; --i) SL[i] = SL[i + 1] * L[i];
   const double q_hit = hit_ok ? PE[k] : 0.0;
@@ -328,13 +332,38 @@ void HybridPpm::iterate(ProgressSink* sink) {
   const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
   if (pass == 0)
     for (size_t i = 0; i < n_pixels; ++i) px_[i].r2 = radius_ > 0 ? radius_ * radius_ : 0.0;
+  // Pixels whose camera path meets no photon-diffuse vertex in the first pass (light or sky
+  // seen directly, paths through glass that leave) still need a radius: every pass weights
+  // their later paths against density estimation, and a zero radius would give path tracing
+  // the full weight of caustic paths (fireflies). They take the mean footprint radius.
+  auto set_new_radii = [&] {
+    if (fallback_r_ == 0) {
+      double sum = 0, cnt = 0;
+      for (size_t i = 0; i < n_pixels; ++i)
+        if (first_r_[i] > 0) { sum += first_r_[i]; cnt += 1; }
+      if (cnt > 0) fallback_r_ = sum / cnt;
+    }
+    for (size_t i = 0; i < n_pixels; ++i)
+      if (px_[i].r2 == 0) {
+        const double r0 = first_r_[i] > 0 ? first_r_[i] : fallback_r_;
+        if (r0 > 0) {
+          const double r = std::max(r0, static_cast<double>(min_r));
+          px_[i].r2 = r * r;
+        }
+      }
+  };
+  if (pass == 0 && radius_ == 0) {
+    // The footprint radius comes from the camera path itself: trace the first pass's paths
+    // once for it (same random streams, results discarded), so that even the first pass
+    // weights path tracing against density estimation. Without this the first pass would be
+    // plain path tracing, whose caustic fireflies then fade only as 1 / passes.
+    eye_pass(pass, sink, rays, invalid);
+    if (sink && sink->cancelled()) return;
+    set_new_radii();
+  }
   eye_pass(pass, sink, rays, invalid);
   if (sink && sink->cancelled()) return;
-  for (size_t i = 0; i < n_pixels; ++i)
-    if (px_[i].r2 == 0 && first_r_[i] > 0) {
-      const double r = std::max(first_r_[i], min_r);
-      px_[i].r2 = r * r;
-    }
+  set_new_radii();
 
   // ---- 2. Photon pass ----
   const auto t_trace = clock_type::now();
@@ -349,10 +378,10 @@ void HybridPpm::iterate(ProgressSink* sink) {
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
-  std::atomic<int64_t> points{0};
+  std::atomic<int64_t> points{0}, found{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     std::vector<PathVertex> y;
-    int64_t local_points = 0;
+    int64_t local_points = 0, local_found = 0;
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
       gather_phi_[i] = RGB(0.0f);
@@ -415,8 +444,10 @@ void HybridPpm::iterate(ProgressSink* sink) {
       }
       gather_m_[i] = static_cast<float>(m);
       gather_phi_[i] = phi;
+      local_found += static_cast<int64_t>(m);
     }
     points += local_points;
+    found += local_found;
   });
   stats_.extra["lookup seconds"] += seconds_since(t_lookup);
 
@@ -457,6 +488,7 @@ void HybridPpm::iterate(ProgressSink* sink) {
   stats_.extra["photon rays"] += static_cast<double>(ps.rays);
   stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
   stats_.extra["measurement points per pixel"] = static_cast<double>(points) / static_cast<double>(n_pixels);
+  stats_.extra["photons found per point"] = points > 0 ? static_cast<double>(found) / static_cast<double>(points) : 0.0;
   stats_.extra["path tracing share"] = pt + pm > 0 ? pt / (pt + pm) : 0.0;
   stats_.seconds += seconds_since(start);
 }

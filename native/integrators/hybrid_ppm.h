@@ -123,7 +123,7 @@ class HybridPpm : public Integrator {
   std::vector<float> gather_m_;
   std::vector<RGB> gather_phi_;
   int64_t emitted_total_ = 0;
-  double pt_luminance_ = 0, pm_luminance_ = 0;
+  double fallback_r_ = 0;  // mean first-pass footprint radius, for pixels without their own
 };
 
 }  // namespace gp

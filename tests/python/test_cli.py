@@ -76,3 +76,11 @@ def test_photon_sampler_flag_reports_the_adaptive_statistics(tmp_path):
         assert re.search(name + r"\s+[0-9.e+-]+", p.stdout), name
     bad = run("render", door, "--method", "sppm", "--photon-sampler", "mcmc", "-o", tmp_path / "b.exr", ok=False)
     assert bad.returncode != 0 and "photon_sampler" in bad.stderr
+
+
+def test_msppm_renders_and_reports_its_statistics(tmp_path):
+    p = run("render", ROOT / "scenes" / "cornell-glass.json", "--method", "msppm", "--passes", 3,
+            "--width", 24, "--height", 24, "-o", tmp_path / "m.exr")
+    assert re.search(r"method\s+msppm", p.stdout)
+    for name in ("path tracing share", "measurement points per pixel", "photons found per point"):
+        assert re.search(name + r"\s+[0-9.e+-]+", p.stdout), name
