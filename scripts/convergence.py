@@ -13,7 +13,11 @@ scene with all its methods.
 
 Any name make_integrator knows works in --methods (pt, ppm, sppm, gpt, ...), with its defaults
 or with parameters after a colon: `gpt:recon=l1`, `sppm:photons=1000000,alpha=0.9` (passed as
---param; the whole spec is the label on the chart).
+--param; the whole spec is the label on the chart). --csv names the table under --out (default convergence.csv), so runs for different documents
+do not overwrite each other:
+
+    scripts/convergence.py --scenes door-ajar --methods pt sppm sppm-adaptive --scale 0.5 \
+        --checkpoints 2,4,8,16,32 --ref-passes 8192 --csv adaptive.csv
 """
 import argparse
 import csv
@@ -82,6 +86,7 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scale", type=float, default=0.5, help="image size relative to the scene's camera")
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "convergence")
+    ap.add_argument("--csv", default="convergence.csv", help="name of the table written under --out")
     args = ap.parse_args()
 
     checkpoints = [float(t) for t in args.checkpoints.split(",")]
@@ -102,7 +107,7 @@ def main():
                     rows.append({"scene": scene, "method": method, "seconds": t, "relmse": rel_mse(snap, ref)})
                     print(f"{scene:14s} {method:14s} {t:8g} s  relMSE {rows[-1]['relmse']:.5g}")
 
-    csv_path = args.out / "convergence.csv"
+    csv_path = args.out / args.csv
     with open(csv_path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=["scene", "method", "seconds", "relmse"])
         w.writeheader()

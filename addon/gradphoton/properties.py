@@ -15,6 +15,8 @@ METHOD_LABELS = {
     "ppm": ("Progressive Photon Mapping", "Hachisuka et al. 2008 (thesis ch. 5)"),
     "sppm": ("Stochastic PPM", "Stochastic progressive photon mapping (thesis ch. 7)"),
     "appm": ("Adaptive Photon Tracing", "Adaptive MCMC photon tracing (thesis ch. 8)"),
+    "sppm-adaptive": ("SPPM, Adaptive Photons", "SPPM with adaptive MCMC photon tracing on path visibility (thesis ch. 8)"),
+    "msppm": ("Multisampled PPM", "MIS of path tracing and SPPM (thesis ch. 9)"),
     "hybrid_ppm": ("Multisampled PPM", "MIS of path tracing and SPPM (thesis ch. 9)"),
     "gpt": ("Gradient-Domain PT", "Gradient-domain path tracing (KMA15)"),
     "gpm": ("Gradient-Domain Photons", "Gradient-domain photon density estimation"),
@@ -52,7 +54,7 @@ METHOD_PARAMS = {
 }
 
 # Which parameter groups the panel shows for a method (the core reads only its own).
-PHOTON_METHODS = {"ppm", "sppm", "gpm", "appm", "msppm"}
+PHOTON_METHODS = {"ppm", "sppm", "sppm-adaptive", "gpm", "appm", "msppm"}
 GRADIENT_METHODS = {"gpt", "gpm", "gdmlt"}
 
 

@@ -14,12 +14,12 @@ size_t PhotonHashGrid::capacity_bytes() const {
 }
 
 void PhotonHashGrid::build(const std::vector<Photon>& photons, float cell_size, PhotonHashMode mode,
-                           uint64_t seed, uint64_t pass, int threads) {
+                           uint64_t seed, uint64_t pass, int threads, uint32_t min_buckets) {
   cell_ = cell_size > 0 ? cell_size : 1.0f;
   inv_cell_ = 1.0f / cell_;
   const size_t n = photons.size();
   uint32_t buckets = 1024;
-  while (buckets < 2 * n && buckets < (1u << 30)) buckets <<= 1;
+  while ((buckets < 2 * n || buckets < min_buckets) && buckets < (1u << 30)) buckets <<= 1;
   mask_ = buckets - 1;
 
   // ---- 1. bucket of every photon, and bucket sizes (parallel, atomic counts) ----

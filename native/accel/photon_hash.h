@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "integrators/photon_tracer.h"
@@ -23,15 +24,44 @@ enum class PhotonHashMode { Exact, Stochastic };
 
 class PhotonHashGrid {
  public:
+  // min_buckets: at least this many buckets (a power of two is used), for grids queried far
+  // more often than built, where fewer hash collisions pay (adaptive_photons.h).
   void build(const std::vector<Photon>& photons, float cell_size, PhotonHashMode mode, uint64_t seed,
-             uint64_t pass, int threads);
+             uint64_t pass, int threads, uint32_t min_buckets = 0);
 
   // Calls fn(photon, distance^2, weight) for every stored photon within `radius` of p. The
   // weight is 1 (exact) or the number of photons its bucket held (stochastic): the factor
   // that multiplies its power (thesis §10.2.1) and its count.
   template <typename Fn>
   void query(const Vec3& p, float radius, Fn&& fn) const {
-    if (start_.empty() || !(radius > 0)) return;
+    visit(p, radius, [&](uint32_t i, float d2) { fn(photons_[i], d2, count_[i]); });
+  }
+
+  // Exact mode only: calls fn(index, distance^2) with the index of every photon within `radius`
+  // of p in the vector given to build(), so callers can look up data kept beside the points
+  // (the adaptive photon sampler's grid of measurement points, adaptive_photons.h).
+  template <typename Fn>
+  void query_index(const Vec3& p, float radius, Fn&& fn) const {
+    visit(p, radius, [&](uint32_t i, float d2) { fn(order_[i], d2); });
+  }
+  // As query_index, but pred(index, distance^2) returns true to stop: true if any did.
+  template <typename Pred>
+  bool any_index(const Vec3& p, float radius, Pred&& pred) const {
+    return visit(p, radius, [&](uint32_t i, float d2) { return pred(order_[i], d2); });
+  }
+
+  size_t stored() const { return photons_.size(); }
+  size_t bucket_count() const { return start_.empty() ? 0 : start_.size() - 1; }
+  float cell_size() const { return cell_; }
+  // Memory held (bytes), for the flat-memory test.
+  size_t capacity_bytes() const;
+
+ private:
+  // fn(slot, distance^2) for every stored slot within `radius` of p, each bucket once; when fn
+  // returns bool, true stops the visit and is returned.
+  template <typename Fn>
+  bool visit(const Vec3& p, float radius, Fn&& fn) const {
+    if (start_.empty() || !(radius > 0)) return false;
     const float r2 = radius * radius;
     const int x0 = cell_coord(p.x - radius), x1 = cell_coord(p.x + radius);
     const int y0 = cell_coord(p.y - radius), y1 = cell_coord(p.y + radius);
@@ -58,18 +88,18 @@ class PhotonHashGrid {
           for (uint32_t i = start_[b], e = start_[b + 1]; i < e; ++i) {
             const Photon& ph = photons_[i];
             const float d2 = length_squared(ph.p - p);
-            if (d2 <= r2) fn(ph, d2, count_[i]);
+            if (d2 <= r2) {
+              if constexpr (std::is_same_v<decltype(fn(i, d2)), bool>) {
+                if (fn(i, d2)) return true;
+              } else {
+                fn(i, d2);
+              }
+            }
           }
         }
+    return false;
   }
 
-  size_t stored() const { return photons_.size(); }
-  size_t bucket_count() const { return start_.empty() ? 0 : start_.size() - 1; }
-  float cell_size() const { return cell_; }
-  // Memory held (bytes), for the flat-memory test.
-  size_t capacity_bytes() const;
-
- private:
   int cell_coord(float v) const { return static_cast<int>(std::floor(v * inv_cell_)); }
   uint32_t bucket(int x, int y, int z) const {
     return ((static_cast<uint32_t>(x) * 73856093u) ^ (static_cast<uint32_t>(y) * 19349663u) ^
@@ -81,7 +111,8 @@ class PhotonHashGrid {
   std::vector<Photon> photons_;     // bucket order
   std::vector<float> count_;        // per stored photon: 1 (exact) or the bucket's count (stochastic)
   std::vector<uint32_t> start_;     // bucket b holds photons_[start_[b], start_[b + 1])
-  std::vector<uint32_t> key_, order_;       // scratch, capacity kept between passes
+  std::vector<uint32_t> key_;               // scratch, capacity kept between passes
+  std::vector<uint32_t> order_;             // slot -> index given to build() (query_index in exact mode)
   std::vector<uint32_t> bucket_count_;      // scratch
 };
 

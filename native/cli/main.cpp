@@ -121,6 +121,7 @@ struct RenderArgs {
   std::optional<double> alpha, radius, confidence;
   std::optional<int64_t> photons;
   std::optional<std::string> hash;
+  std::optional<std::string> photon_sampler;
   double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
@@ -157,6 +158,7 @@ int run_render(const RenderArgs& a) {
   if (a.delta) params.set("delta", *a.delta);
   if (a.tau) params.set("tau", *a.tau);
   if (a.bins) params.set("bins", *a.bins);
+  if (a.photon_sampler) params.set("photon_sampler", *a.photon_sampler);
   for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
@@ -495,11 +497,14 @@ int main(int argc, char** argv) {
   render->add_option("--lambda", ra.lambda, "Gradient methods: weight of the primal image (default 0.2)")
       ->check(CLI::PositiveNumber);
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
-  render->add_option("--alpha", ra.alpha, "ppm/sppm: fraction of new photons kept per pass, in (0,1) (default 0.7)");
-  render->add_option("--photons", ra.photons, "ppm/sppm: photons emitted per pass (default 100000)");
-  render->add_option("--radius", ra.radius, "ppm/sppm: initial gathering radius in metres (default: from the pixel footprint)");
+  render->add_option("--alpha", ra.alpha, "ppm/sppm/msppm: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6)");
+  render->add_option("--photons", ra.photons, "ppm/sppm/msppm: photons emitted per pass (default 100000; msppm: one per pixel)");
+  render->add_option("--radius", ra.radius, "ppm/sppm/msppm: initial gathering radius in metres (default: from the pixel footprint)");
   render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
+  render->add_option("--photon-sampler", ra.photon_sampler,
+                     "ppm/sppm: photon paths by uniform sampling or by adaptive MCMC on their visibility "
+                     "(thesis ch. 8), uniform|adaptive (default uniform)");
   render->add_option("--target-error", ra.target_error,
                      "Stop when the average estimated relative error falls below this (ppm/sppm)");
   render->add_option("--spectral", ra.spectral,

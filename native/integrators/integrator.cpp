@@ -1,6 +1,7 @@
 #include "integrators/integrator.h"
 
 #include "integrators/gradient/gpt.h"
+#include "integrators/hybrid_ppm.h"
 #include "integrators/path_tracer.h"
 #include "integrators/ppm.h"
 #include "integrators/sppm.h"
@@ -32,7 +33,9 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
   }
 }
 
-std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "gpt", "spt", "spt-hero", "sgpt"}; }
+std::vector<std::string> integrator_names() {
+  return {"pt", "ppm", "sppm", "sppm-adaptive", "msppm", "gpt", "spt", "spt-hero", "sgpt"};
+}
 
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
                                             const Params& params) {
@@ -46,6 +49,9 @@ std::unique_ptr<Integrator> make_integrator(const std::string& method, const Sce
   }
   if (method == "ppm") return std::make_unique<Ppm>(scene, params);
   if (method == "sppm") return std::make_unique<Sppm>(scene, params);
+  // SPPM with photon_sampler defaulting to "adaptive" (thesis ch. 8), for scripts/convergence.py.
+  if (method == "sppm-adaptive") return std::make_unique<Sppm>(scene, params, "adaptive");
+  if (method == "msppm") return std::make_unique<HybridPpm>(scene, params);
   if (method == "gpt") return std::make_unique<GradientPathTracer>(scene, params);
   if (method == "spt" || method == "spt-hero") {
     if (mode == SpectralMode::Rgb)

@@ -12,6 +12,85 @@ PhotonTracer::PhotonTracer(const Scene& scene, int max_depth, float specular_thr
                            int threads)
     : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads) {}
 
+int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& dst,
+                                 int64_t& invalid, PhotonPathRecord* record) const {
+  const LightSet& lights = scene_.light_set();
+  if (lights.empty()) return 0;
+  int64_t rays = 0;
+  // ---- Emission ----
+  const float us = u.next();
+  const float up0 = u.next(), up1 = u.next(), ud0 = u.next(), ud1 = u.next();
+  const auto em = lights.sample_le(us, Vec2(up0, up1), Vec2(ud0, ud1));
+  if (!em || em->power.is_black()) return 0;
+  RGB beta = em->power;
+  Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0 ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
+                                                          : Ray(em->o, em->d);
+  const bool distant = lights.lights()[em->light].is_infinite();
+  float pdf_dir_prev = em->pdf_dir;  // solid-angle density of the segment being traced
+  if (record) {
+    PhotonPathVertex lv;
+    lv.p = em->o;
+    lv.ng = em->n;
+    lv.wi = em->d;
+    lv.pdf_fwd = distant ? em->pdf_dir : em->pdf_pos;
+    lv.light = em->light;
+    lv.start = true;
+    record->vertices.push_back(lv);
+  }
+  for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
+    ++rays;
+    const auto hit = scene_.intersect(ray);
+    if (!hit) break;
+    const Bsdf bsdf(scene_.material(hit->material));
+    if (bsdf.is_black()) break;
+    if (record) {
+      PhotonPathVertex v;
+      v.p = hit->p;
+      v.ng = hit->ng;
+      v.frame = hit->frame;
+      v.wi = -ray.d;
+      const float cos_in = std::abs(dot(hit->ng, ray.d));
+      v.pdf_fwd = bounce == 0 && distant ? em->pdf_pos * cos_in : pdf_dir_prev * cos_in / (hit->t * hit->t);
+      v.material = hit->material;
+      v.delta = bsdf.is_delta();
+      record->vertices.push_back(v);
+    }
+    // ---- Deposit at diffuse vertices ----
+    if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
+      if (beta.is_finite()) {
+        dst.push_back(Photon{hit->p, -ray.d, beta});
+        if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
+      } else {
+        ++invalid;
+      }
+    }
+    if (bounce + 2 > max_depth_) break;
+    // ---- Scattering (adjoint BSDF) ----
+    const Vec3 wo_world = -ray.d;
+    const Vec3 wo = hit->frame.to_local(wo_world);
+    if (wo.z == 0) break;
+    const float uc = u.next();
+    const float u0 = u.next(), u1 = u.next();
+    const auto bs = bsdf.sample(wo, uc, Vec2(u0, u1), TransportMode::Importance);
+    if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+    pdf_dir_prev = bsdf.is_delta() ? 1.0f : bs->pdf;
+    const Vec3 wi_world = hit->frame.to_world(bs->wi);
+    // Shading-normal correction of the adjoint BSDF (Veach 1997, eq. 5.20).
+    const float denom = std::abs(dot(wo_world, hit->ng)) * std::abs(dot(wi_world, hit->ns));
+    if (denom == 0) break;
+    const float correction = std::abs(dot(wo_world, hit->ns)) * std::abs(dot(wi_world, hit->ng)) / denom;
+    const RGB beta_new = beta * bs->f * (std::abs(bs->wi.z) / bs->pdf * correction);
+    // ---- Russian roulette: keep the photon's power roughly constant ----
+    const float m_old = beta.max_component(), m_new = beta_new.max_component();
+    if (!(m_new > 0) || !(m_old > 0)) break;
+    const float p_continue = std::min(1.0f, m_new / m_old);
+    if (u.next() >= p_continue) break;
+    beta = beta_new / p_continue;
+    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+  }
+  return rays;
+}
+
 PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposit_bounce,
                                     std::vector<Photon>& out) {
   PhotonPassStats stats;
@@ -28,53 +107,8 @@ PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposi
         dst.clear();
         Rng rng = Rng::for_key(seed_ ^ 0x70686f746f6e73ULL, c, pass);
         const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
-        for (int64_t k = begin; k < end; ++k) {
-          // ---- Emission ----
-          const float us = rng.uniform();
-          const Vec2 up(rng.uniform(), rng.uniform()), ud(rng.uniform(), rng.uniform());
-          const auto em = lights.sample_le(us, up, ud);
-          if (!em || em->power.is_black()) continue;
-          RGB beta = em->power;
-          Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0
-                        ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
-                        : Ray(em->o, em->d);
-          for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
-            ++local_rays;
-            const auto hit = scene_.intersect(ray);
-            if (!hit) break;
-            const Bsdf bsdf(scene_.material(hit->material));
-            if (bsdf.is_black()) break;
-            // ---- Deposit at diffuse vertices ----
-            if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
-              if (beta.is_finite())
-                dst.push_back(Photon{hit->p, -ray.d, beta});
-              else
-                ++local_invalid;
-            }
-            if (bounce + 2 > max_depth_) break;
-            // ---- Scattering (adjoint BSDF) ----
-            const Vec3 wo_world = -ray.d;
-            const Vec3 wo = hit->frame.to_local(wo_world);
-            if (wo.z == 0) break;
-            const float uc = rng.uniform();
-            const Vec2 u(rng.uniform(), rng.uniform());
-            const auto bs = bsdf.sample(wo, uc, u, TransportMode::Importance);
-            if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-            const Vec3 wi_world = hit->frame.to_world(bs->wi);
-            // Shading-normal correction of the adjoint BSDF (Veach 1997, eq. 5.20).
-            const float denom = std::abs(dot(wo_world, hit->ng)) * std::abs(dot(wi_world, hit->ns));
-            if (denom == 0) break;
-            const float correction = std::abs(dot(wo_world, hit->ns)) * std::abs(dot(wi_world, hit->ng)) / denom;
-            const RGB beta_new = beta * bs->f * (std::abs(bs->wi.z) / bs->pdf * correction);
-            // ---- Russian roulette: keep the photon's power roughly constant ----
-            const float m_old = beta.max_component(), m_new = beta_new.max_component();
-            if (!(m_new > 0) || !(m_old > 0)) break;
-            const float p_continue = std::min(1.0f, m_new / m_old);
-            if (rng.uniform() >= p_continue) break;
-            beta = beta_new / p_continue;
-            ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
-          }
-        }
+        RngSamples u(rng);
+        for (int64_t k = begin; k < end; ++k) local_rays += trace_path(u, min_deposit_bounce, dst, local_invalid);
       }
       rays += local_rays;
       invalid += local_invalid;

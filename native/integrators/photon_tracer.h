@@ -4,7 +4,15 @@
 // by Russian roulette, and are deposited at every vertex whose BSDF is diffuse for photon
 // methods (Bsdf::is_diffuse_for_photons: roughness above the specular threshold).
 //
-// Photons are traced in fixed chunks, each drawing from its own random stream keyed by
+// A photon path is a function of its primary samples, a point of the unit hypercube (thesis
+// §8.2.1-8.2.2, after Kelemen et al.): trace_path() reads them one by one from a
+// PrimarySamples source in a fixed order (emission: light choice, 2 for the position, 2 for
+// the direction; every bounce: lobe choice, 2 for the direction, 1 for Russian roulette), so
+// coordinate k always means the same thing. Uniform photon tracing feeds it fresh uniform
+// numbers (RngSamples, used by trace()); the adaptive MCMC sampler (adaptive_photons.h) feeds
+// it stored and mutated coordinates.
+//
+// trace() works in fixed chunks, each drawing from its own random stream keyed by
 // (seed, chunk, pass), and concatenated in chunk order: the photon list (and so the image)
 // does not depend on the thread count. Stored power is not divided by the number of emitted
 // photons; estimators divide by it (thesis eq. 5.10 / 5.13).
@@ -14,7 +22,9 @@
 #include <vector>
 
 #include "core/color.h"
+#include "core/frame.h"
 #include "core/math.h"
+#include "core/rng.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -25,11 +35,49 @@ struct Photon {
   RGB power;    // flux it carries (W), before division by the number of emitted photons
 };
 
+// Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to
+// the photon at the previous bounce"), for the path densities of multisampled PPM
+// (hybrid_ppm.h). A path's vertices are consecutive: its light vertex (start = true), then
+// every surface hit in order, specular ones included.
+struct PhotonPathVertex {
+  Vec3 p, ng;       // light vertex: origin on the light (or on the emission disk) and its normal
+  Frame frame;      // shading frame (surface vertices)
+  Vec3 wi;          // surface: unit direction towards the previous vertex; light: direction of travel
+  float pdf_fwd;    // area density the light side sampled this vertex with (light vertex: see
+                    // PhotonEmission; distant lights: pdf_dir, and the first hit pdf_pos |cos|)
+  int material = -1;
+  int light = -1;   // light vertex: the light
+  bool delta = false;  // specular BSDF: its direction density counts as 1 on both sides
+  bool start = false;
+};
+struct PhotonPathRecord {
+  std::vector<PhotonPathVertex> vertices;
+  std::vector<uint32_t> deposit_vertex;  // per deposit appended to `out`: its vertex index
+  void clear() { vertices.clear(); deposit_vertex.clear(); }
+};
+
 struct PhotonPassStats {
   int64_t emitted = 0;   // photon paths started (including those whose emission sample failed)
   int64_t stored = 0;    // photons deposited
   int64_t rays = 0;      // closest-hit rays traced
   int64_t invalid = 0;   // deposits dropped because their power was NaN/Inf
+};
+
+// Source of the primary samples (coordinates in [0, 1)) one photon path consumes in order.
+class PrimarySamples {
+ public:
+  virtual ~PrimarySamples() = default;
+  virtual float next() = 0;
+};
+
+// Fresh uniform numbers from an Rng: ordinary (uniform) photon tracing.
+class RngSamples final : public PrimarySamples {
+ public:
+  explicit RngSamples(Rng& rng) : rng_(rng) {}
+  float next() override { return rng_.uniform(); }
+
+ private:
+  Rng& rng_;
 };
 
 class PhotonTracer {
@@ -41,6 +89,17 @@ class PhotonTracer {
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
   // memory stays flat over passes).
   PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out);
+
+  // Traces one photon path from the primary samples `u`, appending its deposits to `out`.
+  // Returns the closest-hit rays traced; deposits with NaN/Inf power are dropped and counted
+  // in `invalid`. Thread-safe (const).
+  // With `record`, the path's vertices and the vertex of every deposit are appended to it.
+  int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid,
+                     PhotonPathRecord* record = nullptr) const;
+
+  int max_depth() const { return max_depth_; }
+  int threads() const { return threads_; }
+  uint64_t seed() const { return seed_; }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
 

@@ -15,6 +15,8 @@
 //   specular_threshold  0.05    roughness at or below which a surface is specular for photons
 //   max_depth           32      longest eye or photon path in segments
 //   rr_depth            3       eye-path depth from which Russian roulette may end it
+//   photon_sampler      uniform uniform | adaptive (thesis ch. 8, adaptive_photons.h)
+//   chains              64      Markov chains of the adaptive sampler
 //   seed 0, threads 0, tile_size 16 as for "pt"
 //
 // Passes: combined, error, radius, photon_count.

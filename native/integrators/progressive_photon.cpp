@@ -16,7 +16,8 @@ double seconds_since(clock_type::time_point t0) {
 }
 }  // namespace
 
-ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee)
+ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
+                                                   const std::string& default_sampler)
     : scene_(scene),
       retrace_(retrace),
       nee_(nee),
@@ -37,6 +38,14 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   if (hash == "exact") hash_mode_ = PhotonHashMode::Exact;
   else if (hash == "stochastic") hash_mode_ = PhotonHashMode::Stochastic;
   else throw ParamError("parameter 'hash' must be 'exact' or 'stochastic' (got '" + hash + "')");
+  const std::string sampler = params.get<std::string>("photon_sampler", default_sampler);
+  if (sampler == "adaptive") {
+    const int chains = params.get<int>("chains", 64);
+    if (chains < 1) throw ParamError("parameter 'chains' must be at least 1");
+    adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, chains, seed_);
+  } else if (sampler != "uniform") {
+    throw ParamError("parameter 'photon_sampler' must be 'uniform' or 'adaptive' (got '" + sampler + "')");
+  }
   if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
   if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
   if (!(confidence_ > 0 && confidence_ < 1)) throw ParamError("parameter 'confidence' must be in (0, 1)");
@@ -177,7 +186,18 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
 
   // ---- Photon pass ----
   const auto t_trace = clock_type::now();
-  const PhotonPassStats ps = tracer_.trace(photons_per_pass_, pass, nee_ ? 1 : 0, photons_);
+  PhotonPassStats ps;
+  if (adaptive_) {
+    // ---- Adaptive MCMC photon tracing (thesis ch. 8): V(u) against this pass's points ----
+    visibility_points_.clear();
+    for (size_t i = 0; i < n_pixels; ++i)
+      if (vp_[i].material >= 0)
+        visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
+    visibility_.build(visibility_points_, threads_);
+    ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_);
+  } else {
+    ps = tracer_.trace(photons_per_pass_, pass, nee_ ? 1 : 0, photons_);
+  }
   stats_.extra["trace seconds"] += seconds_since(t_trace);
   if (sink && sink->cancelled()) return;
 
@@ -220,6 +240,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
   const double ne_total = static_cast<double>(emitted_total_);
+  const double scale = photon_scale();  // V_c (eq. 8.11) or 1
   std::atomic<int64_t> invalid_phi{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     int64_t bad = 0;
@@ -246,9 +267,9 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       // estimate with the query radius, minus the disc-kernel bias at that radius (eq. 6.17)
       // from the progressive Laplacian (eq. 6.20).
       double x = Ld.luminance();
-      if (r2_query > 0) {
-        const double lap_L = s.r2 > 0 ? s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
-        x += phi.luminance() / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
+      if (r2_query > 0 && ne_pass > 0 && ne_total > 0) {
+        const double lap_L = s.r2 > 0 ? scale * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+        x += scale * phi.luminance() / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
       }
       s.err.add(x);
     }
@@ -270,6 +291,14 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   stats_.extra["photon rays"] += static_cast<double>(ps.rays);
   stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
   stats_.extra["estimated error"] = estimated_error_;
+  if (adaptive_) {
+    stats_.extra["acceptance rate"] = adaptive_->acceptance_rate();
+    stats_.extra["mutation size"] = adaptive_->mean_theta();
+    stats_.extra["V_c"] = adaptive_->vc();
+    stats_.extra["uniform count"] = static_cast<double>(adaptive_->uniform_count());
+    stats_.extra["visible count"] = static_cast<double>(adaptive_->visible_count());
+    stats_.extra["photon paths traced"] = static_cast<double>(adaptive_->paths_traced());
+  }
   stats_.seconds += seconds_since(start);
 }
 
@@ -285,7 +314,7 @@ void ProgressivePhotonMapping::update_error_estimate() {
     const double L = pixel_radiance(k).luminance();
     double rel = 0;
     if (L > 0) {
-      const double lap_L = s.r2 > 0 && ne_total > 0 ? s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+      const double lap_L = s.r2 > 0 && ne_total > 0 ? photon_scale() * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
       const double bias = error_kernel::kBiasDisc * s.r2 * lap_L;            // eq. 6.20
       rel = relative_bound(interval_half_width(t_q, s.err), bias, L);     // eq. 6.10, 6.13
       sum += rel;
@@ -301,10 +330,12 @@ RGB ProgressivePhotonMapping::pixel_radiance(size_t i) const {
   const PixelState& s = px_[i];
   const double passes = static_cast<double>(stats_.passes);
   if (passes <= 0) return RGB(0.0f);
+  const double scale = photon_scale();
   RGB L;
   for (int c = 0; c < 3; ++c) {
     double v = s.direct[c] / passes;
-    if (s.r2 > 0 && emitted_total_ > 0) v += s.tau[c] / (static_cast<double>(emitted_total_) * M_PI * s.r2);  // eq. 5.13 / 7.1
+    if (s.r2 > 0 && emitted_total_ > 0)  // eq. 5.13 / 7.1, times V_c (eq. 8.11) with the adaptive sampler
+      v += scale * s.tau[c] / (static_cast<double>(emitted_total_) * M_PI * s.r2);
     L[c] = static_cast<float>(v);
   }
   return L;

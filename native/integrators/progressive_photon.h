@@ -10,11 +10,14 @@
 // point's radius is known.
 #pragma once
 
+#include <memory>
+#include <string>
 #include <vector>
 
 #include "accel/photon_hash.h"
 #include "core/frame.h"
 #include "core/rng.h"
+#include "integrators/adaptive_photons.h"
 #include "integrators/error_estimate.h"
 #include "integrators/integrator.h"
 #include "integrators/photon_tracer.h"
@@ -39,7 +42,10 @@ class ProgressivePhotonMapping : public Integrator {
   // retrace: new measurement points every pass (SPPM) or once (PPM).
   // nee: direct light at the measurement point by next-event estimation and photons only
   //      after one bounce (SPPM), or every photon deposit (PPM, as the thesis' ch. 5).
-  ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee);
+  // default_sampler: the value of the "photon_sampler" parameter when it is not given
+  //      ("uniform", or "adaptive" for the method alias sppm-adaptive; adaptive_photons.h).
+  ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
+                           const std::string& default_sampler = "uniform");
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   double estimated_error() const override { return estimated_error_; }
@@ -65,6 +71,8 @@ class ProgressivePhotonMapping : public Integrator {
   };
 
   void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+  // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
+  double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
 
   const Scene& scene_;
@@ -79,6 +87,9 @@ class ProgressivePhotonMapping : public Integrator {
   float pixel_spread_;  // angle one pixel subtends (ray-cone approximation of ray differentials)
 
   PhotonTracer tracer_;
+  std::unique_ptr<AdaptivePhotonSampler> adaptive_;  // photon_sampler = adaptive (thesis ch. 8)
+  VisibilityGrid visibility_;                         // this pass's measurement points, for V(u)
+  std::vector<VisibilityGrid::Point> visibility_points_;
   PhotonHashGrid grid_;
   std::vector<Photon> photons_;        // this pass only; cleared (capacity kept) every pass
   std::vector<VisiblePoint> vp_;

@@ -22,6 +22,9 @@
 //   specular_threshold  0.05    roughness at or below which a surface is specular for photons
 //   max_depth           32      longest eye or photon path in segments
 //   rr_depth            3       eye-path depth from which Russian roulette may end it
+//   photon_sampler      uniform uniform | adaptive: photon paths by adaptive MCMC on their
+//                               visibility (thesis ch. 8, adaptive_photons.h; alias sppm-adaptive)
+//   chains              64      Markov chains of the adaptive sampler
 //   seed 0, threads 0, tile_size 16 as for "pt"
 //
 // Passes: combined, error, radius, photon_count.
@@ -33,8 +36,14 @@ namespace gp {
 
 class Sppm : public ProgressivePhotonMapping {
  public:
-  Sppm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {}
-  std::string name() const override { return "sppm"; }
+  // default_sampler "adaptive" makes the method alias "sppm-adaptive" (adaptive_photons.h).
+  Sppm(const Scene& scene, const Params& params, const std::string& default_sampler = "uniform")
+      : ProgressivePhotonMapping(scene, params, true, true, default_sampler),
+        name_(default_sampler == "uniform" ? "sppm" : "sppm-adaptive") {}
+  std::string name() const override { return name_; }
+
+ private:
+  std::string name_;
 };
 
 }  // namespace gp

@@ -121,6 +121,37 @@ RGB LightSet::area_radiance(int i, const Vec3& w) const {
   return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
 }
 
+void LightSet::emission_pdf(int i, const Vec3& d, float& pdf_pos, float& pdf_dir) const {
+  const Light& l = lights_[i];
+  const float pmf = select_.pmf(i);
+  pdf_pos = pdf_dir = 0;
+  switch (l.type) {
+    case LightType::Area: {
+      const float c = dot(l.n, d);
+      if (c == 0 || (!l.two_sided && c < 0)) return;
+      pdf_pos = pmf / l.area;
+      pdf_dir = std::abs(c) * kInvPi * (l.two_sided ? 0.5f : 1.0f);
+      return;
+    }
+    case LightType::Point:
+      pdf_pos = pmf;
+      pdf_dir = uniform_sphere_pdf();
+      return;
+    case LightType::Spot:
+      pdf_pos = pmf;
+      pdf_dir = dot(d, l.direction) >= l.spot_cos_half ? uniform_cone_pdf(l.spot_cos_half) : 0.0f;
+      return;
+    case LightType::Directional:
+      pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
+      pdf_dir = pmf;
+      return;
+    case LightType::Environment:
+      pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
+      pdf_dir = pmf * uniform_sphere_pdf();
+      return;
+  }
+}
+
 std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Vec2 u_dir) const {
   if (select_.empty()) return std::nullopt;
   const int i = static_cast<int>(select_.sample(u_select));
@@ -150,12 +181,14 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
       e.d = normalize(Frame(n).to_world(local));
       e.n = n;
       e.power = l.emit * (kPi * l.area * side_scale / pmf);
+      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
       return e;
     }
     case LightType::Point:
       e.o = l.position;
       e.d = sample_uniform_sphere(u_dir);
       e.power = l.emit * (1.0f / (uniform_sphere_pdf() * pmf));
+      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
       return e;
     case LightType::Spot: {
       // Uniform directions in the cone, weighted by the falloff (which includes the cosine
@@ -166,6 +199,7 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
       const float falloff = spot_falloff(l, e.d);
       if (!(falloff > 0)) return std::nullopt;
       e.power = l.emit * (falloff / (uniform_cone_pdf(l.spot_cos_half) * pmf));
+      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
       return e;
     }
     case LightType::Directional:
@@ -185,6 +219,7 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
       e.d = d;
       // Directional: E * (pi r^2). Environment: L * (pi r^2) / pdf_dir.
       e.power = l.emit * (kPi * r * r / (dir_pdf * pmf));
+      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
       return e;
     }
   }

@@ -53,6 +53,12 @@ struct LightSample {
 // total emitted power.
 struct PhotonEmission {
   Vec3 o, d;
+  // Densities sample_le drew o and d with (light selection included in one of them), for the
+  // path densities of multisampled PPM (hybrid_ppm.h). Finite lights: pdf_pos per unit area
+  // of the light (delta position: the selection pmf), pdf_dir per solid angle. Distant lights
+  // (sun, environment): pdf_pos per unit area of the emission disk, pdf_dir per solid angle
+  // (sun: the selection pmf, delta direction).
+  float pdf_pos = 0, pdf_dir = 0;
   Vec3 n;                 // surface normal at the origin (area lights), else zero
   RGB power;              // W, already divided by all pdfs
   int light = -1;
@@ -88,6 +94,9 @@ class LightSet {
   // uses. Directional and environment: a disk of the scene's bounding radius perpendicular
   // to the direction, placed outside the bounds (constant environment: uniform direction).
   std::optional<PhotonEmission> sample_le(float u_select, Vec2 u_pos, Vec2 u_dir) const;
+  // The densities sample_le would give light `light` emitting along unit d (PhotonEmission::
+  // pdf_pos / pdf_dir; the point on an area light does not matter, it is uniform).
+  void emission_pdf(int light, const Vec3& d, float& pdf_pos, float& pdf_dir) const;
 
  private:
   float spot_falloff(const Light& l, const Vec3& w_from_light) const;

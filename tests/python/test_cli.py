@@ -85,3 +85,21 @@ def test_spectral_mode_flag_and_summary(tmp_path):
     assert re.search(r"method\s+pt\n", rgb)
     bad = run("render", CORNELL, "--spectral", "maybe", "-o", out, ok=False)
     assert bad.returncode != 0 and "maybe" in bad.stderr
+
+
+def test_photon_sampler_flag_reports_the_adaptive_statistics(tmp_path):
+    door = ROOT / "scenes" / "door-ajar.json"
+    p = run("render", door, "--method", "sppm", "--photon-sampler", "adaptive", "--photons", 20000, "--passes", 2,
+            "--width", 24, "--height", 18, "-o", tmp_path / "a.exr")
+    for name in ("acceptance rate", "mutation size", "V_c", "uniform count", "visible count"):
+        assert re.search(name + r"\s+[0-9.e+-]+", p.stdout), name
+    bad = run("render", door, "--method", "sppm", "--photon-sampler", "mcmc", "-o", tmp_path / "b.exr", ok=False)
+    assert bad.returncode != 0 and "photon_sampler" in bad.stderr
+
+
+def test_msppm_renders_and_reports_its_statistics(tmp_path):
+    p = run("render", ROOT / "scenes" / "cornell-glass.json", "--method", "msppm", "--passes", 3,
+            "--width", 24, "--height", 24, "-o", tmp_path / "m.exr")
+    assert re.search(r"method\s+msppm", p.stdout)
+    for name in ("path tracing share", "measurement points per pixel", "photons found per point"):
+        assert re.search(name + r"\s+[0-9.e+-]+", p.stdout), name

@@ -1,0 +1,522 @@
+#include "integrators/hybrid_ppm.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+
+#include "core/parallel.h"
+#include "core/rng.h"
+#include "integrators/progressive_photon.h"  // progressive_update (eq. 5.7 / 5.9 / 5.12)
+#include "materials/bsdf.h"
+
+namespace gp {
+
+namespace {
+using clock_type = std::chrono::steady_clock;
+double seconds_since(clock_type::time_point t0) {
+  return std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+}  // namespace
+
+HybridPpm::HybridPpm(const Scene& scene, const Params& params)
+    : scene_(scene),
+      alpha_(params.get<double>("alpha", 0.6)),
+      radius_(params.get<double>("radius", 0.0)),
+      photons_per_pass_(params.get<int64_t>("photons", 0)),
+      max_depth_(params.get<int>("max_depth", 16)),
+      rr_depth_(params.get<int>("rr_depth", 3)),
+      threads_(params.get<int>("threads", 0)),
+      tile_size_(params.get<int>("tile_size", 16)),
+      threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
+      seed_(params.get<uint64_t>("seed", 0)),
+      width_(scene.camera.width),
+      height_(scene.camera.height),
+      tracer_(scene, max_depth_, threshold_, seed_, threads_) {
+  if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
+  if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
+  if (photons_per_pass_ < 0) throw ParamError("parameter 'photons' must be >= 0 (0 = one per pixel)");
+  if (max_depth_ < 1) throw ParamError("parameter 'max_depth' must be at least 1");
+  if (rr_depth_ < 0) throw ParamError("parameter 'rr_depth' must be >= 0");
+  if (threads_ < 0) throw ParamError("parameter 'threads' must be >= 0");
+  if (tile_size_ < 1) throw ParamError("parameter 'tile_size' must be >= 1");
+  if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
+  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  const size_t n = static_cast<size_t>(width_) * height_;
+  if (photons_per_pass_ == 0) photons_per_pass_ = static_cast<int64_t>(n);  // §9.5
+  px_.assign(n, PixelState{});
+  eye_.assign(n * max_depth_, EyeVertex{});
+  eye_count_.assign(n, 0);
+  eye_origin_.assign(n, Vec3());
+  pass_direct_.assign(n, RGB(0.0f));
+  pass_npm_.assign(n, 0.0);
+  first_r_.assign(n, 0.0f);
+  gather_m_.assign(n, 0.0f);
+  gather_phi_.assign(n, RGB(0.0f));
+  pixel_spread_ = 2.0f * scene.camera.tan_half_extent().x / width_;
+  if (scene.light_set().empty()) stats_.extra["warning: no lights"] = 1;
+}
+
+double HybridPpm::n_pm(size_t pixel) const {
+  return static_cast<double>(photons_per_pass_) * M_PI * px_[pixel].r2;
+}
+
+// ---- Path densities and the balance heuristic (thesis eq. 9.5-9.8, 9.19 without bias) ----
+double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, double npm) const {
+  const int k = static_cast<int>(y.size()) - 1;
+  if (k < 1) return 0.0;
+  const LightSet& lights = scene_.light_set();
+  const PathVertex& lv = y[k];
+  // Unit direction from vertex a towards vertex b (towards the light for a distant light vertex).
+  auto towards = [&](int a, int b) -> Vec3 {
+    if (y[b].distant) return -y[b].dir;
+    return normalize(y[b].p - y[a].p);
+  };
+  // Solid-angle density of scattering at vertex v from direction towards `from` into `to`.
+  auto dir_pdf = [&](int v, int from, int to) -> double {
+    const PathVertex& a = y[v];
+    if (a.delta) return 1.0;  // specular: the same delta on both sides, left out
+    if (a.material < 0 || !a.frame) return 0.0;
+    const Bsdf bsdf(scene_.material(a.material));
+    return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)));
+  };
+  // Area density conversion at vertex b of a segment leaving a: |cos_b| / d^2.
+  auto to_area = [&](int a, int b) -> double {
+    if (y[b].distant) return 1.0;  // directions for a vertex at infinity
+    const Vec3 d = y[b].p - y[a].p;
+    const double d2 = length_squared(d);
+    if (!(d2 > 0)) return 0.0;
+    return std::abs(dot(y[b].ng, d)) / std::sqrt(d2) / d2;
+  };
+  // Light emission densities along the last segment.
+  float e_pos = 0, e_dir = 0;
+  {
+    const Vec3 travel = lv.distant ? lv.dir : (k >= 2 ? normalize(y[k - 1].p - lv.p) : Vec3(0, 0, 1));
+    if (lv.light >= 0 && k >= 2) lights.emission_pdf(lv.light, travel, e_pos, e_dir);
+  }
+  // E[i]: camera side samples y_i (i >= 2); E[1] = 1 (the pixel, common to all techniques).
+  // Scratch per thread (this runs once per gathered photon: no allocations).
+  thread_local std::vector<double> E, L, PE, SL;
+  E.assign(k + 1, 1.0);
+  L.assign(k + 1, 1.0);
+  PE.assign(k + 1, 1.0);
+  SL.assign(k + 2, 1.0);
+  for (int i = 2; i <= k; ++i) E[i] = dir_pdf(i - 1, i - 2, i) * to_area(i - 1, i);
+  // L[i]: light side samples y_i (i <= k).
+  if (k >= 2) {
+    L[k] = lv.distant ? e_dir : e_pos;
+    L[k - 1] = lv.distant ? e_pos * std::abs(dot(y[k - 1].ng, lv.dir)) : e_dir * to_area(k, k - 1);
+    for (int i = k - 2; i >= 1; --i) L[i] = dir_pdf(i + 1, i + 2, i) * to_area(i + 1, i);
+  }
+  // Next-event estimation's density of y_k from y_{k-1}.
+  double p_nee = 0;
+  if (k >= 2 && lv.light >= 0) {
+    const Light& l = lights.lights()[lv.light];
+    const float pmf = lights.selection_pmf(lv.light);
+    if (l.type == LightType::Area) {
+      const float c = dot(l.n, normalize(y[k - 1].p - lv.p));
+      p_nee = (c > 0 || (l.two_sided && c < 0)) ? pmf / l.area : 0.0;
+    } else if (l.type == LightType::Environment) {
+      p_nee = lights.pdf_environment(-lv.dir);
+    } else {
+      p_nee = pmf;  // delta lights: the selection probability (the delta left out)
+    }
+  }
+  const bool hit_ok = lv.light >= 0 && (lights.lights()[lv.light].type == LightType::Area ||
+                                        lights.lights()[lv.light].type == LightType::Environment);
+  // Prefix products of E, suffix products of L.
+  for (int i = 2; i <= k; ++i) PE[i] = PE[i - 1] * E[i];
+  for (int i = k; i >= 1; --i) SL[i] = SL[i + 1] * L[i];
+  const double q_hit = hit_ok ? PE[k] : 0.0;
+  const double q_nee = (k >= 2 && !y[k - 1].delta) ? PE[k - 1] * p_nee : 0.0;
+  double sum = q_hit + q_nee, mine = technique == 0 ? q_hit : technique == 1 ? q_nee : 0.0;
+  for (int t = 1; t <= k - 1; ++t) {
+    const double q = y[t].mergeable ? npm * PE[t] * SL[t] : 0.0;
+    sum += q;
+    if (technique == 2 + t) mine = q;
+  }
+  if (!(sum > 0) || !std::isfinite(sum)) return technique == 0 || technique == 1 ? 1.0 : 0.0;
+  return mine / sum;
+}
+
+// ---- Camera paths: measurement points at every vertex, path tracing with NEE ----
+void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
+                         std::atomic<int64_t>& invalid_out) {
+  const LightSet& lights = scene_.light_set();
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        int64_t rays = 0, invalid = 0;
+        std::vector<PathVertex> y;
+        for (int py = tile.y0; py < tile.y1; ++py)
+          for (int px = tile.x0; px < tile.x1; ++px) {
+            const size_t pixel = static_cast<size_t>(py) * width_ + px;
+            // Pass 0 without a given radius has no radius yet: no density estimation weight
+            // (PT takes weight 1), and the gathering of that pass uses the same 0.
+            const double npm = n_pm(pixel);
+            pass_npm_[pixel] = npm;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(px + rng.uniform(), py + rng.uniform());
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            Ray ray = scene_.camera.generate_ray(film, lens);
+            eye_origin_[pixel] = ray.o;
+            EyeVertex* ev = &eye_[pixel * max_depth_];
+            int count = 0;
+            RGB beta(1.0f), Ld(0.0f);
+            float path_length = 0, first_r = 0;
+            // The camera-side vertices so far, as PathVertex (y[0] = camera).
+            y.clear();
+            PathVertex cam;
+            cam.p = ray.o;
+            y.push_back(cam);
+            for (int depth = 1; depth <= max_depth_; ++depth) {
+              ++rays;
+              const auto hit = scene_.intersect(ray);
+              if (!hit) {
+                // ---- Environment seen by the path (technique "hit") ----
+                if (lights.environment() >= 0) {
+                  PathVertex lv;
+                  lv.light = lights.environment();
+                  lv.distant = true;
+                  lv.dir = -ray.d;
+                  y.push_back(lv);
+                  Ld += beta * lights.environment_radiance(ray.d) * static_cast<float>(mis_weight(y, 0, npm));
+                  y.pop_back();
+                }
+                break;
+              }
+              path_length += hit->t;
+              if (hit->light >= 0) {
+                // ---- Emission hit by the path (technique "hit") ----
+                const RGB Le = lights.area_radiance(hit->light, -ray.d);
+                if (!Le.is_black()) {
+                  PathVertex lv;
+                  lv.p = hit->p;
+                  lv.ng = lights.lights()[hit->light].n;
+                  lv.light = hit->light;
+                  y.push_back(lv);
+                  Ld += beta * Le * static_cast<float>(mis_weight(y, 0, npm));
+                  y.pop_back();
+                }
+              }
+              const Bsdf bsdf(scene_.material(hit->material));
+              if (bsdf.is_black()) break;
+              const Vec3 wo = hit->frame.to_local(-ray.d);
+              if (wo.z == 0) break;
+              EyeVertex& e = ev[count++];
+              e.p = hit->p;
+              e.ng = hit->ng;
+              e.wo = -ray.d;
+              e.frame = hit->frame;
+              e.beta = beta;
+              e.material = hit->material;
+              e.delta = bsdf.is_delta();
+              e.mergeable = !e.delta && bsdf.is_diffuse_for_photons(threshold_);
+              if (e.mergeable && first_r == 0) first_r = 2.0f * pixel_spread_ * path_length;
+              PathVertex sv;
+              sv.p = e.p;
+              sv.ng = e.ng;
+              sv.frame = &e.frame;
+              sv.material = e.material;
+              sv.delta = e.delta;
+              sv.mergeable = e.mergeable;
+              y.push_back(sv);
+              // ---- Next-event estimation (technique "nee") ----
+              if (!e.delta && !lights.empty()) {
+                const float u_light = rng.uniform();
+                const Vec2 u2(rng.uniform(), rng.uniform());
+                if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+                  const Vec3 wi = hit->frame.to_local(ls->wi);
+                  const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
+                  if (!f.is_black()) {
+                    ++rays;
+                    const Light& l = lights.lights()[ls->light];
+                    bool blocked;
+                    if (l.type == LightType::Area) {
+                      blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist, l.n);
+                    } else {
+                      const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
+                      const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+                      blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
+                    }
+                    if (!blocked) {
+                      PathVertex lv;
+                      lv.light = ls->light;
+                      if (l.is_infinite()) {
+                        lv.distant = true;
+                        lv.dir = -ls->wi;
+                      } else {
+                        lv.p = l.type == LightType::Area ? hit->p + ls->wi * ls->dist : l.position;
+                        lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
+                      }
+                      y.push_back(lv);
+                      Ld += beta * f * ls->L * static_cast<float>(mis_weight(y, 1, npm) / ls->pdf);
+                      y.pop_back();
+                    }
+                  }
+                }
+              }
+              if (depth == max_depth_) break;
+              // ---- Continue by BSDF sampling, Russian roulette ----
+              const float uc = rng.uniform();
+              const Vec2 u(rng.uniform(), rng.uniform());
+              const auto bs = bsdf.sample(wo, uc, u);
+              if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+              beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+              const Vec3 wi = hit->frame.to_world(bs->wi);
+              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              if (depth >= rr_depth_) {
+                const float q = std::max(0.05f, 1.0f - beta.max_component());
+                if (rng.uniform() < q) break;
+                beta = beta / (1.0f - q);
+              }
+            }
+            if (!Ld.is_finite()) {
+              ++invalid;
+              Ld = RGB(0.0f);
+            }
+            eye_count_[pixel] = count;
+            pass_direct_[pixel] = Ld;
+            first_r_[pixel] = first_r;
+          }
+        rays_out += rays;
+        invalid_out += invalid;
+      },
+      [sink] { return sink && sink->cancelled(); });
+}
+
+// ---- Photon pass with whole paths recorded, chunked as PhotonTracer::trace ----
+void HybridPpm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
+  const int64_t count = photons_per_pass_;
+  const int64_t chunk = PhotonTracer::kChunk;
+  const size_t n_chunks = static_cast<size_t>((count + chunk - 1) / chunk);
+  if (chunk_photons_.size() < n_chunks) {
+    chunk_photons_.resize(n_chunks);
+    chunk_records_.resize(n_chunks);
+  }
+  std::atomic<int64_t> rays{0}, invalid{0};
+  parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
+    int64_t r = 0, inv = 0;
+    for (size_t c = lo; c < hi; ++c) {
+      chunk_photons_[c].clear();
+      chunk_records_[c].clear();
+      Rng rng = Rng::for_key(seed_ ^ 0x6d7370706dULL, c, pass);
+      RngSamples u(rng);
+      const int64_t begin = static_cast<int64_t>(c) * chunk, end = std::min(count, begin + chunk);
+      for (int64_t k = begin; k < end; ++k) r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &chunk_records_[c]);
+    }
+    rays += r;
+    invalid += inv;
+  });
+  photons_.clear();
+  record_.clear();
+  for (size_t c = 0; c < n_chunks; ++c) {
+    const uint32_t offset = static_cast<uint32_t>(record_.vertices.size());
+    photons_.insert(photons_.end(), chunk_photons_[c].begin(), chunk_photons_[c].end());
+    record_.vertices.insert(record_.vertices.end(), chunk_records_[c].vertices.begin(), chunk_records_[c].vertices.end());
+    for (uint32_t v : chunk_records_[c].deposit_vertex) record_.deposit_vertex.push_back(v + offset);
+  }
+  stats.emitted = count;
+  stats.stored = static_cast<int64_t>(photons_.size());
+  stats.rays = rays;
+  stats.invalid = invalid;
+}
+
+void HybridPpm::iterate(ProgressSink* sink) {
+  const auto start = clock_type::now();
+  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  const size_t n_pixels = px_.size();
+  std::atomic<int64_t> rays{0}, invalid{0};
+
+  // ---- 1. Camera paths (measurement points + weighted path tracing) ----
+  // Radii start from the footprint before the first MIS evaluation needs them.
+  const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
+  if (pass == 0)
+    for (size_t i = 0; i < n_pixels; ++i) px_[i].r2 = radius_ > 0 ? radius_ * radius_ : 0.0;
+  // Pixels whose camera path meets no photon-diffuse vertex in the first pass (light or sky
+  // seen directly, paths through glass that leave) still need a radius: every pass weights
+  // their later paths against density estimation, and a zero radius would give path tracing
+  // the full weight of caustic paths (fireflies). They take the mean footprint radius.
+  auto set_new_radii = [&] {
+    if (fallback_r_ == 0) {
+      double sum = 0, cnt = 0;
+      for (size_t i = 0; i < n_pixels; ++i)
+        if (first_r_[i] > 0) { sum += first_r_[i]; cnt += 1; }
+      if (cnt > 0) fallback_r_ = sum / cnt;
+    }
+    for (size_t i = 0; i < n_pixels; ++i)
+      if (px_[i].r2 == 0) {
+        const double r0 = first_r_[i] > 0 ? first_r_[i] : fallback_r_;
+        if (r0 > 0) {
+          const double r = std::max(r0, static_cast<double>(min_r));
+          px_[i].r2 = r * r;
+        }
+      }
+  };
+  if (pass == 0 && radius_ == 0) {
+    // The footprint radius comes from the camera path itself: trace the first pass's paths
+    // once for it (same random streams, results discarded), so that even the first pass
+    // weights path tracing against density estimation. Without this the first pass would be
+    // plain path tracing, whose caustic fireflies then fade only as 1 / passes.
+    eye_pass(pass, sink, rays, invalid);
+    if (sink && sink->cancelled()) return;
+    set_new_radii();
+  }
+  eye_pass(pass, sink, rays, invalid);
+  if (sink && sink->cancelled()) return;
+  set_new_radii();
+
+  // ---- 2. Photon pass ----
+  const auto t_trace = clock_type::now();
+  PhotonPassStats ps;
+  photon_pass(pass, ps);
+  stats_.extra["trace seconds"] += seconds_since(t_trace);
+
+  // ---- 3. Gathering at every measurement point, weighted by the balance heuristic ----
+  const auto t_lookup = clock_type::now();
+  double max_r2 = 0;
+  for (size_t i = 0; i < n_pixels; ++i) max_r2 = std::max(max_r2, px_[i].r2);
+  const float max_r = static_cast<float>(std::sqrt(max_r2));
+  const bool have_photons = !photons_.empty() && max_r > 0;
+  if (have_photons) grid_.build(photons_, 2.0f * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
+  std::atomic<int64_t> points{0}, found{0};
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    std::vector<PathVertex> y;
+    int64_t local_points = 0, local_found = 0;
+    for (size_t i = lo; i < hi; ++i) {
+      gather_m_[i] = 0;
+      gather_phi_[i] = RGB(0.0f);
+      if (!have_photons || px_[i].r2 <= 0) continue;
+      const float R = static_cast<float>(std::sqrt(px_[i].r2));
+      const double npm = pass_npm_[i];
+      if (!(npm > 0)) continue;  // weight 0 for every photon (pass 0, see eye_pass)
+      const EyeVertex* ev = &eye_[i * max_depth_];
+      double m = 0;
+      RGB phi(0.0f);
+      for (int j = 0; j < eye_count_[i]; ++j) {
+        const EyeVertex& e = ev[j];
+        if (!e.mergeable) continue;
+        ++local_points;
+        const Bsdf bsdf(scene_.material(e.material));
+        const Vec3 wo = e.frame.to_local(e.wo);
+        grid_.query_index(e.p, R, [&](uint32_t idx, float) {
+          const Photon& ph = photons_[idx];
+          const Vec3 wi = e.frame.to_local(ph.wi);
+          if (!same_hemisphere(wo, wi)) return;
+          m += 1;
+          const RGB f = bsdf.eval(wo, wi);
+          if (f.is_black()) return;
+          // ---- The full path: camera vertices y_1..y_{j+1}, then the photon's earlier vertices ----
+          y.clear();
+          PathVertex cam;
+          cam.p = eye_origin_[i];
+          y.push_back(cam);
+          for (int a = 0; a <= j; ++a) {
+            PathVertex v;
+            v.p = ev[a].p;
+            v.ng = ev[a].ng;
+            v.frame = &ev[a].frame;
+            v.material = ev[a].material;
+            v.delta = ev[a].delta;
+            v.mergeable = ev[a].mergeable;
+            y.push_back(v);
+          }
+          for (int64_t b = static_cast<int64_t>(record_.deposit_vertex[idx]) - 1; b >= 0; --b) {
+            const PhotonPathVertex& pv = record_.vertices[b];
+            PathVertex v;
+            v.p = pv.p;
+            v.ng = pv.ng;
+            if (pv.start) {
+              v.light = pv.light;
+              v.distant = scene_.light_set().lights()[pv.light].is_infinite();
+              v.dir = pv.wi;
+              y.push_back(v);
+              break;
+            }
+            v.frame = &pv.frame;
+            v.material = pv.material;
+            v.delta = pv.delta;
+            v.mergeable = !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
+            y.push_back(v);
+          }
+          const double w = mis_weight(y, 2 + (j + 1), npm);
+          phi += e.beta * f * ph.power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
+        });
+      }
+      gather_m_[i] = static_cast<float>(m);
+      gather_phi_[i] = phi;
+      local_found += static_cast<int64_t>(m);
+    }
+    points += local_points;
+    found += local_found;
+  });
+  stats_.extra["lookup seconds"] += seconds_since(t_lookup);
+
+  // ---- 4. Update (SPPM, eq. 7.2-7.5), path-tracing samples accumulated ----
+  emitted_total_ += ps.emitted;
+  int64_t bad = 0;
+  for (size_t i = 0; i < n_pixels; ++i) {
+    PixelState& s = px_[i];
+    RGB phi = gather_phi_[i];
+    if (!phi.is_finite()) {
+      ++bad;
+      phi = RGB(0.0f);
+    }
+    const PhotonStatsUpdate u = progressive_update(s.n, s.r2, gather_m_[i], alpha_);
+    for (int c = 0; c < 3; ++c) {
+      s.tau[c] = (s.tau[c] + phi[c]) * u.ratio;  // eq. 7.5
+      s.direct[c] += pass_direct_[i][c];
+    }
+    s.n = u.n_new;
+    s.r2 = u.r2_new;
+  }
+  stats_.passes += 1;
+
+  // ---- Statistics ----
+  double sum_r = 0, n_r = 0, pt = 0, pm = 0;
+  for (size_t i = 0; i < n_pixels; ++i) {
+    const PixelState& s = px_[i];
+    if (s.r2 > 0) { sum_r += std::sqrt(s.r2); n_r += 1; }
+    pt += RGB(float(s.direct[0]), float(s.direct[1]), float(s.direct[2])).luminance() / stats_.passes;
+    if (s.r2 > 0 && emitted_total_ > 0)
+      pm += RGB(float(s.tau[0]), float(s.tau[1]), float(s.tau[2])).luminance() / (emitted_total_ * M_PI * s.r2);
+  }
+  stats_.rays += rays + ps.rays;
+  stats_.paths += ps.emitted + static_cast<int64_t>(n_pixels);
+  stats_.invalid_samples += invalid + bad + ps.invalid;
+  stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
+  stats_.extra["photons stored"] += static_cast<double>(ps.stored);
+  stats_.extra["photon rays"] += static_cast<double>(ps.rays);
+  stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
+  stats_.extra["measurement points per pixel"] = static_cast<double>(points) / static_cast<double>(n_pixels);
+  stats_.extra["photons found per point"] = points > 0 ? static_cast<double>(found) / static_cast<double>(points) : 0.0;
+  stats_.extra["path tracing share"] = pt + pm > 0 ? pt / (pt + pm) : 0.0;
+  stats_.seconds += seconds_since(start);
+}
+
+RGB HybridPpm::pixel_radiance(size_t i) const {
+  const PixelState& s = px_[i];
+  const double passes = static_cast<double>(stats_.passes);
+  if (passes <= 0) return RGB(0.0f);
+  RGB L;
+  for (int c = 0; c < 3; ++c) {
+    double v = s.direct[c] / passes;  // weighted path tracing, one sample per pass
+    if (s.r2 > 0 && emitted_total_ > 0) v += s.tau[c] / (static_cast<double>(emitted_total_) * M_PI * s.r2);  // eq. 7.1
+    L[c] = static_cast<float>(v);
+  }
+  return L;
+}
+
+void HybridPpm::develop(Film& film) const {
+  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+  Pass& combined = film.add_pass(pass::kCombined, 3);
+  Pass& radius = film.add_pass(pass::kRadius, 1);
+  Pass& count = film.add_pass(pass::kPhotonCount, 1);
+  for (size_t i = 0; i < px_.size(); ++i) {
+    const RGB L = pixel_radiance(i);
+    for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = L[c];
+    radius.data[i] = static_cast<float>(std::sqrt(px_[i].r2));
+    count.data[i] = static_cast<float>(px_[i].n);
+  }
+}
+
+}  // namespace gp

@@ -1,0 +1,129 @@
+// Multisampled progressive photon mapping (MSPPM): Hachisuka, "Progressive density estimation"
+// thesis ch. 9 (Hachisuka, Kaplanyan, Dachsbacher 2014). Photon density estimation and path
+// tracing with next-event estimation combined by multiple importance sampling over full path
+// densities.
+//
+// Every iterate():
+//   1. one camera path per pixel, traced to Russian-roulette termination (§9.5 step 2), with a
+//      measurement point at every vertex whose BSDF is diffuse for photons; along the same path,
+//      path tracing: emission hit by the path and next-event estimation at every non-delta
+//      vertex (§9.5 step 5), each weighted by the balance heuristic;
+//   2. one photon pass, photons deposited from the first hit on, whole photon paths recorded
+//      (§9.5 step 1, PhotonPathRecord);
+//   3. every measurement point gathers the photons within its pixel's radius; each photon's
+//      flux is weighted by the balance heuristic for the full path it closes (§9.5 step 4);
+//      radius, count and flux of the pixel follow SPPM (eq. 7.2-7.5, shared by all the
+//      measurement points of the pixel).
+//
+// Techniques for a path y_1 .. y_k (y_k on a light; y_0 the camera): hit (the camera path
+// samples every vertex), nee (light sample at y_k from y_{k-1}), and density estimation at
+// every photon-diffuse y_t, 1 <= t < k (camera samples y_1..y_t, photon y_k..y_t). With the
+// path densities of eq. 9.6-9.8 as products of per-vertex area densities E_i (camera side) and
+// L_i (light side),
+//   q_hit = prod_{i<=k} E_i,   q_nee = prod_{i<k} E_i * p_light(y_k),
+//   q_pm(t) = N_e pi R^2 * prod_{i<=t} E_i * prod_{i>=t} L_i,
+// and the weight of a technique is n_i p_i / sum_k n_k p_k (eq. 9.5; eq. 9.19 with the bias
+// term ignored, which the thesis justifies for alpha < 2/3, eq. 9.25). Where the photon
+// technique's two vertices differ (|x_eye - x_photon| <= R), camera-side densities use the
+// camera vertex and light-side ones the photon's neighbours (the heuristic of Fig. 9.3).
+// Russian-roulette probabilities are left out of the densities (any weights that sum to one
+// over the techniques that can make a path keep the combination consistent).
+//
+// Sample counts (§9.4.4-9.4.5, §9.5): with alpha = 0.6 < 2/3 the unbiased techniques must take
+// N^alpha samples for N photon samples; as the thesis does, this is met by tracing one camera
+// pass per photon pass of (by default) as many photons as pixels, so the path-tracing samples
+// per pixel grow like the local photon count.
+//
+// Parameters (defaults):
+//   photons             0       photons per pass; 0 = the number of pixels (§9.5)
+//   alpha               0.6     fraction of new photons kept (eq. 7.2); < 2/3 (eq. 9.23)
+//   radius              0       initial radius in metres; 0 = two pixel footprints at the
+//                               first photon-diffuse vertex
+//   specular_threshold  0.05    roughness at or below which a surface is specular for photons
+//   max_depth           16      longest camera or photon path in segments
+//   rr_depth            3       camera-path depth from which Russian roulette may end it
+//   seed 0, threads 0, tile_size 16 as for "pt"
+//
+// Passes: combined, radius, photon_count. Statistics: photons traced/stored, photon rays,
+// average radius, measurement points per pixel, and the share of the image from each family
+// of techniques ("path tracing share").
+#pragma once
+
+#include <vector>
+
+#include "accel/photon_hash.h"
+#include "integrators/integrator.h"
+#include "integrators/photon_tracer.h"
+
+namespace gp {
+
+class HybridPpm : public Integrator {
+ public:
+  HybridPpm(const Scene& scene, const Params& params);
+  std::string name() const override { return "msppm"; }
+  void iterate(ProgressSink* sink) override;
+  void develop(Film& film) const override;
+  RGB pixel_radiance(size_t i) const;
+
+  // One vertex of a full path for the density evaluation (camera, surface or light vertex).
+  struct PathVertex {
+    Vec3 p, ng;
+    const Frame* frame = nullptr;
+    int material = -1;
+    bool delta = false;      // specular BSDF
+    bool mergeable = false;  // photon-diffuse: density estimation possible here
+    int light = -1;          // light vertex: its light
+    bool distant = false;    // light vertex of a sun / environment: `dir` is the light's direction of travel
+    Vec3 dir;
+  };
+  // Balance-heuristic weight of technique `technique` (0 = hit, 1 = nee, 2 + t = density
+  // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1.
+  double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm) const;
+
+ private:
+  struct EyeVertex {
+    Vec3 p, ng, wo;  // wo: unit world direction towards the previous vertex
+    Frame frame;
+    RGB beta;        // camera-path throughput up to this vertex
+    int material = -1;
+    bool delta = false, mergeable = false;
+  };
+  struct PixelState {
+    double r2 = 0, n = 0;
+    double tau[3] = {0, 0, 0};
+    double direct[3] = {0, 0, 0};  // weighted path-tracing samples, summed over passes
+  };
+
+  double n_pm(size_t pixel) const;  // N_e pi R^2 of the density-estimation technique
+  void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+  void photon_pass(uint64_t pass, PhotonPassStats& stats);
+
+  const Scene& scene_;
+  double alpha_, radius_;
+  int64_t photons_per_pass_;
+  int max_depth_, rr_depth_, threads_, tile_size_;
+  float threshold_;
+  uint64_t seed_;
+  int width_, height_;
+  float pixel_spread_;
+
+  PhotonTracer tracer_;
+  PhotonHashGrid grid_;
+  std::vector<Photon> photons_;
+  PhotonPathRecord record_;                       // this pass's photon paths
+  std::vector<std::vector<Photon>> chunk_photons_;
+  std::vector<PhotonPathRecord> chunk_records_;
+  std::vector<EyeVertex> eye_;                    // max_depth_ per pixel
+  std::vector<int> eye_count_;
+  std::vector<Vec3> eye_origin_;
+  std::vector<RGB> pass_direct_;
+  std::vector<double> pass_npm_;  // N_e pi R^2 the camera pass weighted with; the gathering uses the same
+  std::vector<float> first_r_;
+  std::vector<PixelState> px_;
+  std::vector<float> gather_m_;
+  std::vector<RGB> gather_phi_;
+  int64_t emitted_total_ = 0;
+  double fallback_r_ = 0;  // mean first-pass footprint radius, for pixels without their own
+};
+
+}  // namespace gp

@@ -1,0 +1,164 @@
+// Multisampled progressive photon mapping (thesis ch. 9): balance-heuristic weights that sum to
+// one over the techniques able to make a path, convergence to the path-traced Cornell box,
+// agreement with SPPM where only photons see the light (point light in a glass sphere),
+// thread-count determinism and parameter errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "integrators/hybrid_ppm.h"
+#include "integrators/integrator.h"
+#include "io/metrics.h"
+#include "scene/loader.h"
+
+namespace gp {
+namespace {
+
+Scene cornell(int w, int h) {
+  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
+  s.camera.width = w;
+  s.camera.height = h;
+  return s;
+}
+
+Film render(const std::string& method, const Scene& scene, int passes, Params p, Stats* stats = nullptr) {
+  auto integ = make_integrator(method, scene, p);
+  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
+  Film film;
+  integ->develop(film);
+  if (stats) *stats = integ->stats();
+  return film;
+}
+
+Params seeded(uint64_t seed, int threads = 0) {
+  Params p;
+  p.set("seed", seed);
+  p.set("threads", threads);
+  return p;
+}
+
+double mean(const Film& f) {
+  double s = 0;
+  for (float v : f.pass(pass::kCombined).data) s += v;
+  return s / f.pass(pass::kCombined).data.size();
+}
+
+TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
+  const Scene s = cornell(8, 8);
+  HybridPpm h(s, Params());
+  // Camera, floor, back wall, a point on the ceiling light: k = 3.
+  Frame floor_frame(Vec3(0, 0, 1)), wall_frame(Vec3(0, -1, 0));
+  auto surface = [](Vec3 p, Vec3 n, const Frame* f, int material) {
+    HybridPpm::PathVertex v;
+    v.p = p;
+    v.ng = n;
+    v.frame = f;
+    v.material = material;
+    v.mergeable = true;
+    return v;
+  };
+  int white = -1, light = -1;
+  for (size_t i = 0; i < s.light_set().lights().size(); ++i)
+    if (s.light_set().lights()[i].type == LightType::Area) light = static_cast<int>(i);
+  ASSERT_GE(light, 0);
+  // The floor's material: the one the camera sees straight down at the floor centre.
+  const auto hit = s.intersect(Ray(Vec3(0.1f, 0.1f, 1.0f), Vec3(0, 0, -1)));
+  ASSERT_TRUE(hit);
+  white = hit->material;
+  std::vector<HybridPpm::PathVertex> y;
+  HybridPpm::PathVertex cam;
+  cam.p = Vec3(0, -3.9f, 1);
+  y.push_back(cam);
+  y.push_back(surface(Vec3(0.2f, 0.1f, 0), Vec3(0, 0, 1), &floor_frame, white));
+  y.push_back(surface(Vec3(-0.3f, 1, 1.2f), Vec3(0, -1, 0), &wall_frame, white));
+  HybridPpm::PathVertex lv;
+  lv.p = Vec3(0.05f, -0.05f, 1.98f);
+  lv.ng = s.light_set().lights()[light].n;
+  lv.light = light;
+  y.push_back(lv);
+  for (double npm : {1e-6, 1e-2, 1.0, 1e3}) {
+    double sum = 0;
+    for (int t = 0; t < 2 + 3; ++t) {
+      const double w = h.mis_weight(y, t, npm);
+      EXPECT_GE(w, 0.0);
+      sum += w;
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-9) << "n_pm " << npm;
+    // More photon samples (larger N_e pi R^2): more weight to density estimation.
+  }
+  EXPECT_LT(h.mis_weight(y, 2 + 1, 1e-6), h.mis_weight(y, 2 + 1, 1e3));
+  // A specular vertex can neither merge nor connect to the light.
+  y[2].delta = true;
+  y[2].mergeable = false;
+  EXPECT_EQ(h.mis_weight(y, 1, 1.0), 0.0);
+  EXPECT_EQ(h.mis_weight(y, 2 + 2, 1.0), 0.0);
+  EXPECT_NEAR(h.mis_weight(y, 0, 1.0) + h.mis_weight(y, 2 + 1, 1.0), 1.0, 1e-9);
+}
+
+TEST(Msppm, ConvergesToThePathTracedCornellBox) {
+  const Scene s = cornell(40, 40);
+  Params ref_params;
+  ref_params.set("seed", 98);
+  const Film ref = render("pt", s, 1024, ref_params);
+  Stats st;
+  const Film m = render("msppm", s, 96, seeded(1), &st);
+  const DiffResult d = diff_images(m.pass(pass::kCombined), ref.pass(pass::kCombined), 40, 40);
+  std::printf("msppm cornell: relMSE %.4g mean ratio %.4f PT share %.3f\n", d.rel_mse, d.mean_ratio,
+              st.extra.at("path tracing share"));
+  EXPECT_NEAR(d.mean_ratio, 1.0, 0.03);
+  EXPECT_LT(d.rel_mse, 0.02);
+  // Diffuse box, area light: path tracing carries most of the image (thesis Fig. 9.7).
+  EXPECT_GT(st.extra.at("path tracing share"), 0.5);
+  EXPECT_LT(st.extra.at("path tracing share"), 1.0);
+  EXPECT_GT(st.extra.at("measurement points per pixel"), 1.5) << "points along the whole camera path";
+  for (const char* name : {"radius", "photon_count"}) EXPECT_TRUE(m.has_pass(name)) << name;
+}
+
+TEST(Msppm, AgreesWithSppmWhereOnlyPhotonsSeeTheLight) {
+  // Point light inside a glass sphere: every path to the floor is a caustic, no NEE and no
+  // hit possible; MSPPM's weights must hand it all to density estimation.
+  const Scene s = load_scene_from_string(R"({"camera": {"position": [0, -3.5, 1], "look_at": [0, 0, 0.8], "up": [0, 0, 1], "fov": 45, "width": 24, "height": 24},
+    "materials": {"white": {"type": "diffuse", "color": 0.7}, "glass": {"type": "dielectric", "ior": 1.5}},
+    "lights": [{"type": "point", "position": [0, 0, 1], "intensity": 20}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "white"},
+                {"type": "sphere", "center": [0, 0, 1], "radius": 0.3, "segments": 24, "material": "glass"}]})",
+                                         ".", "caustic.json");
+  Params sp = seeded(2);
+  sp.set("photons", 20000);
+  const double m_sppm = mean(render("sppm", s, 40, sp));
+  Params mp = seeded(2);
+  mp.set("photons", 20000);
+  Stats st;
+  const Film f = render("msppm", s, 40, mp, &st);
+  for (float v : f.pass(pass::kCombined).data) ASSERT_TRUE(std::isfinite(v));
+  EXPECT_NEAR(mean(f) / m_sppm, 1.0, 0.05);
+  EXPECT_LT(st.extra.at("path tracing share"), 0.05);
+}
+
+TEST(Msppm, SameImageWhateverTheThreadCount) {
+  const Scene s = cornell(20, 16);
+  const Film one = render("msppm", s, 3, seeded(4, 1));
+  const Film two = render("msppm", s, 3, seeded(4, 2));
+  const Film other = render("msppm", s, 3, seeded(5, 2));
+  EXPECT_EQ(one.pass(pass::kCombined).data, two.pass(pass::kCombined).data);
+  EXPECT_NE(one.pass(pass::kCombined).data, other.pass(pass::kCombined).data);
+}
+
+TEST(Msppm, RejectsBadParametersByName) {
+  const Scene s = cornell(8, 8);
+  for (auto [name, value] : std::vector<std::pair<std::string, nlohmann::json>>{
+           {"alpha", 1.0}, {"photons", -1}, {"radius", -1.0}, {"max_depth", 0}}) {
+    Params p(nlohmann::json{{name, value}});
+    try {
+      make_integrator("msppm", s, p);
+      ADD_FAILURE() << name << " = " << value.dump() << " accepted";
+    } catch (const ParamError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace gp
