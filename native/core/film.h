@@ -25,6 +25,8 @@ inline constexpr std::string_view kPhotonCount = "photon_count";  // accumulated
 inline constexpr std::string_view kPrimal = "primal";
 inline constexpr std::string_view kGradientX = "gradient_x";
 inline constexpr std::string_view kGradientY = "gradient_y";
+// Metropolis methods: how many chain states (one per mutation) fell in each pixel.
+inline constexpr std::string_view kSampleDensity = "sample_density";
 
 struct Info {
   std::string_view name;
@@ -40,6 +42,7 @@ inline constexpr Info kAll[] = {
     {kPrimal, 3, "Primal"},
     {kGradientX, 3, "Gradient X"},
     {kGradientY, 3, "Gradient Y"},
+    {kSampleDensity, 1, "Sample Density"},
 };
 }  // namespace pass
 

@@ -1,0 +1,106 @@
+// Gradient-domain Metropolis light transport (Lehtinen, Karras, Laine, Aittala, Durand, Aila 2013,
+// "Gradient-domain Metropolis light transport"; the GD-MLT slides in shared/papers), here in
+// primary sample space (Kelemen et al. 2002, "A simple and robust mutation strategy for the
+// Metropolis light transport algorithm").
+//
+// A state of each Markov chain is a primary sample vector u in [0,1)^inf. It is turned into a
+// film position over the whole image (u0, u1), a lens sample (u2, u3) and the random decisions of
+// one gradient-domain path sample: a base path and its four shifted offsets (left, right, up,
+// down), traced by GradientPathTracer::trace with its shifts and MIS (gpt.h, shift.h), which
+// reads u through the Sampler interface. The chain's target function is
+//   T(u) = sum_d lum|Delta_d(u)| + alpha * lum(f(u)),
+// the luminance of the absolute (MIS-weighted) throughput differences to the four neighbours plus
+// a small share alpha of the primal throughput (slides: "we also mix in a little of primal path
+// throughput, so we get some samples everywhere"); lum|.| weights the absolute value of each
+// channel, so T > 0 wherever any contribution is non-zero.
+//
+// Mutations: with probability `large_step` a large step (every coordinate redrawn uniformly),
+// otherwise a small step (each coordinate perturbed by Kelemen's exponential kernel, s1 = 1/1024,
+// s2 = 1/64, wrapping around). Coordinates are drawn lazily as the path sampler consumes them.
+// Acceptance a = min(1, T(u') / T(u)). Both the proposal and the current state are splatted with
+// weights a and 1 - a (Veach's expected-value estimator), each contribution g as g / T scaled by
+//   (width * height) * b / N,
+// with N the number of mutations so far and b = integral of T over primary sample space (the
+// image brightness in T's units). b is first estimated from a bootstrap of uniform samples
+// (`bootstrap` per pixel), which also picks each chain's start state in proportion to T (no
+// start-up bias), and then keeps being refined by every large-step proposal, which is a uniform
+// sample too, so the normalisation converges with the image.
+//
+// The primal image, the horizontal and vertical forward differences (each from both of its
+// pixels, as gpt) and the light seen through delta vertices only are accumulated; develop()
+// reconstructs the primal and gradients by screened Poisson (reconstruction/poisson.h) and adds
+// the direct light, as gpt does.
+//
+// Chains: `chains` independent chains (a fixed count, not the thread count), each with its own
+// Rng::for_key(seed, chain, ...) stream and its own list of splats per pass; the lists are summed
+// in chain order, so the image does not depend on the thread count.
+//
+// Parameters (defaults):
+//   mutations    1      mutations per pixel per pass (a pass costs about one gpt pass)
+//   chains       64     independent Markov chains
+//   large_step   0.3    probability of a large step (Kelemen's p_large)
+//   alpha        0.05   share of the primal throughput in the target function
+//   bootstrap    1      uniform bootstrap samples per pixel for b and the chains' start states
+//   recon        "l1"   reconstruction: "l1" (robust) or "l2" (unbiased)
+//   lambda       0.2    weight of the primal image in the screened Poisson problem
+//   max_depth, rr_depth, seed, threads   as gpt (tile_size is read but unused)
+//
+// Passes: combined, primal, gradient_x, gradient_y (as gpt), sample_density (chain states per
+// pixel; sums to the number of mutations).
+// Stats::extra: "acceptance rate", "large-step share", "brightness b", "chains", and the shift
+// failures by reason (as gpt).
+#pragma once
+
+#include <vector>
+
+#include "core/rng.h"
+#include "integrators/gradient/gpt.h"
+#include "integrators/integrator.h"
+#include "reconstruction/poisson.h"
+
+namespace gp {
+
+class GradientDomainMlt : public Integrator {
+ public:
+  GradientDomainMlt(const Scene& scene, const Params& params);
+  std::string name() const override { return "gdmlt"; }
+  void iterate(ProgressSink* sink) override;
+  void develop(Film& film) const override;
+
+  // One chain state: its primary sample vector and what it evaluates to.
+  struct State {
+    std::vector<float> u;
+    GradientPathTracer::Sample sample;
+    int pixel = 0;
+    double target = 0;
+  };
+  // Target function T of a sample (see above); public for tests.
+  double target(const GradientPathTracer::Sample& s) const;
+
+ private:
+  struct Chain {
+    Rng rng;
+    State current;
+  };
+  // Evaluates a proposal drawn from `from` (null: a uniform sample) with `rng`.
+  State propose(const State* from, bool large, Rng& rng, RayCounts& rays,
+                std::map<std::string, double>* failures) const;
+  void bootstrap();
+
+  const Scene& scene_;
+  GradientPathTracer gpt_;  // the path sampler and its shifts
+  int mutations_, chain_count_, bootstrap_per_pixel_, threads_;
+  double large_step_, alpha_;
+  uint64_t seed_;
+  ReconOptions recon_;
+  int width_, height_;
+  std::vector<Chain> chains_;
+  bool started_ = false;
+  // Accumulators in units of g / T (see above), summed over all passes.
+  std::vector<double> primal_, direct_, gx_, gy_;  // 3 per pixel
+  std::vector<double> density_;                    // 1 per pixel
+  double b_sum_ = 0;                               // sum of T over uniform samples
+  int64_t b_count_ = 0, mutations_done_ = 0, accepted_ = 0, large_steps_ = 0;
+};
+
+}  // namespace gp
