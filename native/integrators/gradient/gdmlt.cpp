@@ -19,47 +19,6 @@ constexpr uint64_t kBootstrapKey = 0x626f6f7473747261ULL;  // bootstrap sample i
 constexpr uint64_t kStartKey = 0x7374617274ULL;            // chain c's choice of start state
 constexpr uint64_t kChainKey = 0x636861696eULL;            // chain c's mutations
 
-// Kelemen et al. 2002 small-step kernel: |dv| = s2 exp(-log(s2 / s1) r) with r uniform, a random
-// sign, wrapped onto [0, 1).
-float perturb(float v, Rng& rng) {
-  constexpr double s1 = 1.0 / 1024, s2 = 1.0 / 64;
-  const float r = rng.uniform();
-  const bool up = r < 0.5f;
-  const double x = up ? 2.0 * r : 2.0 * (r - 0.5);
-  const double dv = s2 * std::exp(-std::log(s2 / s1) * x);
-  double w = v + (up ? dv : -dv);
-  w -= std::floor(w);
-  const float f = static_cast<float>(w);
-  return f < 1.0f ? f : 0.0f;
-}
-
-// A proposal's primary sample vector, drawn lazily as the path sampler consumes it: from `from`
-// by a small step (perturbing each coordinate), or uniformly (large step, or coordinates
-// beyond `from`'s length, which the chain has never used and which are therefore uniform).
-class PrimarySampleStream final : public Sampler {
- public:
-  PrimarySampleStream(const std::vector<float>* from, bool large, Rng& rng) : from_(from), large_(large), rng_(rng) {}
-  float uniform() override {
-    const size_t i = values_.size();
-    const float v = (from_ && !large_ && i < from_->size()) ? perturb((*from_)[i], rng_) : rng_.uniform();
-    values_.push_back(v);
-    return v;
-  }
-  // The proposal's whole state: after a small step the coordinates it did not use keep their
-  // values (they do not affect T, and the perturbation kernel leaves their uniform law as it is).
-  std::vector<float> take() {
-    if (from_ && !large_)
-      for (size_t i = values_.size(); i < from_->size(); ++i) values_.push_back((*from_)[i]);
-    return std::move(values_);
-  }
-
- private:
-  const std::vector<float>* from_;
-  bool large_;
-  Rng& rng_;
-  std::vector<float> values_;
-};
-
 // Sum of the channels' absolute values in luminance weights: zero only for a black colour.
 double abs_luminance(const RGB& c) {
   return 0.2126 * std::abs(c.r) + 0.7152 * std::abs(c.g) + 0.0722 * std::abs(c.b);
@@ -90,6 +49,45 @@ struct ChainResult {
 
 }  // namespace
 
+// ---- Lazily mutated primary sample vector (pbrt-v3, MLTSampler::EnsureReady / Reject) ----
+
+float PrimarySampleChain::uniform() {
+  const size_t i = index_++;
+  if (i >= x_.size()) x_.resize(i + 1);
+  Coordinate& c = x_[i];
+  c.backup = c.value;
+  c.backup_modified = c.modified;
+  if (large_step_) {
+    c.value = rng_.uniform();
+  } else {
+    if (c.modified < last_large_step_) {  // never drawn, or an accepted large step since: uniform
+      c.value = rng_.uniform();
+      c.modified = last_large_step_;
+      c.backup = c.value;
+      c.backup_modified = c.modified;
+    }
+    // The n small steps this coordinate missed, at once: a Gaussian of deviation sigma sqrt(n)
+    // (Box-Muller), wrapped onto [0, 1).
+    const double n = static_cast<double>(iteration_ - c.modified);
+    const double u1 = 1.0 - rng_.uniform(), u2 = rng_.uniform();
+    const double z = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * 3.14159265358979323846 * u2);
+    double v = c.value + z * sigma_ * std::sqrt(n);
+    v -= std::floor(v);
+    c.value = static_cast<float>(v) < 1.0f ? static_cast<float>(v) : 0.0f;
+  }
+  c.modified = iteration_;
+  return c.value;
+}
+
+void PrimarySampleChain::reject() {
+  for (Coordinate& c : x_)
+    if (c.modified == iteration_) {
+      c.value = c.backup;
+      c.modified = c.backup_modified;
+    }
+  --iteration_;
+}
+
 GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
     : scene_(scene),
       gpt_(scene, params),
@@ -98,6 +96,7 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
       bootstrap_per_pixel_(params.get<int>("bootstrap", 1)),
       threads_(params.get<int>("threads", 0)),
       large_step_(params.get<double>("large_step", 0.3)),
+      sigma_(params.get<double>("sigma", 0.01)),
       alpha_(params.get<double>("alpha", 0.05)),
       seed_(params.get<uint64_t>("seed", 0)),
       width_(scene.camera.width),
@@ -106,6 +105,7 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
   if (chain_count_ < 1) throw ParamError("chains must be >= 1");
   if (bootstrap_per_pixel_ < 1) throw ParamError("bootstrap must be >= 1");
   if (!(large_step_ >= 0 && large_step_ <= 1)) throw ParamError("large_step must be in [0, 1]");
+  if (!(sigma_ > 0 && sigma_ < 1)) throw ParamError("sigma must be in (0, 1)");
   // alpha > 0 keeps T > 0 wherever the primal is non-zero (the estimator divides by T).
   if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
   try {
@@ -130,19 +130,17 @@ double GradientDomainMlt::target(const GradientPathTracer::Sample& s) const {
   return t;
 }
 
-GradientDomainMlt::State GradientDomainMlt::propose(const State* from, bool large, Rng& rng, RayCounts& rays,
-                                                    std::map<std::string, double>* failures) const {
-  PrimarySampleStream ps(from ? &from->u : nullptr, large, rng);
+GradientDomainMlt::State GradientDomainMlt::evaluate(Sampler& sampler, RayCounts& rays,
+                                                     std::map<std::string, double>* failures) const {
   // Film position over the whole image (the pixel is part of the state), then the lens.
-  float fx = ps.uniform() * width_, fy = ps.uniform() * height_;
+  float fx = sampler.uniform() * width_, fy = sampler.uniform() * height_;
   fx = std::min(fx, std::nextafter(static_cast<float>(width_), 0.0f));
   fy = std::min(fy, std::nextafter(static_cast<float>(height_), 0.0f));
-  const Vec2 lens(ps.uniform(), ps.uniform());
+  const Vec2 lens(sampler.uniform(), sampler.uniform());
   State s;
-  s.sample = gpt_.trace(Vec2(fx, fy), lens, ps, rays, failures);
+  s.sample = gpt_.trace(Vec2(fx, fy), lens, sampler, rays, failures);
   s.pixel = static_cast<int>(fy) * width_ + static_cast<int>(fx);
   s.target = is_finite(s.sample) ? target(s.sample) : -1.0;  // < 0: invalid, never accepted
-  s.u = ps.take();
   return s;
 }
 
@@ -155,7 +153,8 @@ void GradientDomainMlt::bootstrap() {
     RayCounts rays;
     for (size_t i = begin; i < end; ++i) {
       Rng rng = Rng::for_key(seed_, i, kBootstrapKey);
-      const double ti = propose(nullptr, true, rng, rays, nullptr).target;
+      RngSampler sampler(rng);
+      const double ti = evaluate(sampler, rays, nullptr).target;
       if (ti < 0) ++invalid;
       t[i] = std::max(ti, 0.0);
     }
@@ -167,7 +166,8 @@ void GradientDomainMlt::bootstrap() {
   for (size_t i = 0; i < n; ++i) cdf[i] = (sum += t[i]);
   b_sum_ = sum;
   b_count_ = static_cast<int64_t>(n);
-  chains_.resize(chain_count_);
+  chains_.clear();
+  chains_.reserve(chain_count_);
   RayCounts rays;
   for (int c = 0; c < chain_count_; ++c) {
     Rng pick = Rng::for_key(seed_, c, kStartKey);
@@ -177,9 +177,14 @@ void GradientDomainMlt::bootstrap() {
       idx = std::min<size_t>(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin(), n - 1);
       while (t[idx] <= 0 && idx > 0) --idx;  // guard against landing on a zero-width bin
     }
-    Rng replay = Rng::for_key(seed_, idx, kBootstrapKey);  // re-creates bootstrap sample idx
-    chains_[c].current = propose(nullptr, true, replay, rays, nullptr);
-    chains_[c].rng = Rng::for_key(seed_, c, kChainKey);
+    // Re-creates bootstrap sample idx as the chain's state (its first, all-uniform evaluation
+    // draws the same numbers), then gives the chain its own stream: chains that start from the
+    // same sample do not stay identical.
+    PrimarySampleChain sampler(Rng::for_key(seed_, idx, kBootstrapKey), sigma_, large_step_);
+    State first = evaluate(sampler, rays, nullptr);
+    sampler.accept();
+    sampler.set_rng(Rng::for_key(seed_, c, kChainKey));
+    chains_.push_back(Chain{std::move(sampler), std::move(first)});
   }
   stats_.paths += static_cast<int64_t>(n) + chain_count_;
   stats_.rays += closest + shadow + rays.closest + rays.shadow;
@@ -203,8 +208,9 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
       r.visits.reserve(count);
       for (int64_t k = 0; k < count; ++k) {
         // ---- Propose: large step (uniform) or small step (perturbation) ----
-        const bool large = chain.rng.uniform() < large_step_;
-        State prop = propose(&chain.current, large, chain.rng, r.rays, &r.failures);
+        chain.sampler.start_iteration();
+        const bool large = chain.sampler.large_step();
+        State prop = evaluate(chain.sampler, r.rays, &r.failures);
         if (prop.target < 0) ++r.invalid;
         if (large) {  // a uniform sample: refines the brightness estimate b
           r.b_sum += std::max(prop.target, 0.0);
@@ -216,9 +222,12 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
         const double a = prop.target <= 0 ? 0.0 : cur.target <= 0 ? 1.0 : std::min(1.0, prop.target / cur.target);
         if (a > 0) r.splats.push_back({prop.pixel, a / prop.target, prop.sample});
         if (a < 1 && cur.target > 0) r.splats.push_back({cur.pixel, (1 - a) / cur.target, cur.sample});
-        if (a > 0 && chain.rng.uniform() < a) {
+        if (a > 0 && chain.sampler.rng().uniform() < a) {
+          chain.sampler.accept();
           chain.current = std::move(prop);
           ++r.accepted;
+        } else {
+          chain.sampler.reject();
         }
         r.visits.push_back(chain.current.pixel);
         ++r.mutations;

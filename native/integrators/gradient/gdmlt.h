@@ -15,8 +15,13 @@
 // channel, so T > 0 wherever any contribution is non-zero.
 //
 // Mutations: with probability `large_step` a large step (every coordinate redrawn uniformly),
-// otherwise a small step (each coordinate perturbed by Kelemen's exponential kernel, s1 = 1/1024,
-// s2 = 1/64, wrapping around). Coordinates are drawn lazily as the path sampler consumes them.
+// otherwise a small step (every coordinate moved by a Gaussian of deviation `sigma`, wrapped
+// onto [0, 1)). Coordinates are drawn lazily as the path sampler consumes them, with pbrt-v3's
+// bookkeeping (MLTSampler): each remembers the iteration it was last modified at, and one that
+// was not used for n small steps receives them at once as one Gaussian of deviation sigma sqrt(n)
+// (or a uniform value if a large step was accepted since). The kernel is then the same symmetric
+// one on the whole infinite vector whatever the path lengths, which freezing unused coordinates
+// would not be.
 // Acceptance a = min(1, T(u') / T(u)). Both the proposal and the current state are splatted with
 // weights a and 1 - a (Veach's expected-value estimator), each contribution g as g / T scaled by
 //   (width * height) * b / N,
@@ -39,6 +44,7 @@
 //   mutations    1      mutations per pixel per pass (a pass costs about one gpt pass)
 //   chains       64     independent Markov chains
 //   large_step   0.3    probability of a large step (Kelemen's p_large)
+//   sigma        0.01   deviation of a small step in primary sample space (pbrt-v3's default)
 //   alpha        0.05   share of the primal throughput in the target function
 //   bootstrap    1      uniform bootstrap samples per pixel for b and the chains' start states
 //   recon        "l1"   reconstruction: "l1" (robust) or "l2" (unbiased)
@@ -60,6 +66,39 @@
 
 namespace gp {
 
+// Primary sample vector of one chain, mutated lazily (pbrt-v3's MLTSampler; see above). Each
+// iteration: start_iteration(), the path sampler reads uniform()s, then accept() or reject().
+class PrimarySampleChain final : public Sampler {
+ public:
+  PrimarySampleChain(Rng rng, double sigma, double large_step)
+      : rng_(rng), sigma_(sigma), large_step_probability_(large_step) {}
+  void start_iteration() {
+    ++iteration_;
+    large_step_ = rng_.uniform() < large_step_probability_;
+    index_ = 0;
+  }
+  float uniform() override;
+  void accept() {
+    if (large_step_) last_large_step_ = iteration_;
+  }
+  void reject();
+  bool large_step() const { return large_step_; }
+  Rng& rng() { return rng_; }
+  void set_rng(const Rng& rng) { rng_ = rng; }
+
+ private:
+  struct Coordinate {
+    float value = 0, backup = 0;
+    int64_t modified = -1, backup_modified = -1;  // iteration of the last change; -1: never drawn
+  };
+  Rng rng_;
+  double sigma_, large_step_probability_;
+  std::vector<Coordinate> x_;
+  int64_t iteration_ = 0, last_large_step_ = 0;
+  bool large_step_ = true;  // the first evaluation draws every coordinate uniformly
+  size_t index_ = 0;
+};
+
 class GradientDomainMlt : public Integrator {
  public:
   GradientDomainMlt(const Scene& scene, const Params& params);
@@ -67,30 +106,28 @@ class GradientDomainMlt : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 
-  // One chain state: its primary sample vector and what it evaluates to.
+  // What one primary sample vector evaluates to.
   struct State {
-    std::vector<float> u;
     GradientPathTracer::Sample sample;
     int pixel = 0;
-    double target = 0;
+    double target = 0;  // < 0: non-finite sample (never accepted)
   };
   // Target function T of a sample (see above); public for tests.
   double target(const GradientPathTracer::Sample& s) const;
 
  private:
   struct Chain {
-    Rng rng;
+    PrimarySampleChain sampler;
     State current;
   };
-  // Evaluates a proposal drawn from `from` (null: a uniform sample) with `rng`.
-  State propose(const State* from, bool large, Rng& rng, RayCounts& rays,
-                std::map<std::string, double>* failures) const;
+  // Evaluates the sampler's current proposal (film position, lens, gpt path sample).
+  State evaluate(Sampler& sampler, RayCounts& rays, std::map<std::string, double>* failures) const;
   void bootstrap();
 
   const Scene& scene_;
   GradientPathTracer gpt_;  // the path sampler and its shifts
   int mutations_, chain_count_, bootstrap_per_pixel_, threads_;
-  double large_step_, alpha_;
+  double large_step_, sigma_, alpha_;
   uint64_t seed_;
   ReconOptions recon_;
   int width_, height_;
