@@ -62,7 +62,7 @@ TEST(GradientDomainMlt, ConvergesToThePathTracedReferenceAndItsMean) {
   // The chains concentrate where the image changes (the slides' "many samples along shadow
   // boundaries"), not merely where it is bright: per unit of reference luminance, the pixels
   // that differ most from a neighbour get more chain states than the flattest half. (Image-domain
-  // Metropolis, density ~ luminance, gives a ratio near 1: alpha = 100 fails this check.)
+  // Metropolis, density ~ luminance, gives a ratio near 1: primal_share = 100 fails this check.)
   const int n = 16 * 16;
   std::vector<std::pair<double, double>> edge_density(n);  // (max |lum difference|, density)
   auto lum = [&](int x, int y) { return ref.rgb(pass::kCombined, x, y).luminance(); };
@@ -80,7 +80,7 @@ TEST(GradientDomainMlt, ConvergesToThePathTracedReferenceAndItsMean) {
   for (int i = 0; i < n / 2; ++i) flat += edge_density[i].second / (n / 2);
   for (int i = 3 * n / 4; i < n; ++i) edges += edge_density[i].second / (n / 4);
   std::printf("mean sample density / luminance: flattest half %.1f, strongest-edge quarter %.1f\n", flat, edges);
-  EXPECT_GT(edges, 1.25 * flat);  // measured 1.44 (alpha = 100: 1.02)
+  EXPECT_GT(edges, 1.25 * flat);  // measured 1.44 (primal_share = 100: 1.02)
 }
 
 TEST(GradientDomainMlt, SameImageWhateverTheThreadCountAndFiniteThroughGlass) {
@@ -117,7 +117,7 @@ TEST(GradientDomainMlt, SampleDensityIsNonNegativeAndCountsEveryMutation) {
 
 TEST(GradientDomainMlt, RejectsBadParameters) {
   const Scene s = scene_sized("cornell-box.json", 8, 8);
-  for (auto bad : {nlohmann::json{{"recon", "l3"}}, nlohmann::json{{"lambda", 0}}, nlohmann::json{{"alpha", 0}},
+  for (auto bad : {nlohmann::json{{"recon", "l3"}}, nlohmann::json{{"lambda", 0}}, nlohmann::json{{"primal_share", 0}},
                    nlohmann::json{{"large_step", 1.5}}, nlohmann::json{{"chains", 0}},
                    nlohmann::json{{"mutations", 0}}, nlohmann::json{{"sigma", 0}}}) {
     Params p(bad);

@@ -97,7 +97,7 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
       threads_(params.get<int>("threads", 0)),
       large_step_(params.get<double>("large_step", 0.3)),
       sigma_(params.get<double>("sigma", 0.01)),
-      alpha_(params.get<double>("alpha", 0.05)),
+      alpha_(params.get<double>("primal_share", 0.05)),
       seed_(params.get<uint64_t>("seed", 0)),
       width_(scene.camera.width),
       height_(scene.camera.height) {
@@ -106,8 +106,8 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
   if (bootstrap_per_pixel_ < 1) throw ParamError("bootstrap must be >= 1");
   if (!(large_step_ >= 0 && large_step_ <= 1)) throw ParamError("large_step must be in [0, 1]");
   if (!(sigma_ > 0 && sigma_ < 1)) throw ParamError("sigma must be in (0, 1)");
-  // alpha > 0 keeps T > 0 wherever the primal is non-zero (the estimator divides by T).
-  if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
+  // primal_share > 0 keeps T > 0 wherever the primal is non-zero (the estimator divides by T).
+  if (!(alpha_ > 0)) throw ParamError("primal_share must be > 0");
   try {
     recon_.norm = parse_recon_norm(params.get<std::string>("recon", "l1"));
   } catch (const std::invalid_argument& e) {

@@ -45,7 +45,8 @@
 //   chains       64     independent Markov chains
 //   large_step   0.3    probability of a large step (Kelemen's p_large)
 //   sigma        0.01   deviation of a small step in primary sample space (pbrt-v3's default)
-//   alpha        0.05   share of the primal throughput in the target function
+//   primal_share 0.05   alpha: share of the primal throughput in the target function (not
+//                       named "alpha", which is SPPM's radius reduction in the CLI and addon)
 //   bootstrap    1      uniform bootstrap samples per pixel for b and the chains' start states
 //   recon        "l1"   reconstruction: "l1" (robust) or "l2" (unbiased)
 //   lambda       0.2    weight of the primal image in the screened Poisson problem
