@@ -492,7 +492,7 @@ int main(int argc, char** argv) {
   render->add_option("--png", ra.png, "Also write a display PNG through OpenColorIO");
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
-  render->add_option("--recon", ra.recon, "Gradient methods: screened Poisson reconstruction l2 (default) or l1")
+  render->add_option("--recon", ra.recon, "Gradient methods: screened Poisson reconstruction l2 or l1 (default l2; l1 for gdmlt)")
       ->check(CLI::IsMember({"l1", "l2"}));
   render->add_option("--lambda", ra.lambda, "Gradient methods: weight of the primal image (default 0.2)")
       ->check(CLI::PositiveNumber);

@@ -29,6 +29,8 @@ inline constexpr std::string_view kGradientY = "gradient_y";
 // 1D Poisson reconstruction, and the RMS of the per-pixel spectral gradients.
 inline constexpr std::string_view kSpectralPrimal = "spectral_primal";
 inline constexpr std::string_view kSpectralGradient = "spectral_gradient";
+// Metropolis methods: how many chain states (one per mutation) fell in each pixel.
+inline constexpr std::string_view kSampleDensity = "sample_density";
 
 struct Info {
   std::string_view name;
@@ -46,6 +48,7 @@ inline constexpr Info kAll[] = {
     {kGradientY, 3, "Gradient Y"},
     {kSpectralPrimal, 3, "Spectral Primal"},
     {kSpectralGradient, 1, "Spectral Gradient"},
+    {kSampleDensity, 1, "Sample Density"},
 };
 }  // namespace pass
 

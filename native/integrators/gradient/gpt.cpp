@@ -77,7 +77,7 @@ GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
   samples_.assign(n, 0);
 }
 
-GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Rng& rng, RayCounts& rays,
+GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampler& rng, RayCounts& rays,
                                                      std::map<std::string, double>* failures) const {
   const LightSet& lights = scene_.light_set();
   Sample out;
@@ -408,7 +408,8 @@ void GradientPathTracer::iterate(ProgressSink* sink) {
             Rng rng = Rng::for_key(seed_, pixel, pass);
             const Vec2 film(x + rng.uniform(), y + rng.uniform());  // box filter
             const Vec2 lens(rng.uniform(), rng.uniform());
-            const Sample s = trace(film, lens, rng, tile_rays, &tile_failures);
+            RngSampler sampler(rng);
+            const Sample s = trace(film, lens, sampler, tile_rays, &tile_failures);
             ++tile_paths;
             ++samples_[pixel];
             bool finite = s.primal.is_finite() && s.direct.is_finite();

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "core/rng.h"
+#include "core/sampler.h"
 #include "integrators/integrator.h"
 #include "reconstruction/poisson.h"
 
@@ -50,14 +51,19 @@ class GradientPathTracer : public Integrator {
   // Offsets, in the order the per-pixel gradient sums are kept.
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
 
-  // One base sample at film position `film` (in pixels) with its four offsets, for tests.
+  // One base sample at film position `film` (in pixels) with its four offsets. The path's random
+  // decisions come from `sampler` in a fixed order (NEE: 3, BSDF: 3, Russian roulette: 1 per
+  // vertex), so a primary-sample-space chain can drive it (gdmlt.h). Thread-safe (const).
   struct Sample {
     RGB primal;      // base path radiance without the direct light
     RGB direct;      // light through delta vertices only (and emitters seen directly)
     RGB diff[4];     // MIS-weighted (offset - base) for right/down, (base - offset) for left/up
     bool has[4];     // offset inside the image
   };
-  Sample trace(Vec2 film, Vec2 lens, Rng& rng, RayCounts& rays, std::map<std::string, double>* failures) const;
+  Sample trace(Vec2 film, Vec2 lens, Sampler& sampler, RayCounts& rays, std::map<std::string, double>* failures) const;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
 
  private:
   const Scene& scene_;

@@ -1,0 +1,310 @@
+// Gradient-domain Metropolis light transport in primary sample space (see gdmlt.h for the method,
+// parameters and references).
+#include "integrators/gradient/gdmlt.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+
+#include "core/parallel.h"
+#include "core/sampler.h"
+
+namespace gp {
+
+namespace {
+
+// Third Rng::for_key component of each kind of stream (the first is the seed).
+constexpr uint64_t kBootstrapKey = 0x626f6f7473747261ULL;  // bootstrap sample i
+constexpr uint64_t kStartKey = 0x7374617274ULL;            // chain c's choice of start state
+constexpr uint64_t kChainKey = 0x636861696eULL;            // chain c's mutations
+
+// Sum of the channels' absolute values in luminance weights: zero only for a black colour.
+double abs_luminance(const RGB& c) {
+  return 0.2126 * std::abs(c.r) + 0.7152 * std::abs(c.g) + 0.0722 * std::abs(c.b);
+}
+
+bool is_finite(const GradientPathTracer::Sample& s) {
+  bool ok = s.primal.is_finite() && s.direct.is_finite();
+  for (const RGB& g : s.diff) ok = ok && g.is_finite();
+  return ok;
+}
+
+// One weighted sample to add to the accumulators: sample * scale at `pixel`.
+struct Splat {
+  int pixel;
+  double scale;
+  GradientPathTracer::Sample sample;
+};
+
+// What one chain did in one pass, merged in chain order.
+struct ChainResult {
+  std::vector<Splat> splats;
+  std::vector<int> visits;  // pixel of the chain's state after each mutation
+  int64_t mutations = 0, accepted = 0, large = 0, invalid = 0, b_count = 0;
+  double b_sum = 0;
+  RayCounts rays;
+  std::map<std::string, double> failures;
+};
+
+}  // namespace
+
+// ---- Lazily mutated primary sample vector (pbrt-v3, MLTSampler::EnsureReady / Reject) ----
+
+float PrimarySampleChain::uniform() {
+  const size_t i = index_++;
+  if (i >= x_.size()) x_.resize(i + 1);
+  Coordinate& c = x_[i];
+  c.backup = c.value;
+  c.backup_modified = c.modified;
+  if (large_step_) {
+    c.value = rng_.uniform();
+  } else {
+    if (c.modified < last_large_step_) {  // never drawn, or an accepted large step since: uniform
+      c.value = rng_.uniform();
+      c.modified = last_large_step_;
+      c.backup = c.value;
+      c.backup_modified = c.modified;
+    }
+    // The n small steps this coordinate missed, at once: a Gaussian of deviation sigma sqrt(n)
+    // (Box-Muller), wrapped onto [0, 1).
+    const double n = static_cast<double>(iteration_ - c.modified);
+    const double u1 = 1.0 - rng_.uniform(), u2 = rng_.uniform();
+    const double z = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * 3.14159265358979323846 * u2);
+    double v = c.value + z * sigma_ * std::sqrt(n);
+    v -= std::floor(v);
+    c.value = static_cast<float>(v) < 1.0f ? static_cast<float>(v) : 0.0f;
+  }
+  c.modified = iteration_;
+  return c.value;
+}
+
+void PrimarySampleChain::reject() {
+  for (Coordinate& c : x_)
+    if (c.modified == iteration_) {
+      c.value = c.backup;
+      c.modified = c.backup_modified;
+    }
+  --iteration_;
+}
+
+GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
+    : scene_(scene),
+      gpt_(scene, params),
+      mutations_(params.get<int>("mutations", 1)),
+      chain_count_(params.get<int>("chains", 64)),
+      bootstrap_per_pixel_(params.get<int>("bootstrap", 1)),
+      threads_(params.get<int>("threads", 0)),
+      large_step_(params.get<double>("large_step", 0.3)),
+      sigma_(params.get<double>("sigma", 0.01)),
+      alpha_(params.get<double>("primal_share", 0.05)),
+      seed_(params.get<uint64_t>("seed", 0)),
+      width_(scene.camera.width),
+      height_(scene.camera.height) {
+  if (mutations_ < 1) throw ParamError("mutations must be >= 1");
+  if (chain_count_ < 1) throw ParamError("chains must be >= 1");
+  if (bootstrap_per_pixel_ < 1) throw ParamError("bootstrap must be >= 1");
+  if (!(large_step_ >= 0 && large_step_ <= 1)) throw ParamError("large_step must be in [0, 1]");
+  if (!(sigma_ > 0 && sigma_ < 1)) throw ParamError("sigma must be in (0, 1)");
+  // primal_share > 0 keeps T > 0 wherever the primal is non-zero (the estimator divides by T).
+  if (!(alpha_ > 0)) throw ParamError("primal_share must be > 0");
+  try {
+    recon_.norm = parse_recon_norm(params.get<std::string>("recon", "l1"));
+  } catch (const std::invalid_argument& e) {
+    throw ParamError(std::string("parameter 'recon': ") + e.what());
+  }
+  recon_.lambda = params.get<double>("lambda", 0.2);
+  if (!(recon_.lambda > 0)) throw ParamError("lambda must be > 0");
+  recon_.threads = threads_;
+  const size_t n = static_cast<size_t>(width_) * height_;
+  primal_.assign(3 * n, 0.0);
+  direct_.assign(3 * n, 0.0);
+  gx_.assign(3 * n, 0.0);
+  gy_.assign(3 * n, 0.0);
+  density_.assign(n, 0.0);
+}
+
+double GradientDomainMlt::target(const GradientPathTracer::Sample& s) const {
+  double t = alpha_ * abs_luminance(s.primal + s.direct);
+  for (const RGB& g : s.diff) t += abs_luminance(g);
+  return t;
+}
+
+GradientDomainMlt::State GradientDomainMlt::evaluate(Sampler& sampler, RayCounts& rays,
+                                                     std::map<std::string, double>* failures) const {
+  // Film position over the whole image (the pixel is part of the state), then the lens.
+  float fx = sampler.uniform() * width_, fy = sampler.uniform() * height_;
+  fx = std::min(fx, std::nextafter(static_cast<float>(width_), 0.0f));
+  fy = std::min(fy, std::nextafter(static_cast<float>(height_), 0.0f));
+  const Vec2 lens(sampler.uniform(), sampler.uniform());
+  State s;
+  s.sample = gpt_.trace(Vec2(fx, fy), lens, sampler, rays, failures);
+  s.pixel = static_cast<int>(fy) * width_ + static_cast<int>(fx);
+  s.target = is_finite(s.sample) ? target(s.sample) : -1.0;  // < 0: invalid, never accepted
+  return s;
+}
+
+void GradientDomainMlt::bootstrap() {
+  // ---- b from uniform samples, and start states in proportion to T ----
+  const size_t n = static_cast<size_t>(bootstrap_per_pixel_) * width_ * height_;
+  std::vector<double> t(n, 0.0);
+  std::atomic<int64_t> closest{0}, shadow{0}, invalid{0};
+  parallel_for(n, threads_, [&](size_t begin, size_t end) {
+    RayCounts rays;
+    for (size_t i = begin; i < end; ++i) {
+      Rng rng = Rng::for_key(seed_, i, kBootstrapKey);
+      RngSampler sampler(rng);
+      const double ti = evaluate(sampler, rays, nullptr).target;
+      if (ti < 0) ++invalid;
+      t[i] = std::max(ti, 0.0);
+    }
+    closest += rays.closest;
+    shadow += rays.shadow;
+  });
+  std::vector<double> cdf(n);
+  double sum = 0;
+  for (size_t i = 0; i < n; ++i) cdf[i] = (sum += t[i]);
+  b_sum_ = sum;
+  b_count_ = static_cast<int64_t>(n);
+  chains_.clear();
+  chains_.reserve(chain_count_);
+  RayCounts rays;
+  for (int c = 0; c < chain_count_; ++c) {
+    Rng pick = Rng::for_key(seed_, c, kStartKey);
+    size_t idx = 0;
+    if (sum > 0) {
+      const double u = pick.uniform() * sum;
+      idx = std::min<size_t>(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin(), n - 1);
+      while (t[idx] <= 0 && idx > 0) --idx;  // guard against landing on a zero-width bin
+    }
+    // Re-creates bootstrap sample idx as the chain's state (its first, all-uniform evaluation
+    // draws the same numbers), then gives the chain its own stream: chains that start from the
+    // same sample do not stay identical.
+    PrimarySampleChain sampler(Rng::for_key(seed_, idx, kBootstrapKey), sigma_, large_step_);
+    State first = evaluate(sampler, rays, nullptr);
+    sampler.accept();
+    sampler.set_rng(Rng::for_key(seed_, c, kChainKey));
+    chains_.push_back(Chain{std::move(sampler), std::move(first)});
+  }
+  stats_.paths += static_cast<int64_t>(n) + chain_count_;
+  stats_.rays += closest + shadow + rays.closest + rays.shadow;
+  stats_.shadow_rays += shadow + rays.shadow;
+  stats_.invalid_samples += invalid;
+  started_ = true;
+}
+
+void GradientDomainMlt::iterate(ProgressSink* sink) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!started_) bootstrap();
+  const int64_t total = static_cast<int64_t>(mutations_) * width_ * height_;
+  std::vector<ChainResult> results(chain_count_);
+  parallel_for(static_cast<size_t>(chain_count_), threads_, [&](size_t begin, size_t end) {
+    for (size_t c = begin; c < end; ++c) {
+      if (sink && sink->cancelled()) return;
+      Chain& chain = chains_[c];
+      ChainResult& r = results[c];
+      const int64_t count = total / chain_count_ + (static_cast<int64_t>(c) < total % chain_count_ ? 1 : 0);
+      r.splats.reserve(2 * count);
+      r.visits.reserve(count);
+      for (int64_t k = 0; k < count; ++k) {
+        // ---- Propose: large step (uniform) or small step (perturbation) ----
+        chain.sampler.start_iteration();
+        const bool large = chain.sampler.large_step();
+        State prop = evaluate(chain.sampler, r.rays, &r.failures);
+        if (prop.target < 0) ++r.invalid;
+        if (large) {  // a uniform sample: refines the brightness estimate b
+          r.b_sum += std::max(prop.target, 0.0);
+          ++r.b_count;
+          ++r.large;
+        }
+        // ---- Accept / reject, splatting both states by their expected weights ----
+        const State& cur = chain.current;
+        const double a = prop.target <= 0 ? 0.0 : cur.target <= 0 ? 1.0 : std::min(1.0, prop.target / cur.target);
+        if (a > 0) r.splats.push_back({prop.pixel, a / prop.target, prop.sample});
+        if (a < 1 && cur.target > 0) r.splats.push_back({cur.pixel, (1 - a) / cur.target, cur.sample});
+        if (a > 0 && chain.sampler.rng().uniform() < a) {
+          chain.sampler.accept();
+          chain.current = std::move(prop);
+          ++r.accepted;
+        } else {
+          chain.sampler.reject();
+        }
+        r.visits.push_back(chain.current.pixel);
+        ++r.mutations;
+      }
+    }
+  });
+
+  // ---- Merge in chain order (independent of the thread count) ----
+  RayCounts rays;
+  for (const ChainResult& r : results) {
+    for (const Splat& s : r.splats) {
+      const size_t p = static_cast<size_t>(s.pixel);
+      const auto& g = s.sample;
+      for (int c = 0; c < 3; ++c) {
+        primal_[3 * p + c] += g.primal[c] * s.scale;
+        direct_[3 * p + c] += g.direct[c] * s.scale;
+        // Each forward difference from both of its pixels (their MIS weights sum to one).
+        if (g.has[GradientPathTracer::kRight]) gx_[3 * p + c] += g.diff[GradientPathTracer::kRight][c] * s.scale;
+        if (g.has[GradientPathTracer::kLeft]) gx_[3 * (p - 1) + c] += g.diff[GradientPathTracer::kLeft][c] * s.scale;
+        if (g.has[GradientPathTracer::kDown]) gy_[3 * p + c] += g.diff[GradientPathTracer::kDown][c] * s.scale;
+        if (g.has[GradientPathTracer::kUp]) gy_[3 * (p - width_) + c] += g.diff[GradientPathTracer::kUp][c] * s.scale;
+      }
+    }
+    for (int p : r.visits) density_[p] += 1;
+    mutations_done_ += r.mutations;
+    accepted_ += r.accepted;
+    large_steps_ += r.large;
+    b_sum_ += r.b_sum;
+    b_count_ += r.b_count;
+    rays.closest += r.rays.closest;
+    rays.shadow += r.rays.shadow;
+    stats_.invalid_samples += r.invalid;
+    stats_.paths += r.mutations;
+    for (const auto& [k, v] : r.failures) stats_.extra[k] += v;
+  }
+  stats_.passes += 1;
+  stats_.rays += rays.closest + rays.shadow;
+  stats_.shadow_rays += rays.shadow;
+  const double m = std::max<int64_t>(mutations_done_, 1);
+  stats_.extra["acceptance rate"] = accepted_ / m;
+  stats_.extra["large-step share"] = large_steps_ / m;
+  stats_.extra["brightness b"] = b_count_ ? b_sum_ / b_count_ : 0.0;
+  stats_.extra["chains"] = chain_count_;
+  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void GradientDomainMlt::develop(Film& film) const {
+  if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
+  const size_t n = static_cast<size_t>(width_) * height_;
+  // E_u[g / T] under the chain's law is (1 / b) E_uniform[g]; a pixel's value is its integral
+  // over the film (area 1 / n of primary sample space) times n.
+  const double b = b_count_ ? b_sum_ / b_count_ : 0.0;
+  const double scale = mutations_done_ ? static_cast<double>(n) * b / static_cast<double>(mutations_done_) : 0.0;
+  std::vector<double> primal(3 * n), direct(3 * n), gx(3 * n), gy(3 * n);
+  for (size_t k = 0; k < 3 * n; ++k) {
+    primal[k] = primal_[k] * scale;
+    direct[k] = direct_[k] * scale;
+    gx[k] = gx_[k] * scale;
+    gy[k] = gy_[k] * scale;
+  }
+  const std::vector<double> rec = screened_poisson(primal, gx, gy, width_, height_, 3, recon_);
+  // As gpt: the gradient passes include the direct light's differences so that they describe
+  // the primal pass.
+  std::vector<double> dx, dy;
+  forward_differences(direct, width_, height_, 3, &dx, &dy);
+  Pass& comb = film.add_pass(pass::kCombined, 3);
+  Pass& prim = film.add_pass(pass::kPrimal, 3);
+  Pass& px = film.add_pass(pass::kGradientX, 3);
+  Pass& py = film.add_pass(pass::kGradientY, 3);
+  Pass& dens = film.add_pass(pass::kSampleDensity, 1);
+  for (size_t k = 0; k < 3 * n; ++k) {
+    comb.data[k] = static_cast<float>(rec[k] + direct[k]);
+    prim.data[k] = static_cast<float>(primal[k] + direct[k]);
+    px.data[k] = static_cast<float>(gx[k] + dx[k]);
+    py.data[k] = static_cast<float>(gy[k] + dy[k]);
+  }
+  for (size_t i = 0; i < n; ++i) dens.data[i] = static_cast<float>(density_[i]);
+}
+
+}  // namespace gp

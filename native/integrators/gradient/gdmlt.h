@@ -1,0 +1,144 @@
+// Gradient-domain Metropolis light transport (Lehtinen, Karras, Laine, Aittala, Durand, Aila 2013,
+// "Gradient-domain Metropolis light transport"; the GD-MLT slides in shared/papers), here in
+// primary sample space (Kelemen et al. 2002, "A simple and robust mutation strategy for the
+// Metropolis light transport algorithm").
+//
+// A state of each Markov chain is a primary sample vector u in [0,1)^inf. It is turned into a
+// film position over the whole image (u0, u1), a lens sample (u2, u3) and the random decisions of
+// one gradient-domain path sample: a base path and its four shifted offsets (left, right, up,
+// down), traced by GradientPathTracer::trace with its shifts and MIS (gpt.h, shift.h), which
+// reads u through the Sampler interface. The chain's target function is
+//   T(u) = sum_d lum|Delta_d(u)| + alpha * lum(f(u)),
+// the luminance of the absolute (MIS-weighted) throughput differences to the four neighbours plus
+// a small share alpha of the primal throughput (slides: "we also mix in a little of primal path
+// throughput, so we get some samples everywhere"); lum|.| weights the absolute value of each
+// channel, so T > 0 wherever any contribution is non-zero.
+//
+// Mutations: with probability `large_step` a large step (every coordinate redrawn uniformly),
+// otherwise a small step (every coordinate moved by a Gaussian of deviation `sigma`, wrapped
+// onto [0, 1)). Coordinates are drawn lazily as the path sampler consumes them, with pbrt-v3's
+// bookkeeping (MLTSampler): each remembers the iteration it was last modified at, and one that
+// was not used for n small steps receives them at once as one Gaussian of deviation sigma sqrt(n)
+// (or a uniform value if a large step was accepted since). The kernel is then the same symmetric
+// one on the whole infinite vector whatever the path lengths, which freezing unused coordinates
+// would not be.
+// Acceptance a = min(1, T(u') / T(u)). Both the proposal and the current state are splatted with
+// weights a and 1 - a (Veach's expected-value estimator), each contribution g as g / T scaled by
+//   (width * height) * b / N,
+// with N the number of mutations so far and b = integral of T over primary sample space (the
+// image brightness in T's units). b is first estimated from a bootstrap of uniform samples
+// (`bootstrap` per pixel), which also picks each chain's start state in proportion to T (no
+// start-up bias), and then keeps being refined by every large-step proposal, which is a uniform
+// sample too, so the normalisation converges with the image.
+//
+// The primal image, the horizontal and vertical forward differences (each from both of its
+// pixels, as gpt) and the light seen through delta vertices only are accumulated; develop()
+// reconstructs the primal and gradients by screened Poisson (reconstruction/poisson.h) and adds
+// the direct light, as gpt does.
+//
+// Chains: `chains` independent chains (a fixed count, not the thread count), each with its own
+// Rng::for_key(seed, chain, ...) stream and its own list of splats per pass; the lists are summed
+// in chain order, so the image does not depend on the thread count.
+//
+// Parameters (defaults):
+//   mutations    1      mutations per pixel per pass (a pass costs about one gpt pass)
+//   chains       64     independent Markov chains
+//   large_step   0.3    probability of a large step (Kelemen's p_large)
+//   sigma        0.01   deviation of a small step in primary sample space (pbrt-v3's default)
+//   primal_share 0.05   alpha: share of the primal throughput in the target function (not
+//                       named "alpha", which is SPPM's radius reduction in the CLI and addon)
+//   bootstrap    1      uniform bootstrap samples per pixel for b and the chains' start states
+//   recon        "l1"   reconstruction: "l1" (robust) or "l2" (unbiased)
+//   lambda       0.2    weight of the primal image in the screened Poisson problem
+//   max_depth, rr_depth, seed, threads   as gpt (tile_size is read but unused)
+//
+// Passes: combined, primal, gradient_x, gradient_y (as gpt), sample_density (chain states per
+// pixel; sums to the number of mutations).
+// Stats::extra: "acceptance rate", "large-step share", "brightness b", "chains", and the shift
+// failures by reason (as gpt).
+#pragma once
+
+#include <vector>
+
+#include "core/rng.h"
+#include "integrators/gradient/gpt.h"
+#include "integrators/integrator.h"
+#include "reconstruction/poisson.h"
+
+namespace gp {
+
+// Primary sample vector of one chain, mutated lazily (pbrt-v3's MLTSampler; see above). Each
+// iteration: start_iteration(), the path sampler reads uniform()s, then accept() or reject().
+class PrimarySampleChain final : public Sampler {
+ public:
+  PrimarySampleChain(Rng rng, double sigma, double large_step)
+      : rng_(rng), sigma_(sigma), large_step_probability_(large_step) {}
+  void start_iteration() {
+    ++iteration_;
+    large_step_ = rng_.uniform() < large_step_probability_;
+    index_ = 0;
+  }
+  float uniform() override;
+  void accept() {
+    if (large_step_) last_large_step_ = iteration_;
+  }
+  void reject();
+  bool large_step() const { return large_step_; }
+  Rng& rng() { return rng_; }
+  void set_rng(const Rng& rng) { rng_ = rng; }
+
+ private:
+  struct Coordinate {
+    float value = 0, backup = 0;
+    int64_t modified = -1, backup_modified = -1;  // iteration of the last change; -1: never drawn
+  };
+  Rng rng_;
+  double sigma_, large_step_probability_;
+  std::vector<Coordinate> x_;
+  int64_t iteration_ = 0, last_large_step_ = 0;
+  bool large_step_ = true;  // the first evaluation draws every coordinate uniformly
+  size_t index_ = 0;
+};
+
+class GradientDomainMlt : public Integrator {
+ public:
+  GradientDomainMlt(const Scene& scene, const Params& params);
+  std::string name() const override { return "gdmlt"; }
+  void iterate(ProgressSink* sink) override;
+  void develop(Film& film) const override;
+
+  // What one primary sample vector evaluates to.
+  struct State {
+    GradientPathTracer::Sample sample;
+    int pixel = 0;
+    double target = 0;  // < 0: non-finite sample (never accepted)
+  };
+  // Target function T of a sample (see above); public for tests.
+  double target(const GradientPathTracer::Sample& s) const;
+
+ private:
+  struct Chain {
+    PrimarySampleChain sampler;
+    State current;
+  };
+  // Evaluates the sampler's current proposal (film position, lens, gpt path sample).
+  State evaluate(Sampler& sampler, RayCounts& rays, std::map<std::string, double>* failures) const;
+  void bootstrap();
+
+  const Scene& scene_;
+  GradientPathTracer gpt_;  // the path sampler and its shifts
+  int mutations_, chain_count_, bootstrap_per_pixel_, threads_;
+  double large_step_, sigma_, alpha_;
+  uint64_t seed_;
+  ReconOptions recon_;
+  int width_, height_;
+  std::vector<Chain> chains_;
+  bool started_ = false;
+  // Accumulators in units of g / T (see above), summed over all passes.
+  std::vector<double> primal_, direct_, gx_, gy_;  // 3 per pixel
+  std::vector<double> density_;                    // 1 per pixel
+  double b_sum_ = 0;                               // sum of T over uniform samples
+  int64_t b_count_ = 0, mutations_done_ = 0, accepted_ = 0, large_steps_ = 0;
+};
+
+}  // namespace gp
