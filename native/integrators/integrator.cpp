@@ -1,5 +1,6 @@
 #include "integrators/integrator.h"
 
+#include "integrators/gradient/gpm.h"
 #include "integrators/gradient/gpt.h"
 #include "integrators/path_tracer.h"
 #include "integrators/ppm.h"
@@ -30,7 +31,7 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
   }
 }
 
-std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "gpt"}; }
+std::vector<std::string> integrator_names() { return {"pt", "ppm", "sppm", "gpt", "gpm"}; }
 
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
                                             const Params& params) {
@@ -38,6 +39,7 @@ std::unique_ptr<Integrator> make_integrator(const std::string& method, const Sce
   if (method == "ppm") return std::make_unique<Ppm>(scene, params);
   if (method == "sppm") return std::make_unique<Sppm>(scene, params);
   if (method == "gpt") return std::make_unique<GradientPathTracer>(scene, params);
+  if (method == "gpm") return std::make_unique<Gpm>(scene, params);
   std::string known;
   for (const auto& n : integrator_names()) known += (known.empty() ? "" : ", ") + n;
   throw ParamError("unknown method '" + method + "' (known: " + known + ")");

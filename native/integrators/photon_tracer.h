@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/color.h"
+#include "core/frame.h"
 #include "core/math.h"
 #include "scene/scene.h"
 
@@ -23,6 +24,22 @@ struct Photon {
   Vec3 p;       // where it landed
   Vec3 wi;      // unit world direction back towards where it came from
   RGB power;    // flux it carries (W), before division by the number of emitted photons
+  uint32_t index = 0;  // position in the pass's photon list (links it to its PhotonOrigin)
+};
+
+// Where a photon came from: its previous light-path vertex y_{s-1} (GPM §4.2 needs it to shift
+// the photon: the offset photon is traced from y_{s-1}, and DD endings reconnect there).
+// Recorded only when PhotonTracer::trace is given an `origins` list.
+struct PhotonOrigin {
+  Vec3 p;              // y_{s-1}
+  Vec3 ng;             // its geometric normal
+  Frame frame;         // its shading frame
+  Vec3 wo;             // local direction at y_{s-1} towards y_{s-2} (or the light)
+  RGB scale;           // power arriving at y_{s-1} / (pdf * Russian-roulette survival)
+  float pdf = 0;       // solid-angle pdf with which y_{s-1} sampled the direction to y_s
+  int material = -1;   // material at y_{s-1}
+  bool diffuse = false;  // y_{s-1} is diffuse for photon methods (a DD ending, GPM §4.2 step 2)
+  Vec3 n_photon;       // geometric normal at the photon y_s
 };
 
 struct PhotonPassStats {
@@ -39,8 +56,10 @@ class PhotonTracer {
   PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads);
 
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
-  // memory stays flat over passes).
-  PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out);
+  // memory stays flat over passes). With `origins`, also fills origins[k] for photon k (GPM);
+  // the random streams, and so the photons, are the same either way.
+  PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out,
+                        std::vector<PhotonOrigin>* origins = nullptr);
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
 
@@ -51,6 +70,7 @@ class PhotonTracer {
   uint64_t seed_;
   int threads_;
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
+  std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
 };
 
 }  // namespace gp
