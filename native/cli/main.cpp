@@ -467,9 +467,9 @@ int main(int argc, char** argv) {
   render->add_option("--lambda", ra.lambda, "Gradient methods: weight of the primal image (default 0.2)")
       ->check(CLI::PositiveNumber);
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
-  render->add_option("--alpha", ra.alpha, "ppm/sppm: fraction of new photons kept per pass, in (0,1) (default 0.7)");
-  render->add_option("--photons", ra.photons, "ppm/sppm: photons emitted per pass (default 100000)");
-  render->add_option("--radius", ra.radius, "ppm/sppm: initial gathering radius in metres (default: from the pixel footprint)");
+  render->add_option("--alpha", ra.alpha, "ppm/sppm/gpm: fraction of new photons kept per pass, in (0,1) (default 0.7; gpm 0.9)");
+  render->add_option("--photons", ra.photons, "ppm/sppm/gpm: photons emitted per pass (default 100000)");
+  render->add_option("--radius", ra.radius, "ppm/sppm/gpm: initial gathering radius in metres (default: from the pixel footprint)");
   render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
   render->add_option("--target-error", ra.target_error,
