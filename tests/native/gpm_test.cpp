@@ -109,10 +109,11 @@ TEST(Gpm, ConvergesToThePathTracedCornellBox) {
   std::printf("gpm 32 passes: recon relMSE %.4g (mean ratio %.4f), primal relMSE %.4g (mean ratio %.4f)\n",
               rec.rel_mse, rec.mean_ratio, prim.rel_mse, prim.mean_ratio);
   EXPECT_NEAR(rec.mean_ratio, 1.0, 0.03);
-  // Measured (fixed seeds): recon 0.0130, primal 0.0137. Biased gradients (a wrong photon-shift
-  // measure) gave recon 0.039 here, three times the primal's error, and made it stall.
-  EXPECT_LT(rec.rel_mse, 0.025);
-  EXPECT_LT(rec.rel_mse, 1.15 * prim.rel_mse);
+  // Measured (fixed seeds): recon 0.0103, primal 0.0131 (0.0185 / 0.0257 at 8 passes, 0.0042 /
+  // 0.0048 at 128). Biased gradients (a wrong photon-shift measure, or eq. 6 inverted) gave
+  // recon 0.039-0.050 here, three times the primal's error, and made it stall.
+  EXPECT_LT(rec.rel_mse, 0.02);
+  EXPECT_LT(rec.rel_mse, 0.9 * prim.rel_mse);
   EXPECT_GT(g->stats().extra.at("photon shifts"), 0.0);
 }
 

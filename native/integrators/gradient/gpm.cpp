@@ -52,6 +52,8 @@ Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(sc
   grad_.assign(n, GradState{});
   gather_fb_.assign(n, RGB(0.0f));
   gather_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
+  pass_nee_.assign(n, RGB(0.0f));
+  pass_nee_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
 }
 
 // ---- Eye pass: SPPM's camera paths (same random numbers) and their half-vector-copy offsets ----
@@ -87,7 +89,8 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
               ++rays;
               ohit[d] = scene_.intersect(oray[d]);
             }
-            RGB beta(1.0f), Ld(0.0f);
+            RGB beta(1.0f), Ld(0.0f), nee_base(0.0f);
+            std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
             VisiblePoint vp;
             float path_length = 0;
             for (int depth = 0; depth < max_depth_; ++depth) {
@@ -119,26 +122,43 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
                 if (ohit[d]->frame.to_local(-oray[d].d).z == 0) fail(d, ShiftFailure::ZeroLength);
               }
               if (bsdf.is_diffuse_for_photons(threshold_)) {
-                // ---- Gather point; direct light by NEE, kept in the primal domain ----
+                // ---- Gather point. Direct light by NEE (SPPM's), shifted to the offset gather
+                // points with the same light sample (as GPT: the light point is shared, so its
+                // area density is the same on both sides and the ratio is the sensor's) ----
                 if (!lights.empty()) {
                   const float u_light = rng.uniform();
                   const Vec2 u2(rng.uniform(), rng.uniform());
-                  if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
-                    const Vec3 wi = hit->frame.to_local(ls->wi);
-                    const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
-                    if (!f.is_black()) {
-                      ++rays;
-                      bool blocked;
-                      if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
-                        blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist,
-                                                          lights.lights()[ls->light].n);
-                      } else {
-                        const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
-                        const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
-                        blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
-                      }
-                      if (!blocked) Ld += beta * f * ls->L / ls->pdf;
+                  auto nee = [&](const Vec3& p, const Vec3& ng, const Frame& frame, const Bsdf& b, const Vec3& wo_l) {
+                    auto ls = lights.sample_li(p, u_light, u2);
+                    if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
+                    const Vec3 wi = frame.to_local(ls->wi);
+                    const RGB f = b.eval(wo_l, wi) * std::abs(wi.z);
+                    if (f.is_black()) return RGB(0.0f);
+                    ++rays;
+                    bool blocked;
+                    if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
+                      blocked = scene_.occluded_between(p, ng, p + ls->wi * ls->dist, lights.lights()[ls->light].n);
+                    } else {
+                      const Vec3 o = offset_ray_origin(p, ng, ls->wi);
+                      const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+                      blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
                     }
+                    return blocked ? RGB(0.0f) : f * ls->L / ls->pdf;
+                  };
+                  const RGB c = beta * nee(hit->p, hit->ng, hit->frame, bsdf, wo);
+                  Ld += c;
+                  nee_base = c;
+                  for (int d = 0; d < 4; ++d) {
+                    if (!off[d].exists) continue;
+                    RGB c_off(0.0f);
+                    float w = 1.0f;  // failed sensor shift: offset 0, weight 1
+                    if (off[d].ok()) {
+                      const SurfaceHit& ov = *ohit[d];
+                      c_off = off[d].beta * nee(ov.p, ov.ng, ov.frame, Bsdf(scene_.material(ov.material)),
+                                                ov.frame.to_local(-oray[d].d));
+                      w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
+                    }
+                    nee_diff[d] = (c_off - c) * (w * kSign[d]);
                   }
                 }
                 vp.p = hit->p;
@@ -212,10 +232,15 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
                 for (OffsetPoint& o : off) o.beta = o.beta / (1.0f - q);
               }
             }
-            if (!Ld.is_finite()) {
+            bool nee_finite = nee_base.is_finite();
+            for (const RGB& g : nee_diff) nee_finite = nee_finite && g.is_finite();
+            if (!Ld.is_finite() || !nee_finite) {
               ++invalid;
-              Ld = RGB(0.0f);
+              Ld = nee_base = RGB(0.0f);
+              for (RGB& g : nee_diff) g = RGB(0.0f);
             }
+            pass_nee_[pixel] = nee_base;
+            pass_nee_diff_[pixel] = nee_diff;
             if (vp.material >= 0 && !vp.beta.is_finite()) {
               ++invalid;
               vp.material = -1;
@@ -431,7 +456,11 @@ void Gpm::iterate(ProgressSink* sink) {
       for (int c = 0; c < 3; ++c) {
         s.tau[c] = (s.tau[c] + phi[c]) * u.ratio;          // thesis eq. 7.5
         g.tau_fb[c] = (g.tau_fb[c] + phi_fb[c]) * u.ratio;  // same reduction (GPM §4.3)
-        for (int d = 0; d < 4; ++d) g.diff[d][c] = (g.diff[d][c] + diff[d][c]) * u.ratio;
+        for (int d = 0; d < 4; ++d) {
+          g.diff[d][c] = (g.diff[d][c] + diff[d][c]) * u.ratio;
+          g.nee_diff[d][c] += pass_nee_diff_[i][d][c];  // per-pass averages, as the direct light
+        }
+        g.nee[c] += pass_nee_[i][c];
         s.direct[c] += Ld[c];
       }
       s.lap = (s.lap + lap_j) * u.ratio;
@@ -485,8 +514,10 @@ void Gpm::develop(Film& film) const {
     if (px_[i].r2 > 0 && ne > 0) k[i] = 1.0 / (ne * M_PI * px_[i].r2);
     for (int c = 0; c < 3; ++c) {
       const double photons = px_[i].tau[c] * k[i], photons_fb = grad_[i].tau_fb[c] * k[i];
-      grad_part[3 * i + c] = photons - photons_fb;
-      fb[3 * i + c] = photons_fb + (passes > 0 ? px_[i].direct[c] / passes : 0.0);
+      const double direct = passes > 0 ? px_[i].direct[c] / passes : 0.0;
+      const double nee = passes > 0 ? grad_[i].nee[c] / passes : 0.0;
+      grad_part[3 * i + c] = photons - photons_fb + nee;
+      fb[3 * i + c] = photons_fb + (direct - nee);
     }
   }
   for (int y = 0; y < height_; ++y)
@@ -494,11 +525,14 @@ void Gpm::develop(Film& film) const {
       const size_t i = static_cast<size_t>(y) * width_ + x;
       for (int c = 0; c < 3; ++c) {
         // Each difference from both of its pixels; their MIS weights (eq. 11) sum to one.
+        const double inv_passes = passes > 0 ? 1.0 / passes : 0.0;
         if (x + 1 < width_)
-          gx[3 * i + c] = grad_[i].diff[kRight][c] * k[i] + grad_[i + 1].diff[kLeft][c] * k[i + 1];
+          gx[3 * i + c] = grad_[i].diff[kRight][c] * k[i] + grad_[i + 1].diff[kLeft][c] * k[i + 1] +
+                          (grad_[i].nee_diff[kRight][c] + grad_[i + 1].nee_diff[kLeft][c]) * inv_passes;
         if (y + 1 < height_) {
           const size_t j = i + width_;
-          gy[3 * i + c] = grad_[i].diff[kDown][c] * k[i] + grad_[j].diff[kUp][c] * k[j];
+          gy[3 * i + c] = grad_[i].diff[kDown][c] * k[i] + grad_[j].diff[kUp][c] * k[j] +
+                          (grad_[i].nee_diff[kDown][c] + grad_[j].nee_diff[kUp][c]) * inv_passes;
         }
       }
     }

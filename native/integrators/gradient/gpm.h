@@ -26,8 +26,10 @@
 //   - photons whose previous vertex y_{s-1} is specular or glossy (caustics, light through
 //     glass): their shift needs the manifold walk of §4.2 step 2 (JM12), which is not
 //     implemented. They are counted as "shift failed: specular chain (no manifold walk)".
-//   - light at the gather point by next-event estimation and emission seen along the camera
-//     path (SPPM's "direct" part).
+//   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
+// Direct light at the gather point by next-event estimation (SPPM's) is in the gradient domain:
+// the offset gather points take the same light sample (as GPT), own visibility and BSDF, with
+// the sensor subpath's ratio in the MIS weight (the light point's area density is shared).
 //
 // Parameters (defaults; the rest as sppm.h):
 //   alpha               0.9     radius reduction (the paper's value; SPPM's default is 0.7)
@@ -79,6 +81,8 @@ class Gpm : public ProgressivePhotonMapping {
   struct GradState {
     double tau_fb[3] = {0, 0, 0};  // flux of photons kept in the primal domain (specular chains)
     double diff[4][3] = {};        // MIS-weighted flux differences per direction
+    double nee[3] = {0, 0, 0};     // sum over passes of the direct light by NEE
+    double nee_diff[4][3] = {};    // sum over passes of its MIS-weighted differences
   };
 
   void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
@@ -90,6 +94,8 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<GradState> grad_;
   std::vector<RGB> gather_fb_;
   std::vector<std::array<RGB, 4>> gather_diff_;
+  std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
+  std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
 };
 
 }  // namespace gp
