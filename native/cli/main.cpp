@@ -497,9 +497,9 @@ int main(int argc, char** argv) {
   render->add_option("--lambda", ra.lambda, "Gradient methods: weight of the primal image (default 0.2)")
       ->check(CLI::PositiveNumber);
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
-  render->add_option("--alpha", ra.alpha, "ppm/sppm/msppm: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6)");
-  render->add_option("--photons", ra.photons, "ppm/sppm/msppm: photons emitted per pass (default 100000; msppm: one per pixel)");
-  render->add_option("--radius", ra.radius, "ppm/sppm/msppm: initial gathering radius in metres (default: from the pixel footprint)");
+  render->add_option("--alpha", ra.alpha, "photon methods: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6; gpm 0.9)");
+  render->add_option("--photons", ra.photons, "photon methods: photons emitted per pass (default 100000; msppm: one per pixel)");
+  render->add_option("--radius", ra.radius, "photon methods: initial gathering radius in metres (default: from the pixel footprint)");
   render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
   render->add_option("--photon-sampler", ra.photon_sampler,

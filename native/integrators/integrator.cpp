@@ -1,6 +1,7 @@
 #include "integrators/integrator.h"
 
 #include "integrators/gradient/gdmlt.h"
+#include "integrators/gradient/gpm.h"
 #include "integrators/gradient/gpt.h"
 #include "integrators/hybrid_ppm.h"
 #include "integrators/path_tracer.h"
@@ -35,7 +36,7 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
 }
 
 std::vector<std::string> integrator_names() {
-  return {"pt", "ppm", "sppm", "sppm-adaptive", "msppm", "gpt", "gdmlt", "spt", "spt-hero", "sgpt"};
+  return {"pt", "ppm", "sppm", "sppm-adaptive", "msppm", "gpt", "gpm", "gdmlt", "spt", "spt-hero", "sgpt"};
 }
 
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
@@ -54,6 +55,7 @@ std::unique_ptr<Integrator> make_integrator(const std::string& method, const Sce
   if (method == "sppm-adaptive") return std::make_unique<Sppm>(scene, params, "adaptive");
   if (method == "msppm") return std::make_unique<HybridPpm>(scene, params);
   if (method == "gpt") return std::make_unique<GradientPathTracer>(scene, params);
+  if (method == "gpm") return std::make_unique<Gpm>(scene, params);
   if (method == "gdmlt") return std::make_unique<GradientDomainMlt>(scene, params);
   if (method == "spt" || method == "spt-hero") {
     if (mode == SpectralMode::Rgb)

@@ -13,7 +13,8 @@ PhotonTracer::PhotonTracer(const Scene& scene, int max_depth, float specular_thr
     : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads) {}
 
 int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& dst,
-                                 int64_t& invalid, PhotonPathRecord* record) const {
+                                 int64_t& invalid, PhotonPathRecord* record,
+                                 std::vector<PhotonOrigin>* origins) const {
   const LightSet& lights = scene_.light_set();
   if (lights.empty()) return 0;
   int64_t rays = 0;
@@ -27,6 +28,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
                                                           : Ray(em->o, em->d);
   const bool distant = lights.lights()[em->light].is_infinite();
   float pdf_dir_prev = em->pdf_dir;  // solid-angle density of the segment being traced
+  PhotonOrigin last;                 // the previous scattering vertex (valid from bounce 1 on)
   if (record) {
     PhotonPathVertex lv;
     lv.p = em->o;
@@ -60,6 +62,10 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       if (beta.is_finite()) {
         dst.push_back(Photon{hit->p, -ray.d, beta});
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
+        if (origins) {
+          last.n_photon = hit->ng;
+          origins->push_back(last);
+        }
       } else {
         ++invalid;
       }
@@ -85,6 +91,16 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     if (!(m_new > 0) || !(m_old > 0)) break;
     const float p_continue = std::min(1.0f, m_new / m_old);
     if (u.next() >= p_continue) break;
+    if (origins) {
+      last.p = hit->p;
+      last.ng = hit->ng;
+      last.frame = hit->frame;
+      last.wo = wo;
+      last.scale = beta / (bs->pdf * p_continue);
+      last.pdf = bs->pdf;
+      last.material = hit->material;
+      last.diffuse = bsdf.is_diffuse_for_photons(threshold_);
+    }
     beta = beta_new / p_continue;
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
   }
@@ -92,12 +108,13 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
 }
 
 PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposit_bounce,
-                                    std::vector<Photon>& out) {
+                                    std::vector<Photon>& out, std::vector<PhotonOrigin>* origins) {
   PhotonPassStats stats;
   stats.emitted = count;
   const LightSet& lights = scene_.light_set();
   const size_t n_chunks = static_cast<size_t>((count + kChunk - 1) / kChunk);
   if (chunks_.size() < n_chunks) chunks_.resize(n_chunks);
+  if (origins && chunk_origins_.size() < n_chunks) chunk_origins_.resize(n_chunks);
   std::atomic<int64_t> rays{0}, invalid{0};
   if (!lights.empty() && count > 0) {
     parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
@@ -105,10 +122,13 @@ PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposi
       for (size_t c = lo; c < hi; ++c) {
         std::vector<Photon>& dst = chunks_[c];
         dst.clear();
+        std::vector<PhotonOrigin>* dst_origin = origins ? &chunk_origins_[c] : nullptr;
+        if (dst_origin) dst_origin->clear();
         Rng rng = Rng::for_key(seed_ ^ 0x70686f746f6e73ULL, c, pass);
         const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
         RngSamples u(rng);
-        for (int64_t k = begin; k < end; ++k) local_rays += trace_path(u, min_deposit_bounce, dst, local_invalid);
+        for (int64_t k = begin; k < end; ++k)
+          local_rays += trace_path(u, min_deposit_bounce, dst, local_invalid, nullptr, dst_origin);
       }
       rays += local_rays;
       invalid += local_invalid;
@@ -118,10 +138,18 @@ PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposi
   std::vector<size_t> offset(n_chunks + 1, 0);
   for (size_t c = 0; c < n_chunks; ++c) offset[c + 1] = offset[c] + chunks_[c].size();
   out.resize(offset[n_chunks]);
+  if (origins) origins->resize(offset[n_chunks]);
   parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
-    for (size_t c = lo; c < hi; ++c) std::copy(chunks_[c].begin(), chunks_[c].end(), out.begin() + offset[c]);
+    for (size_t c = lo; c < hi; ++c) {
+      std::copy(chunks_[c].begin(), chunks_[c].end(), out.begin() + offset[c]);
+      for (size_t k = offset[c]; k < offset[c + 1]; ++k) out[k].index = static_cast<uint32_t>(k);
+      if (origins) std::copy(chunk_origins_[c].begin(), chunk_origins_[c].end(), origins->begin() + offset[c]);
+    }
   });
-  for (size_t c = 0; c < n_chunks; ++c) chunks_[c].clear();
+  for (size_t c = 0; c < n_chunks; ++c) {
+    chunks_[c].clear();
+    if (origins) chunk_origins_[c].clear();
+  }
   stats.stored = static_cast<int64_t>(out.size());
   stats.rays = rays;
   stats.invalid = invalid;

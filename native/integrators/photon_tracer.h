@@ -33,6 +33,22 @@ struct Photon {
   Vec3 p;       // where it landed
   Vec3 wi;      // unit world direction back towards where it came from
   RGB power;    // flux it carries (W), before division by the number of emitted photons
+  uint32_t index = 0;  // position in the pass's photon list (links it to its PhotonOrigin)
+};
+
+// Where a photon came from: its previous light-path vertex y_{s-1} (GPM §4.2 needs it to shift
+// the photon: the offset photon is traced from y_{s-1}, and DD endings reconnect there).
+// Recorded only when PhotonTracer::trace is given an `origins` list.
+struct PhotonOrigin {
+  Vec3 p;              // y_{s-1}
+  Vec3 ng;             // its geometric normal
+  Frame frame;         // its shading frame
+  Vec3 wo;             // local direction at y_{s-1} towards y_{s-2} (or the light)
+  RGB scale;           // power arriving at y_{s-1} / (pdf * Russian-roulette survival)
+  float pdf = 0;       // solid-angle pdf with which y_{s-1} sampled the direction to y_s
+  int material = -1;   // material at y_{s-1}
+  bool diffuse = false;  // y_{s-1} is diffuse for photon methods (a DD ending, GPM §4.2 step 2)
+  Vec3 n_photon;       // geometric normal at the photon y_s
 };
 
 // Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to
@@ -87,15 +103,18 @@ class PhotonTracer {
   PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads);
 
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
-  // memory stays flat over passes).
-  PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out);
+  // memory stays flat over passes). With `origins`, also fills origins[k] for photon k (GPM);
+  // the random streams, and so the photons, are the same either way.
+  PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out,
+                        std::vector<PhotonOrigin>* origins = nullptr);
 
   // Traces one photon path from the primary samples `u`, appending its deposits to `out`.
   // Returns the closest-hit rays traced; deposits with NaN/Inf power are dropped and counted
   // in `invalid`. Thread-safe (const).
-  // With `record`, the path's vertices and the vertex of every deposit are appended to it.
+  // With `record`, the path's vertices and the vertex of every deposit are appended to it;
+  // with `origins`, each deposit's previous scattering vertex (GPM's photon shift).
   int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid,
-                     PhotonPathRecord* record = nullptr) const;
+                     PhotonPathRecord* record = nullptr, std::vector<PhotonOrigin>* origins = nullptr) const;
 
   int max_depth() const { return max_depth_; }
   int threads() const { return threads_; }
@@ -110,6 +129,7 @@ class PhotonTracer {
   uint64_t seed_;
   int threads_;
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
+  std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
 };
 
 }  // namespace gp

@@ -27,6 +27,9 @@ enum class ShiftFailure {
   ZeroLength,               // reconnection onto the offset vertex itself / degenerate half-vector
   TotalInternalReflection,  // half-vector copy through refraction has no refracted direction
   Missed,                   // the offset ray left the scene where the base path hit a surface
+  NotReversible,            // GPM: the inverse shift of the offset does not give the base back (§4.3)
+  SpecularChain,            // GPM: light subpath ends with a specular/glossy vertex before the
+                            // photon, which needs the manifold walk (not implemented)
 };
 
 // "shift failed: occluded", ... (the Stats::extra key).

@@ -1,0 +1,554 @@
+// Gradient-domain photon density estimation (see gpm.h for the method, parameters, references).
+#include "integrators/gradient/gpm.h"
+
+#include <atomic>
+#include <chrono>
+
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "integrators/gradient/photon_shift.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+namespace {
+
+using clock_type = std::chrono::steady_clock;
+double seconds_since(clock_type::time_point t0) {
+  return std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+
+constexpr int kOffsetX[4] = {1, -1, 0, 0};
+constexpr int kOffsetY[4] = {0, 0, 1, -1};
+// Right and down offsets estimate I(offset) - I(base); left and up I(base) - I(offset), the
+// forward difference stored at the offset pixel (as gpt.cpp).
+constexpr float kSign[4] = {1, -1, 1, -1};
+constexpr int kPhotonFailureBase = 8;  // failure counters: [0, 8) sensor, [8, 16) photon shifts
+
+// Offset for a delta vertex: the same lobe from the offset's own wo (as gpt.cpp).
+std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, bool transmission) {
+  const float uc = transmission ? 1.0f - 0x1p-24f : 0.0f;
+  auto s = bsdf.sample(wo, uc, Vec2(0.5f, 0.5f));
+  if (!s || s->transmission != transmission) return std::nullopt;
+  return s;
+}
+
+}  // namespace
+
+Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
+  alpha_ = params.get<double>("alpha", 0.9);  // the paper's alpha (§5), not SPPM's 0.7
+  if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
+  const std::string recon = params.get<std::string>("recon", "l2");
+  try {
+    recon_.norm = parse_recon_norm(recon);
+  } catch (const std::invalid_argument& e) {
+    throw ParamError(std::string("parameter 'recon': ") + e.what());
+  }
+  recon_.lambda = params.get<double>("lambda", 0.2);
+  if (!(recon_.lambda > 0)) throw ParamError("parameter 'lambda' must be > 0");
+  recon_.threads = threads_;
+  const size_t n = px_.size();
+  off_.assign(n, {});
+  grad_.assign(n, GradState{});
+  gather_fb_.assign(n, RGB(0.0f));
+  gather_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
+  pass_nee_.assign(n, RGB(0.0f));
+  pass_nee_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
+}
+
+// ---- Eye pass: SPPM's camera paths (same random numbers) and their half-vector-copy offsets ----
+void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
+                       std::atomic<int64_t>& invalid_out, std::array<std::atomic<int64_t>, 16>& failures) {
+  const LightSet& lights = scene_.light_set();
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        int64_t rays = 0, invalid = 0;
+        int64_t fail_count[8] = {};
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            const size_t pixel = static_cast<size_t>(y) * width_ + x;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(x + rng.uniform(), y + rng.uniform());
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            Ray ray = scene_.camera.generate_ray(film, lens);
+            // Offsets: same sub-pixel position and lens sample one pixel over (camera Jacobian 1).
+            std::array<OffsetPoint, 4> off;
+            Ray oray[4];
+            std::optional<SurfaceHit> ohit[4];
+            auto fail = [&](int d, ShiftFailure f) {
+              off[d].failure = f;
+              ++fail_count[static_cast<int>(f)];
+            };
+            for (int d = 0; d < 4; ++d) {
+              const int px = x + kOffsetX[d], py = y + kOffsetY[d];
+              off[d].exists = px >= 0 && px < width_ && py >= 0 && py < height_;
+              off[d].beta = RGB(1.0f);
+              if (!off[d].exists) continue;
+              oray[d] = scene_.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]), lens);
+              ++rays;
+              ohit[d] = scene_.intersect(oray[d]);
+            }
+            RGB beta(1.0f), Ld(0.0f), nee_base(0.0f);
+            std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
+            VisiblePoint vp;
+            float path_length = 0;
+            for (int depth = 0; depth < max_depth_; ++depth) {
+              ++rays;
+              const auto hit = scene_.intersect(ray);
+              if (!hit) {
+                Ld += beta * lights.environment_radiance(ray.d);
+                break;
+              }
+              path_length += hit->t;
+              if (hit->light >= 0) Ld += beta * lights.area_radiance(hit->light, -ray.d);
+              const Bsdf bsdf(scene_.material(hit->material));
+              if (bsdf.is_black()) break;
+              const Vec3 wo = hit->frame.to_local(-ray.d);
+              if (wo.z == 0) break;
+              const VertexKind kind = classify_vertex(scene_.material(hit->material), threshold_);
+              // ---- Offset vertices: same kind, or the shift is not invertible (§4.3) ----
+              for (int d = 0; d < 4; ++d) {
+                if (!off[d].ok()) continue;
+                if (!ohit[d]) {
+                  fail(d, ShiftFailure::Missed);
+                  continue;
+                }
+                const Material& om = scene_.material(ohit[d]->material);
+                if (classify_vertex(om, threshold_) != kind || Bsdf(om).is_black()) {
+                  fail(d, ShiftFailure::NotInvertible);
+                  continue;
+                }
+                if (ohit[d]->frame.to_local(-oray[d].d).z == 0) fail(d, ShiftFailure::ZeroLength);
+              }
+              if (bsdf.is_diffuse_for_photons(threshold_)) {
+                // ---- Gather point. Direct light by NEE (SPPM's), shifted to the offset gather
+                // points with the same light sample (as GPT: the light point is shared, so its
+                // area density is the same on both sides and the ratio is the sensor's) ----
+                if (!lights.empty()) {
+                  const float u_light = rng.uniform();
+                  const Vec2 u2(rng.uniform(), rng.uniform());
+                  auto nee = [&](const Vec3& p, const Vec3& ng, const Frame& frame, const Bsdf& b, const Vec3& wo_l) {
+                    auto ls = lights.sample_li(p, u_light, u2);
+                    if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
+                    const Vec3 wi = frame.to_local(ls->wi);
+                    const RGB f = b.eval(wo_l, wi) * std::abs(wi.z);
+                    if (f.is_black()) return RGB(0.0f);
+                    ++rays;
+                    bool blocked;
+                    if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
+                      blocked = scene_.occluded_between(p, ng, p + ls->wi * ls->dist, lights.lights()[ls->light].n);
+                    } else {
+                      const Vec3 o = offset_ray_origin(p, ng, ls->wi);
+                      const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+                      blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
+                    }
+                    return blocked ? RGB(0.0f) : f * ls->L / ls->pdf;
+                  };
+                  const RGB c = beta * nee(hit->p, hit->ng, hit->frame, bsdf, wo);
+                  Ld += c;
+                  nee_base = c;
+                  for (int d = 0; d < 4; ++d) {
+                    if (!off[d].exists) continue;
+                    RGB c_off(0.0f);
+                    float w = 1.0f;  // failed sensor shift: offset 0, weight 1
+                    if (off[d].ok()) {
+                      const SurfaceHit& ov = *ohit[d];
+                      c_off = off[d].beta * nee(ov.p, ov.ng, ov.frame, Bsdf(scene_.material(ov.material)),
+                                                ov.frame.to_local(-oray[d].d));
+                      w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
+                    }
+                    nee_diff[d] = (c_off - c) * (w * kSign[d]);
+                  }
+                }
+                vp.p = hit->p;
+                vp.frame = hit->frame;
+                vp.wo = wo;
+                vp.beta = beta;
+                vp.material = hit->material;
+                for (int d = 0; d < 4; ++d) {
+                  if (!off[d].ok()) continue;
+                  off[d].p = ohit[d]->p;
+                  off[d].ng = ohit[d]->ng;
+                  off[d].frame = ohit[d]->frame;
+                  off[d].wo = ohit[d]->frame.to_local(-oray[d].d);
+                  off[d].material = ohit[d]->material;
+                }
+                break;
+              }
+              // ---- Specular or glossy vertex: BSDF sampling, offsets by half-vector copy (§4.1) ----
+              const float uc = rng.uniform();
+              const Vec2 u(rng.uniform(), rng.uniform());
+              const auto bs = bsdf.sample(wo, uc, u);
+              if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+              for (int d = 0; d < 4; ++d) {
+                OffsetPoint& o = off[d];
+                if (!o.ok()) continue;
+                const SurfaceHit& ov = *ohit[d];
+                const Material& om = scene_.material(ov.material);
+                const Bsdf ob(om);
+                const Vec3 owo = ov.frame.to_local(-oray[d].d);
+                Vec3 wi_l;
+                float pdf;
+                RGB f_cos;
+                double jac = 1.0;
+                if (bs->delta) {
+                  const auto os = sample_same_lobe(ob, owo, bs->transmission);
+                  if (!os) {
+                    fail(d, bs->transmission ? ShiftFailure::TotalInternalReflection : ShiftFailure::NotInvertible);
+                    continue;
+                  }
+                  wi_l = os->wi;
+                  pdf = os->pdf;
+                  f_cos = os->f * std::abs(wi_l.z);
+                } else {
+                  const DirectionShift hs = shift_half_vector(om, wo, bs->wi, owo);
+                  if (!hs.ok()) {
+                    fail(d, hs.failure);
+                    continue;
+                  }
+                  wi_l = hs.wi;
+                  jac = hs.jacobian;
+                  pdf = ob.pdf(owo, wi_l);
+                  f_cos = ob.eval(owo, wi_l) * std::abs(wi_l.z);
+                }
+                // Solid-angle form of eq. 4: with f and p in the area measure, the G and cosine
+                // factors of eq. 4 cancel against theirs, leaving f' cos' J_omega / p.
+                o.beta *= f_cos * static_cast<float>(jac / bs->pdf);
+                o.ratio *= pdf * jac / bs->pdf;
+                const Vec3 wi_w = ov.frame.to_world(wi_l);
+                oray[d] = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
+                ++rays;
+                ohit[d] = scene_.intersect(oray[d]);
+              }
+              beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+              const Vec3 wi = hit->frame.to_world(bs->wi);
+              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              // Russian roulette exactly as SPPM's russian_roulette(), shared by the offsets.
+              if (depth + 1 >= rr_depth_) {
+                const float q = std::max(0.05f, 1.0f - beta.max_component());
+                if (rng.uniform() < q) break;
+                beta = beta / (1.0f - q);
+                for (OffsetPoint& o : off) o.beta = o.beta / (1.0f - q);
+              }
+            }
+            bool nee_finite = nee_base.is_finite();
+            for (const RGB& g : nee_diff) nee_finite = nee_finite && g.is_finite();
+            if (!Ld.is_finite() || !nee_finite) {
+              ++invalid;
+              Ld = nee_base = RGB(0.0f);
+              for (RGB& g : nee_diff) g = RGB(0.0f);
+            }
+            pass_nee_[pixel] = nee_base;
+            pass_nee_diff_[pixel] = nee_diff;
+            if (vp.material >= 0 && !vp.beta.is_finite()) {
+              ++invalid;
+              vp.material = -1;
+            }
+            for (int d = 0; d < 4; ++d) {
+              OffsetPoint& o = off[d];
+              if (vp.material < 0) o.failure = ShiftFailure::Missed;  // no base gather point: unused
+              else if (o.ok() && o.material < 0) fail(d, ShiftFailure::Missed);  // ended with the base
+              else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) fail(d, ShiftFailure::ZeroLength);
+            }
+            pass_direct_[pixel] = Ld;
+            vp_[pixel] = vp;
+            off_[pixel] = off;
+            first_r_[pixel] = vp.material >= 0 ? 2.0f * pixel_spread_ * path_length : 0.0f;
+          }
+        rays_out += rays;
+        invalid_out += invalid;
+        for (int k = 0; k < 8; ++k) failures[k] += fail_count[k];
+      },
+      [sink] { return sink && sink->cancelled(); });
+}
+
+void Gpm::iterate(ProgressSink* sink) {
+  const auto start = clock_type::now();
+  const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  const size_t n_pixels = px_.size();
+  std::atomic<int64_t> rays{0}, invalid{0}, shift_rays{0}, shifts{0};
+  std::array<std::atomic<int64_t>, 16> failures;
+  for (auto& f : failures) f = 0;
+
+  // ---- Gather points and their offsets ----
+  const auto t_eye = clock_type::now();
+  gpm_eye_pass(pass, sink, rays, invalid, failures);
+  if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
+  const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
+  for (size_t i = 0; i < n_pixels; ++i)
+    if (px_[i].r2 == 0 && vp_[i].material >= 0) {
+      const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
+      px_[i].r2 = r * r;
+    }
+  stats_.extra["eye seconds"] += seconds_since(t_eye);
+
+  // ---- Photon pass (SPPM's, with each photon's previous vertex) ----
+  const auto t_trace = clock_type::now();
+  const PhotonPassStats ps = tracer_.trace(photons_per_pass_, pass, 1, photons_, &origins_);
+  stats_.extra["trace seconds"] += seconds_since(t_trace);
+  if (sink && sink->cancelled()) return;
+
+  // ---- Gather at base points; shift every photon to the four offset gather points ----
+  const auto t_lookup = clock_type::now();
+  double max_r2 = 0;
+  for (size_t i = 0; i < n_pixels; ++i)
+    if (vp_[i].material >= 0) max_r2 = std::max(max_r2, px_[i].r2);
+  const float max_r = static_cast<float>(std::sqrt(max_r2));
+  const bool have_photons = !photons_.empty() && max_r > 0;
+  if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    int64_t local_rays = 0, local_shifts = 0;
+    int64_t fail_count[8] = {};
+    for (size_t i = lo; i < hi; ++i) {
+      gather_m_[i] = 0;
+      gather_lap_[i] = 0;
+      gather_phi_[i] = RGB(0.0f);
+      gather_fb_[i] = RGB(0.0f);
+      for (RGB& g : gather_diff_[i]) g = RGB(0.0f);
+      const VisiblePoint& vp = vp_[i];
+      if (!have_photons || vp.material < 0) continue;
+      const Bsdf bsdf(scene_.material(vp.material));
+      const float R = static_cast<float>(std::sqrt(px_[i].r2));
+      const auto& off = off_[i];
+      double m = 0, lap = 0;
+      RGB phi(0.0f), phi_fb(0.0f);
+      std::array<RGB, 4> diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
+      grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
+        const Vec3 wi = vp.frame.to_local(ph.wi);
+        if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
+        m += weight;
+        const RGB c = vp.beta * bsdf.eval(vp.wo, wi) * ph.power * weight;  // thesis eq. 7.4
+        phi += c;
+        lap += c.luminance() * error_kernel::laplacian(d2, R);
+        const PhotonOrigin& org = origins_[ph.index];
+        if (!org.diffuse) {  // needs the manifold walk: primal domain only (gpm.h)
+          phi_fb += c;
+          ++fail_count[static_cast<int>(ShiftFailure::SpecularChain)];
+          return;
+        }
+        const Bsdf prev_bsdf(scene_.material(org.material));
+        const Vec3 wo_prev = org.frame.to_world(org.wo);
+        const Vec3 to_base = ph.p - org.p;
+        const double d2_base = length_squared(to_base);
+        const double cos_base = std::abs(dot(org.n_photon, to_base)) / std::sqrt(d2_base);
+        for (int d = 0; d < 4; ++d) {
+          const OffsetPoint& o = off[d];
+          if (!o.exists) continue;
+          RGB c_off(0.0f);
+          float w = 1.0f;  // failed or non-reversible shift: this side alone samples the pair
+          auto fail = [&](ShiftFailure f) { ++fail_count[static_cast<int>(f)]; };
+          if (o.ok()) {
+            ++local_shifts;
+            // ---- Step 1: candidate offset photon (eq. 5), traced from y_{s-1} ----
+            const Vec3 y_star = photon_offset_candidate(vp.p, vp.frame, o.p, o.frame, ph.p);
+            const Vec3 dir_star = y_star - org.p;
+            const float len_star = length(dir_star);
+            if (!(len_star > 0)) {
+              fail(ShiftFailure::ZeroLength);
+            } else {
+              const Vec3 wi_prev = dir_star / len_star;  // outgoing at y_{s-1}, world
+              ++local_rays;
+              const auto yh = scene_.intersect(Ray(offset_ray_origin(org.p, org.ng, wi_prev), wi_prev));
+              if (!yh) {
+                fail(ShiftFailure::Missed);
+              } else if (!Bsdf(scene_.material(yh->material)).is_diffuse_for_photons(threshold_)) {
+                fail(ShiftFailure::NotInvertible);  // a photon could not be stored there
+              } else {
+                const double jac = photon_shift_jacobian(org.p, y_star, o.ng, yh->p, yh->ng);  // eq. 6
+                // ---- Reversibility (§4.3): the inverse shift must give y_s back ----
+                bool reversible = true;
+                const float tol = 1e-3f * R;
+                if (length_squared(yh->p - y_star) > tol * tol) {
+                  const Vec3 y_back = photon_offset_candidate(o.p, o.frame, vp.p, vp.frame, yh->p);
+                  const Vec3 db = y_back - org.p;
+                  const float lb = length(db);
+                  if (!(lb > 0)) {
+                    reversible = false;
+                  } else {
+                    ++local_rays;
+                    const auto bh = scene_.intersect(Ray(offset_ray_origin(org.p, org.ng, db / lb), db / lb));
+                    reversible = bh && length_squared(bh->p - ph.p) <= tol * tol;
+                  }
+                }
+                // ---- Step 2, DD ending: reconnect y'_s to y_{s-1} (its BSDF re-evaluated) ----
+                const Vec3 wi_l = org.frame.to_local(wi_prev);
+                const Vec3 wi_gather = o.frame.to_local(-wi_prev);
+                if (!reversible) {
+                  fail(ShiftFailure::NotReversible);
+                } else if (length_squared(yh->p - o.p) <= R * R && same_hemisphere(o.wo, wi_gather) && jac > 0) {
+                  const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
+                  // Shading-normal correction of the adjoint BSDF, as the photon tracer's.
+                  const float denom = std::abs(dot(wo_prev, org.ng)) * std::abs(dot(wi_prev, org.frame.n));
+                  const float corr =
+                      denom > 0 ? std::abs(dot(wo_prev, org.frame.n)) * std::abs(dot(wi_prev, org.ng)) / denom : 0.0f;
+                  // f(y')|J|/p(y): only the last segment differs. In the area measure its
+                  // factor is f_s(wi') cos(wi') [cos(y'_s)/d'^2] |J| / (pdf [cos(y_s)/d_s^2]),
+                  // with |J| of eq. 6: the density of reaching y_s from y_{s-1} stays the base's.
+                  const Vec3 to_off = yh->p - org.p;
+                  const double d2_off = length_squared(to_off);
+                  const double area_off = std::abs(dot(yh->ng, to_off)) / (std::sqrt(d2_off) * d2_off);
+                  const double area_base = cos_base / d2_base;
+                  const double area_factor = area_base > 0 ? jac * area_off / area_base : 0.0;
+                  const RGB power_off = org.scale * f_prev * (std::abs(wi_l.z) * corr * static_cast<float>(area_factor));
+                  // The base path's kernel (same radius) around the offset gather point.
+                  const Bsdf ob(scene_.material(o.material));
+                  c_off = o.beta * ob.eval(o.wo, wi_gather) * power_off * weight;
+                  // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
+                  // Light subpath: only the last segment differs; in the area measure
+                  // p(y'_s)|J| / p(y_s) = pdf' (cos*/d*^2) / (pdf cos_s/d_s^2) by eq. 6.
+                  const double pdf_off = prev_bsdf.pdf(org.wo, wi_l);
+                  const double cos_star = std::abs(dot(o.ng, wi_prev));
+                  const double ratio_y = (org.pdf > 0 && cos_base > 0)
+                                             ? (pdf_off * cos_star / (double(len_star) * len_star)) /
+                                                   (org.pdf * cos_base / d2_base)
+                                             : 0.0;
+                  const double ratio = o.ratio * ratio_y;
+                  if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));
+                  else c_off = RGB(0.0f);
+                }
+                // else: the offset path lies outside the kernel (or behind the gather point):
+                // it contributes 0 and, not being a photon of the neighbour's own gather, it
+                // cannot be sampled from that side, so this side's weight is 1.
+              }
+            }
+          }
+          diff[d] += (c_off - c) * (w * kSign[d]);
+        }
+      });
+      gather_m_[i] = static_cast<float>(m);
+      gather_lap_[i] = static_cast<float>(lap);
+      gather_phi_[i] = phi;
+      gather_fb_[i] = phi_fb;
+      gather_diff_[i] = diff;
+    }
+    shift_rays += local_rays;
+    shifts += local_shifts;
+    for (int k = 0; k < 8; ++k) failures[kPhotonFailureBase + k] += fail_count[k];
+  });
+  stats_.extra["lookup seconds"] += seconds_since(t_lookup);
+
+  // ---- Update: one radius reduction for the base flux and the differences (§4.3) ----
+  const auto t_update = clock_type::now();
+  emitted_total_ += ps.emitted;
+  const double ne_pass = static_cast<double>(ps.emitted);
+  const double ne_total = static_cast<double>(emitted_total_);
+  std::atomic<int64_t> invalid_phi{0};
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    int64_t bad = 0;
+    for (size_t i = lo; i < hi; ++i) {
+      PixelState& s = px_[i];
+      GradState& g = grad_[i];
+      RGB phi = gather_phi_[i], phi_fb = gather_fb_[i];
+      std::array<RGB, 4> diff = gather_diff_[i];
+      double lap_j = gather_lap_[i];
+      bool finite = phi.is_finite() && phi_fb.is_finite() && std::isfinite(lap_j);
+      for (const RGB& dd : diff) finite = finite && dd.is_finite();
+      if (!finite) {  // discard and count: NaN/Inf never reaches a pass
+        ++bad;
+        phi = phi_fb = RGB(0.0f);
+        for (RGB& dd : diff) dd = RGB(0.0f);
+        lap_j = 0;
+      }
+      const RGB Ld = pass_direct_[i];
+      const double r2_query = s.r2;
+      const PhotonStatsUpdate u = progressive_update(s.n, s.r2, gather_m_[i], alpha_);
+      for (int c = 0; c < 3; ++c) {
+        s.tau[c] = (s.tau[c] + phi[c]) * u.ratio;          // thesis eq. 7.5
+        g.tau_fb[c] = (g.tau_fb[c] + phi_fb[c]) * u.ratio;  // same reduction (GPM §4.3)
+        for (int d = 0; d < 4; ++d) {
+          g.diff[d][c] = (g.diff[d][c] + diff[d][c]) * u.ratio;
+          g.nee_diff[d][c] += pass_nee_diff_[i][d][c];  // per-pass averages, as the direct light
+        }
+        g.nee[c] += pass_nee_[i][c];
+        s.direct[c] += Ld[c];
+      }
+      s.lap = (s.lap + lap_j) * u.ratio;
+      s.n = u.n_new;
+      s.r2 = u.r2_new;
+      double x = Ld.luminance();
+      if (r2_query > 0) {
+        const double lap_L = s.r2 > 0 ? s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+        x += phi.luminance() / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
+      }
+      s.err.add(x);
+    }
+    invalid_phi += bad;
+  });
+  stats_.passes += 1;
+  update_error_estimate();
+  stats_.extra["update seconds"] += seconds_since(t_update);
+
+  // ---- Statistics ----
+  double sum_r = 0, n_r = 0;
+  for (const PixelState& s : px_)
+    if (s.r2 > 0) { sum_r += std::sqrt(s.r2); n_r += 1; }
+  stats_.rays += rays + ps.rays + shift_rays;
+  stats_.paths += ps.emitted;
+  stats_.invalid_samples += invalid + invalid_phi + ps.invalid;
+  stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
+  stats_.extra["photons stored"] += static_cast<double>(ps.stored);
+  stats_.extra["photon rays"] += static_cast<double>(ps.rays);
+  stats_.extra["photon shifts"] += static_cast<double>(shifts);
+  stats_.extra["photon shift rays"] += static_cast<double>(shift_rays);
+  for (int k = 1; k < 8; ++k) {
+    const std::string reason(failure_stat_name(static_cast<ShiftFailure>(k)));
+    if (failures[k] > 0) stats_.extra["sensor " + reason] += static_cast<double>(failures[k]);
+    if (failures[kPhotonFailureBase + k] > 0) stats_.extra[reason] += static_cast<double>(failures[kPhotonFailureBase + k]);
+  }
+  stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
+  stats_.extra["estimated error"] = estimated_error_;
+  stats_.seconds += seconds_since(start);
+}
+
+void Gpm::develop(Film& film) const {
+  ProgressivePhotonMapping::develop(film);  // combined (SPPM's, overwritten below), error, radius, count
+  const size_t n = px_.size();
+  const double passes = static_cast<double>(stats_.passes);
+  const double ne = static_cast<double>(emitted_total_);
+  // Per pixel: I_grad (photons shifted in the gradient domain), I_fb (primal-domain part:
+  // specular-chain photons, NEE and emission) and the per-direction difference estimates.
+  std::vector<double> grad_part(3 * n, 0.0), fb(3 * n, 0.0), gx(3 * n, 0.0), gy(3 * n, 0.0);
+  std::vector<double> k(n, 0.0);  // 1 / (N_e pi r^2): thesis eq. 7.1
+  for (size_t i = 0; i < n; ++i) {
+    if (px_[i].r2 > 0 && ne > 0) k[i] = 1.0 / (ne * M_PI * px_[i].r2);
+    for (int c = 0; c < 3; ++c) {
+      const double photons = px_[i].tau[c] * k[i], photons_fb = grad_[i].tau_fb[c] * k[i];
+      const double direct = passes > 0 ? px_[i].direct[c] / passes : 0.0;
+      const double nee = passes > 0 ? grad_[i].nee[c] / passes : 0.0;
+      grad_part[3 * i + c] = photons - photons_fb + nee;
+      fb[3 * i + c] = photons_fb + (direct - nee);
+    }
+  }
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      for (int c = 0; c < 3; ++c) {
+        // Each difference from both of its pixels; their MIS weights (eq. 11) sum to one.
+        const double inv_passes = passes > 0 ? 1.0 / passes : 0.0;
+        if (x + 1 < width_)
+          gx[3 * i + c] = grad_[i].diff[kRight][c] * k[i] + grad_[i + 1].diff[kLeft][c] * k[i + 1] +
+                          (grad_[i].nee_diff[kRight][c] + grad_[i + 1].nee_diff[kLeft][c]) * inv_passes;
+        if (y + 1 < height_) {
+          const size_t j = i + width_;
+          gy[3 * i + c] = grad_[i].diff[kDown][c] * k[i] + grad_[j].diff[kUp][c] * k[j] +
+                          (grad_[i].nee_diff[kDown][c] + grad_[j].nee_diff[kUp][c]) * inv_passes;
+        }
+      }
+    }
+  const std::vector<double> rec = screened_poisson(grad_part, gx, gy, width_, height_, 3, recon_);  // eq. 3
+  std::vector<double> dx, dy;
+  forward_differences(fb, width_, height_, 3, &dx, &dy);
+  Pass& comb = film.add_pass(pass::kCombined, 3);
+  Pass& prim = film.add_pass(pass::kPrimal, 3);
+  Pass& px = film.add_pass(pass::kGradientX, 3);
+  Pass& py = film.add_pass(pass::kGradientY, 3);
+  for (size_t q = 0; q < 3 * n; ++q) {
+    comb.data[q] = static_cast<float>(rec[q] + fb[q]);
+    prim.data[q] = static_cast<float>(grad_part[q] + fb[q]);
+    px.data[q] = static_cast<float>(gx[q] + dx[q]);
+    py.data[q] = static_cast<float>(gy[q] + dy[q]);
+  }
+}
+
+}  // namespace gp

@@ -1,0 +1,101 @@
+// Gradient-domain photon density estimation (GPM): Hua, Gruson, Nowrouzezahrai, Hachisuka,
+// "Gradient-Domain Photon Density Estimation" (Eurographics 2017), §4, built on SPPM (sppm.h).
+//
+// Every pass: (1) one camera path per pixel to its gather point z_t (as SPPM, the same random
+// numbers, so the primal image is SPPM's), shifted to the four neighbouring pixels by half-vector
+// copy (§4.1, shift.h; the offsets keep the base's sub-pixel position and lens sample); (2) one
+// SPPM photon pass, each photon remembering its previous vertex y_{s-1} (PhotonOrigin);
+// (3) each base gather point gathers its photons y_s within its radius (density estimation only
+// at base gather points, §4.3) and, for each photon and each neighbour, builds the offset path:
+//   - the offset photon: candidate y*_s of eq. 5 in the gather points' tangent frames, traced
+//     from y_{s-1}: y'_s = trace(y_{s-1} -> y*_s), Jacobian eq. 6 (photon_shift.h);
+//   - DD endings (y_{s-1} diffuse): y'_s is reconnected to y_{s-1} directly (§4.2 step 2),
+//     whose BSDF is re-evaluated for the new outgoing direction; the Jacobian is eq. 6 alone;
+//   - the offset path contributes with the base's kernel K = 1/(pi r^2) when y'_s lies within r
+//     of the offset gather point z'_t, else 0;
+//   - reversibility (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t, traced from
+//     y_{s-1}) must land on y_s; otherwise the pair is kept with MIS weight 1;
+//   - MIS between the two pixels of each difference by the balance heuristic of eq. 11,
+//     w = 1 / (1 + p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z))); a failed shift gives offset 0, weight 1.
+// Base flux, the four MIS-weighted flux differences and the photon count of a pixel share one
+// radius reduction (thesis eq. 7.2-7.5; GPM §4.3).
+//
+// What is not shifted, and stays in the primal domain (kept apart, added after the screened
+// Poisson reconstruction, so it is estimated exactly as SPPM estimates it and neither biases the
+// gradients nor is biased by them; the gradient passes include its finite differences):
+//   - photons whose previous vertex y_{s-1} is specular or glossy (caustics, light through
+//     glass): their shift needs the manifold walk of §4.2 step 2 (JM12), which is not
+//     implemented. They are counted as "shift failed: specular chain (no manifold walk)".
+//   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
+// Direct light at the gather point by next-event estimation (SPPM's) is in the gradient domain:
+// the offset gather points take the same light sample (as GPT), own visibility and BSDF, with
+// the sensor subpath's ratio in the MIS weight (the light point's area density is shared).
+//
+// Parameters (defaults; the rest as sppm.h):
+//   alpha               0.9     radius reduction (the paper's value; SPPM's default is 0.7)
+//   photons             100000  photons per pass (the paper uses 1 M; SPPM's default is kept so
+//                               that passes stay short: pass --photons 1000000 for the paper's)
+//   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
+//   recon               "l2"    screened Poisson reconstruction: l2 or l1 (eq. 3)
+//   lambda              0.2     weight of the primal image in eq. 3
+//
+// Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image), gradient_x,
+// gradient_y (forward differences describing the primal pass: L2 reconstruction of primal and
+// gradients gives combined back), error, radius, photon_count (as SPPM).
+// Statistics: Stats::extra counts sensor ("sensor shift failed: ...") and photon ("shift
+// failed: ...") shift failures by reason, and "photon shifts" attempted.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "integrators/gradient/shift.h"
+#include "integrators/progressive_photon.h"
+#include "reconstruction/poisson.h"
+
+namespace gp {
+
+class Gpm : public ProgressivePhotonMapping {
+ public:
+  Gpm(const Scene& scene, const Params& params);
+  std::string name() const override { return "gpm"; }
+  void iterate(ProgressSink* sink) override;
+  void develop(Film& film) const override;
+
+  // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
+  enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
+
+ private:
+  // The offset gather point z'_t of one neighbour, from the half-vector copy of the eye path.
+  struct OffsetPoint {
+    bool exists = false;  // the neighbour is inside the image
+    ShiftFailure failure = ShiftFailure::None;
+    Vec3 p, ng;
+    Frame frame;
+    Vec3 wo;              // local
+    RGB beta;             // f(T z) |T'(z)| / p(z): throughput in the base's measure (eq. 4)
+    double ratio = 1;     // p(T z) |T'(z)| / p(z), for eq. 11
+    int material = -1;
+    bool ok() const { return exists && failure == ShiftFailure::None; }
+  };
+  struct GradState {
+    double tau_fb[3] = {0, 0, 0};  // flux of photons kept in the primal domain (specular chains)
+    double diff[4][3] = {};        // MIS-weighted flux differences per direction
+    double nee[3] = {0, 0, 0};     // sum over passes of the direct light by NEE
+    double nee_diff[4][3] = {};    // sum over passes of its MIS-weighted differences
+  };
+
+  void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
+                    std::array<std::atomic<int64_t>, 16>& failures);
+
+  ReconOptions recon_;
+  std::vector<std::array<OffsetPoint, 4>> off_;
+  std::vector<PhotonOrigin> origins_;
+  std::vector<GradState> grad_;
+  std::vector<RGB> gather_fb_;
+  std::vector<std::array<RGB, 4>> gather_diff_;
+  std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
+  std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
+};
+
+}  // namespace gp
