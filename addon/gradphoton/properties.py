@@ -9,18 +9,15 @@ from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, P
 
 from . import native
 
-# Readable labels for method names the core may offer; unknown names show as themselves.
+# Readable labels for the core's method names (_native.methods()); an unknown name shows as itself.
 METHOD_LABELS = {
     "pt": ("Path Tracing", "Unidirectional path tracing with next-event estimation and MIS (reference)"),
     "ppm": ("Progressive Photon Mapping", "Hachisuka et al. 2008 (thesis ch. 5)"),
     "sppm": ("Stochastic PPM", "Stochastic progressive photon mapping (thesis ch. 7)"),
-    "appm": ("Adaptive Photon Tracing", "Adaptive MCMC photon tracing (thesis ch. 8)"),
     "sppm-adaptive": ("SPPM, Adaptive Photons", "SPPM with adaptive MCMC photon tracing on path visibility (thesis ch. 8)"),
     "msppm": ("Multisampled PPM", "MIS of path tracing and SPPM (thesis ch. 9)"),
-    "hybrid_ppm": ("Multisampled PPM", "MIS of path tracing and SPPM (thesis ch. 9)"),
     "gpt": ("Gradient-Domain PT", "Gradient-domain path tracing (KMA15)"),
     "gpm": ("Gradient-Domain Photons", "Gradient-domain photon density estimation"),
-    "spectral": ("Spectral PT", "Spectral path tracing with hero wavelengths"),
     "spt": ("Spectral PT (1 wavelength)", "Spectral path tracing, one wavelength per path, Cauchy dispersion"),
     "spt-hero": ("Spectral PT (hero)", "Spectral path tracing with hero wavelengths (4 per path), Cauchy dispersion"),
     "sgpt": ("Spectral Gradient PT", "Spectral gradient sampling with 1D Poisson reconstruction (Petitjean et al. 2018)"),
@@ -54,7 +51,7 @@ METHOD_PARAMS = {
 }
 
 # Which parameter groups the panel shows for a method (the core reads only its own).
-PHOTON_METHODS = {"ppm", "sppm", "sppm-adaptive", "gpm", "appm", "msppm"}
+PHOTON_METHODS = {"ppm", "sppm", "sppm-adaptive", "gpm", "msppm"}
 GRADIENT_METHODS = {"gpt", "gpm", "gdmlt"}
 
 

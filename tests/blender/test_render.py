@@ -172,3 +172,11 @@ def test_cancel_returns_fast_and_keeps_the_image(empty_scene, out_dir):
         assert img.mean() > 0.01  # the image so far is kept
     finally:
         bpy.utils.unregister_class(_CancelAfter)
+
+
+def test_every_core_method_has_a_label():
+    """The method menu reads the core's list; each name gets a readable label (no stale ones)."""
+    from gradphoton import properties
+    core = set(native.get().methods())
+    assert set(properties.METHOD_LABELS) == core
+    assert properties.PHOTON_METHODS <= core and properties.GRADIENT_METHODS <= core
