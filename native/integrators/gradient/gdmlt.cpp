@@ -1,6 +1,7 @@
 // Gradient-domain Metropolis light transport in primary sample space (see gdmlt.h for the method,
 // parameters and references).
 #include "integrators/gradient/gdmlt.h"
+#include "integrators/gradient/gradient_passes.h"
 
 #include <algorithm>
 #include <atomic>
@@ -288,22 +289,8 @@ void GradientDomainMlt::develop(Film& film) const {
     gx[k] = gx_[k] * scale;
     gy[k] = gy_[k] * scale;
   }
-  const std::vector<double> rec = screened_poisson(primal, gx, gy, width_, height_, 3, recon_);
-  // As gpt: the gradient passes include the direct light's differences so that they describe
-  // the primal pass.
-  std::vector<double> dx, dy;
-  forward_differences(direct, width_, height_, 3, &dx, &dy);
-  Pass& comb = film.add_pass(pass::kCombined, 3);
-  Pass& prim = film.add_pass(pass::kPrimal, 3);
-  Pass& px = film.add_pass(pass::kGradientX, 3);
-  Pass& py = film.add_pass(pass::kGradientY, 3);
+  develop_gradient_passes(film, primal, gx, gy, direct, width_, height_, recon_);
   Pass& dens = film.add_pass(pass::kSampleDensity, 1);
-  for (size_t k = 0; k < 3 * n; ++k) {
-    comb.data[k] = static_cast<float>(rec[k] + direct[k]);
-    prim.data[k] = static_cast<float>(primal[k] + direct[k]);
-    px.data[k] = static_cast<float>(gx[k] + dx[k]);
-    py.data[k] = static_cast<float>(gy[k] + dy[k]);
-  }
   for (size_t i = 0; i < n; ++i) dens.data[i] = static_cast<float>(density_[i]);
 }
 

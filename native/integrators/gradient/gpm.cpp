@@ -1,5 +1,6 @@
 // Gradient-domain photon density estimation (see gpm.h for the method, parameters, references).
 #include "integrators/gradient/gpm.h"
+#include "integrators/gradient/gradient_passes.h"
 
 #include <atomic>
 #include <chrono>
@@ -536,19 +537,7 @@ void Gpm::develop(Film& film) const {
         }
       }
     }
-  const std::vector<double> rec = screened_poisson(grad_part, gx, gy, width_, height_, 3, recon_);  // eq. 3
-  std::vector<double> dx, dy;
-  forward_differences(fb, width_, height_, 3, &dx, &dy);
-  Pass& comb = film.add_pass(pass::kCombined, 3);
-  Pass& prim = film.add_pass(pass::kPrimal, 3);
-  Pass& px = film.add_pass(pass::kGradientX, 3);
-  Pass& py = film.add_pass(pass::kGradientY, 3);
-  for (size_t q = 0; q < 3 * n; ++q) {
-    comb.data[q] = static_cast<float>(rec[q] + fb[q]);
-    prim.data[q] = static_cast<float>(grad_part[q] + fb[q]);
-    px.data[q] = static_cast<float>(gx[q] + dx[q]);
-    py.data[q] = static_cast<float>(gy[q] + dy[q]);
-  }
+  develop_gradient_passes(film, grad_part, gx, gy, fb, width_, height_, recon_);
 }
 
 }  // namespace gp

@@ -1,5 +1,6 @@
 // Gradient-domain path tracing (see gpt.h for the method, parameters and references).
 #include "integrators/gradient/gpt.h"
+#include "integrators/gradient/gradient_passes.h"
 
 #include <chrono>
 #include <mutex>
@@ -461,22 +462,7 @@ void GradientPathTracer::develop(Film& film) const {
         }
       }
     }
-  const std::vector<double> rec = screened_poisson(primal, gx, gy, width_, height_, 3, recon_);
-  // The gradient passes describe the whole primal pass: the direct light's forward differences
-  // are added, so `gradphoton reconstruct` of this film's primal and gradients gives `combined`
-  // back (exactly for L2, which is linear and reproduces consistent data).
-  std::vector<double> dx, dy;
-  forward_differences(direct, width_, height_, 3, &dx, &dy);
-  Pass& comb = film.add_pass(pass::kCombined, 3);
-  Pass& prim = film.add_pass(pass::kPrimal, 3);
-  Pass& px = film.add_pass(pass::kGradientX, 3);
-  Pass& py = film.add_pass(pass::kGradientY, 3);
-  for (size_t k = 0; k < 3 * n; ++k) {
-    comb.data[k] = static_cast<float>(rec[k] + direct[k]);
-    prim.data[k] = static_cast<float>(primal[k] + direct[k]);
-    px.data[k] = static_cast<float>(gx[k] + dx[k]);
-    py.data[k] = static_cast<float>(gy[k] + dy[k]);
-  }
+  develop_gradient_passes(film, primal, gx, gy, direct, width_, height_, recon_);
 }
 
 }  // namespace gp

@@ -1,0 +1,21 @@
+// Develop step shared by the gradient-domain methods (gpt, gpm, gdmlt): reconstruct the
+// gradient-domain part by screened Poisson (eq. 3), add the part kept out of the gradients
+// (emission seen directly or through delta vertices, photons of specular chains: exact in the
+// primal, huge and sparse in the gradients), and write combined, primal, gradient_x and
+// gradient_y. The gradient passes include the kept-out part's own forward differences, so the
+// written primal and gradients reconstruct to `combined` (exactly for L2, which is linear).
+#pragma once
+
+#include <vector>
+
+#include "core/film.h"
+#include "reconstruction/poisson.h"
+
+namespace gp {
+
+// All arrays are width * height * 3, row-major, row 0 at the top.
+void develop_gradient_passes(Film& film, const std::vector<double>& primal, const std::vector<double>& gx,
+                             const std::vector<double>& gy, const std::vector<double>& kept_out, int width,
+                             int height, const ReconOptions& recon);
+
+}  // namespace gp
