@@ -48,6 +48,7 @@ METHOD_PARAMS = {
     "hash": "photon_hash",
     "lambda": "poisson_lambda",
     "recon": "reconstruction",
+    "spectral": "spectral_mode",
 }
 
 # Which parameter groups the panel shows for a method (the core reads only its own).
@@ -87,6 +88,12 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
     reconstruction: EnumProperty(name="Reconstruction", default="l2",
                                  items=[("l2", "L2", "Screened Poisson, least squares"),
                                         ("l1", "L1", "Screened Poisson, L1 by iteratively reweighted least squares")])
+    spectral_mode: EnumProperty(
+        name="Spectral", default="auto",
+        items=[("auto", "Auto", "Spectral rendering only when a material disperses (Abbe number or Cauchy B)"),
+               ("rgb", "RGB", "Always RGB (dispersion ignored)"),
+               ("spectral", "Spectral", "Always spectral (path tracing runs with hero wavelengths)")],
+        description="Spectral mode of the core (--spectral)")
     export_uvs: BoolProperty(name="Export UVs", default=False,
                              description="Export UV maps (splits vertices at UV seams; no material uses UVs yet)")
 

@@ -47,6 +47,7 @@ class GRADPHOTON_PT_method(GradphotonPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         s = context.scene.gradphoton
         layout.prop(s, "max_depth")
+        layout.prop(s, "spectral_mode")
         if s.method in PHOTON_METHODS:
             col = layout.column(heading="Photons")
             col.prop(s, "photons_per_pass")

@@ -115,6 +115,7 @@ class Session {
     return d;
   }
   const std::vector<std::string>& unused() const { return unused_; }
+  std::string method() const { return integrator_->name(); }
   double estimated_error() const { return integrator_->estimated_error(); }
 
  private:
@@ -359,6 +360,8 @@ PYBIND11_MODULE(_native, m) {
       .def("write_exr", &Session::write_exr_file, py::arg("path"))
       .def_property_readonly("stats", &Session::stats)
       .def_property_readonly("unused_params", &Session::unused)
+      .def_property_readonly("method", &Session::method,
+                             "The method that runs (pt becomes spt-hero in spectral mode)")
       .def_property_readonly("estimated_error", &Session::estimated_error,
                              "Current estimated relative error, or < 0 when the method has none");
 }

@@ -203,3 +203,21 @@ def test_render_border_crops_the_same_pixels(empty_scene, out_dir):
     y0, y1 = int(0.2 * 30), int(0.6 * 30)  # from the bottom in Blender; EXR rows run from the top
     assert crop.shape == (y1 - y0, x1 - x0, 3)
     np.testing.assert_array_equal(crop, full[30 - y1:30 - y0, x0:x1])
+
+
+def test_spectral_mode_reaches_the_core(empty_scene):
+    """The render panel's spectral mode is the core's `spectral` parameter: forcing it turns
+    path tracing spectral (the session then runs spt-hero, which the core says by its name)."""
+    from gradphoton import session as sess
+    small_scene(empty_scene)
+    empty_scene.gradphoton.spectral_mode = 'spectral'
+    params = sess.params_of(empty_scene.gradphoton)
+    assert params["spectral"] == "spectral"
+    N = native.get()
+    scene = N.load_scene(os.path.join(ROOT, "scenes", "cornell-box.json"))
+    scene.width = scene.height = 8
+    forced = N.Session(scene, "pt", params)
+    assert "spectral" not in forced.unused_params and forced.method == "spt-hero"
+    assert N.Session(scene, "pt", dict(params, spectral="auto")).method == "pt"  # no dispersion
+    with pytest.raises(ValueError, match="spectral"):
+        N.Session(scene, "spt", dict(params, spectral="rgb"))
