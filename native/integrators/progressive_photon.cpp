@@ -17,7 +17,7 @@ double seconds_since(clock_type::time_point t0) {
 }  // namespace
 
 ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
-                                                   const std::string& default_sampler)
+                                                   const std::string& default_sampler, bool allow_spectral)
     : scene_(scene),
       retrace_(retrace),
       nee_(nee),
@@ -66,6 +66,17 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   gather_phi_.assign(n, RGB(0.0f));
   error_.assign(n, 0.0f);
   pixel_spread_ = 2.0f * scene.camera.tan_half_extent().x / width_;
+  if (allow_spectral && !adaptive_ &&
+      use_spectral(parse_spectral_mode(params.get<std::string>("spectral", "auto")), scene)) {
+    spectral_ = true;
+    spectra_ = std::make_unique<SceneSpectra>(scene);
+    const int c = params.get<int>("wavelengths", 4);
+    if (c < 1 || c > kMaxWavelengths) throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
+    wl_.count = c;
+    stats_.extra["spectral wavelengths"] = c;  // the CLI lists it: this run used spectral photons
+    vp_beta_.assign(n, SpectralValues{});
+    vp_hero_.assign(n, 0);
+  }
   if (scene.light_set().empty())
     stats_.extra["warning: no lights"] = 1;  // the image is black; reported, never a hang
 }
@@ -171,8 +182,17 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
 
   // ---- Measurement points (every pass for SPPM, once for PPM) ----
   const auto t_eye = clock_type::now();
+  if (spectral_) {
+    wl_ = pass_wavelengths(pass);
+    for (int k = 0; k < wl_.count; ++k) {
+      SpectralValues e{};
+      e[k] = 1.0f;
+      wl_basis_[k] = sample_to_rgb(e, wl_);
+    }
+  }
   if (retrace_ || !have_points_) {
-    eye_pass(pass, sink, rays, invalid);
+    if (spectral_) spectral_eye_pass(pass, sink, rays, invalid);
+    else eye_pass(pass, sink, rays, invalid);
     if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
     have_points_ = true;
     const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
@@ -195,6 +215,8 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
     visibility_.build(visibility_points_, threads_);
     ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_);
+  } else if (spectral_) {
+    ps = spectral_trace(pass);
   } else {
     ps = tracer_.trace(photons_per_pass_, pass, nee_ ? 1 : 0, photons_);
   }
@@ -209,7 +231,8 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);  // §10.2.2
-  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+  if (spectral_) spectral_gather();
+  else parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
       gather_lap_[i] = 0;

@@ -21,6 +21,7 @@
 #include "integrators/error_estimate.h"
 #include "integrators/integrator.h"
 #include "integrators/photon_tracer.h"
+#include "integrators/spectral/spectral_pt.h"
 
 namespace gp {
 
@@ -44,14 +45,18 @@ class ProgressivePhotonMapping : public Integrator {
   //      after one bounce (SPPM), or every photon deposit (PPM, as the thesis' ch. 5).
   // default_sampler: the value of the "photon_sampler" parameter when it is not given
   //      ("uniform", or "adaptive" for the method alias sppm-adaptive; adaptive_photons.h).
+  // allow_spectral: spectral photons (sppm.h "Spectral photons") when the parameter
+  //      `spectral` asks for them (use_spectral) and the photon sampler is uniform.
   ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
-                           const std::string& default_sampler = "uniform");
+                           const std::string& default_sampler = "uniform", bool allow_spectral = false);
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   double estimated_error() const override { return estimated_error_; }
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
+  // True when the passes carry sampled wavelengths (spectral photons).
+  bool spectral() const { return spectral_; }
 
  protected:
   struct VisiblePoint {
@@ -74,6 +79,33 @@ class ProgressivePhotonMapping : public Integrator {
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
+
+  // ---- Spectral photons (progressive_photon_spectral.cpp) ----
+  // One set of wavelengths per pass, shared by its eye paths and photons.
+  SampledWavelengths pass_wavelengths(uint64_t pass) const;
+  void spectral_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+  PhotonPassStats spectral_trace(uint64_t pass);
+  void spectral_gather();
+  // sample_to_rgb is linear: RGB of a unit value at wavelength k of this pass's set.
+  RGB spectral_to_rgb(const SpectralValues& v) const {
+    RGB out(0.0f);
+    for (int k = 0; k < wl_.count; ++k) out += wl_basis_[k] * v[k];
+    return out;
+  }
+  struct SpectralPhoton {
+    Photon photon;
+    SpectralValues power;
+    bool hero_only;  // went through a smooth dispersive refraction: only the hero is left
+  };
+  bool spectral_ = false;
+  std::unique_ptr<SceneSpectra> spectra_;
+  SampledWavelengths wl_;
+  std::array<RGB, kMaxWavelengths> wl_basis_;
+  std::vector<SpectralValues> vp_beta_;     // eye throughput per pixel at wl_ (hero-only: x C)
+  std::vector<uint8_t> vp_hero_;            // eye path is hero-only
+  std::vector<SpectralValues> photon_power_;  // by photon index
+  std::vector<uint8_t> photon_hero_;
+  std::vector<std::vector<SpectralPhoton>> spectral_chunks_;
 
   const Scene& scene_;
   bool retrace_, nee_;

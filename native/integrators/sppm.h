@@ -26,6 +26,15 @@
 //                               visibility (thesis ch. 8, adaptive_photons.h; alias sppm-adaptive)
 //   chains              64      Markov chains of the adaptive sampler
 //   seed 0, threads 0, tile_size 16 as for "pt"
+//   spectral            auto    auto | rgb | spectral (spectral_pt.h use_spectral): spectral
+//                               photons; auto only on scenes with a dispersive material
+//   wavelengths         4       wavelengths per pass in spectral mode (1..8)
+//
+// Spectral photons (progressive_photon_spectral.cpp, docs/spectral.md): each pass samples one
+// set of wavelengths (hero + rotations; the heroes of successive passes stratified), shared by
+// its eye paths and photons; throughput and photon power are values at those wavelengths, and
+// each pixel's gathered flux is converted to RGB before the RGB statistics. Not with the
+// adaptive photon sampler (sppm-adaptive stays RGB).
 //
 // Passes: combined, error, radius, photon_count.
 #pragma once
@@ -38,7 +47,7 @@ class Sppm : public ProgressivePhotonMapping {
  public:
   // default_sampler "adaptive" makes the method alias "sppm-adaptive" (adaptive_photons.h).
   Sppm(const Scene& scene, const Params& params, const std::string& default_sampler = "uniform")
-      : ProgressivePhotonMapping(scene, params, true, true, default_sampler),
+      : ProgressivePhotonMapping(scene, params, true, true, default_sampler, true),
         name_(default_sampler == "uniform" ? "sppm" : "sppm-adaptive") {}
   std::string name() const override { return name_; }
 

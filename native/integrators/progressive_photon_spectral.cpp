@@ -1,0 +1,358 @@
+// Spectral photons for SPPM (sppm.h "Spectral photons", docs/spectral.md): one set of sampled
+// wavelengths per pass (hero + C - 1 rotations), shared by the pass's eye paths and photons;
+// eye throughput and photon power are values at those wavelengths, the BSDFs are evaluated per
+// wavelength on monochromatic() material copies (Cauchy IOR, grey colour from the upsampled
+// spectrum) as in spectral_pt.cpp, and each pixel's gathered flux is converted to RGB before it
+// enters the RGB statistics (eq. 7.4-7.5 unchanged).
+//
+// Every direction is sampled with the hero wavelength and every wavelength divides by the hero's
+// pdf (unbiased per wavelength wherever the hero's pdf covers its BSDF). A smooth dispersive
+// refraction sends no other wavelength the same way: the path keeps only the hero, weighted by C
+// (the balance heuristic over the C wavelengths' path pdfs, which are 0 for all but the hero, as
+// spt-hero). A full path (eye path + photon) is hero-only when either half is, and gets the
+// factor C once: the eye half carries it in its throughput, the photon half in a flag.
+#include <atomic>
+#include <cmath>
+
+#include "core/parallel.h"
+#include "core/sampling.h"
+#include "integrators/progressive_photon.h"
+#include "materials/bsdf.h"
+
+namespace gp {
+
+namespace {
+
+// Factor turning a light's RGB emission (times grey factors: distance, falloff, pdfs) into its
+// spectrum: the grey factor read off the brightest channel of the emission colour.
+float grey_factor(const RGB& value, const RGB& emit) {
+  const float m = emit.max_component();
+  if (m <= 0) return 0.0f;
+  const int c = emit.r == m ? 0 : (emit.g == m ? 1 : 2);
+  return value[c] / emit[c];
+}
+
+// Per-wavelength factor f_k |cos| / pdf_hero of a hero-sampled BSDF direction. Returns false when
+// every wavelength is dead; sets hero_only on a smooth dispersive refraction.
+bool scatter_factors(const Material& base, const std::array<Material, kMaxWavelengths>& mk, int C,
+                     const Vec3& wo, const BsdfSample& bs, float uc, Vec2 u, TransportMode mode,
+                     SpectralValues& factor, bool& hero_only) {
+  const bool dispersive = is_dispersive(base);
+  const float cos_pdf = std::abs(bs.wi.z) / bs.pdf;
+  factor[0] = bs.f[0] * cos_pdf;
+  bool refracted = false;
+  for (int k = 1; k < C; ++k) {
+    const Bsdf b(mk[k]);
+    float f = 0;
+    if (!dispersive || !bs.delta) {
+      if (bs.delta) {  // same lobe and direction for every wavelength; only the colour differs
+        const auto sk = b.sample(wo, uc, u, mode);
+        f = sk ? sk->f[0] : 0.0f;
+      } else {
+        f = b.eval(wo, bs.wi, mode)[0];
+      }
+    } else if (!bs.transmission) {  // smooth dispersive reflection: the same mirror direction
+      f = mk[k].color.r * fresnel_dielectric(cos_theta(wo), mk[k].ior) / std::abs(bs.wi.z);
+    } else {  // smooth dispersive refraction: no other wavelength goes this way
+      f = 0;
+      refracted = true;
+    }
+    factor[k] = f * cos_pdf;
+  }
+  if (refracted) {
+    if (!hero_only) factor[0] *= static_cast<float>(C);  // pdfs (hero, 0, ..., 0): balance heuristic
+    hero_only = true;
+    for (int k = 1; k < C; ++k) factor[k] = 0;
+  }
+  bool alive = false;
+  for (int k = 0; k < C; ++k) alive |= factor[k] > 0 && std::isfinite(factor[k]);
+  return alive;
+}
+
+}  // namespace
+
+SampledWavelengths ProgressivePhotonMapping::pass_wavelengths(uint64_t pass) const {
+  // The hero of pass j: van der Corput point j (base 2) shifted by one random offset per render
+  // (Cranley-Patterson rotation). Each pass's hero stays uniform, but the passes stratify the
+  // spectrum: a dispersive caustic, which is the hero's alone, gets its colour right in far
+  // fewer passes than with independent heroes.
+  uint32_t bits = static_cast<uint32_t>(pass);
+  bits = (bits << 16) | (bits >> 16);
+  bits = ((bits & 0x00ff00ffu) << 8) | ((bits & 0xff00ff00u) >> 8);
+  bits = ((bits & 0x0f0f0f0fu) << 4) | ((bits & 0xf0f0f0f0u) >> 4);
+  bits = ((bits & 0x33333333u) << 2) | ((bits & 0xccccccccu) >> 2);
+  bits = ((bits & 0x55555555u) << 1) | ((bits & 0xaaaaaaaau) >> 1);
+  Rng rng = Rng::for_key(seed_ ^ 0x7370656374726cULL, 0, 0x776cULL);
+  double u = bits * 0x1p-32 + rng.uniform();
+  u -= std::floor(u);
+  return SampledWavelengths::sample_uniform(std::min(static_cast<float>(u), 0x1.fffffep-1f), wl_.count);
+}
+
+void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
+                                                 std::atomic<int64_t>& invalid_out) {
+  const LightSet& lights = scene_.light_set();
+  const int C = wl_.count;
+  parallel_for_tiles(
+      width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        int64_t rays = 0, invalid = 0;
+        std::array<Material, kMaxWavelengths> mk;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            const size_t pixel = static_cast<size_t>(y) * width_ + x;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            const Vec2 film(x + rng.uniform(), y + rng.uniform());
+            const Vec2 lens(rng.uniform(), rng.uniform());
+            Ray ray = scene_.camera.generate_ray(film, lens);
+            SpectralValues beta{}, Ld{};
+            for (int k = 0; k < C; ++k) beta[k] = 1.0f;
+            bool hero_only = false;
+            VisiblePoint vp;
+            float path_length = 0;
+            auto add_light = [&](const RgbSpectrum& spec, float grey) {
+              for (int k = 0; k < C; ++k) Ld[k] += beta[k] * grey * spec(wl_.lambda[k]);
+            };
+            for (int depth = 0; depth < max_depth_; ++depth) {
+              ++rays;
+              const auto hit = scene_.intersect(ray);
+              if (!hit) {
+                const int env = lights.environment();
+                if (env >= 0)
+                  add_light(spectra_->light[env],
+                            grey_factor(lights.environment_radiance(ray.d), lights.lights()[env].emit));
+                break;
+              }
+              path_length += hit->t;
+              if (hit->light >= 0)
+                add_light(spectra_->light[hit->light],
+                          grey_factor(lights.area_radiance(hit->light, -ray.d), lights.lights()[hit->light].emit));
+              const Material& base = scene_.material(hit->material);
+              const Bsdf bsdf(base);
+              if (bsdf.is_black()) break;
+              const Vec3 wo = hit->frame.to_local(-ray.d);
+              if (wo.z == 0) break;
+              for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_->albedo[hit->material], wl_.lambda[k]);
+              if (bsdf.is_diffuse_for_photons(threshold_)) {
+                if (nee_ && !lights.empty()) {
+                  const float u_light = rng.uniform();
+                  const Vec2 u2(rng.uniform(), rng.uniform());
+                  if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+                    const Vec3 wi = hit->frame.to_local(ls->wi);
+                    SpectralValues f{};
+                    bool any = false;
+                    for (int k = 0; k < C; ++k) {
+                      f[k] = Bsdf(mk[k]).eval(wo, wi)[0] * std::abs(wi.z);
+                      any |= f[k] > 0;
+                    }
+                    if (any) {
+                      ++rays;
+                      bool blocked;
+                      if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
+                        blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist,
+                                                          lights.lights()[ls->light].n);
+                      } else {
+                        const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
+                        const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
+                        blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
+                      }
+                      if (!blocked) {
+                        const float grey = grey_factor(ls->L, lights.lights()[ls->light].emit) / ls->pdf;
+                        const RgbSpectrum& spec = spectra_->light[ls->light];
+                        for (int k = 0; k < C; ++k) Ld[k] += beta[k] * f[k] * grey * spec(wl_.lambda[k]);
+                      }
+                    }
+                  }
+                }
+                vp.p = hit->p;
+                vp.frame = hit->frame;
+                vp.wo = wo;
+                vp.beta = RGB(1.0f);  // unused: the spectral throughput is vp_beta_
+                vp.material = hit->material;
+                break;
+              }
+              const float uc = rng.uniform();
+              const Vec2 u(rng.uniform(), rng.uniform());
+              const auto bs = Bsdf(mk[0]).sample(wo, uc, u);
+              if (!bs || bs->pdf <= 0) break;
+              SpectralValues factor{};
+              if (!scatter_factors(base, mk, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only)) break;
+              for (int k = 0; k < C; ++k) beta[k] *= factor[k];
+              const Vec3 wi = hit->frame.to_world(bs->wi);
+              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              if (depth + 1 >= rr_depth_) {
+                float bmax = 0;
+                for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
+                const float q = std::max(0.05f, 1.0f - bmax);
+                if (rng.uniform() < q) break;
+                for (int k = 0; k < C; ++k) beta[k] /= 1.0f - q;
+              }
+            }
+            RGB Lrgb = spectral_to_rgb(Ld);
+            if (!Lrgb.is_finite()) {
+              ++invalid;
+              Lrgb = RGB(0.0f);
+            }
+            bool beta_ok = true;
+            for (int k = 0; k < C; ++k) beta_ok &= std::isfinite(beta[k]);
+            if (vp.material >= 0 && !beta_ok) {
+              ++invalid;
+              vp.material = -1;
+            }
+            pass_direct_[pixel] = Lrgb;
+            vp_[pixel] = vp;
+            vp_beta_[pixel] = beta;
+            vp_hero_[pixel] = hero_only ? 1 : 0;
+            first_r_[pixel] = vp.material >= 0 ? 2.0f * pixel_spread_ * path_length : 0.0f;
+          }
+        rays_out += rays;
+        invalid_out += invalid;
+      },
+      [sink] { return sink && sink->cancelled(); });
+}
+
+PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass) {
+  PhotonPassStats stats;
+  const int64_t count = photons_per_pass_;
+  stats.emitted = count;
+  const LightSet& lights = scene_.light_set();
+  const int C = wl_.count;
+  const int min_deposit_bounce = nee_ ? 1 : 0;
+  const int64_t kChunk = PhotonTracer::kChunk;
+  const size_t n_chunks = static_cast<size_t>((count + kChunk - 1) / kChunk);
+  if (spectral_chunks_.size() < n_chunks) spectral_chunks_.resize(n_chunks);
+  std::atomic<int64_t> rays_total{0}, invalid_total{0};
+  if (!lights.empty() && count > 0) {
+    parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
+      int64_t rays = 0, invalid = 0;
+      std::array<Material, kMaxWavelengths> mk;
+      for (size_t c = lo; c < hi; ++c) {
+        std::vector<SpectralPhoton>& dst = spectral_chunks_[c];
+        dst.clear();
+        Rng rng = Rng::for_key(seed_ ^ 0x73706870686fULL, c, pass);
+        const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
+        for (int64_t n = begin; n < end; ++n) {
+          const float us = rng.uniform();
+          const float up0 = rng.uniform(), up1 = rng.uniform(), ud0 = rng.uniform(), ud1 = rng.uniform();
+          const auto em = lights.sample_le(us, Vec2(up0, up1), Vec2(ud0, ud1));
+          if (!em || em->power.is_black()) continue;
+          SpectralValues beta{};
+          const float grey = grey_factor(em->power, lights.lights()[em->light].emit);
+          for (int k = 0; k < C; ++k) beta[k] = grey * spectra_->light[em->light](wl_.lambda[k]);
+          bool hero_only = false;
+          Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0
+                        ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
+                        : Ray(em->o, em->d);
+          for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
+            ++rays;
+            const auto hit = scene_.intersect(ray);
+            if (!hit) break;
+            const Material& base = scene_.material(hit->material);
+            const Bsdf bsdf(base);
+            if (bsdf.is_black()) break;
+            if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
+              bool ok = true;
+              for (int k = 0; k < C; ++k) ok &= std::isfinite(beta[k]);
+              if (ok) dst.push_back(SpectralPhoton{Photon{hit->p, -ray.d, RGB(1.0f)}, beta, hero_only});
+              else ++invalid;
+            }
+            if (bounce + 2 > max_depth_) break;
+            const Vec3 wo_world = -ray.d;
+            const Vec3 wo = hit->frame.to_local(wo_world);
+            if (wo.z == 0) break;
+            for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_->albedo[hit->material], wl_.lambda[k]);
+            const float uc = rng.uniform();
+            const Vec2 u(rng.uniform(), rng.uniform());
+            const auto bs = Bsdf(mk[0]).sample(wo, uc, u, TransportMode::Importance);
+            if (!bs || bs->pdf <= 0) break;
+            const Vec3 wi_world = hit->frame.to_world(bs->wi);
+            const float denom = std::abs(dot(wo_world, hit->ng)) * std::abs(dot(wi_world, hit->ns));
+            if (denom == 0) break;
+            const float correction = std::abs(dot(wo_world, hit->ns)) * std::abs(dot(wi_world, hit->ng)) / denom;
+            // The photon's own C factor is applied at the gather (once per full path), so the
+            // hero-only factor from scatter_factors is undone here.
+            const bool was_hero_only = hero_only;
+            SpectralValues factor{};
+            if (!scatter_factors(base, mk, C, wo, *bs, uc, u, TransportMode::Importance, factor, hero_only)) break;
+            if (hero_only && !was_hero_only) factor[0] /= static_cast<float>(C);
+            float m_old = 0, m_new = 0;
+            SpectralValues beta_new{};
+            for (int k = 0; k < C; ++k) {
+              beta_new[k] = beta[k] * factor[k] * correction;
+              m_old = std::max(m_old, beta[k]);
+              m_new = std::max(m_new, beta_new[k]);
+            }
+            if (!(m_new > 0) || !(m_old > 0)) break;
+            const float p_continue = std::min(1.0f, m_new / m_old);
+            if (rng.uniform() >= p_continue) break;
+            for (int k = 0; k < C; ++k) beta[k] = beta_new[k] / p_continue;
+            ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+          }
+        }
+      }
+      rays_total += rays;
+      invalid_total += invalid;
+    });
+  }
+  // ---- Concatenate in chunk order (independent of the thread count) ----
+  std::vector<size_t> offset(n_chunks + 1, 0);
+  for (size_t c = 0; c < n_chunks; ++c) offset[c + 1] = offset[c] + spectral_chunks_[c].size();
+  const size_t total = offset[n_chunks];
+  photons_.resize(total);
+  photon_power_.resize(total);
+  photon_hero_.resize(total);
+  parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
+    for (size_t c = lo; c < hi; ++c)
+      for (size_t k = offset[c]; k < offset[c + 1]; ++k) {
+        const SpectralPhoton& sp = spectral_chunks_[c][k - offset[c]];
+        photons_[k] = sp.photon;
+        photons_[k].index = static_cast<uint32_t>(k);
+        photon_power_[k] = sp.power;
+        photon_hero_[k] = sp.hero_only ? 1 : 0;
+      }
+  });
+  for (size_t c = 0; c < n_chunks; ++c) spectral_chunks_[c].clear();
+  stats.stored = static_cast<int64_t>(total);
+  stats.rays = rays_total;
+  stats.invalid = invalid_total;
+  return stats;
+}
+
+void ProgressivePhotonMapping::spectral_gather() {
+  const size_t n_pixels = px_.size();
+  const int C = wl_.count;
+  const bool have_photons = !photons_.empty();
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    std::array<Material, kMaxWavelengths> mk;
+    for (size_t i = lo; i < hi; ++i) {
+      gather_m_[i] = 0;
+      gather_lap_[i] = 0;
+      gather_phi_[i] = RGB(0.0f);
+      const VisiblePoint& vp = vp_[i];
+      if (!have_photons || vp.material < 0 || !(px_[i].r2 > 0)) continue;
+      const Material& base = scene_.material(vp.material);
+      for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_->albedo[vp.material], wl_.lambda[k]);
+      const SpectralValues& beta = vp_beta_[i];
+      const bool eye_hero = vp_hero_[i] != 0;
+      const float R = static_cast<float>(std::sqrt(px_[i].r2));
+      double m = 0, lap = 0;
+      RGB phi(0.0f);
+      grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
+        const Vec3 wi = vp.frame.to_local(ph.wi);
+        if (!same_hemisphere(vp.wo, wi)) return;
+        m += weight;
+        const SpectralValues& power = photon_power_[ph.index];
+        SpectralValues c{};
+        for (int k = 0; k < C; ++k) c[k] = beta[k] * Bsdf(mk[k]).eval(vp.wo, wi)[0] * power[k] * weight;
+        if (photon_hero_[ph.index] && !eye_hero) c[0] *= static_cast<float>(C);  // C once per full path
+        const RGB contrib = spectral_to_rgb(c);  // eq. 7.4 at this pass's wavelengths, as RGB
+        phi += contrib;
+        lap += contrib.luminance() * error_kernel::laplacian(d2, R);
+      });
+      gather_m_[i] = static_cast<float>(m);
+      gather_lap_[i] = static_cast<float>(lap);
+      gather_phi_[i] = phi;
+    }
+  });
+}
+
+}  // namespace gp
