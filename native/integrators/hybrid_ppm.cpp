@@ -230,14 +230,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                   if (!f.is_black()) {
                     ++rays;
                     const Light& l = lights.lights()[ls->light];
-                    bool blocked;
-                    if (l.type == LightType::Area) {
-                      blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist, l.n);
-                    } else {
-                      const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
-                      const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
-                      blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
-                    }
+                    const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
                     if (!blocked) {
                       PathVertex lv;
                       lv.light = ls->light;

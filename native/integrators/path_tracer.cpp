@@ -69,14 +69,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
         const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
         if (!f.is_black()) {
           ++rays.shadow;
-          bool blocked;
-          if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
-            blocked = scene_.occluded_between(hit->p, hit->ng, ls->p, ls->n);
-          } else {
-            const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
-            const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
-            blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
-          }
+          const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
           if (!blocked) {
             const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, bsdf.pdf(wo, wi));
             L += beta * f * ls->L * (w / ls->pdf);

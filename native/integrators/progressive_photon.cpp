@@ -124,15 +124,7 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
                     const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
                     if (!f.is_black()) {
                       ++rays;
-                      bool blocked;
-                      if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
-                        blocked = scene_.occluded_between(hit->p, hit->ng, hit->p + ls->wi * ls->dist,
-                                                          lights.lights()[ls->light].n);
-                      } else {
-                        const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
-                        const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
-                        blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
-                      }
+                      const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
                       if (!blocked) Ld += beta * f * ls->L / ls->pdf;
                     }
                   }

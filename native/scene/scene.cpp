@@ -141,4 +141,11 @@ bool Scene::occluded_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, con
   return accel_->occluded(Ray(o, d, 0.0f, 1.0f - 1e-4f));
 }
 
+bool Scene::occluded(const Vec3& p, const Vec3& ng, const LightSample& ls) const {
+  if (ls.light >= 0 && light_set_.lights()[ls.light].type == LightType::Area)
+    return occluded_between(p, ng, ls.p, ls.n);
+  const float tmax = std::isinf(ls.dist) ? kInfinity : ls.dist * (1.0f - 1e-4f);
+  return accel_->occluded(Ray(offset_ray_origin(p, ng, ls.wi), ls.wi, 0.0f, tmax));
+}
+
 }  // namespace gp

@@ -69,6 +69,9 @@ class Scene {
   bool occluded(const Ray& ray) const;
   // Shadow ray between two surface points, both pushed off their surfaces.
   bool occluded_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
+  // Shadow ray from surface point p (geometric normal ng) to a light sample: to its point for
+  // area lights, else along wi up to just short of the light (or to infinity).
+  bool occluded(const Vec3& p, const Vec3& ng, const LightSample& ls) const;
 
   const LightSet& light_set() const { return light_set_; }
   const Bounds3& bounds() const { return bounds_; }

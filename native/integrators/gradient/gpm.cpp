@@ -136,14 +136,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
                     const RGB f = b.eval(wo_l, wi) * std::abs(wi.z);
                     if (f.is_black()) return RGB(0.0f);
                     ++rays;
-                    bool blocked;
-                    if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
-                      blocked = scene_.occluded_between(p, ng, p + ls->wi * ls->dist, lights.lights()[ls->light].n);
-                    } else {
-                      const Vec3 o = offset_ray_origin(p, ng, ls->wi);
-                      const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
-                      blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
-                    }
+                    const bool blocked = scene_.occluded(p, ng, *ls);
                     return blocked ? RGB(0.0f) : f * ls->L / ls->pdf;
                   };
                   const RGB c = beta * nee(hit->p, hit->ng, hit->frame, bsdf, wo);

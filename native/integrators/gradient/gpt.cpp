@@ -228,14 +228,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         if (f.is_black()) return RGB(0.0f);
         if (!visible || *visible < 0) {
           ++rays.shadow;
-          bool blocked;
-          if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
-            blocked = scene_.occluded_between(v.p, v.ng, ls->p, ls->n);
-          } else {
-            const Vec3 org = offset_ray_origin(v.p, v.ng, ls->wi);
-            const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
-            blocked = scene_.occluded(Ray(org, ls->wi, 0.0f, tmax));
-          }
+          const bool blocked = scene_.occluded(v.p, v.ng, *ls);
           if (visible) *visible = blocked ? 0 : 1;
           if (blocked) return RGB(0.0f);
         } else if (*visible == 0) {

@@ -154,14 +154,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
         }
         if (any) {
           ++rays.shadow;
-          bool blocked;
-          if (ls->light >= 0 && lights.lights()[ls->light].type == LightType::Area) {
-            blocked = scene_.occluded_between(hit->p, hit->ng, ls->p, ls->n);
-          } else {
-            const Vec3 o = offset_ray_origin(hit->p, hit->ng, ls->wi);
-            const float tmax = std::isinf(ls->dist) ? kInfinity : ls->dist * (1.0f - 1e-4f);
-            blocked = scene_.occluded(Ray(o, ls->wi, 0.0f, tmax));
-          }
+          const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
           if (!blocked) {
             float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
             for (int k = 0; k < C; ++k) denom += r_u[k] * (ls->pdf + (ls->delta ? 0.0f : pdf[k]));
