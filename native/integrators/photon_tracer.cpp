@@ -14,7 +14,7 @@ PhotonTracer::PhotonTracer(const Scene& scene, int max_depth, float specular_thr
 
 int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& dst,
                                  int64_t& invalid, PhotonPathRecord* record,
-                                 std::vector<PhotonOrigin>* origins) const {
+                                 std::vector<PhotonOrigin>* origins, std::vector<PhotonChain>* chains) const {
   const LightSet& lights = scene_.light_set();
   if (lights.empty()) return 0;
   int64_t rays = 0;
@@ -29,6 +29,15 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   const bool distant = lights.lights()[em->light].is_infinite();
   float pdf_dir_prev = em->pdf_dir;  // solid-angle density of the segment being traced
   PhotonOrigin last;                 // the previous scattering vertex (valid from bounce 1 on)
+  // The light subpath since its last diffuse vertex (GPM's specular chains); distant lights
+  // have no vertex to reconnect to.
+  PhotonChain chain;
+  bool chain_ok = chains && !distant;
+  if (chains) {
+    chain.p = em->o;
+    chain.ng = em->n;
+    chain.light = em->light;
+  }
   if (record) {
     PhotonPathVertex lv;
     lv.p = em->o;
@@ -64,6 +73,11 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
         if (origins) {
           last.n_photon = hit->ng;
+          last.chain = -1;
+          if (chain_ok && !last.diffuse && bounce > 0 && chain.count > 0) {
+            last.chain = static_cast<int32_t>(chains->size());
+            chains->push_back(chain);
+          }
           origins->push_back(last);
         }
       } else {
@@ -101,6 +115,22 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       last.material = hit->material;
       last.diffuse = bsdf.is_diffuse_for_photons(threshold_);
     }
+    if (chains) {
+      if (bsdf.is_diffuse_for_photons(threshold_)) {  // the new reconnection vertex y_b
+        chain.p = hit->p;
+        chain.ng = hit->ng;
+        chain.ns = hit->ns;
+        chain.wo = wo_world;
+        chain.material = hit->material;
+        chain.light = -1;
+        chain.count = 0;
+        chain_ok = true;
+      } else if (chain.count < kMaxChainVertices) {
+        chain.v[chain.count++] = ChainVertex{hit->p, hit->ng, hit->mesh, hit->prim, bs->transmission};
+      } else {
+        chain_ok = false;
+      }
+    }
     beta = beta_new / p_continue;
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
   }
@@ -108,13 +138,16 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
 }
 
 PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposit_bounce,
-                                    std::vector<Photon>& out, std::vector<PhotonOrigin>* origins) {
+                                    std::vector<Photon>& out, std::vector<PhotonOrigin>* origins,
+                                    std::vector<PhotonChain>* chains) {
+  if (!origins) chains = nullptr;
   PhotonPassStats stats;
   stats.emitted = count;
   const LightSet& lights = scene_.light_set();
   const size_t n_chunks = static_cast<size_t>((count + kChunk - 1) / kChunk);
   if (chunks_.size() < n_chunks) chunks_.resize(n_chunks);
   if (origins && chunk_origins_.size() < n_chunks) chunk_origins_.resize(n_chunks);
+  if (chains && chunk_chains_.size() < n_chunks) chunk_chains_.resize(n_chunks);
   std::atomic<int64_t> rays{0}, invalid{0};
   if (!lights.empty() && count > 0) {
     parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
@@ -124,11 +157,13 @@ PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposi
         dst.clear();
         std::vector<PhotonOrigin>* dst_origin = origins ? &chunk_origins_[c] : nullptr;
         if (dst_origin) dst_origin->clear();
+        std::vector<PhotonChain>* dst_chain = chains ? &chunk_chains_[c] : nullptr;
+        if (dst_chain) dst_chain->clear();
         Rng rng = Rng::for_key(seed_ ^ 0x70686f746f6e73ULL, c, pass);
         const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
         RngSamples u(rng);
         for (int64_t k = begin; k < end; ++k)
-          local_rays += trace_path(u, min_deposit_bounce, dst, local_invalid, nullptr, dst_origin);
+          local_rays += trace_path(u, min_deposit_bounce, dst, local_invalid, nullptr, dst_origin, dst_chain);
       }
       rays += local_rays;
       invalid += local_invalid;
@@ -139,16 +174,27 @@ PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposi
   for (size_t c = 0; c < n_chunks; ++c) offset[c + 1] = offset[c] + chunks_[c].size();
   out.resize(offset[n_chunks]);
   if (origins) origins->resize(offset[n_chunks]);
+  std::vector<size_t> chain_offset(n_chunks + 1, 0);
+  if (chains) {
+    for (size_t c = 0; c < n_chunks; ++c) chain_offset[c + 1] = chain_offset[c] + chunk_chains_[c].size();
+    chains->resize(chain_offset[n_chunks]);
+  }
   parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
     for (size_t c = lo; c < hi; ++c) {
       std::copy(chunks_[c].begin(), chunks_[c].end(), out.begin() + offset[c]);
       for (size_t k = offset[c]; k < offset[c + 1]; ++k) out[k].index = static_cast<uint32_t>(k);
       if (origins) std::copy(chunk_origins_[c].begin(), chunk_origins_[c].end(), origins->begin() + offset[c]);
+      if (chains) {
+        std::copy(chunk_chains_[c].begin(), chunk_chains_[c].end(), chains->begin() + chain_offset[c]);
+        for (size_t k = offset[c]; k < offset[c + 1]; ++k)
+          if ((*origins)[k].chain >= 0) (*origins)[k].chain += static_cast<int32_t>(chain_offset[c]);
+      }
     }
   });
   for (size_t c = 0; c < n_chunks; ++c) {
     chunks_[c].clear();
     if (origins) chunk_origins_[c].clear();
+    if (chains) chunk_chains_[c].clear();
   }
   stats.stored = static_cast<int64_t>(out.size());
   stats.rays = rays;

@@ -18,6 +18,7 @@
 // photons; estimators divide by it (thesis eq. 5.10 / 5.13).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -49,6 +50,28 @@ struct PhotonOrigin {
   int material = -1;   // material at y_{s-1}
   bool diffuse = false;  // y_{s-1} is diffuse for photon methods (a DD ending, GPM §4.2 step 2)
   Vec3 n_photon;       // geometric normal at the photon y_s
+  int32_t chain = -1;  // !diffuse: its PhotonChain in the pass's list (-1: none recorded)
+};
+
+// A specular or glossy vertex of a light subpath, enough to rebuild its local surface model.
+inline constexpr int kMaxChainVertices = 6;
+struct ChainVertex {
+  Vec3 p, ng;  // position, geometric normal
+  int mesh = -1, prim = -1;
+  bool transmission = false;  // the lobe the path took here
+};
+
+// GPM §4.2 step 2: a photon whose previous vertex is specular or glossy remembers its light
+// subpath back to the reconnection vertex y_b, the last diffuse vertex or the light vertex
+// (y_b .. y_{s-1} = y_b, v[0] .. v[count-1]). Chains from distant lights, or longer than
+// kMaxChainVertices, are not recorded.
+struct PhotonChain {
+  Vec3 p, ng, ns;     // y_b; a light vertex has its normal in ng (zero for a point light)
+  Vec3 wo;            // surface y_b: unit world direction towards y_{b-1}
+  int material = -1;  // surface y_b
+  int light = -1;     // y_b is a vertex on this light
+  int count = 0;
+  std::array<ChainVertex, kMaxChainVertices> v{};
 };
 
 // Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to
@@ -103,18 +126,21 @@ class PhotonTracer {
   PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads);
 
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
-  // memory stays flat over passes). With `origins`, also fills origins[k] for photon k (GPM);
-  // the random streams, and so the photons, are the same either way.
+  // memory stays flat over passes). With `origins`, also fills origins[k] for photon k (GPM),
+  // and with `chains` the specular chains they point to; the random streams, and so the
+  // photons, are the same either way.
   PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out,
-                        std::vector<PhotonOrigin>* origins = nullptr);
+                        std::vector<PhotonOrigin>* origins = nullptr, std::vector<PhotonChain>* chains = nullptr);
 
   // Traces one photon path from the primary samples `u`, appending its deposits to `out`.
   // Returns the closest-hit rays traced; deposits with NaN/Inf power are dropped and counted
   // in `invalid`. Thread-safe (const).
   // With `record`, the path's vertices and the vertex of every deposit are appended to it;
-  // with `origins`, each deposit's previous scattering vertex (GPM's photon shift).
+  // with `origins`, each deposit's previous scattering vertex (GPM's photon shift), and with
+  // `chains` (only with `origins`) the specular chain before it (PhotonOrigin::chain indexes it).
   int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid,
-                     PhotonPathRecord* record = nullptr, std::vector<PhotonOrigin>* origins = nullptr) const;
+                     PhotonPathRecord* record = nullptr, std::vector<PhotonOrigin>* origins = nullptr,
+                     std::vector<PhotonChain>* chains = nullptr) const;
 
   int max_depth() const { return max_depth_; }
   int threads() const { return threads_; }
@@ -130,6 +156,7 @@ class PhotonTracer {
   int threads_;
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
   std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
+  std::vector<std::vector<PhotonChain>> chunk_chains_;    // and for `chains`
 };
 
 }  // namespace gp

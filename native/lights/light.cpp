@@ -121,6 +121,18 @@ RGB LightSet::area_radiance(int i, const Vec3& w) const {
   return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
 }
 
+RGB LightSet::emitted(int i, const Vec3& d) const {
+  const Light& l = lights_[i];
+  switch (l.type) {
+    case LightType::Area: return area_radiance(i, d) * std::abs(dot(l.n, d));
+    case LightType::Point: return l.emit;
+    case LightType::Spot: return l.emit * spot_falloff(l, d);
+    case LightType::Directional:
+    case LightType::Environment: return RGB(0.0f);
+  }
+  return RGB(0.0f);
+}
+
 void LightSet::emission_pdf(int i, const Vec3& d, float& pdf_pos, float& pdf_dir) const {
   const Light& l = lights_[i];
   const float pmf = select_.pmf(i);

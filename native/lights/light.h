@@ -86,6 +86,11 @@ class LightSet {
   RGB environment_radiance(const Vec3& dir) const;
   // Radiance leaving area light `light` towards direction w (away from the light).
   RGB area_radiance(int light, const Vec3& w) const;
+  // Directional emission of a finite light along unit d, the factor sample_le's photon power is
+  // proportional to: area lights radiance |cos| (per unit area), point and spot lights their
+  // intensity (spot falloff included); 0 for distant lights. GPM's light-subpath shift
+  // reconnects at the light vertex and needs it for the offset direction.
+  RGB emitted(int light, const Vec3& d) const;
   float power(int light) const;
   // Emission sampling for photon tracing: picks a light in proportion to power(), then a
   // point and a direction on it. Area: uniform point, cosine-weighted direction about the

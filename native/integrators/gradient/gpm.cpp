@@ -24,7 +24,8 @@ constexpr int kOffsetY[4] = {0, 0, 1, -1};
 // Right and down offsets estimate I(offset) - I(base); left and up I(base) - I(offset), the
 // forward difference stored at the offset pixel (as gpt.cpp).
 constexpr float kSign[4] = {1, -1, 1, -1};
-constexpr int kPhotonFailureBase = 8;  // failure counters: [0, 8) sensor, [8, 16) photon shifts
+// Failure counters: [0, kShiftFailureCount) sensor shifts, then as many for photon shifts.
+constexpr int kPhotonFailureBase = kShiftFailureCount;
 
 // Offset for a delta vertex: the same lobe from the offset's own wo (as gpt.cpp).
 std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, bool transmission) {
@@ -48,6 +49,8 @@ Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(sc
   recon_.lambda = params.get<double>("lambda", 0.2);
   if (!(recon_.lambda > 0)) throw ParamError("parameter 'lambda' must be > 0");
   recon_.threads = threads_;
+  manifold_iterations_ = params.get<int>("manifold_iterations", 5);  // GPM §5
+  if (manifold_iterations_ < 0) throw ParamError("parameter 'manifold_iterations' must be >= 0");
   const size_t n = px_.size();
   off_.assign(n, {});
   grad_.assign(n, GradState{});
@@ -59,13 +62,13 @@ Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(sc
 
 // ---- Eye pass: SPPM's camera paths (same random numbers) and their half-vector-copy offsets ----
 void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
-                       std::atomic<int64_t>& invalid_out, std::array<std::atomic<int64_t>, 16>& failures) {
+                       std::atomic<int64_t>& invalid_out, std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures) {
   const LightSet& lights = scene_.light_set();
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
-        int64_t fail_count[8] = {};
+        int64_t fail_count[kShiftFailureCount] = {};
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
@@ -252,17 +255,206 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
           }
         rays_out += rays;
         invalid_out += invalid;
-        for (int k = 0; k < 8; ++k) failures[k] += fail_count[k];
+        for (int k = 0; k < kShiftFailureCount; ++k) failures[k] += fail_count[k];
       },
       [sink] { return sink && sink->cancelled(); });
+}
+
+// ---- Light-subpath shifts (§4.2) ----
+
+namespace {
+
+// Step 1 (eq. 5): the candidate y*_s, and y'_s = trace(y_{s-1} -> y*_s), which must be a surface
+// a photon could be stored on.
+struct Step1 {
+  ShiftFailure failure = ShiftFailure::None;
+  Vec3 y_star, wi_prev;  // candidate, and the unit direction from y_{s-1} towards it
+  float len_star = 0;
+  SurfaceHit hit;
+};
+
+}  // namespace
+
+static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
+                          const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev,
+                          int64_t& rays) {
+  Step1 s;
+  s.y_star = photon_offset_candidate(z, frame_z, z_off, frame_off, y);
+  const Vec3 dir = s.y_star - y_prev;
+  s.len_star = length(dir);
+  if (!(s.len_star > 0)) {
+    s.failure = ShiftFailure::ZeroLength;
+    return s;
+  }
+  s.wi_prev = dir / s.len_star;
+  ++rays;
+  const auto h = scene.intersect(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
+  if (!h) s.failure = ShiftFailure::Missed;
+  else if (!Bsdf(scene.material(h->material)).is_diffuse_for_photons(threshold))
+    s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
+  else s.hit = *h;
+  return s;
+}
+
+// Reversibility (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t), traced from the
+// offset's y'_{s-1}, must give y_s back.
+static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
+                              const Frame& frame_off, const Vec3& y, const Vec3& y_off, const Vec3& prev_off,
+                              const Vec3& ng_prev_off, float tol, int64_t& rays) {
+  const Vec3 y_back = photon_offset_candidate(z_off, frame_off, z, frame_z, y_off);
+  const Vec3 db = y_back - prev_off;
+  const float lb = length(db);
+  if (!(lb > 0)) return false;
+  ++rays;
+  const auto bh = scene.intersect(Ray(offset_ray_origin(prev_off, ng_prev_off, db / lb), db / lb));
+  return bh && length_squared(bh->p - y) <= tol * tol;
+}
+
+Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
+                                      const PhotonOrigin& org, int64_t& rays) const {
+  PhotonShift out;
+  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
+  if (s1.failure != ShiftFailure::None) {
+    out.failure = s1.failure;
+    return out;
+  }
+  const SurfaceHit& yh = s1.hit;
+  const double jac = photon_shift_jacobian(org.p, s1.y_star, o.ng, yh.p, yh.ng);  // eq. 6
+  const float tol = 1e-3f * R;
+  if (length_squared(yh.p - s1.y_star) > tol * tol &&
+      !photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, yh.p, org.p, org.ng, tol, rays)) {
+    out.failure = ShiftFailure::NotReversible;
+    return out;
+  }
+  // ---- Step 2, DD ending: reconnect y'_s to y_{s-1} (its BSDF re-evaluated) ----
+  const Vec3 wi_prev = s1.wi_prev;
+  const Vec3 wi_l = org.frame.to_local(wi_prev);
+  out.wi_gather = o.frame.to_local(-wi_prev);
+  if (!(length_squared(yh.p - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac > 0)) return out;
+  const Bsdf prev_bsdf(scene_.material(org.material));
+  const Vec3 wo_prev = org.frame.to_world(org.wo);
+  const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
+  // Shading-normal correction of the adjoint BSDF, as the photon tracer's.
+  const float denom = std::abs(dot(wo_prev, org.ng)) * std::abs(dot(wi_prev, org.frame.n));
+  const float corr = denom > 0 ? std::abs(dot(wo_prev, org.frame.n)) * std::abs(dot(wi_prev, org.ng)) / denom : 0.0f;
+  // f(y')|J|/p(y): only the last segment differs. In the area measure its factor is
+  // f_s(wi') cos(wi') [cos(y'_s)/d'^2] |J| / (pdf [cos(y_s)/d_s^2]), with |J| of eq. 6: the
+  // density of reaching y_s from y_{s-1} stays the base's.
+  const Vec3 to_base = ph.p - org.p;
+  const double d2_base = length_squared(to_base);
+  const double cos_base = std::abs(dot(org.n_photon, to_base)) / std::sqrt(d2_base);
+  const Vec3 to_off = yh.p - org.p;
+  const double d2_off = length_squared(to_off);
+  const double area_off = std::abs(dot(yh.ng, to_off)) / (std::sqrt(d2_off) * d2_off);
+  const double area_base = cos_base / d2_base;
+  const double area_factor = area_base > 0 ? jac * area_off / area_base : 0.0;
+  out.power = org.scale * f_prev * (std::abs(wi_l.z) * corr * static_cast<float>(area_factor));
+  // Light subpath in eq. 11: only the last segment differs; in the area measure
+  // p(y'_s)|J| / p(y_s) = pdf' (cos*/d*^2) / (pdf cos_s/d_s^2) by eq. 6.
+  const double pdf_off = prev_bsdf.pdf(org.wo, wi_l);
+  const double cos_star = std::abs(dot(o.ng, wi_prev));
+  out.ratio_y = (org.pdf > 0 && cos_base > 0)
+                    ? (pdf_off * cos_star / (double(s1.len_star) * s1.len_star)) / (org.pdf * cos_base / d2_base)
+                    : 0.0;
+  out.in_kernel = true;
+  return out;
+}
+
+RGB Gpm::reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& pdf) const {
+  pdf = 0;
+  if (chain.light >= 0) {  // y_b on a light: its emission towards dir (LightSet::emitted)
+    const LightSet& lights = scene_.light_set();
+    float pdf_pos = 0, pdf_dir = 0;
+    lights.emission_pdf(chain.light, dir, pdf_pos, pdf_dir);
+    pdf = pdf_dir;
+    return lights.emitted(chain.light, dir);
+  }
+  const Frame frame(chain.ns);
+  const Vec3 wo = frame.to_local(chain.wo), wi = frame.to_local(dir);
+  const Bsdf bsdf(scene_.material(chain.material));
+  const float denom = std::abs(dot(chain.wo, chain.ng)) * std::abs(dot(dir, chain.ns));
+  if (!(denom > 0)) return RGB(0.0f);
+  const float corr = std::abs(dot(chain.wo, chain.ns)) * std::abs(dot(dir, chain.ng)) / denom;  // Veach eq. 5.20
+  pdf = bsdf.pdf(wo, wi);
+  return bsdf.eval(wo, wi, TransportMode::Importance) * (std::abs(wi.z) * corr);
+}
+
+Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
+                                         const PhotonOrigin& org, const PhotonChain& chain, ChainBase& base,
+                                         int64_t& rays, WalkStats& walk_stats) const {
+  PhotonShift out;
+  auto failed = [&out](ShiftFailure f) {
+    out.failure = f;
+    return out;
+  };
+  // ---- The base chain y_b .. y_s: targets, throughput, eq. 8 (once per photon and pixel) ----
+  if (!base.evaluated) {
+    base.evaluated = true;
+    ManifoldChain& c = base.chain;
+    c.start = chain.p;
+    c.count = chain.count;
+    for (int j = 0; j < chain.count; ++j) c.v[j] = chain.v[j];
+    c.end = ph.p;
+    c.end_ng = org.n_photon;
+    // Half-vector targets o_i: 0 at delta vertices, the base's own at glossy ones (§4.2).
+    std::array<Vec2, kMaxChainVertices> h;
+    if (!chain_half_vectors(scene_, c, h)) return failed(ShiftFailure::SpecularChain);
+    for (int j = 0; j < c.count; ++j) {
+      const Material& m = scene_.material(scene_.meshes[c.v[j].mesh].material_ids[c.v[j].prim]);
+      c.target[j] = Bsdf(m).is_delta() ? Vec2(0.0f, 0.0f) : h[j];
+    }
+    const Vec3 dir = normalize(c.v[0].p - c.start);
+    base.g = reconnection_factor(chain, dir, base.pdf);
+    base.through = chain_throughput(scene_, c);
+    const auto D = chain_direction_per_area(scene_, c);
+    base.dir_per_area = D ? *D : 0.0;
+    base.ok = !base.g.is_black() && base.pdf > 0 && base.through.ok && base.dir_per_area > 0;
+  }
+  if (!base.ok) return failed(ShiftFailure::SpecularChain);
+  // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
+  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
+  if (s1.failure != ShiftFailure::None) return failed(s1.failure);
+  const double jac6 = photon_shift_jacobian(org.p, s1.y_star, o.ng, s1.hit.p, s1.hit.ng);
+  // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
+  const float tol = 1e-3f * R;
+  ++walk_stats.walks;
+  const ManifoldWalk walk = manifold_walk(scene_, base.chain, chain.ng,  // chain.ng: zero for a point light
+                                                s1.hit.p, tol, manifold_iterations_);
+  walk_stats.iterations += walk.iterations;
+  rays += static_cast<int64_t>(walk.iterations) * (base.chain.count + 1);
+  if (!walk.ok()) return failed(walk.failure);
+  const ManifoldChain& c = walk.chain;
+  if (!Bsdf(scene_.material(walk.end_hit.material)).is_diffuse_for_photons(threshold_))
+    return failed(ShiftFailure::NotInvertible);
+  const ChainVertex& last = c.v[c.count - 1];
+  if (!photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, c.end, last.p, last.ng, tol, rays))
+    return failed(ShiftFailure::NotReversible);
+  const ChainThroughput through = chain_throughput(scene_, c);
+  out.wi_gather = o.frame.to_local(through.wi_end);
+  if (!(length_squared(c.end - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac6 > 0)) return out;
+  double pdf = 0;
+  const RGB g = reconnection_factor(chain, normalize(c.v[0].p - c.start), pdf);
+  const auto D = chain_direction_per_area(scene_, c);
+  if (!through.ok || !D || g.is_black()) return out;  // the offset path carries nothing
+  // |d omega' / d omega| with omega = (omega_b, glossy directions): the half-vector
+  // reparameterisation of eq. 9 (|d omega_i / d o| per glossy vertex), and y_b's direction per
+  // endpoint area (eq. 8) around the endpoint's own shift (eq. 6), the half-vectors held.
+  const double jac = (through.jacobian / base.through.jacobian) * (*D / base.dir_per_area) * jac6;
+  const RGB num = g * through.f, den = base.g * base.through.f;
+  RGB ratio(0.0f);
+  for (int k = 0; k < 3; ++k) ratio[k] = den[k] > 0 ? num[k] / den[k] : 0.0f;
+  out.power = ph.power * ratio * static_cast<float>(jac);
+  out.ratio_y = (pdf * through.pdf) / (base.pdf * base.through.pdf) * jac;
+  out.in_kernel = true;
+  return out;
 }
 
 void Gpm::iterate(ProgressSink* sink) {
   const auto start = clock_type::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
   const size_t n_pixels = px_.size();
-  std::atomic<int64_t> rays{0}, invalid{0}, shift_rays{0}, shifts{0};
-  std::array<std::atomic<int64_t>, 16> failures;
+  std::atomic<int64_t> rays{0}, invalid{0}, shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0};
+  std::array<std::atomic<int64_t>, 2 * kShiftFailureCount> failures;
   for (auto& f : failures) f = 0;
 
   // ---- Gather points and their offsets ----
@@ -279,7 +471,7 @@ void Gpm::iterate(ProgressSink* sink) {
 
   // ---- Photon pass (SPPM's, with each photon's previous vertex) ----
   const auto t_trace = clock_type::now();
-  const PhotonPassStats ps = tracer_.trace(photons_per_pass_, pass, 1, photons_, &origins_);
+  const PhotonPassStats ps = tracer_.trace(photons_per_pass_, pass, 1, photons_, &origins_, &chains_);
   stats_.extra["trace seconds"] += seconds_since(t_trace);
   if (sink && sink->cancelled()) return;
 
@@ -293,7 +485,8 @@ void Gpm::iterate(ProgressSink* sink) {
   if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     int64_t local_rays = 0, local_shifts = 0;
-    int64_t fail_count[8] = {};
+    int64_t fail_count[kShiftFailureCount] = {};
+    WalkStats walk_stats;
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
       gather_lap_[i] = 0;
@@ -316,96 +509,36 @@ void Gpm::iterate(ProgressSink* sink) {
         phi += c;
         lap += c.luminance() * error_kernel::laplacian(d2, R);
         const PhotonOrigin& org = origins_[ph.index];
-        if (!org.diffuse) {  // needs the manifold walk: primal domain only (gpm.h)
+        const PhotonChain* chain =
+            org.diffuse || org.chain < 0 || manifold_iterations_ == 0 ? nullptr : &chains_[org.chain];
+        if (!org.diffuse && !chain) {  // from a distant light, or too long: primal domain (gpm.h)
           phi_fb += c;
           ++fail_count[static_cast<int>(ShiftFailure::SpecularChain)];
           return;
         }
-        const Bsdf prev_bsdf(scene_.material(org.material));
-        const Vec3 wo_prev = org.frame.to_world(org.wo);
-        const Vec3 to_base = ph.p - org.p;
-        const double d2_base = length_squared(to_base);
-        const double cos_base = std::abs(dot(org.n_photon, to_base)) / std::sqrt(d2_base);
+        ChainBase base;  // the base chain's factors, evaluated once for the four offsets
         for (int d = 0; d < 4; ++d) {
           const OffsetPoint& o = off[d];
           if (!o.exists) continue;
           RGB c_off(0.0f);
           float w = 1.0f;  // failed or non-reversible shift: this side alone samples the pair
-          auto fail = [&](ShiftFailure f) { ++fail_count[static_cast<int>(f)]; };
           if (o.ok()) {
             ++local_shifts;
-            // ---- Step 1: candidate offset photon (eq. 5), traced from y_{s-1} ----
-            const Vec3 y_star = photon_offset_candidate(vp.p, vp.frame, o.p, o.frame, ph.p);
-            const Vec3 dir_star = y_star - org.p;
-            const float len_star = length(dir_star);
-            if (!(len_star > 0)) {
-              fail(ShiftFailure::ZeroLength);
-            } else {
-              const Vec3 wi_prev = dir_star / len_star;  // outgoing at y_{s-1}, world
-              ++local_rays;
-              const auto yh = scene_.intersect(Ray(offset_ray_origin(org.p, org.ng, wi_prev), wi_prev));
-              if (!yh) {
-                fail(ShiftFailure::Missed);
-              } else if (!Bsdf(scene_.material(yh->material)).is_diffuse_for_photons(threshold_)) {
-                fail(ShiftFailure::NotInvertible);  // a photon could not be stored there
-              } else {
-                const double jac = photon_shift_jacobian(org.p, y_star, o.ng, yh->p, yh->ng);  // eq. 6
-                // ---- Reversibility (§4.3): the inverse shift must give y_s back ----
-                bool reversible = true;
-                const float tol = 1e-3f * R;
-                if (length_squared(yh->p - y_star) > tol * tol) {
-                  const Vec3 y_back = photon_offset_candidate(o.p, o.frame, vp.p, vp.frame, yh->p);
-                  const Vec3 db = y_back - org.p;
-                  const float lb = length(db);
-                  if (!(lb > 0)) {
-                    reversible = false;
-                  } else {
-                    ++local_rays;
-                    const auto bh = scene_.intersect(Ray(offset_ray_origin(org.p, org.ng, db / lb), db / lb));
-                    reversible = bh && length_squared(bh->p - ph.p) <= tol * tol;
-                  }
-                }
-                // ---- Step 2, DD ending: reconnect y'_s to y_{s-1} (its BSDF re-evaluated) ----
-                const Vec3 wi_l = org.frame.to_local(wi_prev);
-                const Vec3 wi_gather = o.frame.to_local(-wi_prev);
-                if (!reversible) {
-                  fail(ShiftFailure::NotReversible);
-                } else if (length_squared(yh->p - o.p) <= R * R && same_hemisphere(o.wo, wi_gather) && jac > 0) {
-                  const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
-                  // Shading-normal correction of the adjoint BSDF, as the photon tracer's.
-                  const float denom = std::abs(dot(wo_prev, org.ng)) * std::abs(dot(wi_prev, org.frame.n));
-                  const float corr =
-                      denom > 0 ? std::abs(dot(wo_prev, org.frame.n)) * std::abs(dot(wi_prev, org.ng)) / denom : 0.0f;
-                  // f(y')|J|/p(y): only the last segment differs. In the area measure its
-                  // factor is f_s(wi') cos(wi') [cos(y'_s)/d'^2] |J| / (pdf [cos(y_s)/d_s^2]),
-                  // with |J| of eq. 6: the density of reaching y_s from y_{s-1} stays the base's.
-                  const Vec3 to_off = yh->p - org.p;
-                  const double d2_off = length_squared(to_off);
-                  const double area_off = std::abs(dot(yh->ng, to_off)) / (std::sqrt(d2_off) * d2_off);
-                  const double area_base = cos_base / d2_base;
-                  const double area_factor = area_base > 0 ? jac * area_off / area_base : 0.0;
-                  const RGB power_off = org.scale * f_prev * (std::abs(wi_l.z) * corr * static_cast<float>(area_factor));
-                  // The base path's kernel (same radius) around the offset gather point.
-                  const Bsdf ob(scene_.material(o.material));
-                  c_off = o.beta * ob.eval(o.wo, wi_gather) * power_off * weight;
-                  // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
-                  // Light subpath: only the last segment differs; in the area measure
-                  // p(y'_s)|J| / p(y_s) = pdf' (cos*/d*^2) / (pdf cos_s/d_s^2) by eq. 6.
-                  const double pdf_off = prev_bsdf.pdf(org.wo, wi_l);
-                  const double cos_star = std::abs(dot(o.ng, wi_prev));
-                  const double ratio_y = (org.pdf > 0 && cos_base > 0)
-                                             ? (pdf_off * cos_star / (double(len_star) * len_star)) /
-                                                   (org.pdf * cos_base / d2_base)
-                                             : 0.0;
-                  const double ratio = o.ratio * ratio_y;
-                  if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));
-                  else c_off = RGB(0.0f);
-                }
-                // else: the offset path lies outside the kernel (or behind the gather point):
-                // it contributes 0 and, not being a photon of the neighbour's own gather, it
-                // cannot be sampled from that side, so this side's weight is 1.
-              }
+            const PhotonShift sh = chain ? shift_chain_photon(vp, o, R, ph, org, *chain, base, local_rays, walk_stats)
+                                         : shift_dd_photon(vp, o, R, ph, org, local_rays);
+            if (sh.failure != ShiftFailure::None) {
+              ++fail_count[static_cast<int>(sh.failure)];
+            } else if (sh.in_kernel) {
+              // The base path's kernel (same radius) around the offset gather point.
+              c_off = o.beta * Bsdf(scene_.material(o.material)).eval(o.wo, sh.wi_gather) * sh.power * weight;
+              // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
+              const double ratio = o.ratio * sh.ratio_y;
+              if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));
+              else c_off = RGB(0.0f);
             }
+            // else: the offset path lies outside the kernel (or behind the gather point): it
+            // contributes 0 and, not being a photon of the neighbour's own gather, it cannot be
+            // sampled from that side, so this side's weight is 1.
           }
           diff[d] += (c_off - c) * (w * kSign[d]);
         }
@@ -418,7 +551,9 @@ void Gpm::iterate(ProgressSink* sink) {
     }
     shift_rays += local_rays;
     shifts += local_shifts;
-    for (int k = 0; k < 8; ++k) failures[kPhotonFailureBase + k] += fail_count[k];
+    for (int k = 0; k < kShiftFailureCount; ++k) failures[kPhotonFailureBase + k] += fail_count[k];
+    walks += walk_stats.walks;
+    walk_iterations += walk_stats.iterations;
   });
   stats_.extra["lookup seconds"] += seconds_since(t_lookup);
 
@@ -485,7 +620,9 @@ void Gpm::iterate(ProgressSink* sink) {
   stats_.extra["photon rays"] += static_cast<double>(ps.rays);
   stats_.extra["photon shifts"] += static_cast<double>(shifts);
   stats_.extra["photon shift rays"] += static_cast<double>(shift_rays);
-  for (int k = 1; k < 8; ++k) {
+  stats_.extra["manifold walks"] += static_cast<double>(walks);
+  stats_.extra["manifold walk iterations"] += static_cast<double>(walk_iterations);
+  for (int k = 1; k < kShiftFailureCount; ++k) {
     const std::string reason(failure_stat_name(static_cast<ShiftFailure>(k)));
     if (failures[k] > 0) stats_.extra["sensor " + reason] += static_cast<double>(failures[k]);
     if (failures[kPhotonFailureBase + k] > 0) stats_.extra[reason] += static_cast<double>(failures[kPhotonFailureBase + k]);

@@ -11,10 +11,21 @@
 //     from y_{s-1}: y'_s = trace(y_{s-1} -> y*_s), Jacobian eq. 6 (photon_shift.h);
 //   - DD endings (y_{s-1} diffuse): y'_s is reconnected to y_{s-1} directly (§4.2 step 2),
 //     whose BSDF is re-evaluated for the new outgoing direction; the Jacobian is eq. 6 alone;
+//   - specular and glossy chains (y_{b+1} .. y_{s-1} not diffuse, y_b the last diffuse vertex or
+//     the light vertex): a manifold walk (JM12 §5.2, manifold.h) from y_b to y'_s with every
+//     half-vector held (delta vertices: the normal; glossy ones, roughness <= 0.05: the base's);
+//     the Jacobian is eq. 7-10 written in the directions the photon tracer sampled,
+//       |d omega'/d omega| = prod_glossy |d omega'_i/d o| / |d omega_i/d o|
+//                            * |d omega'_b/dA(y'_s)| / |d omega_b/dA(y_s)| * eq. 6,
+//     the middle factor being eq. 8's generalized geometry term over cos at y_b, with glossy
+//     vertices held at their half-vectors (eq. 9's middle term) and their own direction
+//     Jacobians outside (its first and third terms); delta vertices drop out (eq. 10's discarded
+//     rows and columns); the offset photon's power is the base's times the ratio of y_b's
+//     directional factor (BSDF, or the light's emission) and of the chain's BSDFs;
 //   - the offset path contributes with the base's kernel K = 1/(pi r^2) when y'_s lies within r
 //     of the offset gather point z'_t, else 0;
 //   - reversibility (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t, traced from
-//     y_{s-1}) must land on y_s; otherwise the pair is kept with MIS weight 1;
+//     the offset's y'_{s-1}) must land on y_s; otherwise the pair is kept with MIS weight 1;
 //   - MIS between the two pixels of each difference by the balance heuristic of eq. 11,
 //     w = 1 / (1 + p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z))); a failed shift gives offset 0, weight 1.
 // Base flux, the four MIS-weighted flux differences and the photon count of a pixel share one
@@ -23,10 +34,11 @@
 // What is not shifted, and stays in the primal domain (kept apart, added after the screened
 // Poisson reconstruction, so it is estimated exactly as SPPM estimates it and neither biases the
 // gradients nor is biased by them; the gradient passes include its finite differences):
-//   - photons whose previous vertex y_{s-1} is specular or glossy (caustics, light through
-//     glass): their shift needs the manifold walk of §4.2 step 2 (JM12), which is not
-//     implemented. They are counted as "shift failed: specular chain (no manifold walk)".
+//   - photons whose chain cannot be walked: from a distant light (no vertex to reconnect to) or
+//     longer than kMaxChainVertices, counted as "shift failed: specular chain not walkable";
 //   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
+// A walk that does not converge in `manifold_iterations` steps is a failed shift (offset 0,
+// weight 1, counted as "shift failed: manifold walk did not converge"), as in the paper.
 // Direct light at the gather point by next-event estimation (SPPM's) is in the gradient domain:
 // the offset gather points take the same light sample (as GPT), own visibility and BSDF, with
 // the sensor subpath's ratio in the MIS weight (the light point's area density is shared).
@@ -37,18 +49,22 @@
 //                               that passes stay short: pass --photons 1000000 for the paper's)
 //   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
 //   recon               "l2"    screened Poisson reconstruction: l2 or l1 (eq. 3)
+//   manifold_iterations 5       projections a manifold walk may take (GPM §5; Mitsuba: 20);
+//                               0 disables the walk (caustic photons primal-only, an ablation)
 //   lambda              0.2     weight of the primal image in eq. 3
 //
 // Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image), gradient_x,
 // gradient_y (forward differences describing the primal pass: L2 reconstruction of primal and
 // gradients gives combined back), error, radius, photon_count (as SPPM).
 // Statistics: Stats::extra counts sensor ("sensor shift failed: ...") and photon ("shift
-// failed: ...") shift failures by reason, and "photon shifts" attempted.
+// failed: ...") shift failures by reason, "photon shifts" attempted, "manifold walks" and
+// "manifold walk iterations".
 #pragma once
 
 #include <array>
 #include <vector>
 
+#include "integrators/gradient/manifold.h"
 #include "integrators/gradient/shift.h"
 #include "integrators/progressive_photon.h"
 #include "reconstruction/poisson.h"
@@ -86,11 +102,44 @@ class Gpm : public ProgressivePhotonMapping {
   };
 
   void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
-                    std::array<std::atomic<int64_t>, 16>& failures);
+                    std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures);
+
+  // One photon's offset for one neighbour (§4.2): where it lands relative to the offset gather
+  // point and what it carries there.
+  struct PhotonShift {
+    ShiftFailure failure = ShiftFailure::None;
+    bool in_kernel = false;  // y'_s within the base's radius of z'_t, on its visible side
+    RGB power{0.0f};         // f(y')|T'(y)| / p(y): the offset photon's power in the base's measure
+    Vec3 wi_gather;          // local direction at z'_t towards y'_{s-1}
+    double ratio_y = 0;      // p(T y)|T'(y)| / p(y) of eq. 11 (light subpath)
+  };
+  // The base chain's factors for the light-subpath shift, evaluated on the first offset.
+  struct ChainBase {
+    bool evaluated = false, ok = false;
+    ManifoldChain chain;
+    RGB g{0.0f};            // y_b's directional factor towards y_{b+1}
+    double pdf = 0;         // y_b's solid-angle pdf of that direction
+    ChainThroughput through;
+    double dir_per_area = 0;  // |d omega_b / dA(y_s)|, eq. 8
+  };
+  struct WalkStats {
+    int64_t walks = 0, iterations = 0;
+  };
+  // Step 1 (eq. 5-6) and the DD reconnection of step 2.
+  PhotonShift shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
+                              const PhotonOrigin& org, int64_t& rays) const;
+  // Step 1 and the manifold walk of step 2 for specular and glossy chains (eq. 7-10).
+  PhotonShift shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
+                                 const PhotonOrigin& org, const PhotonChain& chain, ChainBase& base, int64_t& rays,
+                                 WalkStats& walk_stats) const;
+  // y_b's directional factor (f |cos| with the adjoint correction, or a light's emission) and pdf.
+  RGB reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& pdf) const;
 
   ReconOptions recon_;
   std::vector<std::array<OffsetPoint, 4>> off_;
   std::vector<PhotonOrigin> origins_;
+  std::vector<PhotonChain> chains_;
+  int manifold_iterations_ = 5;
   std::vector<GradState> grad_;
   std::vector<RGB> gather_fb_;
   std::vector<std::array<RGB, 4>> gather_diff_;

@@ -14,7 +14,8 @@ std::string_view failure_stat_name(ShiftFailure f) {
     case ShiftFailure::TotalInternalReflection: return "shift failed: total internal reflection";
     case ShiftFailure::Missed: return "shift failed: offset left the scene";
     case ShiftFailure::NotReversible: return "shift failed: not reversible";
-    case ShiftFailure::SpecularChain: return "shift failed: specular chain (no manifold walk)";
+    case ShiftFailure::SpecularChain: return "shift failed: specular chain not walkable";
+    case ShiftFailure::WalkNotConverged: return "shift failed: manifold walk did not converge";
   }
   return "shift failed: ?";
 }

@@ -28,9 +28,11 @@ enum class ShiftFailure {
   TotalInternalReflection,  // half-vector copy through refraction has no refracted direction
   Missed,                   // the offset ray left the scene where the base path hit a surface
   NotReversible,            // GPM: the inverse shift of the offset does not give the base back (§4.3)
-  SpecularChain,            // GPM: light subpath ends with a specular/glossy vertex before the
-                            // photon, which needs the manifold walk (not implemented)
+  SpecularChain,            // GPM: a specular/glossy chain the manifold walk cannot take (it
+                            // starts at a distant light, or is longer than kMaxChainVertices)
+  WalkNotConverged,         // GPM: the manifold walk did not reach the offset photon (JM12 §5.2)
 };
+inline constexpr int kShiftFailureCount = 9;
 
 // "shift failed: occluded", ... (the Stats::extra key).
 std::string_view failure_stat_name(ShiftFailure f);
