@@ -164,3 +164,41 @@ def test_every_pass_of_the_method_reaches_the_compositor(empty_scene, out_dir, m
         assert img.shape[:2] == (24, 32) and np.isfinite(img).all() and np.abs(img).max() > 0, name
     if method == "gdmlt":  # chain states per pixel sum to the mutations: one per pixel per pass
         assert exr["sample_density"].sum() == pytest.approx(3 * 32 * 24, rel=1e-3)
+
+
+class _Layout:
+    """Records the properties a panel draws (panels cannot be drawn without a window)."""
+
+    def __init__(self, drawn=None):
+        self.drawn = [] if drawn is None else drawn
+        self.use_property_split = self.use_property_decorate = self.active = False
+
+    def column(self, **kwargs):
+        return _Layout(self.drawn)
+
+    def prop(self, data, name, **kwargs):
+        assert hasattr(data, name), name
+        self.drawn.append(name)
+
+    def label(self, **kwargs):
+        pass
+
+
+@pytest.mark.parametrize("method,shown,hidden", [
+    ("gdmlt", {"mlt_chains", "mlt_mutations", "mlt_large_step", "mlt_sigma", "mlt_primal_share", "mlt_bootstrap",
+               "mlt_reconstruction", "poisson_lambda"}, {"photon_chains", "photon_sampler", "reconstruction"}),
+    ("sppm", {"photon_sampler", "photon_chains", "photons_per_pass", "alpha", "confidence"}, {"mlt_chains"}),
+    ("sppm-adaptive", {"photon_chains"}, {"photon_sampler", "mlt_chains"}),
+    ("msppm", {"msppm_alpha", "msppm_photons", "msppm_max_depth"},
+     {"alpha", "photons_per_pass", "max_depth", "confidence", "photon_hash", "photon_chains"}),
+    ("gpm", {"gpm_alpha", "reconstruction"}, {"alpha", "photon_sampler", "mlt_chains"}),
+    ("pt", {"max_depth"}, {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha"}),
+])
+def test_method_panel_shows_the_methods_own_parameters(empty_scene, method, shown, hidden):
+    from types import SimpleNamespace
+    from gradphoton.ui import GRADPHOTON_PT_method
+    empty_scene.gradphoton.method = method
+    panel = SimpleNamespace(layout=_Layout())
+    GRADPHOTON_PT_method.draw(panel, SimpleNamespace(scene=empty_scene))
+    drawn = set(panel.layout.drawn)
+    assert shown <= drawn and not hidden & drawn, drawn
