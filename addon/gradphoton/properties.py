@@ -51,9 +51,42 @@ METHOD_PARAMS = {
     "spectral": "spectral_mode",
 }
 
+# Parameters of one method only: native name -> property name, added to (or replacing)
+# METHOD_PARAMS for that method. A method whose paper default differs from the shared
+# property's gets its own property with the core's default (msppm's alpha 0.6 and one photon
+# per pixel, gpm's alpha 0.9, gdmlt's L1 reconstruction), and a choice that would override a method alias's
+# default (photon_sampler: sppm-adaptive is sppm with "adaptive") is sent only where it is one.
+_ADAPTIVE_PHOTONS = {"photon_sampler": "photon_sampler", "chains": "photon_chains"}
+METHOD_SPECIFIC_PARAMS = {
+    "sppm": _ADAPTIVE_PHOTONS,
+    "ppm": _ADAPTIVE_PHOTONS,
+    "sppm-adaptive": {"chains": "photon_chains"},
+    "gpm": {"alpha": "gpm_alpha"},
+    "msppm": {"alpha": "msppm_alpha", "photons": "msppm_photons", "max_depth": "msppm_max_depth"},
+    "gdmlt": {"mutations": "mlt_mutations", "chains": "mlt_chains", "large_step": "mlt_large_step",
+              "sigma": "mlt_sigma", "primal_share": "mlt_primal_share", "bootstrap": "mlt_bootstrap",
+              "recon": "mlt_reconstruction"},
+}
+# Every native name the addon may send (the session warns only about others left unused).
+KNOWN_PARAMS = set(METHOD_PARAMS).union(*METHOD_SPECIFIC_PARAMS.values())
+
+
+def method_params(method):
+    """Native parameter name -> property name for one method."""
+    return {**METHOD_PARAMS, **METHOD_SPECIFIC_PARAMS.get(method, {})}
+
+
+def param_prop(method, name):
+    """The property that holds native parameter `name` for `method` (for the panel)."""
+    return method_params(method).get(name, name)
+
+
 # Which parameter groups the panel shows for a method (the core reads only its own).
 PHOTON_METHODS = {"ppm", "sppm", "sppm-adaptive", "gpm", "msppm"}
 GRADIENT_METHODS = {"gpt", "gpm", "gdmlt"}
+ADAPTIVE_PHOTON_METHODS = {"ppm", "sppm", "sppm-adaptive"}  # read photon_sampler / chains
+ERROR_ESTIMATE_METHODS = {"ppm", "sppm", "sppm-adaptive", "gpm"}  # read confidence (and hash)
+MLT_METHODS = {"gdmlt"}
 
 
 class GradphotonRenderSettings(bpy.types.PropertyGroup):
@@ -94,6 +127,39 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
                ("rgb", "RGB", "Always RGB (dispersion ignored)"),
                ("spectral", "Spectral", "Always spectral (path tracing runs with hero wavelengths)")],
         description="Spectral mode of the core (--spectral)")
+    # Adaptive photon tracing (thesis ch. 8, adaptive_photons.h): ppm, sppm, sppm-adaptive
+    photon_sampler: EnumProperty(
+        name="Photon Sampler", default="uniform",
+        items=[("uniform", "Uniform", "Photon paths from independent uniform random numbers"),
+               ("adaptive", "Adaptive", "Adaptive MCMC on path visibility with replica exchange (thesis ch. 8)")],
+        description="How photon paths are sampled (sppm-adaptive always uses the adaptive sampler)")
+    photon_chains: IntProperty(name="Chains", default=64, min=1, max=65536,
+                               description="Markov chains of the adaptive photon sampler (independent of threads)")
+    # MSPPM (thesis ch. 9, hybrid_ppm.h): its own defaults
+    msppm_alpha: FloatProperty(name="Alpha", default=0.6, min=0.01, max=0.99,
+                               description="Radius reduction of MSPPM; below 2/3 (thesis eq. 9.23; 0.6)")
+    msppm_photons: IntProperty(name="Photons per Pass", default=0, min=0,
+                               description="Photon paths per pass (0 = one per pixel, thesis §9.5)")
+    msppm_max_depth: IntProperty(name="Max Bounces", default=16, min=1, max=1024,
+                                 description="Longest camera or photon path in segments (MSPPM: 16)")
+    gpm_alpha: FloatProperty(name="Alpha", default=0.9, min=0.01, max=0.99,
+                             description="Radius reduction of gradient-domain photon mapping (its paper's 0.9)")
+    # Gradient-domain MLT (gdmlt.h)
+    mlt_mutations: IntProperty(name="Mutations per Pixel", default=1, min=1, max=1024,
+                               description="Mutations per pixel per pass (a pass costs about one gpt pass)")
+    mlt_chains: IntProperty(name="Chains", default=64, min=1, max=65536,
+                            description="Independent Markov chains (independent of threads)")
+    mlt_large_step: FloatProperty(name="Large Step", default=0.3, min=0.0, max=1.0,
+                                  description="Probability of a large step (Kelemen's p_large)")
+    mlt_sigma: FloatProperty(name="Sigma", default=0.01, min=1e-5, max=0.99, precision=4,
+                             description="Deviation of a small step in primary sample space")
+    mlt_primal_share: FloatProperty(name="Primal Share", default=0.05, min=1e-4, max=100.0, precision=3,
+                                    description="Share of the primal throughput in the target function")
+    mlt_bootstrap: IntProperty(name="Bootstrap", default=1, min=1, max=1024,
+                               description="Uniform bootstrap samples per pixel (normalisation, chain starts)")
+    mlt_reconstruction: EnumProperty(name="Reconstruction", default="l1",
+                                     items=[("l2", "L2", "Screened Poisson, least squares (unbiased)"),
+                                            ("l1", "L1", "Screened Poisson, L1 (robust; GD-MLT's default)")])
     export_uvs: BoolProperty(name="Export UVs", default=False,
                              description="Export UV maps (splits vertices at UV seams; no material uses UVs yet)")
 

@@ -5,13 +5,15 @@ Cancellation: each pass runs in a worker thread (the native call releases the GI
 thread polls test_break() every 20 ms and calls Session.cancel(), which stops the pass between
 tiles; the image so far is kept and returned.
 """
+import fnmatch
+import math
 import threading
 import time
 
 import numpy as np
 
 from . import export, native
-from .properties import METHOD_PARAMS
+from .properties import KNOWN_PARAMS, method_params
 
 POLL_SECONDS = 0.02
 LAST = None  # the latest RenderSession (tests and the UI test inspect it)
@@ -39,11 +41,47 @@ def register_passes(engine, scene, view_layer):
         engine.register_pass(scene, view_layer, bl_name, channels, chan_id, kind)
 
 
-def params_of(settings):
-    p = {}
-    for key, prop in METHOD_PARAMS.items():
-        p[key] = getattr(settings, prop)
-    return p
+def params_of(settings, method=None):
+    """The native parameters for `method` (default: the chosen one) from the render settings."""
+    return {key: getattr(settings, prop) for key, prop in method_params(method or settings.method).items()}
+
+
+# Key statistics of a method on the status line: (Stats key, short label, format). A key with
+# '*' sums every statistic it matches (fnmatch). A missing statistic is left out.
+_SHIFT_FAILURES = ("*shift failed*", "shift failures", "{:,.0f}")
+_ADAPTIVE_STATS = [("acceptance rate", "accept", "{:.3f}"), ("mutation size", "theta", "{:.3g}"),
+                   ("V_c", "V_c", "{:.3f}")]
+METHOD_STATS = {
+    "sppm-adaptive": _ADAPTIVE_STATS,
+    "sppm": _ADAPTIVE_STATS,  # with the adaptive photon sampler
+    "ppm": _ADAPTIVE_STATS,
+    "msppm": [("path tracing share", "PT share", "{:.3f}"),
+              ("measurement points per pixel", "points/px", "{:.2f}")],
+    "gdmlt": [("acceptance rate", "accept", "{:.3f}"), ("large-step share", "large", "{:.3f}"),
+              ("chains", "chains", "{:.0f}"), _SHIFT_FAILURES],
+    "gpt": [_SHIFT_FAILURES],
+    "gpm": [_SHIFT_FAILURES],
+}
+
+
+def method_stats(method, stats):
+    """["label value", ...] for the method's key statistics present in `stats`."""
+    out = []
+    for key, label, form in METHOD_STATS.get(method, ()):
+        try:
+            if "*" in key:
+                values = [float(v) for k, v in stats.items() if fnmatch.fnmatchcase(k, key)]
+                if not values:
+                    continue
+                value = sum(values)
+            elif key in stats:
+                value = float(stats[key])
+            else:
+                continue
+            out.append(f"{label} {form.format(value)}")
+        except (TypeError, ValueError):
+            continue  # never fail the render for a statistic
+    return out
 
 
 def to_blender_pixels(img, channels, window=None):
@@ -94,17 +132,18 @@ class Progress:
             return passes >= self.passes
         return error is not None and 0 <= error <= self.target
 
-    def status(self, stats, error):
+    def status(self, stats, error, method=""):
         f = self.fraction(stats.get("passes", 0), error)
         el = self.elapsed()
         parts = [f"Pass {stats.get('passes', 0)}"]
-        photons = stats.get("photons")
+        photons = stats.get("photons", stats.get("photons traced"))
         if photons:
             parts.append(f"{int(photons):,} photons")
         else:
             parts.append(f"{int(stats.get('paths', 0)):,} paths")
-        if error is not None and error >= 0:
+        if error is not None and 0 <= error < math.inf:
             parts.append(f"error {error:.4f}")
+        parts.extend(method_stats(method, stats))
         if 0 < f < 1:
             parts.append(f"{el * (1 - f) / f:.1f} s left")
         parts.append(f"{el:.1f} s")
@@ -123,6 +162,7 @@ class RenderSession:
         self.updates = []           # (seconds, passes) of every image sent to Blender
         self.break_at = None        # wall clock (time.time()) when test_break() first fired
         self.finished_at = None     # wall clock when render() returned
+        self.status_line = ""       # the latest status line sent to Blender
         global LAST
         LAST = self
 
@@ -143,13 +183,13 @@ class RenderSession:
                 engine.report({'WARNING'}, exported.warnings.summary())
             engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
             nscene = exported.build(N)
-            self.session = N.Session(nscene, settings.method, params_of(settings))
+            self.session = N.Session(nscene, settings.method, params_of(settings, settings.method))
         except (ValueError, TypeError, RuntimeError) as e:  # SceneError, ParamError: one readable line
             engine.report({'ERROR'}, f"gradphoton: {e}")
             return
         for w in nscene.warnings:
             engine.report({'WARNING'}, f"gradphoton scene: {w}")
-        unused = [u for u in self.session.unused_params if u not in METHOD_PARAMS]
+        unused = [u for u in self.session.unused_params if u not in KNOWN_PARAMS]
         if unused:
             engine.report({'WARNING'}, f"gradphoton: parameters not used by {settings.method}: {', '.join(unused)}")
         W, H = exported.width, exported.height
@@ -175,7 +215,8 @@ class RenderSession:
                     self.updates.append((now, n))
                     last_update = now
                     interval = min(2.0, interval * 1.5)
-                engine.update_stats("", progress.status(stats, error))
+                self.status_line = progress.status(stats, error, settings.method)
+                engine.update_stats("", self.status_line)
                 engine.update_progress(progress.fraction(n, error))
                 if cancelled_at is not None:
                     self.cancel_latency = time.perf_counter() - cancelled_at

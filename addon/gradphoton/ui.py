@@ -4,7 +4,8 @@ added to their COMPAT_ENGINES, as other engines do."""
 import bpy
 
 from . import native
-from .properties import GRADIENT_METHODS, PHOTON_METHODS
+from .properties import (ADAPTIVE_PHOTON_METHODS, ERROR_ESTIMATE_METHODS, GRADIENT_METHODS, MLT_METHODS,
+                         PHOTON_METHODS, param_prop)
 
 ENGINE = "GRADPHOTON"
 
@@ -46,18 +47,32 @@ class GRADPHOTON_PT_method(GradphotonPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         s = context.scene.gradphoton
-        layout.prop(s, "max_depth")
+        m = s.method
+        # A parameter's property can depend on the method (properties.METHOD_SPECIFIC_PARAMS).
+        layout.prop(s, param_prop(m, "max_depth"))
         layout.prop(s, "spectral_mode")
-        if s.method in PHOTON_METHODS:
+        if m in PHOTON_METHODS:
             col = layout.column(heading="Photons")
-            col.prop(s, "photons_per_pass")
-            col.prop(s, "alpha")
+            col.prop(s, param_prop(m, "photons"))
+            col.prop(s, param_prop(m, "alpha"))
             col.prop(s, "initial_radius")
-            col.prop(s, "photon_hash")
-            col.prop(s, "confidence")
-        if s.method in GRADIENT_METHODS:
+            if m in ERROR_ESTIMATE_METHODS:
+                col.prop(s, "photon_hash")
+                col.prop(s, "confidence")
+        if m in ADAPTIVE_PHOTON_METHODS:
+            col = layout.column(heading="Photon Sampler")
+            if m != "sppm-adaptive":
+                col.prop(s, "photon_sampler")
+            sub = col.column()
+            sub.active = m == "sppm-adaptive" or s.photon_sampler == "adaptive"
+            sub.prop(s, "photon_chains")
+        if m in MLT_METHODS:
+            col = layout.column(heading="Metropolis")
+            for name in ("mutations", "chains", "large_step", "sigma", "primal_share", "bootstrap"):
+                col.prop(s, param_prop(m, name))
+        if m in GRADIENT_METHODS:
             col = layout.column(heading="Reconstruction")
-            col.prop(s, "reconstruction")
+            col.prop(s, param_prop(m, "recon"))
             col.prop(s, "poisson_lambda")
 
 

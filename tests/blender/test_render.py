@@ -128,10 +128,15 @@ def test_unsupported_node_one_warning_and_still_renders(empty_scene, out_dir):
     assert native.get().read_exr(str(out_dir / "warn_0001.exr"))["ViewLayer.Combined"].mean() > 0.01
 
 
-class _CancelAfter(GradphotonRenderEngine):
-    """The engine with test_break() firing after a delay (Esc pressed mid-render)."""
+class _CancelAfter(bpy.types.RenderEngine):
+    """The engine with test_break() firing after a delay (Esc pressed mid-render). Not a
+    subclass of GradphotonRenderEngine: unregistering a subclass of a registered engine leaves
+    Blender without the Python class of GRADPHOTON ("unable to get Python class for RNA struct
+    'GRADPHOTON'"), and every later render in the session fails."""
     bl_idname = "GRADPHOTON_CANCEL_TEST"
     bl_label = "gradphoton (cancel test)"
+    bl_use_postprocess = True
+    update_render_passes = GradphotonRenderEngine.update_render_passes
     delay = 0.6
     record = {}
 
