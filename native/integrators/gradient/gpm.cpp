@@ -429,17 +429,16 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   const ChainVertex& last = c.v[c.count - 1];
   if (!photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, c.end, last.p, last.ng, tol, rays))
     return failed(ShiftFailure::NotReversible);
-  const ChainThroughput through = chain_throughput(scene_, c);
+  const ChainThroughput& through = walk.through;
   out.wi_gather = o.frame.to_local(through.wi_end);
   if (!(length_squared(c.end - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac6 > 0)) return out;
   double pdf = 0;
   const RGB g = reconnection_factor(chain, normalize(c.v[0].p - c.start), pdf);
-  const auto D = chain_direction_per_area(scene_, c);
-  if (!through.ok || !D || g.is_black()) return out;  // the offset path carries nothing
+  if (!through.ok || g.is_black()) return out;  // the offset path carries nothing
   // |d omega' / d omega| with omega = (omega_b, glossy directions): the half-vector
   // reparameterisation of eq. 9 (|d omega_i / d o| per glossy vertex), and y_b's direction per
   // endpoint area (eq. 8) around the endpoint's own shift (eq. 6), the half-vectors held.
-  const double jac = (through.jacobian / base.through.jacobian) * (*D / base.dir_per_area) * jac6;
+  const double jac = (through.jacobian / base.through.jacobian) * (walk.dir_per_area / base.dir_per_area) * jac6;
   const RGB num = g * through.f, den = base.g * base.through.f;
   RGB ratio(0.0f);
   for (int k = 0; k < 3; ++k) ratio[k] = den[k] > 0 ? num[k] / den[k] : 0.0f;

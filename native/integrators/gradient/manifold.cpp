@@ -118,8 +118,11 @@ Eigen::Matrix<S, 2, 1> half_vector(const V3<S>& prev, const V3<S>& x, const V3<S
   return Eigen::Matrix<S, 2, 1>(h.dot(s), h.dot(t));
 }
 
-// Local surfaces of x_1 .. x_k and the endpoint plane; false on a degenerate triangle.
-bool chain_surfaces(const Scene& scene, const ManifoldChain& c, std::array<LocalSurface, kMaxChainVertices + 1>& out) {
+// Local surfaces of x_1 .. x_k and the endpoint plane.
+using Surfaces = std::array<LocalSurface, kMaxChainVertices + 1>;
+
+// Computes them for a chain; false on a degenerate triangle.
+bool chain_surfaces(const Scene& scene, const ManifoldChain& c, Surfaces& out) {
   for (int j = 0; j < c.count; ++j) {
     out[j] = local_surface(scene, c.v[j].mesh, c.v[j].prim, c.v[j].p);
     if (!out[j].ng.allFinite() || !out[j].n.allFinite() || out[j].n.squaredNorm() == 0) return false;
@@ -131,7 +134,7 @@ bool chain_surfaces(const Scene& scene, const ManifoldChain& c, std::array<Local
 // Tangent map T = -A^{-1} B (JM12 eq. 7): the motion of x_1..x_k (2k rows) per unit motion of
 // the endpoint in its tangent plane (2 columns). nullopt when A is singular.
 std::optional<TangentMap> tangent_map(const Scene& scene, const ManifoldChain& c,
-                                           const std::array<LocalSurface, kMaxChainVertices + 1>& surf) {
+                                           const Surfaces& surf) {
   const int k = c.count;
   ConstraintMatrix M = ConstraintMatrix::Zero(2 * k, 2 * k + 2);
   for (int j = 0; j < k; ++j) {
@@ -170,10 +173,55 @@ bool refract_local(const Vec3d& wo, const Vec3d& h, double eta, Vec3d& wt) {
   return true;
 }
 
+
+// |d omega_b / dA(y_s)| from the tangent map (see chain_direction_per_area).
+std::optional<double> direction_per_area(const ManifoldChain& c, const Surfaces& surf, const TangentMap& T) {
+  const Vec3d d = to_d(c.start) - surf[0].p;
+  const double d2 = d.squaredNorm();
+  if (!(d2 > 0)) return std::nullopt;
+  const double cos1 = std::abs(surf[0].ng.dot(d)) / std::sqrt(d2);
+  const double D = std::abs(T.topRows(2).determinant()) * cos1 / d2;  // GPM eq. 8 over cos at y_b
+  if (!std::isfinite(D) || !(D > 0)) return std::nullopt;
+  return D;
+}
+
+ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Surfaces& surf) {
+  ChainThroughput out;
+  for (int j = 0; j < c.count; ++j) {
+    const ChainVertex& x = c.v[j];
+    const Vec3 prev = j == 0 ? c.start : c.v[j - 1].p;
+    const Vec3 next = j + 1 == c.count ? c.end : c.v[j + 1].p;
+    const Vec3 ns = to_f(surf[j].n.normalized()), ng = x.ng;
+    const Frame frame(ns);
+    const Vec3 wo_w = normalize(prev - x.p), wi_w = normalize(next - x.p);
+    const Vec3 wo = frame.to_local(wo_w), wi = frame.to_local(wi_w);
+    const Material& m = scene.material(scene.meshes[x.mesh].material_ids[x.prim]);
+    const Bsdf bsdf(m);
+    const float denom = std::abs(dot(wo_w, ng)) * std::abs(dot(wi_w, ns));
+    if (!(denom > 0) || wo.z == 0) return out;
+    const float corr = std::abs(dot(wo_w, ns)) * std::abs(dot(wi_w, ng)) / denom;  // Veach eq. 5.20
+    if (bsdf.is_delta()) {
+      // The base's lobe at this configuration (the walk put wi on its specular direction).
+      const float uc = x.transmission ? 1.0f - 0x1p-24f : 0.0f;
+      const auto s = bsdf.sample(wo, uc, Vec2(0.5f, 0.5f), TransportMode::Importance);
+      if (!s || s->transmission != x.transmission || !(s->pdf > 0)) return out;
+      out.f *= s->f * (std::abs(s->wi.z) * corr);
+      out.pdf *= s->pdf;
+    } else {
+      out.f *= bsdf.eval(wo, wi, TransportMode::Importance) * (std::abs(wi.z) * corr);
+      out.pdf *= bsdf.pdf(wo, wi);
+      out.jacobian *= half_vector_direction_jacobian(wo, wi, m.ior, x.transmission);
+    }
+  }
+  out.wi_end = normalize((c.count > 0 ? c.v[c.count - 1].p : c.start) - c.end);
+  out.ok = !out.f.is_black() && out.pdf > 0 && out.jacobian > 0 && std::isfinite(out.jacobian);
+  return out;
+}
+
 }  // namespace
 
 bool chain_half_vectors(const Scene& scene, const ManifoldChain& c, std::array<Vec2, kMaxChainVertices>& out) {
-  std::array<LocalSurface, kMaxChainVertices + 1> surf;
+  Surfaces surf;
   if (c.count <= 0 || c.count > kMaxChainVertices || !chain_surfaces(scene, c, surf)) return false;
   for (int j = 0; j < c.count; ++j) {
     const Vec3d prev = j == 0 ? to_d(c.start) : surf[j - 1].p;
@@ -186,21 +234,16 @@ bool chain_half_vectors(const Scene& scene, const ManifoldChain& c, std::array<V
 }
 
 std::optional<double> chain_direction_per_area(const Scene& scene, const ManifoldChain& c) {
-  std::array<LocalSurface, kMaxChainVertices + 1> surf;
+  Surfaces surf;
   if (c.count <= 0 || c.count > kMaxChainVertices || !chain_surfaces(scene, c, surf)) return std::nullopt;
   const auto T = tangent_map(scene, c, surf);
-  if (!T) return std::nullopt;
-  const Vec3d d = to_d(c.start) - surf[0].p;
-  const double d2 = d.squaredNorm();
-  if (!(d2 > 0)) return std::nullopt;
-  const double cos1 = std::abs(surf[0].ng.dot(d)) / std::sqrt(d2);
-  const double D = std::abs(T->topRows(2).determinant()) * cos1 / d2;  // GPM eq. 8 over cos at y_b
-  if (!std::isfinite(D) || !(D > 0)) return std::nullopt;
-  return D;
+  return T ? direction_per_area(c, surf, *T) : std::nullopt;
 }
 
-ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& c, const Vec3& start_ng, const Vec3& aim,
-                             ManifoldChain& out, SurfaceHit& end_hit) {
+namespace {
+
+ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& start_ng, const Vec3& aim,
+                       ManifoldChain& out, SurfaceHit& end_hit, Surfaces& surf) {
   out = c;
   // Aim from the ray's actual origin (pushed off x_0's surface), so that aiming at a chain's own
   // x_1 gives that chain back: near a caustic a 1e-5 origin shift moves the endpoint visibly.
@@ -213,7 +256,8 @@ ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& c, const V
     const auto hit = scene.intersect(ray);
     if (!hit) return ShiftFailure::Missed;
     if (hit->mesh != c.v[j].mesh) return ShiftFailure::Occluded;  // another surface in the way
-    const LocalSurface ls = local_surface(scene, hit->mesh, hit->prim, hit->p);
+    surf[j] = local_surface(scene, hit->mesh, hit->prim, hit->p);
+    const LocalSurface& ls = surf[j];
     const Vec3d n = ls.n.normalized();
     Vec3d s, t;
     duff_basis<double>(n, s, t);
@@ -246,7 +290,16 @@ ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& c, const V
   out.end = hit->p;
   out.end_ng = hit->ng;
   end_hit = *hit;
+  surf[c.count] = end_plane(out.end, out.end_ng);
   return ShiftFailure::None;
+}
+
+}  // namespace
+
+ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& c, const Vec3& start_ng, const Vec3& aim,
+                             ManifoldChain& out, SurfaceHit& end_hit) {
+  Surfaces surf;
+  return propagate(scene, c, start_ng, aim, out, end_hit, surf);
 }
 
 ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
@@ -262,11 +315,15 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
   bool have_end = false;
   double beta = 1.0;  // step size (JM12 §5.2)
   std::optional<TangentMap> T;
-  std::array<LocalSurface, kMaxChainVertices + 1> surf;
+  Surfaces surf, next_surf;
+  if (!chain_surfaces(scene, base, surf)) {
+    w.failure = ShiftFailure::SpecularChain;
+    return w;
+  }
   bool need_map = true;
   for (int it = 0; it < max_iterations; ++it) {
     if (need_map) {
-      T = chain_surfaces(scene, w.chain, surf) ? tangent_map(scene, w.chain, surf) : std::nullopt;
+      T = tangent_map(scene, w.chain, surf);
       if (!T) break;
       need_map = false;
     }
@@ -278,16 +335,25 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
     ++w.iterations;
     ManifoldChain next;
     SurfaceHit hit;
-    const ShiftFailure f = x1.allFinite() ? propagate_chain(scene, w.chain, start_ng, to_f(x1), next, hit)
+    const ShiftFailure f = x1.allFinite() ? propagate(scene, w.chain, start_ng, to_f(x1), next, hit, next_surf)
                                           : ShiftFailure::ZeroLength;
     const double next_dist = f == ShiftFailure::None ? (to_d(next.end) - goal).norm() : kInfinity;
     if (f == ShiftFailure::None && (next_dist < dist || (!have_end && next_dist <= tolerance))) {
       w.chain = next;
       w.end_hit = hit;
+      surf = next_surf;
       have_end = true;
       dist = next_dist;
       need_map = true;
-      if (dist <= tolerance) return w;
+      if (dist <= tolerance) {
+        // Converged: the offset chain's eq. 8 term and throughput, from the surfaces at hand.
+        const auto T_end = tangent_map(scene, w.chain, surf);
+        const auto D = T_end ? direction_per_area(w.chain, surf, *T_end) : std::nullopt;
+        if (!D) break;
+        w.dir_per_area = *D;
+        w.through = throughput(scene, w.chain, surf);
+        return w;
+      }
       beta = std::min(1.0, 2.0 * beta);
     } else {
       beta *= 0.5;
@@ -298,37 +364,9 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
 }
 
 ChainThroughput chain_throughput(const Scene& scene, const ManifoldChain& c) {
-  ChainThroughput out;
-  for (int j = 0; j < c.count; ++j) {
-    const ChainVertex& x = c.v[j];
-    const Vec3 prev = j == 0 ? c.start : c.v[j - 1].p;
-    const Vec3 next = j + 1 == c.count ? c.end : c.v[j + 1].p;
-    const LocalSurface ls = local_surface(scene, x.mesh, x.prim, x.p);
-    const Vec3 ns = to_f(ls.n.normalized()), ng = x.ng;
-    const Frame frame(ns);
-    const Vec3 wo_w = normalize(prev - x.p), wi_w = normalize(next - x.p);
-    const Vec3 wo = frame.to_local(wo_w), wi = frame.to_local(wi_w);
-    const Material& m = scene.material(scene.meshes[x.mesh].material_ids[x.prim]);
-    const Bsdf bsdf(m);
-    const float denom = std::abs(dot(wo_w, ng)) * std::abs(dot(wi_w, ns));
-    if (!(denom > 0) || wo.z == 0) return out;
-    const float corr = std::abs(dot(wo_w, ns)) * std::abs(dot(wi_w, ng)) / denom;  // Veach eq. 5.20
-    if (bsdf.is_delta()) {
-      // The base's lobe at this configuration (the walk put wi on its specular direction).
-      const float uc = x.transmission ? 1.0f - 0x1p-24f : 0.0f;
-      const auto s = bsdf.sample(wo, uc, Vec2(0.5f, 0.5f), TransportMode::Importance);
-      if (!s || s->transmission != x.transmission || !(s->pdf > 0)) return out;
-      out.f *= s->f * (std::abs(s->wi.z) * corr);
-      out.pdf *= s->pdf;
-    } else {
-      out.f *= bsdf.eval(wo, wi, TransportMode::Importance) * (std::abs(wi.z) * corr);
-      out.pdf *= bsdf.pdf(wo, wi);
-      out.jacobian *= half_vector_direction_jacobian(wo, wi, m.ior, x.transmission);
-    }
-  }
-  out.wi_end = normalize((c.count > 0 ? c.v[c.count - 1].p : c.start) - c.end);
-  out.ok = !out.f.is_black() && out.pdf > 0 && out.jacobian > 0 && std::isfinite(out.jacobian);
-  return out;
+  Surfaces surf;
+  if (c.count <= 0 || c.count > kMaxChainVertices || !chain_surfaces(scene, c, surf)) return ChainThroughput{};
+  return throughput(scene, c, surf);
 }
 
 double half_vector_direction_jacobian(const Vec3& wo_f, const Vec3& wi_f, float ior, bool transmission) {

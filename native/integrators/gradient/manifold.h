@@ -66,19 +66,6 @@ std::optional<double> chain_direction_per_area(const Scene& scene, const Manifol
 ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& chain, const Vec3& start_ng, const Vec3& aim,
                              ManifoldChain& out, SurfaceHit& end_hit);
 
-struct ManifoldWalk {
-  ShiftFailure failure = ShiftFailure::None;
-  ManifoldChain chain;       // the offset chain (its end within tolerance of the target)
-  SurfaceHit end_hit;        // the surface point it ends on
-  int iterations = 0;        // projections traced
-  bool ok() const { return failure == ShiftFailure::None; }
-};
-
-// Walks `base` so that its endpoint reaches `target` (a point on a surface), x_0 fixed.
-// start_ng: geometric normal at x_0 (zero for a point light) for the first ray's offset.
-ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
-                           float tolerance, int max_iterations);
-
 // What the chain's vertices do to a photon (importance transport), for the shift's throughput
 // and MIS ratios: the product over x_1..x_k of f |cos wi| with the adjoint shading-normal
 // correction (delta lobes: the Dirac weight of the base's lobe, Fresnel), of their pdfs (delta:
@@ -92,6 +79,21 @@ struct ChainThroughput {
   Vec3 wi_end;
   bool ok = false;
 };
+struct ManifoldWalk {
+  ShiftFailure failure = ShiftFailure::None;
+  ManifoldChain chain;       // the offset chain (its end within tolerance of the target)
+  SurfaceHit end_hit;        // the surface point it ends on
+  int iterations = 0;        // projections traced
+  double dir_per_area = 0;   // chain_direction_per_area of the offset chain
+  ChainThroughput through;   // chain_throughput of the offset chain
+  bool ok() const { return failure == ShiftFailure::None; }
+};
+
+// Walks `base` so that its endpoint reaches `target` (a point on a surface), x_0 fixed.
+// start_ng: geometric normal at x_0 (zero for a point light) for the first ray's offset.
+ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
+                           float tolerance, int max_iterations);
+
 ChainThroughput chain_throughput(const Scene& scene, const ManifoldChain& chain);
 
 // Solid-angle Jacobian |d omega_i / d o| of a glossy vertex's outgoing direction wi with respect
