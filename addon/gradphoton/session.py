@@ -60,7 +60,7 @@ METHOD_STATS = {
     "gdmlt": [("acceptance rate", "accept", "{:.3f}"), ("large-step share", "large", "{:.3f}"),
               ("chains", "chains", "{:.0f}"), _SHIFT_FAILURES],
     "gpt": [_SHIFT_FAILURES],
-    "gpm": [_SHIFT_FAILURES],
+    "gpm": [_SHIFT_FAILURES, ("manifold walks", "walks", "{:,.0f}")],
 }
 
 

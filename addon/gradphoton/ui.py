@@ -74,6 +74,8 @@ class GRADPHOTON_PT_method(GradphotonPanel, bpy.types.Panel):
             col = layout.column(heading="Reconstruction")
             col.prop(s, param_prop(m, "recon"))
             col.prop(s, "poisson_lambda")
+            if m == "gpm":
+                col.prop(s, "manifold_iterations")
 
 
 class GRADPHOTON_PT_performance(GradphotonPanel, bpy.types.Panel):

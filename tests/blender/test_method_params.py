@@ -191,8 +191,8 @@ class _Layout:
     ("sppm-adaptive", {"photon_chains"}, {"photon_sampler", "mlt_chains"}),
     ("msppm", {"msppm_alpha", "msppm_photons", "msppm_max_depth"},
      {"alpha", "photons_per_pass", "max_depth", "confidence", "photon_hash", "photon_chains"}),
-    ("gpm", {"gpm_alpha", "reconstruction"}, {"alpha", "photon_sampler", "mlt_chains"}),
-    ("pt", {"max_depth"}, {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha"}),
+    ("gpm", {"gpm_alpha", "reconstruction", "manifold_iterations"}, {"alpha", "photon_sampler", "mlt_chains"}),
+    ("pt", {"max_depth"}, {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha", "manifold_iterations"}),
 ])
 def test_method_panel_shows_the_methods_own_parameters(empty_scene, method, shown, hidden):
     from types import SimpleNamespace
