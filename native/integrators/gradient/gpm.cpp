@@ -40,6 +40,31 @@ std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, boo
   return s;
 }
 
+// The initial gather radius (§5: "initialized using ray differentials, to approximate the
+// projected pixel size"): the footprint of one pixel at the gather point, sqrt|dz/dx x dz/dy|,
+// with the derivatives taken as differences to the neighbouring pixels' offset gather points,
+// which the sensor shift traced with the same sub-pixel position through the same specular
+// chain (finite-difference ray differentials, curvature and incidence included). Of the two
+// one-sided differences per axis the shorter is taken: at a silhouette or a corner one
+// neighbour lands on another surface, and its difference is not the pixel's footprint. An axis
+// without a usable neighbour takes the ray-cone length `cone`; the result is kept within
+// [cone / 4, 4 cone] against degenerate configurations.
+float projected_pixel_size(const Vec3& z, const std::array<Gpm::OffsetPoint, 4>& off, float cone) {
+  auto axis = [&](int plus, int minus) {
+    const bool p = off[plus].ok(), m = off[minus].ok();
+    const Vec3 dp = p ? off[plus].p - z : Vec3(0.0f), dm = m ? z - off[minus].p : Vec3(0.0f);
+    if (p && m) return length_squared(dp) <= length_squared(dm) ? dp : dm;
+    return p ? dp : dm;
+  };
+  const Vec3 dx = axis(Gpm::kRight, Gpm::kLeft), dy = axis(Gpm::kDown, Gpm::kUp);
+  const float lx = length(dx), ly = length(dy);
+  float r = cone;
+  if (lx > 0 && ly > 0) r = std::sqrt(length(cross(dx, dy)));
+  else if (lx > 0 || ly > 0) r = std::max(lx, ly);  // one axis: an isotropic footprint of its length
+  if (!std::isfinite(r) || !(r > 0)) return cone;
+  return std::clamp(r, 0.25f * cone, 4.0f * cone);
+}
+
 }  // namespace
 
 Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
@@ -256,7 +281,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
             pass_direct_[pixel] = Ld;
             vp_[pixel] = vp;
             off_[pixel] = off;
-            first_r_[pixel] = vp.material >= 0 ? 2.0f * pixel_spread_ * path_length : 0.0f;
+            first_r_[pixel] = vp.material >= 0 ? projected_pixel_size(vp.p, off, pixel_spread_ * path_length) : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;
@@ -395,7 +420,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // ---- The base chain y_b .. y_s: targets, throughput, eq. 8 (once per photon and pixel) ----
   if (!base.evaluated) {
     base.evaluated = true;
-    ManifoldChain& c = base.chain;
+    ManifoldChain c;
     c.start = chain.p;
     c.count = chain.count;
     for (int j = 0; j < chain.count; ++j) c.v[j] = chain.v[j];
@@ -411,9 +436,8 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
     const Vec3 dir = normalize(c.v[0].p - c.start);
     base.g = reconnection_factor(chain, dir, base.pdf);
     base.through = chain_throughput(scene_, c);
-    const auto D = chain_direction_per_area(scene_, c);
-    base.dir_per_area = D ? *D : 0.0;
-    base.ok = !base.g.is_black() && base.pdf > 0 && base.through.ok && base.dir_per_area > 0;
+    base.prepared = prepare_chain(scene_, c);
+    base.ok = !base.g.is_black() && base.pdf > 0 && base.through.ok && base.prepared.ok;
   }
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
   // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
@@ -423,12 +447,12 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
   // walk's own residual never makes a shift look non-reversible.
-  const float tol = kReversibleTolerance * R, walk_tol = 1e-4f * R;
+  const float tol = kReversibleTolerance * R, walk_tol = 1e-3f * R;
   ++walk_stats.walks;
-  const ManifoldWalk walk = manifold_walk(scene_, base.chain, chain.ng,  // chain.ng: zero for a point light
+  const ManifoldWalk walk = manifold_walk(scene_, base.prepared, chain.ng,  // chain.ng: zero for a point light
                                           s1.hit.p, walk_tol, manifold_iterations_);
   walk_stats.iterations += walk.iterations;
-  rays += static_cast<int64_t>(walk.iterations) * (base.chain.count + 1);
+  rays += static_cast<int64_t>(walk.iterations) * (chain.count + 1);
   if (!walk.ok()) return failed(walk.failure);
   const ManifoldChain& c = walk.chain;
   if (!Bsdf(scene_.material(walk.end_hit.material)).is_diffuse_for_photons(threshold_))
@@ -445,7 +469,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // |d omega' / d omega| with omega = (omega_b, glossy directions): the half-vector
   // reparameterisation of eq. 9 (|d omega_i / d o| per glossy vertex), and y_b's direction per
   // endpoint area (eq. 8) around the endpoint's own shift (eq. 6), the half-vectors held.
-  const double jac = (through.jacobian / base.through.jacobian) * (walk.dir_per_area / base.dir_per_area) * jac6;
+  const double jac = (through.jacobian / base.through.jacobian) * (walk.dir_per_area / base.prepared.dir_per_area) * jac6;
   const RGB num = g * through.f, den = base.g * base.through.f;
   RGB ratio(0.0f);
   for (int k = 0; k < 3; ++k) ratio[k] = den[k] > 0 ? num[k] / den[k] : 0.0f;

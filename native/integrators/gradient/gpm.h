@@ -45,6 +45,9 @@
 //
 // Parameters (defaults; the rest as sppm.h):
 //   alpha               0.9     radius reduction (the paper's value; SPPM's default is 0.7)
+//   radius              0       initial radius; 0 = the projected pixel size at the gather point
+//                               by finite-difference ray differentials through the neighbours'
+//                               offset paths (§5; SPPM's default is two ray-cone pixel widths)
 //   photons             100000  photons per pass (the paper uses 1 M; SPPM's default is kept so
 //                               that passes stay short: pass --photons 1000000 for the paper's)
 //   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
@@ -53,7 +56,8 @@
 //                               0 disables the walk (caustic photons primal-only, an ablation)
 //   lambda              0.2     weight of the primal image in eq. 3
 //
-// Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image), gradient_x,
+// Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image for the same
+// seed, alpha and radius), gradient_x,
 // gradient_y (forward differences describing the primal pass: L2 reconstruction of primal and
 // gradients gives combined back), error, radius, photon_count (as SPPM).
 // Statistics: Stats::extra counts sensor ("sensor shift failed: ...") and photon ("shift
@@ -81,7 +85,6 @@ class Gpm : public ProgressivePhotonMapping {
   // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
 
- private:
   // The offset gather point z'_t of one neighbour, from the half-vector copy of the eye path.
   struct OffsetPoint {
     bool exists = false;  // the neighbour is inside the image
@@ -94,6 +97,8 @@ class Gpm : public ProgressivePhotonMapping {
     int material = -1;
     bool ok() const { return exists && failure == ShiftFailure::None; }
   };
+
+ private:
   struct GradState {
     double tau_fb[3] = {0, 0, 0};  // flux of photons kept in the primal domain (specular chains)
     double diff[4][3] = {};        // MIS-weighted flux differences per direction
@@ -116,11 +121,10 @@ class Gpm : public ProgressivePhotonMapping {
   // The base chain's factors for the light-subpath shift, evaluated on the first offset.
   struct ChainBase {
     bool evaluated = false, ok = false;
-    ManifoldChain chain;
+    PreparedChain prepared;  // the chain, its tangent map's first block and eq. 8's term
     RGB g{0.0f};            // y_b's directional factor towards y_{b+1}
     double pdf = 0;         // y_b's solid-angle pdf of that direction
     ChainThroughput through;
-    double dir_per_area = 0;  // |d omega_b / dA(y_s)|, eq. 8
   };
   struct WalkStats {
     int64_t walks = 0, iterations = 0;

@@ -302,11 +302,35 @@ ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& c, const V
   return propagate(scene, c, start_ng, aim, out, end_hit, surf);
 }
 
+PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain) {
+  PreparedChain out;
+  out.chain = chain;
+  Surfaces surf;
+  if (chain.count <= 0 || chain.count > kMaxChainVertices || !chain_surfaces(scene, chain, surf)) return out;
+  const auto T = tangent_map(scene, chain, surf);
+  if (!T) return out;
+  const auto D = direction_per_area(chain, surf, *T);
+  if (!D) return out;
+  out.t1[0] = (*T)(0, 0);
+  out.t1[1] = (*T)(0, 1);
+  out.t1[2] = (*T)(1, 0);
+  out.t1[3] = (*T)(1, 1);
+  out.dir_per_area = *D;
+  out.ok = true;
+  return out;
+}
+
 ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
                            float tolerance, int max_iterations) {
+  return manifold_walk(scene, prepare_chain(scene, base), start_ng, target, tolerance, max_iterations);
+}
+
+ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, const Vec3& start_ng,
+                           const Vec3& target, float tolerance, int max_iterations) {
   ManifoldWalk w;
+  const ManifoldChain& base = prepared.chain;
   w.chain = base;
-  if (base.count <= 0 || base.count > kMaxChainVertices) {
+  if (!prepared.ok) {
     w.failure = ShiftFailure::SpecularChain;
     return w;
   }
@@ -314,13 +338,18 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
   double dist = (to_d(base.end) - goal).norm();
   bool have_end = false;
   double beta = 1.0;  // step size (JM12 §5.2)
-  std::optional<TangentMap> T;
   Surfaces surf, next_surf;
   if (!chain_surfaces(scene, base, surf)) {
     w.failure = ShiftFailure::SpecularChain;
     return w;
   }
-  bool need_map = true;
+  // The first step predicts with the prepared chain's tangent map.
+  std::optional<TangentMap> T = TangentMap::Zero(2 * base.count, 2);
+  (*T)(0, 0) = prepared.t1[0];
+  (*T)(0, 1) = prepared.t1[1];
+  (*T)(1, 0) = prepared.t1[2];
+  (*T)(1, 1) = prepared.t1[3];
+  bool need_map = false;
   for (int it = 0; it < max_iterations; ++it) {
     if (need_map) {
       T = tangent_map(scene, w.chain, surf);

@@ -89,8 +89,20 @@ struct ManifoldWalk {
   bool ok() const { return failure == ShiftFailure::None; }
 };
 
+// A base chain prepared for walks: the first block d x_1 / d x_{k+1} of its tangent map (JM12
+// eq. 7) and its eq. 8 term, computed once and shared by the walks to the four neighbours.
+struct PreparedChain {
+  ManifoldChain chain;
+  double t1[4] = {0, 0, 0, 0};  // row-major 2x2, tangent coordinates of x_1 and of the endpoint
+  double dir_per_area = 0;      // chain_direction_per_area(chain)
+  bool ok = false;              // false: degenerate chain or singular constraints
+};
+PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain);
+
 // Walks `base` so that its endpoint reaches `target` (a point on a surface), x_0 fixed.
 // start_ng: geometric normal at x_0 (zero for a point light) for the first ray's offset.
+ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& base, const Vec3& start_ng, const Vec3& target,
+                           float tolerance, int max_iterations);
 ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
                            float tolerance, int max_iterations);
 
