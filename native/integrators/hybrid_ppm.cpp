@@ -138,6 +138,183 @@ double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, do
   return mine / sum;
 }
 
+// ---- O(1) weight of density estimation (doc block "Incremental weights") ----
+namespace {
+// The per-vertex area densities E_i, L_i of eq. 9.6-9.8 for a path reached through an accessor
+// y(i) (i = 0 camera .. k light), with exactly the formulas of HybridPpm::mis_weight.
+template <class Y>
+struct PathDensities {
+  const Scene& scene;
+  const Y& y;
+  int k;
+  Vec3 towards(int a, int b) const {
+    const HybridPpm::PathVertex& vb = y(b);
+    if (vb.distant) return -vb.dir;
+    return normalize(vb.p - y(a).p);
+  }
+  double dir_pdf(int v, int from, int to) const {
+    const HybridPpm::PathVertex& a = y(v);
+    if (a.delta) return 1.0;
+    if (a.material < 0 || !a.frame) return 0.0;
+    const Bsdf bsdf(scene.material(a.material));
+    return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)));
+  }
+  double to_area(int a, int b) const {
+    const HybridPpm::PathVertex& vb = y(b);
+    if (vb.distant) return 1.0;
+    const Vec3 d = vb.p - y(a).p;
+    const double d2 = length_squared(d);
+    if (!(d2 > 0)) return 0.0;
+    return std::abs(dot(vb.ng, d)) / std::sqrt(d2) / d2;
+  }
+  // Camera side density of y_i (eq. 9.7); E_1 = 1 (the pixel, common to all techniques).
+  double E(int i) const { return i <= 1 ? 1.0 : dir_pdf(i - 1, i - 2, i) * to_area(i - 1, i); }
+  // Light side density of y_i for i <= k - 2 (eq. 9.8).
+  double L_inner(int i) const { return dir_pdf(i + 1, i + 2, i) * to_area(i + 1, i); }
+  // The end of the light-side recursion: R_{k-1} = P + H / n_pm with
+  //   P = m_{k-1},  H = (E_k [hit possible] + p_nee(y_k) [y_{k-1} not delta]) / (L_{k-1} L_k).
+  void terminal(double& P, double& H) const {
+    const LightSet& lights = scene.light_set();
+    const HybridPpm::PathVertex& lv = y(k);
+    const HybridPpm::PathVertex& prev = y(k - 1);
+    float e_pos = 0, e_dir = 0;
+    const Vec3 travel = lv.distant ? lv.dir : normalize(prev.p - lv.p);
+    if (lv.light >= 0) lights.emission_pdf(lv.light, travel, e_pos, e_dir);
+    const double Lk = lv.distant ? e_dir : e_pos;
+    const double Lk1 = lv.distant ? e_pos * std::abs(dot(prev.ng, lv.dir)) : e_dir * to_area(k, k - 1);
+    double p_nee = 0;
+    bool hit_ok = false;
+    if (lv.light >= 0) {
+      const Light& l = lights.lights()[lv.light];
+      const float pmf = lights.selection_pmf(lv.light);
+      if (l.type == LightType::Area) {
+        const float c = dot(l.n, normalize(prev.p - lv.p));
+        p_nee = (c > 0 || (l.two_sided && c < 0)) ? pmf / l.area : 0.0;
+      } else if (l.type == LightType::Environment) {
+        p_nee = lights.pdf_environment(-lv.dir);
+      } else {
+        p_nee = pmf;
+      }
+      hit_ok = l.type == LightType::Area || l.type == LightType::Environment;
+    }
+    const double q = (hit_ok ? E(k) : 0.0) + (prev.delta ? 0.0 : p_nee);
+    P = prev.mergeable ? 1.0 : 0.0;
+    H = q / (Lk1 * Lk);
+  }
+};
+template <class Y>
+PathDensities<Y> densities(const Scene& scene, const Y& y, int k) {
+  return PathDensities<Y>{scene, y, k};
+}
+}  // namespace
+
+HybridPpm::PathVertex HybridPpm::photon_path_vertex(const PhotonPathVertex& pv, bool mergeable) const {
+  PathVertex v;
+  v.p = pv.p;
+  v.ng = pv.ng;
+  if (pv.start) {
+    v.light = pv.light;
+    v.distant = scene_.light_set().lights()[pv.light].is_infinite();
+    v.dir = pv.wi;
+    return v;
+  }
+  v.frame = &pv.frame;
+  v.material = pv.material;
+  v.delta = pv.delta;
+  v.mergeable = mergeable;
+  return v;
+}
+
+void HybridPpm::photon_suffixes(const PhotonPathRecord& record, std::vector<PhotonSuffix>& suffix) const {
+  const size_t nv = record.vertices.size();
+  suffix.assign(nv, PhotonSuffix{});
+  thread_local std::vector<PathVertex> z;
+  size_t begin = 0;
+  while (begin < nv) {
+    size_t end = begin + 1;
+    while (end < nv && !record.vertices[end].start) ++end;
+    // The path z_0 (light) .. z_n; as a path ending on the light, y_j = z_{k-j} with k = n + 1
+    // (y_0 is never reached: R_j needs y_{j-1} = z_{a+1}).
+    const int n = static_cast<int>(end - begin) - 1;
+    z.clear();
+    for (int a = 0; a <= n; ++a) {
+      const PhotonPathVertex& pv = record.vertices[begin + a];
+      const bool m = !pv.start && !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
+      suffix[begin + a].depth = a;
+      suffix[begin + a].mergeable = m;
+      z.push_back(photon_path_vertex(pv, m));
+    }
+    const int k = n + 1;
+    auto y = [&](int j) -> const PathVertex& { return z[k - j]; };
+    const auto d = densities(scene_, y, k);
+    double P = 0, H = 0;
+    for (int a = 1; a <= n - 1; ++a) {
+      const int j = k - a;
+      if (a == 1) {
+        d.terminal(P, H);  // R_{k-1}
+      } else {
+        // R_j = m_j + (E_{j+1} / L_j) R_{j+1}
+        const double u = d.E(j + 1) / d.L_inner(j);
+        P = (z[a].mergeable ? 1.0 : 0.0) + u * P;
+        H = u * H;
+      }
+      suffix[begin + a].P = P;
+      suffix[begin + a].H = H;
+    }
+    begin = end;
+  }
+}
+
+void HybridPpm::camera_prefix(const PathVertex* yc, int n, double* c) const {
+  // B_j = m_j + (L_{j-1} / E_j) B_{j-1}, B_0 = 0; c_j = B_{j-1} / E_j. L_{j-1} needs y_{j+1}, so
+  // B_j exists for j < n and c_j for j <= n.
+  auto y = [&](int i) -> const PathVertex& { return yc[i]; };
+  const auto d = densities(scene_, y, n + 3);  // k only has to exceed the indices used
+  double B = 0;  // B_{j-1}
+  for (int j = 1; j <= n; ++j) {
+    c[j] = j == 1 ? 0.0 : B / d.E(j);
+    if (j < n) B = (yc[j].mergeable ? 1.0 : 0.0) + (j == 1 ? 0.0 : d.L_inner(j - 1) * c[j]);
+  }
+}
+
+double HybridPpm::merge_weight(const PathVertex* yc, int t, const double* c, const PhotonPathRecord& record,
+                               const std::vector<PhotonSuffix>& suffix, uint32_t deposit, double npm) const {
+  if (!(npm > 0) || !yc[t].mergeable) return 0.0;
+  // The full path: y_0 .. y_t from the camera, y_{t+i} = z_{dep-i} the photon's earlier vertices.
+  const int dep_depth = suffix[deposit].depth;
+  if (dep_depth < 1) return 0.0;
+  const int k = t + dep_depth;
+  PathVertex w[4];
+  const int nw = std::min(3, dep_depth);
+  for (int i = 1; i <= nw; ++i) {
+    const uint32_t b = deposit - i;
+    w[i] = photon_path_vertex(record.vertices[b], suffix[b].mergeable);
+  }
+  auto y = [&](int i) -> const PathVertex& { return i <= t ? yc[i] : w[i - t]; };
+  const auto d = densities(scene_, y, k);
+  // 1 / w_t = sum_s q(s) / q(t) = (L_{t-1} / E_t) B_{t-1} + R_t (see the doc block).
+  const double left = t >= 2 ? d.L_inner(t - 1) * c[t] : 0.0;
+  double P, H;
+  if (t == k - 1) {
+    d.terminal(P, H);  // R_t: the photon was deposited at its first hit
+  } else {
+    if (t + 1 == k - 1) {
+      d.terminal(P, H);  // R_{t+1}
+    } else {
+      const PhotonSuffix& s = suffix[deposit - 2];  // R_{t+2}, photon side only
+      const double u = d.E(t + 2) / d.L_inner(t + 1);
+      P = (w[1].mergeable ? 1.0 : 0.0) + u * s.P;
+      H = u * s.H;
+    }
+    const double u = d.E(t + 1) / d.L_inner(t);  // R_t = 1 + (E_{t+1} / L_t) R_{t+1}
+    P = 1.0 + u * P;
+    H = u * H;
+  }
+  const double inv = left + P + H / npm;
+  if (!std::isfinite(inv) || !(inv > 0)) return 0.0;  // a zero factor of q(t), or overflow
+  return 1.0 / inv;
+}
+
 // ---- Camera paths: measurement points at every vertex, path tracing with NEE ----
 void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                          std::atomic<int64_t>& invalid_out) {
@@ -285,6 +462,7 @@ void HybridPpm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
   if (chunk_photons_.size() < n_chunks) {
     chunk_photons_.resize(n_chunks);
     chunk_records_.resize(n_chunks);
+    chunk_suffix_.resize(n_chunks);
   }
   std::atomic<int64_t> rays{0}, invalid{0};
   parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
@@ -296,17 +474,20 @@ void HybridPpm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
       RngSamples u(rng);
       const int64_t begin = static_cast<int64_t>(c) * chunk, end = std::min(count, begin + chunk);
       for (int64_t k = begin; k < end; ++k) r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &chunk_records_[c]);
+      photon_suffixes(chunk_records_[c], chunk_suffix_[c]);  // light-side sums, once per vertex
     }
     rays += r;
     invalid += inv;
   });
   photons_.clear();
   record_.clear();
+  suffix_.clear();
   for (size_t c = 0; c < n_chunks; ++c) {
     const uint32_t offset = static_cast<uint32_t>(record_.vertices.size());
     photons_.insert(photons_.end(), chunk_photons_[c].begin(), chunk_photons_[c].end());
     record_.vertices.insert(record_.vertices.end(), chunk_records_[c].vertices.begin(), chunk_records_[c].vertices.end());
     for (uint32_t v : chunk_records_[c].deposit_vertex) record_.deposit_vertex.push_back(v + offset);
+    suffix_.insert(suffix_.end(), chunk_suffix_[c].begin(), chunk_suffix_[c].end());
   }
   stats.emitted = count;
   stats.stored = static_cast<int64_t>(photons_.size());
@@ -373,7 +554,8 @@ void HybridPpm::iterate(ProgressSink* sink) {
   if (have_photons) grid_.build(photons_, 2.0f * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
   std::atomic<int64_t> points{0}, found{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    std::vector<PathVertex> y;
+    std::vector<PathVertex> ycam(static_cast<size_t>(max_depth_) + 1);
+    std::vector<double> cpre(static_cast<size_t>(max_depth_) + 1);
     int64_t local_points = 0, local_found = 0;
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
@@ -383,6 +565,21 @@ void HybridPpm::iterate(ProgressSink* sink) {
       const double npm = pass_npm_[i];
       if (!(npm > 0)) continue;  // weight 0 for every photon (pass 0, see eye_pass)
       const EyeVertex* ev = &eye_[i * max_depth_];
+      // The camera path as path vertices y_0 .. y_count, and its prefix sums c_j.
+      const int count = eye_count_[i];
+      ycam[0] = PathVertex();
+      ycam[0].p = eye_origin_[i];
+      for (int a = 0; a < count; ++a) {
+        PathVertex& v = ycam[a + 1];
+        v = PathVertex();
+        v.p = ev[a].p;
+        v.ng = ev[a].ng;
+        v.frame = &ev[a].frame;
+        v.material = ev[a].material;
+        v.delta = ev[a].delta;
+        v.mergeable = ev[a].mergeable;
+      }
+      if (count > 0) camera_prefix(ycam.data(), count, cpre.data());
       double m = 0;
       RGB phi(0.0f);
       for (int j = 0; j < eye_count_[i]; ++j) {
@@ -398,40 +595,10 @@ void HybridPpm::iterate(ProgressSink* sink) {
           m += 1;
           const RGB f = bsdf.eval(wo, wi);
           if (f.is_black()) return;
-          // ---- The full path: camera vertices y_1..y_{j+1}, then the photon's earlier vertices ----
-          y.clear();
-          PathVertex cam;
-          cam.p = eye_origin_[i];
-          y.push_back(cam);
-          for (int a = 0; a <= j; ++a) {
-            PathVertex v;
-            v.p = ev[a].p;
-            v.ng = ev[a].ng;
-            v.frame = &ev[a].frame;
-            v.material = ev[a].material;
-            v.delta = ev[a].delta;
-            v.mergeable = ev[a].mergeable;
-            y.push_back(v);
-          }
-          for (int64_t b = static_cast<int64_t>(record_.deposit_vertex[idx]) - 1; b >= 0; --b) {
-            const PhotonPathVertex& pv = record_.vertices[b];
-            PathVertex v;
-            v.p = pv.p;
-            v.ng = pv.ng;
-            if (pv.start) {
-              v.light = pv.light;
-              v.distant = scene_.light_set().lights()[pv.light].is_infinite();
-              v.dir = pv.wi;
-              y.push_back(v);
-              break;
-            }
-            v.frame = &pv.frame;
-            v.material = pv.material;
-            v.delta = pv.delta;
-            v.mergeable = !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
-            y.push_back(v);
-          }
-          const double w = mis_weight(y, 2 + (j + 1), npm);
+          // Balance heuristic of density estimation at y_{j+1} for the full path the photon
+          // closes (eq. 9.5), in O(1) from the camera prefix and the photon's suffix sums.
+          const double w = merge_weight(ycam.data(), j + 1, cpre.data(), record_, suffix_,
+                                        record_.deposit_vertex[idx], npm);
           phi += e.beta * f * ph.power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
         });
       }

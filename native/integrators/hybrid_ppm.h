@@ -77,8 +77,32 @@ class HybridPpm : public Integrator {
     Vec3 dir;
   };
   // Balance-heuristic weight of technique `technique` (0 = hit, 1 = nee, 2 + t = density
-  // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1.
+  // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1. Walks the
+  // whole path (O(k) BSDF densities): used for the hit and NEE samples of the camera pass, and
+  // as the reference the O(1) merge_weight() is tested against.
   double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm) const;
+
+  // ---- O(1) weight of density estimation (see "Incremental weights" above) ----
+  // Light side, per recorded photon-path vertex z_a (a segments from the light): the sums
+  // P + H / n_pm = R_j of the doc block for j = k - a, valid for 1 <= a <= n - 1 on a path
+  // z_0 .. z_n (they need z_{a+1}); also the vertex's depth a and its photon-diffuse flag.
+  struct PhotonSuffix {
+    double P = 0, H = 0;
+    int depth = 0;
+    bool mergeable = false;
+  };
+  // Fills suffix[i] for every vertex of `record` (resized to its vertex count).
+  void photon_suffixes(const PhotonPathRecord& record, std::vector<PhotonSuffix>& suffix) const;
+  // Camera side: c[j] = B_{j-1} / E_j for j = 1 .. n of the camera path y[0] (camera) ..
+  // y[n] (c[0] unused); needs only the camera path.
+  void camera_prefix(const PathVertex* y, int n, double* c) const;
+  // Weight of density estimation at camera vertex y[t] (mergeable) with the photon deposited
+  // at record vertex `deposit`: the path y_0 .. y_t, then the photon's earlier vertices. Equals
+  // mis_weight() of that full path for technique 2 + t (up to rounding).
+  double merge_weight(const PathVertex* y, int t, const double* c, const PhotonPathRecord& record,
+                      const std::vector<PhotonSuffix>& suffix, uint32_t deposit, double n_pm) const;
+  // A recorded photon-path vertex as a path vertex.
+  PathVertex photon_path_vertex(const PhotonPathVertex& v, bool mergeable) const;
 
  private:
   struct EyeVertex {
@@ -111,6 +135,8 @@ class HybridPpm : public Integrator {
   PhotonHashGrid grid_;
   std::vector<Photon> photons_;
   PhotonPathRecord record_;                       // this pass's photon paths
+  std::vector<PhotonSuffix> suffix_;              // per record_ vertex (light-side sums)
+  std::vector<std::vector<PhotonSuffix>> chunk_suffix_;
   std::vector<std::vector<Photon>> chunk_photons_;
   std::vector<PhotonPathRecord> chunk_records_;
   std::vector<EyeVertex> eye_;                    // max_depth_ per pixel
