@@ -526,6 +526,7 @@ void HybridPpm::iterate(ProgressSink* sink) {
         }
       }
   };
+  const auto t_eye = clock_type::now();
   if (pass == 0 && radius_ == 0) {
     // The footprint radius comes from the camera path itself: trace the first pass's paths
     // once for it (same random streams, results discarded), so that even the first pass
@@ -538,6 +539,7 @@ void HybridPpm::iterate(ProgressSink* sink) {
   eye_pass(pass, sink, rays, invalid);
   if (sink && sink->cancelled()) return;
   set_new_radii();
+  stats_.extra["eye seconds"] += seconds_since(t_eye);
 
   // ---- 2. Photon pass ----
   const auto t_trace = clock_type::now();
@@ -547,8 +549,22 @@ void HybridPpm::iterate(ProgressSink* sink) {
 
   // ---- 3. Gathering at every measurement point, weighted by the balance heuristic ----
   const auto t_lookup = clock_type::now();
-  double max_r2 = 0;
-  for (size_t i = 0; i < n_pixels; ++i) max_r2 = std::max(max_r2, px_[i].r2);
+  // The grid's cells are twice the largest radius of a pixel that queries this pass (one with a
+  // measurement point and a density-estimation weight): pixels whose path met no
+  // photon-diffuse vertex keep their initial radius (their count never grows), and letting
+  // them set the cell size made every query scan many times the photons it finds.
+  double max_r2 = 0, sum_rq = 0, n_q = 0;
+  for (size_t i = 0; i < n_pixels; ++i) {
+    if (!(pass_npm_[i] > 0)) continue;
+    const EyeVertex* ev = &eye_[i * max_depth_];
+    bool any = false;
+    for (int j = 0; j < eye_count_[i] && !any; ++j) any = ev[j].mergeable;
+    if (!any) continue;
+    max_r2 = std::max(max_r2, px_[i].r2);
+    sum_rq += std::sqrt(px_[i].r2);
+    n_q += 1;
+  }
+  stats_.extra["max radius / mean radius"] = n_q > 0 && sum_rq > 0 ? std::sqrt(max_r2) / (sum_rq / n_q) : 0.0;
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
