@@ -173,7 +173,7 @@ struct PathDensities {
   double L_inner(int i) const { return dir_pdf(i + 1, i + 2, i) * to_area(i + 1, i); }
   // The end of the light-side recursion: R_{k-1} = P + H / n_pm with
   //   P = m_{k-1},  H = (E_k [hit possible] + p_nee(y_k) [y_{k-1} not delta]) / (L_{k-1} L_k).
-  void terminal(double& P, double& H) const {
+  void terminal(double& P, double& H) const {  // (also sets hit, nee, denom)
     const LightSet& lights = scene.light_set();
     const HybridPpm::PathVertex& lv = y(k);
     const HybridPpm::PathVertex& prev = y(k - 1);
@@ -200,7 +200,13 @@ struct PathDensities {
     const double q = (hit_ok ? E(k) : 0.0) + (prev.delta ? 0.0 : p_nee);
     P = prev.mergeable ? 1.0 : 0.0;
     H = q / (Lk1 * Lk);
+    hit = hit_ok;
+    nee = prev.delta ? 0.0 : p_nee;
+    denom = Lk1 * Lk;
   }
+  // The parts of terminal() that do not depend on y_{k-2}: H = (E_k hit + nee) / denom.
+  mutable bool hit = false;
+  mutable double nee = 0, denom = 0;
 };
 template <class Y>
 PathDensities<Y> densities(const Scene& scene, const Y& y, int k) {
@@ -225,11 +231,12 @@ HybridPpm::PathVertex HybridPpm::photon_path_vertex(const PhotonPathVertex& pv, 
   return v;
 }
 
-void HybridPpm::photon_suffixes(const PhotonPathRecord& record, std::vector<PhotonSuffix>& suffix) const {
+void HybridPpm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>& tails) const {
   const size_t nv = record.vertices.size();
-  suffix.assign(nv, PhotonSuffix{});
+  tails.assign(record.deposit_vertex.size(), PhotonTail{});
   thread_local std::vector<PathVertex> z;
-  size_t begin = 0;
+  thread_local std::vector<double> RP, RH;
+  size_t begin = 0, dep = 0;
   while (begin < nv) {
     size_t end = begin + 1;
     while (end < nv && !record.vertices[end].start) ++end;
@@ -240,26 +247,64 @@ void HybridPpm::photon_suffixes(const PhotonPathRecord& record, std::vector<Phot
     for (int a = 0; a <= n; ++a) {
       const PhotonPathVertex& pv = record.vertices[begin + a];
       const bool m = !pv.start && !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
-      suffix[begin + a].depth = a;
-      suffix[begin + a].mergeable = m;
       z.push_back(photon_path_vertex(pv, m));
     }
     const int k = n + 1;
     auto y = [&](int j) -> const PathVertex& { return z[k - j]; };
     const auto d = densities(scene_, y, k);
-    double P = 0, H = 0;
+    // R_j = P + H / n_pm at z_a (j = k - a) for 1 <= a <= n - 1 (eq. 9.5 summed from y_j to the
+    // light, over q(y_j)), and L_j, the light-side density of z_a.
+    RP.assign(n + 1, 0.0);
+    RH.assign(n + 1, 0.0);
+    double term_hit_over = 0, term_nee_over = 0;  // z_1's terminal parts, for depth-2 deposits
     for (int a = 1; a <= n - 1; ++a) {
       const int j = k - a;
       if (a == 1) {
-        d.terminal(P, H);  // R_{k-1}
+        d.terminal(RP[1], RH[1]);  // R_{k-1}
+        term_hit_over = d.hit ? 1.0 / d.denom : 0.0 / d.denom;
+        term_nee_over = d.nee / d.denom;
       } else {
         // R_j = m_j + (E_{j+1} / L_j) R_{j+1}
         const double u = d.E(j + 1) / d.L_inner(j);
-        P = (z[a].mergeable ? 1.0 : 0.0) + u * P;
-        H = u * H;
+        RP[a] = (z[a].mergeable ? 1.0 : 0.0) + u * RP[a - 1];
+        RH[a] = u * RH[a - 1];
       }
-      suffix[begin + a].P = P;
-      suffix[begin + a].H = H;
+    }
+    // Deposits of this path (in order: their vertices increase).
+    while (dep < record.deposit_vertex.size() && record.deposit_vertex[dep] < end) {
+      const int dd = static_cast<int>(record.deposit_vertex[dep] - begin);  // depth of the deposit
+      PhotonTail& tl = tails[dep];
+      const PathVertex& v = z[dd - 1];  // y_{t+1}
+      tl.p = v.p;
+      tl.ng = v.ng;
+      tl.depth = dd;
+      tl.light = v.light;
+      tl.distant = v.distant;
+      if (dd == 1) {
+        tl.to_next = v.dir;
+      } else {
+        tl.frame = *v.frame;
+        tl.material = v.material;
+        tl.delta = v.delta;
+        tl.mergeable = v.mergeable;
+        // In the photon's own indexing y_{t+1} = z_{dd-1} is y_{j1}, j1 = k - (dd - 1).
+        const int j1 = k - (dd - 1);
+        tl.to_next = d.towards(j1, j1 + 1);
+        const double g_next = d.to_area(j1, j1 + 1);  // area factor of y_{t+2} from y_{t+1}
+        if (dd == 2) {
+          // R_{t+1} is the terminal R_{k-1}: (E_k hit + nee) / (L_{k-1} L_k), E_k = p_rev g_next.
+          tl.A_P = 0;
+          tl.A_H = g_next * term_hit_over;
+          tl.B_H = term_nee_over;
+        } else {
+          // R_{t+1} = m_{t+1} + (E_{t+2} / L_{t+1}) R_{t+2}, E_{t+2} = p_rev g_next.
+          const double L1 = d.L_inner(j1);  // L_{t+1}, light side only
+          tl.A_P = g_next * RP[dd - 2] / L1;
+          tl.A_H = g_next * RH[dd - 2] / L1;
+          tl.B_H = 0;
+        }
+      }
+      ++dep;
     }
     begin = end;
   }
@@ -277,38 +322,56 @@ void HybridPpm::camera_prefix(const PathVertex* yc, int n, double* c) const {
   }
 }
 
-double HybridPpm::merge_weight(const PathVertex* yc, int t, const double* c, const PhotonPathRecord& record,
-                               const std::vector<PhotonSuffix>& suffix, uint32_t deposit, double npm) const {
-  if (!(npm > 0) || !yc[t].mergeable) return 0.0;
-  // The full path: y_0 .. y_t from the camera, y_{t+i} = z_{dep-i} the photon's earlier vertices.
-  const int dep_depth = suffix[deposit].depth;
-  if (dep_depth < 1) return 0.0;
-  const int k = t + dep_depth;
-  PathVertex w[4];
-  const int nw = std::min(3, dep_depth);
-  for (int i = 1; i <= nw; ++i) {
-    const uint32_t b = deposit - i;
-    w[i] = photon_path_vertex(record.vertices[b], suffix[b].mergeable);
-  }
-  auto y = [&](int i) -> const PathVertex& { return i <= t ? yc[i] : w[i - t]; };
-  const auto d = densities(scene_, y, k);
-  // 1 / w_t = sum_s q(s) / q(t) = (L_{t-1} / E_t) B_{t-1} + R_t (see the doc block).
-  const double left = t >= 2 ? d.L_inner(t - 1) * c[t] : 0.0;
+double HybridPpm::merge_weight(const PathVertex* yc, int t, const double* c, const PhotonTail& tl, double npm) const {
+  if (!(npm > 0) || !yc[t].mergeable || tl.depth < 1) return 0.0;
+  // The full path: y_0 .. y_t from the camera, y_{t+1} = the tail's vertex, then the photon's
+  // earlier vertices; k = t + depth. 1 / w_t = sum_s q(s) / q(t) = (L_{t-1} / E_t) B_{t-1} + R_t.
+  const PathVertex& e = yc[t];
+  const Bsdf bsdf(scene_.material(e.material));
+  const Vec3 to_prev = normalize(yc[t - 1].p - e.p);  // towards(t, t - 1)
   double P, H;
-  if (t == k - 1) {
-    d.terminal(P, H);  // R_t: the photon was deposited at its first hit
+  if (tl.depth == 1) {
+    // Photon at its first hit: y_{t+1} is the light vertex, R_t the terminal R_{k-1}.
+    PathVertex w[2];
+    w[1].p = tl.p;
+    w[1].ng = tl.ng;
+    w[1].light = tl.light;
+    w[1].distant = tl.distant;
+    w[1].dir = tl.to_next;
+    auto y = [&](int i) -> const PathVertex& { return i <= t ? yc[i] : w[1]; };
+    const auto d = densities(scene_, y, t + 1);
+    d.terminal(P, H);
   } else {
-    if (t + 1 == k - 1) {
-      d.terminal(P, H);  // R_{t+1}
-    } else {
-      const PhotonSuffix& s = suffix[deposit - 2];  // R_{t+2}, photon side only
-      const double u = d.E(t + 2) / d.L_inner(t + 1);
-      P = (w[1].mergeable ? 1.0 : 0.0) + u * s.P;
-      H = u * s.H;
+    const Vec3 dv = e.p - tl.p;  // from y_{t+1} to y_t
+    const double d2 = length_squared(dv);
+    if (!(d2 > 0)) return 0.0;  // to_area(t+1, t) = 0: q(t) = 0
+    const Vec3 to_cam = normalize(dv);
+    double p_fwd = 1.0, p_rev = 1.0;  // at y_{t+1}: towards y_t from y_{t+2}, and back
+    if (!tl.delta) {
+      const Bsdf b(scene_.material(tl.material));
+      const Vec3 lc = tl.frame.to_local(to_cam), ln = tl.frame.to_local(tl.to_next);
+      p_fwd = b.pdf(ln, lc);
+      p_rev = b.pdf(lc, ln);
     }
-    const double u = d.E(t + 1) / d.L_inner(t);  // R_t = 1 + (E_{t+1} / L_t) R_{t+1}
-    P = 1.0 + u * P;
-    H = u * H;
+    const double L_t = p_fwd * (std::abs(dot(e.ng, dv)) / std::sqrt(d2) / d2);  // eq. 9.8
+    const double P1 = (tl.mergeable ? 1.0 : 0.0) + p_rev * tl.A_P;            // R_{t+1}
+    const double H1 = p_rev * tl.A_H + tl.B_H;
+    const double E_t1 = (e.delta ? 1.0 : bsdf.pdf(e.frame->to_local(to_prev), e.frame->to_local(-to_cam))) *
+                        (std::abs(dot(tl.ng, dv)) / std::sqrt(d2) / d2);  // eq. 9.7
+    const double u = E_t1 / L_t;  // R_t = 1 + (E_{t+1} / L_t) R_{t+1}
+    P = 1.0 + u * P1;
+    H = u * H1;
+  }
+  double left = 0.0;
+  if (t >= 2) {
+    // L_{t-1} = p(y_t: y_{t+1} -> y_{t-1}) |cos| / d^2 at y_{t-1}.
+    const Vec3 dp = yc[t - 1].p - e.p;
+    const double dp2 = length_squared(dp);
+    const Vec3 from = tl.depth == 1 && tl.distant ? -tl.to_next : normalize(tl.p - e.p);
+    const double L_prev = dp2 > 0 ? (e.delta ? 1.0 : bsdf.pdf(e.frame->to_local(from), e.frame->to_local(to_prev))) *
+                                        (std::abs(dot(yc[t - 1].ng, dp)) / std::sqrt(dp2) / dp2)
+                                  : 0.0;
+    left = L_prev * c[t];
   }
   const double inv = left + P + H / npm;
   if (!std::isfinite(inv) || !(inv > 0)) return 0.0;  // a zero factor of q(t), or overflow
@@ -462,7 +525,7 @@ void HybridPpm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
   if (chunk_photons_.size() < n_chunks) {
     chunk_photons_.resize(n_chunks);
     chunk_records_.resize(n_chunks);
-    chunk_suffix_.resize(n_chunks);
+    chunk_tails_.resize(n_chunks);
   }
   std::atomic<int64_t> rays{0}, invalid{0};
   parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
@@ -474,21 +537,19 @@ void HybridPpm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
       RngSamples u(rng);
       const int64_t begin = static_cast<int64_t>(c) * chunk, end = std::min(count, begin + chunk);
       for (int64_t k = begin; k < end; ++k) r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &chunk_records_[c]);
-      photon_suffixes(chunk_records_[c], chunk_suffix_[c]);  // light-side sums, once per vertex
+      photon_tails(chunk_records_[c], chunk_tails_[c]);  // light-side sums, once per path vertex
     }
     rays += r;
     invalid += inv;
   });
+  // Photons and their tails in chunk order; a photon's `index` is its position (its tail).
   photons_.clear();
-  record_.clear();
-  suffix_.clear();
+  tails_.clear();
   for (size_t c = 0; c < n_chunks; ++c) {
-    const uint32_t offset = static_cast<uint32_t>(record_.vertices.size());
     photons_.insert(photons_.end(), chunk_photons_[c].begin(), chunk_photons_[c].end());
-    record_.vertices.insert(record_.vertices.end(), chunk_records_[c].vertices.begin(), chunk_records_[c].vertices.end());
-    for (uint32_t v : chunk_records_[c].deposit_vertex) record_.deposit_vertex.push_back(v + offset);
-    suffix_.insert(suffix_.end(), chunk_suffix_[c].begin(), chunk_suffix_[c].end());
+    tails_.insert(tails_.end(), chunk_tails_[c].begin(), chunk_tails_[c].end());
   }
+  for (size_t i = 0; i < photons_.size(); ++i) photons_[i].index = static_cast<uint32_t>(i);
   stats.emitted = count;
   stats.stored = static_cast<int64_t>(photons_.size());
   stats.rays = rays;
@@ -604,17 +665,16 @@ void HybridPpm::iterate(ProgressSink* sink) {
         ++local_points;
         const Bsdf bsdf(scene_.material(e.material));
         const Vec3 wo = e.frame.to_local(e.wo);
-        grid_.query_index(e.p, R, [&](uint32_t idx, float) {
-          const Photon& ph = photons_[idx];
+        // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the tail.
+        grid_.query(e.p, R, [&](const Photon& ph, float, float) {
           const Vec3 wi = e.frame.to_local(ph.wi);
           if (!same_hemisphere(wo, wi)) return;
           m += 1;
           const RGB f = bsdf.eval(wo, wi);
           if (f.is_black()) return;
           // Balance heuristic of density estimation at y_{j+1} for the full path the photon
-          // closes (eq. 9.5), in O(1) from the camera prefix and the photon's suffix sums.
-          const double w = merge_weight(ycam.data(), j + 1, cpre.data(), record_, suffix_,
-                                        record_.deposit_vertex[idx], npm);
+          // closes (eq. 9.5), in O(1) from the camera prefix and the photon's tail.
+          const double w = merge_weight(ycam.data(), j + 1, cpre.data(), tails_[ph.index], npm);
           phi += e.beta * f * ph.power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
         });
       }

@@ -83,24 +83,29 @@ class HybridPpm : public Integrator {
   double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm) const;
 
   // ---- O(1) weight of density estimation (see "Incremental weights" above) ----
-  // Light side, per recorded photon-path vertex z_a (a segments from the light): the sums
-  // P + H / n_pm = R_j of the doc block for j = k - a, valid for 1 <= a <= n - 1 on a path
-  // z_0 .. z_n (they need z_{a+1}); also the vertex's depth a and its photon-diffuse flag.
-  struct PhotonSuffix {
-    double P = 0, H = 0;
-    int depth = 0;
-    bool mergeable = false;
+  // Per deposited photon, from its own path only: y_{t+1} (the photon's previous vertex, its
+  // light vertex for a photon at its first hit), the unit direction from it to y_{t+2}, and the
+  // light-side sums that R_{t+1} = P + H / n_pm needs besides the densities at y_{t+1}:
+  //   P = m_{t+1} + p_rev A_P,   H = p_rev A_H + B_H,
+  // p_rev the direction density at y_{t+1} from y_t towards y_{t+2}.
+  struct PhotonTail {
+    Vec3 p, ng;       // y_{t+1}
+    Frame frame;
+    Vec3 to_next;     // depth >= 2: towards y_{t+2}; depth 1 (light vertex): its `dir`
+    double A_P = 0, A_H = 0, B_H = 0;
+    int material = -1, light = -1;
+    int depth = 0;    // segments from the light to the deposit (d = k - t)
+    bool delta = false, mergeable = false, distant = false;
   };
-  // Fills suffix[i] for every vertex of `record` (resized to its vertex count).
-  void photon_suffixes(const PhotonPathRecord& record, std::vector<PhotonSuffix>& suffix) const;
+  // Fills tails[i] for the i-th deposit of `record` (resized to its deposit count).
+  void photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>& tails) const;
   // Camera side: c[j] = B_{j-1} / E_j for j = 1 .. n of the camera path y[0] (camera) ..
   // y[n] (c[0] unused); needs only the camera path.
   void camera_prefix(const PathVertex* y, int n, double* c) const;
-  // Weight of density estimation at camera vertex y[t] (mergeable) with the photon deposited
-  // at record vertex `deposit`: the path y_0 .. y_t, then the photon's earlier vertices. Equals
-  // mis_weight() of that full path for technique 2 + t (up to rounding).
-  double merge_weight(const PathVertex* y, int t, const double* c, const PhotonPathRecord& record,
-                      const std::vector<PhotonSuffix>& suffix, uint32_t deposit, double n_pm) const;
+  // Weight of density estimation at camera vertex y[t] (mergeable) with the photon whose tail
+  // is `tail`: the path y_0 .. y_t, then the photon's earlier vertices. Equals mis_weight() of
+  // that full path for technique 2 + t (up to rounding).
+  double merge_weight(const PathVertex* y, int t, const double* c, const PhotonTail& tail, double n_pm) const;
   // A recorded photon-path vertex as a path vertex.
   PathVertex photon_path_vertex(const PhotonPathVertex& v, bool mergeable) const;
 
@@ -134,9 +139,8 @@ class HybridPpm : public Integrator {
   PhotonTracer tracer_;
   PhotonHashGrid grid_;
   std::vector<Photon> photons_;
-  PhotonPathRecord record_;                       // this pass's photon paths
-  std::vector<PhotonSuffix> suffix_;              // per record_ vertex (light-side sums)
-  std::vector<std::vector<PhotonSuffix>> chunk_suffix_;
+  std::vector<PhotonTail> tails_;                 // per photon of photons_
+  std::vector<std::vector<PhotonTail>> chunk_tails_;
   std::vector<std::vector<Photon>> chunk_photons_;
   std::vector<PhotonPathRecord> chunk_records_;
   std::vector<EyeVertex> eye_;                    // max_depth_ per pixel

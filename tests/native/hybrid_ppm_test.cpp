@@ -101,7 +101,7 @@ TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
   EXPECT_NEAR(h.mis_weight(y, 0, 1.0) + h.mis_weight(y, 2 + 1, 1.0), 1.0, 1e-9);
 }
 
-// The O(1) weight of density estimation (camera prefix c_j, photon suffix sums R_j, local
+// The O(1) weight of density estimation (camera prefix c_j, photon tail sums R_j, local
 // densities at the merge) against the full walk of mis_weight() on the same composite path:
 // random camera paths and recorded photon paths, every mergeable camera vertex with every
 // sampled deposit (the pairs are far apart, which the identity does not care about; it also
@@ -117,9 +117,12 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
   int64_t invalid = 0;
   for (int i = 0; i < 400; ++i) tracer.trace_path(u, 0, photons, invalid, &record);
   ASSERT_FALSE(record.deposit_vertex.empty());
-  std::vector<HybridPpm::PhotonSuffix> suffix;
-  h.photon_suffixes(record, suffix);
-  ASSERT_EQ(suffix.size(), record.vertices.size());
+  std::vector<HybridPpm::PhotonTail> tails;
+  h.photon_tails(record, tails);
+  ASSERT_EQ(tails.size(), record.deposit_vertex.size());
+  auto mergeable = [&](const PhotonPathVertex& pv) {
+    return !pv.start && !pv.delta && Bsdf(s.material(pv.material)).is_diffuse_for_photons(kDefaultSpecularThreshold);
+  };
   std::deque<Frame> frames;  // stable addresses for PathVertex::frame
   for (int path = 0; path < 60; ++path) {
     // A camera path traced as eye_pass does (no Russian roulette), as path vertices.
@@ -155,17 +158,18 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
     for (int t = 1; t <= n; ++t) {
       if (!yc[t].mergeable) continue;
       for (int q = 0; q < 25; ++q) {
-        const uint32_t dep = record.deposit_vertex[rng.next_u32() % record.deposit_vertex.size()];
+        const size_t photon = rng.next_u32() % record.deposit_vertex.size();
+        const uint32_t dep = record.deposit_vertex[photon];
         // The full path as the gathering used to build it: y_0 .. y_t, then the photon's
         // earlier vertices back to the light.
         std::vector<HybridPpm::PathVertex> y(yc.begin(), yc.begin() + t + 1);
         for (int64_t b = static_cast<int64_t>(dep) - 1; b >= 0; --b) {
-          y.push_back(h.photon_path_vertex(record.vertices[b], suffix[b].mergeable));
+          y.push_back(h.photon_path_vertex(record.vertices[b], mergeable(record.vertices[b])));
           if (record.vertices[b].start) break;
         }
         for (double npm : {1e-5, 1e-2, 1.0, 1e2}) {
           const double slow = h.mis_weight(y, 2 + t, npm);
-          const double fast = h.merge_weight(yc.data(), t, c.data(), record, suffix, dep, npm);
+          const double fast = h.merge_weight(yc.data(), t, c.data(), tails[photon], npm);
           ASSERT_NEAR(fast, slow, 1e-12 + 1e-6 * slow) << "t " << t << " k " << y.size() - 1 << " npm " << npm;
           ++*compared;
           if (slow > 0) ++*nonzero;
