@@ -633,6 +633,7 @@ void HybridPpm::iterate(ProgressSink* sink) {
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     std::vector<PathVertex> ycam(static_cast<size_t>(max_depth_) + 1);
     std::vector<double> cpre(static_cast<size_t>(max_depth_) + 1);
+    std::vector<const Photon*> hits;
     int64_t local_points = 0, local_found = 0;
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
@@ -665,18 +666,27 @@ void HybridPpm::iterate(ProgressSink* sink) {
         ++local_points;
         const Bsdf bsdf(scene_.material(e.material));
         const Vec3 wo = e.frame.to_local(e.wo);
-        // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the tail.
+        // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the
+        // tail, a cache miss each: found photons are collected and their tails prefetched
+        // while the query goes on, then weighted.
+        hits.clear();
         grid_.query(e.p, R, [&](const Photon& ph, float, float) {
           const Vec3 wi = e.frame.to_local(ph.wi);
           if (!same_hemisphere(wo, wi)) return;
           m += 1;
-          const RGB f = bsdf.eval(wo, wi);
-          if (f.is_black()) return;
+          const char* tp = reinterpret_cast<const char*>(&tails_[ph.index]);
+          __builtin_prefetch(tp);
+          __builtin_prefetch(tp + 64);
+          hits.push_back(&ph);
+        });
+        for (const Photon* ph : hits) {
+          const RGB f = bsdf.eval(wo, e.frame.to_local(ph->wi));
+          if (f.is_black()) continue;
           // Balance heuristic of density estimation at y_{j+1} for the full path the photon
           // closes (eq. 9.5), in O(1) from the camera prefix and the photon's tail.
-          const double w = merge_weight(ycam.data(), j + 1, cpre.data(), tails_[ph.index], npm);
-          phi += e.beta * f * ph.power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
-        });
+          const double w = merge_weight(ycam.data(), j + 1, cpre.data(), tails_[ph->index], npm);
+          phi += e.beta * f * ph->power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
+        }
       }
       gather_m_[i] = static_cast<float>(m);
       gather_phi_[i] = phi;
