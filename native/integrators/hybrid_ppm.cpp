@@ -173,7 +173,7 @@ struct PathDensities {
   double L_inner(int i) const { return dir_pdf(i + 1, i + 2, i) * to_area(i + 1, i); }
   // The end of the light-side recursion: R_{k-1} = P + H / n_pm with
   //   P = m_{k-1},  H = (E_k [hit possible] + p_nee(y_k) [y_{k-1} not delta]) / (L_{k-1} L_k).
-  void terminal(double& P, double& H) const {  // (also sets hit, nee, denom)
+  void terminal(double& P, double& H) const {  // (also sets hit, nee, denom, q_hit)
     const LightSet& lights = scene.light_set();
     const HybridPpm::PathVertex& lv = y(k);
     const HybridPpm::PathVertex& prev = y(k - 1);
@@ -197,7 +197,8 @@ struct PathDensities {
       }
       hit_ok = l.type == LightType::Area || l.type == LightType::Environment;
     }
-    const double q = (hit_ok ? E(k) : 0.0) + (prev.delta ? 0.0 : p_nee);
+    q_hit = hit_ok ? E(k) : 0.0;
+    const double q = q_hit + (prev.delta ? 0.0 : p_nee);
     P = prev.mergeable ? 1.0 : 0.0;
     H = q / (Lk1 * Lk);
     hit = hit_ok;
@@ -206,7 +207,7 @@ struct PathDensities {
   }
   // The parts of terminal() that do not depend on y_{k-2}: H = (E_k hit + nee) / denom.
   mutable bool hit = false;
-  mutable double nee = 0, denom = 0;
+  mutable double nee = 0, denom = 0, q_hit = 0;
 };
 template <class Y>
 PathDensities<Y> densities(const Scene& scene, const Y& y, int k) {
@@ -378,6 +379,19 @@ double HybridPpm::merge_weight(const PathVertex* yc, int t, const double* c, con
   return 1.0 / inv;
 }
 
+double HybridPpm::light_weight(const std::vector<PathVertex>& y, int technique, double c_last, double npm) const {
+  const int k = static_cast<int>(y.size()) - 1;
+  if (k < 2) return 1.0;  // the camera sees the light: no other technique (as mis_weight)
+  auto acc = [&](int i) -> const PathVertex& { return y[i]; };
+  const auto d = densities(scene_, acc, k);
+  double P, H;
+  d.terminal(P, H);
+  const double pm = npm * d.denom * ((y[k - 1].mergeable ? 1.0 : 0.0) + (k >= 3 ? d.L_inner(k - 2) * c_last : 0.0));
+  const double sum = d.q_hit + d.nee + pm;
+  if (!(sum > 0) || !std::isfinite(sum)) return 1.0;  // as mis_weight
+  return (technique == 0 ? d.q_hit : d.nee) / sum;
+}
+
 // ---- Camera paths: measurement points at every vertex, path tracing with NEE ----
 void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                          std::atomic<int64_t>& invalid_out) {
@@ -387,6 +401,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         std::vector<PathVertex> y;
+        std::vector<double> cy(static_cast<size_t>(max_depth_) + 2, 0.0);  // c_j of the path so far
         for (int py = tile.y0; py < tile.y1; ++py)
           for (int px = tile.x0; px < tile.x1; ++px) {
             const size_t pixel = static_cast<size_t>(py) * width_ + px;
@@ -419,7 +434,8 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                   lv.distant = true;
                   lv.dir = -ray.d;
                   y.push_back(lv);
-                  Ld += beta * lights.environment_radiance(ray.d) * static_cast<float>(mis_weight(y, 0, npm));
+                  Ld += beta * lights.environment_radiance(ray.d) *
+                        static_cast<float>(light_weight(y, 0, cy[y.size() - 2], npm));
                   y.pop_back();
                 }
                 break;
@@ -434,7 +450,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                   lv.ng = lights.lights()[hit->light].n;
                   lv.light = hit->light;
                   y.push_back(lv);
-                  Ld += beta * Le * static_cast<float>(mis_weight(y, 0, npm));
+                  Ld += beta * Le * static_cast<float>(light_weight(y, 0, cy[y.size() - 2], npm));
                   y.pop_back();
                 }
               }
@@ -460,6 +476,18 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
               sv.delta = e.delta;
               sv.mergeable = e.mergeable;
               y.push_back(sv);
+              {
+                // c_j = B_{j-1} / E_j for the new vertex y_j (see camera_prefix).
+                const int j = static_cast<int>(y.size()) - 1;
+                if (j == 1) {
+                  cy[1] = 0.0;
+                } else {
+                  auto acc = [&](int i) -> const PathVertex& { return y[i]; };
+                  const auto d = densities(scene_, acc, j + 3);
+                  const double B = (y[j - 1].mergeable ? 1.0 : 0.0) + (j - 1 == 1 ? 0.0 : d.L_inner(j - 2) * cy[j - 1]);
+                  cy[j] = B / d.E(j);
+                }
+              }
               // ---- Next-event estimation (technique "nee") ----
               if (!e.delta && !lights.empty()) {
                 const float u_light = rng.uniform();
@@ -482,7 +510,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                         lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
                       }
                       y.push_back(lv);
-                      Ld += beta * f * ls->L * static_cast<float>(mis_weight(y, 1, npm) / ls->pdf);
+                      Ld += beta * f * ls->L * static_cast<float>(light_weight(y, 1, cy[y.size() - 2], npm) / ls->pdf);
                       y.pop_back();
                     }
                   }

@@ -101,10 +101,10 @@ TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
   EXPECT_NEAR(h.mis_weight(y, 0, 1.0) + h.mis_weight(y, 2 + 1, 1.0), 1.0, 1e-9);
 }
 
-// The O(1) weight of density estimation (camera prefix c_j, photon tail sums R_j, local
+// The O(1) weights (camera prefix c_j, photon tail sums R_j, local
 // densities at the merge) against the full walk of mis_weight() on the same composite path:
 // random camera paths and recorded photon paths, every mergeable camera vertex with every
-// sampled deposit (the pairs are far apart, which the identity does not care about; it also
+// sampled deposit, and hit / NEE of a light sample from every camera vertex (the pairs are far apart, which the identity does not care about; it also
 // meets the zero-density cases, where both must give 0). Scenes with delta, glossy and
 // diffuse surfaces, area, point, sun and sky lights.
 void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* nonzero) {
@@ -155,6 +155,31 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
     if (n < 1) continue;
     std::vector<double> c(n + 1);
     h.camera_prefix(yc.data(), n, c.data());
+    // Hit and NEE: a light sample seen from every camera vertex (visibility does not matter).
+    for (int j = 1; j <= n; ++j) {
+      const auto ls = s.light_set().sample_li(yc[j].p, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+      if (!ls) continue;
+      const Light& l = s.light_set().lights()[ls->light];
+      HybridPpm::PathVertex lv;
+      lv.light = ls->light;
+      if (l.is_infinite()) {
+        lv.distant = true;
+        lv.dir = -ls->wi;
+      } else {
+        lv.p = l.type == LightType::Area ? yc[j].p + ls->wi * ls->dist : l.position;
+        lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
+      }
+      std::vector<HybridPpm::PathVertex> y(yc.begin(), yc.begin() + j + 1);
+      y.push_back(lv);
+      for (double npm : {1e-5, 1e-2, 1.0, 1e2})
+        for (int tech : {0, 1}) {
+          const double slow = h.mis_weight(y, tech, npm);
+          const double fast = h.light_weight(y, tech, c[j], npm);
+          ASSERT_NEAR(fast, slow, 1e-12 + 1e-6 * slow) << "technique " << tech << " k " << j + 1 << " npm " << npm;
+          ++*compared;
+          if (slow > 0) ++*nonzero;
+        }
+    }
     for (int t = 1; t <= n; ++t) {
       if (!yc[t].mergeable) continue;
       for (int q = 0; q < 25; ++q) {
