@@ -41,8 +41,8 @@
 // n_pm is per pixel). Only the densities next to the merge involve both sides: E_{t+1} and
 // L_{t-1} (BSDF of the camera vertex y_t towards / from the photon's previous vertex y_{t+1}),
 // L_t and E_{t+2} (BSDF of y_{t+1} towards / from y_t): four direction densities per photon
-// whatever the path length, instead of the 2k of the full walk (mis_weight, kept for the
-// path-tracing samples and as the test's reference). Photons at their first or second hit end
+// whatever the path length, instead of the 2k of the full walk (mis_weight, kept as the
+// test's reference). The hit and NEE samples use the same camera prefix (light_weight). Photons at their first or second hit end
 // in R_{k-1} (emission densities of the light). A zero factor of q(t) makes a ratio infinite
 // or NaN and the weight 0, as in the full walk. The path and its densities are those of the
 // full walk (same Fig. 9.3 composition: camera vertices to y_t, then the photon's earlier
@@ -97,8 +97,8 @@ class HybridPpm : public Integrator {
   };
   // Balance-heuristic weight of technique `technique` (0 = hit, 1 = nee, 2 + t = density
   // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1. Walks the
-  // whole path (O(k) BSDF densities): used for the hit and NEE samples of the camera pass, and
-  // as the reference the O(1) merge_weight() is tested against.
+  // whole path (O(k) BSDF densities): no longer used by rendering, kept as the reference that
+  // the O(1) merge_weight() and light_weight() are tested against.
   double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm) const;
 
   // ---- O(1) weight of density estimation (see "Incremental weights" above) ----
