@@ -64,8 +64,10 @@
 //   seed 0, threads 0, tile_size 16 as for "pt"
 //
 // Passes: combined, radius, photon_count. Statistics: photons traced/stored, photon rays,
-// average radius, measurement points per pixel, and the share of the image from each family
-// of techniques ("path tracing share").
+// average radius, measurement points per pixel, photons found per point, the share of the
+// image from each family of techniques ("path tracing share"), seconds in the camera pass,
+// photon pass (with the tails) and gathering ("eye / trace / lookup seconds"), and the largest
+// over the mean radius of the gathering pixels (it sets the hash grid's cells).
 #pragma once
 
 #include <vector>
