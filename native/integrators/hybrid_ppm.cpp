@@ -138,6 +138,260 @@ double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, do
   return mine / sum;
 }
 
+// ---- O(1) weight of density estimation (doc block "Incremental weights") ----
+namespace {
+// The per-vertex area densities E_i, L_i of eq. 9.6-9.8 for a path reached through an accessor
+// y(i) (i = 0 camera .. k light), with exactly the formulas of HybridPpm::mis_weight.
+template <class Y>
+struct PathDensities {
+  const Scene& scene;
+  const Y& y;
+  int k;
+  Vec3 towards(int a, int b) const {
+    const HybridPpm::PathVertex& vb = y(b);
+    if (vb.distant) return -vb.dir;
+    return normalize(vb.p - y(a).p);
+  }
+  double dir_pdf(int v, int from, int to) const {
+    const HybridPpm::PathVertex& a = y(v);
+    if (a.delta) return 1.0;
+    if (a.material < 0 || !a.frame) return 0.0;
+    const Bsdf bsdf(scene.material(a.material));
+    return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)));
+  }
+  double to_area(int a, int b) const {
+    const HybridPpm::PathVertex& vb = y(b);
+    if (vb.distant) return 1.0;
+    const Vec3 d = vb.p - y(a).p;
+    const double d2 = length_squared(d);
+    if (!(d2 > 0)) return 0.0;
+    return std::abs(dot(vb.ng, d)) / std::sqrt(d2) / d2;
+  }
+  // Camera side density of y_i (eq. 9.7); E_1 = 1 (the pixel, common to all techniques).
+  double E(int i) const { return i <= 1 ? 1.0 : dir_pdf(i - 1, i - 2, i) * to_area(i - 1, i); }
+  // Light side density of y_i for i <= k - 2 (eq. 9.8).
+  double L_inner(int i) const { return dir_pdf(i + 1, i + 2, i) * to_area(i + 1, i); }
+  // The end of the light-side recursion: R_{k-1} = P + H / n_pm with
+  //   P = m_{k-1},  H = (E_k [hit possible] + p_nee(y_k) [y_{k-1} not delta]) / (L_{k-1} L_k).
+  void terminal(double& P, double& H) const {  // (also sets hit, nee, denom, q_hit)
+    const LightSet& lights = scene.light_set();
+    const HybridPpm::PathVertex& lv = y(k);
+    const HybridPpm::PathVertex& prev = y(k - 1);
+    float e_pos = 0, e_dir = 0;
+    const Vec3 travel = lv.distant ? lv.dir : normalize(prev.p - lv.p);
+    if (lv.light >= 0) lights.emission_pdf(lv.light, travel, e_pos, e_dir);
+    const double Lk = lv.distant ? e_dir : e_pos;
+    const double Lk1 = lv.distant ? e_pos * std::abs(dot(prev.ng, lv.dir)) : e_dir * to_area(k, k - 1);
+    double p_nee = 0;
+    bool hit_ok = false;
+    if (lv.light >= 0) {
+      const Light& l = lights.lights()[lv.light];
+      const float pmf = lights.selection_pmf(lv.light);
+      if (l.type == LightType::Area) {
+        const float c = dot(l.n, normalize(prev.p - lv.p));
+        p_nee = (c > 0 || (l.two_sided && c < 0)) ? pmf / l.area : 0.0;
+      } else if (l.type == LightType::Environment) {
+        p_nee = lights.pdf_environment(-lv.dir);
+      } else {
+        p_nee = pmf;
+      }
+      hit_ok = l.type == LightType::Area || l.type == LightType::Environment;
+    }
+    q_hit = hit_ok ? E(k) : 0.0;
+    const double q = q_hit + (prev.delta ? 0.0 : p_nee);
+    P = prev.mergeable ? 1.0 : 0.0;
+    H = q / (Lk1 * Lk);
+    hit = hit_ok;
+    nee = prev.delta ? 0.0 : p_nee;
+    denom = Lk1 * Lk;
+  }
+  // The parts of terminal() that do not depend on y_{k-2}: H = (E_k hit + nee) / denom.
+  mutable bool hit = false;
+  mutable double nee = 0, denom = 0, q_hit = 0;
+};
+template <class Y>
+PathDensities<Y> densities(const Scene& scene, const Y& y, int k) {
+  return PathDensities<Y>{scene, y, k};
+}
+}  // namespace
+
+HybridPpm::PathVertex HybridPpm::photon_path_vertex(const PhotonPathVertex& pv, bool mergeable) const {
+  PathVertex v;
+  v.p = pv.p;
+  v.ng = pv.ng;
+  if (pv.start) {
+    v.light = pv.light;
+    v.distant = scene_.light_set().lights()[pv.light].is_infinite();
+    v.dir = pv.wi;
+    return v;
+  }
+  v.frame = &pv.frame;
+  v.material = pv.material;
+  v.delta = pv.delta;
+  v.mergeable = mergeable;
+  return v;
+}
+
+void HybridPpm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>& tails) const {
+  const size_t nv = record.vertices.size();
+  tails.assign(record.deposit_vertex.size(), PhotonTail{});
+  thread_local std::vector<PathVertex> z;
+  thread_local std::vector<double> RP, RH;
+  size_t begin = 0, dep = 0;
+  while (begin < nv) {
+    size_t end = begin + 1;
+    while (end < nv && !record.vertices[end].start) ++end;
+    // The path z_0 (light) .. z_n; as a path ending on the light, y_j = z_{k-j} with k = n + 1
+    // (y_0 is never reached: R_j needs y_{j-1} = z_{a+1}).
+    const int n = static_cast<int>(end - begin) - 1;
+    z.clear();
+    for (int a = 0; a <= n; ++a) {
+      const PhotonPathVertex& pv = record.vertices[begin + a];
+      const bool m = !pv.start && !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
+      z.push_back(photon_path_vertex(pv, m));
+    }
+    const int k = n + 1;
+    auto y = [&](int j) -> const PathVertex& { return z[k - j]; };
+    const auto d = densities(scene_, y, k);
+    // R_j = P + H / n_pm at z_a (j = k - a) for 1 <= a <= n - 1 (eq. 9.5 summed from y_j to the
+    // light, over q(y_j)), and L_j, the light-side density of z_a.
+    RP.assign(n + 1, 0.0);
+    RH.assign(n + 1, 0.0);
+    double term_hit_over = 0, term_nee_over = 0;  // z_1's terminal parts, for depth-2 deposits
+    for (int a = 1; a <= n - 1; ++a) {
+      const int j = k - a;
+      if (a == 1) {
+        d.terminal(RP[1], RH[1]);  // R_{k-1}
+        term_hit_over = d.hit ? 1.0 / d.denom : 0.0 / d.denom;
+        term_nee_over = d.nee / d.denom;
+      } else {
+        // R_j = m_j + (E_{j+1} / L_j) R_{j+1}
+        const double u = d.E(j + 1) / d.L_inner(j);
+        RP[a] = (z[a].mergeable ? 1.0 : 0.0) + u * RP[a - 1];
+        RH[a] = u * RH[a - 1];
+      }
+    }
+    // Deposits of this path (in order: their vertices increase).
+    while (dep < record.deposit_vertex.size() && record.deposit_vertex[dep] < end) {
+      const int dd = static_cast<int>(record.deposit_vertex[dep] - begin);  // depth of the deposit
+      PhotonTail& tl = tails[dep];
+      const PathVertex& v = z[dd - 1];  // y_{t+1}
+      tl.p = v.p;
+      tl.ng = v.ng;
+      tl.depth = dd;
+      tl.light = v.light;
+      tl.distant = v.distant;
+      if (dd == 1) {
+        tl.to_next = v.dir;
+      } else {
+        tl.frame = *v.frame;
+        tl.material = v.material;
+        tl.delta = v.delta;
+        tl.mergeable = v.mergeable;
+        // In the photon's own indexing y_{t+1} = z_{dd-1} is y_{j1}, j1 = k - (dd - 1).
+        const int j1 = k - (dd - 1);
+        tl.to_next = d.towards(j1, j1 + 1);
+        const double g_next = d.to_area(j1, j1 + 1);  // area factor of y_{t+2} from y_{t+1}
+        if (dd == 2) {
+          // R_{t+1} is the terminal R_{k-1}: (E_k hit + nee) / (L_{k-1} L_k), E_k = p_rev g_next.
+          tl.A_P = 0;
+          tl.A_H = g_next * term_hit_over;
+          tl.B_H = term_nee_over;
+        } else {
+          // R_{t+1} = m_{t+1} + (E_{t+2} / L_{t+1}) R_{t+2}, E_{t+2} = p_rev g_next.
+          const double L1 = d.L_inner(j1);  // L_{t+1}, light side only
+          tl.A_P = g_next * RP[dd - 2] / L1;
+          tl.A_H = g_next * RH[dd - 2] / L1;
+          tl.B_H = 0;
+        }
+      }
+      ++dep;
+    }
+    begin = end;
+  }
+}
+
+void HybridPpm::camera_prefix(const PathVertex* yc, int n, double* c) const {
+  // B_j = m_j + (L_{j-1} / E_j) B_{j-1}, B_0 = 0; c_j = B_{j-1} / E_j. L_{j-1} needs y_{j+1}, so
+  // B_j exists for j < n and c_j for j <= n.
+  auto y = [&](int i) -> const PathVertex& { return yc[i]; };
+  const auto d = densities(scene_, y, n + 3);  // k only has to exceed the indices used
+  double B = 0;  // B_{j-1}
+  for (int j = 1; j <= n; ++j) {
+    c[j] = j == 1 ? 0.0 : B / d.E(j);
+    if (j < n) B = (yc[j].mergeable ? 1.0 : 0.0) + (j == 1 ? 0.0 : d.L_inner(j - 1) * c[j]);
+  }
+}
+
+double HybridPpm::merge_weight(const PathVertex* yc, int t, const double* c, const PhotonTail& tl, double npm) const {
+  if (!(npm > 0) || !yc[t].mergeable || tl.depth < 1) return 0.0;
+  // The full path: y_0 .. y_t from the camera, y_{t+1} = the tail's vertex, then the photon's
+  // earlier vertices; k = t + depth. 1 / w_t = sum_s q(s) / q(t) = (L_{t-1} / E_t) B_{t-1} + R_t.
+  const PathVertex& e = yc[t];
+  const Bsdf bsdf(scene_.material(e.material));
+  const Vec3 to_prev = normalize(yc[t - 1].p - e.p);  // towards(t, t - 1)
+  double P, H;
+  if (tl.depth == 1) {
+    // Photon at its first hit: y_{t+1} is the light vertex, R_t the terminal R_{k-1}.
+    PathVertex w[2];
+    w[1].p = tl.p;
+    w[1].ng = tl.ng;
+    w[1].light = tl.light;
+    w[1].distant = tl.distant;
+    w[1].dir = tl.to_next;
+    auto y = [&](int i) -> const PathVertex& { return i <= t ? yc[i] : w[1]; };
+    const auto d = densities(scene_, y, t + 1);
+    d.terminal(P, H);
+  } else {
+    const Vec3 dv = e.p - tl.p;  // from y_{t+1} to y_t
+    const double d2 = length_squared(dv);
+    if (!(d2 > 0)) return 0.0;  // to_area(t+1, t) = 0: q(t) = 0
+    const Vec3 to_cam = normalize(dv);
+    double p_fwd = 1.0, p_rev = 1.0;  // at y_{t+1}: towards y_t from y_{t+2}, and back
+    if (!tl.delta) {
+      const Bsdf b(scene_.material(tl.material));
+      const Vec3 lc = tl.frame.to_local(to_cam), ln = tl.frame.to_local(tl.to_next);
+      p_fwd = b.pdf(ln, lc);
+      p_rev = b.pdf(lc, ln);
+    }
+    const double L_t = p_fwd * (std::abs(dot(e.ng, dv)) / std::sqrt(d2) / d2);  // eq. 9.8
+    const double P1 = (tl.mergeable ? 1.0 : 0.0) + p_rev * tl.A_P;            // R_{t+1}
+    const double H1 = p_rev * tl.A_H + tl.B_H;
+    const double E_t1 = (e.delta ? 1.0 : bsdf.pdf(e.frame->to_local(to_prev), e.frame->to_local(-to_cam))) *
+                        (std::abs(dot(tl.ng, dv)) / std::sqrt(d2) / d2);  // eq. 9.7
+    const double u = E_t1 / L_t;  // R_t = 1 + (E_{t+1} / L_t) R_{t+1}
+    P = 1.0 + u * P1;
+    H = u * H1;
+  }
+  double left = 0.0;
+  if (t >= 2) {
+    // L_{t-1} = p(y_t: y_{t+1} -> y_{t-1}) |cos| / d^2 at y_{t-1}.
+    const Vec3 dp = yc[t - 1].p - e.p;
+    const double dp2 = length_squared(dp);
+    const Vec3 from = tl.depth == 1 && tl.distant ? -tl.to_next : normalize(tl.p - e.p);
+    const double L_prev = dp2 > 0 ? (e.delta ? 1.0 : bsdf.pdf(e.frame->to_local(from), e.frame->to_local(to_prev))) *
+                                        (std::abs(dot(yc[t - 1].ng, dp)) / std::sqrt(dp2) / dp2)
+                                  : 0.0;
+    left = L_prev * c[t];
+  }
+  const double inv = left + P + H / npm;
+  if (!std::isfinite(inv) || !(inv > 0)) return 0.0;  // a zero factor of q(t), or overflow
+  return 1.0 / inv;
+}
+
+double HybridPpm::light_weight(const std::vector<PathVertex>& y, int technique, double c_last, double npm) const {
+  const int k = static_cast<int>(y.size()) - 1;
+  if (k < 2) return 1.0;  // the camera sees the light: no other technique (as mis_weight)
+  auto acc = [&](int i) -> const PathVertex& { return y[i]; };
+  const auto d = densities(scene_, acc, k);
+  double P, H;
+  d.terminal(P, H);
+  const double pm = npm * d.denom * ((y[k - 1].mergeable ? 1.0 : 0.0) + (k >= 3 ? d.L_inner(k - 2) * c_last : 0.0));
+  const double sum = d.q_hit + d.nee + pm;
+  if (!(sum > 0) || !std::isfinite(sum)) return 1.0;  // as mis_weight
+  return (technique == 0 ? d.q_hit : d.nee) / sum;
+}
+
 // ---- Camera paths: measurement points at every vertex, path tracing with NEE ----
 void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                          std::atomic<int64_t>& invalid_out) {
@@ -147,6 +401,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         std::vector<PathVertex> y;
+        std::vector<double> cy(static_cast<size_t>(max_depth_) + 2, 0.0);  // c_j of the path so far
         for (int py = tile.y0; py < tile.y1; ++py)
           for (int px = tile.x0; px < tile.x1; ++px) {
             const size_t pixel = static_cast<size_t>(py) * width_ + px;
@@ -179,7 +434,8 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                   lv.distant = true;
                   lv.dir = -ray.d;
                   y.push_back(lv);
-                  Ld += beta * lights.environment_radiance(ray.d) * static_cast<float>(mis_weight(y, 0, npm));
+                  Ld += beta * lights.environment_radiance(ray.d) *
+                        static_cast<float>(light_weight(y, 0, cy[y.size() - 2], npm));
                   y.pop_back();
                 }
                 break;
@@ -194,7 +450,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                   lv.ng = lights.lights()[hit->light].n;
                   lv.light = hit->light;
                   y.push_back(lv);
-                  Ld += beta * Le * static_cast<float>(mis_weight(y, 0, npm));
+                  Ld += beta * Le * static_cast<float>(light_weight(y, 0, cy[y.size() - 2], npm));
                   y.pop_back();
                 }
               }
@@ -220,6 +476,18 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
               sv.delta = e.delta;
               sv.mergeable = e.mergeable;
               y.push_back(sv);
+              {
+                // c_j = B_{j-1} / E_j for the new vertex y_j (see camera_prefix).
+                const int j = static_cast<int>(y.size()) - 1;
+                if (j == 1) {
+                  cy[1] = 0.0;
+                } else {
+                  auto acc = [&](int i) -> const PathVertex& { return y[i]; };
+                  const auto d = densities(scene_, acc, j + 3);
+                  const double B = (y[j - 1].mergeable ? 1.0 : 0.0) + (j - 1 == 1 ? 0.0 : d.L_inner(j - 2) * cy[j - 1]);
+                  cy[j] = B / d.E(j);
+                }
+              }
               // ---- Next-event estimation (technique "nee") ----
               if (!e.delta && !lights.empty()) {
                 const float u_light = rng.uniform();
@@ -242,7 +510,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                         lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
                       }
                       y.push_back(lv);
-                      Ld += beta * f * ls->L * static_cast<float>(mis_weight(y, 1, npm) / ls->pdf);
+                      Ld += beta * f * ls->L * static_cast<float>(light_weight(y, 1, cy[y.size() - 2], npm) / ls->pdf);
                       y.pop_back();
                     }
                   }
@@ -285,6 +553,7 @@ void HybridPpm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
   if (chunk_photons_.size() < n_chunks) {
     chunk_photons_.resize(n_chunks);
     chunk_records_.resize(n_chunks);
+    chunk_tails_.resize(n_chunks);
   }
   std::atomic<int64_t> rays{0}, invalid{0};
   parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
@@ -296,18 +565,19 @@ void HybridPpm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
       RngSamples u(rng);
       const int64_t begin = static_cast<int64_t>(c) * chunk, end = std::min(count, begin + chunk);
       for (int64_t k = begin; k < end; ++k) r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &chunk_records_[c]);
+      photon_tails(chunk_records_[c], chunk_tails_[c]);  // light-side sums, once per path vertex
     }
     rays += r;
     invalid += inv;
   });
+  // Photons and their tails in chunk order; a photon's `index` is its position (its tail).
   photons_.clear();
-  record_.clear();
+  tails_.clear();
   for (size_t c = 0; c < n_chunks; ++c) {
-    const uint32_t offset = static_cast<uint32_t>(record_.vertices.size());
     photons_.insert(photons_.end(), chunk_photons_[c].begin(), chunk_photons_[c].end());
-    record_.vertices.insert(record_.vertices.end(), chunk_records_[c].vertices.begin(), chunk_records_[c].vertices.end());
-    for (uint32_t v : chunk_records_[c].deposit_vertex) record_.deposit_vertex.push_back(v + offset);
+    tails_.insert(tails_.end(), chunk_tails_[c].begin(), chunk_tails_[c].end());
   }
+  for (size_t i = 0; i < photons_.size(); ++i) photons_[i].index = static_cast<uint32_t>(i);
   stats.emitted = count;
   stats.stored = static_cast<int64_t>(photons_.size());
   stats.rays = rays;
@@ -345,6 +615,7 @@ void HybridPpm::iterate(ProgressSink* sink) {
         }
       }
   };
+  const auto t_eye = clock_type::now();
   if (pass == 0 && radius_ == 0) {
     // The footprint radius comes from the camera path itself: trace the first pass's paths
     // once for it (same random streams, results discarded), so that even the first pass
@@ -357,6 +628,7 @@ void HybridPpm::iterate(ProgressSink* sink) {
   eye_pass(pass, sink, rays, invalid);
   if (sink && sink->cancelled()) return;
   set_new_radii();
+  stats_.extra["eye seconds"] += seconds_since(t_eye);
 
   // ---- 2. Photon pass ----
   const auto t_trace = clock_type::now();
@@ -366,14 +638,30 @@ void HybridPpm::iterate(ProgressSink* sink) {
 
   // ---- 3. Gathering at every measurement point, weighted by the balance heuristic ----
   const auto t_lookup = clock_type::now();
-  double max_r2 = 0;
-  for (size_t i = 0; i < n_pixels; ++i) max_r2 = std::max(max_r2, px_[i].r2);
+  // The grid's cells are twice the largest radius of a pixel that queries this pass (one with a
+  // measurement point and a density-estimation weight): pixels whose path met no
+  // photon-diffuse vertex keep their initial radius (their count never grows), and letting
+  // them set the cell size made every query scan many times the photons it finds.
+  double max_r2 = 0, sum_rq = 0, n_q = 0;
+  for (size_t i = 0; i < n_pixels; ++i) {
+    if (!(pass_npm_[i] > 0)) continue;
+    const EyeVertex* ev = &eye_[i * max_depth_];
+    bool any = false;
+    for (int j = 0; j < eye_count_[i] && !any; ++j) any = ev[j].mergeable;
+    if (!any) continue;
+    max_r2 = std::max(max_r2, px_[i].r2);
+    sum_rq += std::sqrt(px_[i].r2);
+    n_q += 1;
+  }
+  stats_.extra["max radius / mean radius"] = n_q > 0 && sum_rq > 0 ? std::sqrt(max_r2) / (sum_rq / n_q) : 0.0;
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
   std::atomic<int64_t> points{0}, found{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    std::vector<PathVertex> y;
+    std::vector<PathVertex> ycam(static_cast<size_t>(max_depth_) + 1);
+    std::vector<double> cpre(static_cast<size_t>(max_depth_) + 1);
+    std::vector<const Photon*> hits;
     int64_t local_points = 0, local_found = 0;
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
@@ -383,6 +671,21 @@ void HybridPpm::iterate(ProgressSink* sink) {
       const double npm = pass_npm_[i];
       if (!(npm > 0)) continue;  // weight 0 for every photon (pass 0, see eye_pass)
       const EyeVertex* ev = &eye_[i * max_depth_];
+      // The camera path as path vertices y_0 .. y_count, and its prefix sums c_j.
+      const int count = eye_count_[i];
+      ycam[0] = PathVertex();
+      ycam[0].p = eye_origin_[i];
+      for (int a = 0; a < count; ++a) {
+        PathVertex& v = ycam[a + 1];
+        v = PathVertex();
+        v.p = ev[a].p;
+        v.ng = ev[a].ng;
+        v.frame = &ev[a].frame;
+        v.material = ev[a].material;
+        v.delta = ev[a].delta;
+        v.mergeable = ev[a].mergeable;
+      }
+      if (count > 0) camera_prefix(ycam.data(), count, cpre.data());
       double m = 0;
       RGB phi(0.0f);
       for (int j = 0; j < eye_count_[i]; ++j) {
@@ -391,49 +694,27 @@ void HybridPpm::iterate(ProgressSink* sink) {
         ++local_points;
         const Bsdf bsdf(scene_.material(e.material));
         const Vec3 wo = e.frame.to_local(e.wo);
-        grid_.query_index(e.p, R, [&](uint32_t idx, float) {
-          const Photon& ph = photons_[idx];
+        // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the
+        // tail, a cache miss each: found photons are collected and their tails prefetched
+        // while the query goes on, then weighted.
+        hits.clear();
+        grid_.query(e.p, R, [&](const Photon& ph, float, float) {
           const Vec3 wi = e.frame.to_local(ph.wi);
           if (!same_hemisphere(wo, wi)) return;
           m += 1;
-          const RGB f = bsdf.eval(wo, wi);
-          if (f.is_black()) return;
-          // ---- The full path: camera vertices y_1..y_{j+1}, then the photon's earlier vertices ----
-          y.clear();
-          PathVertex cam;
-          cam.p = eye_origin_[i];
-          y.push_back(cam);
-          for (int a = 0; a <= j; ++a) {
-            PathVertex v;
-            v.p = ev[a].p;
-            v.ng = ev[a].ng;
-            v.frame = &ev[a].frame;
-            v.material = ev[a].material;
-            v.delta = ev[a].delta;
-            v.mergeable = ev[a].mergeable;
-            y.push_back(v);
-          }
-          for (int64_t b = static_cast<int64_t>(record_.deposit_vertex[idx]) - 1; b >= 0; --b) {
-            const PhotonPathVertex& pv = record_.vertices[b];
-            PathVertex v;
-            v.p = pv.p;
-            v.ng = pv.ng;
-            if (pv.start) {
-              v.light = pv.light;
-              v.distant = scene_.light_set().lights()[pv.light].is_infinite();
-              v.dir = pv.wi;
-              y.push_back(v);
-              break;
-            }
-            v.frame = &pv.frame;
-            v.material = pv.material;
-            v.delta = pv.delta;
-            v.mergeable = !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
-            y.push_back(v);
-          }
-          const double w = mis_weight(y, 2 + (j + 1), npm);
-          phi += e.beta * f * ph.power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
+          const char* tp = reinterpret_cast<const char*>(&tails_[ph.index]);
+          __builtin_prefetch(tp);
+          __builtin_prefetch(tp + 64);
+          hits.push_back(&ph);
         });
+        for (const Photon* ph : hits) {
+          const RGB f = bsdf.eval(wo, e.frame.to_local(ph->wi));
+          if (f.is_black()) continue;
+          // Balance heuristic of density estimation at y_{j+1} for the full path the photon
+          // closes (eq. 9.5), in O(1) from the camera prefix and the photon's tail.
+          const double w = merge_weight(ycam.data(), j + 1, cpre.data(), tails_[ph->index], npm);
+          phi += e.beta * f * ph->power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
+        }
       }
       gather_m_[i] = static_cast<float>(m);
       gather_phi_[i] = phi;

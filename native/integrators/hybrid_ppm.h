@@ -29,6 +29,25 @@
 // Russian-roulette probabilities are left out of the densities (any weights that sum to one
 // over the techniques that can make a path keep the combination consistent).
 //
+// Incremental weights (eq. 9.5 for density estimation in O(1) per gathered photon). With
+// PE[s] = prod_{i<=s} E_i, SL[s] = prod_{i>=s} L_i and m_s = 1 where y_s is photon-diffuse,
+//   1 / w_t = sum_s q(s) / q(t) = (L_{t-1} / E_t) B_{t-1} + R_t, where
+//   B_j = m_j + (L_{j-1} / E_j) B_{j-1},  B_0 = 0                       (camera side)
+//   R_j = m_j + (E_{j+1} / L_j) R_{j+1}                                   (light side)
+//   R_{k-1} = m_{k-1} + (E_k [hit possible] + p_nee [y_{k-1} not delta]) / (n_pm L_{k-1} L_k).
+// E_i needs y_{i-2}, L_i needs y_{i+2}; so c_j = B_{j-1} / E_j depends on camera vertices only
+// (camera_prefix, once per pixel and pass), and R_j for j >= t + 2 on the photon's vertices only
+// (photon_tails, once per photon path vertex when photons are traced, kept as P + H / n_pm since
+// n_pm is per pixel). Only the densities next to the merge involve both sides: E_{t+1} and
+// L_{t-1} (BSDF of the camera vertex y_t towards / from the photon's previous vertex y_{t+1}),
+// L_t and E_{t+2} (BSDF of y_{t+1} towards / from y_t): four direction densities per photon
+// whatever the path length, instead of the 2k of the full walk (mis_weight, kept as the
+// test's reference). The hit and NEE samples use the same camera prefix (light_weight). Photons at their first or second hit end
+// in R_{k-1} (emission densities of the light). A zero factor of q(t) makes a ratio infinite
+// or NaN and the weight 0, as in the full walk. The path and its densities are those of the
+// full walk (same Fig. 9.3 composition: camera vertices to y_t, then the photon's earlier
+// vertices), so the weights are the same up to rounding and still sum to one.
+//
 // Sample counts (§9.4.4-9.4.5, §9.5): with alpha = 0.6 < 2/3 the unbiased techniques must take
 // N^alpha samples for N photon samples; as the thesis does, this is met by tracing one camera
 // pass per photon pass of (by default) as many photons as pixels, so the path-tracing samples
@@ -45,8 +64,10 @@
 //   seed 0, threads 0, tile_size 16 as for "pt"
 //
 // Passes: combined, radius, photon_count. Statistics: photons traced/stored, photon rays,
-// average radius, measurement points per pixel, and the share of the image from each family
-// of techniques ("path tracing share").
+// average radius, measurement points per pixel, photons found per point, the share of the
+// image from each family of techniques ("path tracing share"), seconds in the camera pass,
+// photon pass (with the tails) and gathering ("eye / trace / lookup seconds"), and the largest
+// over the mean radius of the gathering pixels (it sets the hash grid's cells).
 #pragma once
 
 #include <vector>
@@ -77,8 +98,42 @@ class HybridPpm : public Integrator {
     Vec3 dir;
   };
   // Balance-heuristic weight of technique `technique` (0 = hit, 1 = nee, 2 + t = density
-  // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1.
+  // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1. Walks the
+  // whole path (O(k) BSDF densities): no longer used by rendering, kept as the reference that
+  // the O(1) merge_weight() and light_weight() are tested against.
   double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm) const;
+
+  // ---- O(1) weight of density estimation (see "Incremental weights" above) ----
+  // Per deposited photon, from its own path only: y_{t+1} (the photon's previous vertex, its
+  // light vertex for a photon at its first hit), the unit direction from it to y_{t+2}, and the
+  // light-side sums that R_{t+1} = P + H / n_pm needs besides the densities at y_{t+1}:
+  //   P = m_{t+1} + p_rev A_P,   H = p_rev A_H + B_H,
+  // p_rev the direction density at y_{t+1} from y_t towards y_{t+2}.
+  struct PhotonTail {
+    Vec3 p, ng;       // y_{t+1}
+    Frame frame;
+    Vec3 to_next;     // depth >= 2: towards y_{t+2}; depth 1 (light vertex): its `dir`
+    double A_P = 0, A_H = 0, B_H = 0;
+    int material = -1, light = -1;
+    int depth = 0;    // segments from the light to the deposit (d = k - t)
+    bool delta = false, mergeable = false, distant = false;
+  };
+  // Fills tails[i] for the i-th deposit of `record` (resized to its deposit count).
+  void photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>& tails) const;
+  // Camera side: c[j] = B_{j-1} / E_j for j = 1 .. n of the camera path y[0] (camera) ..
+  // y[n] (c[0] unused); needs only the camera path.
+  void camera_prefix(const PathVertex* y, int n, double* c) const;
+  // Weight of density estimation at camera vertex y[t] (mergeable) with the photon whose tail
+  // is `tail`: the path y_0 .. y_t, then the photon's earlier vertices. Equals mis_weight() of
+  // that full path for technique 2 + t (up to rounding).
+  double merge_weight(const PathVertex* y, int t, const double* c, const PhotonTail& tail, double n_pm) const;
+  // Weight of technique 0 (hit) or 1 (nee) for the camera path y[0] .. y[k-1] ending on the
+  // light vertex y[k] (k = y.size() - 1), in O(1) from c_{k-1} (camera_prefix's c[k-1]):
+  // 1 / w = (q_hit + q_nee + sum_s q(s)) / q_technique, all over PE[k-1], with
+  // sum_s q(s) / PE[k-1] = n_pm L_{k-1} L_k (m_{k-1} + L_{k-2} c_{k-1}). Equals mis_weight().
+  double light_weight(const std::vector<PathVertex>& y, int technique, double c_last, double n_pm) const;
+  // A recorded photon-path vertex as a path vertex.
+  PathVertex photon_path_vertex(const PhotonPathVertex& v, bool mergeable) const;
 
  private:
   struct EyeVertex {
@@ -110,7 +165,8 @@ class HybridPpm : public Integrator {
   PhotonTracer tracer_;
   PhotonHashGrid grid_;
   std::vector<Photon> photons_;
-  PhotonPathRecord record_;                       // this pass's photon paths
+  std::vector<PhotonTail> tails_;                 // per photon of photons_
+  std::vector<std::vector<PhotonTail>> chunk_tails_;
   std::vector<std::vector<Photon>> chunk_photons_;
   std::vector<PhotonPathRecord> chunk_records_;
   std::vector<EyeVertex> eye_;                    // max_depth_ per pixel

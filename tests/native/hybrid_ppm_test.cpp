@@ -6,10 +6,14 @@
 
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <string>
 
+#include "core/rng.h"
 #include "integrators/hybrid_ppm.h"
 #include "integrators/integrator.h"
+#include "integrators/photon_tracer.h"
+#include "materials/bsdf.h"
 #include "io/metrics.h"
 #include "scene/loader.h"
 
@@ -95,6 +99,123 @@ TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
   EXPECT_EQ(h.mis_weight(y, 1, 1.0), 0.0);
   EXPECT_EQ(h.mis_weight(y, 2 + 2, 1.0), 0.0);
   EXPECT_NEAR(h.mis_weight(y, 0, 1.0) + h.mis_weight(y, 2 + 1, 1.0), 1.0, 1e-9);
+}
+
+// The O(1) weights (camera prefix c_j, photon tail sums R_j, local
+// densities at the merge) against the full walk of mis_weight() on the same composite path:
+// random camera paths and recorded photon paths, every mergeable camera vertex with every
+// sampled deposit, and hit / NEE of a light sample from every camera vertex (the pairs are far apart, which the identity does not care about; it also
+// meets the zero-density cases, where both must give 0). Scenes with delta, glossy and
+// diffuse surfaces, area, point, sun and sky lights.
+void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* nonzero) {
+  HybridPpm h(s, Params());
+  PhotonTracer tracer(s, 16, kDefaultSpecularThreshold, seed, 1);
+  Rng rng = Rng::for_key(seed, 7, 0);
+  RngSamples u(rng);
+  std::vector<Photon> photons;
+  PhotonPathRecord record;
+  int64_t invalid = 0;
+  for (int i = 0; i < 400; ++i) tracer.trace_path(u, 0, photons, invalid, &record);
+  ASSERT_FALSE(record.deposit_vertex.empty());
+  std::vector<HybridPpm::PhotonTail> tails;
+  h.photon_tails(record, tails);
+  ASSERT_EQ(tails.size(), record.deposit_vertex.size());
+  auto mergeable = [&](const PhotonPathVertex& pv) {
+    return !pv.start && !pv.delta && Bsdf(s.material(pv.material)).is_diffuse_for_photons(kDefaultSpecularThreshold);
+  };
+  std::deque<Frame> frames;  // stable addresses for PathVertex::frame
+  for (int path = 0; path < 60; ++path) {
+    // A camera path traced as eye_pass does (no Russian roulette), as path vertices.
+    std::vector<HybridPpm::PathVertex> yc(1);
+    Ray ray = s.camera.generate_ray(Vec2(rng.uniform() * s.camera.width, rng.uniform() * s.camera.height),
+                                    Vec2(rng.uniform(), rng.uniform()));
+    yc[0].p = ray.o;
+    for (int depth = 1; depth <= 8; ++depth) {
+      const auto hit = s.intersect(ray);
+      if (!hit) break;
+      const Bsdf bsdf(s.material(hit->material));
+      if (bsdf.is_black()) break;
+      const Vec3 wo = hit->frame.to_local(-ray.d);
+      if (wo.z == 0) break;
+      frames.push_back(hit->frame);
+      HybridPpm::PathVertex v;
+      v.p = hit->p;
+      v.ng = hit->ng;
+      v.frame = &frames.back();
+      v.material = hit->material;
+      v.delta = bsdf.is_delta();
+      v.mergeable = !v.delta && bsdf.is_diffuse_for_photons(kDefaultSpecularThreshold);
+      yc.push_back(v);
+      const auto bs = bsdf.sample(wo, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+      if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+      const Vec3 wi = hit->frame.to_world(bs->wi);
+      ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    }
+    const int n = static_cast<int>(yc.size()) - 1;
+    if (n < 1) continue;
+    std::vector<double> c(n + 1);
+    h.camera_prefix(yc.data(), n, c.data());
+    // Hit and NEE: a light sample seen from every camera vertex (visibility does not matter).
+    for (int j = 1; j <= n; ++j) {
+      const auto ls = s.light_set().sample_li(yc[j].p, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+      if (!ls) continue;
+      const Light& l = s.light_set().lights()[ls->light];
+      HybridPpm::PathVertex lv;
+      lv.light = ls->light;
+      if (l.is_infinite()) {
+        lv.distant = true;
+        lv.dir = -ls->wi;
+      } else {
+        lv.p = l.type == LightType::Area ? yc[j].p + ls->wi * ls->dist : l.position;
+        lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
+      }
+      std::vector<HybridPpm::PathVertex> y(yc.begin(), yc.begin() + j + 1);
+      y.push_back(lv);
+      for (double npm : {1e-5, 1e-2, 1.0, 1e2})
+        for (int tech : {0, 1}) {
+          const double slow = h.mis_weight(y, tech, npm);
+          const double fast = h.light_weight(y, tech, c[j], npm);
+          ASSERT_NEAR(fast, slow, 1e-12 + 1e-6 * slow) << "technique " << tech << " k " << j + 1 << " npm " << npm;
+          ++*compared;
+          if (slow > 0) ++*nonzero;
+        }
+    }
+    for (int t = 1; t <= n; ++t) {
+      if (!yc[t].mergeable) continue;
+      for (int q = 0; q < 25; ++q) {
+        const size_t photon = rng.next_u32() % record.deposit_vertex.size();
+        const uint32_t dep = record.deposit_vertex[photon];
+        // The full path as the gathering used to build it: y_0 .. y_t, then the photon's
+        // earlier vertices back to the light.
+        std::vector<HybridPpm::PathVertex> y(yc.begin(), yc.begin() + t + 1);
+        for (int64_t b = static_cast<int64_t>(dep) - 1; b >= 0; --b) {
+          y.push_back(h.photon_path_vertex(record.vertices[b], mergeable(record.vertices[b])));
+          if (record.vertices[b].start) break;
+        }
+        for (double npm : {1e-5, 1e-2, 1.0, 1e2}) {
+          const double slow = h.mis_weight(y, 2 + t, npm);
+          const double fast = h.merge_weight(yc.data(), t, c.data(), tails[photon], npm);
+          ASSERT_NEAR(fast, slow, 1e-12 + 1e-6 * slow) << "t " << t << " k " << y.size() - 1 << " npm " << npm;
+          ++*compared;
+          if (slow > 0) ++*nonzero;
+        }
+      }
+    }
+  }
+}
+
+TEST(Msppm, FastMergeWeightEqualsTheFullPathWalk) {
+  int compared = 0, nonzero = 0;
+  for (const char* name : {"cornell-glass.json", "cornell-box.json", "rough-glass.json", "glossy-sky.json", "torus-glass.json"}) {
+    Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/" + name);
+    s.camera.width = 32;
+    s.camera.height = 32;
+    const int before = compared;
+    check_fast_merge_weight(s, 11, &compared, &nonzero);
+    EXPECT_GT(compared, before) << name;
+  }
+  std::printf("fast merge weight: %d comparisons, %d with a nonzero weight\n", compared, nonzero);
+  EXPECT_GT(nonzero, compared / 10);
 }
 
 TEST(Msppm, ConvergesToThePathTracedCornellBox) {
