@@ -227,6 +227,29 @@ TEST(Gpm, ManifoldWalkLowersTheCausticsGradientVariance) {
   EXPECT_LT(walk, 0.8 * no_walk) << "gradient_x variance with the walk " << walk << ", without " << no_walk;
 }
 
+// The paper's §5.1 failure case of a manifold walk that cannot converge: with one projection
+// allowed, most walks fail; they must be counted, fall back (offset 0, weight 1) and leave the
+// image finite and as bright as the primal estimate.
+TEST(Gpm, WalksThatCannotConvergeAreCountedAndFallBack) {
+  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-glass.json");
+  s.camera.width = 32;
+  s.camera.height = 32;
+  Params p = photon_params(20000, 5);
+  p.set("manifold_iterations", 1);
+  auto g = run("gpm", s, 3, p);
+  Film f;
+  g->develop(f);
+  for (auto pass_name : {pass::kCombined, pass::kPrimal, pass::kGradientX, pass::kGradientY})
+    for (float v : f.pass(pass_name).data) ASSERT_TRUE(std::isfinite(v)) << pass_name;
+  const auto& extra = g->stats().extra;
+  ASSERT_GT(extra.count("shift failed: manifold walk did not converge"), 0u);
+  EXPECT_GT(extra.at("shift failed: manifold walk did not converge"), 0.3 * extra.at("manifold walks"));
+  EXPECT_EQ(extra.at("manifold walk iterations"), extra.at("manifold walks"));
+  const DiffResult d = diff_images(f.pass(pass::kCombined), f.pass(pass::kPrimal), 32, 32);
+  EXPECT_NEAR(d.mean_ratio, 1.0, 0.05);
+  EXPECT_EQ(g->stats().invalid_samples, 0);
+}
+
 TEST(Gpm, RejectsBadParameters) {
   const Scene s = cornell(8, 8);
   EXPECT_THROW(make_integrator("gpm", s, Params(nlohmann::json{{"recon", "l3"}})), ParamError);
