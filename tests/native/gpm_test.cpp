@@ -195,7 +195,7 @@ TEST(Gpm, GlossyBoxAndGlossyFloorStayFiniteAndCountFailedShifts) {
 // gradients with less variance than differencing the primal image, so the reconstruction gains
 // where SPPM alone is noisy. Variance from two seeds, in the glass sphere's caustic on the floor,
 // with the walk and with it disabled (manifold_iterations 0: caustic photons primal-only).
-// Measured: 0.0054 with the walk, 0.0089 without (ratio 0.60).
+// Measured: 0.0053 with the walk, 0.0098 without (ratio 0.54).
 TEST(Gpm, ManifoldWalkLowersTheCausticsGradientVariance) {
   Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-glass.json");
   s.camera.width = 48;

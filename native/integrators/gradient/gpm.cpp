@@ -40,31 +40,6 @@ std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, boo
   return s;
 }
 
-// The initial gather radius (§5: "initialized using ray differentials, to approximate the
-// projected pixel size"): the footprint of one pixel at the gather point, sqrt|dz/dx x dz/dy|,
-// with the derivatives taken as differences to the neighbouring pixels' offset gather points,
-// which the sensor shift traced with the same sub-pixel position through the same specular
-// chain (finite-difference ray differentials, curvature and incidence included). Of the two
-// one-sided differences per axis the shorter is taken: at a silhouette or a corner one
-// neighbour lands on another surface, and its difference is not the pixel's footprint. An axis
-// without a usable neighbour takes the ray-cone length `cone`; the result is kept within
-// [cone / 4, 4 cone] against degenerate configurations.
-float projected_pixel_size(const Vec3& z, const std::array<Gpm::OffsetPoint, 4>& off, float cone) {
-  auto axis = [&](int plus, int minus) {
-    const bool p = off[plus].ok(), m = off[minus].ok();
-    const Vec3 dp = p ? off[plus].p - z : Vec3(0.0f), dm = m ? z - off[minus].p : Vec3(0.0f);
-    if (p && m) return length_squared(dp) <= length_squared(dm) ? dp : dm;
-    return p ? dp : dm;
-  };
-  const Vec3 dx = axis(Gpm::kRight, Gpm::kLeft), dy = axis(Gpm::kDown, Gpm::kUp);
-  const float lx = length(dx), ly = length(dy);
-  float r = cone;
-  if (lx > 0 && ly > 0) r = std::sqrt(length(cross(dx, dy)));
-  else if (lx > 0 || ly > 0) r = std::max(lx, ly);  // one axis: an isotropic footprint of its length
-  if (!std::isfinite(r) || !(r > 0)) return cone;
-  return std::clamp(r, 0.25f * cone, 4.0f * cone);
-}
-
 }  // namespace
 
 Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
@@ -281,7 +256,10 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
             pass_direct_[pixel] = Ld;
             vp_[pixel] = vp;
             off_[pixel] = off;
-            first_r_[pixel] = vp.material >= 0 ? projected_pixel_size(vp.p, off, pixel_spread_ * path_length) : 0.0f;
+            // Initial radius (§5: "initialized using ray differentials, to approximate the
+            // projected pixel size"): the camera ray differential's one-pixel offset at the
+            // distance travelled to the gather point (SPPM takes two pixels).
+            first_r_[pixel] = vp.material >= 0 ? pixel_spread_ * path_length : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;

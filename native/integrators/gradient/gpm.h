@@ -45,9 +45,9 @@
 //
 // Parameters (defaults; the rest as sppm.h):
 //   alpha               0.9     radius reduction (the paper's value; SPPM's default is 0.7)
-//   radius              0       initial radius; 0 = the projected pixel size at the gather point
-//                               by finite-difference ray differentials through the neighbours'
-//                               offset paths (§5; SPPM's default is two ray-cone pixel widths)
+//   radius              0       initial radius; 0 = the projected pixel size: one pixel of the
+//                               camera ray differential at the distance travelled to the gather
+//                               point (§5; SPPM's default is two)
 //   photons             100000  photons per pass (the paper uses 1 M; SPPM's default is kept so
 //                               that passes stay short: pass --photons 1000000 for the paper's)
 //   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
