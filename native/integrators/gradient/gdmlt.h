@@ -129,6 +129,8 @@ class GradientDomainMlt : public Integrator {
   GradientPathTracer gpt_;  // the path sampler and its shifts
   int mutations_, chain_count_, bootstrap_per_pixel_, threads_;
   double large_step_, sigma_, alpha_;
+  bool large_step_mis_;
+  bool direct_uniform_ = false;  // delta-only light from the uniform samples, not the chains
   uint64_t seed_;
   ReconOptions recon_;
   int width_, height_;
@@ -139,6 +141,7 @@ class GradientDomainMlt : public Integrator {
   std::vector<double> density_;                    // 1 per pixel
   double b_sum_ = 0;                               // sum of T over uniform samples
   int64_t b_count_ = 0, mutations_done_ = 0, accepted_ = 0, large_steps_ = 0;
+  int64_t uniform_count_ = 0;  // uniform samples (bootstrap + large steps) behind direct_
 };
 
 }  // namespace gp
