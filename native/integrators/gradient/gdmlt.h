@@ -61,9 +61,9 @@
 //
 // Bias and convergence (measured, docs/gradient.md "Bias and stuck chains"): no bias within error
 // bars. cornell-glass 48 x 36, 24 seeds, L2: image mean / path-traced mean 1.004 +- 0.007 after
-// 1024 passes (1.042 +- 0.017 after 256); primal and L2 combined means agree to 1e-6. L1 lowers
-// the mean by 2.2 % (64 passes), 1.0 % (256), 0.6 % (1024) against L2 on the same chains: its
-// known, vanishing bias. One seed's mean scatters by 3.4 % (sd) at 1024 passes; b, which scales
+// 1024 passes (72 seeds: 1.014 +- 0.011 after 256, 1.031 +- 0.020 after 64); primal and L2
+// combined means agree to 1e-6. L1 lowers the mean by 2.2 % (64 passes), 1.0 % (256), 0.6 %
+// (1024) against L2 on the same chains: its known, vanishing bias. One seed's mean scatters by 3.4 % (sd) at 1024 passes; b, which scales
 // the whole image, scatters by 3.0 % (T is heavy-tailed on caustics) with correlation 0.5 to the
 // mean, the rest is the chains. On torus-glass 1 % of the pixels carry 90 % of the relMSE at 128
 // passes: chains stuck on isolated high-T caustic paths (acceptance 0.18; one pixel held 1.2 %
