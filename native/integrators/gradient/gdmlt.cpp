@@ -100,7 +100,7 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
       large_step_(params.get<double>("large_step", 0.3)),
       sigma_(params.get<double>("sigma", 0.01)),
       alpha_(params.get<double>("primal_share", 0.05)),
-      large_step_mis_(params.get<bool>("large_step_mis", false)),
+      large_step_mis_(params.get<bool>("large_step_mis", true)),
       seed_(params.get<uint64_t>("seed", 0)),
       width_(scene.camera.width),
       height_(scene.camera.height) {
