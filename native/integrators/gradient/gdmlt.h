@@ -73,9 +73,9 @@
 // heavy-tailed on caustics) with correlation 0.5 to the mean, the rest is the chains. (These
 // numbers are without large-step MIS.) On torus-glass 1 % of the pixels carry 90 % of the relMSE at 128
 // passes: chains stuck on isolated high-T caustic paths (acceptance 0.18; one pixel held 1.2 %
-// of all mutations), and b's scatter made whole images 0.78-1.22x as bright (6 seeds, 128
+// of all mutations), and b's scatter made whole images 0.78-1.22x as bright (10 seeds, 128
 // passes). More chains, a larger bootstrap, large_step 0.5 and sigma 0.003 did not help at equal
-// passes. Large-step MIS (now the default) brings that brightness scatter from sd 0.16 to 0.03
+// passes. Large-step MIS (now the default) brings that brightness scatter from sd 0.15 to 0.04
 // (relMSE unchanged: the stuck pixels dominate it), lowers cornell-box's relMSE by 12 % (6 of 6
 // seeds, 16 x 16, 1024 passes) and cornell-glass's per-seed brightness scatter by 15-20 %.
 //
