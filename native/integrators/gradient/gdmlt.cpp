@@ -42,6 +42,7 @@ struct Splat {
 struct ChainResult {
   std::vector<Splat> splats;
   std::vector<int> visits;  // pixel of the chain's state after each mutation
+  std::vector<std::pair<int, RGB>> direct;  // delta-only light of the large-step proposals
   int64_t mutations = 0, accepted = 0, large = 0, invalid = 0, b_count = 0;
   double b_sum = 0;
   RayCounts rays;
@@ -99,6 +100,7 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
       large_step_(params.get<double>("large_step", 0.3)),
       sigma_(params.get<double>("sigma", 0.01)),
       alpha_(params.get<double>("primal_share", 0.05)),
+      large_step_mis_(params.get<bool>("large_step_mis", true)),
       seed_(params.get<uint64_t>("seed", 0)),
       width_(scene.camera.width),
       height_(scene.camera.height) {
@@ -117,6 +119,9 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
   recon_.lambda = params.get<double>("lambda", 0.2);
   if (!(recon_.lambda > 0)) throw ParamError("lambda must be > 0");
   recon_.threads = threads_;
+  const std::string direct = params.get<std::string>("direct", "chain");
+  if (direct != "uniform" && direct != "chain") throw ParamError("direct must be 'uniform' or 'chain'");
+  direct_uniform_ = direct == "uniform";
   const size_t n = static_cast<size_t>(width_) * height_;
   primal_.assign(3 * n, 0.0);
   direct_.assign(3 * n, 0.0);
@@ -126,7 +131,7 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
 }
 
 double GradientDomainMlt::target(const GradientPathTracer::Sample& s) const {
-  double t = alpha_ * abs_luminance(s.primal + s.direct);
+  double t = alpha_ * abs_luminance(direct_uniform_ ? s.primal : s.primal + s.direct);
   for (const RGB& g : s.diff) t += abs_luminance(g);
   return t;
 }
@@ -149,15 +154,18 @@ void GradientDomainMlt::bootstrap() {
   // ---- b from uniform samples, and start states in proportion to T ----
   const size_t n = static_cast<size_t>(bootstrap_per_pixel_) * width_ * height_;
   std::vector<double> t(n, 0.0);
+  std::vector<std::pair<int, RGB>> direct(n, {0, RGB(0.0f)});
   std::atomic<int64_t> closest{0}, shadow{0}, invalid{0};
   parallel_for(n, threads_, [&](size_t begin, size_t end) {
     RayCounts rays;
     for (size_t i = begin; i < end; ++i) {
       Rng rng = Rng::for_key(seed_, i, kBootstrapKey);
       RngSampler sampler(rng);
-      const double ti = evaluate(sampler, rays, nullptr).target;
+      const State st = evaluate(sampler, rays, nullptr);
+      const double ti = st.target;
       if (ti < 0) ++invalid;
       t[i] = std::max(ti, 0.0);
+      if (ti >= 0) direct[i] = {st.pixel, st.sample.direct};
     }
     closest += rays.closest;
     shadow += rays.shadow;
@@ -167,6 +175,11 @@ void GradientDomainMlt::bootstrap() {
   for (size_t i = 0; i < n; ++i) cdf[i] = (sum += t[i]);
   b_sum_ = sum;
   b_count_ = static_cast<int64_t>(n);
+  if (direct_uniform_) {  // the bootstrap samples are uniform: they estimate the direct light too
+    for (const auto& [p, c] : direct)
+      for (int k = 0; k < 3; ++k) direct_[3 * static_cast<size_t>(p) + k] += c[k];
+    uniform_count_ = static_cast<int64_t>(n);
+  }
   chains_.clear();
   chains_.reserve(chain_count_);
   RayCounts rays;
@@ -199,6 +212,9 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
   if (!started_) bootstrap();
   const int64_t total = static_cast<int64_t>(mutations_) * width_ * height_;
   std::vector<ChainResult> results(chain_count_);
+  // Brightness estimate so far (bootstrap and earlier large steps): the large-step MIS weights
+  // need T / b at splat time.
+  const double b_now = b_count_ && b_sum_ > 0 ? b_sum_ / b_count_ : 1.0;
   parallel_for(static_cast<size_t>(chain_count_), threads_, [&](size_t begin, size_t end) {
     for (size_t c = begin; c < end; ++c) {
       if (sink && sink->cancelled()) return;
@@ -213,16 +229,28 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
         const bool large = chain.sampler.large_step();
         State prop = evaluate(chain.sampler, r.rays, &r.failures);
         if (prop.target < 0) ++r.invalid;
-        if (large) {  // a uniform sample: refines the brightness estimate b
+        if (large) {  // a uniform sample: refines the brightness estimate b (and the direct light)
           r.b_sum += std::max(prop.target, 0.0);
           ++r.b_count;
           ++r.large;
+          if (direct_uniform_ && prop.target >= 0 && !prop.sample.direct.is_black())
+            r.direct.push_back({prop.pixel, prop.sample.direct});
         }
         // ---- Accept / reject, splatting both states by their expected weights ----
         const State& cur = chain.current;
         const double a = prop.target <= 0 ? 0.0 : cur.target <= 0 ? 1.0 : std::min(1.0, prop.target / cur.target);
-        if (a > 0) r.splats.push_back({prop.pixel, a / prop.target, prop.sample});
-        if (a < 1 && cur.target > 0) r.splats.push_back({cur.pixel, (1 - a) / cur.target, cur.sample});
+        if (large_step_mis_) {
+          // Kelemen et al. 2002: the Metropolis samples (density T / b per mutation) and the
+          // large-step proposals (uniform, probability p_large) combined by the balance heuristic.
+          const double lw = large ? 1.0 : 0.0;
+          if (prop.target > 0 && a + lw > 0)
+            r.splats.push_back({prop.pixel, (a + lw) / (prop.target / b_now + large_step_), prop.sample});
+          if (a < 1 && cur.target > 0)
+            r.splats.push_back({cur.pixel, (1 - a) / (cur.target / b_now + large_step_), cur.sample});
+        } else {
+          if (a > 0) r.splats.push_back({prop.pixel, a / prop.target, prop.sample});
+          if (a < 1 && cur.target > 0) r.splats.push_back({cur.pixel, (1 - a) / cur.target, cur.sample});
+        }
         if (a > 0 && chain.sampler.rng().uniform() < a) {
           chain.sampler.accept();
           chain.current = std::move(prop);
@@ -244,7 +272,7 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
       const auto& g = s.sample;
       for (int c = 0; c < 3; ++c) {
         primal_[3 * p + c] += g.primal[c] * s.scale;
-        direct_[3 * p + c] += g.direct[c] * s.scale;
+        if (!direct_uniform_) direct_[3 * p + c] += g.direct[c] * s.scale;
         // Each forward difference from both of its pixels (their MIS weights sum to one).
         if (g.has[GradientPathTracer::kRight]) gx_[3 * p + c] += g.diff[GradientPathTracer::kRight][c] * s.scale;
         if (g.has[GradientPathTracer::kLeft]) gx_[3 * (p - 1) + c] += g.diff[GradientPathTracer::kLeft][c] * s.scale;
@@ -253,6 +281,9 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
       }
     }
     for (int p : r.visits) density_[p] += 1;
+    for (const auto& [p, c] : r.direct)
+      for (int k = 0; k < 3; ++k) direct_[3 * static_cast<size_t>(p) + k] += c[k];
+    if (direct_uniform_) uniform_count_ += r.b_count;
     mutations_done_ += r.mutations;
     accepted_ += r.accepted;
     large_steps_ += r.large;
@@ -281,11 +312,17 @@ void GradientDomainMlt::develop(Film& film) const {
   // E_u[g / T] under the chain's law is (1 / b) E_uniform[g]; a pixel's value is its integral
   // over the film (area 1 / n of primary sample space) times n.
   const double b = b_count_ ? b_sum_ / b_count_ : 0.0;
-  const double scale = mutations_done_ ? static_cast<double>(n) * b / static_cast<double>(mutations_done_) : 0.0;
+  // With large-step MIS the splats already carry b (weights 1 / (T / b + p_large)).
+  const double scale = mutations_done_ ? static_cast<double>(n) * (large_step_mis_ ? 1.0 : b) /
+                                             static_cast<double>(mutations_done_)
+                                       : 0.0;
   std::vector<double> primal(3 * n), direct(3 * n), gx(3 * n), gy(3 * n);
   for (size_t k = 0; k < 3 * n; ++k) {
     primal[k] = primal_[k] * scale;
-    direct[k] = direct_[k] * scale;
+    // Direct light: a plain Monte Carlo estimate from the uniform samples (n / count each), or,
+    // with direct = "chain", from the chains' splats like the rest.
+    direct[k] = direct_uniform_ ? (uniform_count_ ? direct_[k] * static_cast<double>(n) / uniform_count_ : 0.0)
+                                : direct_[k] * scale;
     gx[k] = gx_[k] * scale;
     gy[k] = gy_[k] * scale;
   }
