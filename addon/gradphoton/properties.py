@@ -61,7 +61,7 @@ METHOD_SPECIFIC_PARAMS = {
     "sppm": _ADAPTIVE_PHOTONS,
     "ppm": _ADAPTIVE_PHOTONS,
     "sppm-adaptive": {"chains": "photon_chains"},
-    "gpm": {"alpha": "gpm_alpha", "manifold_iterations": "manifold_iterations"},
+    "gpm": {"alpha": "gpm_alpha", "photons": "gpm_photons", "manifold_iterations": "manifold_iterations"},
     "msppm": {"alpha": "msppm_alpha", "photons": "msppm_photons", "max_depth": "msppm_max_depth"},
     "gdmlt": {"mutations": "mlt_mutations", "chains": "mlt_chains", "large_step": "mlt_large_step",
               "sigma": "mlt_sigma", "primal_share": "mlt_primal_share", "bootstrap": "mlt_bootstrap",
@@ -144,6 +144,8 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
                                  description="Longest camera or photon path in segments (MSPPM: 16)")
     gpm_alpha: FloatProperty(name="Alpha", default=0.9, min=0.01, max=0.99,
                              description="Radius reduction of gradient-domain photon mapping (its paper's 0.9)")
+    gpm_photons: IntProperty(name="Photons per Pass", default=1000000, min=1000,
+                             description="Photon paths traced per pass (gradient-domain photons: the paper's 1 M)")
     manifold_iterations: IntProperty(
         name="Manifold Iterations", default=5, min=0, max=100,
         description="Steps a manifold walk may take to shift a caustic photon (the paper's 5; "

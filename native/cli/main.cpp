@@ -498,7 +498,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
   render->add_option("--alpha", ra.alpha, "photon methods: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6; gpm 0.9)");
-  render->add_option("--photons", ra.photons, "photon methods: photons emitted per pass (default 100000; msppm: one per pixel)");
+  render->add_option("--photons", ra.photons, "photon methods: photons emitted per pass (default 100000; msppm: one per pixel; gpm 1000000)");
   render->add_option("--radius", ra.radius, "photon methods: initial gathering radius in metres (default: from the pixel footprint)");
   render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");

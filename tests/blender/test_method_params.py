@@ -51,7 +51,7 @@ def test_method_defaults_are_the_cores(empty_scene, method):
     0.6 as 0.6000000238)."""
     s = empty_scene.gradphoton
     sent = {name: getattr(s, prop) for name, prop in SPECIFIC[method].items()}
-    base = {"threads": 1, "photons": 2000} if method in ("sppm", "sppm-adaptive", "gpm") else {"threads": 1}
+    base = {"threads": 1, "photons": 2000} if method in ("sppm", "sppm-adaptive") else {"threads": 1}
     N = native.get()
     scene = core_scene(12, 9)
     images = []

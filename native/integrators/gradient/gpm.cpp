@@ -44,6 +44,8 @@ std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, boo
 
 Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
   alpha_ = params.get<double>("alpha", 0.9);  // the paper's alpha (§5), not SPPM's 0.7
+  photons_per_pass_ = params.get<int64_t>("photons", 1000000);  // the paper's 1 M (§5), not SPPM's 100 k
+  if (photons_per_pass_ < 1) throw ParamError("parameter 'photons' must be at least 1");
   if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
   const std::string recon = params.get<std::string>("recon", "l2");
   try {

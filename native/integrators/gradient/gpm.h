@@ -48,8 +48,7 @@
 //   radius              0       initial radius; 0 = the projected pixel size: one pixel of the
 //                               camera ray differential at the distance travelled to the gather
 //                               point (§5; SPPM's default is two)
-//   photons             100000  photons per pass (the paper uses 1 M; SPPM's default is kept so
-//                               that passes stay short: pass --photons 1000000 for the paper's)
+//   photons             1000000 photons per pass (the paper's; SPPM's default is 100 000)
 //   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
 //   recon               "l2"    screened Poisson reconstruction: l2 or l1 (eq. 3)
 //   manifold_iterations 5       projections a manifold walk may take (GPM §5; Mitsuba: 20);
