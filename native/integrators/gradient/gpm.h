@@ -2,7 +2,7 @@
 // "Gradient-Domain Photon Density Estimation" (Eurographics 2017), §4, built on SPPM (sppm.h).
 //
 // Every pass: (1) one camera path per pixel to its gather point z_t (as SPPM, the same random
-// numbers, so the primal image is SPPM's), shifted to the four neighbouring pixels by half-vector
+// numbers, so with the same radius the primal image is SPPM's), shifted to the four neighbours by half-vector
 // copy (§4.1, shift.h; the offsets keep the base's sub-pixel position and lens sample); (2) one
 // SPPM photon pass, each photon remembering its previous vertex y_{s-1} (PhotonOrigin);
 // (3) each base gather point gathers its photons y_s within its radius (density estimation only
