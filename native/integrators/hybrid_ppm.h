@@ -85,6 +85,11 @@ class HybridPpm : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   RGB pixel_radiance(size_t i) const;
+  // Last pass, per pixel: the path-tracing samples traced, and the path-tracing count n_pt that
+  // the weights used (N_e pi R^2 / the ratio passed to light_weight / merge_weight). Equal.
+  int path_samples_traced(size_t i) const { return pass_traced_[i]; }
+  double path_samples_in_weights(size_t i) const { return pass_npm_[i] > 0 ? pass_npm_full_[i] / pass_npm_[i] : 0.0; }
+  double photons_found(size_t i) const { return gather_m_[i]; }
 
   // One vertex of a full path for the density evaluation (camera, surface or light vertex).
   struct PathVertex {
@@ -101,7 +106,9 @@ class HybridPpm : public Integrator {
   // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1. Walks the
   // whole path (O(k) BSDF densities): no longer used by rendering, kept as the reference that
   // the O(1) merge_weight() and light_weight() are tested against.
-  double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm) const;
+  // n_pm = N_e pi R^2 samples of each density-estimation technique, n_pt samples of each of hit
+  // and NEE (the n_i of eq. 9.19).
+  double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm, double n_pt = 1.0) const;
 
   // ---- O(1) weight of density estimation (see "Incremental weights" above) ----
   // Per deposited photon, from its own path only: y_{t+1} (the photon's previous vertex, its
@@ -146,7 +153,8 @@ class HybridPpm : public Integrator {
   struct PixelState {
     double r2 = 0, n = 0;
     double tau[3] = {0, 0, 0};
-    double direct[3] = {0, 0, 0};  // weighted path-tracing samples, summed over passes
+    double direct[3] = {0, 0, 0};  // per pass the mean of its weighted path-tracing samples, summed
+    double found_sum = 0, r2_sum = 0;  // photons found and R^2, summed over the passes that gathered
   };
 
   double n_pm(size_t pixel) const;  // N_e pi R^2 of the density-estimation technique
@@ -159,6 +167,7 @@ class HybridPpm : public Integrator {
   int max_depth_, rr_depth_, threads_, tile_size_;
   float threshold_;
   uint64_t seed_;
+  int path_samples_, path_samples_max_;
   int width_, height_;
   float pixel_spread_;
 
@@ -173,7 +182,10 @@ class HybridPpm : public Integrator {
   std::vector<int> eye_count_;
   std::vector<Vec3> eye_origin_;
   std::vector<RGB> pass_direct_;
-  std::vector<double> pass_npm_;  // N_e pi R^2 the camera pass weighted with; the gathering uses the same
+  std::vector<double> pass_npm_;  // n_pm / n_pt = N_e pi R^2 / n_pt the camera pass weighted with; the gathering uses the same
+  std::vector<double> pass_npm_full_;  // N_e pi R^2 of the pass
+  std::vector<int> pass_npt_;     // n_pt: path-tracing samples of the pass, fixed before it
+  std::vector<int> pass_traced_;  // path-tracing samples actually traced in the pass
   std::vector<float> first_r_;
   std::vector<PixelState> px_;
   std::vector<float> gather_m_;
