@@ -258,8 +258,15 @@ TEST(Msppm, PathSamplesFollowThePhotonCountAndAreTheCountsOfTheWeights) {
   // §9.5 step 5 / §9.4.5: as many path-tracing samples per pixel as the pixel finds photons
   // (expected from its earlier passes), at least one; and the n_pt in every weight of the pass
   // (recovered as N_e pi R^2 / the ratio the weights were given) is the number of samples
-  // actually traced. Fails if one side of the combination used other counts than were taken.
+  // actually traced. Fails if one side of the combination used other counts than were taken:
+  // directly (the counts recovered from the weights' ratio) and end to end (if the photons were
+  // weighted with other counts than the path-tracing samples, the weights would not sum to one
+  // and the image mean would leave the path-traced one: +12 % with photons weighted as if
+  // n_pt = 1 while n_pt samples are traced).
   const Scene s = cornell(24, 24);
+  Params ref_params;
+  ref_params.set("seed", 97);
+  const double ref_mean = mean(render("pt", s, 2048, ref_params));
   for (int fixed : {0, 1, 3}) {
     Params p = seeded(6);
     p.set("path_samples", fixed);
@@ -268,7 +275,7 @@ TEST(Msppm, PathSamplesFollowThePhotonCountAndAreTheCountsOfTheWeights) {
     ASSERT_NE(h, nullptr);
     double traced = 0, found = 0, weighted = 0;
     int max_traced = 0;
-    for (int pass = 0; pass < 12; ++pass) {
+    for (int pass = 0; pass < 48; ++pass) {
       integ->iterate(nullptr);
       for (size_t i = 0; i < 24 * 24; ++i) {
         const int n = h->path_samples_traced(i);
@@ -279,14 +286,17 @@ TEST(Msppm, PathSamplesFollowThePhotonCountAndAreTheCountsOfTheWeights) {
           ASSERT_NEAR(in_weights, n, 1e-6 * n) << "pixel " << i << " pass " << pass;
           weighted += 1;
         }
-        if (pass >= 6) {
+        if (pass >= 6 && pass < 12) {
           traced += n;
           found += h->photons_found(i);
           max_traced = std::max(max_traced, n);
         }
       }
     }
-    EXPECT_GT(weighted, 12 * 24 * 24 / 2);
+    EXPECT_GT(weighted, 48 * 24 * 24 / 2);
+    Film film;
+    integ->develop(film);
+    EXPECT_NEAR(mean(film) / ref_mean, 1.0, 0.04) << "path_samples " << fixed;
     std::printf("path_samples=%d: %.2f traced, %.2f photons found per pixel and pass, max %d\n", fixed,
                 traced / (6 * 24 * 24), found / (6 * 24 * 24), max_traced);
     if (fixed == 0) {
