@@ -662,7 +662,6 @@ void HybridPpm::iterate(ProgressSink* sink) {
   // (eq. 9.23). Rounded, at least 1 (paths that only path tracing can make, e.g. a light seen
   // directly, need a sample in every pass), at most path_samples_max. Fixed before the pass so
   // that these counts, used in every weight of the pass, are the samples actually taken.
-  int64_t npt_sum = 0;
   for (size_t i = 0; i < n_pixels; ++i) {
     int npt = 1;
     if (path_samples_ > 0) {
@@ -672,7 +671,6 @@ void HybridPpm::iterate(ProgressSink* sink) {
       npt = static_cast<int>(std::clamp(std::lround(expected), 1L, static_cast<long>(path_samples_max_)));
     }
     pass_npt_[i] = npt;
-    npt_sum += npt;
   }
   const auto t_eye = clock_type::now();
   if (pass == 0 && radius_ == 0) {
@@ -831,7 +829,6 @@ void HybridPpm::iterate(ProgressSink* sink) {
   stats_.extra["path tracing samples"] += static_cast<double>(traced);
   stats_.extra["path tracing samples per pixel and pass"] =
       stats_.extra["path tracing samples"] / (static_cast<double>(n_pixels) * stats_.passes);
-  (void)npt_sum;
   stats_.extra["path tracing share"] = pt + pm > 0 ? pt / (pt + pm) : 0.0;
   stats_.seconds += seconds_since(start);
 }
