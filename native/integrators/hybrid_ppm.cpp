@@ -1,5 +1,6 @@
 #include "integrators/hybrid_ppm.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -29,6 +30,8 @@ HybridPpm::HybridPpm(const Scene& scene, const Params& params)
       tile_size_(params.get<int>("tile_size", 16)),
       threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
       seed_(params.get<uint64_t>("seed", 0)),
+      path_samples_(params.get<int>("path_samples", 0)),
+      path_samples_max_(params.get<int>("path_samples_max", 64)),
       width_(scene.camera.width),
       height_(scene.camera.height),
       tracer_(scene, max_depth_, threshold_, seed_, threads_) {
@@ -40,6 +43,8 @@ HybridPpm::HybridPpm(const Scene& scene, const Params& params)
   if (threads_ < 0) throw ParamError("parameter 'threads' must be >= 0");
   if (tile_size_ < 1) throw ParamError("parameter 'tile_size' must be >= 1");
   if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
+  if (path_samples_ < 0) throw ParamError("parameter 'path_samples' must be >= 0 (0 = the local photon count)");
+  if (path_samples_max_ < 1) throw ParamError("parameter 'path_samples_max' must be at least 1");
   if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
   const size_t n = static_cast<size_t>(width_) * height_;
   if (photons_per_pass_ == 0) photons_per_pass_ = static_cast<int64_t>(n);  // §9.5
@@ -49,6 +54,9 @@ HybridPpm::HybridPpm(const Scene& scene, const Params& params)
   eye_origin_.assign(n, Vec3());
   pass_direct_.assign(n, RGB(0.0f));
   pass_npm_.assign(n, 0.0);
+  pass_npm_full_.assign(n, 0.0);
+  pass_npt_.assign(n, 1);
+  pass_traced_.assign(n, 0);
   first_r_.assign(n, 0.0f);
   gather_m_.assign(n, 0.0f);
   gather_phi_.assign(n, RGB(0.0f));
@@ -61,7 +69,7 @@ double HybridPpm::n_pm(size_t pixel) const {
 }
 
 // ---- Path densities and the balance heuristic (thesis eq. 9.5-9.8, 9.19 without bias) ----
-double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, double npm) const {
+double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, double npm, double npt) const {
   const int k = static_cast<int>(y.size()) - 1;
   if (k < 1) return 0.0;
   const LightSet& lights = scene_.light_set();
@@ -126,8 +134,9 @@ double HybridPpm::mis_weight(const std::vector<PathVertex>& y, int technique, do
   // Prefix products of E, suffix products of L.
   for (int i = 2; i <= k; ++i) PE[i] = PE[i - 1] * E[i];
   for (int i = k; i >= 1; --i) SL[i] = SL[i + 1] * L[i];
-  const double q_hit = hit_ok ? PE[k] : 0.0;
-  const double q_nee = (k >= 2 && !y[k - 1].delta) ? PE[k - 1] * p_nee : 0.0;
+  // n_i p_i of eq. 9.19 (bias ignored): n_pt samples each of hit and NEE, n_pm of each merge.
+  const double q_hit = hit_ok ? npt * PE[k] : 0.0;
+  const double q_nee = (k >= 2 && !y[k - 1].delta) ? npt * PE[k - 1] * p_nee : 0.0;
   double sum = q_hit + q_nee, mine = technique == 0 ? q_hit : technique == 1 ? q_nee : 0.0;
   for (int t = 1; t <= k - 1; ++t) {
     const double q = y[t].mergeable ? npm * PE[t] * SL[t] : 0.0;
@@ -393,6 +402,11 @@ double HybridPpm::light_weight(const std::vector<PathVertex>& y, int technique, 
 }
 
 // ---- Camera paths: measurement points at every vertex, path tracing with NEE ----
+// Sample counts of the pass (§9.4.5, §9.5 step 5): n_pt path-tracing samples at the pixel, the
+// first of them the camera path that also carries the measurement points. n_pt is fixed before
+// the pass's random numbers are drawn (from the pixel's earlier passes, see path_samples()), so
+// that the counts in the weights are those of the samples actually taken and do not depend on
+// this pass's samples.
 void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                          std::atomic<int64_t>& invalid_out) {
   const LightSet& lights = scene_.light_set();
@@ -402,22 +416,19 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
         int64_t rays = 0, invalid = 0;
         std::vector<PathVertex> y;
         std::vector<double> cy(static_cast<size_t>(max_depth_) + 2, 0.0);  // c_j of the path so far
-        for (int py = tile.y0; py < tile.y1; ++py)
-          for (int px = tile.x0; px < tile.x1; ++px) {
-            const size_t pixel = static_cast<size_t>(py) * width_ + px;
-            // Pass 0 without a given radius has no radius yet: no density estimation weight
-            // (PT takes weight 1), and the gathering of that pass uses the same 0.
-            const double npm = n_pm(pixel);
-            pass_npm_[pixel] = npm;
-            Rng rng = Rng::for_key(seed_, pixel, pass);
+        std::vector<EyeVertex> scratch(static_cast<size_t>(max_depth_));   // vertices of the extra PT paths
+        // One camera path from `film`/`lens` samples of `rng`: weighted PT contribution returned,
+        // vertices written to ev[0 .. count). `ratio` = n_pm / n_pt (see light_weight).
+        auto trace = [&](Rng& rng, int px, int py, double ratio, EyeVertex* ev, int& count, float& first_r,
+                         Vec3& origin) -> RGB {
             const Vec2 film(px + rng.uniform(), py + rng.uniform());
             const Vec2 lens(rng.uniform(), rng.uniform());
             Ray ray = scene_.camera.generate_ray(film, lens);
-            eye_origin_[pixel] = ray.o;
-            EyeVertex* ev = &eye_[pixel * max_depth_];
-            int count = 0;
+            origin = ray.o;
+            count = 0;
+            first_r = 0;
             RGB beta(1.0f), Ld(0.0f);
-            float path_length = 0, first_r = 0;
+            float path_length = 0;
             // The camera-side vertices so far, as PathVertex (y[0] = camera).
             y.clear();
             PathVertex cam;
@@ -435,7 +446,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                   lv.dir = -ray.d;
                   y.push_back(lv);
                   Ld += beta * lights.environment_radiance(ray.d) *
-                        static_cast<float>(light_weight(y, 0, cy[y.size() - 2], npm));
+                        static_cast<float>(light_weight(y, 0, cy[y.size() - 2], ratio));
                   y.pop_back();
                 }
                 break;
@@ -450,7 +461,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                   lv.ng = lights.lights()[hit->light].n;
                   lv.light = hit->light;
                   y.push_back(lv);
-                  Ld += beta * Le * static_cast<float>(light_weight(y, 0, cy[y.size() - 2], npm));
+                  Ld += beta * Le * static_cast<float>(light_weight(y, 0, cy[y.size() - 2], ratio));
                   y.pop_back();
                 }
               }
@@ -510,7 +521,7 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
                         lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
                       }
                       y.push_back(lv);
-                      Ld += beta * f * ls->L * static_cast<float>(light_weight(y, 1, cy[y.size() - 2], npm) / ls->pdf);
+                      Ld += beta * f * ls->L * static_cast<float>(light_weight(y, 1, cy[y.size() - 2], ratio) / ls->pdf);
                       y.pop_back();
                     }
                   }
@@ -535,9 +546,38 @@ void HybridPpm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>
               ++invalid;
               Ld = RGB(0.0f);
             }
+            return Ld;
+        };
+        for (int py = tile.y0; py < tile.y1; ++py)
+          for (int px = tile.x0; px < tile.x1; ++px) {
+            const size_t pixel = static_cast<size_t>(py) * width_ + px;
+            // Pass 0 without a given radius has no radius yet: no density estimation weight
+            // (PT takes weight 1), and the gathering of that pass uses the same 0.
+            const double npm = n_pm(pixel);
+            const int npt = pass_npt_[pixel];
+            // Eq. 9.19 (bias ignored) depends on the counts only through n_pm / n_pt: every
+            // weight of this pixel and pass, PT's here and the photons' in the gathering, takes
+            // this one ratio.
+            const double ratio = npm / npt;
+            pass_npm_[pixel] = ratio;
+            pass_npm_full_[pixel] = npm;
+            Rng rng = Rng::for_key(seed_, pixel, pass);
+            int count = 0;
+            float first_r = 0;
+            RGB Ld = trace(rng, px, py, ratio, &eye_[pixel * max_depth_], count, first_r, eye_origin_[pixel]);
             eye_count_[pixel] = count;
-            pass_direct_[pixel] = Ld;
             first_r_[pixel] = first_r;
+            // The other n_pt - 1 path-tracing samples (§9.5 step 5), their own random stream.
+            int traced = 1;
+            if (npt > 1) {
+              Rng extra = Rng::for_key(seed_ ^ 0x707473616d70ULL, pixel, pass);
+              int c2;
+              float r2;
+              Vec3 o2;
+              for (int s = 1; s < npt; ++s, ++traced) Ld += trace(extra, px, py, ratio, scratch.data(), c2, r2, o2);
+            }
+            pass_traced_[pixel] = traced;
+            pass_direct_[pixel] = Ld / static_cast<float>(npt);  // (1 / n_i) sum_j w_i f / p_i (eq. 9.5)
           }
         rays_out += rays;
         invalid_out += invalid;
@@ -615,6 +655,23 @@ void HybridPpm::iterate(ProgressSink* sink) {
         }
       }
   };
+  // Path-tracing samples of this pass per pixel (§9.4.5, §9.5 step 5): the number of photons
+  // the pixel can expect to find this pass, M = N_e pi R^2 * (photon density seen so far), i.e.
+  // (photons found in earlier passes / sum of their R^2) * R^2 -- the local photon count that
+  // grows as O(N^alpha) over N photon passes, which makes the path-tracing samples N^alpha
+  // (eq. 9.23). Rounded, at least 1 (paths that only path tracing can make, e.g. a light seen
+  // directly, need a sample in every pass), at most path_samples_max. Fixed before the pass so
+  // that these counts, used in every weight of the pass, are the samples actually taken.
+  for (size_t i = 0; i < n_pixels; ++i) {
+    int npt = 1;
+    if (path_samples_ > 0) {
+      npt = path_samples_;
+    } else if (px_[i].r2_sum > 0) {
+      const double expected = px_[i].found_sum / px_[i].r2_sum * px_[i].r2;
+      npt = static_cast<int>(std::clamp(std::lround(expected), 1L, static_cast<long>(path_samples_max_)));
+    }
+    pass_npt_[i] = npt;
+  }
   const auto t_eye = clock_type::now();
   if (pass == 0 && radius_ == 0) {
     // The footprint radius comes from the camera path itself: trace the first pass's paths
@@ -735,6 +792,10 @@ void HybridPpm::iterate(ProgressSink* sink) {
       ++bad;
       phi = RGB(0.0f);
     }
+    if (have_photons && pass_npm_[i] > 0 && s.r2 > 0) {  // this pass gathered with radius sqrt(r2)
+      s.found_sum += gather_m_[i];
+      s.r2_sum += s.r2;
+    }
     const PhotonStatsUpdate u = progressive_update(s.n, s.r2, gather_m_[i], alpha_);
     for (int c = 0; c < 3; ++c) {
       s.tau[c] = (s.tau[c] + phi[c]) * u.ratio;  // eq. 7.5
@@ -746,6 +807,8 @@ void HybridPpm::iterate(ProgressSink* sink) {
   stats_.passes += 1;
 
   // ---- Statistics ----
+  int64_t traced = 0;
+  for (size_t i = 0; i < n_pixels; ++i) traced += pass_traced_[i];
   double sum_r = 0, n_r = 0, pt = 0, pm = 0;
   for (size_t i = 0; i < n_pixels; ++i) {
     const PixelState& s = px_[i];
@@ -755,7 +818,7 @@ void HybridPpm::iterate(ProgressSink* sink) {
       pm += RGB(float(s.tau[0]), float(s.tau[1]), float(s.tau[2])).luminance() / (emitted_total_ * M_PI * s.r2);
   }
   stats_.rays += rays + ps.rays;
-  stats_.paths += ps.emitted + static_cast<int64_t>(n_pixels);
+  stats_.paths += ps.emitted + traced;
   stats_.invalid_samples += invalid + bad + ps.invalid;
   stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
   stats_.extra["photons stored"] += static_cast<double>(ps.stored);
@@ -763,6 +826,9 @@ void HybridPpm::iterate(ProgressSink* sink) {
   stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
   stats_.extra["measurement points per pixel"] = static_cast<double>(points) / static_cast<double>(n_pixels);
   stats_.extra["photons found per point"] = points > 0 ? static_cast<double>(found) / static_cast<double>(points) : 0.0;
+  stats_.extra["path tracing samples"] += static_cast<double>(traced);
+  stats_.extra["path tracing samples per pixel and pass"] =
+      stats_.extra["path tracing samples"] / (static_cast<double>(n_pixels) * stats_.passes);
   stats_.extra["path tracing share"] = pt + pm > 0 ? pt / (pt + pm) : 0.0;
   stats_.seconds += seconds_since(start);
 }
@@ -773,7 +839,7 @@ RGB HybridPpm::pixel_radiance(size_t i) const {
   if (passes <= 0) return RGB(0.0f);
   RGB L;
   for (int c = 0; c < 3; ++c) {
-    double v = s.direct[c] / passes;  // weighted path tracing, one sample per pass
+    double v = s.direct[c] / passes;  // weighted path tracing: per pass the mean of its n_pt samples
     if (s.r2 > 0 && emitted_total_ > 0) v += s.tau[c] / (static_cast<double>(emitted_total_) * M_PI * s.r2);  // eq. 7.1
     L[c] = static_cast<float>(v);
   }

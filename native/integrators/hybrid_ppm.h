@@ -5,9 +5,10 @@
 //
 // Every iterate():
 //   1. one camera path per pixel, traced to Russian-roulette termination (§9.5 step 2), with a
-//      measurement point at every vertex whose BSDF is diffuse for photons; along the same path,
-//      path tracing: emission hit by the path and next-event estimation at every non-delta
-//      vertex (§9.5 step 5), each weighted by the balance heuristic;
+//      measurement point at every vertex whose BSDF is diffuse for photons; along the same path
+//      and n_pt - 1 more (see "Sample counts"), path tracing: emission hit by the path and
+//      next-event estimation at every non-delta vertex (§9.5 step 5), each weighted by the
+//      balance heuristic;
 //   2. one photon pass, photons deposited from the first hit on, whole photon paths recorded
 //      (§9.5 step 1, PhotonPathRecord);
 //   3. every measurement point gathers the photons within its pixel's radius; each photon's
@@ -48,10 +49,23 @@
 // full walk (same Fig. 9.3 composition: camera vertices to y_t, then the photon's earlier
 // vertices), so the weights are the same up to rounding and still sum to one.
 //
-// Sample counts (§9.4.4-9.4.5, §9.5): with alpha = 0.6 < 2/3 the unbiased techniques must take
-// N^alpha samples for N photon samples; as the thesis does, this is met by tracing one camera
-// pass per photon pass of (by default) as many photons as pixels, so the path-tracing samples
-// per pixel grow like the local photon count.
+// Sample counts (§9.4.4-9.4.5, §9.5 step 5): with alpha = 0.6 < 2/3 the unbiased techniques must
+// take N'(N) = N^alpha samples for N photon passes (eq. 9.23), which §9.4.5 meets by taking as
+// many path-tracing samples at a pixel as it finds photons, the local photon count being
+// O(N^alpha). Per pass and pixel: n_pt = round(M), clamped to [1, path_samples_max], where
+// M = (photons found in the pixel's earlier passes / sum of their R^2) * R^2 is the number of
+// photons the pixel can expect to find with this pass's radius (the count of step 3, known
+// before the pass; the realised count would make the weights depend on the photons they
+// weight, E[M w(M)] != E[M] E[w], a bias that does not average out). The first of the n_pt
+// samples is the camera path carrying the measurement points, the others are path-tracing-only
+// camera paths (own random stream); the pass's PT estimate is their mean, (1 / n_i) sum_j
+// w_i f / p_i (eq. 9.5). Every weight of the pass, hit and NEE in the camera pass and density
+// estimation in the gathering, uses the counts n_hit = n_nee = n_pt and n_pm = N_e pi R^2
+// (eq. 9.19 with the bias ignored); they enter only as the ratio n_pm / n_pt, which is the
+// `n_pm` argument of light_weight and merge_weight (mis_weight takes both). n_pt is at least 1
+// so that paths no photon can make (a light seen directly or through glass) keep a sample in
+// every pass. path_samples = k > 0 takes k samples per pass instead (k = 1: one per pass, as
+// the per-pass eye tracing of §9.5's last paragraph and as this integrator did before).
 //
 // Parameters (defaults):
 //   photons             0       photons per pass; 0 = the number of pixels (§9.5)
@@ -61,9 +75,13 @@
 //   specular_threshold  0.05    roughness at or below which a surface is specular for photons
 //   max_depth           16      longest camera or photon path in segments
 //   rr_depth            3       camera-path depth from which Russian roulette may end it
+//   path_samples        0       path-tracing samples per pixel and pass; 0 = the expected local
+//                               photon count (§9.4.5, see "Sample counts")
+//   path_samples_max    64      upper bound of that count (caustic pixels find hundreds)
 //   seed 0, threads 0, tile_size 16 as for "pt"
 //
-// Passes: combined, radius, photon_count. Statistics: photons traced/stored, photon rays,
+// Passes: combined, radius, photon_count. Statistics: path tracing samples (total, and per pixel
+// and pass), photons traced/stored, photon rays,
 // average radius, measurement points per pixel, photons found per point, the share of the
 // image from each family of techniques ("path tracing share"), seconds in the camera pass,
 // photon pass (with the tails) and gathering ("eye / trace / lookup seconds"), and the largest
@@ -85,6 +103,11 @@ class HybridPpm : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   RGB pixel_radiance(size_t i) const;
+  // Last pass, per pixel: the path-tracing samples traced, and the path-tracing count n_pt that
+  // the weights used (N_e pi R^2 / the ratio passed to light_weight / merge_weight). Equal.
+  int path_samples_traced(size_t i) const { return pass_traced_[i]; }
+  double path_samples_in_weights(size_t i) const { return pass_npm_[i] > 0 ? pass_npm_full_[i] / pass_npm_[i] : 0.0; }
+  double photons_found(size_t i) const { return gather_m_[i]; }
 
   // One vertex of a full path for the density evaluation (camera, surface or light vertex).
   struct PathVertex {
@@ -101,7 +124,9 @@ class HybridPpm : public Integrator {
   // estimation at y_t) for the path y[0] (camera) .. y[k] (light), k = y.size() - 1. Walks the
   // whole path (O(k) BSDF densities): no longer used by rendering, kept as the reference that
   // the O(1) merge_weight() and light_weight() are tested against.
-  double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm) const;
+  // n_pm = N_e pi R^2 samples of each density-estimation technique, n_pt samples of each of hit
+  // and NEE (the n_i of eq. 9.19).
+  double mis_weight(const std::vector<PathVertex>& y, int technique, double n_pm, double n_pt = 1.0) const;
 
   // ---- O(1) weight of density estimation (see "Incremental weights" above) ----
   // Per deposited photon, from its own path only: y_{t+1} (the photon's previous vertex, its
@@ -126,6 +151,8 @@ class HybridPpm : public Integrator {
   // Weight of density estimation at camera vertex y[t] (mergeable) with the photon whose tail
   // is `tail`: the path y_0 .. y_t, then the photon's earlier vertices. Equals mis_weight() of
   // that full path for technique 2 + t (up to rounding).
+  // `n_pm` here and in light_weight: the ratio n_pm / n_pt of the two sample counts (eq. 9.19
+  // depends on them only through it); equals mis_weight(..., n_pm * n_pt', n_pt') for any n_pt'.
   double merge_weight(const PathVertex* y, int t, const double* c, const PhotonTail& tail, double n_pm) const;
   // Weight of technique 0 (hit) or 1 (nee) for the camera path y[0] .. y[k-1] ending on the
   // light vertex y[k] (k = y.size() - 1), in O(1) from c_{k-1} (camera_prefix's c[k-1]):
@@ -146,7 +173,8 @@ class HybridPpm : public Integrator {
   struct PixelState {
     double r2 = 0, n = 0;
     double tau[3] = {0, 0, 0};
-    double direct[3] = {0, 0, 0};  // weighted path-tracing samples, summed over passes
+    double direct[3] = {0, 0, 0};  // per pass the mean of its weighted path-tracing samples, summed
+    double found_sum = 0, r2_sum = 0;  // photons found and R^2, summed over the passes that gathered
   };
 
   double n_pm(size_t pixel) const;  // N_e pi R^2 of the density-estimation technique
@@ -159,6 +187,7 @@ class HybridPpm : public Integrator {
   int max_depth_, rr_depth_, threads_, tile_size_;
   float threshold_;
   uint64_t seed_;
+  int path_samples_, path_samples_max_;
   int width_, height_;
   float pixel_spread_;
 
@@ -173,7 +202,10 @@ class HybridPpm : public Integrator {
   std::vector<int> eye_count_;
   std::vector<Vec3> eye_origin_;
   std::vector<RGB> pass_direct_;
-  std::vector<double> pass_npm_;  // N_e pi R^2 the camera pass weighted with; the gathering uses the same
+  std::vector<double> pass_npm_;  // n_pm / n_pt = N_e pi R^2 / n_pt the camera pass weighted with; the gathering uses the same
+  std::vector<double> pass_npm_full_;  // N_e pi R^2 of the pass
+  std::vector<int> pass_npt_;     // n_pt: path-tracing samples of the pass, fixed before it
+  std::vector<int> pass_traced_;  // path-tracing samples actually traced in the pass
   std::vector<float> first_r_;
   std::vector<PixelState> px_;
   std::vector<float> gather_m_;

@@ -4,6 +4,7 @@
 // thread-count determinism and parameter errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <deque>
@@ -92,6 +93,22 @@ TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
     EXPECT_NEAR(sum, 1.0, 1e-9) << "n_pm " << npm;
     // More photon samples (larger N_e pi R^2): more weight to density estimation.
   }
+  // Sample counts (eq. 9.19: n_i p_i / sum_k n_k p_k): n_pt path-tracing samples each of hit and
+  // NEE. The weights still sum to one; the counts enter only as n_pm / n_pt, which is what the
+  // O(1) weights are given; n_pt times the samples multiplies the hit : merge odds by n_pt.
+  for (double npm : {1e-2, 1.0, 1e3})
+    for (double npt : {1.0, 2.0, 7.0, 40.0}) {
+      double sum = 0;
+      for (int t = 0; t < 2 + 3; ++t) {
+        const double w = h.mis_weight(y, t, npm, npt);
+        sum += w;
+        EXPECT_NEAR(w, h.mis_weight(y, t, npm / npt, 1.0), 1e-12) << "t " << t << " npt " << npt;
+      }
+      EXPECT_NEAR(sum, 1.0, 1e-9) << "n_pm " << npm << " n_pt " << npt;
+      const double odds1 = h.mis_weight(y, 0, npm, 1.0) / h.mis_weight(y, 2 + 1, npm, 1.0);
+      const double odds = h.mis_weight(y, 0, npm, npt) / h.mis_weight(y, 2 + 1, npm, npt);
+      EXPECT_NEAR(odds / odds1, npt, 1e-9 * npt);
+    }
   EXPECT_LT(h.mis_weight(y, 2 + 1, 1e-6), h.mis_weight(y, 2 + 1, 1e3));
   // A specular vertex can neither merge nor connect to the light.
   y[2].delta = true;
@@ -237,6 +254,60 @@ TEST(Msppm, ConvergesToThePathTracedCornellBox) {
   for (const char* name : {"radius", "photon_count"}) EXPECT_TRUE(m.has_pass(name)) << name;
 }
 
+TEST(Msppm, PathSamplesFollowThePhotonCountAndAreTheCountsOfTheWeights) {
+  // §9.5 step 5 / §9.4.5: as many path-tracing samples per pixel as the pixel finds photons
+  // (expected from its earlier passes), at least one; and the n_pt in every weight of the pass
+  // (recovered as N_e pi R^2 / the ratio the weights were given) is the number of samples
+  // actually traced. Fails if one side of the combination used other counts than were taken:
+  // directly (the counts recovered from the weights' ratio) and end to end (if the photons were
+  // weighted with other counts than the path-tracing samples, the weights would not sum to one
+  // and the image mean would leave the path-traced one: +12 % with photons weighted as if
+  // n_pt = 1 while n_pt samples are traced).
+  const Scene s = cornell(24, 24);
+  Params ref_params;
+  ref_params.set("seed", 97);
+  const double ref_mean = mean(render("pt", s, 2048, ref_params));
+  for (int fixed : {0, 1, 3}) {
+    Params p = seeded(6);
+    p.set("path_samples", fixed);
+    auto integ = make_integrator("msppm", s, p);
+    auto* h = dynamic_cast<HybridPpm*>(integ.get());
+    ASSERT_NE(h, nullptr);
+    double traced = 0, found = 0, weighted = 0;
+    int max_traced = 0;
+    for (int pass = 0; pass < 48; ++pass) {
+      integ->iterate(nullptr);
+      for (size_t i = 0; i < 24 * 24; ++i) {
+        const int n = h->path_samples_traced(i);
+        ASSERT_GE(n, 1);
+        if (fixed > 0) ASSERT_EQ(n, fixed);
+        const double in_weights = h->path_samples_in_weights(i);
+        if (in_weights > 0) {  // pixels with a density-estimation technique in this pass
+          ASSERT_NEAR(in_weights, n, 1e-6 * n) << "pixel " << i << " pass " << pass;
+          weighted += 1;
+        }
+        if (pass >= 6 && pass < 12) {
+          traced += n;
+          found += h->photons_found(i);
+          max_traced = std::max(max_traced, n);
+        }
+      }
+    }
+    EXPECT_GT(weighted, 48 * 24 * 24 / 2);
+    Film film;
+    integ->develop(film);
+    EXPECT_NEAR(mean(film) / ref_mean, 1.0, 0.04) << "path_samples " << fixed;
+    std::printf("path_samples=%d: %.2f traced, %.2f photons found per pixel and pass, max %d\n", fixed,
+                traced / (6 * 24 * 24), found / (6 * 24 * 24), max_traced);
+    if (fixed == 0) {
+      // Tied to the local photon count: on average about the photons found, more than one.
+      EXPECT_GT(traced / found, 0.7);
+      EXPECT_LT(traced / found, 1.5);
+      EXPECT_GT(max_traced, 2);
+    }
+  }
+}
+
 TEST(Msppm, AgreesWithSppmWhereOnlyPhotonsSeeTheLight) {
   // Point light inside a glass sphere: every path to the floor is a caustic, no NEE and no
   // hit possible; MSPPM's weights must hand it all to density estimation.
@@ -270,7 +341,8 @@ TEST(Msppm, SameImageWhateverTheThreadCount) {
 TEST(Msppm, RejectsBadParametersByName) {
   const Scene s = cornell(8, 8);
   for (auto [name, value] : std::vector<std::pair<std::string, nlohmann::json>>{
-           {"alpha", 1.0}, {"photons", -1}, {"radius", -1.0}, {"max_depth", 0}}) {
+           {"alpha", 1.0}, {"photons", -1}, {"radius", -1.0}, {"max_depth", 0}, {"path_samples", -1},
+           {"path_samples_max", 0}}) {
     Params p(nlohmann::json{{name, value}});
     try {
       make_integrator("msppm", s, p);
