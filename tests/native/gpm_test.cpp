@@ -3,6 +3,7 @@
 // path-traced reference, determinism, finiteness and failure counting on scenes with glass.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -62,6 +63,29 @@ Scene cornell(int w, int h) {
   s.camera.width = w;
   s.camera.height = h;
   return s;
+}
+
+// The Cornell box with some objects given new conductor materials: {object, material name,
+// roughness, colour}.
+struct Restyle {
+  const char* object;
+  const char* material;
+  double roughness;
+  std::array<double, 3> color;
+};
+Scene restyled_cornell(std::initializer_list<Restyle> changes, int w, int h) {
+  std::ifstream in(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  auto j = nlohmann::json::parse(text.str());
+  for (const Restyle& c : changes) {
+    j["materials"][c.material] = {{"type", "conductor"}, {"color", c.color}, {"roughness", c.roughness}};
+    for (auto& o : j["objects"])
+      if (o["name"] == c.object) o["material"] = c.material;
+  }
+  j["camera"]["width"] = w;
+  j["camera"]["height"] = h;
+  return load_scene_from_string(j.dump(), std::string(GRADPHOTON_SOURCE_DIR) + "/scenes", "restyled-cornell.json");
 }
 
 Params photon_params(int64_t photons, uint64_t seed, int threads = 0) {
@@ -126,19 +150,8 @@ TEST(Gpm, ConvergesToThePathTracedCornellBox) {
 // chains, eq. 7-8). Against a path-traced reference the L2 reconstruction's error falls with
 // the passes and stays below the primal (throughput) error.
 TEST(Gpm, ConvergesToThePathTracedGlossyAndMirrorCornellBox) {
-  std::ifstream in(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
-  std::stringstream text;
-  text << in.rdbuf();
-  auto j = nlohmann::json::parse(text.str());
-  j["materials"]["glossy"] = {{"type", "conductor"}, {"color", {0.9, 0.85, 0.7}}, {"roughness", 0.02}};
-  j["materials"]["mirror"] = {{"type", "conductor"}, {"color", {0.9, 0.9, 0.9}}, {"roughness", 0}};
-  for (auto& o : j["objects"]) {
-    if (o["name"] == "tall box") o["material"] = "glossy";
-    if (o["name"] == "short box") o["material"] = "mirror";
-  }
-  j["camera"]["width"] = 32;
-  j["camera"]["height"] = 32;
-  const Scene s = load_scene_from_string(j.dump(), std::string(GRADPHOTON_SOURCE_DIR) + "/scenes", "glossy-mirror.json");
+  const Scene s = restyled_cornell(
+      {{"tall box", "glossy", 0.02, {0.9, 0.85, 0.7}}, {"short box", "mirror", 0.0, {0.9, 0.9, 0.9}}}, 32, 32);
   Params pr;
   pr.set("seed", 99);
   Film ref;
@@ -204,19 +217,8 @@ TEST(Gpm, GlossyBoxAndGlossyFloorStayFiniteAndCountFailedShifts) {
   // conductor (GGX 0.1: "diffuse" for photons, so gather points and photons land on it) and the
   // tall box a near-specular one (0.02): eye paths copy half-vectors off the box and fail at its
   // edges, photons reflected by it are specular chains.
-  std::ifstream in(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
-  std::stringstream text;
-  text << in.rdbuf();
-  auto j = nlohmann::json::parse(text.str());
-  j["materials"]["glossy"] = {{"type", "conductor"}, {"color", {0.9, 0.8, 0.6}}, {"roughness", 0.02}};
-  j["materials"]["rough"] = {{"type", "conductor"}, {"color", {0.8, 0.8, 0.8}}, {"roughness", 0.1}};
-  for (auto& o : j["objects"]) {
-    if (o["name"] == "tall box") o["material"] = "glossy";
-    if (o["name"] == "floor") o["material"] = "rough";
-  }
-  j["camera"]["width"] = 24;
-  j["camera"]["height"] = 24;
-  const Scene s = load_scene_from_string(j.dump(), std::string(GRADPHOTON_SOURCE_DIR) + "/scenes", "glossy.json");
+  const Scene s = restyled_cornell(
+      {{"tall box", "glossy", 0.02, {0.9, 0.8, 0.6}}, {"floor", "rough", 0.1, {0.8, 0.8, 0.8}}}, 24, 24);
   auto g = run("gpm", s, 3, photon_params(8000, 2));
   Film f;
   g->develop(f);
