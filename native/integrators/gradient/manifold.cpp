@@ -258,6 +258,8 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
     if (hit->mesh != c.v[j].mesh) return ShiftFailure::Occluded;  // another surface in the way
     surf[j] = local_surface(scene, hit->mesh, hit->prim, hit->p);
     const LocalSurface& ls = surf[j];
+    // A degenerate triangle (zero area, or normals cancelling) has no frame: no NaN ray is traced.
+    if (!ls.n.allFinite() || !ls.ng.allFinite() || !(ls.n.squaredNorm() > 0)) return ShiftFailure::ZeroLength;
     const Vec3d n = ls.n.normalized();
     Vec3d s, t;
     duff_basis<double>(n, s, t);
@@ -279,6 +281,7 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
       if (wi.z() * wo.z() <= 0) return ShiftFailure::NotInvertible;
     }
     const Vec3d wi_w = (wi.x() * s + wi.y() * t + wi.z() * n).normalized();
+    if (!wi_w.allFinite()) return ShiftFailure::ZeroLength;
     out.v[j].p = hit->p;
     out.v[j].ng = hit->ng;
     out.v[j].prim = hit->prim;
