@@ -95,10 +95,8 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
     pdf_dir_prev = bsdf.is_delta() ? 1.0f : bs->pdf;
     const Vec3 wi_world = hit->frame.to_world(bs->wi);
-    // Shading-normal correction of the adjoint BSDF (Veach 1997, eq. 5.20).
-    const float denom = std::abs(dot(wo_world, hit->ng)) * std::abs(dot(wi_world, hit->ns));
-    if (denom == 0) break;
-    const float correction = std::abs(dot(wo_world, hit->ns)) * std::abs(dot(wi_world, hit->ng)) / denom;
+    const float correction = adjoint_shading_correction(wo_world, wi_world, hit->ng, hit->ns);
+    if (correction == 0) break;
     const RGB beta_new = beta * bs->f * (std::abs(bs->wi.z) / bs->pdf * correction);
     // ---- Russian roulette: keep the photon's power roughly constant ----
     const float m_old = beta.max_component(), m_new = beta_new.max_component();

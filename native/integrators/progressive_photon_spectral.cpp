@@ -257,9 +257,8 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass) {
             const auto bs = Bsdf(mk[0]).sample(wo, uc, u, TransportMode::Importance);
             if (!bs || bs->pdf <= 0) break;
             const Vec3 wi_world = hit->frame.to_world(bs->wi);
-            const float denom = std::abs(dot(wo_world, hit->ng)) * std::abs(dot(wi_world, hit->ns));
-            if (denom == 0) break;
-            const float correction = std::abs(dot(wo_world, hit->ns)) * std::abs(dot(wi_world, hit->ng)) / denom;
+            const float correction = adjoint_shading_correction(wo_world, wi_world, hit->ng, hit->ns);
+            if (correction == 0) break;
             // The photon's own C factor is applied at the gather (once per full path), so the
             // hero-only factor from scatter_factors is undone here.
             const bool was_hero_only = hero_only;

@@ -52,6 +52,15 @@ class Bsdf {
   const Material* m_;
 };
 
+// Shading-normal correction of the adjoint (importance) BSDF, Veach 1997 eq. 5.20: with world
+// directions wo, wi and the geometric and shading normals ng, ns,
+// |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|); 0 where it is undefined (a direction in the shading or
+// geometric plane). Photon tracing multiplies every scattering by it.
+inline float adjoint_shading_correction(const Vec3& wo, const Vec3& wi, const Vec3& ng, const Vec3& ns) {
+  const float denom = std::abs(dot(wo, ng)) * std::abs(dot(wi, ns));
+  return denom > 0 ? std::abs(dot(wo, ns)) * std::abs(dot(wi, ng)) / denom : 0.0f;
+}
+
 // Fresnel reflectance of a dielectric interface for cos_i (signed: < 0 means from inside)
 // and relative IOR eta = n_inside / n_outside.
 float fresnel_dielectric(float cos_i, float eta);

@@ -344,9 +344,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
   const Bsdf prev_bsdf(scene_.material(org.material));
   const Vec3 wo_prev = org.frame.to_world(org.wo);
   const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
-  // Shading-normal correction of the adjoint BSDF, as the photon tracer's.
-  const float denom = std::abs(dot(wo_prev, org.ng)) * std::abs(dot(wi_prev, org.frame.n));
-  const float corr = denom > 0 ? std::abs(dot(wo_prev, org.frame.n)) * std::abs(dot(wi_prev, org.ng)) / denom : 0.0f;
+  const float corr = adjoint_shading_correction(wo_prev, wi_prev, org.ng, org.frame.n);
   // f(y')|J|/p(y): only the last segment differs. In the area measure its factor is
   // f_s(wi') cos(wi') [cos(y'_s)/d'^2] |J| / (pdf [cos(y_s)/d_s^2]), with |J| of eq. 6: the
   // density of reaching y_s from y_{s-1} stays the base's.
@@ -382,9 +380,8 @@ RGB Gpm::reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& 
   const Frame frame(chain.ns);
   const Vec3 wo = frame.to_local(chain.wo), wi = frame.to_local(dir);
   const Bsdf bsdf(scene_.material(chain.material));
-  const float denom = std::abs(dot(chain.wo, chain.ng)) * std::abs(dot(dir, chain.ns));
-  if (!(denom > 0)) return RGB(0.0f);
-  const float corr = std::abs(dot(chain.wo, chain.ns)) * std::abs(dot(dir, chain.ng)) / denom;  // Veach eq. 5.20
+  const float corr = adjoint_shading_correction(chain.wo, dir, chain.ng, chain.ns);
+  if (corr == 0) return RGB(0.0f);
   pdf = bsdf.pdf(wo, wi);
   return bsdf.eval(wo, wi, TransportMode::Importance) * (std::abs(wi.z) * corr);
 }
@@ -406,18 +403,9 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
     for (int j = 0; j < chain.count; ++j) c.v[j] = chain.v[j];
     c.end = ph.p;
     c.end_ng = org.n_photon;
-    // Half-vector targets o_i: 0 at delta vertices, the base's own at glossy ones (§4.2).
-    std::array<Vec2, kMaxChainVertices> h;
-    if (!chain_half_vectors(scene_, c, h)) return failed(ShiftFailure::SpecularChain);
-    for (int j = 0; j < c.count; ++j) {
-      const Material& m = scene_.material(scene_.meshes[c.v[j].mesh].material_ids[c.v[j].prim]);
-      c.target[j] = Bsdf(m).is_delta() ? Vec2(0.0f, 0.0f) : h[j];
-    }
-    const Vec3 dir = normalize(c.v[0].p - c.start);
-    base.g = reconnection_factor(chain, dir, base.pdf);
-    base.through = chain_throughput(scene_, c);
-    base.prepared = prepare_chain(scene_, c);
-    base.ok = !base.g.is_black() && base.pdf > 0 && base.through.ok && base.prepared.ok;
+    base.prepared = prepare_chain(scene_, c);  // targets, tangent map, eq. 8, throughput
+    base.g = reconnection_factor(chain, normalize(c.v[0].p - c.start), base.pdf);
+    base.ok = !base.g.is_black() && base.pdf > 0 && base.prepared.ok;
   }
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
   // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
@@ -449,12 +437,13 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // |d omega' / d omega| with omega = (omega_b, glossy directions): the half-vector
   // reparameterisation of eq. 9 (|d omega_i / d o| per glossy vertex), and y_b's direction per
   // endpoint area (eq. 8) around the endpoint's own shift (eq. 6), the half-vectors held.
-  const double jac = (through.jacobian / base.through.jacobian) * (walk.dir_per_area / base.prepared.dir_per_area) * jac6;
-  const RGB num = g * through.f, den = base.g * base.through.f;
+  const PreparedChain& b = base.prepared;
+  const double jac = (through.jacobian / b.through.jacobian) * (walk.dir_per_area / b.dir_per_area) * jac6;
+  const RGB num = g * through.f, den = base.g * b.through.f;
   RGB ratio(0.0f);
   for (int k = 0; k < 3; ++k) ratio[k] = den[k] > 0 ? num[k] / den[k] : 0.0f;
   out.power = ph.power * ratio * static_cast<float>(jac);
-  out.ratio_y = (pdf * through.pdf) / (base.pdf * base.through.pdf) * jac;
+  out.ratio_y = (pdf * through.pdf) / (base.pdf * b.through.pdf) * jac;
   out.in_kernel = true;
   return out;
 }

@@ -120,10 +120,9 @@ class Gpm : public ProgressivePhotonMapping {
   // The base chain's factors for the light-subpath shift, evaluated on the first offset.
   struct ChainBase {
     bool evaluated = false, ok = false;
-    PreparedChain prepared;  // the chain, its tangent map's first block and eq. 8's term
+    PreparedChain prepared;  // the chain with its targets, tangent map, eq. 8 term, throughput
     RGB g{0.0f};            // y_b's directional factor towards y_{b+1}
     double pdf = 0;         // y_b's solid-angle pdf of that direction
-    ChainThroughput through;
   };
   struct WalkStats {
     int64_t walks = 0, iterations = 0;

@@ -197,9 +197,8 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
     const Vec3 wo = frame.to_local(wo_w), wi = frame.to_local(wi_w);
     const Material& m = scene.material(scene.meshes[x.mesh].material_ids[x.prim]);
     const Bsdf bsdf(m);
-    const float denom = std::abs(dot(wo_w, ng)) * std::abs(dot(wi_w, ns));
-    if (!(denom > 0) || wo.z == 0) return out;
-    const float corr = std::abs(dot(wo_w, ns)) * std::abs(dot(wi_w, ng)) / denom;  // Veach eq. 5.20
+    const float corr = adjoint_shading_correction(wo_w, wi_w, ng, ns);
+    if (corr == 0 || wo.z == 0) return out;
     if (bsdf.is_delta()) {
       // The base's lobe at this configuration (the walk put wi on its specular direction).
       const float uc = x.transmission ? 1.0f - 0x1p-24f : 0.0f;
@@ -220,9 +219,9 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
 
 }  // namespace
 
-bool chain_half_vectors(const Scene& scene, const ManifoldChain& c, std::array<Vec2, kMaxChainVertices>& out) {
-  Surfaces surf;
-  if (c.count <= 0 || c.count > kMaxChainVertices || !chain_surfaces(scene, c, surf)) return false;
+namespace {
+
+bool half_vectors(const ManifoldChain& c, const Surfaces& surf, std::array<Vec2, kMaxChainVertices>& out) {
   for (int j = 0; j < c.count; ++j) {
     const Vec3d prev = j == 0 ? to_d(c.start) : surf[j - 1].p;
     const Eigen::Vector2d h =
@@ -231,6 +230,13 @@ bool chain_half_vectors(const Scene& scene, const ManifoldChain& c, std::array<V
     out[j] = Vec2(float(h[0]), float(h[1]));
   }
   return true;
+}
+
+}  // namespace
+
+bool chain_half_vectors(const Scene& scene, const ManifoldChain& c, std::array<Vec2, kMaxChainVertices>& out) {
+  Surfaces surf;
+  return c.count > 0 && c.count <= kMaxChainVertices && chain_surfaces(scene, c, surf) && half_vectors(c, surf, out);
 }
 
 std::optional<double> chain_direction_per_area(const Scene& scene, const ManifoldChain& c) {
@@ -310,6 +316,13 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain) {
   out.chain = chain;
   Surfaces surf;
   if (chain.count <= 0 || chain.count > kMaxChainVertices || !chain_surfaces(scene, chain, surf)) return out;
+  // Half-vector targets o_i: 0 at delta vertices, the base's own at glossy ones (GPM §4.2).
+  std::array<Vec2, kMaxChainVertices> h;
+  if (!half_vectors(chain, surf, h)) return out;
+  for (int j = 0; j < chain.count; ++j) {
+    const ChainVertex& x = chain.v[j];
+    out.chain.target[j] = Bsdf(scene.material(scene.meshes[x.mesh].material_ids[x.prim])).is_delta() ? Vec2(0, 0) : h[j];
+  }
   const auto T = tangent_map(scene, chain, surf);
   if (!T) return out;
   const auto D = direction_per_area(chain, surf, *T);
@@ -319,7 +332,8 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain) {
   out.t1[2] = (*T)(1, 0);
   out.t1[3] = (*T)(1, 1);
   out.dir_per_area = *D;
-  out.ok = true;
+  out.through = throughput(scene, chain, surf);
+  out.ok = out.through.ok;
   return out;
 }
 
@@ -393,12 +407,6 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
   }
   w.failure = ShiftFailure::WalkNotConverged;
   return w;
-}
-
-ChainThroughput chain_throughput(const Scene& scene, const ManifoldChain& c) {
-  Surfaces surf;
-  if (c.count <= 0 || c.count > kMaxChainVertices || !chain_surfaces(scene, c, surf)) return ChainThroughput{};
-  return throughput(scene, c, surf);
 }
 
 double half_vector_direction_jacobian(const Vec3& wo_f, const Vec3& wi_f, float ior, bool transmission) {

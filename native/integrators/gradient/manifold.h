@@ -85,17 +85,20 @@ struct ManifoldWalk {
   SurfaceHit end_hit;        // the surface point it ends on
   int iterations = 0;        // projections traced
   double dir_per_area = 0;   // chain_direction_per_area of the offset chain
-  ChainThroughput through;   // chain_throughput of the offset chain
+  ChainThroughput through;   // what the offset chain's vertices do to the photon
   bool ok() const { return failure == ShiftFailure::None; }
 };
 
-// A base chain prepared for walks: the first block d x_1 / d x_{k+1} of its tangent map (JM12
-// eq. 7) and its eq. 8 term, computed once and shared by the walks to the four neighbours.
+// The base chain of a shift prepared for walks, from one evaluation of its local surfaces: its
+// half-vector targets (0 at delta vertices, its own at glossy ones: GPM §4.2), the first block
+// d x_1 / d x_{k+1} of its tangent map (JM12 eq. 7), its eq. 8 term and its throughput, shared
+// by the walks to the four neighbours.
 struct PreparedChain {
-  ManifoldChain chain;
+  ManifoldChain chain;          // with the targets set
   double t1[4] = {0, 0, 0, 0};  // row-major 2x2, tangent coordinates of x_1 and of the endpoint
   double dir_per_area = 0;      // chain_direction_per_area(chain)
-  bool ok = false;              // false: degenerate chain or singular constraints
+  ChainThroughput through;
+  bool ok = false;              // false: degenerate chain, singular constraints, or no throughput
 };
 PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain);
 
@@ -103,10 +106,10 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain);
 // start_ng: geometric normal at x_0 (zero for a point light) for the first ray's offset.
 ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& base, const Vec3& start_ng, const Vec3& target,
                            float tolerance, int max_iterations);
+// The same for prepare_chain(base): the walk holds base's own half-vectors at glossy vertices.
 ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
                            float tolerance, int max_iterations);
 
-ChainThroughput chain_throughput(const Scene& scene, const ManifoldChain& chain);
 
 // Solid-angle Jacobian |d omega_i / d o| of a glossy vertex's outgoing direction wi with respect
 // to the tangential components o of its (unit, local) half-vector h, for incoming wo:
