@@ -31,6 +31,9 @@ inline constexpr std::string_view kSpectralPrimal = "spectral_primal";
 inline constexpr std::string_view kSpectralGradient = "spectral_gradient";
 // Metropolis methods: how many chain states (one per mutation) fell in each pixel.
 inline constexpr std::string_view kSampleDensity = "sample_density";
+// Multisampled PPM (integrators/hybrid_ppm): the path-tracing share of `combined` after the
+// balance-heuristic weights (thesis Fig. 9.10); combined minus it is the density estimation.
+inline constexpr std::string_view kPathTracing = "path_tracing";
 
 struct Info {
   std::string_view name;
@@ -49,6 +52,7 @@ inline constexpr Info kAll[] = {
     {kSpectralPrimal, 3, "Spectral Primal"},
     {kSpectralGradient, 1, "Spectral Gradient"},
     {kSampleDensity, 1, "Sample Density"},
+    {kPathTracing, 3, "Path Tracing Share"},
 };
 }  // namespace pass
 

@@ -851,9 +851,14 @@ void HybridPpm::develop(Film& film) const {
   Pass& combined = film.add_pass(pass::kCombined, 3);
   Pass& radius = film.add_pass(pass::kRadius, 1);
   Pass& count = film.add_pass(pass::kPhotonCount, 1);
+  Pass& path_tracing = film.add_pass(pass::kPathTracing, 3);
+  const double passes = static_cast<double>(std::max<int64_t>(stats_.passes, 1));
   for (size_t i = 0; i < px_.size(); ++i) {
     const RGB L = pixel_radiance(i);
-    for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = L[c];
+    for (int c = 0; c < 3; ++c) {
+      combined.data[3 * i + c] = L[c];
+      path_tracing.data[3 * i + c] = static_cast<float>(px_[i].direct[c] / passes);
+    }
     radius.data[i] = static_cast<float>(std::sqrt(px_[i].r2));
     count.data[i] = static_cast<float>(px_[i].n);
   }

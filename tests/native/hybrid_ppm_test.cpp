@@ -1,6 +1,7 @@
 // Multisampled progressive photon mapping (thesis ch. 9): balance-heuristic weights that sum to
 // one over the techniques able to make a path, convergence to the path-traced Cornell box,
-// agreement with SPPM where only photons see the light (point light in a glass sphere),
+// agreement with SPPM where only photons see the light (point light in a glass sphere), the
+// split between the techniques on glossy metal and in a caustic (the `path_tracing` pass),
 // thread-count determinism and parameter errors.
 #include <gtest/gtest.h>
 
@@ -327,6 +328,51 @@ TEST(Msppm, AgreesWithSppmWhereOnlyPhotonsSeeTheLight) {
   for (float v : f.pass(pass::kCombined).data) ASSERT_TRUE(std::isfinite(v));
   EXPECT_NEAR(mean(f) / m_sppm, 1.0, 0.05);
   EXPECT_LT(st.extra.at("path tracing share"), 0.05);
+}
+
+TEST(Msppm, WeightsGiveGlossyReflectionsToPathTracingAndCausticsToPhotons) {
+  // Thesis Fig. 9.6 / 9.10 on scenes/glossy-caustics.json: the balance heuristic hands the
+  // glossy gold sphere (GGX alpha 0.1) mostly to path tracing and the caustic behind the glass
+  // sphere mostly to density estimation; the `path_tracing` pass is that share of `combined`.
+  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/glossy-caustics.json");
+  s.camera.width = s.camera.height = 48;
+  const Film f = render("msppm", s, 24, seeded(3));
+  ASSERT_TRUE(f.has_pass(pass::kPathTracing));
+  const auto& pt = f.pass(pass::kPathTracing).data;
+  const auto& all = f.pass(pass::kCombined).data;
+  const Vec3 light_centre(0, 0, 1.98f);
+  double pt_gold = 0, all_gold = 0, pt_caustic = 0, all_caustic = 0;
+  int n_gold = 0, n_caustic = 0;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 48; ++x) {
+      const size_t i = static_cast<size_t>(y) * 48 + x;
+      double p = 0, a = 0;
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_TRUE(std::isfinite(pt[3 * i + c]));
+        EXPECT_GE(pt[3 * i + c], 0.0f);
+        EXPECT_LE(pt[3 * i + c], all[3 * i + c] * 1.0001f + 1e-6f) << "a share of combined";
+        p += pt[3 * i + c];
+        a += all[3 * i + c];
+      }
+      const auto hit = s.intersect(s.camera.generate_ray(Vec2(x + 0.5f, y + 0.5f), Vec2(0.5f, 0.5f)));
+      if (!hit) continue;
+      const Material& m = s.material(hit->material);
+      if (m.type == MaterialType::Conductor) {
+        pt_gold += p, all_gold += a, ++n_gold;
+      } else if (m.type == MaterialType::Diffuse && hit->p.z < 1e-3f) {
+        // Floor points that see the light only through the glass sphere.
+        const Vec3 d = normalize(light_centre - hit->p);
+        const auto blocker = s.intersect(Ray(offset_ray_origin(hit->p, hit->ng, d), d));
+        if (blocker && s.material(blocker->material).type == MaterialType::Dielectric)
+          pt_caustic += p, all_caustic += a, ++n_caustic;
+      }
+    }
+  ASSERT_GT(n_gold, 50);
+  ASSERT_GT(n_caustic, 20);
+  std::printf("msppm glossy-caustics: PT share %.3f on the gold sphere (%d px), %.3f behind the glass (%d px)\n",
+              pt_gold / all_gold, n_gold, pt_caustic / all_caustic, n_caustic);
+  EXPECT_GT(pt_gold / all_gold, 0.5);  // measured 0.64 (paths on to a diffuse wall can also merge there)
+  EXPECT_LT(pt_caustic / all_caustic, 0.35);  // measured 0.20
 }
 
 TEST(Msppm, SameImageWhateverTheThreadCount) {
