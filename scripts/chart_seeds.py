@@ -17,13 +17,15 @@ def main():
     ap.add_argument("--scene", required=True)
     ap.add_argument("--out", required=True, type=Path)
     ap.add_argument("--methods", nargs="*", help="only these methods, in this order")
+    ap.add_argument("--column", default="relmse",
+                    help="relmse, or relmse_excess for runs with convergence.py --ref-split")
     args = ap.parse_args()
     runs = defaultdict(list)
     for path in args.csvs:
         with open(path) as f:
             for r in csv.DictReader(f):
                 if r["scene"] == args.scene:
-                    runs[(r["method"], float(r["seconds"]))].append(float(r["relmse"]))
+                    runs[(r["method"], float(r["seconds"]))].append(float(r[args.column]))
     methods = args.methods or sorted({m for m, _ in runs})
     import matplotlib
     matplotlib.use("Agg")
@@ -42,7 +44,8 @@ def main():
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("render time (s)")
-    ax.set_ylabel("relMSE (median, min..max)")
+    label = "relMSE less reference noise" if args.column == "relmse_excess" else "relMSE"
+    ax.set_ylabel(f"{label} (median, min..max)")
     ax.set_title(args.scene)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
