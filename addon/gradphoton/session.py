@@ -50,7 +50,7 @@ def params_of(settings, method=None):
 # '*' sums every statistic it matches (fnmatch). A missing statistic is left out.
 _SHIFT_FAILURES = ("*shift failed*", "shift failures", "{:,.0f}")
 _ADAPTIVE_STATS = [("acceptance rate", "accept", "{:.3f}"), ("mutation size", "theta", "{:.3g}"),
-                   ("V_c", "V_c", "{:.3f}")]
+                   ("V_c", "V_c", "{:.3g}")]  # 0.0004 under a distant light
 METHOD_STATS = {
     "sppm-adaptive": _ADAPTIVE_STATS,
     "sppm": _ADAPTIVE_STATS,  # with the adaptive photon sampler

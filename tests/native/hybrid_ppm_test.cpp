@@ -18,6 +18,7 @@
 #include "materials/bsdf.h"
 #include "io/metrics.h"
 #include "scene/loader.h"
+#include "render_for_tests.h"
 
 namespace gp {
 namespace {
@@ -27,15 +28,6 @@ Scene cornell(int w, int h) {
   s.camera.width = w;
   s.camera.height = h;
   return s;
-}
-
-Film render(const std::string& method, const Scene& scene, int passes, Params p, Stats* stats = nullptr) {
-  auto integ = make_integrator(method, scene, p);
-  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
-  Film film;
-  integ->develop(film);
-  if (stats) *stats = integ->stats();
-  return film;
 }
 
 Params seeded(uint64_t seed, int threads = 0) {

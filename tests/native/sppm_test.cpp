@@ -11,6 +11,7 @@
 #include "integrators/progressive_photon.h"
 #include "io/metrics.h"
 #include "scene/loader.h"
+#include "render_for_tests.h"
 
 namespace gp {
 namespace {
@@ -20,22 +21,6 @@ Scene cornell(int w, int h) {
   s.camera.width = w;
   s.camera.height = h;
   return s;
-}
-
-Film render(const std::string& method, const Scene& scene, int passes, Params p) {
-  auto integ = make_integrator(method, scene, p);
-  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
-  Film film;
-  integ->develop(film);
-  return film;
-}
-
-Params photon_params(int64_t photons, uint64_t seed = 1, int threads = 0) {
-  Params p;
-  p.set("photons", photons);
-  p.set("seed", seed);
-  p.set("threads", threads);
-  return p;
 }
 
 // The PT reference is shared by the tests of this file (rendered once).
