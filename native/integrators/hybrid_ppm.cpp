@@ -7,6 +7,7 @@
 
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "integrators/photon_estimate.h"
 #include "integrators/progressive_photon.h"  // progressive_update (eq. 5.7 / 5.9 / 5.12)
 #include "materials/bsdf.h"
 
@@ -834,16 +835,9 @@ void HybridPpm::iterate(ProgressSink* sink) {
 }
 
 RGB HybridPpm::pixel_radiance(size_t i) const {
+  // direct: per pass the mean of its n_pt weighted path-tracing samples, summed over passes.
   const PixelState& s = px_[i];
-  const double passes = static_cast<double>(stats_.passes);
-  if (passes <= 0) return RGB(0.0f);
-  RGB L;
-  for (int c = 0; c < 3; ++c) {
-    double v = s.direct[c] / passes;  // weighted path tracing: per pass the mean of its n_pt samples
-    if (s.r2 > 0 && emitted_total_ > 0) v += s.tau[c] / (static_cast<double>(emitted_total_) * M_PI * s.r2);  // eq. 7.1
-    L[c] = static_cast<float>(v);
-  }
-  return L;
+  return progressive_radiance(s.direct, s.tau, s.r2, stats_.passes, emitted_total_);
 }
 
 void HybridPpm::develop(Film& film) const {

@@ -5,6 +5,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "integrators/photon_estimate.h"
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -343,17 +344,7 @@ void ProgressivePhotonMapping::update_error_estimate() {
 
 RGB ProgressivePhotonMapping::pixel_radiance(size_t i) const {
   const PixelState& s = px_[i];
-  const double passes = static_cast<double>(stats_.passes);
-  if (passes <= 0) return RGB(0.0f);
-  const double scale = photon_scale();
-  RGB L;
-  for (int c = 0; c < 3; ++c) {
-    double v = s.direct[c] / passes;
-    if (s.r2 > 0 && emitted_total_ > 0)  // eq. 5.13 / 7.1, times V_c (eq. 8.11) with the adaptive sampler
-      v += scale * s.tau[c] / (static_cast<double>(emitted_total_) * M_PI * s.r2);
-    L[c] = static_cast<float>(v);
-  }
-  return L;
+  return progressive_radiance(s.direct, s.tau, s.r2, stats_.passes, emitted_total_, photon_scale());
 }
 
 void ProgressivePhotonMapping::develop(Film& film) const {
