@@ -32,14 +32,6 @@ constexpr float kReversibleTolerance = 1e-2f;
 // Failure counters: [0, kShiftFailureCount) sensor shifts, then as many for photon shifts.
 constexpr int kPhotonFailureBase = kShiftFailureCount;
 
-// Offset for a delta vertex: the same lobe from the offset's own wo (as gpt.cpp).
-std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, bool transmission) {
-  const float uc = transmission ? 1.0f - 0x1p-24f : 0.0f;
-  auto s = bsdf.sample(wo, uc, Vec2(0.5f, 0.5f));
-  if (!s || s->transmission != transmission) return std::nullopt;
-  return s;
-}
-
 }  // namespace
 
 Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
@@ -190,37 +182,17 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
                 if (!o.ok()) continue;
                 const SurfaceHit& ov = *ohit[d];
                 const Material& om = scene_.material(ov.material);
-                const Bsdf ob(om);
                 const Vec3 owo = ov.frame.to_local(-oray[d].d);
-                Vec3 wi_l;
-                float pdf;
-                RGB f_cos;
-                double jac = 1.0;
-                if (bs->delta) {
-                  const auto os = sample_same_lobe(ob, owo, bs->transmission);
-                  if (!os) {
-                    fail(d, bs->transmission ? ShiftFailure::TotalInternalReflection : ShiftFailure::NotInvertible);
-                    continue;
-                  }
-                  wi_l = os->wi;
-                  pdf = os->pdf;
-                  f_cos = os->f * std::abs(wi_l.z);
-                } else {
-                  const DirectionShift hs = shift_half_vector(om, wo, bs->wi, owo);
-                  if (!hs.ok()) {
-                    fail(d, hs.failure);
-                    continue;
-                  }
-                  wi_l = hs.wi;
-                  jac = hs.jacobian;
-                  pdf = ob.pdf(owo, wi_l);
-                  f_cos = ob.eval(owo, wi_l) * std::abs(wi_l.z);
+                const ScatterShift ss = shift_scatter(om, wo, bs->wi, bs->delta, bs->transmission, owo);
+                if (!ss.ok()) {
+                  fail(d, ss.failure);
+                  continue;
                 }
                 // Solid-angle form of eq. 4: with f and p in the area measure, the G and cosine
                 // factors of eq. 4 cancel against theirs, leaving f' cos' J_omega / p.
-                o.beta *= f_cos * static_cast<float>(jac / bs->pdf);
-                o.ratio *= pdf * jac / bs->pdf;
-                const Vec3 wi_w = ov.frame.to_world(wi_l);
+                o.beta *= ss.f_cos * static_cast<float>(ss.jacobian / bs->pdf);
+                o.ratio *= ss.pdf * ss.jacobian / bs->pdf;
+                const Vec3 wi_w = ov.frame.to_world(ss.wi);
                 oray[d] = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
                 ++rays;
                 ohit[d] = scene_.intersect(oray[d]);

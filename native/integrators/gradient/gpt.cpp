@@ -37,15 +37,6 @@ struct Offset {
   bool alive() const { return exists && failure == ShiftFailure::None; }
 };
 
-// Offset for a delta vertex: the same lobe (reflection or transmission) from the offset's own
-// wo, with its Dirac weights; sample() picks the lobe from uc.
-std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, bool transmission) {
-  const float uc = transmission ? 1.0f - 0x1p-24f : 0.0f;
-  auto s = bsdf.sample(wo, uc, Vec2(0.5f, 0.5f));
-  if (!s || s->transmission != transmission) return std::nullopt;
-  return s;
-}
-
 }  // namespace
 
 GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
@@ -331,35 +322,16 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         continue;
       }
       // ---- half-vector copy (glossy and non-reconnectable diffuse vertices) or delta lobe ----
-      Vec3 wi_l;
-      float pdf;
-      RGB f_cos;
-      double jac = 1.0;
-      if (bs->delta) {
-        const auto os = sample_same_lobe(ob, owo, bs->transmission);
-        if (!os) {
-          fail(o, bs->transmission ? ShiftFailure::TotalInternalReflection : ShiftFailure::NotInvertible);
-          continue;
-        }
-        wi_l = os->wi;
-        pdf = os->pdf;
-        f_cos = os->f * std::abs(wi_l.z);
-      } else {
-        const DirectionShift hs = shift_half_vector(scene_.material(ov.material), wo, bs->wi, owo);
-        if (!hs.ok()) {
-          fail(o, hs.failure);
-          continue;
-        }
-        wi_l = hs.wi;
-        jac = hs.jacobian;
-        pdf = ob.pdf(owo, wi_l);
-        f_cos = ob.eval(owo, wi_l) * std::abs(wi_l.z);
+      const ScatterShift ss = shift_scatter(scene_.material(ov.material), wo, bs->wi, bs->delta, bs->transmission, owo);
+      if (!ss.ok()) {
+        fail(o, ss.failure);
+        continue;
       }
-      o.beta *= f_cos * static_cast<float>(jac / bs->pdf);
-      o.ratio *= pdf * jac / bs->pdf;
-      o.prev_pdf = pdf;
+      o.beta *= ss.f_cos * static_cast<float>(ss.jacobian / bs->pdf);
+      o.ratio *= ss.pdf * ss.jacobian / bs->pdf;
+      o.prev_pdf = ss.pdf;
       o.prev_p = ov.p;
-      const Vec3 wi_w = ov.frame.to_world(wi_l);
+      const Vec3 wi_w = ov.frame.to_world(ss.wi);
       o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
       ++rays.closest;
       o.hit = scene_.intersect(o.ray);

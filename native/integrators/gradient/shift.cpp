@@ -1,6 +1,9 @@
 // Half-vector copy and reconnection shifts (see shift.h).
 #include "integrators/gradient/shift.h"
 
+#include <cmath>
+#include <optional>
+
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -47,6 +50,46 @@ bool refract_about(const Vec3& w, Vec3 h, float ior, Vec3* wt) {
 }
 
 }  // namespace
+
+namespace {
+
+// The same delta lobe (reflection or transmission) from the offset's own wo, with its Dirac
+// weights; sample() picks the lobe from uc.
+std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, bool transmission) {
+  const float uc = transmission ? 1.0f - 0x1p-24f : 0.0f;
+  auto s = bsdf.sample(wo, uc, Vec2(0.5f, 0.5f));
+  if (!s || s->transmission != transmission) return std::nullopt;
+  return s;
+}
+
+}  // namespace
+
+ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_wi, bool base_delta,
+                           bool base_transmission, const Vec3& wo_offset) {
+  ScatterShift r;
+  const Bsdf bsdf(m);
+  if (base_delta) {
+    const auto os = sample_same_lobe(bsdf, wo_offset, base_transmission);
+    if (!os) {
+      r.failure = base_transmission ? ShiftFailure::TotalInternalReflection : ShiftFailure::NotInvertible;
+      return r;
+    }
+    r.wi = os->wi;
+    r.pdf = os->pdf;
+    r.f_cos = os->f * std::abs(r.wi.z);
+    return r;
+  }
+  const DirectionShift hs = shift_half_vector(m, wo, base_wi, wo_offset);
+  if (!hs.ok()) {
+    r.failure = hs.failure;
+    return r;
+  }
+  r.wi = hs.wi;
+  r.jacobian = hs.jacobian;
+  r.pdf = bsdf.pdf(wo_offset, r.wi);
+  r.f_cos = bsdf.eval(wo_offset, r.wi) * std::abs(r.wi.z);
+  return r;
+}
 
 DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset) {
   DirectionShift r;

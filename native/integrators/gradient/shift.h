@@ -15,6 +15,7 @@
 
 #include <string_view>
 
+#include "core/color.h"
 #include "core/math.h"
 #include "materials/material.h"
 
@@ -54,6 +55,22 @@ struct DirectionShift {
   bool ok() const { return failure == ShiftFailure::None; }
 };
 DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset);
+
+// The offset's scattering at a delta or glossy vertex where the base sampled direction `base_wi`
+// (a delta lobe when base_delta, refraction when base_transmission): the same delta lobe from the
+// offset's own wo' (with its Dirac weight, jacobian 1), or the half-vector copy above with the
+// offset BSDF's own density. f_cos = f(wo', wi') |cos wi'|; pdf = the offset's sampling density
+// of wi'. Shared by gpt's and gpm's sensor-subpath shifts.
+struct ScatterShift {
+  ShiftFailure failure = ShiftFailure::None;
+  Vec3 wi;  // local frame of the offset vertex
+  float pdf = 0;
+  RGB f_cos;
+  double jacobian = 1;
+  bool ok() const { return failure == ShiftFailure::None; }
+};
+ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_wi, bool base_delta,
+                           bool base_transmission, const Vec3& wo_offset);
 
 // Reconnection of the offset vertex to the base path's next vertex `target` (normal n_target):
 // the base sampled a direction at `base_p` that reached `target`; the offset takes the direction
