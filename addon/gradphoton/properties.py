@@ -62,7 +62,8 @@ METHOD_SPECIFIC_PARAMS = {
     "ppm": _ADAPTIVE_PHOTONS,
     "sppm-adaptive": {"chains": "photon_chains"},
     "gpm": {"alpha": "gpm_alpha", "photons": "gpm_photons", "manifold_iterations": "manifold_iterations"},
-    "msppm": {"alpha": "msppm_alpha", "photons": "msppm_photons", "max_depth": "msppm_max_depth"},
+    "msppm": {"alpha": "msppm_alpha", "photons": "msppm_photons", "max_depth": "msppm_max_depth",
+              "path_samples": "msppm_path_samples"},
     "gdmlt": {"mutations": "mlt_mutations", "chains": "mlt_chains", "large_step": "mlt_large_step",
               "sigma": "mlt_sigma", "primal_share": "mlt_primal_share", "bootstrap": "mlt_bootstrap",
               "recon": "mlt_reconstruction"},
@@ -142,6 +143,10 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
                                description="Photon paths per pass (0 = one per pixel, thesis §9.5)")
     msppm_max_depth: IntProperty(name="Max Bounces", default=16, min=1, max=1024,
                                  description="Longest camera or photon path in segments (MSPPM: 16)")
+    msppm_path_samples: IntProperty(
+        name="Path Samples", default=0, min=0, max=1024,
+        description="Path-tracing samples per pixel and pass (0 = as many as the pixel expects photons, "
+                    "thesis §9.5; 1 often converges faster in short renders)")
     gpm_alpha: FloatProperty(name="Alpha", default=0.9, min=0.01, max=0.99,
                              description="Radius reduction of gradient-domain photon mapping (its paper's 0.9)")
     gpm_photons: IntProperty(name="Photons per Pass", default=1000000, min=1000,

@@ -59,6 +59,8 @@ class GRADPHOTON_PT_method(GradphotonPanel, bpy.types.Panel):
             if m in ERROR_ESTIMATE_METHODS:
                 col.prop(s, "photon_hash")
                 col.prop(s, "confidence")
+            if m == "msppm":
+                col.prop(s, "msppm_path_samples")
         if m in ADAPTIVE_PHOTON_METHODS:
             col = layout.column(heading="Photon Sampler")
             if m != "sppm-adaptive":

@@ -105,6 +105,12 @@ def test_msppm_status_line_and_defaults(empty_scene):
     assert "PT share " in last.status_line and "points/px " in last.status_line, last.status_line
     # one photon per pixel by default (msppm_photons = 0), 2 passes
     assert last.session.stats["photons traced"] == 2 * 32 * 24
+    # Path Samples reaches the core: a fixed count per pixel and pass instead of §9.5's
+    try:
+        last = render(empty_scene, "msppm", msppm_path_samples=3)
+        assert last.session.stats["path tracing samples per pixel and pass"] == pytest.approx(3.0)
+    finally:  # the scene outlives the test
+        empty_scene.gradphoton.msppm_path_samples = 0
 
 
 def test_status_line_never_fails_on_missing_or_odd_statistics():
@@ -189,7 +195,7 @@ class _Layout:
                "mlt_reconstruction", "poisson_lambda"}, {"photon_chains", "photon_sampler", "reconstruction"}),
     ("sppm", {"photon_sampler", "photon_chains", "photons_per_pass", "alpha", "confidence"}, {"mlt_chains"}),
     ("sppm-adaptive", {"photon_chains"}, {"photon_sampler", "mlt_chains"}),
-    ("msppm", {"msppm_alpha", "msppm_photons", "msppm_max_depth"},
+    ("msppm", {"msppm_alpha", "msppm_photons", "msppm_max_depth", "msppm_path_samples"},
      {"alpha", "photons_per_pass", "max_depth", "confidence", "photon_hash", "photon_chains"}),
     ("gpm", {"gpm_alpha", "reconstruction", "manifold_iterations"}, {"alpha", "photon_sampler", "mlt_chains"}),
     ("pt", {"max_depth"}, {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha", "manifold_iterations"}),
