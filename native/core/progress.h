@@ -3,6 +3,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -26,6 +27,12 @@ struct Stats {
   double seconds = 0;           // wall-clock time inside iterate()
   std::map<std::string, double> extra;
 };
+
+// Wall-clock seconds since t0: the per-phase timings ("eye seconds", "trace seconds", ...) that
+// integrators add to Stats::extra.
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 // Callbacks from a render loop. Methods may be called from the rendering thread only.
 class ProgressSink {

@@ -15,9 +15,6 @@ namespace gp {
 
 namespace {
 using clock_type = std::chrono::steady_clock;
-double seconds_since(clock_type::time_point t0) {
-  return std::chrono::duration<double>(clock_type::now() - t0).count();
-}
 }  // namespace
 
 HybridPpm::HybridPpm(const Scene& scene, const Params& params)

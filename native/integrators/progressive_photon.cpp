@@ -12,9 +12,6 @@ namespace gp {
 
 namespace {
 using clock_type = std::chrono::steady_clock;
-double seconds_since(clock_type::time_point t0) {
-  return std::chrono::duration<double>(clock_type::now() - t0).count();
-}
 }  // namespace
 
 ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,

@@ -15,9 +15,6 @@ namespace gp {
 namespace {
 
 using clock_type = std::chrono::steady_clock;
-double seconds_since(clock_type::time_point t0) {
-  return std::chrono::duration<double>(clock_type::now() - t0).count();
-}
 
 constexpr int kOffsetX[4] = {1, -1, 0, 0};
 constexpr int kOffsetY[4] = {0, 0, 1, -1};
