@@ -158,9 +158,7 @@ TEST(AdaptivePhotons, RejectsBadParametersByName) {
 
 TEST(AdaptivePhotons, LightThroughADoorAjarReachesTheView) {
   // scenes/door-ajar.json, small: V_c is tiny (the thesis' case), the image is lit and finite.
-  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/door-ajar.json");
-  s.camera.width = 24;
-  s.camera.height = 18;
+  const Scene s = test_scene("door-ajar", 24, 18);
   Stats st;
   const Film f = render("sppm-adaptive", s, 4, photon_params(20000, 2), &st);
   double sum = 0;
@@ -179,9 +177,7 @@ TEST(AdaptivePhotons, CausticOfASmallObjectUnderTheSunGetsTheVisiblePhotons) {
   // land in view: about 4 in 10 000 uniform paths (V_c). At the same photon count per pass the
   // adaptive sampler must gather many times more photons than uniform tracing (Table 8.1 reports
   // ratios of 100-3300 for Cognac).
-  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/sun-caustic.json");
-  s.camera.width = 32;
-  s.camera.height = 24;
+  const Scene s = test_scene("sun-caustic", 32, 24);
   auto gathered = [](const Film& f) {
     double n = 0;
     for (float v : f.pass(pass::kPhotonCount).data) n += v;

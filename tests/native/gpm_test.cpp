@@ -16,6 +16,7 @@
 #include "io/metrics.h"
 #include "reconstruction/poisson.h"
 #include "scene/loader.h"
+#include "render_for_tests.h"
 
 namespace gp {
 namespace {
@@ -58,13 +59,6 @@ TEST(GpmPhotonShift, Eq6JacobianMatchesFiniteDifferences) {
 
 // ---- Rendering ----
 
-Scene cornell(int w, int h) {
-  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
-  s.camera.width = w;
-  s.camera.height = h;
-  return s;
-}
-
 // The Cornell box with some objects given new conductor materials: {object, material name,
 // roughness, colour}.
 struct Restyle {
@@ -88,14 +82,6 @@ Scene restyled_cornell(std::initializer_list<Restyle> changes, int w, int h) {
   return load_scene_from_string(j.dump(), std::string(GRADPHOTON_SOURCE_DIR) + "/scenes", "restyled-cornell.json");
 }
 
-Params photon_params(int64_t photons, uint64_t seed, int threads = 0) {
-  Params p;
-  p.set("photons", photons);
-  p.set("seed", seed);
-  p.set("threads", threads);
-  return p;
-}
-
 std::unique_ptr<Integrator> run(const std::string& method, const Scene& s, int passes, Params p) {
   auto integ = make_integrator(method, s, p);
   run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
@@ -105,7 +91,7 @@ std::unique_ptr<Integrator> run(const std::string& method, const Scene& s, int p
 TEST(Gpm, PrimalIsSppmsImageAndL2OfThePassesIsCombined) {
   // Same seed, alpha and radius: GPM's eye paths and photons are SPPM's, so its primal pass is
   // SPPM's image (up to float summation order).
-  const Scene s = cornell(24, 20);
+  const Scene s = cornell_box(24, 20);
   Params p = photon_params(5000, 7);
   p.set("alpha", 0.8);
   p.set("radius", 0.08);
@@ -124,7 +110,7 @@ TEST(Gpm, PrimalIsSppmsImageAndL2OfThePassesIsCombined) {
 }
 
 TEST(Gpm, ConvergesToThePathTracedCornellBox) {
-  const Scene s = cornell(32, 32);
+  const Scene s = cornell_box(32, 32);
   Params pr;
   pr.set("seed", 99);
   Film ref;
@@ -335,7 +321,7 @@ TEST(Gpm, CausticsFromPointSpotAndSunLights) {
 }
 
 TEST(Gpm, RejectsBadParameters) {
-  const Scene s = cornell(8, 8);
+  const Scene s = cornell_box(8, 8);
   EXPECT_THROW(make_integrator("gpm", s, Params(nlohmann::json{{"recon", "l3"}})), ParamError);
   EXPECT_THROW(make_integrator("gpm", s, Params(nlohmann::json{{"lambda", 0}})), ParamError);
   EXPECT_THROW(make_integrator("gpm", s, Params(nlohmann::json{{"alpha", 1.5}})), ParamError);

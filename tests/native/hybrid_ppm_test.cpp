@@ -23,13 +23,6 @@
 namespace gp {
 namespace {
 
-Scene cornell(int w, int h) {
-  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
-  s.camera.width = w;
-  s.camera.height = h;
-  return s;
-}
-
 Params seeded(uint64_t seed, int threads = 0) {
   Params p;
   p.set("seed", seed);
@@ -44,7 +37,7 @@ double mean(const Film& f) {
 }
 
 TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
-  const Scene s = cornell(8, 8);
+  const Scene s = cornell_box(8, 8);
   HybridPpm h(s, Params());
   // Camera, floor, back wall, a point on the ceiling light: k = 3.
   Frame floor_frame(Vec3(0, 0, 1)), wall_frame(Vec3(0, -1, 0));
@@ -229,7 +222,7 @@ TEST(Msppm, FastMergeWeightEqualsTheFullPathWalk) {
 }
 
 TEST(Msppm, ConvergesToThePathTracedCornellBox) {
-  const Scene s = cornell(40, 40);
+  const Scene s = cornell_box(40, 40);
   Params ref_params;
   ref_params.set("seed", 98);
   const Film ref = render("pt", s, 1024, ref_params);
@@ -256,7 +249,7 @@ TEST(Msppm, PathSamplesFollowThePhotonCountAndAreTheCountsOfTheWeights) {
   // weighted with other counts than the path-tracing samples, the weights would not sum to one
   // and the image mean would leave the path-traced one: +12 % with photons weighted as if
   // n_pt = 1 while n_pt samples are traced).
-  const Scene s = cornell(24, 24);
+  const Scene s = cornell_box(24, 24);
   Params ref_params;
   ref_params.set("seed", 97);
   const double ref_mean = mean(render("pt", s, 2048, ref_params));
@@ -326,8 +319,7 @@ TEST(Msppm, WeightsGiveGlossyReflectionsToPathTracingAndCausticsToPhotons) {
   // Thesis Fig. 9.6 / 9.10 on scenes/glossy-caustics.json: the balance heuristic hands the
   // glossy gold sphere (GGX alpha 0.1) mostly to path tracing and the caustic behind the glass
   // sphere mostly to density estimation; the `path_tracing` pass is that share of `combined`.
-  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/glossy-caustics.json");
-  s.camera.width = s.camera.height = 48;
+  const Scene s = test_scene("glossy-caustics", 48, 48);
   const Film f = render("msppm", s, 24, seeded(3));
   ASSERT_TRUE(f.has_pass(pass::kPathTracing));
   const auto& pt = f.pass(pass::kPathTracing).data;
@@ -368,7 +360,7 @@ TEST(Msppm, WeightsGiveGlossyReflectionsToPathTracingAndCausticsToPhotons) {
 }
 
 TEST(Msppm, SameImageWhateverTheThreadCount) {
-  const Scene s = cornell(20, 16);
+  const Scene s = cornell_box(20, 16);
   const Film one = render("msppm", s, 3, seeded(4, 1));
   const Film two = render("msppm", s, 3, seeded(4, 2));
   const Film other = render("msppm", s, 3, seeded(5, 2));
@@ -377,7 +369,7 @@ TEST(Msppm, SameImageWhateverTheThreadCount) {
 }
 
 TEST(Msppm, RejectsBadParametersByName) {
-  const Scene s = cornell(8, 8);
+  const Scene s = cornell_box(8, 8);
   for (auto [name, value] : std::vector<std::pair<std::string, nlohmann::json>>{
            {"alpha", 1.0}, {"photons", -1}, {"radius", -1.0}, {"max_depth", 0}, {"path_samples", -1},
            {"path_samples_max", 0}}) {

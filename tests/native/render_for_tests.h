@@ -1,5 +1,6 @@
-// What the integrator tests share: run a method for a fixed number of passes and develop its
-// film (the CLI's progressive loop without a progress sink), and the photon methods' parameters.
+// What the integrator tests share: a scene of scenes/ at a test's size, a method run for a fixed
+// number of passes and developed (the CLI's progressive loop without a progress sink), and the
+// photon methods' parameters.
 #pragma once
 
 #include <cstdint>
@@ -7,8 +8,19 @@
 
 #include "core/film.h"
 #include "integrators/integrator.h"
+#include "scene/loader.h"
 
 namespace gp {
+
+// scenes/<name>.json with its camera resized to width x height.
+inline Scene test_scene(const std::string& name, int width, int height) {
+  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/" + name + ".json");
+  s.camera.width = width;
+  s.camera.height = height;
+  return s;
+}
+
+inline Scene cornell_box(int width, int height) { return test_scene("cornell-box", width, height); }
 
 inline Film render(const std::string& method, const Scene& scene, int passes, const Params& params,
                    Stats* stats = nullptr) {

@@ -16,19 +16,12 @@
 namespace gp {
 namespace {
 
-Scene cornell(int w, int h) {
-  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
-  s.camera.width = w;
-  s.camera.height = h;
-  return s;
-}
-
 // The PT reference is shared by the tests of this file (rendered once).
 const Film& cornell_reference() {
   static const Film ref = [] {
     Params p;
     p.set("seed", 99);
-    return render("pt", cornell(40, 40), 512, p);
+    return render("pt", cornell_box(40, 40), 512, p);
   }();
   return ref;
 }
@@ -74,7 +67,7 @@ TEST(ErrorEstimate, KernelAndQuantiles) {
 }
 
 TEST(Sppm, ConvergesToThePathTracedCornellBox) {
-  const Film sppm = render("sppm", cornell(40, 40), 48, photon_params(20000));
+  const Film sppm = render("sppm", cornell_box(40, 40), 48, photon_params(20000));
   const DiffResult d = diff_images(sppm.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);
   EXPECT_NEAR(d.mean_ratio, 1.0, 0.03);
   EXPECT_LT(d.rel_mse, 0.03);
@@ -83,13 +76,13 @@ TEST(Sppm, ConvergesToThePathTracedCornellBox) {
 
 TEST(Ppm, ConvergesInMeanOnTheCornellBox) {
   // One fixed measurement point per pixel: aliased edges, so compare the image mean.
-  const Film ppm = render("ppm", cornell(40, 40), 48, photon_params(20000));
+  const Film ppm = render("ppm", cornell_box(40, 40), 48, photon_params(20000));
   const DiffResult d = diff_images(ppm.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);
   EXPECT_NEAR(d.mean_ratio, 1.0, 0.05);
 }
 
 TEST(Sppm, SameImageWhateverTheThreadCount) {
-  const Scene s = cornell(24, 20);
+  const Scene s = cornell_box(24, 20);
   const Film one = render("sppm", s, 3, photon_params(5000, 4, 1));
   const Film two = render("sppm", s, 3, photon_params(5000, 4, 2));
   const Film other = render("sppm", s, 3, photon_params(5000, 5, 2));
@@ -99,7 +92,7 @@ TEST(Sppm, SameImageWhateverTheThreadCount) {
 }
 
 TEST(Sppm, RejectsBadParametersByName) {
-  const Scene s = cornell(8, 8);
+  const Scene s = cornell_box(8, 8);
   for (auto [name, value] : std::vector<std::pair<std::string, nlohmann::json>>{
            {"alpha", 1.0}, {"alpha", 0.0}, {"photons", 0}, {"radius", -1.0}, {"confidence", 1.5},
            {"hash", "fuzzy"}, {"alpha", "x"}}) {
@@ -117,7 +110,7 @@ TEST(Sppm, RejectsBadParametersByName) {
 }
 
 TEST(Sppm, ErrorEstimateFallsAndStopsTheRender) {
-  const Scene s = cornell(24, 24);
+  const Scene s = cornell_box(24, 24);
   auto integ = make_integrator("sppm", s, photon_params(10000));
   EXPECT_GT(integ->estimated_error(), 1e10) << "no estimate before two passes";
   run_progressive(*integ, StopRule{0, 4, 0}, nullptr);
@@ -144,7 +137,7 @@ namespace {
 TEST(Sppm, StochasticHashingGivesTheSameImageInExpectation) {
   Params p = photon_params(20000);
   p.set("hash", "stochastic");
-  const Film st = render("sppm", cornell(40, 40), 48, p);
+  const Film st = render("sppm", cornell_box(40, 40), 48, p);
   const DiffResult d = diff_images(st.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);
   EXPECT_NEAR(d.mean_ratio, 1.0, 0.03);
   EXPECT_LT(d.rel_mse, 0.06);
