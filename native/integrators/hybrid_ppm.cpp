@@ -36,14 +36,10 @@ HybridPpm::HybridPpm(const Scene& scene, const Params& params)
   if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
   if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
   if (photons_per_pass_ < 0) throw ParamError("parameter 'photons' must be >= 0 (0 = one per pixel)");
-  if (max_depth_ < 1) throw ParamError("parameter 'max_depth' must be at least 1");
-  if (rr_depth_ < 0) throw ParamError("parameter 'rr_depth' must be >= 0");
-  if (threads_ < 0) throw ParamError("parameter 'threads' must be >= 0");
-  if (tile_size_ < 1) throw ParamError("parameter 'tile_size' must be >= 1");
+  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
   if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
   if (path_samples_ < 0) throw ParamError("parameter 'path_samples' must be >= 0 (0 = the local photon count)");
   if (path_samples_max_ < 1) throw ParamError("parameter 'path_samples_max' must be at least 1");
-  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
   const size_t n = static_cast<size_t>(width_) * height_;
   if (photons_per_pass_ == 0) photons_per_pass_ = static_cast<int64_t>(n);  // §9.5
   px_.assign(n, PixelState{});

@@ -72,4 +72,12 @@ std::unique_ptr<Integrator> make_integrator(const std::string& method, const Sce
   throw ParamError("unknown method '" + method + "' (known: " + known + ")");
 }
 
+void check_common_params(int max_depth, int rr_depth, int threads, int tile_size, int width, int height) {
+  if (max_depth < 1) throw ParamError("parameter 'max_depth' must be at least 1");
+  if (rr_depth < 0) throw ParamError("parameter 'rr_depth' must be >= 0");
+  if (threads < 0) throw ParamError("parameter 'threads' must be >= 0");
+  if (tile_size < 1) throw ParamError("parameter 'tile_size' must be >= 1");
+  if (width < 1 || height < 1) throw ParamError("image size must be at least 1x1");
+}
+
 }  // namespace gp

@@ -44,6 +44,11 @@ struct StopRule {
 // to a larger total.
 void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink);
 
+// The checks every image integrator makes of the parameters they share, with one wording:
+// throws ParamError naming the first bad one (max_depth >= 1, rr_depth >= 0, threads >= 0,
+// tile_size >= 1, an image of at least 1x1).
+void check_common_params(int max_depth, int rr_depth, int threads, int tile_size, int width, int height);
+
 // Builds a method by name ("pt", ...). Unknown names and parameters with wrong types throw
 // ParamError; unread parameters are left in `params.unused()` for the caller to report.
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,

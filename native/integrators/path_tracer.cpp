@@ -18,11 +18,7 @@ PathTracer::PathTracer(const Scene& scene, const Params& params)
       width_(scene.camera.width),
       height_(scene.camera.height),
       estimate_(std::max(1, width_), std::max(1, height_)) {  // sizes checked just below
-  if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
-  if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
-  if (threads_ < 0) throw ParamError("threads must be >= 0");
-  if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
-  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
 }
 
 RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {

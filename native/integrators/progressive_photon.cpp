@@ -48,12 +48,8 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
   if (!(confidence_ > 0 && confidence_ < 1)) throw ParamError("parameter 'confidence' must be in (0, 1)");
   if (photons_per_pass_ < 1) throw ParamError("parameter 'photons' must be at least 1");
-  if (max_depth_ < 1) throw ParamError("parameter 'max_depth' must be at least 1");
-  if (rr_depth_ < 0) throw ParamError("parameter 'rr_depth' must be >= 0");
-  if (threads_ < 0) throw ParamError("parameter 'threads' must be >= 0");
-  if (tile_size_ < 1) throw ParamError("parameter 'tile_size' must be >= 1");
+  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
   if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
-  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});

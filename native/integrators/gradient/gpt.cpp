@@ -48,11 +48,7 @@ GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
       seed_(params.get<uint64_t>("seed", 0)),
       width_(scene.camera.width),
       height_(scene.camera.height) {
-  if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
-  if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
-  if (threads_ < 0) throw ParamError("threads must be >= 0");
-  if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
-  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
   const std::string recon = params.get<std::string>("recon", "l2");
   try {
     recon_.norm = parse_recon_norm(recon);

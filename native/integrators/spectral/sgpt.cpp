@@ -109,11 +109,7 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
   if (!(delta_ > 0 && delta_ < 1)) throw ParamError("delta must be in (0, 1) (a fraction of 360-830 nm)");
   if (!(tau_ >= 0)) throw ParamError("tau must be >= 0");
   if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
-  if (max_depth_ < 1) throw ParamError("max_depth must be at least 1");
-  if (rr_depth_ < 0) throw ParamError("rr_depth must be >= 0");
-  if (threads_ < 0) throw ParamError("threads must be >= 0");
-  if (tile_size_ < 1) throw ParamError("tile_size must be >= 1");
-  if (width_ < 1 || height_ < 1) throw ParamError("image size must be at least 1x1");
+  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
   for (const Light& l : scene.light_set().lights())
     if (l.is_delta())
       throw ParamError("sgpt samples paths by the BSDF only and cannot reach point, spot or sun light '" +
