@@ -75,84 +75,45 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
     stats_.extra["warning: no lights"] = 1;  // the image is black; reported, never a hang
 }
 
-// ---- Eye pass: follow specular (and glossy) bounces to the first photon-diffuse vertex ----
+RGB ProgressivePhotonMapping::direct_light(const Vec3& p, const Vec3& ng, const Frame& frame, const Bsdf& bsdf,
+                                           const Vec3& wo, float u_light, const Vec2& u2, int64_t& rays) const {
+  const auto ls = scene_.light_set().sample_li(p, u_light, u2);
+  if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
+  const Vec3 wi = frame.to_local(ls->wi);
+  const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
+  if (f.is_black()) return RGB(0.0f);
+  ++rays;
+  return scene_.occluded(p, ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;
+}
+
+// ---- Eye pass: one camera path per pixel to its measurement point ----
 void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                                         std::atomic<int64_t>& invalid_out) {
-  const LightSet& lights = scene_.light_set();
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
+        EyePathHooks none;
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
             Rng rng = Rng::for_key(seed_, pixel, pass);
             const Vec2 film(x + rng.uniform(), y + rng.uniform());
             const Vec2 lens(rng.uniform(), rng.uniform());
-            Ray ray = scene_.camera.generate_ray(film, lens);
-            RGB beta(1.0f), Ld(0.0f);
-            VisiblePoint vp;
-            float path_length = 0;
-            for (int depth = 0; depth < max_depth_; ++depth) {
-              ++rays;
-              const auto hit = scene_.intersect(ray);
-              // Emission seen along the camera path: only at depth 0 or after specular/glossy
-              // bounces, which no photon covers, so nothing is counted twice.
-              if (!hit) {
-                Ld += beta * lights.environment_radiance(ray.d);
-                break;
-              }
-              path_length += hit->t;
-              if (hit->light >= 0) Ld += beta * lights.area_radiance(hit->light, -ray.d);
-              const Bsdf bsdf(scene_.material(hit->material));
-              if (bsdf.is_black()) break;
-              const Vec3 wo = hit->frame.to_local(-ray.d);
-              if (wo.z == 0) break;
-              if (bsdf.is_diffuse_for_photons(threshold_)) {
-                // ---- Measurement point; direct light by NEE when photons skip it ----
-                if (nee_ && !lights.empty()) {
-                  const float u_light = rng.uniform();
-                  const Vec2 u2(rng.uniform(), rng.uniform());
-                  if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
-                    const Vec3 wi = hit->frame.to_local(ls->wi);
-                    const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
-                    if (!f.is_black()) {
-                      ++rays;
-                      const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
-                      if (!blocked) Ld += beta * f * ls->L / ls->pdf;
-                    }
-                  }
-                }
-                vp.p = hit->p;
-                vp.frame = hit->frame;
-                vp.wo = wo;
-                vp.beta = beta;
-                vp.material = hit->material;
-                break;
-              }
-              // ---- Specular or glossy vertex: continue by BSDF sampling ----
-              const float uc = rng.uniform();
-              const Vec2 u(rng.uniform(), rng.uniform());
-              const auto bs = bsdf.sample(wo, uc, u);
-              if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-              beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
-              const Vec3 wi = hit->frame.to_world(bs->wi);
-              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
-              if (depth + 1 >= rr_depth_ && !russian_roulette(beta, rng.uniform())) break;
-            }
-            if (!Ld.is_finite()) {
+            EyePath path = trace_eye_path(scene_.camera.generate_ray(film, lens), rng, rays, none);
+            if (!path.Ld.is_finite()) {
               ++invalid;
-              Ld = RGB(0.0f);
+              path.Ld = RGB(0.0f);
             }
-            if (vp.material >= 0 && !vp.beta.is_finite()) {
+            if (path.vp.material >= 0 && !path.vp.beta.is_finite()) {
               ++invalid;
-              vp.material = -1;
+              path.vp.material = -1;
             }
-            pass_direct_[pixel] = Ld;
-            vp_[pixel] = vp;
+            pass_direct_[pixel] = path.Ld;
+            vp_[pixel] = path.vp;
             // Initial radius from the pixel footprint: the cone one pixel subtends, grown
             // along the eye path (a ray-cone stand-in for ray differentials), two pixels wide.
-            first_r_[pixel] = vp.material >= 0 ? 2.0f * pixel_spread_ * path_length : 0.0f;
+            first_r_[pixel] = path.vp.material >= 0 ? 2.0f * pixel_spread_ * path.path_length : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;

@@ -22,6 +22,7 @@
 #include "integrators/integrator.h"
 #include "integrators/photon_tracer.h"
 #include "integrators/spectral/spectral_pt.h"
+#include "materials/bsdf.h"
 
 namespace gp {
 
@@ -37,6 +38,17 @@ inline PhotonStatsUpdate progressive_update(double n, double r2, double m, doubl
           r2 * ratio,     // thesis eq. 5.9 (squared): R^2 (N + alpha M) / (N + M)
           ratio};         // thesis eq. 5.12: tau_new = (tau_N + tau_M) * ratio
 }
+
+// Observers of ProgressivePhotonMapping::trace_eye_path (one SPPM camera path), called in path
+// order; GPM's offset paths are one (gpm.cpp). The default observes nothing.
+struct EyePathHooks {
+  void vertex(const SurfaceHit&, const Vec3& /*wo*/) {}  // every surface the path scatters at
+  // NEE at the measurement point with light sample (u_light, u2); c its weighted contribution.
+  void nee(float /*u_light*/, const Vec2& /*u2*/, const RGB& /*c*/) {}
+  void gather(const SurfaceHit&) {}                       // the measurement point
+  void scatter(const Vec3& /*wo*/, const BsdfSample&) {}  // a specular or glossy bounce
+  void roulette(float /*survival*/) {}                    // Russian roulette survived
+};
 
 class ProgressivePhotonMapping : public Integrator {
  public:
@@ -76,6 +88,22 @@ class ProgressivePhotonMapping : public Integrator {
   };
 
   void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+
+  // ---- One camera path of the eye pass (shared with GPM, whose offsets follow it) ----
+  struct EyePath {
+    RGB Ld{0.0f};           // light the path saw itself: emission before any photon could, NEE
+    VisiblePoint vp;        // the measurement point (material -1: none)
+    float path_length = 0;  // distance travelled to it (initial radius)
+  };
+  // SPPM's camera path: through specular and glossy vertices by BSDF sampling (Russian roulette
+  // from rr_depth) to the first photon-diffuse vertex, where it takes NEE when photons skip
+  // direct light, and stops there as the measurement point.
+  template <class Hooks>
+  EyePath trace_eye_path(Ray ray, Rng& rng, int64_t& rays, Hooks& hooks) const;
+  // NEE from a surface point with a given light sample: f |cos| L / pdf, 0 if blocked (one
+  // occlusion ray counted in `rays` when it is traced).
+  RGB direct_light(const Vec3& p, const Vec3& ng, const Frame& frame, const Bsdf& bsdf, const Vec3& wo,
+                   float u_light, const Vec2& u2, int64_t& rays) const;
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
@@ -135,5 +163,63 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<float> error_;           // per-pixel relative bound (eq. 6.13)
   int64_t emitted_total_ = 0;
 };
+
+template <class Hooks>
+ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray ray, Rng& rng, int64_t& rays,
+                                                                           Hooks& hooks) const {
+  const LightSet& lights = scene_.light_set();
+  EyePath out;
+  RGB beta(1.0f);
+  for (int depth = 0; depth < max_depth_; ++depth) {
+    ++rays;
+    const auto hit = scene_.intersect(ray);
+    // Emission seen along the camera path: only at depth 0 or after specular/glossy bounces,
+    // which no photon covers, so nothing is counted twice.
+    if (!hit) {
+      out.Ld += beta * lights.environment_radiance(ray.d);
+      break;
+    }
+    out.path_length += hit->t;
+    if (hit->light >= 0) out.Ld += beta * lights.area_radiance(hit->light, -ray.d);
+    const Bsdf bsdf(scene_.material(hit->material));
+    if (bsdf.is_black()) break;
+    const Vec3 wo = hit->frame.to_local(-ray.d);
+    if (wo.z == 0) break;
+    hooks.vertex(*hit, wo);
+    if (bsdf.is_diffuse_for_photons(threshold_)) {
+      // ---- Measurement point; direct light by NEE when photons skip it ----
+      if (nee_ && !lights.empty()) {
+        const float u_light = rng.uniform();
+        const Vec2 u2(rng.uniform(), rng.uniform());
+        const RGB c = beta * direct_light(hit->p, hit->ng, hit->frame, bsdf, wo, u_light, u2, rays);
+        out.Ld += c;
+        hooks.nee(u_light, u2, c);
+      }
+      out.vp.p = hit->p;
+      out.vp.frame = hit->frame;
+      out.vp.wo = wo;
+      out.vp.beta = beta;
+      out.vp.material = hit->material;
+      hooks.gather(*hit);
+      break;
+    }
+    // ---- Specular or glossy vertex: continue by BSDF sampling ----
+    const float uc = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    const auto bs = bsdf.sample(wo, uc, u);
+    if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+    hooks.scatter(wo, *bs);
+    beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+    const Vec3 wi = hit->frame.to_world(bs->wi);
+    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    if (depth + 1 >= rr_depth_) {  // russian_roulette() (core/sampling.h), its survival shared
+      const float q = std::max(0.05f, 1.0f - beta.max_component());
+      if (rng.uniform() < q) break;
+      beta = beta / (1.0f - q);
+      hooks.roulette(1.0f - q);
+    }
+  }
+  return out;
+}
 
 }  // namespace gp

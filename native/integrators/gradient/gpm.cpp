@@ -3,6 +3,7 @@
 #include "integrators/gradient/gradient_passes.h"
 
 #include <atomic>
+#include <functional>
 #include <chrono>
 
 #include "core/parallel.h"
@@ -57,9 +58,118 @@ Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(sc
 }
 
 // ---- Eye pass: SPPM's camera paths (same random numbers) and their half-vector-copy offsets ----
+
+namespace {
+
+// The four offsets of one camera path, following SPPM's walk vertex by vertex (trace_eye_path's
+// hooks): same sub-pixel position and lens sample one pixel over (camera Jacobian 1), half-vector
+// copy at specular and glossy vertices (§4.1), the base's light sample for NEE.
+struct OffsetWalk : EyePathHooks {
+  using OffsetPoint = Gpm::OffsetPoint;
+  const Scene& scene;
+  float threshold;
+  int64_t& rays;
+  int64_t* fail_count;
+  std::function<RGB(const SurfaceHit&, const Bsdf&, const Vec3&, float, const Vec2&)> nee_at;
+  std::array<OffsetPoint, 4> off;
+  Ray oray[4];
+  std::optional<SurfaceHit> ohit[4];
+  RGB nee_base{0.0f};
+  std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
+
+  OffsetWalk(const Scene& scene, float threshold, int64_t& rays, int64_t* fail_count)
+      : scene(scene), threshold(threshold), rays(rays), fail_count(fail_count) {}
+
+  void fail(int d, ShiftFailure f) {
+    off[d].failure = f;
+    ++fail_count[static_cast<int>(f)];
+  }
+  void start(int x, int y, int width, int height, const Vec2& film, const Vec2& lens) {
+    for (int d = 0; d < 4; ++d) {
+      const int px = x + kOffsetX[d], py = y + kOffsetY[d];
+      off[d].exists = px >= 0 && px < width && py >= 0 && py < height;
+      off[d].beta = RGB(1.0f);
+      if (!off[d].exists) continue;
+      oray[d] = scene.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]), lens);
+      ++rays;
+      ohit[d] = scene.intersect(oray[d]);
+    }
+  }
+  // Offset vertices: same kind, or the shift is not invertible (§4.3).
+  void vertex(const SurfaceHit& hit, const Vec3&) {
+    const VertexKind kind = classify_vertex(scene.material(hit.material), threshold);
+    for (int d = 0; d < 4; ++d) {
+      if (!off[d].ok()) continue;
+      if (!ohit[d]) {
+        fail(d, ShiftFailure::Missed);
+        continue;
+      }
+      const Material& om = scene.material(ohit[d]->material);
+      if (classify_vertex(om, threshold) != kind || Bsdf(om).is_black()) {
+        fail(d, ShiftFailure::NotInvertible);
+        continue;
+      }
+      if (ohit[d]->frame.to_local(-oray[d].d).z == 0) fail(d, ShiftFailure::ZeroLength);
+    }
+  }
+  // Direct light at the gather point, shifted to the offset gather points with the same light
+  // sample (as GPT: the light point is shared, so its area density is the same on both sides and
+  // the ratio is the sensor's).
+  void nee(float u_light, const Vec2& u2, const RGB& c) {
+    nee_base = c;
+    for (int d = 0; d < 4; ++d) {
+      if (!off[d].exists) continue;
+      RGB c_off(0.0f);
+      float w = 1.0f;  // failed sensor shift: offset 0, weight 1
+      if (off[d].ok()) {
+        const SurfaceHit& ov = *ohit[d];
+        c_off = off[d].beta * nee_at(ov, Bsdf(scene.material(ov.material)), ov.frame.to_local(-oray[d].d), u_light, u2);
+        w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
+      }
+      nee_diff[d] = (c_off - c) * (w * kSign[d]);
+    }
+  }
+  void gather(const SurfaceHit&) {
+    for (int d = 0; d < 4; ++d) {
+      if (!off[d].ok()) continue;
+      off[d].p = ohit[d]->p;
+      off[d].ng = ohit[d]->ng;
+      off[d].frame = ohit[d]->frame;
+      off[d].wo = ohit[d]->frame.to_local(-oray[d].d);
+      off[d].material = ohit[d]->material;
+    }
+  }
+  // Specular or glossy vertex: the offsets follow by half-vector copy (§4.1).
+  void scatter(const Vec3& wo, const BsdfSample& bs) {
+    for (int d = 0; d < 4; ++d) {
+      OffsetPoint& o = off[d];
+      if (!o.ok()) continue;
+      const SurfaceHit& ov = *ohit[d];
+      const Vec3 owo = ov.frame.to_local(-oray[d].d);
+      const ScatterShift ss = shift_scatter(scene.material(ov.material), wo, bs.wi, bs.delta, bs.transmission, owo);
+      if (!ss.ok()) {
+        fail(d, ss.failure);
+        continue;
+      }
+      // Solid-angle form of eq. 4: with f and p in the area measure, the G and cosine factors of
+      // eq. 4 cancel against theirs, leaving f' cos' J_omega / p.
+      o.beta *= ss.f_cos * static_cast<float>(ss.jacobian / bs.pdf);
+      o.ratio *= ss.pdf * ss.jacobian / bs.pdf;
+      const Vec3 wi_w = ov.frame.to_world(ss.wi);
+      oray[d] = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
+      ++rays;
+      ohit[d] = scene.intersect(oray[d]);
+    }
+  }
+  void roulette(float survival) {  // the base's Russian roulette, shared by the offsets
+    for (OffsetPoint& o : off) o.beta = o.beta / survival;
+  }
+};
+
+}  // namespace
+
 void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                        std::atomic<int64_t>& invalid_out, std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures) {
-  const LightSet& lights = scene_.light_set();
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
       [&](const Tile& tile) {
@@ -71,166 +181,39 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
             Rng rng = Rng::for_key(seed_, pixel, pass);
             const Vec2 film(x + rng.uniform(), y + rng.uniform());
             const Vec2 lens(rng.uniform(), rng.uniform());
-            Ray ray = scene_.camera.generate_ray(film, lens);
-            // Offsets: same sub-pixel position and lens sample one pixel over (camera Jacobian 1).
-            std::array<OffsetPoint, 4> off;
-            Ray oray[4];
-            std::optional<SurfaceHit> ohit[4];
-            auto fail = [&](int d, ShiftFailure f) {
-              off[d].failure = f;
-              ++fail_count[static_cast<int>(f)];
+            OffsetWalk walk(scene_, threshold_, rays, fail_count);
+            walk.nee_at = [&](const SurfaceHit& h, const Bsdf& b, const Vec3& wo, float u_light, const Vec2& u2) {
+              return direct_light(h.p, h.ng, h.frame, b, wo, u_light, u2, rays);
             };
-            for (int d = 0; d < 4; ++d) {
-              const int px = x + kOffsetX[d], py = y + kOffsetY[d];
-              off[d].exists = px >= 0 && px < width_ && py >= 0 && py < height_;
-              off[d].beta = RGB(1.0f);
-              if (!off[d].exists) continue;
-              oray[d] = scene_.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]), lens);
-              ++rays;
-              ohit[d] = scene_.intersect(oray[d]);
-            }
-            RGB beta(1.0f), Ld(0.0f), nee_base(0.0f);
-            std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
-            VisiblePoint vp;
-            float path_length = 0;
-            for (int depth = 0; depth < max_depth_; ++depth) {
-              ++rays;
-              const auto hit = scene_.intersect(ray);
-              if (!hit) {
-                Ld += beta * lights.environment_radiance(ray.d);
-                break;
-              }
-              path_length += hit->t;
-              if (hit->light >= 0) Ld += beta * lights.area_radiance(hit->light, -ray.d);
-              const Bsdf bsdf(scene_.material(hit->material));
-              if (bsdf.is_black()) break;
-              const Vec3 wo = hit->frame.to_local(-ray.d);
-              if (wo.z == 0) break;
-              const VertexKind kind = classify_vertex(scene_.material(hit->material), threshold_);
-              // ---- Offset vertices: same kind, or the shift is not invertible (§4.3) ----
-              for (int d = 0; d < 4; ++d) {
-                if (!off[d].ok()) continue;
-                if (!ohit[d]) {
-                  fail(d, ShiftFailure::Missed);
-                  continue;
-                }
-                const Material& om = scene_.material(ohit[d]->material);
-                if (classify_vertex(om, threshold_) != kind || Bsdf(om).is_black()) {
-                  fail(d, ShiftFailure::NotInvertible);
-                  continue;
-                }
-                if (ohit[d]->frame.to_local(-oray[d].d).z == 0) fail(d, ShiftFailure::ZeroLength);
-              }
-              if (bsdf.is_diffuse_for_photons(threshold_)) {
-                // ---- Gather point. Direct light by NEE (SPPM's), shifted to the offset gather
-                // points with the same light sample (as GPT: the light point is shared, so its
-                // area density is the same on both sides and the ratio is the sensor's) ----
-                if (!lights.empty()) {
-                  const float u_light = rng.uniform();
-                  const Vec2 u2(rng.uniform(), rng.uniform());
-                  auto nee = [&](const Vec3& p, const Vec3& ng, const Frame& frame, const Bsdf& b, const Vec3& wo_l) {
-                    auto ls = lights.sample_li(p, u_light, u2);
-                    if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
-                    const Vec3 wi = frame.to_local(ls->wi);
-                    const RGB f = b.eval(wo_l, wi) * std::abs(wi.z);
-                    if (f.is_black()) return RGB(0.0f);
-                    ++rays;
-                    const bool blocked = scene_.occluded(p, ng, *ls);
-                    return blocked ? RGB(0.0f) : f * ls->L / ls->pdf;
-                  };
-                  const RGB c = beta * nee(hit->p, hit->ng, hit->frame, bsdf, wo);
-                  Ld += c;
-                  nee_base = c;
-                  for (int d = 0; d < 4; ++d) {
-                    if (!off[d].exists) continue;
-                    RGB c_off(0.0f);
-                    float w = 1.0f;  // failed sensor shift: offset 0, weight 1
-                    if (off[d].ok()) {
-                      const SurfaceHit& ov = *ohit[d];
-                      c_off = off[d].beta * nee(ov.p, ov.ng, ov.frame, Bsdf(scene_.material(ov.material)),
-                                                ov.frame.to_local(-oray[d].d));
-                      w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
-                    }
-                    nee_diff[d] = (c_off - c) * (w * kSign[d]);
-                  }
-                }
-                vp.p = hit->p;
-                vp.frame = hit->frame;
-                vp.wo = wo;
-                vp.beta = beta;
-                vp.material = hit->material;
-                for (int d = 0; d < 4; ++d) {
-                  if (!off[d].ok()) continue;
-                  off[d].p = ohit[d]->p;
-                  off[d].ng = ohit[d]->ng;
-                  off[d].frame = ohit[d]->frame;
-                  off[d].wo = ohit[d]->frame.to_local(-oray[d].d);
-                  off[d].material = ohit[d]->material;
-                }
-                break;
-              }
-              // ---- Specular or glossy vertex: BSDF sampling, offsets by half-vector copy (§4.1) ----
-              const float uc = rng.uniform();
-              const Vec2 u(rng.uniform(), rng.uniform());
-              const auto bs = bsdf.sample(wo, uc, u);
-              if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-              for (int d = 0; d < 4; ++d) {
-                OffsetPoint& o = off[d];
-                if (!o.ok()) continue;
-                const SurfaceHit& ov = *ohit[d];
-                const Material& om = scene_.material(ov.material);
-                const Vec3 owo = ov.frame.to_local(-oray[d].d);
-                const ScatterShift ss = shift_scatter(om, wo, bs->wi, bs->delta, bs->transmission, owo);
-                if (!ss.ok()) {
-                  fail(d, ss.failure);
-                  continue;
-                }
-                // Solid-angle form of eq. 4: with f and p in the area measure, the G and cosine
-                // factors of eq. 4 cancel against theirs, leaving f' cos' J_omega / p.
-                o.beta *= ss.f_cos * static_cast<float>(ss.jacobian / bs->pdf);
-                o.ratio *= ss.pdf * ss.jacobian / bs->pdf;
-                const Vec3 wi_w = ov.frame.to_world(ss.wi);
-                oray[d] = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
-                ++rays;
-                ohit[d] = scene_.intersect(oray[d]);
-              }
-              beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
-              const Vec3 wi = hit->frame.to_world(bs->wi);
-              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
-              // Russian roulette exactly as SPPM's russian_roulette(), shared by the offsets.
-              if (depth + 1 >= rr_depth_) {
-                const float q = std::max(0.05f, 1.0f - beta.max_component());
-                if (rng.uniform() < q) break;
-                beta = beta / (1.0f - q);
-                for (OffsetPoint& o : off) o.beta = o.beta / (1.0f - q);
-              }
-            }
-            bool nee_finite = nee_base.is_finite();
-            for (const RGB& g : nee_diff) nee_finite = nee_finite && g.is_finite();
-            if (!Ld.is_finite() || !nee_finite) {
+            walk.start(x, y, width_, height_, film, lens);
+            EyePath path = trace_eye_path(scene_.camera.generate_ray(film, lens), rng, rays, walk);
+            auto& off = walk.off;
+            bool nee_finite = walk.nee_base.is_finite();
+            for (const RGB& g : walk.nee_diff) nee_finite = nee_finite && g.is_finite();
+            if (!path.Ld.is_finite() || !nee_finite) {
               ++invalid;
-              Ld = nee_base = RGB(0.0f);
-              for (RGB& g : nee_diff) g = RGB(0.0f);
+              path.Ld = walk.nee_base = RGB(0.0f);
+              for (RGB& g : walk.nee_diff) g = RGB(0.0f);
             }
-            pass_nee_[pixel] = nee_base;
-            pass_nee_diff_[pixel] = nee_diff;
-            if (vp.material >= 0 && !vp.beta.is_finite()) {
+            pass_nee_[pixel] = walk.nee_base;
+            pass_nee_diff_[pixel] = walk.nee_diff;
+            if (path.vp.material >= 0 && !path.vp.beta.is_finite()) {
               ++invalid;
-              vp.material = -1;
+              path.vp.material = -1;
             }
             for (int d = 0; d < 4; ++d) {
               OffsetPoint& o = off[d];
-              if (vp.material < 0) o.failure = ShiftFailure::Missed;  // no base gather point: unused
-              else if (o.ok() && o.material < 0) fail(d, ShiftFailure::Missed);  // ended with the base
-              else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) fail(d, ShiftFailure::ZeroLength);
+              if (path.vp.material < 0) o.failure = ShiftFailure::Missed;  // no base gather point: unused
+              else if (o.ok() && o.material < 0) walk.fail(d, ShiftFailure::Missed);  // ended with the base
+              else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) walk.fail(d, ShiftFailure::ZeroLength);
             }
-            pass_direct_[pixel] = Ld;
-            vp_[pixel] = vp;
+            pass_direct_[pixel] = path.Ld;
+            vp_[pixel] = path.vp;
             off_[pixel] = off;
             // Initial radius (§5: "initialized using ray differentials, to approximate the
             // projected pixel size"): the camera ray differential's one-pixel offset at the
             // distance travelled to the gather point (SPPM takes two pixels).
-            first_r_[pixel] = vp.material >= 0 ? pixel_spread_ * path_length : 0.0f;
+            first_r_[pixel] = path.vp.material >= 0 ? pixel_spread_ * path.path_length : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;
