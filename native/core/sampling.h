@@ -35,10 +35,12 @@ inline float balance_heuristic(float pdf_a, float pdf_b) {
 
 // Russian roulette on a path throughput: the path survives with probability
 // 1 - q, q = max(0.05, 1 - max(beta)), and beta is divided by it. Returns false when it ends.
-inline bool russian_roulette(RGB& beta, float u) {
+// `survival` (optional) receives 1 - q, for paths that share the decision (GPM's offsets).
+inline bool russian_roulette(RGB& beta, float u, float* survival = nullptr) {
   const float q = std::max(0.05f, 1.0f - beta.max_component());
   if (u < q) return false;
   beta = beta / (1.0f - q);
+  if (survival) *survival = 1.0f - q;
   return true;
 }
 

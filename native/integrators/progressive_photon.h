@@ -22,6 +22,7 @@
 #include "integrators/integrator.h"
 #include "integrators/photon_tracer.h"
 #include "integrators/spectral/spectral_pt.h"
+#include "core/sampling.h"
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -212,11 +213,10 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
     const Vec3 wi = hit->frame.to_world(bs->wi);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
-    if (depth + 1 >= rr_depth_) {  // russian_roulette() (core/sampling.h), its survival shared
-      const float q = std::max(0.05f, 1.0f - beta.max_component());
-      if (rng.uniform() < q) break;
-      beta = beta / (1.0f - q);
-      hooks.roulette(1.0f - q);
+    if (depth + 1 >= rr_depth_) {
+      float survival = 1.0f;
+      if (!russian_roulette(beta, rng.uniform(), &survival)) break;
+      hooks.roulette(survival);
     }
   }
   return out;
