@@ -75,15 +75,15 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
     stats_.extra["warning: no lights"] = 1;  // the image is black; reported, never a hang
 }
 
-RGB ProgressivePhotonMapping::direct_light(const Vec3& p, const Vec3& ng, const Frame& frame, const Bsdf& bsdf,
-                                           const Vec3& wo, float u_light, const Vec2& u2, int64_t& rays) const {
-  const auto ls = scene_.light_set().sample_li(p, u_light, u2);
+RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
+                 const Vec2& u2, int64_t& rays) {
+  const auto ls = scene.light_set().sample_li(hit.p, u_light, u2);
   if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
-  const Vec3 wi = frame.to_local(ls->wi);
+  const Vec3 wi = hit.frame.to_local(ls->wi);
   const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
   if (f.is_black()) return RGB(0.0f);
   ++rays;
-  return scene_.occluded(p, ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;
+  return scene.occluded(hit.p, hit.ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;
 }
 
 // ---- Eye pass: one camera path per pixel to its measurement point ----

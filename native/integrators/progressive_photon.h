@@ -51,6 +51,12 @@ struct EyePathHooks {
   void roulette(float /*survival*/) {}                    // Russian roulette survived
 };
 
+// NEE without MIS (photons cover the rest) from surface point `hit` with a given light sample:
+// f |cos| L / pdf, 0 if blocked (one occlusion ray counted in `rays` when it is traced). SPPM's
+// measurement points and GPM's offset gather points, which reuse the base's sample.
+RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
+                 const Vec2& u2, int64_t& rays);
+
 class ProgressivePhotonMapping : public Integrator {
  public:
   // retrace: new measurement points every pass (SPPM) or once (PPM).
@@ -101,10 +107,6 @@ class ProgressivePhotonMapping : public Integrator {
   // direct light, and stops there as the measurement point.
   template <class Hooks>
   EyePath trace_eye_path(Ray ray, Rng& rng, int64_t& rays, Hooks& hooks) const;
-  // NEE from a surface point with a given light sample: f |cos| L / pdf, 0 if blocked (one
-  // occlusion ray counted in `rays` when it is traced).
-  RGB direct_light(const Vec3& p, const Vec3& ng, const Frame& frame, const Bsdf& bsdf, const Vec3& wo,
-                   float u_light, const Vec2& u2, int64_t& rays) const;
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
@@ -192,7 +194,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
       if (nee_ && !lights.empty()) {
         const float u_light = rng.uniform();
         const Vec2 u2(rng.uniform(), rng.uniform());
-        const RGB c = beta * direct_light(hit->p, hit->ng, hit->frame, bsdf, wo, u_light, u2, rays);
+        const RGB c = beta * direct_light(scene_, *hit, bsdf, wo, u_light, u2, rays);
         out.Ld += c;
         hooks.nee(u_light, u2, c);
       }

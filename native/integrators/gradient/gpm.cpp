@@ -3,7 +3,6 @@
 #include "integrators/gradient/gradient_passes.h"
 
 #include <atomic>
-#include <functional>
 #include <chrono>
 
 #include "core/parallel.h"
@@ -70,7 +69,6 @@ struct OffsetWalk : EyePathHooks {
   float threshold;
   int64_t& rays;
   int64_t* fail_count;
-  std::function<RGB(const SurfaceHit&, const Bsdf&, const Vec3&, float, const Vec2&)> nee_at;
   std::array<OffsetPoint, 4> off;
   Ray oray[4];
   std::optional<SurfaceHit> ohit[4];
@@ -123,7 +121,8 @@ struct OffsetWalk : EyePathHooks {
       float w = 1.0f;  // failed sensor shift: offset 0, weight 1
       if (off[d].ok()) {
         const SurfaceHit& ov = *ohit[d];
-        c_off = off[d].beta * nee_at(ov, Bsdf(scene.material(ov.material)), ov.frame.to_local(-oray[d].d), u_light, u2);
+        c_off = off[d].beta * direct_light(scene, ov, Bsdf(scene.material(ov.material)), ov.frame.to_local(-oray[d].d),
+                                           u_light, u2, rays);
         w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
       }
       nee_diff[d] = (c_off - c) * (w * kSign[d]);
@@ -182,9 +181,6 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
             const Vec2 film(x + rng.uniform(), y + rng.uniform());
             const Vec2 lens(rng.uniform(), rng.uniform());
             OffsetWalk walk(scene_, threshold_, rays, fail_count);
-            walk.nee_at = [&](const SurfaceHit& h, const Bsdf& b, const Vec3& wo, float u_light, const Vec2& u2) {
-              return direct_light(h.p, h.ng, h.frame, b, wo, u_light, u2, rays);
-            };
             walk.start(x, y, width_, height_, film, lens);
             EyePath path = trace_eye_path(scene_.camera.generate_ray(film, lens), rng, rays, walk);
             auto& off = walk.off;
