@@ -32,6 +32,12 @@ inline Film render(const std::string& method, const Scene& scene, int passes, co
   return film;
 }
 
+// render() with seed 1 unless `params` sets one, arguments in the spectral tests' order.
+inline Film render_with_seed(const Scene& scene, const std::string& method, int passes, Params params = Params()) {
+  if (!params.has("seed")) params.set("seed", 1);
+  return render(method, scene, passes, params);
+}
+
 inline Params photon_params(int64_t photons, uint64_t seed = 1, int threads = 0) {
   Params p;
   p.set("photons", photons);

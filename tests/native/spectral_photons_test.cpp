@@ -10,18 +10,10 @@
 #include "integrators/integrator.h"
 #include "integrators/sppm.h"
 #include "scene/loader.h"
+#include "render_for_tests.h"
 
 namespace gp {
 namespace {
-
-Film render(const Scene& scene, const std::string& method, int passes, Params p = Params()) {
-  if (!p.has("seed")) p.set("seed", 1);
-  auto integ = make_integrator(method, scene, p);
-  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
-  Film film;
-  integ->develop(film);
-  return film;
-}
 
 RGB image_mean(const Film& f, bool* finite = nullptr) {
   double s[3] = {0, 0, 0};
@@ -50,9 +42,9 @@ TEST(SpectralPhotons, PrismAgreesWithSpectralPathTracer) {
   sp.set("photons", 50000);
   auto integ = make_integrator("sppm", s, sp);
   ASSERT_TRUE(dynamic_cast<Sppm&>(*integ).spectral());  // auto: the prism is dispersive
-  const RGB ref = image_mean(render(s, "spt-hero", 8192, Params(nlohmann::json{{"seed", 7}})));
+  const RGB ref = image_mean(render_with_seed(s, "spt-hero", 8192, Params(nlohmann::json{{"seed", 7}})));
   bool finite = false;
-  const RGB m = image_mean(render(s, "sppm", 256, sp), &finite);
+  const RGB m = image_mean(render_with_seed(s, "sppm", 256, sp), &finite);
   EXPECT_TRUE(finite);
   std::printf("prism mean: sppm %.5f %.5f %.5f, spt-hero %.5f %.5f %.5f\n", m[0], m[1], m[2], ref[0], ref[1], ref[2]);
   for (int c = 0; c < 3; ++c)
@@ -68,7 +60,7 @@ TEST(SpectralPhotons, AutoModeLeavesNonDispersiveScenesInRgb) {
   EXPECT_FALSE(dynamic_cast<Sppm&>(*integ).spectral());
   Params rgb = p;
   rgb.set("spectral", "rgb");
-  const Film a = render(s, "sppm", 8, p), b = render(s, "sppm", 8, rgb);
+  const Film a = render_with_seed(s, "sppm", 8, p), b = render_with_seed(s, "sppm", 8, rgb);
   for (int y = 0; y < a.height(); ++y)
     for (int x = 0; x < a.width(); ++x) {
       const RGB ca = a.rgb(pass::kCombined, x, y), cb = b.rgb(pass::kCombined, x, y);
@@ -91,8 +83,8 @@ TEST(SpectralPhotons, CauchyBZeroIsCloseToRgbSppm) {
   auto integ = make_integrator("sppm", s, sp);
   ASSERT_TRUE(dynamic_cast<Sppm&>(*integ).spectral());
   bool finite = false;
-  const RGB m_sp = image_mean(render(s, "sppm", 256, sp), &finite);
-  const RGB m_rgb = image_mean(render(s, "sppm", 256, rgb));
+  const RGB m_sp = image_mean(render_with_seed(s, "sppm", 256, sp), &finite);
+  const RGB m_rgb = image_mean(render_with_seed(s, "sppm", 256, rgb));
   EXPECT_TRUE(finite);
   std::printf("prism B=0 mean: spectral %.5f %.5f %.5f, rgb %.5f %.5f %.5f\n", m_sp[0], m_sp[1], m_sp[2], m_rgb[0],
               m_rgb[1], m_rgb[2]);

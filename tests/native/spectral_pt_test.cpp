@@ -9,20 +9,12 @@
 #include "integrators/integrator.h"
 #include "integrators/spectral/spectral_pt.h"
 #include "scene/loader.h"
+#include "render_for_tests.h"
 
 namespace gp {
 namespace {
 
 Scene scene_from(const std::string& json) { return load_scene_from_string(json, ".", "test.json"); }
-
-Film render(const Scene& scene, const std::string& method, int passes, Params p = Params()) {
-  if (!p.has("seed")) p.set("seed", 1);
-  auto integ = make_integrator(method, scene, p);
-  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
-  Film film;
-  integ->develop(film);
-  return film;
-}
 
 RGB image_mean(const Film& f) {
   double s[3] = {0, 0, 0};
@@ -47,8 +39,8 @@ TEST(SpectralPathTracer, CornellBoxMatchesRgbColours) {
   const Scene s = cornell_box(32);
   Params rgb;
   rgb.set("spectral", "rgb");
-  const RGB m_rgb = image_mean(render(s, "pt", 1024, rgb));
-  const RGB m_spt = image_mean(render(s, "spt-hero", 1024));
+  const RGB m_rgb = image_mean(render_with_seed(s, "pt", 1024, rgb));
+  const RGB m_spt = image_mean(render_with_seed(s, "spt-hero", 1024));
   for (int c = 0; c < 3; ++c)
     EXPECT_NEAR(m_spt[c] / m_rgb[c], 1.0, 0.01) << "channel " << c << ": " << m_spt[c] << " vs " << m_rgb[c];
 }
@@ -61,7 +53,7 @@ TEST(SpectralPathTracer, ColouredFurnaceReproducesTheEnvironment) {
     "environment": {"color": [0.5, 1.0, 2.0], "strength": 1},
     "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 32, "material": "white"}]})");
   for (const char* method : {"spt", "spt-hero"}) {
-    const RGB m = image_mean(render(s, method, std::string(method) == "spt" ? 1024 : 256));
+    const RGB m = image_mean(render_with_seed(s, method, std::string(method) == "spt" ? 1024 : 256));
     EXPECT_NEAR(m.r, 0.5, 0.01) << method;
     EXPECT_NEAR(m.g, 1.0, 0.02) << method;
     EXPECT_NEAR(m.b, 2.0, 0.04) << method;
@@ -89,7 +81,7 @@ TEST(SpectralPathTracer, CauchyBZeroIsTheNonDispersiveMaterial) {
   const Scene b = scene_from(glass_scene(", \"cauchy_b\": 0", 0.0f));
   Params p;
   p.set("spectral", "spectral");
-  const Film fa = render(a, "pt", 4, p), fb = render(b, "pt", 4, p);
+  const Film fa = render_with_seed(a, "pt", 4, p), fb = render_with_seed(b, "pt", 4, p);
   EXPECT_EQ(fa.pass(pass::kCombined).data, fb.pass(pass::kCombined).data);
 }
 
@@ -100,8 +92,8 @@ TEST(SpectralPathTracer, VanishingDispersionConvergesToNoDispersion) {
   for (float rough : {0.0f, 0.2f}) {
     const Scene nd = scene_from(glass_scene("", rough));
     const Scene d = scene_from(glass_scene(", \"cauchy_b\": 1e-7", rough));
-    const RGB m0 = image_mean(render(nd, "spt-hero", 1024));
-    const RGB m1 = image_mean(render(d, "spt-hero", 1024, Params(nlohmann::json{{"seed", 2}})));
+    const RGB m0 = image_mean(render_with_seed(nd, "spt-hero", 1024));
+    const RGB m1 = image_mean(render_with_seed(d, "spt-hero", 1024, Params(nlohmann::json{{"seed", 2}})));
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(m1[c] / m0[c], 1.0, 0.025) << "roughness " << rough << " channel " << c;
   }
 }
@@ -111,8 +103,8 @@ TEST(SpectralPathTracer, HeroAndSingleWavelengthAgreeOnDispersiveGlass) {
   // unbiased for the same spectral integral.
   for (float rough : {0.0f, 0.15f}) {
     const Scene s = scene_from(glass_scene(", \"cauchy_b\": 0.015", rough));
-    const RGB a = image_mean(render(s, "spt", 2048));
-    const RGB b = image_mean(render(s, "spt-hero", 1024, Params(nlohmann::json{{"seed", 5}})));
+    const RGB a = image_mean(render_with_seed(s, "spt", 2048));
+    const RGB b = image_mean(render_with_seed(s, "spt-hero", 1024, Params(nlohmann::json{{"seed", 5}})));
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(b[c] / a[c], 1.0, 0.025) << "roughness " << rough << " channel " << c;
   }
 }
