@@ -2,7 +2,10 @@
 // (seed, pixel, pass), so images do not depend on the thread count or tile order.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+
+#include "core/math.h"
 
 namespace gp {
 
@@ -43,5 +46,19 @@ class Rng {
  private:
   uint64_t state_ = 0, inc_ = 1;
 };
+
+// The start of pixel (x, y)'s camera path in a pass, drawn alike by every method (so GPM's
+// camera paths are SPPM's): the pixel's own stream Rng::for_key(seed, pixel, pass), which makes
+// the image independent of the thread count, then a box-filtered film position and a lens sample.
+struct PixelStart {
+  Rng rng;
+  Vec2 film, lens;
+};
+inline PixelStart start_pixel(uint64_t seed, size_t pixel, uint64_t pass, int x, int y) {
+  Rng rng = Rng::for_key(seed, pixel, pass);
+  const Vec2 film(x + rng.uniform(), y + rng.uniform());
+  const Vec2 lens(rng.uniform(), rng.uniform());
+  return {rng, film, lens};
+}
 
 }  // namespace gp

@@ -40,9 +40,7 @@ class PixelEstimate {
           for (int y = tile.y0; y < tile.y1; ++y)
             for (int x = tile.x0; x < tile.x1; ++x) {
               const size_t pixel = static_cast<size_t>(y) * width_ + x;
-              Rng rng = Rng::for_key(seed, pixel, pass);
-              const Vec2 film(x + rng.uniform(), y + rng.uniform());  // box filter
-              const Vec2 lens(rng.uniform(), rng.uniform());
+              auto [rng, film, lens] = start_pixel(seed, pixel, pass, x, y);
               const RGB L = estimate(rng, film, lens, tile_rays);
               ++tile_paths;
               ++samples_[pixel];

@@ -443,9 +443,7 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            Rng rng = Rng::for_key(seed_, pixel, pass);
-            const Vec2 film(x + rng.uniform(), y + rng.uniform());
-            const Vec2 lens(rng.uniform(), rng.uniform());
+            auto [rng, film, lens] = start_pixel(seed_, pixel, pass, x, y);
             if (!sample_pixel(pixel, rng, scene_.camera.generate_ray(film, lens), tile_rays, tc)) ++invalid;
             ++samples_[pixel];
             ++tile_paths;
