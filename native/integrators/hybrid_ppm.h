@@ -16,6 +16,9 @@
 //      radius, count and flux of the pixel follow SPPM (eq. 7.2-7.5, shared by all the
 //      measurement points of the pixel).
 //
+// Passes: combined, radius, photon_count, and path_tracing: the balance-weighted path-tracing
+// part of combined (thesis Fig. 9.10); combined minus it is the density-estimation part.
+//
 // Techniques for a path y_1 .. y_k (y_k on a light; y_0 the camera): hit (the camera path
 // samples every vertex), nee (light sample at y_k from y_{k-1}), and density estimation at
 // every photon-diffuse y_t, 1 <= t < k (camera samples y_1..y_t, photon y_k..y_t). With the
