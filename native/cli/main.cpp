@@ -453,16 +453,18 @@ int run_bench_reconstruct(int width, int height, int repeats, int threads) {
     o.norm = norm;
     o.threads = threads;
     std::vector<double> times;
+    ReconReport rep;
     for (int r = 0; r < repeats; ++r) {
       const auto t0 = std::chrono::steady_clock::now();
-      const auto out = screened_poisson(p, fx, fy, width, height, 3, o);
+      const auto out = screened_poisson(p, fx, fy, width, height, 3, o, &rep);
       times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
     std::sort(times.begin(), times.end());
     fmt::print("{}         median {:.3f} s  (min {:.3f}, max {:.3f}){}\n", norm == ReconNorm::L2 ? "L2" : "L1",
                times[times.size() / 2], times.front(), times.back(),
-               norm == ReconNorm::L1 ? fmt::format("  [{} IRLS x {} PCG iterations]", o.irls_iterations,
-                                                   o.cg_iterations)
+               norm == ReconNorm::L1 ? fmt::format("  [{} IRLS rounds, {} PCG iterations, tolerance {:g}{}]",
+                                                   rep.irls_iterations, rep.cg_iterations, o.tolerance,
+                                                   rep.converged ? "" : ", NOT met")
                                      : std::string());
   }
   return 0;

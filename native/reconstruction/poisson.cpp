@@ -129,10 +129,11 @@ double sum_rows(const std::vector<double>& row_sums) {
   return s;
 }
 
-// Jacobi-preconditioned conjugate gradients, warm-started from `x`. Loops are fused so that
-// each iteration reads the vectors three times (q = A p with p.q; the x, r, z update with r.z
-// and r.r; the p update).
-void pcg(const WeightedSystem& A, const std::vector<double>& b, std::vector<double>& x, int iterations) {
+// Jacobi-preconditioned conjugate gradients, warm-started from `x`, until |r| <= rel_tol |b|
+// or `iterations`; returns the iterations taken. Loops are fused so that each iteration reads
+// the vectors three times (q = A p with p.q; the x, r, z update with r.z and r.r; the p update).
+int pcg(const WeightedSystem& A, const std::vector<double>& b, std::vector<double>& x, int iterations,
+        double rel_tol) {
   const size_t n = x.size();
   const int w = A.w, h = A.h, threads = A.threads;
   std::vector<double> r(n), z(n), p(n), q(n), inv_diag(n), rows_a(h), rows_b(h);
@@ -155,7 +156,10 @@ void pcg(const WeightedSystem& A, const std::vector<double>& b, std::vector<doub
   });
   double rz = sum_rows(rows_a);
   const double b_norm2 = sum_rows(rows_b);
-  for (int it = 0; it < iterations && rz > 0; ++it) {
+  const double stop2 = std::max(rel_tol * rel_tol, 1e-28) * b_norm2;
+  int it = 0;
+  while (it < iterations && rz > 0) {
+    ++it;
     A.apply(p, q, &rows_a);  // q = A p, rows_a = per-row p.q
     const double pq = sum_rows(rows_a);
     if (!(pq > 0)) break;
@@ -175,17 +179,18 @@ void pcg(const WeightedSystem& A, const std::vector<double>& b, std::vector<doub
       }
     });
     const double rz_new = sum_rows(rows_a);
-    if (sum_rows(rows_b) <= 1e-28 * b_norm2) break;  // converged to round-off
+    if (sum_rows(rows_b) <= stop2) break;  // converged
     const double beta = rz_new / rz;
     rz = rz_new;
     for_rows(w, h, threads, [&](size_t r0, size_t r1) {
       for (size_t i = r0 * w; i < r1 * w; ++i) p[i] = z[i] + beta * p[i];
     });
   }
+  return it;
 }
 
 void solve_l1_channel(const double* primal, const double* gx, const double* gy, int w, int h,
-                      const ReconOptions& o, double* out) {
+                      const ReconOptions& o, double* out, ReconReport& report) {
   const size_t n = static_cast<size_t>(w) * h;
   std::vector<double> x(n);
   solve_l2_channel(primal, gx, gy, w, h, o.lambda, x.data());  // warm start
@@ -195,8 +200,10 @@ void solve_l1_channel(const double* primal, const double* gx, const double* gy, 
   const double eps = std::max(o.epsilon * mean_abs, 1e-12);
   WeightedSystem A{w, h, o.threads, o.lambda, std::vector<double>(n), std::vector<double>(n, 0.0),
                    std::vector<double>(n, 0.0)};
-  std::vector<double> b(n);
-  for (int round = 0; round < o.irls_iterations; ++round) {
+  std::vector<double> b(n), x_prev(n), rows_d(h), rows_x(h);
+  bool converged = false;
+  double change = 0;
+  for (int round = 0; round < o.max_irls_iterations && !converged; ++round) {
     // IRLS weights 1 / max(|r|, eps) of the current residuals (LKL*13).
     for_rows(w, h, o.threads, [&](size_t r0, size_t r1) {
       for (size_t r = r0; r < r1; ++r)
@@ -217,8 +224,26 @@ void solve_l1_channel(const double* primal, const double* gx, const double* gy, 
         if (y < h - 1) v -= A.wy[i] * gy[i];
         b[i] = v;
       }
-    pcg(A, b, x, o.cg_iterations);
+    x_prev = x;
+    report.cg_iterations += pcg(A, b, x, o.max_cg_iterations, 0.1 * o.tolerance);
+    ++report.irls_iterations;
+    for_rows(w, h, o.threads, [&](size_t r0, size_t r1) {
+      for (size_t r = r0; r < r1; ++r) {
+        double dd = 0, xx = 0;
+        for (size_t i = r * w; i < (r + 1) * w; ++i) {
+          dd += (x[i] - x_prev[i]) * (x[i] - x_prev[i]);
+          xx += x[i] * x[i];
+        }
+        rows_d[r] = dd;
+        rows_x[r] = xx;
+      }
+    });
+    const double xx = sum_rows(rows_x);
+    change = xx > 0 ? std::sqrt(sum_rows(rows_d) / xx) : 0.0;
+    converged = change <= o.tolerance;
   }
+  report.last_change = std::max(report.last_change, change);
+  report.converged = report.converged && (converged || o.max_irls_iterations == 0);
   std::copy(x.begin(), x.end(), out);
 }
 
@@ -244,13 +269,15 @@ void forward_differences(const std::vector<double>& img, int w, int h, int c, st
 }
 
 std::vector<double> screened_poisson(const std::vector<double>& primal, const std::vector<double>& gx,
-                                     const std::vector<double>& gy, int w, int h, int c, const ReconOptions& o) {
+                                     const std::vector<double>& gy, int w, int h, int c, const ReconOptions& o,
+                                     ReconReport* report) {
   if (w < 1 || h < 1 || c < 1) throw std::invalid_argument("screened_poisson: empty image");
   const size_t n = static_cast<size_t>(w) * h;
   if (primal.size() != n * c || gx.size() != n * c || gy.size() != n * c)
     throw std::invalid_argument("screened_poisson: primal and gradients must all hold width*height*channels values");
   if (!(o.lambda > 0) || !std::isfinite(o.lambda)) throw std::invalid_argument("screened_poisson: lambda must be > 0");
-  if (o.norm == ReconNorm::L1 && (o.irls_iterations < 0 || o.cg_iterations < 0 || !(o.epsilon > 0)))
+  if (o.norm == ReconNorm::L1 &&
+      (o.max_irls_iterations < 0 || o.max_cg_iterations < 0 || !(o.epsilon > 0) || !(o.tolerance > 0)))
     throw std::invalid_argument("screened_poisson: bad IRLS settings");
   // De-interleave into planar channels.
   std::vector<std::vector<double>> P(c, std::vector<double>(n)), X(c, std::vector<double>(n)),
@@ -267,8 +294,10 @@ std::vector<double> screened_poisson(const std::vector<double>& primal, const st
         solve_l2_channel(P[k].data(), X[k].data(), Y[k].data(), w, h, o.lambda, out[k].data());
     });
   } else {
+    ReconReport rep;
     for (int k = 0; k < c; ++k)  // each channel parallel over rows inside
-      solve_l1_channel(P[k].data(), X[k].data(), Y[k].data(), w, h, o, out[k].data());
+      solve_l1_channel(P[k].data(), X[k].data(), Y[k].data(), w, h, o, out[k].data(), rep);
+    if (report) *report = rep;
   }
   std::vector<double> result(n * c);
   for (size_t i = 0; i < n; ++i)
@@ -277,10 +306,11 @@ std::vector<double> screened_poisson(const std::vector<double>& primal, const st
 }
 
 std::vector<float> screened_poisson(const std::vector<float>& primal, const std::vector<float>& gx,
-                                    const std::vector<float>& gy, int w, int h, int c, const ReconOptions& o) {
+                                    const std::vector<float>& gy, int w, int h, int c, const ReconOptions& o,
+                                    ReconReport* report) {
   const std::vector<double> r = screened_poisson(std::vector<double>(primal.begin(), primal.end()),
                                                  std::vector<double>(gx.begin(), gx.end()),
-                                                 std::vector<double>(gy.begin(), gy.end()), w, h, c, o);
+                                                 std::vector<double>(gy.begin(), gy.end()), w, h, c, o, report);
   return std::vector<float>(r.begin(), r.end());
 }
 

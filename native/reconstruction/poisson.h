@@ -20,6 +20,10 @@
 //     weights 1 / max(|r|, eps) by Jacobi-preconditioned conjugate gradients, warm-started from
 //     the previous iterate (the first from the exact L2 solution). eps = epsilon * mean |I_0|
 //     of the channel, so the weights do not depend on the image's brightness.
+//     Convergence: IRLS stops when a round changes the channel by less than `tolerance`
+//     (||x_k - x_{k-1}||_2 <= tolerance ||x_k||_2); each round's PCG stops when its residual
+//     falls to tolerance / 10 of the right-hand side's norm. The caps only guard against a
+//     stall; ReconReport says whether the tolerance was met.
 #pragma once
 
 #include <string>
@@ -35,10 +39,19 @@ ReconNorm parse_recon_norm(const std::string& name);
 struct ReconOptions {
   ReconNorm norm = ReconNorm::L2;
   double lambda = 0.2;        // weight of the primal term (KMA15's alpha)
-  int irls_iterations = 5;    // L1 only: re-weighting rounds
-  int cg_iterations = 30;     // L1 only: PCG iterations per round
+  double tolerance = 1e-3;    // L1 only: relative change of an IRLS round at which it stops
+  int max_irls_iterations = 100;  // L1 only: cap on re-weighting rounds
+  int max_cg_iterations = 1000;   // L1 only: cap on PCG iterations per round
   double epsilon = 1e-2;      // L1 only: weight floor, relative to the channel's mean |I_0|
   int threads = 0;            // 0 = all cores
+};
+
+// What an L1 solve did, summed (iterations) or worst (change) over channels.
+struct ReconReport {
+  int irls_iterations = 0;    // re-weighting rounds
+  int cg_iterations = 0;      // PCG iterations over all rounds
+  double last_change = 0;     // relative change of the last round
+  bool converged = true;      // every channel met `tolerance` within the caps
 };
 
 // Reconstructs every channel. All three inputs hold width * height * channels values.
@@ -46,10 +59,10 @@ struct ReconOptions {
 // to fix the constant; with lambda -> 0 the L2 solution tends to the mean-preserving one).
 std::vector<double> screened_poisson(const std::vector<double>& primal, const std::vector<double>& gx,
                                      const std::vector<double>& gy, int width, int height, int channels,
-                                     const ReconOptions& options = {});
+                                     const ReconOptions& options = {}, ReconReport* report = nullptr);
 std::vector<float> screened_poisson(const std::vector<float>& primal, const std::vector<float>& gx,
                                     const std::vector<float>& gy, int width, int height, int channels,
-                                    const ReconOptions& options = {});
+                                    const ReconOptions& options = {}, ReconReport* report = nullptr);
 
 // Forward differences of an image in the convention above (border entries are 0); for tests,
 // the benchmark and the CLI.
