@@ -332,27 +332,44 @@ RGB Gpm::reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& 
   return bsdf.eval(wo, wi, TransportMode::Importance) * (std::abs(wi.z) * corr);
 }
 
+// ---- The base chain y_b .. y_s: targets, tangent map, eq. 8, throughput (once per photon) ----
+Gpm::ChainBase Gpm::evaluate_chain_base(const Photon& ph, const PhotonOrigin& org) const {
+  const PhotonChain& chain = chains_[org.chain];
+  ChainBase base;
+  ManifoldChain c;
+  c.start = chain.p;
+  c.count = chain.count;
+  for (int j = 0; j < chain.count; ++j) c.v[j] = chain.v[j];
+  c.end = ph.p;
+  c.end_ng = org.n_photon;
+  base.prepared = prepare_chain(scene_, c);
+  base.g = reconnection_factor(chain, normalize(c.v[0].p - c.start), base.pdf);
+  base.ok = !base.g.is_black() && base.pdf > 0 && base.prepared.ok;
+  return base;
+}
+
+const Gpm::ChainBase& Gpm::chain_base(const Photon& ph, const PhotonOrigin& org, ChainBase& local) const {
+  std::atomic<uint8_t>& state = chain_state_[org.chain];
+  uint8_t s = state.load(std::memory_order_acquire);
+  if (s == 2) return chain_bases_[org.chain];
+  if (s == 0 && state.compare_exchange_strong(s, 1, std::memory_order_acq_rel)) {
+    chain_bases_[org.chain] = evaluate_chain_base(ph, org);
+    state.store(2, std::memory_order_release);
+    return chain_bases_[org.chain];
+  }
+  if (s == 2) return chain_bases_[org.chain];
+  local = evaluate_chain_base(ph, org);  // being evaluated by another thread: no waiting
+  return local;
+}
+
 Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                                         const PhotonOrigin& org, const PhotonChain& chain, ChainBase& base,
+                                         const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
                                          int64_t& rays, WalkStats& walk_stats) const {
   PhotonShift out;
   auto failed = [&out](ShiftFailure f) {
     out.failure = f;
     return out;
   };
-  // ---- The base chain y_b .. y_s: targets, throughput, eq. 8 (once per photon and pixel) ----
-  if (!base.evaluated) {
-    base.evaluated = true;
-    ManifoldChain c;
-    c.start = chain.p;
-    c.count = chain.count;
-    for (int j = 0; j < chain.count; ++j) c.v[j] = chain.v[j];
-    c.end = ph.p;
-    c.end_ng = org.n_photon;
-    base.prepared = prepare_chain(scene_, c);  // targets, tangent map, eq. 8, throughput
-    base.g = reconnection_factor(chain, normalize(c.v[0].p - c.start), base.pdf);
-    base.ok = !base.g.is_black() && base.pdf > 0 && base.prepared.ok;
-  }
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
   // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
   const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
@@ -428,6 +445,12 @@ void Gpm::iterate(ProgressSink* sink) {
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);
+  if (chain_state_size_ < chains_.size()) {
+    chain_state_size_ = chains_.size();
+    chain_state_ = std::make_unique<std::atomic<uint8_t>[]>(chain_state_size_);
+  }
+  for (size_t c = 0; c < chains_.size(); ++c) chain_state_[c].store(0, std::memory_order_relaxed);
+  chain_bases_.resize(chains_.size());
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     int64_t local_rays = 0, local_shifts = 0;
     int64_t fail_count[kShiftFailureCount] = {};
@@ -461,7 +484,8 @@ void Gpm::iterate(ProgressSink* sink) {
           ++fail_count[static_cast<int>(ShiftFailure::SpecularChain)];
           return;
         }
-        ChainBase base;  // the base chain's factors, evaluated once for the four offsets
+        ChainBase local_base;
+        const ChainBase* base = nullptr;  // evaluated on the first offset that needs it
         for (int d = 0; d < 4; ++d) {
           const OffsetPoint& o = off[d];
           if (!o.exists) continue;
@@ -469,7 +493,8 @@ void Gpm::iterate(ProgressSink* sink) {
           float w = 1.0f;  // failed or non-reversible shift: this side alone samples the pair
           if (o.ok()) {
             ++local_shifts;
-            const PhotonShift sh = chain ? shift_chain_photon(vp, o, R, ph, org, *chain, base, local_rays, walk_stats)
+            if (chain && !base) base = &chain_base(ph, org, local_base);
+            const PhotonShift sh = chain ? shift_chain_photon(vp, o, R, ph, org, *chain, *base, local_rays, walk_stats)
                                          : shift_dd_photon(vp, o, R, ph, org, local_rays);
             if (sh.failure != ShiftFailure::None) {
               ++fail_count[static_cast<int>(sh.failure)];

@@ -65,6 +65,8 @@
 #pragma once
 
 #include <array>
+#include <atomic>
+#include <memory>
 #include <vector>
 
 #include "integrators/gradient/manifold.h"
@@ -117,9 +119,10 @@ class Gpm : public ProgressivePhotonMapping {
     Vec3 wi_gather;          // local direction at z'_t towards y'_{s-1}
     double ratio_y = 0;      // p(T y)|T'(y)| / p(y) of eq. 11 (light subpath)
   };
-  // The base chain's factors for the light-subpath shift, evaluated on the first offset.
+  // The base chain's factors for the light-subpath shift: they depend on the photon alone, so
+  // they are evaluated once per pass for all the pixels that gather it and their four offsets.
   struct ChainBase {
-    bool evaluated = false, ok = false;
+    bool ok = false;
     PreparedChain prepared;  // the chain with its targets, tangent map, eq. 8 term, throughput
     RGB g{0.0f};            // y_b's directional factor towards y_{b+1}
     double pdf = 0;         // y_b's solid-angle pdf of that direction
@@ -132,8 +135,12 @@ class Gpm : public ProgressivePhotonMapping {
                               const PhotonOrigin& org, int64_t& rays) const;
   // Step 1 and the manifold walk of step 2 for specular and glossy chains (eq. 7-10).
   PhotonShift shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                                 const PhotonOrigin& org, const PhotonChain& chain, ChainBase& base, int64_t& rays,
-                                 WalkStats& walk_stats) const;
+                                 const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
+                                 int64_t& rays, WalkStats& walk_stats) const;
+  // The chain's ChainBase, from this pass's cache (evaluated by the first thread that needs it;
+  // a thread that finds it being evaluated elsewhere evaluates its own copy into `local`).
+  const ChainBase& chain_base(const Photon& ph, const PhotonOrigin& org, ChainBase& local) const;
+  ChainBase evaluate_chain_base(const Photon& ph, const PhotonOrigin& org) const;
   // y_b's directional factor (f |cos| with the adjoint correction, or a light's emission) and pdf.
   RGB reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& pdf) const;
 
@@ -141,6 +148,9 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<std::array<OffsetPoint, 4>> off_;
   std::vector<PhotonOrigin> origins_;
   std::vector<PhotonChain> chains_;
+  mutable std::vector<ChainBase> chain_bases_;                 // per chain, this pass
+  mutable std::unique_ptr<std::atomic<uint8_t>[]> chain_state_;  // 0 empty, 1 evaluating, 2 ready
+  size_t chain_state_size_ = 0;
   int manifold_iterations_ = 5;
   std::vector<GradState> grad_;
   std::vector<RGB> gather_fb_;
