@@ -18,10 +18,15 @@ do not overwrite each other:
 
     scripts/convergence.py --scenes door-ajar --methods pt sppm sppm-adaptive --scale 0.5 \
         --checkpoints 2,4,8,16,32 --ref-passes 8192 --csv adaptive.csv
+
+--side-by-side runs a scene's methods at the same time, each on nproc / (number of methods)
+threads (at least one), so that whatever else loads the machine slows them alike: on a shared
+or noisy machine their equal-time ratios stay fair, where one-after-another runs do not.
 """
 import argparse
 import csv
 import json
+import os
 import pathlib
 import re
 import subprocess
@@ -128,6 +133,8 @@ def main():
     ap.add_argument("--scale", type=float, default=0.5, help="image size relative to the scene's camera")
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "convergence")
     ap.add_argument("--csv", default="convergence.csv", help="name of the table written under --out")
+    ap.add_argument("--side-by-side", action="store_true",
+                    help="run a scene's methods concurrently, the cores split between them")
     args = ap.parse_args()
 
     checkpoints = [float(t) for t in args.checkpoints.split(",")]
@@ -138,11 +145,23 @@ def main():
     for scene in args.scenes:
         ref = reference(scene, args)
         split = SplitReference.from_files(ref, reference(scene, args, args.ref_seed + 1)) if args.ref_split else None
-        for method in args.methods:
-            out = work / f"{scene}-{file_tag(method)}.exr"
-            run([CLI, "render", ROOT / "scenes" / f"{scene}.json", *method_args(method),
+        cmds = [[CLI, "render", ROOT / "scenes" / f"{scene}.json", *method_args(method),
                  "--time", max(checkpoints), "--checkpoints", ",".join(f"{t:g}" for t in checkpoints),
-                 "--seed", args.seed, "-o", out, *size_args(scene, args)])
+                 "--seed", args.seed, "-o", work / f"{scene}-{file_tag(method)}.exr", *size_args(scene, args)]
+                for method in args.methods]
+        if args.side_by_side:
+            threads = max(1, (os.cpu_count() or 1) // len(cmds))
+            procs = []
+            for cmd in cmds:
+                cmd += ["--threads", threads]
+                print("+", " ".join(str(c) for c in cmd), file=sys.stderr)
+                procs.append(subprocess.Popen([str(c) for c in cmd], stdout=subprocess.DEVNULL))
+            if any([p.wait() != 0 for p in procs]):  # a list: wait for every one
+                sys.exit(f"a render of {scene} failed")
+        else:
+            for cmd in cmds:
+                run(cmd)
+        for method in args.methods:
             for t in checkpoints:
                 snap = work / f"{scene}-{file_tag(method)}.{t:g}s.exr"
                 if not snap.exists():

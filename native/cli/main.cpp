@@ -494,13 +494,13 @@ int main(int argc, char** argv) {
   render->add_option("--png", ra.png, "Also write a display PNG through OpenColorIO");
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
-  render->add_option("--recon", ra.recon, "Gradient methods: screened Poisson reconstruction l2 or l1 (default l2; l1 for gdmlt)")
+  render->add_option("--recon", ra.recon, "Gradient methods: screened Poisson reconstruction l2 or l1 (default l2 for gpt; l1 for gpm and gdmlt)")
       ->check(CLI::IsMember({"l1", "l2"}));
   render->add_option("--lambda", ra.lambda, "Gradient methods: weight of the primal image (default 0.2)")
       ->check(CLI::PositiveNumber);
   render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
-  render->add_option("--alpha", ra.alpha, "photon methods: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6; gpm 0.9)");
-  render->add_option("--photons", ra.photons, "photon methods: photons emitted per pass (default 100000; msppm: one per pixel; gpm 1000000)");
+  render->add_option("--alpha", ra.alpha, "photon methods: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6)");
+  render->add_option("--photons", ra.photons, "photon methods: photons emitted per pass (default 100000; msppm: one per pixel)");
   render->add_option("--radius", ra.radius, "photon methods: initial gathering radius in metres (default: from the pixel footprint)");
   render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
   render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");

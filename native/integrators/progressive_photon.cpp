@@ -109,9 +109,7 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
             }
             pass_direct_[pixel] = path.Ld;
             vp_[pixel] = path.vp;
-            // Initial radius from the pixel footprint: the cone one pixel subtends, grown
-            // along the eye path (a ray-cone stand-in for ray differentials), two pixels wide.
-            first_r_[pixel] = path.vp.material >= 0 ? 2.0f * pixel_spread_ * path.path_length : 0.0f;
+            first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length) : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;

@@ -148,6 +148,10 @@ class ProgressivePhotonMapping : public Integrator {
   uint64_t seed_;
   int width_, height_;
   float pixel_spread_;  // angle one pixel subtends (ray-cone approximation of ray differentials)
+  // Initial radius from the pixel footprint: the cone one pixel subtends, grown along the eye
+  // path to the gather point (a ray-cone stand-in for ray differentials), two pixels wide. One
+  // rule for SPPM and the methods built on it (GPM's primal is SPPM's image).
+  float footprint_radius(float path_length) const { return 2.0f * pixel_spread_ * path_length; }
 
   PhotonTracer tracer_;
   std::unique_ptr<AdaptivePhotonSampler> adaptive_;  // photon_sampler = adaptive (thesis ch. 8)

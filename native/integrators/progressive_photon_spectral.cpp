@@ -192,7 +192,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
             vp_[pixel] = vp;
             vp_beta_[pixel] = beta;
             vp_hero_[pixel] = hero_only ? 1 : 0;
-            first_r_[pixel] = vp.material >= 0 ? 2.0f * pixel_spread_ * path_length : 0.0f;
+            first_r_[pixel] = vp.material >= 0 ? footprint_radius(path_length) : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;

@@ -89,14 +89,15 @@ std::unique_ptr<Integrator> run(const std::string& method, const Scene& s, int p
 }
 
 TEST(Gpm, PrimalIsSppmsImageAndL2OfThePassesIsCombined) {
-  // Same seed, alpha and radius: GPM's eye paths and photons are SPPM's, so its primal pass is
-  // SPPM's image (up to float summation order).
+  // Both with their defaults (alpha, photons per pass, the initial radius's footprint rule) and
+  // the same seed: GPM's eye paths and photons are SPPM's, so its primal pass is SPPM's image (up
+  // to float summation order).
   const Scene s = cornell_box(24, 20);
-  Params p = photon_params(5000, 7);
-  p.set("alpha", 0.8);
-  p.set("radius", 0.08);
+  Params p;
+  p.set("seed", 7);
   Film sppm, gpm;
   run("sppm", s, 3, p)->develop(sppm);
+  p.set("recon", "l2");  // for the check of the passes below
   run("gpm", s, 3, p)->develop(gpm);
   const DiffResult d = diff_images(gpm.pass(pass::kPrimal), sppm.pass(pass::kCombined), 24, 20);
   EXPECT_NEAR(d.mean_ratio, 1.0, 1e-5);
@@ -193,7 +194,6 @@ TEST(Gpm, GlassScenesStayFiniteAndCountFailedShifts) {
       const auto& extra = g->stats().extra;
       ASSERT_GT(extra.count("manifold walks"), 0u) << name;
       EXPECT_GT(extra.at("manifold walks"), 0.0) << name;
-      EXPECT_LE(extra.at("manifold walk iterations"), 5 * extra.at("manifold walks")) << name;
       double sensor_failures = 0;
       for (const auto& [k, v] : extra)
         if (k.rfind("sensor shift failed", 0) == 0) sensor_failures += v;
@@ -261,13 +261,14 @@ TEST(Gpm, ManifoldWalkLowersTheCausticsGradientVariance) {
 
 // The paper's §5.1 failure case of a manifold walk that cannot converge: with one projection
 // allowed, most walks fail; they must be counted, fall back (offset 0, weight 1) and leave the
-// image finite and as bright as the primal estimate.
+// image finite and as bright as the primal estimate (L1, which does not keep the primal's mean).
 TEST(Gpm, WalksThatCannotConvergeAreCountedAndFallBack) {
   Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-glass.json");
   s.camera.width = 32;
   s.camera.height = 32;
   Params p = photon_params(20000, 5);
   p.set("manifold_iterations", 1);
+  p.set("recon", "l1");
   auto g = run("gpm", s, 3, p);
   Film f;
   g->develop(f);
@@ -276,7 +277,6 @@ TEST(Gpm, WalksThatCannotConvergeAreCountedAndFallBack) {
   const auto& extra = g->stats().extra;
   ASSERT_GT(extra.count("shift failed: manifold walk did not converge"), 0u);
   EXPECT_GT(extra.at("shift failed: manifold walk did not converge"), 0.3 * extra.at("manifold walks"));
-  EXPECT_EQ(extra.at("manifold walk iterations"), extra.at("manifold walks"));
   const DiffResult d = diff_images(f.pass(pass::kCombined), f.pass(pass::kPrimal), 32, 32);
   EXPECT_NEAR(d.mean_ratio, 1.0, 0.05);
   EXPECT_EQ(g->stats().invalid_samples, 0);
@@ -299,7 +299,9 @@ TEST(Gpm, CausticsFromPointSpotAndSunLights) {
       {"sun", R"({"type": "sun", "direction": [0.1, 0, -1], "irradiance": 2})"}};
   for (const auto& [name, light] : lights) {
     const Scene s = load_scene_from_string("{\"lights\": [" + std::string(light) + "]," + objects + "}", ".", name);
-    auto g = run("gpm", s, 3, photon_params(20000, 4));
+    Params p = photon_params(20000, 4);
+    p.set("recon", "l1");  // not mean-preserving: the brightness check below is one
+    auto g = run("gpm", s, 3, p);
     Film f;
     g->develop(f);
     for (auto pass_name : {pass::kCombined, pass::kPrimal, pass::kGradientX, pass::kGradientY})
@@ -318,6 +320,80 @@ TEST(Gpm, CausticsFromPointSpotAndSunLights) {
     EXPECT_NEAR(d.mean_ratio, 1.0, 0.05) << name;
     EXPECT_EQ(g->stats().invalid_samples, 0) << name;
   }
+}
+
+// The estimator's defining property (GPM eq. 2, §4.3): the gradient passes are unbiased for the
+// difference of neighbouring pixels' primal estimates, E[G_x(i)] = E[P(i+1)] - E[P(i)], with
+// the same kernel radius on both sides. One pass per seed at a fixed radius, so no radius
+// reduction couples the passes; a spot light (its emission varying across the ball) through a
+// glass ball makes the image's photons caustic chains, shifted by the manifold walk (eq. 7-10).
+// Per pixel pair, z = mean(G - dP) / its standard error over the seeds; the sum of z^2 over the
+// pairs is chi-square with one degree of freedom per pair when the gradients are right.
+// The walks get 20 projections: a walk cut off before it converges falls back to offset 0 and
+// weight 1 on its side only, which is not what the other side does for the same pair, and
+// biases the gradients (with 5 projections: 47 standard deviations at 300 seeds).
+// Checked to fail (300 seeds, 4000 photons; correct: 1.7 sd): the offset photon's power without
+// the chain's emission/BSDF ratio (133 sd), or without the walk's Jacobian (1197 sd).
+struct GradientBias {
+  double chi2 = 0;
+  int pairs = 0;
+  double walks = 0;
+};
+GradientBias gradient_bias_on_caustic(int seeds) {
+  const Scene s = load_scene_from_string(R"({
+    "lights": [{"type": "spot", "position": [0.05, 0.02, 2.0], "direction": [0, 0, -1], "spot_size": 34,
+                "spot_blend": 1, "intensity": 8}],
+    "materials": {"white": {"type": "diffuse", "color": 0.7}, "glass": {"type": "dielectric", "ior": 1.5}},
+    "objects": [
+      {"name": "floor", "type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "white"},
+      {"name": "ball", "type": "sphere", "center": [0, 0, 0.7], "radius": 0.3, "segments": 64, "material": "glass"}],
+    "camera": {"position": [0.9, -0.9, 1.0], "look_at": [0, 0, 0.0], "fov": 20, "width": 16, "height": 16}})",
+                                         ".", "caustic-gradients");
+  const int w = 16, h = 16;
+  const size_t n = static_cast<size_t>(w) * h;
+  // Per pair (x and y, summed over RGB): running sums of G - dP and of its square.
+  std::vector<double> sx(2 * n, 0.0), sxx(2 * n, 0.0);
+  GradientBias out;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    Params p = photon_params(3000, seed, 1);
+    p.set("radius", 0.03);
+    p.set("manifold_iterations", 20);
+    auto g = make_integrator("gpm", s, p);
+    g->iterate(nullptr);
+    Film f;
+    g->develop(f);
+    out.walks += g->stats().extra.count("manifold walks") ? g->stats().extra.at("manifold walks") : 0.0;
+    const auto& P = f.pass(pass::kPrimal).data;
+    const auto& GX = f.pass(pass::kGradientX).data;
+    const auto& GY = f.pass(pass::kGradientY).data;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t i = static_cast<size_t>(y) * w + x;
+        double ex = 0, ey = 0;
+        for (int c = 0; c < 3; ++c) {
+          if (x + 1 < w) ex += GX[3 * i + c] - (P[3 * (i + 1) + c] - P[3 * i + c]);
+          if (y + 1 < h) ey += GY[3 * i + c] - (P[3 * (i + w) + c] - P[3 * i + c]);
+        }
+        sx[i] += ex, sxx[i] += ex * ex;
+        sx[n + i] += ey, sxx[n + i] += ey * ey;
+      }
+  }
+  for (size_t k = 0; k < 2 * n; ++k) {
+    const double mean = sx[k] / seeds, var = (sxx[k] / seeds - mean * mean) * seeds / (seeds - 1.0);
+    if (!(var > 1e-20)) continue;  // a pair no photon reached (or the image border)
+    out.chi2 += mean * mean / (var / seeds);
+    ++out.pairs;
+  }
+  return out;
+}
+
+TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACaustic) {
+  const GradientBias b = gradient_bias_on_caustic(120);
+  const double excess = (b.chi2 - b.pairs) / std::sqrt(2.0 * b.pairs);  // standard deviations
+  std::printf("chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", b.chi2, b.pairs, excess, b.walks);
+  EXPECT_GT(b.walks, 1000.0);
+  EXPECT_GT(b.pairs, 300);
+  EXPECT_LT(excess, 4.0);
 }
 
 TEST(Gpm, RejectsBadParameters) {

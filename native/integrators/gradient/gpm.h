@@ -43,16 +43,20 @@
 // the offset gather points take the same light sample (as GPT), own visibility and BSDF, with
 // the sensor subpath's ratio in the MIS weight (the light point's area density is shared).
 //
-// Parameters (defaults; the rest as sppm.h):
-//   alpha               0.9     radius reduction (the paper's value; SPPM's default is 0.7)
-//   radius              0       initial radius; 0 = the projected pixel size: one pixel of the
-//                               camera ray differential at the distance travelled to the gather
-//                               point (§5; SPPM's default is two)
-//   photons             1000000 photons per pass (the paper's; SPPM's default is 100 000)
+// Parameters (defaults; the rest as sppm.h). alpha, photons and the initial radius are SPPM's,
+// so that the primal pass is SPPM's image with both methods' defaults; they, and L1, are the
+// ones that win at equal time at the sizes and budgets users run (docs/gradient.md, "Defaults"):
+//   alpha               0.7     radius reduction (SPPM's; the paper's 0.9 suits long megapixel runs)
+//   radius              0       initial radius; 0 = SPPM's footprint rule: two pixels of the
+//                               camera ray cone at the distance travelled to the gather point
+//                               (§5 starts from one pixel)
+//   photons             100000  photons per pass (SPPM's; the paper's 1 M suits megapixel images)
 //   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
-//   recon               "l2"    screened Poisson reconstruction: l2 or l1 (eq. 3)
+//   recon               "l1"    screened Poisson reconstruction: l1 (IRLS to a tolerance) or l2 (eq. 3)
 //   manifold_iterations 5       projections a manifold walk may take (GPM §5; Mitsuba: 20);
-//                               0 disables the walk (caustic photons primal-only, an ablation)
+//                               0 disables the walk (caustic photons primal-only, an ablation).
+//                               A walk cut off before it converges falls back on its side only,
+//                               which biases the gradients (gpm_test: ExpectedGradient...)
 //   lambda              0.2     weight of the primal image in eq. 3
 //
 // Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image for the same
