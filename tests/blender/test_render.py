@@ -28,7 +28,7 @@ def small_scene(scene):
     scene.collection.objects.link(ob)
     ob.rotation_euler = (0.5, 0.3, 0)
     scenes.add_camera(scene, (0, -6, 3), (0, 0, 0.8))
-    for name, channels, label in native.get().passes():
+    for name, _, _, _, _ in session.blender_passes():
         if name != "combined":
             setattr(scene.view_layers[0].gradphoton, "use_pass_" + name, True)
 
