@@ -147,7 +147,10 @@ class Progress:
 
     def done(self, passes, error):
         if self.rule == 'TIME':
-            return self.elapsed() >= self.seconds
+            # Stop at the pass boundary nearest the budget: a method whose passes are long (GPM:
+            # tens of seconds at 1080p) then ends as close to the budget as a method with short ones.
+            el = self.elapsed()
+            return el >= self.seconds or (passes >= 1 and el + 0.5 * el / passes >= self.seconds)
         if self.rule == 'PASSES':
             return passes >= self.passes
         return error is not None and 0 <= error <= self.target

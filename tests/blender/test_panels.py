@@ -177,3 +177,16 @@ def test_warnings_of_the_last_render_are_kept_for_the_panel(empty_scene):
     bpy.ops.render.render()
     assert any("sun angle ignored" in m for _, m in session.REPORTS), session.REPORTS
     assert ui.GRADPHOTON_PT_report.poll(type("C", (), {"engine": "GRADPHOTON"})())
+
+
+def test_time_budget_stops_at_the_pass_boundary_nearest_the_budget():
+    """Long passes (GPM at 1080p: about 25 s each here) end the render near the budget, not one
+    whole pass past it; short passes run to the budget."""
+    import time
+    from types import SimpleNamespace
+    p = session.Progress(SimpleNamespace(stop_rule='TIME', time_limit=10.0, passes=64, target_error=0.05))
+    p.start = time.perf_counter() - 9.0
+    assert p.done(1, None)          # one 9 s pass: a second would end at 18 s
+    assert not p.done(9, None)      # 1 s passes: one more ends at 10 s
+    p.start = time.perf_counter() - 10.0
+    assert p.done(100, None)
