@@ -89,3 +89,22 @@ def passes():
     """[(name, channels, label)] from the core's pass table (film.h pass::kAll)."""
     m = load()
     return [tuple(p) for p in m.passes()] if m else [("combined", 3, "Combined")]
+
+
+_info = {}  # (method, params) -> method_info, asked once per session of Blender
+
+
+def method_info(method, params=None):
+    """{'passes': [...], 'error_estimate': bool, 'unused': [...]} as the core's method declares
+    it with `params` (_native.method_info), or None without the module or for an unknown method."""
+    m = load()
+    if m is None:
+        return None
+    params = dict(params or {})
+    key = (method, tuple(sorted(params.items())))
+    if key not in _info:
+        try:
+            _info[key] = dict(m.method_info(method, params))
+        except (ValueError, RuntimeError, TypeError):  # unknown method, bad parameter
+            _info[key] = None
+    return _info[key]

@@ -13,16 +13,20 @@ import time
 import numpy as np
 
 from . import export, native
-from .properties import KNOWN_PARAMS, method_params
+from .properties import FILM_TRANSPARENT, KNOWN_PARAMS, method_info, method_params, native_value
 
 POLL_SECONDS = 0.02
 LAST = None  # the latest RenderSession (tests and the UI test inspect it)
+REPORTS = []  # [(level, message)] of the latest render, shown in the Render tab's Last Render panel
 
 
 def blender_passes():
-    """[(native name, Blender pass name, channels, chan_id, type)] for every pass of the core."""
+    """[(native name, Blender pass name, channels, chan_id, type)] for every pass of the core but
+    alpha, which is Combined's Alpha (Film > Transparent)."""
     out = []
     for name, channels, label in native.passes():
+        if name == "alpha":
+            continue
         if name == "combined":
             out.append((name, "Combined", 4, "RGBA", 'COLOR'))
         else:
@@ -30,25 +34,36 @@ def blender_passes():
     return out
 
 
-def enabled_passes(view_layer):
+def method_passes(method):
+    """Names of the passes `method` writes (its own declaration), or None when unknown."""
+    info = method_info(method)
+    return set(info["passes"]) if info else None
+
+
+def enabled_passes(view_layer, method=None):
+    """The passes to register: Combined, and each enabled pass that `method` writes."""
     settings = getattr(view_layer, "gradphoton", None)
+    produced = method_passes(method) if method else None
     return [p for p in blender_passes()
-            if p[0] == "combined" or (settings is not None and getattr(settings, "use_pass_" + p[0], False))]
+            if p[0] == "combined" or (settings is not None and getattr(settings, "use_pass_" + p[0], False)
+                                      and (produced is None or p[0] in produced))]
 
 
 def register_passes(engine, scene, view_layer):
-    for name, bl_name, channels, chan_id, kind in enabled_passes(view_layer):
+    method = scene.gradphoton.method if scene is not None and hasattr(scene, "gradphoton") else None
+    for name, bl_name, channels, chan_id, kind in enabled_passes(view_layer, method):
         engine.register_pass(scene, view_layer, bl_name, channels, chan_id, kind)
 
 
 def params_of(settings, method=None):
     """The native parameters for `method` (default: the chosen one) from the render settings."""
-    return {key: getattr(settings, prop) for key, prop in method_params(method or settings.method).items()}
+    return {key: native_value(settings, key, prop) for key, prop in method_params(method or settings.method).items()}
 
 
 # Key statistics of a method on the status line: (Stats key, short label, format). A key with
 # '*' sums every statistic it matches (fnmatch). A missing statistic is left out.
-_SHIFT_FAILURES = ("*shift failed*", "shift failures", "{:,.0f}")
+# Paths whose neighbour could not be built by a shift: normal, counted as information.
+_SHIFT_FAILURES = ("*shift failed*", "unshifted paths", "{:,.0f}")
 _ADAPTIVE_STATS = [("acceptance rate", "accept", "{:.3f}"), ("mutation size", "theta", "{:.3g}"),
                    ("V_c", "V_c", "{:.3g}")]  # 0.0004 under a distant light
 METHOD_STATS = {
@@ -84,17 +99,22 @@ def method_stats(method, stats):
     return out
 
 
-def to_blender_pixels(img, channels, window=None):
-    """(H, W, C) top-row-first float array -> (H*W, channels) bottom-row-first for foreach_set."""
+def to_blender_pixels(img, channels, window=None, alpha=None):
+    """(H, W, C) top-row-first float array -> (H*W, channels) bottom-row-first for foreach_set.
+    RGB into RGBA takes `alpha` (H, W, 1) as its Alpha, else 1."""
     if window is not None:
         x0, y0, w, h = window
         H = img.shape[0]
         img = img[H - (y0 + h):H - y0, x0:x0 + w]
+        if alpha is not None:
+            alpha = alpha[H - (y0 + h):H - y0, x0:x0 + w]
     img = img[::-1]
     c = img.shape[2]
     if channels == 4 and c == 3:
         out = np.ones(img.shape[:2] + (4,), np.float32)
         out[..., :3] = img
+        if alpha is not None:
+            out[..., 3] = alpha[::-1, :, 0]
     elif channels == c:
         out = np.ascontiguousarray(img, dtype=np.float32)
     else:
@@ -107,7 +127,7 @@ class Progress:
     """Stop rule bookkeeping: fraction done and the status line."""
 
     def __init__(self, settings):
-        self.rule = settings.stop_rule
+        self.rule = settings.stop_rule or 'TIME'  # '' when a stored rule no longer applies
         self.seconds = settings.time_limit
         self.passes = settings.passes
         self.target = settings.target_error
@@ -127,7 +147,10 @@ class Progress:
 
     def done(self, passes, error):
         if self.rule == 'TIME':
-            return self.elapsed() >= self.seconds
+            # Stop at the pass boundary nearest the budget: a method whose passes are long (GPM:
+            # tens of seconds at 1080p) then ends as close to the budget as a method with short ones.
+            el = self.elapsed()
+            return el >= self.seconds or (passes >= 1 and el + 0.5 * el / passes >= self.seconds)
         if self.rule == 'PASSES':
             return passes >= self.passes
         return error is not None and 0 <= error <= self.target
@@ -158,20 +181,28 @@ class RenderSession:
         self.engine = engine
         self.test_break = test_break or engine.test_break
         self.session = None
+        self.transparent = False    # Combined's Alpha from the core's alpha pass (Film > Transparent)
         self.cancel_latency = None  # seconds from test_break() to the loop's end
         self.updates = []           # (seconds, passes) of every image sent to Blender
         self.break_at = None        # wall clock (time.time()) when test_break() first fired
         self.finished_at = None     # wall clock when render() returned
         self.status_line = ""       # the latest status line sent to Blender
+        self.reports = REPORTS      # what this render reported, also shown in the Last Render panel
+        REPORTS.clear()
         global LAST
         LAST = self
+
+    def report(self, level, message):
+        """Blender's report (the status bar, the Info editor) and the Last Render panel."""
+        self.reports.append((level, message))
+        self.engine.report({level}, message)
 
     def render(self, depsgraph):
         engine = self.engine
         try:
             N = native.get()
         except RuntimeError as e:
-            engine.report({'ERROR'}, str(e))
+            self.report('ERROR', str(e))
             return
         scene = depsgraph.scene
         view_layer = depsgraph.view_layer
@@ -180,22 +211,28 @@ class RenderSession:
             engine.update_stats("", "Exporting scene")
             exported = export.export_scene(depsgraph, export_uvs=settings.export_uvs)
             if exported.warnings:
-                engine.report({'WARNING'}, exported.warnings.summary())
+                self.report('WARNING', exported.warnings.summary())
             engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
             nscene = exported.build(N)
-            self.session = N.Session(nscene, settings.method, params_of(settings, settings.method))
+            params = params_of(settings, settings.method)
+            params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
+            self.session = N.Session(nscene, settings.method, params)
         except (ValueError, TypeError, RuntimeError) as e:  # SceneError, ParamError: one readable line
-            engine.report({'ERROR'}, f"gradphoton: {e}")
+            self.report('ERROR', f"gradphoton: {e}")
             return
         for w in nscene.warnings:
-            engine.report({'WARNING'}, f"gradphoton scene: {w}")
+            self.report('WARNING', f"gradphoton scene: {w}")
         unused = [u for u in self.session.unused_params if u not in KNOWN_PARAMS]
         if unused:
-            engine.report({'WARNING'}, f"gradphoton: parameters not used by {settings.method}: {', '.join(unused)}")
+            self.report('WARNING', f"gradphoton: parameters not used by {settings.method}: {', '.join(unused)}")
+        if scene.render.film_transparent and FILM_TRANSPARENT in self.session.unused_params:
+            self.report('WARNING', f"gradphoton: {self.session.method} has no transparent film: "
+                                   "the background stays opaque")
+        self.transparent = scene.render.film_transparent and FILM_TRANSPARENT not in self.session.unused_params
         W, H = exported.width, exported.height
         window = exported.border
         rw, rh = (window[2], window[3]) if window else (W, H)
-        passes = enabled_passes(view_layer)
+        passes = enabled_passes(view_layer, settings.method)
         result = engine.begin_result(0, 0, rw, rh, layer=view_layer.name)
         progress = Progress(settings)
         last_update = -1.0
@@ -224,9 +261,9 @@ class RenderSession:
                     break
                 if done:
                     break
-                if settings.stop_rule == 'ERROR' and error < 0 and n >= 1:
-                    engine.report({'ERROR'}, f"gradphoton: method '{settings.method}' has no error estimate; "
-                                             "choose a time or pass stop rule")
+                if progress.rule == 'ERROR' and error < 0 and n >= 1:
+                    self.report('ERROR', f"gradphoton: method '{settings.method}' has no error estimate; "
+                                         "choose a time or pass stop rule")
                     break
         finally:
             engine.end_result(result)
@@ -250,6 +287,7 @@ class RenderSession:
     def _write(self, result, passes, window):
         images = self.session.develop()
         layer = result.layers[0]
+        alpha = images.get("alpha") if self.transparent else None
         for name, bl_name, channels, _, _ in passes:
             rp = layer.passes.find_by_name(bl_name, "")
             if rp is None:
@@ -257,4 +295,4 @@ class RenderSession:
             img = images.get(name)
             if img is None:
                 continue  # the method does not produce this pass: Blender keeps it zero
-            rp.rect.foreach_set(to_blender_pixels(img, channels, window))
+            rp.rect.foreach_set(to_blender_pixels(img, channels, window, alpha if name == "combined" else None))

@@ -1,11 +1,18 @@
-"""Panels: every gradphoton panel shares GradphotonPanel, which polls the engine; Blender's
-own panels that fit (output, dimensions, camera, light, material slots, world) get the engine
-added to their COMPAT_ENGINES, as other engines do."""
+"""Panels, registered as Cycles registers its own: every gradphoton panel shares
+GradphotonPanel, which polls the engine; Blender's shared panels opt in by adding the engine to
+their COMPAT_ENGINES (those Blender's own renderer draws, less the ones gradphoton draws itself or
+cannot honour, plus the few generic ones Blender lists only for EEVEE: material slots, surface
+nodes, world, depth of field). The Light tab has one Light panel: gradphoton's own, with the
+settings the core uses."""
+import math
+import textwrap
+
 import bpy
 
-from . import native
-from .properties import (ADAPTIVE_PHOTON_METHODS, ERROR_ESTIMATE_METHODS, GRADIENT_METHODS, MLT_METHODS,
-                         PHOTON_METHODS, param_prop)
+from . import native, session
+from .properties import (ADAPTIVE_PHOTON_METHODS, AUTO_TOGGLES, ERROR_ESTIMATE_METHODS, FILM_TRANSPARENT,
+                         GRADIENT_METHODS, METHOD_LABELS, MLT_METHODS, NOT_A_PASS_TOGGLE, PHOTON_METHODS, method_info,
+                         param_prop)
 
 ENGINE = "GRADPHOTON"
 
@@ -20,64 +27,173 @@ class GradphotonPanel:
         return context.engine in cls.COMPAT_ENGINES
 
 
+def _split(layout):
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout
+
+
+def prop_auto(layout, s, prop, text=None):
+    """`prop` with its "Auto" toggle (properties.AUTO_TOGGLES): the value greyed while automatic."""
+    auto = AUTO_TOGGLES[prop]
+    row = layout.row(heading=text or s.bl_rna.properties[prop].name, align=True)
+    row.prop(s, auto, text="Auto")
+    sub = row.row(align=True)
+    sub.active = not getattr(s, auto)
+    sub.prop(s, prop, text="")
+
+
+def reads(method, name):
+    """Whether `method` reads parameter `name` of properties.PROBE_PARAMS (its own declaration)."""
+    info = method_info(method)
+    return info is not None and name not in info["unused"]
+
+
+def method_label(method):
+    return METHOD_LABELS.get(method, (method,))[0]
+
+
 class GRADPHOTON_PT_render(GradphotonPanel, bpy.types.Panel):
     bl_label = "Rendering"
     bl_context = "render"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         if native.error():
             layout.label(text="Native module not loaded: run scripts/setup.sh", icon='ERROR')
         s = context.scene.gradphoton
         layout.prop(s, "method")
         layout.prop(s, "stop_rule")
-        col = layout.column()
-        col.prop(s, {"TIME": "time_limit", "PASSES": "passes", "ERROR": "target_error"}[s.stop_rule])
+        rule = s.stop_rule or 'TIME'
+        layout.prop(s, {"TIME": "time_limit", "PASSES": "passes", "ERROR": "target_error"}[rule])
+        layout.prop(s, "spectral_mode")
 
 
-class GRADPHOTON_PT_method(GradphotonPanel, bpy.types.Panel):
-    bl_label = "Method"
+class GRADPHOTON_PT_photons(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Photons"
     bl_context = "render"
     bl_parent_id = "GRADPHOTON_PT_render"
 
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.scene.gradphoton.method in PHOTON_METHODS
+
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         s = context.scene.gradphoton
         m = s.method
         # A parameter's property can depend on the method (properties.METHOD_SPECIFIC_PARAMS).
-        layout.prop(s, param_prop(m, "max_depth"))
-        layout.prop(s, "spectral_mode")
-        if m in PHOTON_METHODS:
-            col = layout.column(heading="Photons")
-            col.prop(s, param_prop(m, "photons"))
-            col.prop(s, param_prop(m, "alpha"))
-            col.prop(s, "initial_radius")
-            if m in ERROR_ESTIMATE_METHODS:
-                col.prop(s, "photon_hash")
-                col.prop(s, "confidence")
-            if m == "msppm":
-                col.prop(s, "msppm_path_samples")
+        if m == "msppm":
+            prop_auto(layout, s, "msppm_photons")
+        else:
+            layout.prop(s, param_prop(m, "photons"))
+        layout.prop(s, param_prop(m, "alpha"))
+        prop_auto(layout, s, "initial_radius")
+        if m in ERROR_ESTIMATE_METHODS:
+            layout.prop(s, "photon_hash")
+            layout.prop(s, "confidence")
+        if m == "msppm":
+            prop_auto(layout, s, "msppm_path_samples")
         if m in ADAPTIVE_PHOTON_METHODS:
-            col = layout.column(heading="Photon Sampler")
             if m != "sppm-adaptive":
-                col.prop(s, "photon_sampler")
-            sub = col.column()
+                layout.prop(s, "photon_sampler")
+            sub = layout.column()
             sub.active = m == "sppm-adaptive" or s.photon_sampler == "adaptive"
             sub.prop(s, "photon_chains")
-        if m in MLT_METHODS:
-            col = layout.column(heading="Metropolis")
-            for name in ("mutations", "chains", "large_step", "sigma", "primal_share", "bootstrap"):
-                col.prop(s, param_prop(m, name))
-        if m in GRADIENT_METHODS:
-            col = layout.column(heading="Reconstruction")
-            col.prop(s, param_prop(m, "recon"))
-            col.prop(s, "poisson_lambda")
-            if m == "gpm":
-                col.prop(s, "manifold_iterations")
+
+
+class GRADPHOTON_PT_metropolis(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Metropolis"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_render"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.scene.gradphoton.method in MLT_METHODS
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        s = context.scene.gradphoton
+        for name in ("mutations", "chains", "large_step", "sigma", "primal_share", "bootstrap"):
+            layout.prop(s, param_prop(s.method, name))
+
+
+class GRADPHOTON_PT_reconstruction(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Reconstruction"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_render"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.scene.gradphoton.method in GRADIENT_METHODS
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        s = context.scene.gradphoton
+        layout.prop(s, param_prop(s.method, "recon"))
+        layout.prop(s, "poisson_lambda")
+        if s.method == "gpm":
+            layout.prop(s, "manifold_iterations")
+
+
+class GRADPHOTON_PT_light_paths(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Light Paths"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        s = context.scene.gradphoton
+        layout.prop(s, param_prop(s.method, "max_depth"))
+
+
+class GRADPHOTON_PT_clamping(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Clamping"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_light_paths"
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        s = context.scene.gradphoton
+        col = layout.column(align=True)
+        col.active = reads(s.method, "clamp_direct")
+        col.prop(s, "clamp_direct")
+        col.prop(s, "clamp_indirect")
+        if not col.active:
+            layout.label(text=f"{method_label(s.method)} does not clamp", icon='INFO')
+
+
+class GRADPHOTON_PT_film(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Film"
+    bl_context = "render"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        col = layout.column()
+        col.active = reads(context.scene.gradphoton.method, FILM_TRANSPARENT)
+        col.prop(context.scene.render, "film_transparent", text="Transparent")
+        if not col.active:
+            layout.label(text=f"{method_label(context.scene.gradphoton.method)}: background stays opaque",
+                         icon='INFO')
+
+
+class GRADPHOTON_PT_report(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Last Render"
+    bl_context = "render"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and bool(session.REPORTS)
+
+    def draw(self, context):
+        col = self.layout.column(align=True)
+        region = getattr(context, "region", None)  # wrap to the panel's width
+        chars = max(20, int(region.width / (7 * context.preferences.system.ui_scale))) if region else 60
+        for level, message in session.REPORTS:
+            icon = 'ERROR' if level == 'ERROR' else 'INFO'
+            for part in message.replace("gradphoton approximated: ", "approximated: ").split("; "):
+                for i, line in enumerate(textwrap.wrap(part, chars) or [""]):
+                    col.label(text=line, icon=icon if i == 0 else 'BLANK1')
 
 
 class GRADPHOTON_PT_performance(GradphotonPanel, bpy.types.Panel):
@@ -86,9 +202,7 @@ class GRADPHOTON_PT_performance(GradphotonPanel, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         s = context.scene.gradphoton
         layout.prop(s, "threads")
         layout.prop(s, "seed")
@@ -101,19 +215,21 @@ class GRADPHOTON_PT_passes(GradphotonPanel, bpy.types.Panel):
     bl_context = "view_layer"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
+        method = context.scene.gradphoton.method
+        produced = session.method_passes(method) or set()
         col = layout.column(heading="Include", align=True)
         col.label(text="Combined is always rendered")
         s = context.view_layer.gradphoton
         for name, channels, label in native.passes():
-            if name != "combined":
+            if name in produced and name not in NOT_A_PASS_TOGGLE:
                 col.prop(s, "use_pass_" + name)
+        if len(produced - NOT_A_PASS_TOGGLE) == 0:
+            col.label(text=f"{method_label(method)} writes no other pass", icon='INFO')
 
 
 class GRADPHOTON_PT_material(GradphotonPanel, bpy.types.Panel):
-    bl_label = "gradphoton"
+    bl_label = "Settings"
     bl_context = "material"
 
     @classmethod
@@ -131,18 +247,64 @@ class GRADPHOTON_PT_material(GradphotonPanel, bpy.types.Panel):
         elif m.dispersion == 'CAUCHY':
             layout.prop(m, "cauchy_b")
         layout.prop(m, "emission_one_sided")
-        layout.prop(m, "classification")
 
 
-_classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_method, GRADPHOTON_PT_performance, GRADPHOTON_PT_passes,
-            GRADPHOTON_PT_material)
+class GRADPHOTON_LIGHT_PT_light(GradphotonPanel, bpy.types.Panel):
+    """The one Light panel: the light types the core renders, with Cycles' settings for them.
+    Settings the core does not model (soft-shadow radius, sun angle, area spread) are not drawn;
+    a non-default value is named below and reported as a warning when rendering."""
+    bl_label = "Light"
+    bl_context = "data"
 
-# Blender panels drawn for this engine too (as BlendLuxCore/appleseed do).
-_EXCLUDE = {"RENDER_PT_eevee_performance", "VIEWLAYER_PT_eevee_layer_passes_data",
-            "VIEWLAYER_PT_eevee_layer_passes_light", "VIEWLAYER_PT_eevee_layer_passes_effects"}
-_EEVEE_KEEP = {"EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_settings",
-               "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light", "DATA_PT_EEVEE_light_distance",
-               "DATA_PT_spot", "DATA_PT_light", "DATA_PT_area"}
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.light is not None
+
+    def draw(self, context):
+        layout = self.layout
+        light = context.light
+        layout.row().prop(light, "type", expand=True)
+        _split(layout)
+        col = layout.column()
+        col.prop(light, "color")
+        col.prop(light, "energy", text="Strength" if light.type == 'SUN' else "Power")
+        ignored = None
+        if light.type in {'POINT', 'SPOT'} and light.shadow_soft_size > 0:
+            ignored = "Radius ignored: hard shadows"
+        elif light.type == 'SUN' and light.angle > 0:
+            ignored = "Angle ignored: hard shadows"
+        if light.type == 'SPOT':
+            col.separator()
+            col.prop(light, "spot_size", text="Spot Size")
+            col.prop(light, "spot_blend", text="Blend")
+            col.prop(light, "show_cone")
+        elif light.type == 'AREA':
+            col.separator()
+            col.prop(light, "shape")
+            sub = col.column(align=True)
+            if light.shape in {'SQUARE', 'DISK'}:
+                sub.prop(light, "size")
+            else:
+                sub.prop(light, "size", text="Size X")
+                sub.prop(light, "size_y", text="Y")
+            if abs(light.spread - math.pi) > 1e-4:
+                ignored = "Spread ignored: 180 degrees"
+        if ignored:
+            layout.label(text=ignored, icon='INFO')
+
+
+_classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction,
+            GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping, GRADPHOTON_PT_film, GRADPHOTON_PT_performance,
+            GRADPHOTON_PT_report, GRADPHOTON_PT_passes, GRADPHOTON_PT_material, GRADPHOTON_LIGHT_PT_light)
+
+# Blender's panels for its own renderer that gradphoton draws itself (the Light panel and its
+# area and spot settings, as Cycles does) or cannot honour: a preview (no preview renders),
+# falloff curves, simplify, freestyle.
+_EXCLUDE = {"DATA_PT_light", "NODE_DATA_PT_light", "DATA_PT_area", "DATA_PT_spot", "DATA_PT_preview",
+            "DATA_PT_falloff_curve", "RENDER_PT_simplify", "RENDER_PT_freestyle", "RENDER_PT_eevee_performance"}
+# Generic panels Blender lists for EEVEE only: material slots, surface nodes, world, depth of field.
+_EEVEE_KEEP = {"EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface",
+               "DATA_PT_camera_dof", "DATA_PT_camera_dof_aperture"}
 
 
 def _blender_panels():

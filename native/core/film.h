@@ -34,6 +34,10 @@ inline constexpr std::string_view kSampleDensity = "sample_density";
 // Multisampled PPM (integrators/hybrid_ppm): the path-tracing share of `combined` after the
 // balance-heuristic weights (thesis Fig. 9.10); combined minus it is the density estimation.
 inline constexpr std::string_view kPathTracing = "path_tracing";
+// Coverage of the camera samples with a transparent film (parameter film_transparent): 0 where
+// every camera ray escaped to the world, 1 where every one hit the scene; `combined` then holds
+// no background (premultiplied). Blender takes it as the Alpha of Combined, not a pass of its own.
+inline constexpr std::string_view kAlpha = "alpha";
 
 struct Info {
   std::string_view name;
@@ -53,6 +57,7 @@ inline constexpr Info kAll[] = {
     {kSpectralGradient, 1, "Spectral Gradient"},
     {kSampleDensity, 1, "Sample Density"},
     {kPathTracing, 3, "Path Tracing Share"},
+    {kAlpha, 1, "Alpha"},
 };
 }  // namespace pass
 

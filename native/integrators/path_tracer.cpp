@@ -10,6 +10,9 @@ namespace gp {
 
 PathTracer::PathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
+      film_transparent_(params.get<bool>("film_transparent", false)),
+      clamp_direct_(params.get<float>("clamp_direct", 0.0f)),
+      clamp_indirect_(params.get<float>("clamp_indirect", 0.0f)),
       max_depth_(params.get<int>("max_depth", 32)),
       rr_depth_(params.get<int>("rr_depth", 3)),
       threads_(params.get<int>("threads", 0)),
@@ -19,9 +22,17 @@ PathTracer::PathTracer(const Scene& scene, const Params& params)
       height_(scene.camera.height),
       estimate_(std::max(1, width_), std::max(1, height_)) {  // sizes checked just below
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
+  if (!(clamp_direct_ >= 0) || !(clamp_indirect_ >= 0))
+    throw ParamError("parameters 'clamp_direct' and 'clamp_indirect' must be >= 0 (0 = no clamping)");
 }
 
-RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
+RGB PathTracer::clamped(const RGB& c, bool direct) const {
+  const float limit = direct ? clamp_direct_ : clamp_indirect_;
+  const float sum = std::abs(c.r) + std::abs(c.g) + std::abs(c.b);
+  return limit > 0 && sum > limit ? c * (limit / sum) : c;
+}
+
+RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
   const LightSet& lights = scene_.light_set();
   RGB L(0.0f), beta(1.0f);
   bool specular_bounce = false;
@@ -32,11 +43,16 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
     const auto hit = scene_.intersect(ray);
 
     // ---- Emission found by the ray: full weight for camera and specular rays, MIS otherwise
+    // Emission found at depth 0 or 1 is direct light (Cycles' clamping), deeper is indirect.
     if (!hit) {
+      if (depth == 0 && film_transparent_) {
+        if (escaped) *escaped = true;
+        break;
+      }
       const RGB Le = lights.environment_radiance(ray.d);
       if (!Le.is_black()) {
         const float w = (depth == 0 || specular_bounce) ? 1.0f : power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
-        L += beta * Le * w;
+        L += clamped(beta * Le * w, depth <= 1);
       }
       break;
     }
@@ -46,7 +62,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
         const float w = (depth == 0 || specular_bounce)
                             ? 1.0f
                             : power_heuristic(prev_pdf, lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
-        L += beta * Le * w;
+        L += clamped(beta * Le * w, depth <= 1);
       }
     }
     if (depth + 1 >= max_depth_) break;
@@ -68,7 +84,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
           const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
           if (!blocked) {
             const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, bsdf.pdf(wo, wi));
-            L += beta * f * ls->L * (w / ls->pdf);
+            L += clamped(beta * f * ls->L * (w / ls->pdf), depth == 0);
           }
         }
       }
@@ -95,10 +111,15 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays) const {
 void PathTracer::iterate(ProgressSink* sink) {
   estimate_.run_pass(seed_, tile_size_, threads_, sink, stats_,
                      [this](Rng& rng, Vec2 film, Vec2 lens, RayCounts& rays) {
-                       return Li(scene_.camera.generate_ray(film, lens), rng, rays);
+                       bool escaped = false;
+                       const RGB L = Li(scene_.camera.generate_ray(film, lens), rng, rays, &escaped);
+                       return PixelSample{L, escaped ? 0.0f : 1.0f};
                      });
 }
 
-void PathTracer::develop(Film& film) const { estimate_.develop(film, pass::kCombined); }
+void PathTracer::develop(Film& film) const {
+  estimate_.develop(film, pass::kCombined);
+  if (film_transparent_) estimate_.develop_alpha(film);
+}
 
 }  // namespace gp

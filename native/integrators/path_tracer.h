@@ -9,8 +9,13 @@
 //   seed       0      random seed
 //   threads    0      worker threads (0 = all cores)
 //   tile_size  16     pixels per tile edge (scheduling only; does not change the image)
+//   film_transparent  false  camera rays that escape see no background; writes pass alpha
+//   clamp_direct      0      largest sum of R+G+B one direct-light contribution may add (0 = off)
+//   clamp_indirect    0      the same for indirect light (0 = off); as Cycles' Light Paths >
+//                            Clamping: direct is emission seen by the camera and light reaching
+//                            the first surface (NEE there, or emission hit by its BSDF ray)
 //
-// Passes: combined.
+// Passes: combined; alpha with film_transparent.
 #pragma once
 
 #include <atomic>
@@ -29,11 +34,17 @@ class PathTracer : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 
-  // Radiance along one camera ray (exposed for tests); counts the rays it traces.
-  RGB Li(Ray ray, Rng& rng, RayCounts& rays) const;
+  // Radiance along one camera ray (exposed for tests); counts the rays it traces. With
+  // film_transparent, a camera ray that escapes gives 0 and sets *escaped.
+  RGB Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped = nullptr) const;
 
  private:
+  // A contribution clamped as Cycles does (sum of |R|+|G|+|B| at most the limit; 0 = off).
+  RGB clamped(const RGB& c, bool direct) const;
+
   const Scene& scene_;
+  bool film_transparent_;
+  float clamp_direct_, clamp_indirect_;
   int max_depth_, rr_depth_, threads_, tile_size_;
   uint64_t seed_;
   int width_, height_;

@@ -3,11 +3,14 @@
 // Rng::for_key(seed, pixel, pass) (so the image does not depend on the thread count), a
 // box-filtered film position and a lens sample, and averages what the estimator returns.
 // NaN/Inf estimates are discarded and counted: they never reach a pass.
+// An estimator that returns a PixelSample also reports the sample's alpha (coverage), averaged
+// into develop_alpha(); one that returns RGB counts as covering its pixel.
 #pragma once
 
 #include <atomic>
 #include <chrono>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "core/film.h"
@@ -17,11 +20,18 @@
 
 namespace gp {
 
+// One camera sample: its radiance and its alpha (0 where the camera ray escaped to a transparent
+// background, else 1).
+struct PixelSample {
+  RGB L;
+  float alpha = 1.0f;
+};
+
 class PixelEstimate {
  public:
   PixelEstimate(int width, int height)
       : width_(width), height_(height), sum_(static_cast<size_t>(width) * height * 3, 0.0),
-        samples_(static_cast<size_t>(width) * height, 0) {}
+        samples_(static_cast<size_t>(width) * height, 0), alpha_(static_cast<size_t>(width) * height, 0.0) {}
 
   // One pass: estimate(rng, film, lens, rays) -> RGB per pixel. Updates `stats` (passes,
   // paths, rays, shadow rays, invalid samples, seconds). A cancelled pass leaves the pixels it
@@ -41,7 +51,15 @@ class PixelEstimate {
             for (int x = tile.x0; x < tile.x1; ++x) {
               const size_t pixel = static_cast<size_t>(y) * width_ + x;
               auto [rng, film, lens] = start_pixel(seed, pixel, pass, x, y);
-              const RGB L = estimate(rng, film, lens, tile_rays);
+              RGB L;
+              const auto sample = estimate(rng, film, lens, tile_rays);
+              if constexpr (std::is_same_v<std::decay_t<decltype(sample)>, PixelSample>) {
+                L = sample.L;
+                alpha_[pixel] += sample.alpha;
+              } else {
+                L = sample;
+                alpha_[pixel] += 1.0;
+              }
               ++tile_paths;
               ++samples_[pixel];
               if (!L.is_finite()) {
@@ -76,10 +94,18 @@ class PixelEstimate {
     }
   }
 
+  // The mean alpha of every pixel's samples into pass::kAlpha of `film` (after develop()).
+  void develop_alpha(Film& film) const {
+    Pass& p = film.add_pass(pass::kAlpha, 1);
+    for (size_t i = 0; i < samples_.size(); ++i)
+      p.data[i] = samples_[i] ? static_cast<float>(alpha_[i] / samples_[i]) : 0.0f;
+  }
+
  private:
   int width_, height_;
   std::vector<double> sum_;        // RGB sums per pixel
   std::vector<uint32_t> samples_;  // samples per pixel
+  std::vector<double> alpha_;      // alpha sums per pixel
 };
 
 }  // namespace gp

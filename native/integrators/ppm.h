@@ -19,7 +19,9 @@
 //   chains              64      Markov chains of the adaptive sampler
 //   seed 0, threads 0, tile_size 16 as for "pt"
 //
-// Passes: combined, error, radius, photon_count.
+//   film_transparent    false   camera rays that escape see no background; writes pass alpha
+//
+// Passes: combined, error, radius, photon_count; alpha with film_transparent.
 #pragma once
 
 #include "integrators/progressive_photon.h"
@@ -28,7 +30,9 @@ namespace gp {
 
 class Ppm : public ProgressivePhotonMapping {
  public:
-  Ppm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, false, false) {}
+  Ppm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, false, false) {
+    read_film_transparent(params);
+  }
   std::string name() const override { return "ppm"; }
 };
 

@@ -54,6 +54,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});
   pass_direct_.assign(n, RGB(0.0f));
+  pass_covered_.assign(n, 1);
   first_r_.assign(n, 0.0f);
   gather_m_.assign(n, 0.0f);
   gather_lap_.assign(n, 0.0f);
@@ -108,6 +109,7 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
               path.vp.material = -1;
             }
             pass_direct_[pixel] = path.Ld;
+            pass_covered_[pixel] = path.escaped ? 0 : 1;
             vp_[pixel] = path.vp;
             first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length) : 0.0f;
           }
@@ -226,6 +228,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         s.tau[c] = (s.tau[c] + phi[c]) * u.ratio;  // thesis eq. 5.12 / 7.5
         s.direct[c] += Ld[c];
       }
+      s.coverage += pass_covered_[i];
       s.lap = (s.lap + lap_j) * u.ratio;  // thesis eq. 6.32: derivatives scale like the flux
       s.n = u.n_new;
       s.r2 = u.r2_new;
@@ -303,12 +306,15 @@ void ProgressivePhotonMapping::develop(Film& film) const {
   Pass& error = film.add_pass(pass::kError, 1);
   Pass& radius = film.add_pass(pass::kRadius, 1);
   Pass& count = film.add_pass(pass::kPhotonCount, 1);
+  Pass* alpha = film_transparent_ ? &film.add_pass(pass::kAlpha, 1) : nullptr;
+  const double passes = static_cast<double>(std::max<int64_t>(stats_.passes, 1));
   for (size_t i = 0; i < px_.size(); ++i) {
     const RGB L = pixel_radiance(i);
     for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = L[c];
     error.data[i] = error_[i];
     radius.data[i] = static_cast<float>(std::sqrt(px_[i].r2));
     count.data[i] = static_cast<float>(px_[i].n);
+    if (alpha) alpha->data[i] = static_cast<float>(px_[i].coverage / passes);
   }
 }
 

@@ -91,6 +91,7 @@ class ProgressivePhotonMapping : public Integrator {
     double tau[3] = {0, 0, 0};     // flux within R_i, not divided by the photons emitted
     double lap = 0;                // smooth-kernel Laplacian of the luminance flux (§6.4)
     double direct[3] = {0, 0, 0};  // sum over passes of the eye path's own light (Le, NEE)
+    double coverage = 0;           // passes whose camera ray hit the scene (film_transparent)
     ErrorStats err;                // bias-corrected per-pass samples (eq. 6.22)
   };
 
@@ -101,6 +102,7 @@ class ProgressivePhotonMapping : public Integrator {
     RGB Ld{0.0f};           // light the path saw itself: emission before any photon could, NEE
     VisiblePoint vp;        // the measurement point (material -1: none)
     float path_length = 0;  // distance travelled to it (initial radius)
+    bool escaped = false;   // the camera ray left the scene with film_transparent: no background
   };
   // SPPM's camera path: through specular and glossy vertices by BSDF sampling (Russian roulette
   // from rr_depth) to the first photon-diffuse vertex, where it takes NEE when photons skip
@@ -110,6 +112,11 @@ class ProgressivePhotonMapping : public Integrator {
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
+  // Reads parameter film_transparent (PPM, SPPM: their RGB eye pass writes the alpha pass);
+  // spectral photons leave it unread, so it is reported as unused there.
+  void read_film_transparent(const Params& params) {
+    if (!spectral_) film_transparent_ = params.get<bool>("film_transparent", false);
+  }
 
   // ---- Spectral photons (progressive_photon_spectral.cpp) ----
   // One set of wavelengths per pass, shared by its eye paths and photons.
@@ -161,6 +168,8 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<Photon> photons_;        // this pass only; cleared (capacity kept) every pass
   std::vector<VisiblePoint> vp_;
   std::vector<RGB> pass_direct_;       // this pass's eye-path light per pixel
+  std::vector<uint8_t> pass_covered_;  // this pass's camera ray hit the scene (1) or escaped (0)
+  bool film_transparent_ = false;
   std::vector<float> first_r_;         // footprint radius proposed by the eye pass
   std::vector<PixelState> px_;
   std::vector<float> gather_m_, gather_lap_;
@@ -183,7 +192,8 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     // Emission seen along the camera path: only at depth 0 or after specular/glossy bounces,
     // which no photon covers, so nothing is counted twice.
     if (!hit) {
-      out.Ld += beta * lights.environment_radiance(ray.d);
+      if (depth == 0 && film_transparent_) out.escaped = true;
+      else out.Ld += beta * lights.environment_radiance(ray.d);
       break;
     }
     out.path_length += hit->t;

@@ -29,6 +29,7 @@
 //   spectral            auto    auto | rgb | spectral (spectral_pt.h use_spectral): spectral
 //                               photons; auto only on scenes with a dispersive material
 //   wavelengths         4       wavelengths per pass in spectral mode (1..8)
+//   film_transparent    false   camera rays that escape see no background; writes pass alpha
 //
 // Spectral photons (progressive_photon_spectral.cpp, docs/spectral.md): each pass samples one
 // set of wavelengths (hero + rotations; the heroes of successive passes stratified), shared by
@@ -36,7 +37,8 @@
 // each pixel's gathered flux is converted to RGB before the RGB statistics. Not with the
 // adaptive photon sampler (sppm-adaptive stays RGB).
 //
-// Passes: combined, error, radius, photon_count.
+// Passes: combined, error, radius, photon_count; alpha with film_transparent (RGB photons only;
+// spectral photons leave the parameter unread).
 #pragma once
 
 #include "integrators/progressive_photon.h"
@@ -48,7 +50,9 @@ class Sppm : public ProgressivePhotonMapping {
   // default_sampler "adaptive" makes the method alias "sppm-adaptive" (adaptive_photons.h).
   Sppm(const Scene& scene, const Params& params, const std::string& default_sampler = "uniform")
       : ProgressivePhotonMapping(scene, params, true, true, default_sampler, true),
-        name_(default_sampler == "uniform" ? "sppm" : "sppm-adaptive") {}
+        name_(default_sampler == "uniform" ? "sppm" : "sppm-adaptive") {
+    read_film_transparent(params);
+  }
   std::string name() const override { return name_; }
 
  private:

@@ -125,6 +125,36 @@ class Session {
   std::vector<std::string> unused_;
 };
 
+// What a method produces and reads, asked of the method itself: it is built on a one-pixel
+// scene (a quad under an emissive quad) with `params` and developed before any pass. The passes its develop()
+// writes, whether it has an error estimate (estimated_error() >= 0) and which of `params` it
+// left unread. Cheap: no pass runs.
+py::dict method_info(const std::string& method, const py::dict& params) {
+  static const char* kProbeScene = R"({
+    "camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 1, "height": 1},
+    "materials": {"grey": {"type": "diffuse", "color": 0.5},
+                  "lamp": {"type": "diffuse", "color": 0, "emission": 1, "strength": 1, "two_sided": true}},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "grey"},
+                {"type": "quad", "center": [0, 0, 2], "u": [1, 0, 0], "v": [0, 1, 0], "material": "lamp"}]})";
+  Params p = params_from_dict(params);
+  std::vector<std::string> passes;
+  bool error_estimate = false;
+  {
+    py::gil_scoped_release release;
+    const Scene scene = load_scene_from_string(kProbeScene, ".", "<method_info>");
+    auto integrator = make_integrator(method, scene, p);
+    Film film;
+    integrator->develop(film);
+    for (const auto& [name, pass] : film.passes()) passes.push_back(name);
+    error_estimate = integrator->estimated_error() >= 0;
+  }
+  py::dict out;
+  out["passes"] = passes;
+  out["error_estimate"] = error_estimate;
+  out["unused"] = p.unused();
+  return out;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_native, m) {
@@ -138,6 +168,9 @@ PYBIND11_MODULE(_native, m) {
       out.append(py::make_tuple(std::string(p.name), p.channels, std::string(p.label)));
     return out;
   }, "Every pass any method may produce: [(name, channels, label)] (film.h pass::kAll)");
+  m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
+        "What a method declares by running: {'passes': names its develop() writes with these params, "
+        "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read}");
   m.def("read_exr", [](const std::string& path) {
     Film film;
     {

@@ -27,7 +27,7 @@ def render_both(scene, out_dir, case, samples=32):
     scene.gradphoton.method = 'pt'
     scene.gradphoton.stop_rule = 'PASSES'
     scene.gradphoton.passes = samples
-    scene.gradphoton.max_depth = 6
+    scene.gradphoton.max_bounces = 4  # the core's max_depth 6
     ours = mean_rgb(scenes.render_to_exr(scene, os.path.join(out_dir, f"{case}_gradphoton.exr")))
     return ours, cycles
 

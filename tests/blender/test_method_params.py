@@ -50,7 +50,7 @@ def test_method_defaults_are_the_cores(empty_scene, method):
     same image as leaving them to the core (to float32 rounding: Blender's FloatProperty holds
     0.6 as 0.6000000238)."""
     s = empty_scene.gradphoton
-    sent = {name: getattr(s, prop) for name, prop in SPECIFIC[method].items()}
+    sent = {name: properties.native_value(s, name, prop) for name, prop in SPECIFIC[method].items()}
     base = {"threads": 1, "photons": 2000} if method in ("sppm", "sppm-adaptive") else {"threads": 1}
     N = native.get()
     scene = core_scene(12, 9)
@@ -78,7 +78,7 @@ def test_gdmlt_chains_reach_the_core_and_the_status_line(empty_scene):
     stats = last.session.stats
     assert stats["chains"] == 5
     assert "chains 5" in last.status_line and "accept " in last.status_line, last.status_line
-    assert "large " in last.status_line and "shift failures" in last.status_line
+    assert "large " in last.status_line and "unshifted paths" in last.status_line
     assert 0.3 < stats["large-step share"] < 0.7  # large_step 0.5 reached the chains
 
 
@@ -103,21 +103,18 @@ def test_photon_sampler_choice_for_sppm(empty_scene):
 def test_msppm_status_line_and_defaults(empty_scene):
     last = render(empty_scene, "msppm")
     assert "PT share " in last.status_line and "points/px " in last.status_line, last.status_line
-    # one photon per pixel by default (msppm_photons = 0), 2 passes
+    # one photon per pixel by default (Photons: Auto, the core's 0), 2 passes
     assert last.session.stats["photons traced"] == 2 * 32 * 24
     # Path Samples reaches the core: a fixed count per pixel and pass instead of §9.5's
-    try:
-        last = render(empty_scene, "msppm", msppm_path_samples=3)
-        assert last.session.stats["path tracing samples per pixel and pass"] == pytest.approx(3.0)
-    finally:  # the scene outlives the test
-        empty_scene.gradphoton.msppm_path_samples = 0
+    last = render(empty_scene, "msppm", use_auto_msppm_path_samples=False, msppm_path_samples=3)
+    assert last.session.stats["path tracing samples per pixel and pass"] == pytest.approx(3.0)
 
 
 def test_status_line_never_fails_on_missing_or_odd_statistics():
     assert session.method_stats("gdmlt", {}) == []
     assert session.method_stats("no-such-method", {"chains": 3}) == []
     assert session.method_stats("gdmlt", {"chains": "x", "acceptance rate": 0.25}) == ["accept 0.250"]
-    assert session.method_stats("gpt", {"shift failed: a": 2, "sensor shift failed: b": 3}) == ["shift failures 5"]
+    assert session.method_stats("gpt", {"shift failed: a": 2, "sensor shift failed: b": 3}) == ["unshifted paths 5"]
 
 
 def _compositor_file_output(scene, out_dir, names):
@@ -154,11 +151,11 @@ def test_every_pass_of_the_method_reaches_the_compositor(empty_scene, out_dir, m
     probe.iterate()
     produced = sorted(probe.develop())
     labels = {n: label for n, _, label in N.passes()}
+    s = empty_scene.gradphoton
+    s.method, s.passes, s.photons_per_pass = method, 3, 5000  # the Render Layers node shows its passes
     empty_scene.view_layers[0].update_render_passes()
     try:
         path = _compositor_file_output(empty_scene, out_dir, [(n, labels[n]) for n in produced])
-        s = empty_scene.gradphoton
-        s.method, s.passes, s.photons_per_pass = method, 3, 5000
         bpy.ops.render.render()
         exr = N.read_exr(path)
     finally:  # the scene outlives the test: leave no compositor behind
@@ -182,6 +179,14 @@ class _Layout:
     def column(self, **kwargs):
         return _Layout(self.drawn)
 
+    row = column
+
+    def separator(self):
+        pass
+
+    def operator(self, *args, **kwargs):
+        pass
+
     def prop(self, data, name, **kwargs):
         assert hasattr(data, name), name
         self.drawn.append(name)
@@ -195,16 +200,22 @@ class _Layout:
                "mlt_reconstruction", "poisson_lambda"}, {"photon_chains", "photon_sampler", "reconstruction"}),
     ("sppm", {"photon_sampler", "photon_chains", "photons_per_pass", "alpha", "confidence"}, {"mlt_chains"}),
     ("sppm-adaptive", {"photon_chains"}, {"photon_sampler", "mlt_chains"}),
-    ("msppm", {"msppm_alpha", "msppm_photons", "msppm_max_depth", "msppm_path_samples"},
-     {"alpha", "photons_per_pass", "max_depth", "confidence", "photon_hash", "photon_chains"}),
+    ("msppm", {"msppm_alpha", "msppm_photons", "use_auto_msppm_photons", "msppm_max_bounces", "msppm_path_samples"},
+     {"alpha", "photons_per_pass", "max_bounces", "confidence", "photon_hash", "photon_chains"}),
     ("gpm", {"gpm_alpha", "reconstruction", "manifold_iterations"}, {"alpha", "photon_sampler", "mlt_chains"}),
-    ("pt", {"max_depth"}, {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha", "manifold_iterations"}),
+    ("pt", {"max_bounces", "clamp_direct", "film_transparent"},
+     {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha", "manifold_iterations"}),
 ])
-def test_method_panel_shows_the_methods_own_parameters(empty_scene, method, shown, hidden):
+def test_method_panels_show_the_methods_own_parameters(empty_scene, method, shown, hidden):
+    """What the Render tab's panels that poll true for the method draw (subpanels by group)."""
     from types import SimpleNamespace
-    from gradphoton.ui import GRADPHOTON_PT_method
+    from gradphoton import ui
     empty_scene.gradphoton.method = method
-    panel = SimpleNamespace(layout=_Layout())
-    GRADPHOTON_PT_method.draw(panel, SimpleNamespace(scene=empty_scene))
-    drawn = set(panel.layout.drawn)
+    context = SimpleNamespace(scene=empty_scene, engine="GRADPHOTON")
+    drawn = set()
+    for cls in ui._classes:
+        if getattr(cls, "bl_context", "") == "render" and cls.poll(context):
+            panel = SimpleNamespace(layout=_Layout())
+            cls.draw(panel, context)
+            drawn |= set(panel.layout.drawn)
     assert shown <= drawn and not hidden & drawn, drawn

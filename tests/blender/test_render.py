@@ -28,7 +28,7 @@ def small_scene(scene):
     scene.collection.objects.link(ob)
     ob.rotation_euler = (0.5, 0.3, 0)
     scenes.add_camera(scene, (0, -6, 3), (0, 0, 0.8))
-    for name, channels, label in native.get().passes():
+    for name, _, _, _, _ in session.blender_passes():
         if name != "combined":
             setattr(scene.view_layers[0].gradphoton, "use_pass_" + name, True)
 
@@ -46,9 +46,12 @@ def test_batch_render_writes_every_registered_pass(empty_scene, out_dir):
     r = batch_render(blend, str(out_dir / "frame_"), "-f", "1")
     assert r.returncode == 0, r.stdout + r.stderr
     exr = native.get().read_exr(str(out_dir / "frame_0001.exr"))
-    expected = {f"ViewLayer.{bl}" for _, bl, _, _, _ in session.enabled_passes(empty_scene.view_layers[0])}
+    vl, method = empty_scene.view_layers[0], empty_scene.gradphoton.method
+    expected = {f"ViewLayer.{bl}" for _, bl, _, _, _ in session.enabled_passes(vl, method)}
     got = {k for k in exr if not k.endswith(".A")}
     assert got == expected, (got, expected)
+    # Every toggle is on, but only the passes the method writes are registered.
+    assert len(expected) < len(session.enabled_passes(vl)) and "ViewLayer.Gradient X" not in got
     combined = exr["ViewLayer.Combined"]
     assert combined.shape == (24, 32, 3) and combined.mean() > 0.01
     # Blender's rows run bottom to top: the floor (bright) fills the bottom, sky (black) the top
@@ -86,10 +89,14 @@ def test_compositor_render_layers_node_shows_the_passes(empty_scene):
     small_scene(empty_scene)
     empty_scene.use_nodes = True
     node = empty_scene.node_tree.nodes.new("CompositorNodeRLayers")
-    empty_scene.view_layers[0].update_render_passes()
-    outputs = {o.name for o in node.outputs if o.enabled}
-    for _, bl_name, _, _, _ in session.enabled_passes(empty_scene.view_layers[0]):
-        assert ("Image" if bl_name == "Combined" else bl_name) in outputs, outputs
+    vl = empty_scene.view_layers[0]
+    for method in ("pt", "gpt"):  # every toggle is on: each method shows the passes it writes
+        empty_scene.gradphoton.method = method
+        vl.update_render_passes()
+        outputs = {o.name for o in node.outputs if o.enabled}
+        produced = {("Image" if bl == "Combined" else bl) for _, bl, _, _, _ in session.enabled_passes(vl, method)}
+        assert produced <= outputs, outputs
+        assert ("Gradient X" in outputs) == (method == "gpt"), outputs
 
 
 def test_pass_names_are_the_cores():
@@ -97,10 +104,10 @@ def test_pass_names_are_the_cores():
     toggles are those passes but Combined."""
     core = native.get().passes()
     assert [(n, c) for n, _, c, _, _ in session.blender_passes()] == [(n, 4 if n == "combined" else c)
-                                                                       for n, c, _ in core]
+                                                                       for n, c, _ in core if n != "alpha"]
     toggles = {p for p in bpy.types.ViewLayer.bl_rna.properties["gradphoton"].fixed_type.properties.keys()
                if p.startswith("use_pass_")}
-    assert toggles == {"use_pass_" + n for n, _, _ in core if n != "combined"}
+    assert toggles == {"use_pass_" + n for n, _, _ in core if n not in ("combined", "alpha")}
     from gradphoton import properties
     assert [i[0] for i in properties.method_items(None, None)] == list(native.get().methods())
 

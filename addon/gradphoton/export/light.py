@@ -9,7 +9,8 @@ lit by these renders equally bright in both (tested against Cycles in tests/blen
                object's scale changes the area as in Cycles)
 
 Soft-shadow radii (point/spot radius, sun angle) and area-light spread are not modelled: the
-core's point, spot and sun lights are delta lights; each use is a counted warning.
+core's point, spot and sun lights are delta lights; each use (a radius, a sun angle above 0,
+a spread below 180 degrees) is a counted warning.
 """
 import math
 
@@ -42,6 +43,8 @@ def add_light(out, inst, mats, warnings):
                       "spot_blend": min(1.0, max(0.0, la.spot_blend))})
         out.description["lights"].append(d)
     elif la.type == 'SUN':
+        if la.angle > 0:
+            warnings.add("sun angle ignored (hard shadows)", ob.name)
         out.description["lights"].append(
             {"type": "sun", "name": name, "direction": _dir(m), "strength": max(0.0, la.energy), "color": color})
     elif la.type == 'AREA':
