@@ -36,15 +36,7 @@ Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(sc
   photons_per_pass_ = params.get<int64_t>("photons", 1000000);  // the paper's 1 M (§5), not SPPM's 100 k
   if (photons_per_pass_ < 1) throw ParamError("parameter 'photons' must be at least 1");
   if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
-  const std::string recon = params.get<std::string>("recon", "l2");
-  try {
-    recon_.norm = parse_recon_norm(recon);
-  } catch (const std::invalid_argument& e) {
-    throw ParamError(std::string("parameter 'recon': ") + e.what());
-  }
-  recon_.lambda = params.get<double>("lambda", 0.2);
-  if (!(recon_.lambda > 0)) throw ParamError("parameter 'lambda' must be > 0");
-  recon_.threads = threads_;
+  recon_ = gradient_recon_options(params, "gpm", threads_);
   manifold_iterations_ = params.get<int>("manifold_iterations", 5);  // GPM §5
   if (manifold_iterations_ < 0) throw ParamError("parameter 'manifold_iterations' must be >= 0");
   const size_t n = px_.size();
