@@ -12,6 +12,7 @@ PACKAGES=(
   libcli11-dev libfmt-dev libgtest-dev libbenchmark-dev
   python3-dev python3-numpy python3-matplotlib python3-pytest
   blender xvfb xauth xdotool libgl1-mesa-dri
+  slurm-wlm munge
 )
 
 missing=()

@@ -266,8 +266,20 @@ class RenderSession:
                                          "choose a time or pass stop rule")
                     break
         finally:
+            self._stamp()
             engine.end_result(result)
             self.finished_at = time.time()
+
+    def _stamp(self):
+        """The run's record (gradphoton.method, .seed, .passes, ...: distributed/run_info.h) into
+        the render result's metadata, which Blender writes into the header of the EXR it saves:
+        the files `gradphoton merge` combines."""
+        try:
+            full = self.engine.get_result()
+            for key, value in self.session.run_info.items():
+                full.stamp_data_add_field(key, value)
+        except (AttributeError, RuntimeError, TypeError) as e:  # never fail the render for metadata
+            self.engine.report({'WARNING'}, f"gradphoton: run metadata not recorded: {e}")
 
     def _iterate_cancellable(self):
         """Runs one pass; returns the time test_break() fired, or None."""

@@ -1,4 +1,5 @@
-// The `gradphoton` command: render, diff, info, bench, reconstruct, bench-reconstruct. Argument parsing by CLI11.
+// The `gradphoton` command: render, merge, diff, info, bench, reconstruct, bench-reconstruct. Argument parsing by
+// CLI11.
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <unistd.h>
@@ -7,6 +8,8 @@
 #include <chrono>
 #include <csignal>
 #include <filesystem>
+#include <functional>
+#include <map>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -14,6 +17,8 @@
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "distributed/merge.h"
+#include "distributed/run_info.h"
 #include "integrators/integrator.h"
 #include "integrators/photon_tracer.h"
 #include "integrators/spectral/spectral_pt.h"
@@ -35,11 +40,16 @@ void on_sigint(int) {
   if (ProgressSink* s = g_sink.load()) s->cancel_flag = true;  // finish with the image so far
 }
 
-// Progress bar on stderr (only when it is a terminal) and checkpoint snapshots.
+using Attributes = std::map<std::string, std::string>;
+
+// Progress bar on stderr (only when it is a terminal) and checkpoint snapshots, each with the
+// run's record so far (`attributes`).
 class CliProgress : public ProgressSink {
  public:
-  CliProgress(const Integrator& integ, std::vector<double> checkpoints, std::string out)
-      : integ_(integ), checkpoints_(std::move(checkpoints)), out_(std::move(out)), tty_(isatty(2)) {
+  CliProgress(const Integrator& integ, std::vector<double> checkpoints, std::string out,
+              std::function<Attributes()> attributes)
+      : integ_(integ), checkpoints_(std::move(checkpoints)), out_(std::move(out)),
+        attributes_(std::move(attributes)), tty_(isatty(2)) {
     std::sort(checkpoints_.begin(), checkpoints_.end());
   }
   void on_pass(const Stats& s, double fraction) override {
@@ -47,7 +57,7 @@ class CliProgress : public ProgressSink {
       Film film;
       integ_.develop(film);
       const std::string path = checkpoint_path(checkpoints_[next_]);
-      write_exr(path, film);
+      write_exr(path, film, attributes_());
       written.push_back(path);
       ++next_;
     }
@@ -74,6 +84,7 @@ class CliProgress : public ProgressSink {
   std::vector<double> checkpoints_;
   size_t next_ = 0;
   std::string out_;
+  std::function<Attributes()> attributes_;
   bool tty_;
   std::chrono::steady_clock::time_point last_{};
 };
@@ -175,7 +186,8 @@ int run_render(const RenderArgs& a) {
   stop.passes = a.passes;
   stop.target_error = a.target_error;
   if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0) stop.passes = 16;
-  CliProgress progress(*integrator, a.checkpoints, a.out);
+  auto record = [&] { return to_attributes(make_run_info(integrator->name(), params, integrator->stats(), scene)); };
+  CliProgress progress(*integrator, a.checkpoints, a.out, record);
   g_sink = &progress;
   std::signal(SIGINT, on_sigint);
   run_progressive(*integrator, stop, &progress);
@@ -184,7 +196,7 @@ int run_render(const RenderArgs& a) {
 
   Film film;
   integrator->develop(film);
-  write_exr(a.out, film);
+  write_exr(a.out, film, record());
   const Stats& s = integrator->stats();
   fmt::print("method     {}\n", integrator->name());
   if (a.method == "pt" && integrator->name() != "pt") {
@@ -255,6 +267,33 @@ int run_diff(const std::string& a_path, const std::string& ref_path, const std::
     for (float v : d.per_pixel_rel_se) vmax = std::max(vmax, v);
     write_false_color_png(png, d.per_pixel_rel_se, a.width(), a.height(), vmax > 0 ? vmax : 1.0f);
     fmt::print("error png  {} (scale 0..{:.3g})\n", png, vmax);
+  }
+  return 0;
+}
+
+// ---- merge ----
+int run_merge(const std::vector<std::string>& inputs, const std::string& out, const std::string& png, int threads) {
+  const MergeResult m = merge_files(inputs, threads);
+  for (const auto& w : m.warnings) fmt::print(stderr, "warning: {}\n", w);
+  make_parent_dirs(out);
+  Attributes record = to_attributes(m.run);
+  record["gradphoton.merged_from"] = nlohmann::json(inputs).dump();
+  write_exr(out, m.film, record);
+  fmt::print("method     {}\nruns       {}\npasses     {}\npaths      {}\nseconds    {:.3f}\n", m.run.method, m.run.runs,
+             m.run.passes, m.run.paths, m.run.seconds);
+  for (const std::string& path : inputs) {
+    const RunInfo r = from_attributes(read_exr_attributes(path), path);
+    fmt::print("weight     {:.4f}  {} (seed {}, {} passes)\n", double(r.paths) / double(m.run.paths), path,
+               r.seeds.front(), r.passes);
+  }
+  if (merge_keeps_bias(m.run.method))
+    fmt::print("note       {} is a photon method: the merged image has the variance of all runs together but the "
+               "bias of one run's passes (docs/distributed.md)\n", m.run.method);
+  fmt::print("exr        {}\n", out);
+  if (!png.empty()) {
+    make_parent_dirs(png);
+    write_png(png, m.film);
+    fmt::print("png        {} ({})\n", png, describe_display({}));
   }
   return 0;
 }
@@ -420,7 +459,9 @@ int run_reconstruct(const std::string& primal_path, const std::string& grad_path
   film.add_pass(pass::kGradientX, p.channels).data = gx.data;
   film.add_pass(pass::kGradientY, p.channels).data = gy.data;
   make_parent_dirs(out);
-  write_exr(out, film);
+  Attributes record = read_exr_attributes(primal_path);  // the run's record, for audits
+  std::erase_if(record, [](const auto& kv) { return kv.first.rfind("gradphoton.", 0) != 0; });
+  write_exr(out, film, record);
   fmt::print("reconstruction {} lambda {:g}, {}x{}, {:.3f} s\nexr        {}\n", l1 ? "L1" : "L2", lambda,
              pf.width(), pf.height(), secs, out);
   return 0;
@@ -516,6 +557,28 @@ int main(int argc, char** argv) {
   render->add_option("--tau", ra.tau, "sgpt: shift threshold tau of the paper's eq. 16 (default 0)");
   render->add_option("--bins", ra.bins, "sgpt: spectral bins per pixel (default 15)");
 
+  std::vector<std::string> merge_inputs;
+  std::string merge_out, merge_png;
+  int merge_threads = 0;
+  auto* merge = app.add_subcommand(
+      "merge",
+      "Merge independent-seed runs of one render (e.g. Slurm array tasks), each weighted by the work it did");
+  merge->footer(
+      "Runs must share scene, image size, method and method parameters, and differ in --seed; anything else is "
+      "refused, naming the file.\n"
+      "Unbiased methods (pt, spt, spt-hero, sgpt): the work-weighted mean, as one run with all the samples.\n"
+      "Gradient methods (gpt, gpm, gdmlt): primal and gradients are merged, then reconstructed once with the runs' "
+      "--recon and --lambda.\n"
+      "Photon methods (ppm, sppm, sppm-adaptive, msppm, gpm): N runs of K passes have 1/N of one run's variance but "
+      "the BIAS OF K PASSES (each run shrinks its own radius); one run of N*K passes has less. Prefer fewer, longer "
+      "runs (measured in docs/distributed.md).");
+  merge->add_option("runs", merge_inputs, "EXR files written by gradphoton render (or the Blender addon)")
+      ->required()->check(CLI::ExistingFile);
+  merge->add_option("-o,--output", merge_out, "Merged EXR (carries the merged run record)")->required();
+  merge->add_option("--png", merge_png, "Also write a display PNG through OpenColorIO");
+  merge->add_option("--threads", merge_threads, "Worker threads for the reconstruction (0 = all cores)")
+      ->capture_default_str();
+
   std::string diff_a, diff_ref, diff_pass = "combined", diff_png, diff_error_pass;
   auto* diff = app.add_subcommand("diff", "Compare an EXR with a reference: relMSE, RMSE, mean ratio");
   diff->add_option("image", diff_a, "Image EXR")->required()->check(CLI::ExistingFile);
@@ -574,6 +637,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     if (*render) return run_render(ra);
+    if (*merge) return run_merge(merge_inputs, merge_out, merge_png, merge_threads);
     if (*diff) return run_diff(diff_a, diff_ref, diff_pass, diff_png, diff_error_pass);
     if (*info) {
       Scene scene = load_scene(info_scene);

@@ -32,7 +32,7 @@ std::pair<std::string, std::string> split_channel(const std::string& name) {
 
 }  // namespace
 
-void write_exr(const std::string& path, const Film& film) {
+void write_exr(const std::string& path, const Film& film, const std::map<std::string, std::string>& attributes) {
   const int w = film.width(), h = film.height();
   if (w <= 0 || h <= 0) fail("cannot write EXR", path, "film is empty (" + std::to_string(w) + "x" + std::to_string(h) + ")");
   if (film.passes().empty()) fail("cannot write EXR", path, "film has no passes");
@@ -43,6 +43,7 @@ void write_exr(const std::string& path, const Film& film) {
     header.compression() = Imf::ZIP_COMPRESSION;
     header.lineOrder() = Imf::INCREASING_Y;
     header.insert("software", Imf::StringAttribute("gradphoton"));
+    for (const auto& [name, value] : attributes) header.insert(name, Imf::StringAttribute(value));
     Imf::FrameBuffer fb;
     for (const auto& [name, pass] : film.passes()) {
       const size_t expected = film.pixel_count() * static_cast<size_t>(pass.channels);
@@ -72,11 +73,31 @@ void write_exr(const std::string& path, const Film& film) {
   }
 }
 
-Film read_exr(const std::string& path) {
+namespace {
+
+void check_readable(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) fail("cannot read EXR", path, "no such file");
   if (std::filesystem::is_directory(path, ec)) fail("cannot read EXR", path, "is a directory");
+}
 
+}  // namespace
+
+std::map<std::string, std::string> read_exr_attributes(const std::string& path) {
+  check_readable(path);
+  try {
+    Imf::InputFile in(path.c_str());
+    std::map<std::string, std::string> out;
+    for (auto it = in.header().begin(); it != in.header().end(); ++it)
+      if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute())) out[it.name()] = s->value();
+    return out;
+  } catch (const std::exception& e) {
+    fail("cannot read EXR", path, e.what());
+  }
+}
+
+Film read_exr(const std::string& path) {
+  check_readable(path);
   try {
     Imf::InputFile in(path.c_str());
     const Imf::Header& header = in.header();

@@ -12,16 +12,21 @@
 //                                        ("combined.A", or "A" for unlayered files).
 //   Blender multilayer names keep their prefix: "ViewLayer.Combined.R" -> pass "ViewLayer.Combined".
 //   Row 0 of the film is the top row of the data window.
+// Header: `attributes` become string attributes (the run's record, distributed/run_info.h);
+// read_exr_attributes returns every string attribute of a file's header.
 // Every failure throws std::runtime_error whose message contains the path.
 #pragma once
 
+#include <map>
 #include <string>
 
 #include "core/film.h"
 
 namespace gp {
 
-void write_exr(const std::string& path, const Film& film);
+void write_exr(const std::string& path, const Film& film,
+               const std::map<std::string, std::string>& attributes = {});
 Film read_exr(const std::string& path);
+std::map<std::string, std::string> read_exr_attributes(const std::string& path);
 
 }  // namespace gp

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "core/film.h"
+#include "distributed/run_info.h"
 #include "integrators/integrator.h"
 #include "io/exr.h"
 #include "reconstruction/poisson.h"
@@ -69,9 +70,9 @@ class Session {
  public:
   Session(std::shared_ptr<Scene> scene, const std::string& method, const py::dict& params)
       : scene_(std::move(scene)) {
-    Params p = params_from_dict(params);
-    integrator_ = make_integrator(method, *scene_, p);
-    unused_ = p.unused();
+    params_ = params_from_dict(params);
+    integrator_ = make_integrator(method, *scene_, params_);
+    unused_ = params_.unused();
   }
   void iterate() {
     py::gil_scoped_release release;
@@ -101,7 +102,11 @@ class Session {
   void write_exr_file(const std::string& path) {
     Film film;
     integrator_->develop(film);
-    write_exr(path, film);
+    write_exr(path, film, run_info());
+  }
+  // The run's record for EXR headers (distributed/run_info.h): {"gradphoton.method": ..., ...}.
+  std::map<std::string, std::string> run_info() const {
+    return to_attributes(make_run_info(integrator_->name(), params_, integrator_->stats(), *scene_));
   }
   py::dict stats() const {
     const Stats& s = integrator_->stats();
@@ -121,6 +126,7 @@ class Session {
  private:
   std::shared_ptr<Scene> scene_;
   std::unique_ptr<Integrator> integrator_;
+  Params params_;
   ProgressSink sink_;
   std::vector<std::string> unused_;
 };
@@ -186,7 +192,13 @@ PYBIND11_MODULE(_native, m) {
     return out;
   }, py::arg("path"), "Read an EXR: {pass name: float32 array (H, W, C)}, row 0 at the top");
 
-  m.def("write_exr", [](const std::string& path, const py::dict& passes) {
+  m.def("read_exr_metadata", [](const std::string& path) {
+    py::gil_scoped_release release;
+    return read_exr_attributes(path);
+  }, py::arg("path"), "The string attributes of an EXR's header, e.g. the run record {'gradphoton.method': ...}");
+
+  m.def("write_exr", [](const std::string& path, const py::dict& passes,
+                        const std::map<std::string, std::string>& metadata) {
     Film film;
     for (const auto& [key, value] : passes) {
       if (!py::isinstance<py::array_t<float>>(value)) throw py::type_error("passes must be numpy float32 arrays");
@@ -200,8 +212,9 @@ PYBIND11_MODULE(_native, m) {
       std::copy(a.data(), a.data() + a.size(), p.data.begin());
     }
     py::gil_scoped_release release;
-    write_exr(path, film);
-  }, py::arg("path"), py::arg("passes"), "Write {pass name: float32 array (H, W, C)} as a multi-layer EXR");
+    write_exr(path, film, metadata);
+  }, py::arg("path"), py::arg("passes"), py::arg("metadata") = std::map<std::string, std::string>{},
+     "Write {pass name: float32 array (H, W, C)} as a multi-layer EXR, `metadata` as string header attributes");
   m.def("reconstruct", [](const py::object& primal, const py::object& gx, const py::object& gy, double lam,
                           const std::string& method, int threads) {
     auto check = [](const py::object& obj, const char* what) {
@@ -390,7 +403,9 @@ PYBIND11_MODULE(_native, m) {
       .def("cancel", &Session::cancel, "Ask the current pass to stop (thread-safe)")
       .def_property_readonly("cancelled", &Session::cancelled)
       .def("develop", &Session::develop, "Current passes as {name: float32 array (H, W, C)}")
-      .def("write_exr", &Session::write_exr_file, py::arg("path"))
+      .def("write_exr", &Session::write_exr_file, py::arg("path"), "Write every pass, with run_info in the header")
+      .def_property_readonly("run_info", &Session::run_info,
+                             "The run's record for EXR headers: {'gradphoton.method': ..., 'gradphoton.seed': ...}")
       .def_property_readonly("stats", &Session::stats)
       .def_property_readonly("unused_params", &Session::unused)
       .def_property_readonly("method", &Session::method,

@@ -233,3 +233,25 @@ def test_spectral_mode_reaches_the_core(empty_scene):
     assert N.Session(scene, "pt", dict(params, spectral="auto")).method == "pt"  # no dispersion
     with pytest.raises(ValueError, match="spectral"):
         N.Session(scene, "spt", dict(params, spectral="rgb"))
+
+
+def test_saved_exr_carries_the_run_record_and_merges(empty_scene, out_dir):
+    """Blender's saved EXR holds the gradphoton.* run record (RenderResult stamp fields), so
+    still renders of two seeds merge with `gradphoton merge` (scripts/slurm/submit_blender.sh)."""
+    small_scene(empty_scene)
+    blend = str(out_dir / "seeds.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    for seed in (1, 2):
+        r = batch_render(blend, str(out_dir / f"seed{seed}_"), "--python-expr",
+                         f"import bpy; bpy.context.scene.gradphoton.seed = {seed}", "-f", "1")
+        assert r.returncode == 0, r.stdout + r.stderr
+    meta = native.get().read_exr_metadata(str(out_dir / "seed2_0001.exr"))
+    assert meta["gradphoton.method"] == "pt" and meta["gradphoton.seed"] == "2", meta
+    assert meta["gradphoton.size"] == "32x24" and meta["gradphoton.passes"] == "2"
+    merged = str(out_dir / "merged.exr")
+    m = subprocess.run([os.path.join(ROOT, "build", "gradphoton"), "merge", str(out_dir / "seed1_0001.exr"),
+                        str(out_dir / "seed2_0001.exr"), "-o", merged], capture_output=True, text=True, timeout=120)
+    assert m.returncode == 0, m.stderr
+    images = [native.get().read_exr(str(out_dir / f"seed{s}_0001.exr"))["ViewLayer.Combined"] for s in (1, 2)]
+    np.testing.assert_allclose(native.get().read_exr(merged)["ViewLayer.Combined"], (images[0] + images[1]) / 2,
+                               rtol=1e-5, atol=1e-6)

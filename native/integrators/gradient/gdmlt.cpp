@@ -111,14 +111,7 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
   if (!(sigma_ > 0 && sigma_ < 1)) throw ParamError("sigma must be in (0, 1)");
   // primal_share > 0 keeps T > 0 wherever the primal is non-zero (the estimator divides by T).
   if (!(alpha_ > 0)) throw ParamError("primal_share must be > 0");
-  try {
-    recon_.norm = parse_recon_norm(params.get<std::string>("recon", "l1"));
-  } catch (const std::invalid_argument& e) {
-    throw ParamError(std::string("parameter 'recon': ") + e.what());
-  }
-  recon_.lambda = params.get<double>("lambda", 0.2);
-  if (!(recon_.lambda > 0)) throw ParamError("lambda must be > 0");
-  recon_.threads = threads_;
+  recon_ = gradient_recon_options(params, "gdmlt", threads_);
   const std::string direct = params.get<std::string>("direct", "chain");
   if (direct != "uniform" && direct != "chain") throw ParamError("direct must be 'uniform' or 'chain'");
   direct_uniform_ = direct == "uniform";

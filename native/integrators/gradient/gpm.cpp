@@ -35,16 +35,7 @@ Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(sc
   // alpha and photons per pass: SPPM's defaults (0.7, 100 000), which win at equal time at the
   // sizes and budgets users run (docs/gradient.md, "Defaults"); the paper's 0.9 and 1 M suit
   // megapixel renders of many minutes.
-  // L1 by default: lower relMSE than L2 at equal time on every scene measured (docs/gradient.md).
-  const std::string recon = params.get<std::string>("recon", "l1");
-  try {
-    recon_.norm = parse_recon_norm(recon);
-  } catch (const std::invalid_argument& e) {
-    throw ParamError(std::string("parameter 'recon': ") + e.what());
-  }
-  recon_.lambda = params.get<double>("lambda", 0.2);
-  if (!(recon_.lambda > 0)) throw ParamError("parameter 'lambda' must be > 0");
-  recon_.threads = threads_;
+  recon_ = gradient_recon_options(params, "gpm", threads_);
   manifold_iterations_ = params.get<int>("manifold_iterations", 5);  // GPM §5
   if (manifold_iterations_ < 0) throw ParamError("parameter 'manifold_iterations' must be >= 0");
   const size_t n = px_.size();

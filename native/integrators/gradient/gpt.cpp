@@ -49,15 +49,7 @@ GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
       width_(scene.camera.width),
       height_(scene.camera.height) {
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  const std::string recon = params.get<std::string>("recon", "l2");
-  try {
-    recon_.norm = parse_recon_norm(recon);
-  } catch (const std::invalid_argument& e) {
-    throw ParamError(std::string("parameter 'recon': ") + e.what());
-  }
-  recon_.lambda = params.get<double>("lambda", 0.2);
-  if (!(recon_.lambda > 0)) throw ParamError("lambda must be > 0");
-  recon_.threads = threads_;
+  recon_ = gradient_recon_options(params, "gpt", threads_);
   const size_t n = static_cast<size_t>(width_) * height_;
   primal_.assign(3 * n, 0.0);
   direct_.assign(3 * n, 0.0);
