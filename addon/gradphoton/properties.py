@@ -78,14 +78,14 @@ PROBE_PARAMS = {"clamp_direct": 0.0, "clamp_indirect": 0.0, FILM_TRANSPARENT: Tr
 # Parameters of one method only: native name -> property name, added to (or replacing)
 # METHOD_PARAMS for that method. A method whose paper default differs from the shared
 # property's gets its own property with the core's default (msppm's alpha 0.6 and one photon
-# per pixel, gpm's alpha 0.9, gdmlt's L1 reconstruction), and a choice that would override a method alias's
+# per pixel, gpm's and gdmlt's L1 reconstruction), and a choice that would override a method alias's
 # default (photon_sampler: sppm-adaptive is sppm with "adaptive") is sent only where it is one.
 _ADAPTIVE_PHOTONS = {"photon_sampler": "photon_sampler", "chains": "photon_chains"}
 METHOD_SPECIFIC_PARAMS = {
     "sppm": _ADAPTIVE_PHOTONS,
     "ppm": _ADAPTIVE_PHOTONS,
     "sppm-adaptive": {"chains": "photon_chains"},
-    "gpm": {"alpha": "gpm_alpha", "photons": "gpm_photons", "manifold_iterations": "manifold_iterations"},
+    "gpm": {"recon": "gpm_reconstruction", "manifold_iterations": "manifold_iterations"},
     "msppm": {"alpha": "msppm_alpha", "photons": "msppm_photons", "max_depth": "msppm_max_bounces",
               "path_samples": "msppm_path_samples"},
     "gdmlt": {"mutations": "mlt_mutations", "chains": "mlt_chains", "large_step": "mlt_large_step",
@@ -245,10 +245,10 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
     msppm_path_samples: IntProperty(
         name="Path Samples", default=1, min=1, max=1024,
         description="Path-tracing samples per pixel and pass (1 often converges faster in short renders)")
-    gpm_alpha: FloatProperty(name="Alpha", default=0.9, min=0.01, max=0.99,
-                             description="How fast the photon radius shrinks (0.9, the paper's)")
-    gpm_photons: IntProperty(name="Photons", default=1000000, min=1000,
-                             description="Photons traced per pass (1 M, the paper's)")
+    gpm_reconstruction: EnumProperty(name="Reconstruction", default="l1",
+                                     items=[("l2", "L2", "Screened Poisson, least squares (unbiased)"),
+                                            ("l1", "L1", "Screened Poisson, L1: robust to stray caustic "
+                                                         "gradients (wins at equal time)")])
     manifold_iterations: IntProperty(
         name="Manifold Steps", default=5, min=0, max=100,
         description="Effort to move caustic photons between neighbouring pixels: 0 leaves caustics "

@@ -202,7 +202,8 @@ class _Layout:
     ("sppm-adaptive", {"photon_chains"}, {"photon_sampler", "mlt_chains"}),
     ("msppm", {"msppm_alpha", "msppm_photons", "use_auto_msppm_photons", "msppm_max_bounces", "msppm_path_samples"},
      {"alpha", "photons_per_pass", "max_bounces", "confidence", "photon_hash", "photon_chains"}),
-    ("gpm", {"gpm_alpha", "reconstruction", "manifold_iterations"}, {"alpha", "photon_sampler", "mlt_chains"}),
+    ("gpm", {"alpha", "photons_per_pass", "gpm_reconstruction", "manifold_iterations"},
+     {"reconstruction", "photon_sampler", "mlt_chains"}),
     ("pt", {"max_bounces", "clamp_direct", "film_transparent"},
      {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha", "manifold_iterations"}),
 ])
