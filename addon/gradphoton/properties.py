@@ -250,9 +250,10 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
                                             ("l1", "L1", "Screened Poisson, L1: robust to stray caustic "
                                                          "gradients (wins at equal time)")])
     manifold_iterations: IntProperty(
-        name="Manifold Steps", default=5, min=0, max=100,
+        name="Manifold Steps", default=20, min=0, max=100,
         description="Effort to move caustic photons between neighbouring pixels: 0 leaves caustics "
-                    "out of the gradients (manifold walk, the paper's 5)")
+                    "out of the gradients; fewer than 20 darkens or brightens caustic edges "
+                    "(manifold walk projections; the paper uses 5)")
     # Gradient-domain MLT (gdmlt.h)
     mlt_mutations: IntProperty(name="Mutations", default=1, min=1, max=1024,
                                description="Mutations per pixel and pass (a pass costs about one gradient PT pass)")

@@ -36,7 +36,9 @@ Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(sc
   // sizes and budgets users run (docs/gradient.md, "Defaults"); the paper's 0.9 and 1 M suit
   // megapixel renders of many minutes.
   recon_ = gradient_recon_options(params, "gpm", threads_);
-  manifold_iterations_ = params.get<int>("manifold_iterations", 5);  // GPM §5
+  // Mitsuba's 20 (GPM §5: 5), with stuck walks given up early (manifold.h): a cap that cuts off
+  // walks still converging biases the gradients.
+  manifold_iterations_ = params.get<int>("manifold_iterations", 20);
   if (manifold_iterations_ < 0) throw ParamError("parameter 'manifold_iterations' must be >= 0");
   const size_t n = px_.size();
   off_.assign(n, {});

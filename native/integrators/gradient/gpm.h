@@ -53,10 +53,11 @@
 //   photons             100000  photons per pass (SPPM's; the paper's 1 M suits megapixel images)
 //   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
 //   recon               "l1"    screened Poisson reconstruction: l1 (IRLS to a tolerance) or l2 (eq. 3)
-//   manifold_iterations 5       projections a manifold walk may take (GPM §5; Mitsuba: 20);
-//                               0 disables the walk (caustic photons primal-only, an ablation).
-//                               A walk cut off before it converges falls back on its side only,
-//                               which biases the gradients (gpm_test: ExpectedGradient...)
+//   manifold_iterations 20      projections a manifold walk may take (Mitsuba's; GPM §5: 5); a
+//                               stuck walk gives up earlier (manifold.h). 0 disables the walk
+//                               (caustic photons primal-only, an ablation). A walk cut off while
+//                               still converging falls back on its side only, which biases the
+//                               gradients (gpm_test: ExpectedGradient...: 20 sd at a cap of 5)
 //   lambda              0.2     weight of the primal image in eq. 3
 //
 // Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image for the same

@@ -342,6 +342,12 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
   return manifold_walk(scene, prepare_chain(scene, base), start_ng, target, tolerance, max_iterations);
 }
 
+// A walk whose step has been halved below this (four steps in a row from a full one that did not
+// bring the endpoint closer) is stuck. Giving up there, with a cap of 20 projections, converges
+// more walks than a cap of 5 at 17 % more projections on cornell-glass; a cap that cuts off walks
+// still converging biases GPM's gradients (gpm_test, ExpectedGradient...).
+constexpr double kStuckStep = 0.1;
+
 ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, const Vec3& start_ng,
                            const Vec3& target, float tolerance, int max_iterations) {
   ManifoldWalk w;
@@ -403,6 +409,7 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
       beta = std::min(1.0, 2.0 * beta);
     } else {
       beta *= 0.5;
+      if (beta < kStuckStep) break;  // stuck: more projections would not converge either
     }
   }
   w.failure = ShiftFailure::WalkNotConverged;

@@ -27,7 +27,8 @@
 // prescribed half-vector, and must meet the same meshes in the same order. A step that brings the
 // endpoint closer is taken (and the step size doubled, up to 1); otherwise the step is halved.
 // It stops when the endpoint lies within `tolerance` of the target, or fails after
-// `max_iterations` projections (GPM §5: 5 by default; Mitsuba uses 20).
+// `max_iterations` projections (GPM §5 uses 5, Mitsuba 20) or once the step has been halved
+// below 1/10 (stuck).
 #pragma once
 
 #include <array>
