@@ -135,6 +135,9 @@ def main():
     ap.add_argument("--csv", default="convergence.csv", help="name of the table written under --out")
     ap.add_argument("--side-by-side", action="store_true",
                     help="run a scene's methods concurrently, the cores split between them")
+    ap.add_argument("--cli", type=pathlib.Path, default=CLI,
+                    help="gradphoton binary of the methods' runs (another build's, to compare before/after); "
+                         "references always come from this checkout's build")
     args = ap.parse_args()
 
     checkpoints = [float(t) for t in args.checkpoints.split(",")]
@@ -145,7 +148,7 @@ def main():
     for scene in args.scenes:
         ref = reference(scene, args)
         split = SplitReference.from_files(ref, reference(scene, args, args.ref_seed + 1)) if args.ref_split else None
-        cmds = [[CLI, "render", ROOT / "scenes" / f"{scene}.json", *method_args(method),
+        cmds = [[args.cli, "render", ROOT / "scenes" / f"{scene}.json", *method_args(method),
                  "--time", max(checkpoints), "--checkpoints", ",".join(f"{t:g}" for t in checkpoints),
                  "--seed", args.seed, "-o", work / f"{scene}-{file_tag(method)}.exr", *size_args(scene, args)]
                 for method in args.methods]

@@ -21,6 +21,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
       nee_(nee),
       alpha_(params.get<double>("alpha", 0.7)),
       radius_(params.get<double>("radius", 0.0)),
+      footprint_pixels_(params.get<double>("footprint", 2.0)),
       confidence_(params.get<double>("confidence", 0.5)),
       photons_per_pass_(params.get<int64_t>("photons", 100000)),
       max_depth_(params.get<int>("max_depth", 32)),
@@ -46,6 +47,8 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   }
   if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
   if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
+  if (!(footprint_pixels_ > 0) || !std::isfinite(footprint_pixels_))
+    throw ParamError("parameter 'footprint' must be > 0 (pixels)");
   if (!(confidence_ > 0 && confidence_ < 1)) throw ParamError("parameter 'confidence' must be in (0, 1)");
   if (photons_per_pass_ < 1) throw ParamError("parameter 'photons' must be at least 1");
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);

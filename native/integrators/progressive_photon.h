@@ -147,7 +147,7 @@ class ProgressivePhotonMapping : public Integrator {
 
   const Scene& scene_;
   bool retrace_, nee_;
-  double alpha_, radius_, confidence_;
+  double alpha_, radius_, footprint_pixels_, confidence_;
   int64_t photons_per_pass_;
   PhotonHashMode hash_mode_;
   int max_depth_, rr_depth_, threads_, tile_size_;
@@ -156,9 +156,11 @@ class ProgressivePhotonMapping : public Integrator {
   int width_, height_;
   float pixel_spread_;  // angle one pixel subtends (ray-cone approximation of ray differentials)
   // Initial radius from the pixel footprint: the cone one pixel subtends, grown along the eye
-  // path to the gather point (a ray-cone stand-in for ray differentials), two pixels wide. One
-  // rule for SPPM and the methods built on it (GPM's primal is SPPM's image).
-  float footprint_radius(float path_length) const { return 2.0f * pixel_spread_ * path_length; }
+  // path to the gather point (a ray-cone stand-in for ray differentials), `footprint` pixels
+  // wide. One rule for SPPM and the methods built on it (GPM's primal is SPPM's image).
+  float footprint_radius(float path_length) const {
+    return static_cast<float>(footprint_pixels_) * pixel_spread_ * path_length;
+  }
 
   PhotonTracer tracer_;
   std::unique_ptr<AdaptivePhotonSampler> adaptive_;  // photon_sampler = adaptive (thesis ch. 8)

@@ -32,6 +32,11 @@ constexpr int kPhotonFailureBase = kShiftFailureCount;
 }  // namespace
 
 Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
+  // The initial radius by SPPM's footprint rule, one pixel wide (§5: "the projected pixel size";
+  // SPPM's default is two): every gathered photon costs four shifts, and one pixel wins at equal
+  // time where two lose to SPPM (docs/gradient.md, "Defaults"). With footprint=1 given to SPPM,
+  // or footprint=2 to GPM, the primal pass is SPPM's image.
+  footprint_pixels_ = params.get<double>("footprint", 1.0);
   // alpha and photons per pass: SPPM's defaults (0.7, 100 000), which win at equal time at the
   // sizes and budgets users run (docs/gradient.md, "Defaults"); the paper's 0.9 and 1 M suit
   // megapixel renders of many minutes.
@@ -197,9 +202,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
             pass_direct_[pixel] = path.Ld;
             vp_[pixel] = path.vp;
             off_[pixel] = off;
-            // Initial radius: SPPM's footprint rule (two pixels), so that the primal is SPPM's
-            // image with the same defaults. §5 starts from one pixel; two win at equal time
-            // (docs/gradient.md, "Defaults").
+            // Initial radius: SPPM's footprint rule, one pixel wide by default (below).
             first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length) : 0.0f;
           }
         rays_out += rays;
