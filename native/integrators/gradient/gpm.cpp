@@ -272,6 +272,11 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
   }
   const SurfaceHit& yh = s1.hit;
   const double jac = photon_shift_jacobian(org.p, s1.y_star, o.ng, yh.p, yh.ng);  // eq. 6
+  const Vec3 wi_prev = s1.wi_prev;
+  out.wi_gather = o.frame.to_local(-wi_prev);
+  // Outside the kernel the offset contributes 0 with weight 1, as a failed shift does: known
+  // before the reversibility ray, which it saves.
+  if (!(length_squared(yh.p - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac > 0)) return out;
   const float tol = kReversibleTolerance * R;
   if (length_squared(yh.p - s1.y_star) > tol * tol &&
       !photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, yh.p, org.p, org.ng, tol, rays)) {
@@ -279,10 +284,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     return out;
   }
   // ---- Step 2, DD ending: reconnect y'_s to y_{s-1} (its BSDF re-evaluated) ----
-  const Vec3 wi_prev = s1.wi_prev;
   const Vec3 wi_l = org.frame.to_local(wi_prev);
-  out.wi_gather = o.frame.to_local(-wi_prev);
-  if (!(length_squared(yh.p - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac > 0)) return out;
   const Bsdf prev_bsdf(scene_.material(org.material));
   const Vec3 wo_prev = org.frame.to_world(org.wo);
   const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
@@ -375,6 +377,9 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
   // walk's own residual never makes a shift look non-reversible.
   const float tol = kReversibleTolerance * R, walk_tol = 1e-3f * R;
+  // A target farther than R + walk_tol from z'_t ends the walk outside the kernel: offset 0 and
+  // weight 1 whether or not it converges, so it is not walked.
+  if (!(length(s1.hit.p - o.p) <= R + walk_tol)) return out;
   ++walk_stats.walks;
   const ManifoldWalk walk = manifold_walk(scene_, base.prepared, chain.ng,  // chain.ng: zero for a point light
                                           s1.hit.p, walk_tol, manifold_iterations_);
