@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Median relMSE over several convergence.py CSVs (one per seed) per (scene, method, seconds),
 drawn as one log-log chart per scene with the spread (min..max) as error bars.
 

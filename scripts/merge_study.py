@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """How the error of merged independent-seed runs falls with the number of runs
 (docs/distributed.md), with build/gradphoton render, merge and diff:
 
