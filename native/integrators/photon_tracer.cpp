@@ -29,13 +29,14 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   const bool distant = lights.lights()[em->light].is_infinite();
   float pdf_dir_prev = em->pdf_dir;  // solid-angle density of the segment being traced
   PhotonOrigin last;                 // the previous scattering vertex (valid from bounce 1 on)
-  // The light subpath since its last diffuse vertex (GPM's specular chains); distant lights
-  // have no vertex to reconnect to.
+  // The light subpath since its last diffuse vertex (GPM's specular chains); a distant light's
+  // chain keeps its direction (PhotonChain::dir).
   PhotonChain chain;
-  bool chain_ok = chains && !distant;
+  bool chain_ok = chains != nullptr;
   if (chains) {
     chain.p = em->o;
-    chain.ng = em->n;
+    chain.ng = distant ? Vec3(0.0f) : em->n;
+    chain.dir = distant ? em->d : Vec3(0.0f);
     chain.light = em->light;
   }
   if (record) {
@@ -121,6 +122,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         chain.wo = wo_world;
         chain.material = hit->material;
         chain.light = -1;
+        chain.dir = Vec3(0.0f);
         chain.count = 0;
         chain_ok = true;
       } else if (chain.count < kMaxChainVertices) {

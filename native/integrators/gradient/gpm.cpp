@@ -314,6 +314,13 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
 
 RGB Gpm::reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& pdf) const {
   pdf = 0;
+  if (chain.dir.x != 0 || chain.dir.y != 0 || chain.dir.z != 0) {
+    // A distant light: every shift keeps the photon's direction and moves it across the beam,
+    // whose radiance and position density are the same everywhere: the factor and the density
+    // cancel in the ratios (1 stands for both).
+    pdf = 1;
+    return RGB(1.0f);
+  }
   if (chain.light >= 0) {  // y_b on a light: its emission towards dir (LightSet::emitted)
     const LightSet& lights = scene_.light_set();
     float pdf_pos = 0, pdf_dir = 0;
@@ -336,6 +343,7 @@ Gpm::ChainBase Gpm::evaluate_chain_base(const Photon& ph, const PhotonOrigin& or
   ChainBase base;
   ManifoldChain c;
   c.start = chain.p;
+  c.start_dir = chain.dir;
   c.count = chain.count;
   for (int j = 0; j < chain.count; ++j) c.v[j] = chain.v[j];
   c.end = ph.p;
@@ -480,7 +488,7 @@ void Gpm::iterate(ProgressSink* sink) {
         const PhotonOrigin& org = origins_[ph.index];
         const PhotonChain* chain =
             org.diffuse || org.chain < 0 || manifold_iterations_ == 0 ? nullptr : &chains_[org.chain];
-        if (!org.diffuse && !chain) {  // from a distant light, or too long: primal domain (gpm.h)
+        if (!org.diffuse && !chain) {  // too long to be recorded: primal domain (gpm.h)
           phi_fb += c;
           ++fail_count[static_cast<int>(ShiftFailure::SpecularChain)];
           return;

@@ -34,8 +34,9 @@
 // What is not shifted, and stays in the primal domain (kept apart, added after the screened
 // Poisson reconstruction, so it is estimated exactly as SPPM estimates it and neither biases the
 // gradients nor is biased by them; the gradient passes include its finite differences):
-//   - photons whose chain cannot be walked: from a distant light (no vertex to reconnect to) or
-//     longer than kMaxChainVertices, counted as "shift failed: specular chain not walkable";
+//   - photons whose chain cannot be walked: longer than kMaxChainVertices, counted as "shift
+//     failed: specular chain not walkable" (a distant light's chain walks across its parallel
+//     beam, its direction held: manifold.h);
 //   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
 // A walk that does not converge in `manifold_iterations` steps is a failed shift (offset 0,
 // weight 1, counted as "shift failed: manifold walk did not converge"), as in the paper.

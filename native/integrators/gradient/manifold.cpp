@@ -11,6 +11,8 @@ namespace gp {
 
 namespace {
 
+bool distant(const ManifoldChain& c) { return c.start_dir.x != 0 || c.start_dir.y != 0 || c.start_dir.z != 0; }
+
 using Vec3d = Eigen::Vector3d;
 // Derivatives with respect to the tangent coordinates (a, b) of a vertex and its two neighbours.
 using AD = Eigen::AutoDiffScalar<Eigen::Matrix<double, 6, 1>>;
@@ -141,8 +143,11 @@ std::optional<TangentMap> tangent_map(const Scene& scene, const ManifoldChain& c
     // Variables: (a, b) of x_{j} (previous; x_0 is fixed), x_{j+1} (this vertex), x_{j+2} (next).
     AD v[6];
     for (int q = 0; q < 6; ++q) v[q] = AD(0.0, 6, q);
-    const V3<AD> prev = j == 0 ? V3<AD>(to_d(c.start).cast<AD>()) : position(surf[j - 1], v[0], v[1]);
     const V3<AD> x = position(surf[j], v[2], v[3]);
+    // x_0 fixed, or at infinity for a distant light (w_in held at -start_dir: no derivative).
+    const V3<AD> prev = j > 0 ? position(surf[j - 1], v[0], v[1])
+                        : distant(c) ? V3<AD>(x - to_d(c.start_dir).cast<AD>())
+                                     : V3<AD>(to_d(c.start).cast<AD>());
     const V3<AD> n = shading_normal(surf[j], v[2], v[3]);
     const V3<AD> next = position(surf[j + 1], v[4], v[5]);
     const auto h = half_vector(prev, x, n, next, surf[j].ior, c.v[j].transmission);
@@ -174,8 +179,14 @@ bool refract_local(const Vec3d& wo, const Vec3d& h, double eta, Vec3d& wt) {
 }
 
 
-// |d omega_b / dA(y_s)| from the tangent map (see chain_direction_per_area).
+// |d omega_b / dA(y_s)| from the tangent map (see chain_direction_per_area); from a distant
+// light the beam's cross-section per endpoint area.
 std::optional<double> direction_per_area(const ManifoldChain& c, const Surfaces& surf, const TangentMap& T) {
+  if (distant(c)) {
+    const double D = std::abs(T.topRows(2).determinant()) * std::abs(surf[0].ng.dot(to_d(c.start_dir)));
+    if (!std::isfinite(D) || !(D > 0)) return std::nullopt;
+    return D;
+  }
   const Vec3d d = to_d(c.start) - surf[0].p;
   const double d2 = d.squaredNorm();
   if (!(d2 > 0)) return std::nullopt;
@@ -189,7 +200,7 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
   ChainThroughput out;
   for (int j = 0; j < c.count; ++j) {
     const ChainVertex& x = c.v[j];
-    const Vec3 prev = j == 0 ? c.start : c.v[j - 1].p;
+    const Vec3 prev = j > 0 ? c.v[j - 1].p : distant(c) ? x.p - c.start_dir : c.start;
     const Vec3 next = j + 1 == c.count ? c.end : c.v[j + 1].p;
     const Vec3 ns = to_f(surf[j].n.normalized()), ng = x.ng;
     const Frame frame(ns);
@@ -223,7 +234,7 @@ namespace {
 
 bool half_vectors(const ManifoldChain& c, const Surfaces& surf, std::array<Vec2, kMaxChainVertices>& out) {
   for (int j = 0; j < c.count; ++j) {
-    const Vec3d prev = j == 0 ? to_d(c.start) : surf[j - 1].p;
+    const Vec3d prev = j > 0 ? surf[j - 1].p : distant(c) ? Vec3d(surf[0].p - to_d(c.start_dir)) : to_d(c.start);
     const Eigen::Vector2d h =
         half_vector<double>(prev, surf[j].p, surf[j].n.normalized(), surf[j + 1].p, surf[j].ior, c.v[j].transmission);
     if (!h.allFinite()) return false;
@@ -254,8 +265,12 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
   // Aim from the ray's actual origin (pushed off x_0's surface), so that aiming at a chain's own
   // x_1 gives that chain back: near a caustic a 1e-5 origin shift moves the endpoint visibly.
   const bool on_surface = start_ng.x != 0 || start_ng.y != 0 || start_ng.z != 0;
-  const Vec3 o = on_surface ? offset_ray_origin(c.start, start_ng, aim - c.start) : c.start;
-  const Vec3 dir = normalize(aim - o);
+  // A distant light's ray runs along its direction through the aim, from outside the scene.
+  const float back = length(scene.bounds().diagonal()) + length(aim - scene.bounds().center());
+  const Vec3 o = distant(c)     ? aim - c.start_dir * back
+                 : on_surface ? offset_ray_origin(c.start, start_ng, aim - c.start)
+                              : c.start;
+  const Vec3 dir = distant(c) ? c.start_dir : normalize(aim - o);
   if (!(length_squared(dir) > 0)) return ShiftFailure::ZeroLength;
   Ray ray(o, dir);
   for (int j = 0; j < c.count; ++j) {

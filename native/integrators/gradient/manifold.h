@@ -19,7 +19,10 @@
 // chain (GPM eq. 8): |d x_1 / d x_{k+1}| = G(y_b .. y_s) / G(y_b, y_{b+1}), returned here as the
 // solid angle at y_b per unit area at the endpoint,
 //   |d omega_b / dA(y_s)| = |det T_1| cos(x_1) / |x_1 - x_0|^2,
-// with every chain vertex's half-vector held (delta ones at 0, glossy ones at o_i).
+// with every chain vertex's half-vector held (delta ones at 0, glossy ones at o_i). From a
+// distant light it is the beam's cross-section per unit area at the endpoint instead,
+// |det T_1| |cos(x_1)| with cos(x_1) against the beam's direction (the ratio of two chains' values
+// is the Jacobian either way).
 //
 // The walk (JM12 §5.2) moves the endpoint to a target on a surface: it predicts x_1 along the
 // tangent map, then projects by ray tracing: a ray from x_0 through the predicted x_1 is
@@ -43,6 +46,10 @@ namespace gp {
 
 struct ManifoldChain {
   Vec3 start;                                       // x_0 = y_b (fixed)
+  // Non-zero for a distant light: x_0 is at infinity and every chain leaves along this unit
+  // direction, so moving the endpoint moves x_1 across the parallel beam (w_in at x_1 held at
+  // -start_dir); `start` is then only the photon's point on the emission disk.
+  Vec3 start_dir;
   std::array<ChainVertex, kMaxChainVertices> v{};   // x_1 .. x_k
   int count = 0;                                    // k
   Vec3 end;                                         // x_{k+1} = y_s
