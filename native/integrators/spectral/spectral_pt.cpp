@@ -72,16 +72,14 @@ float mean(const SpectralValues& v, int n) {
   return s / n;
 }
 
-// Spectral radiance of a light sample: lights scale their RGB emission by grey factors only
-// (distance, spot falloff), so the factor read off the brightest channel applies to the spectrum.
+}  // namespace
+
 float light_scale(const LightSample& ls, const Light& l) {
   const float m = l.emit.max_component();
   if (m <= 0) return 0.0f;
   const int c = l.emit.r == m ? 0 : (l.emit.g == m ? 1 : 2);
   return ls.L[c] / l.emit[c];
 }
-
-}  // namespace
 
 SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng,
                                       RayCounts& rays) const {
