@@ -610,16 +610,22 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-void SpectralGradientPathTracer::image_totals(std::vector<double>* primal, std::vector<double>* gradient) const {
+void SpectralGradientPathTracer::image_totals(std::vector<double>* primal, std::vector<double>* gradient, int x0,
+                                              int y0, int x1, int y1) const {
   primal->assign(bins_, 0.0);
   gradient->assign(bins_, 0.0);
-  for (size_t i = 0; i < samples_.size(); ++i) {
-    const double w = samples_[i] ? 1.0 / (samples_[i] * static_cast<double>(samples_.size())) : 0.0;
-    for (int j = 0; j < bins_; ++j) {
-      (*primal)[j] += primal_[i * bins_ + j] * w;
-      (*gradient)[j] += gradient_[i * bins_ + j] * w;
+  if (x1 < 0) x1 = width_;
+  if (y1 < 0) y1 = height_;
+  const double n = double(std::max(0, x1 - x0)) * std::max(0, y1 - y0);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      const double w = samples_[i] ? 1.0 / (samples_[i] * n) : 0.0;
+      for (int j = 0; j < bins_; ++j) {
+        (*primal)[j] += primal_[i * bins_ + j] * w;
+        (*gradient)[j] += gradient_[i * bins_ + j] * w;
+      }
     }
-  }
 }
 
 RGB SpectralGradientPathTracer::bins_to_rgb(const double* b) const {

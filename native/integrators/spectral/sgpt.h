@@ -65,7 +65,9 @@ class SpectralGradientPathTracer : public Integrator {
   int stride() const { return stride_; }
   // Image averages of the per-pixel estimates: primal bins I_j and gradients G_j (for tests:
   // E[G_j] = E[I_{j+s}] - E[I_j] when the shift and its weights are right).
-  void image_totals(std::vector<double>* primal, std::vector<double>* gradient) const;
+  // Optionally over the pixels [x0, x1) x [y0, y1) only (averaged over those).
+  void image_totals(std::vector<double>* primal, std::vector<double>* gradient, int x0 = 0, int y0 = 0,
+                    int x1 = -1, int y1 = -1) const;
 
   // Shift statistics by outcome (also in stats().extra).
   struct ShiftCounts {
