@@ -33,7 +33,15 @@ bool use_spectral(SpectralMode mode, const Scene& scene) {
 
 SceneSpectra::SceneSpectra(const Scene& scene) {
   for (const Material& m : scene.materials) albedo.push_back(RgbSpectrum::reflectance(m.color));
-  for (const Light& l : scene.light_set().lights()) light.push_back(RgbSpectrum::illuminant(l.emit));
+  for (const Light& l : scene.light_set().lights()) {
+    if (l.lines.empty()) {
+      light.push_back(RgbSpectrum::illuminant(l.emit));
+    } else {  // luminance from emit = the lines' unit-luminance RGB x luminance
+      const RGB unit = spectral_lines_rgb(l.lines, l.line_fwhm);
+      const float m = unit.max_component();
+      light.push_back(RgbSpectrum::lines(l.lines, l.line_fwhm, m > 0 ? l.emit.max_component() / m : 0.0f));
+    }
+  }
 }
 
 Material monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda) {
