@@ -150,9 +150,11 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
   for (int j = 0; j < C; ++j)
     bin[j] = std::min(bins_ - 1, static_cast<int>((wl.lambda[j] - kLambdaMin) / bin_width));
   // Russian roulette's survival probability after vertex k of a path whose hero throughput
-  // ratio (prod f |cos| / pdf, without roulette) is beta. The same rule gives the base's and,
-  // from the offset's own throughput, the offset's density: the density a base path sampled at
-  // lambda' would have had, which the symmetric weights of eq. 10-11 need.
+  // ratio is beta (prod f |cos| / pdf, divided by the survival probabilities so far, as pbrt's
+  // beta): roulette on the compensated throughput keeps survivors' weights near 1 (on the raw
+  // ratio the kills compound and the few survivors carry weights 1 / prod(beta), a heavy tail).
+  // The same rule gives the base's and, from the offset's own throughput, the offset's density:
+  // the density a base path sampled at lambda' would have had, which eq. 10-11 need.
   auto survival = [&](size_t k, float beta) {
     return k + 1 >= static_cast<size_t>(rr_depth_) ? std::min(1.0f, std::max(0.05f, beta)) : 1.0f;
   };
@@ -203,12 +205,13 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     const Vec3 wi = hit->frame.to_world(bs->wi);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     const Scatter s = v.delta ? delta_scatter(m, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(m, v.wo, v.wi);
-    beta *= s.f_cos / v.pdf;
+    beta *= s.f_cos / s.pdf;
     v.rr = survival(depth, beta);
     if (v.rr < 1.0f && rng.uniform() >= v.rr) {
       v.scattered = false;  // roulette ended the path after NEE at this vertex
       break;
     }
+    beta /= v.rr;
   }
 
   // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l.
@@ -301,7 +304,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         P[j] *= s.pdf * v.rr;
         if (j == 0) f0 = s.f_cos, p0 = s.pdf;
       }
-      beta_k *= p0 > 0 ? f0 / p0 : 0.0f;
+      beta_k *= p0 > 0 ? f0 / p0 / v.rr : 0.0f;
       dir = v.hit.frame.to_world(v.wi);
     }
   }
@@ -515,6 +518,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       // The offset's own roulette survival (eq. 10-11 need its density as a base path).
       beta2 *= s2[0].f_cos / s2[0].pdf;
       const float rr2 = survival(k, beta2);
+      beta2 /= rr2;
       P2_prev = P2;
       for (int j = 0; j < C; ++j) {
         F2[j] *= s2[j].f_cos;
