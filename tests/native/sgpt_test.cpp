@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <tuple>
 
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -302,6 +303,54 @@ TEST(Sgpt, ColouredFurnaceAndPasses) {
     EXPECT_NEAR(m[1], 1.0, 0.03);
     EXPECT_NEAR(m[2], 2.0, 0.06);
     EXPECT_GT(integ->stats().extra.at("shifted_pairs"), 0);
+  }
+}
+
+TEST(Sgpt, TauComparesPathContributions) {
+  // Eq. 15-16: a pair is shifted only when both paths' contributions f exceed tau, otherwise its
+  // gradient is sampled in the standard way. Two white emitters fill the view, radiance 1 (left)
+  // and 4 (right); camera paths end on them, so f = 1 or 4 at every wavelength and an offset's
+  // f equals its base's. With tau = 2 the right half is shifted, and its gradients are exactly 0
+  // (f(y) - f(x) = 0), while the left half falls back to standard sampling (+-f / p per sample:
+  // non-zero). (Compared against f / p, as before, both halves would be shifted.) tau = 0.5
+  // shifts both, tau = 8 neither; the image means stay 1 and 4 in every case.
+  const Scene s = load_scene_from_string(
+      R"({"camera": {"position": [0, -3, 0], "look_at": [0, 0, 0], "fov": 20, "width": 16, "height": 16},
+    "materials": {"dim": {"type": "emission", "emission": 1, "strength": 1},
+                  "bright": {"type": "emission", "emission": 1, "strength": 4}},
+    "objects": [{"type": "quad", "center": [-0.5, 0, 0], "u": [0.5, 0, 0], "v": [0, 0, 1], "material": "dim"},
+                {"type": "quad", "center": [0.5, 0, 0], "u": [0.5, 0, 0], "v": [0, 0, 1], "material": "bright"}]})",
+      ".", "emitters.json");
+  for (double tau : {0.5, 2.0, 8.0}) {
+    Params p;
+    p.set("seed", 3);
+    p.set("tau", tau);
+    auto integ = make_integrator("sgpt", s, p);
+    run_progressive(*integ, StopRule{0, 256, 0}, nullptr);
+    Film f;
+    integ->develop(f);
+    for (const auto& [x0, x1, radiance] : {std::tuple{0, 7, 1.0}, std::tuple{9, 16, 4.0}}) {
+      const bool shifted = radiance > tau;
+      double mean = 0, g_max = 0;
+      for (int y = 0; y < 16; ++y)
+        for (int x = x0; x < x1; ++x) {
+          const RGB c = f.rgb(pass::kCombined, x, y);
+          mean += (c[0] + c[1] + c[2]) / 3 / (16.0 * (x1 - x0));
+          g_max = std::max(g_max, double(f.pass(pass::kSpectralGradient).data[y * 16 + x]));
+        }
+      if (shifted)
+        EXPECT_EQ(g_max, 0.0) << "tau " << tau << ", radiance " << radiance << ": shifted pairs of equal f";
+      else
+        EXPECT_GT(g_max, 0.1 * radiance) << "tau " << tau << ", radiance " << radiance << ": standard sampling";
+      EXPECT_NEAR(mean, radiance, 0.02 * radiance) << "tau " << tau;
+    }
+    const auto& extra = integ->stats().extra;
+    if (tau > 4) EXPECT_EQ(extra.at("shifted_pairs"), 0);
+    if (tau < 1) EXPECT_EQ(extra.at("standard_pairs"), 0);
+    if (tau == 2.0) {
+      EXPECT_GT(extra.at("shifted_pairs"), 0);
+      EXPECT_GT(extra.at("standard_pairs"), 0);
+    }
   }
 }
 

@@ -334,6 +334,17 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     }
   };
 
+  // Largest base contribution f(x) among the events from vertex k on: where it is <= tau, every
+  // remaining pair falls back to standard sampling whatever the offset gives (eq. 16 takes the
+  // smaller f of the pair), so the offset is not traced further (the cost saving of §3.3).
+  std::vector<float> f_max_from(K + 1, 0.0f);
+  for (size_t k = K; k-- > 0;) {
+    f_max_from[k] = f_max_from[k + 1];
+    for (const Event* e : {&hit_ev[k], &nee_ev[k]})
+      if (e->valid)
+        for (int j = 0; j < C; ++j) f_max_from[k] = std::max(f_max_from[k], e->f[j]);
+  }
+
   // ---- The two offsets: lambda + delta (forward gradient of bin j) and lambda - delta ----
   for (int sign : {+1, -1}) {
     Values lambda2{};
@@ -377,6 +388,14 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     bool y_escaped = false;
     ++counts.attempts;
     for (size_t k = 0; k < K; ++k) {
+      if (!(f_max_from[k] > tau_)) {  // w^s = 0 for every remaining pair (eq. 16)
+        for (size_t r = k; r < K; ++r)
+          for (const Event* e : {&hit_ev[r], &nee_ev[r]})
+            if (e->valid)
+              for (int j = 0; j < C; ++j) counts.below_tau += e->f[j] > 0;
+        standard_rest(k, true, sign, gbin);
+        break;
+      }
       const bool is_escape = k == base.v.size();
       // Offset vertex k and its emission.
       const SurfaceHit* yk = nullptr;
