@@ -39,6 +39,14 @@ def parse_spec(spec):
     return name, params
 
 
+def load_scene_at(path, size):
+    """The scene file with its camera resized to 'WxH'."""
+    w, h = (int(v) for v in size.split("x"))
+    j = json.load(open(path))
+    j["camera"]["width"], j["camera"]["height"] = w, h
+    return _native.load_scene_json(json.dumps(j), os.path.dirname(os.path.abspath(path)))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scene")
@@ -49,10 +57,7 @@ def main():
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--threads", type=int, default=0)
     a = ap.parse_args()
-    w, h = (int(v) for v in a.size.split("x"))
-    j = json.load(open(a.scene))
-    j["camera"]["width"], j["camera"]["height"] = w, h
-    scene = _native.load_scene_json(json.dumps(j), os.path.dirname(os.path.abspath(a.scene)))
+    scene = load_scene_at(a.scene, a.size)
     ra, rb = (_native.read_exr(p)["combined"].astype(np.float64) for p in a.refs)
     ref, noise = 0.5 * (ra + rb), (ra - rb) ** 2 / 4.0
     norm = ref ** 2 + 0.001
@@ -78,6 +83,10 @@ def main():
                 rel, exc = float(raw.mean()), float((raw - noise / norm).mean())
                 print(f"{a.methods[i]:28s} {n:7d} {rel:9.4f} {exc:9.4f} {seconds[i] / n:8.4f} {rel * seconds[i]:9.3f}",
                       flush=True)
+    for i, s in enumerate(sessions):
+        shifts = {k: int(v) for k, v in s.stats.items() if "shift" in k or "pairs" in k}
+        if shifts:
+            print(f"{a.methods[i]}: {shifts}")
 
 
 if __name__ == "__main__":

@@ -14,7 +14,6 @@ and the share of the total carried by the largest 1 % of passes; then z of each 
 against the first. |z| > 4 is reported as a bias (fixed seeds, threshold stated).
 """
 import argparse
-import json
 import math
 import os
 import sys
@@ -23,6 +22,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "build", "python"))
 from gradphoton import _native  # noqa: E402
+from interleaved import load_scene_at, parse_spec  # noqa: E402
 
 
 def per_pass_means(scene, method, passes, seed, params, layer):
@@ -56,20 +56,12 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--size", default="64x48")
     ap.add_argument("--layer", default="combined")
-    ap.add_argument("--param", action="append", default=[], help="method:name=value")
     ap.add_argument("--threshold", type=float, default=4.0)
     a = ap.parse_args()
-    w, h = (int(v) for v in a.size.split("x"))
-    j = json.load(open(a.scene))
-    j["camera"]["width"], j["camera"]["height"] = w, h
-    scene = _native.load_scene_json(json.dumps(j), os.path.dirname(os.path.abspath(a.scene)))
+    scene = load_scene_at(a.scene, a.size)
     results = []
     for i, spec in enumerate(a.methods):
-        method, _, label_params = spec.partition(":")
-        params = {}
-        for kv in filter(None, label_params.split(",")):
-            k, v = kv.split("=")
-            params[k] = float(v) if any(c in v for c in ".e") else int(v)
+        method, params = parse_spec(spec)
         layer = a.layer if method == "sgpt" else "combined"
         passes = a.ref_passes if (i == 0 and a.ref_passes) else a.passes
         x = per_pass_means(scene, method, passes, a.seed + i, params, layer)

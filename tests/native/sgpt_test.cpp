@@ -387,6 +387,22 @@ MeanSe image_mean(const Scene& s, const std::string& method, Params p, int passe
   return r;
 }
 
+// z-test of two methods' image means (seeds `seed` and seed + 1), |z| < 4 and within `rel`.
+void expect_same_mean(const Scene& s, const std::string& a, const std::string& b, Params p, int passes,
+                      uint64_t seed, double rel, const std::string& what, double se_ratio_max = 0) {
+  p.set("seed", seed);
+  const MeanSe ma = image_mean(s, a, p, passes);
+  p.set("seed", seed + 1);
+  const MeanSe mb = image_mean(s, b, p, passes);
+  ASSERT_TRUE(ma.finite && mb.finite) << what;  // NaN/Inf never pass
+  const double z = (ma.mean - mb.mean) / std::hypot(ma.se, mb.se);
+  std::cout << what << ": " << a << " " << ma.mean << " +- " << ma.se << ", " << b << " " << mb.mean << " +- " << mb.se
+            << ", z " << z << "\n";
+  EXPECT_LT(std::abs(z), 4.0) << what;
+  EXPECT_NEAR(ma.mean / mb.mean, 1.0, rel) << what;
+  if (se_ratio_max > 0) EXPECT_LT(ma.se, se_ratio_max * mb.se) << what << ": a heavy tail is back";
+}
+
 TEST(Sgpt, LineSpectrumLightStaysFiniteAndUnbiased) {
   // The spiky-illuminant case (§4): a mercury lamp (five 4 nm lines) over a floor with a rough
   // dispersive sphere. Most sampled wavelengths miss the lines and the offsets, 62.7 nm away,
@@ -404,15 +420,7 @@ TEST(Sgpt, LineSpectrumLightStaysFiniteAndUnbiased) {
       ".", "mercury.json");
   Params p;
   p.set("max_depth", 8);
-  p.set("seed", 31);
-  const MeanSe sg = image_mean(s, "sgpt", p, 4096);
-  p.set("seed", 32);
-  const MeanSe ref = image_mean(s, "spt", p, 4096);
-  ASSERT_TRUE(sg.finite && ref.finite);
-  const double z = (sg.mean - ref.mean) / std::hypot(sg.se, ref.se);
-  std::cout << "mercury: sgpt " << sg.mean << " +- " << sg.se << ", spt " << ref.mean << " +- " << ref.se << ", z " << z << "\n";
-  EXPECT_LT(std::abs(z), 4.0);
-  EXPECT_NEAR(sg.mean / ref.mean, 1.0, 0.05);
+  expect_same_mean(s, "sgpt", "spt", p, 4096, 31, 0.05, "mercury");
 }
 
 Scene small_pool(int w, int h) {
@@ -430,17 +438,7 @@ TEST(Sgpt, PoolImageMeanMatchesSptHero) {
   // z-test with each mean's standard error from its per-pass values, fixed seeds, |z| < 4.
   // Before roulette acted on the compensated throughput, sgpt's per-pass means had skew 20-123
   // and a standard error 6-15x this one's: unbiased, but heavy-tailed.
-  const Scene s = small_pool(24, 18);
-  Params p;
-  p.set("seed", 41);
-  const MeanSe sg = image_mean(s, "sgpt", p, 2048);
-  p.set("seed", 42);
-  const MeanSe ref = image_mean(s, "spt-hero", p, 2048);
-  ASSERT_TRUE(sg.finite && ref.finite);
-  const double z = (sg.mean - ref.mean) / std::hypot(sg.se, ref.se);
-  std::cout << "pool: sgpt " << sg.mean << " +- " << sg.se << ", spt-hero " << ref.mean << " +- " << ref.se << ", z " << z << "\n";
-  EXPECT_LT(std::abs(z), 4.0);
-  EXPECT_LT(sg.se, 3 * ref.se) << "a heavy tail is back";
+  expect_same_mean(small_pool(24, 18), "sgpt", "spt-hero", Params(), 2048, 41, 0.05, "pool", 3.0);
 }
 
 TEST(Sgpt, ParametersAreValidated) {

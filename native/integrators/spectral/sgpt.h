@@ -40,7 +40,8 @@
 //   bins         15     spectral bins per pixel (CLI --bins)
 //   wavelengths  1      wavelengths per path C (1 = §3; > 1 = hero combination, §3.4), 1..8
 //   delta        0.15   wavelength shift as a fraction of the domain (CLI --delta)
-//   tau          TAU    shift threshold of eq. 16 on the contributions f of a pair (CLI --tau)
+//   tau          0      shift threshold of eq. 16 on the contributions f of a pair (CLI --tau);
+//                       measured on pool: any tau > 0 in this measure loses (docs/spectral.md)
 //   alpha        0.2    screened Poisson weight of the primal (eq. 14)
 //   max_depth    32     longest path in segments
 //   rr_depth     3      depth from which Russian roulette may end paths
