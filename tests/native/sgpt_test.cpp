@@ -278,6 +278,14 @@ TEST(SpectralShift, ReconnectionJacobianMatchesFiniteDifferences) {
   EXPECT_GT(std::abs(J - 1.0), 0.2) << "the test should exercise a Jacobian far from 1";
 }
 
+// An sgpt render of `passes` passes, developed into *film.
+std::unique_ptr<Integrator> render_sgpt(const Scene& s, const Params& p, int passes, Film* film) {
+  auto integ = make_integrator("sgpt", s, p);
+  run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
+  integ->develop(*film);
+  return integ;
+}
+
 TEST(Sgpt, ColouredFurnaceAndPasses) {
   const Scene s = load_scene_from_string(
       R"({"camera": {"position": [0, -3, 0], "look_at": [0, 0, 0], "fov": 40, "width": 12, "height": 12},
@@ -289,10 +297,8 @@ TEST(Sgpt, ColouredFurnaceAndPasses) {
     Params p;
     p.set("seed", 4);
     p.set("wavelengths", wavelengths);
-    auto integ = make_integrator("sgpt", s, p);
-    run_progressive(*integ, StopRule{0, 512, 0}, nullptr);
     Film f;
-    integ->develop(f);
+    const auto integ = render_sgpt(s, p, 512, &f);
     ASSERT_TRUE(f.has_pass(pass::kSpectralPrimal));
     ASSERT_TRUE(f.has_pass(pass::kSpectralGradient));
     double m[3] = {0, 0, 0};
@@ -325,10 +331,8 @@ TEST(Sgpt, TauComparesPathContributions) {
     Params p;
     p.set("seed", 3);
     p.set("tau", tau);
-    auto integ = make_integrator("sgpt", s, p);
-    run_progressive(*integ, StopRule{0, 256, 0}, nullptr);
     Film f;
-    integ->develop(f);
+    const auto integ = render_sgpt(s, p, 256, &f);
     for (const auto& [x0, x1, radiance] : {std::tuple{0, 7, 1.0}, std::tuple{9, 16, 4.0}}) {
       const bool shifted = radiance > tau;
       double mean = 0, g_max = 0;
