@@ -427,6 +427,26 @@ TEST(Sgpt, LineSpectrumLightStaysFiniteAndUnbiased) {
   expect_same_mean(s, "sgpt", "spt", p, 4096, 31, 0.05, "mercury");
 }
 
+TEST(Sgpt, PointAndSunLightsAreReachedByNee) {
+  // Delta lights exist for sgpt only through next-event estimation: the offsets connect to the
+  // same light position (point) or direction (sun), with no Jacobian. Image mean against spt,
+  // and E[G] = dE[I].
+  const Scene s = load_scene_from_string(
+      R"({"camera": {"position": [0, -1.6, 1.0], "look_at": [0, 0, 0.3], "fov": 40, "width": 12, "height": 12},
+    "materials": {"floor": {"type": "diffuse", "color": [0.8, 0.7, 0.5]},
+                  "glass": {"type": "dielectric", "ior": 1.6, "cauchy_b": 0.03, "roughness": 0.15}},
+    "lights": [{"type": "point", "position": [0.3, -0.2, 1.5], "power": 30, "color": [1, 0.9, 0.7]},
+               {"type": "sun", "direction": [0.3, 0.4, -1], "strength": 1}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "floor"},
+                {"type": "sphere", "center": [0, 0, 0.45], "radius": 0.4, "segments": 24, "material": "glass"}]})",
+      ".", "delta.json");
+  Params p;
+  p.set("max_depth", 8);
+  expect_same_mean(s, "sgpt", "spt", p, 1024, 51, 0.03, "point and sun");
+  p.set("seed", 53);
+  std::cout << "point and sun: largest |z| of E[G] - dE[I] = " << check_gradients(s, p, 1024, 0.15, "point and sun gradients") << "\n";
+}
+
 Scene small_pool(int w, int h) {
   std::ifstream in(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/pool.json");
   std::stringstream ss;
