@@ -213,23 +213,33 @@ double check_gradients(const Scene& s, Params p, int passes, double tol, const s
   return worst_z;
 }
 
+// A smooth or rough flint sphere (B = 0.03 um^2) on a coloured floor, size x size pixels; `lamp`
+// is the material of a 1 x 1 m emitter 2 m up facing down ("" for none), `extra` more top-level
+// JSON (",\"environment\": ..." or lights).
+Scene sphere_on_floor(int size, float roughness, const std::string& lamp, const std::string& extra) {
+  const std::string n = std::to_string(size);
+  return load_scene_from_string(
+      R"({"camera": {"position": [0, -1.6, 1.0], "look_at": [0, 0, 0.3], "fov": 40, "width": )" + n +
+          R"(, "height": )" + n + R"(},
+    "materials": {"floor": {"type": "diffuse", "color": [0.8, 0.7, 0.5]},
+                  "glass": {"type": "dielectric", "ior": 1.6, "cauchy_b": 0.03, "roughness": )" +
+          std::to_string(roughness) + "}" + (lamp.empty() ? "" : R"(, "light": )" + lamp) + R"(},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "floor"},
+                {"type": "sphere", "center": [0, 0, 0.45], "radius": 0.4, "segments": 24, "material": "glass"})" +
+          (lamp.empty() ? "" : R"(,
+                {"type": "quad", "center": [0, 0, 2], "u": [0, 1, 0], "v": [1, 0, 0], "material": "light"})") +
+          "]" + extra + "}",
+      ".", "sphere.json");
+}
+
 TEST(Sgpt, GradientsMatchPrimalDifferencesThroughDispersiveGlass) {
   // E[G_j] = E[I_{j+s}] - E[I_j]: checked on image totals, where the shift runs through smooth
   // and rough dispersive refraction, half-vector copies, reconnections and next-event
   // estimation; for one wavelength per path (§3) and for four (the hero combination of §3.4,
   // eq. 17-18).
   for (auto [rough, wavelengths] : {std::pair{0.0f, 1}, {0.15f, 1}, {0.0f, 4}, {0.15f, 4}}) {
-    const Scene s = load_scene_from_string(
-        std::string(R"({"camera": {"position": [0, -1.6, 1.0], "look_at": [0, 0, 0.3], "fov": 40, "width": 16, "height": 16},
-      "materials": {"floor": {"type": "diffuse", "color": [0.8, 0.7, 0.5]},
-                    "glass": {"type": "dielectric", "ior": 1.6, "cauchy_b": 0.03, "roughness": )") +
-            std::to_string(rough) + R"(},
-                    "light": {"type": "emission", "emission": [1, 0.9, 0.8], "strength": 2}},
-      "environment": {"color": [0.1, 0.2, 0.4]},
-      "objects": [{"type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "floor"},
-                  {"type": "sphere", "center": [0, 0, 0.45], "radius": 0.4, "segments": 24, "material": "glass"},
-                  {"type": "quad", "center": [0, 0, 2], "u": [0, 1, 0], "v": [1, 0, 0], "material": "light"}]})",
-        ".", "glass.json");
+    const Scene s = sphere_on_floor(16, rough, R"({"type": "emission", "emission": [1, 0.9, 0.8], "strength": 2})",
+                                    R"(, "environment": {"color": [0.1, 0.2, 0.4]})");
     Params p;
     p.set("seed", 21);
     p.set("max_depth", 8);
@@ -413,15 +423,8 @@ TEST(Sgpt, LineSpectrumLightStaysFiniteAndUnbiased) {
   // nearly always do: sgpt falls back to standard sampling for those pairs (f(y) = 0 <= tau).
   // The image stays finite and its mean agrees with spt's (z-test of the two image means, each
   // with its standard error from per-pass values; |z| < 4 and within 5 %).
-  const Scene s = load_scene_from_string(
-      R"({"camera": {"position": [0, -1.6, 1.0], "look_at": [0, 0, 0.3], "fov": 40, "width": 12, "height": 12},
-    "materials": {"floor": {"type": "diffuse", "color": [0.8, 0.7, 0.5]},
-                  "glass": {"type": "dielectric", "ior": 1.6, "cauchy_b": 0.03, "roughness": 0.15},
-                  "lamp": {"type": "emission", "spectrum": {"preset": "mercury", "fwhm": 4}, "strength": 3}},
-    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "floor"},
-                {"type": "sphere", "center": [0, 0, 0.45], "radius": 0.4, "segments": 24, "material": "glass"},
-                {"type": "quad", "center": [0, 0, 2], "u": [0, 1, 0], "v": [1, 0, 0], "material": "lamp"}]})",
-      ".", "mercury.json");
+  const Scene s =
+      sphere_on_floor(12, 0.15f, R"({"type": "emission", "spectrum": {"preset": "mercury", "fwhm": 4}, "strength": 3})", "");
   Params p;
   p.set("max_depth", 8);
   expect_same_mean(s, "sgpt", "spt", p, 4096, 31, 0.05, "mercury");
@@ -431,15 +434,9 @@ TEST(Sgpt, PointAndSunLightsAreReachedByNee) {
   // Delta lights exist for sgpt only through next-event estimation: the offsets connect to the
   // same light position (point) or direction (sun), with no Jacobian. Image mean against spt,
   // and E[G] = dE[I].
-  const Scene s = load_scene_from_string(
-      R"({"camera": {"position": [0, -1.6, 1.0], "look_at": [0, 0, 0.3], "fov": 40, "width": 12, "height": 12},
-    "materials": {"floor": {"type": "diffuse", "color": [0.8, 0.7, 0.5]},
-                  "glass": {"type": "dielectric", "ior": 1.6, "cauchy_b": 0.03, "roughness": 0.15}},
-    "lights": [{"type": "point", "position": [0.3, -0.2, 1.5], "power": 30, "color": [1, 0.9, 0.7]},
-               {"type": "sun", "direction": [0.3, 0.4, -1], "strength": 1}],
-    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "floor"},
-                {"type": "sphere", "center": [0, 0, 0.45], "radius": 0.4, "segments": 24, "material": "glass"}]})",
-      ".", "delta.json");
+  const Scene s = sphere_on_floor(12, 0.15f, "", R"(, "lights": [
+      {"type": "point", "position": [0.3, -0.2, 1.5], "power": 30, "color": [1, 0.9, 0.7]},
+      {"type": "sun", "direction": [0.3, 0.4, -1], "strength": 1}])");
   Params p;
   p.set("max_depth", 8);
   expect_same_mean(s, "sgpt", "spt", p, 1024, 51, 0.03, "point and sun");
