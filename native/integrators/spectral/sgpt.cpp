@@ -432,7 +432,11 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       if (x.nee) {
         Values fy{}, pb{}, pl{};
         float Jz = 1.0f;
-        if (y_nee) {
+        // Where the base's light sample gives f(x) <= tau at every wavelength the pair is
+        // standard whatever the offset gives (eq. 16): no shadow ray for the offset.
+        bool needed = false;
+        for (int j = 0; j < C; ++j) needed |= nee_ev[k].f[j] > tau_;
+        if (y_nee && needed) {
           std::optional<LightSample> ls = x.ls;
           bool visible = x.nee_visible;
           if (state == State::Diverged) {
