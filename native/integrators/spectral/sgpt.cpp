@@ -160,7 +160,10 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
   };
 
   // ---- Base path at the hero wavelength, recorded for the shifts ----
-  BasePath base;
+  // Per-thread scratch reused from sample to sample (no allocations per sample).
+  thread_local BasePath base;
+  base.v.clear();
+  base.escaped = false;
   base.camera_ray = ray;
   float beta = 1.0f;  // hero throughput ratio, for roulette
   for (int depth = 0;; ++depth) {
@@ -254,7 +257,9 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     return s;
   };
   const size_t K = base.v.size() + (base.escaped ? 1 : 0);  // vertices that may emit
-  std::vector<Event> hit_ev(K), nee_ev(K);
+  thread_local std::vector<Event> hit_ev, nee_ev;
+  hit_ev.assign(K, Event{});
+  nee_ev.assign(K, Event{});
   {
     Values F{}, P{}, P_prev{};
     for (int j = 0; j < C; ++j) {
@@ -311,7 +316,8 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
 
   // This sample's estimates, added to the pixel only if all are finite (NaN/Inf are counted).
   // Primal: f(x, lambda_j) / sum over strategies and wavelengths of p (eq. 3-4) into bin b_j.
-  std::vector<double> G(bins_, 0.0);
+  thread_local std::vector<double> G;
+  G.assign(bins_, 0.0);
   Values primal{};
   auto standard = [&](const Event& e, int sign, const std::array<int, kMaxWavelengths>& gbin) {
     const float d = sum_p(e.p_bsdf, e.p_light);
@@ -337,7 +343,8 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
   // Largest base contribution f(x) among the events from vertex k on: where it is <= tau, every
   // remaining pair falls back to standard sampling whatever the offset gives (eq. 16 takes the
   // smaller f of the pair), so the offset is not traced further (the cost saving of §3.3).
-  std::vector<float> f_max_from(K + 1, 0.0f);
+  thread_local std::vector<float> f_max_from;
+  f_max_from.assign(K + 1, 0.0f);
   for (size_t k = K; k-- > 0;) {
     f_max_from[k] = f_max_from[k + 1];
     for (const Event* e : {&hit_ev[k], &nee_ev[k]})
