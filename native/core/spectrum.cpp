@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 
 #include <cmath>
+#include <stdexcept>
 
 namespace gp {
 
@@ -191,7 +192,68 @@ RgbSpectrum RgbSpectrum::illuminant(const RGB& rgb) {
   return s;
 }
 
+std::optional<std::vector<SpectralLine>> spectral_line_preset(const std::string& name) {
+  if (name == "sodium") return std::vector<SpectralLine>{{588.995f, 2.0f}, {589.592f, 1.0f}};  // D2, D1
+  if (name == "mercury")
+    return std::vector<SpectralLine>{{404.66f, 0.8f}, {435.83f, 1.6f}, {546.07f, 2.0f}, {576.96f, 0.4f}, {579.07f, 0.4f}};
+  return std::nullopt;
+}
+
+namespace {
+float gaussian_sigma(float fwhm) { return fwhm / 2.35482f; }
+}  // namespace
+
+Vec3 spectral_lines_xyz(const std::vector<SpectralLine>& lines, float fwhm) {
+  const double sigma = gaussian_sigma(fwhm);
+  Vec3 xyz(0, 0, 0);
+  constexpr int kSteps = 400;  // +-5 sigma
+  for (const SpectralLine& l : lines) {
+    const double h = 10.0 * sigma / kSteps;
+    for (int i = 0; i < kSteps; ++i) {
+      const double x = -5.0 * sigma + (i + 0.5) * h;
+      const float lambda = static_cast<float>(l.nm + x);
+      if (lambda < kLambdaMin || lambda >= kLambdaMax) continue;
+      const double g = l.weight * std::exp(-x * x / (2 * sigma * sigma)) / (sigma * std::sqrt(2 * kPi));
+      xyz = xyz + cie_xyz_bar(lambda) * static_cast<float>(g * h);
+    }
+  }
+  return xyz * (1.0f / cie_y_integral());
+}
+
+RGB spectral_lines_rgb(const std::vector<SpectralLine>& lines, float fwhm) {
+  const Vec3 xyz = spectral_lines_xyz(lines, fwhm);
+  if (!(xyz.y > 0)) return RGB(0.0f);
+  const RGB c = xyz_to_rgb(xyz * (1.0f / xyz.y));
+  return RGB(std::max(0.0f, c.r), std::max(0.0f, c.g), std::max(0.0f, c.b));
+}
+
+RgbSpectrum RgbSpectrum::lines(const std::vector<SpectralLine>& lines, float fwhm, float scale) {
+  if (lines.empty() || lines.size() > static_cast<size_t>(kMaxSpectralLines) || !(fwhm > 0))
+    throw std::invalid_argument("line spectrum: 1.." + std::to_string(kMaxSpectralLines) + " lines and fwhm > 0");
+  const float y = spectral_lines_xyz(lines, fwhm).y;
+  if (!(y > 0)) throw std::invalid_argument("line spectrum has no luminance in 360-830 nm");
+  RgbSpectrum s;
+  s.constant_ = false;
+  s.n_lines_ = static_cast<int>(lines.size());
+  const float sigma = gaussian_sigma(fwhm);
+  s.line_inv_2sigma2_ = 1.0f / (2 * sigma * sigma);
+  for (int i = 0; i < s.n_lines_; ++i) {
+    s.line_nm_[i] = lines[i].nm;
+    s.line_peak_[i] = lines[i].weight / (sigma * std::sqrt(2 * kPi)) / y;  // luminance 1
+  }
+  s.scale_ = scale;
+  return s;
+}
+
 float RgbSpectrum::operator()(float lambda) const {
+  if (n_lines_ > 0) {
+    float v = 0;
+    for (int i = 0; i < n_lines_; ++i) {
+      const float d = lambda - line_nm_[i];
+      v += line_peak_[i] * std::exp(-d * d * line_inv_2sigma2_);
+    }
+    return v * scale_;
+  }
   if (constant_) return value_ * scale_;
   const double t = (double(lambda) - kLambdaMin) / kLambdaRange;
   return static_cast<float>(sigmoid((c0_ * t + c1_) * t + c2_)) * scale_;

@@ -22,6 +22,9 @@
 #pragma once
 
 #include <array>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "core/color.h"
 #include "core/math.h"
@@ -67,7 +70,25 @@ RGB spectrum_to_rgb(F&& s);
 // the average over the set of L(lambda_j) cmf(lambda_j) / pdf(lambda_j), normalised and converted.
 RGB sample_to_rgb(const SpectralValues& L, const SampledWavelengths& wl);
 
-// Smooth spectrum from an RGB colour: Jakob–Hanika sigmoid polynomial, optionally scaled.
+// One emission line of a line spectrum: centre (nm) and relative weight (its integral).
+struct SpectralLine {
+  float nm = 0, weight = 0;
+};
+inline constexpr int kMaxSpectralLines = 8;
+// Named line spectra (scene format "spectrum": "<name>"): "sodium" (low-pressure sodium, the D
+// lines 589.0 / 589.6 nm, 2:1) and "mercury" (404.7, 435.8, 546.1, 577.0, 579.1 nm). nullopt
+// for an unknown name.
+std::optional<std::vector<SpectralLine>> spectral_line_preset(const std::string& name);
+// XYZ (Y-normalised as xyz_to_rgb expects) of Gaussian lines of full width at half maximum
+// `fwhm` nm, integrated finely around each line (a 5 nm quadrature would miss them).
+Vec3 spectral_lines_xyz(const std::vector<SpectralLine>& lines, float fwhm);
+// RGB of those lines at luminance 1, negative components (outside the Rec.709 gamut, e.g. the
+// blue of sodium) clipped to 0: the colour an RGB render and the light's power use.
+RGB spectral_lines_rgb(const std::vector<SpectralLine>& lines, float fwhm);
+
+// Smooth spectrum from an RGB colour: Jakob–Hanika sigmoid polynomial, optionally scaled; or a
+// line spectrum (emission only: Gaussian lines, the spiky-illuminant case of spectral gradient
+// sampling §4).
 class RgbSpectrum {
  public:
   RgbSpectrum() = default;
@@ -75,6 +96,9 @@ class RgbSpectrum {
   static RgbSpectrum reflectance(const RGB& rgb);
   // Unbounded spectrum for emission: scale * reflectance(rgb / scale) with scale = max(rgb).
   static RgbSpectrum illuminant(const RGB& rgb);
+  // Gaussian lines of one FWHM (nm), scaled so that the spectrum has luminance Y = scale (Y of
+  // the constant spectrum 1 is 1). At most kMaxSpectralLines lines.
+  static RgbSpectrum lines(const std::vector<SpectralLine>& lines, float fwhm, float scale);
 
   float operator()(float lambda) const;
   // The RGB the spectrum integrates to (what the fit was aiming at), for tests and reports.
@@ -86,6 +110,9 @@ class RgbSpectrum {
   float value_ = 0;               // the constant (grey) value, before scale
   float c0_ = 0, c1_ = 0, c2_ = 0;  // polynomial in t = (lambda - kLambdaMin) / kLambdaRange
   float scale_ = 1;
+  int n_lines_ = 0;  // > 0: a line spectrum (the sigmoid fields are unused)
+  std::array<float, kMaxSpectralLines> line_nm_{}, line_peak_{};
+  float line_inv_2sigma2_ = 0;
 };
 
 // Cauchy's equation n(lambda) = A + B / lambda^2 with lambda in micrometres (spectral gradient

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/color.h"
+#include "core/spectrum.h"
 #include "core/math.h"
 #include "core/sampling.h"
 
@@ -31,6 +32,10 @@ struct Light {
   float area = 0.0f;
   bool two_sided = false;
   int mesh = -1, prim = -1;      // the emissive triangle this light is
+  // Line emission spectrum (spectral modes); empty = the smooth spectrum of emit. emit is then
+  // the lines' (clipped) RGB times the luminance.
+  std::vector<SpectralLine> lines;
+  float line_fwhm = 1.0f;
 
   bool is_delta() const { return type == LightType::Point || type == LightType::Spot || type == LightType::Directional; }
   bool is_infinite() const { return type == LightType::Directional || type == LightType::Environment; }

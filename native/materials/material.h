@@ -3,8 +3,10 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/color.h"
+#include "core/spectrum.h"
 
 namespace gp {
 
@@ -29,6 +31,11 @@ struct Material {
   RGB emission{0.0f};
   float emission_strength = 0.0f;
   bool two_sided = false;  // emission from both faces; one-sided emits along the geometric normal
+  // Line emission spectrum (scene format "spectrum"): empty = the smooth spectrum of `emission`.
+  // When set, `emission` holds the lines' RGB at luminance 1 (spectral_lines_rgb), so
+  // radiance() is the RGB-mode colour and strength the luminance.
+  std::vector<SpectralLine> emission_lines;
+  float emission_fwhm = 1.0f;  // nm
 
   RGB radiance() const { return emission * emission_strength; }
   bool is_emissive() const { return !radiance().is_black(); }

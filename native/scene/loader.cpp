@@ -244,7 +244,7 @@ class Loader {
       Material mat;
       mat.name = it.key();
       const std::string type = get_string(need(m, "type", mpath), sub(mpath, "type"));
-      std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided"};
+      std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
         keys.push_back("color");
@@ -284,6 +284,11 @@ class Loader {
       if (const json* s = find(m, "strength")) mat.emission_strength = get_nonnegative(*s, sub(mpath, "strength"));
       if (const json* t = find(m, "two_sided")) mat.two_sided = get_bool(*t, sub(mpath, "two_sided"));
       if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
+      if (const json* sp = find(m, "spectrum")) {
+        if (find(m, "emission")) fail(mpath, "give either 'emission' (a colour) or 'spectrum', not both");
+        load_spectrum(*sp, sub(mpath, "spectrum"), mat.emission_lines, mat.emission_fwhm);
+        mat.emission = spectral_lines_rgb(mat.emission_lines, mat.emission_fwhm);  // luminance 1
+      }
       material_index_[mat.name] = static_cast<uint32_t>(scene_.materials.size());
       scene_.materials.push_back(std::move(mat));
     }
@@ -668,8 +673,53 @@ class Loader {
 
   // ---- Lights ----
 
+  // A line emission spectrum: a preset name ("sodium", "mercury") or {"lines": [[nm, weight],
+  // ...]} / {"preset": name}, with an optional "fwhm" (nm, default 1).
+  void load_spectrum(const json& j, const std::string& path, std::vector<SpectralLine>& lines, float& fwhm) {
+    fwhm = 1.0f;
+    std::string preset;
+    if (j.is_string()) {
+      preset = get_string(j, path);
+    } else {
+      require_object(j, path);
+      check_keys(j, path, {"preset", "lines", "fwhm"});
+      if (find(j, "preset") && find(j, "lines")) fail(path, "give either 'preset' or 'lines', not both");
+      if (const json* p = find(j, "preset")) preset = get_string(*p, sub(path, "preset"));
+      if (const json* f = find(j, "fwhm")) fwhm = get_in_range(*f, sub(path, "fwhm"), 0.1f, 100.0f);
+      if (const json* ls = find(j, "lines")) {
+        if (!ls->is_array() || ls->empty() || ls->size() > static_cast<size_t>(kMaxSpectralLines))
+          fail(sub(path, "lines"), fmt::format("must be a list of 1 to {} [nm, weight] pairs", kMaxSpectralLines));
+        for (size_t i = 0; i < ls->size(); ++i) {
+          const json& e = (*ls)[i];
+          const std::string ep = fmt::format("{}[{}]", sub(path, "lines"), i);
+          if (!e.is_array() || e.size() != 2) fail(ep, "must be [nm, weight]");
+          const float nm = get_in_range(e[0], ep, kLambdaMin, kLambdaMax);
+          lines.push_back({nm, get_positive(e[1], ep)});
+        }
+      } else if (preset.empty()) {
+        fail(path, "needs 'preset' or 'lines'");
+      }
+    }
+    if (!preset.empty()) {
+      const auto p = spectral_line_preset(preset);
+      if (!p) fail(path, fmt::format("unknown spectrum '{}' (known: sodium, mercury)", preset));
+      lines = *p;
+    }
+  }
+
   // "intensity"/"irradiance" as a colour, or a scalar `power_key` times "color" scaled by
-  // `power_scale`.
+  // `power_scale`; with "spectrum", the scalar times the lines' unit-luminance colour.
+  RGB light_value(const json& l, const std::string& path, const char* direct_key, const char* power_key, float power_scale,
+                  Light& light) {
+    if (const json* sp = find(l, "spectrum")) {
+      if (find(l, "color") || find(l, direct_key))
+        fail(path, fmt::format("'spectrum' goes with '{}' (a scalar), not with 'color' or '{}'", power_key, direct_key));
+      load_spectrum(*sp, sub(path, "spectrum"), light.lines, light.line_fwhm);
+      return spectral_lines_rgb(light.lines, light.line_fwhm) *
+             (get_nonnegative(need(l, power_key, path), sub(path, power_key)) * power_scale);
+    }
+    return light_value(l, path, direct_key, power_key, power_scale);
+  }
   RGB light_value(const json& l, const std::string& path, const char* direct_key, const char* power_key, float power_scale) {
     const json* direct = find(l, direct_key);
     const json* power = find(l, power_key);
@@ -691,13 +741,13 @@ class Loader {
     light.name = path;
     if (const json* n = find(l, "name")) light.name = get_string(*n, sub(path, "name"));
     if (type == "point") {
-      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color"});
+      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum"});
       light.type = LightType::Point;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
-      light.emit = light_value(l, path, "intensity", "power", kInv4Pi);
+      light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "spot") {
       check_keys(l, path, {"type", "name", "position", "direction", "look_at", "spot_size", "spot_blend", "intensity",
-                           "power", "color"});
+                           "power", "color", "spectrum"});
       light.type = LightType::Spot;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
       const json* d = find(l, "direction");
@@ -720,12 +770,12 @@ class Loader {
       if (const json* b = find(l, "spot_blend")) blend = get_in_range(*b, sub(path, "spot_blend"), 0.0f, 1.0f);
       light.spot_cos_half = std::cos(0.5f * size * kPi / 180.0f);
       light.spot_smooth = (1.0f - light.spot_cos_half) * blend;
-      light.emit = light_value(l, path, "intensity", "power", kInv4Pi);
+      light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "sun") {
-      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color"});
+      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum"});
       light.type = LightType::Directional;
       light.direction = get_direction(need(l, "direction", path), sub(path, "direction"));
-      light.emit = light_value(l, path, "irradiance", "strength", 1.0f);
+      light.emit = light_value(l, path, "irradiance", "strength", 1.0f, light);
     } else {
       fail(sub(path, "type"), fmt::format("unknown light type '{}' (known: point, spot, sun)", type));
     }

@@ -88,6 +88,8 @@ void Scene::finalize() {
         l.n = nc / (2.0f * area);
         l.area = area;
         l.two_sided = mtl.two_sided;
+        l.lines = mtl.emission_lines;
+        l.line_fwhm = mtl.emission_fwhm;
         l.mesh = static_cast<int>(mi);
         l.prim = static_cast<int>(t);
         triangle_light_[mi][t] = static_cast<int32_t>(all_lights.size());

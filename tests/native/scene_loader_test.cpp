@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "core/spectrum.h"
 #include "scene/loader.h"
 #include "scene/shapes.h"
 
@@ -602,6 +603,53 @@ TEST_F(SceneLoaderFiles, MissingAndBrokenObjFilesNameBothFiles) {
   const std::string range = scene_error([&] { load_scene(bad); });
   EXPECT_NE(range.find("bad.json: /objects/0/file"), std::string::npos) << range;
   EXPECT_NE(range.find("face 0 of 'broken' uses vertex 7 but the file has 3 vertices"), std::string::npos) << range;
+}
+
+
+TEST(SceneLoader, LineSpectra) {
+  // Emissive materials and lights take a line spectrum: a preset or [nm, weight] lines with a
+  // FWHM. `emission` becomes the lines' colour at luminance 1 (clipped to the Rec.709 gamut),
+  // so strength is the luminance; the lights carry the lines for spectral rendering.
+  const Scene s = from_text(R"({"camera": {"position": [0, -5, 1], "look_at": [0, 0, 1], "width": 8, "height": 8},
+    "materials": {"na": {"type": "emission", "spectrum": "sodium", "strength": 20},
+                  "hg": {"type": "emission", "spectrum": {"preset": "mercury", "fwhm": 2}},
+                  "pair": {"type": "emission", "spectrum": {"lines": [[532, 1], [633, 0.5]], "fwhm": 1}}},
+    "lights": [{"type": "point", "position": [0, 0, 5], "power": 100, "spectrum": "sodium"}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "na"},
+                {"type": "quad", "center": [3, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "hg"},
+                {"type": "quad", "center": [6, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "pair"}]})");
+  const Material& na = s.materials[0];
+  ASSERT_EQ(na.emission_lines.size(), 2u);
+  EXPECT_NEAR(na.emission_lines[0].nm, 589.0f, 0.1f);
+  EXPECT_EQ(na.emission.b, 0.0f) << "sodium's blue is outside Rec.709: clipped";
+  EXPECT_GT(na.emission.r, na.emission.g);
+  EXPECT_EQ(na.emission_strength, 20.0f);
+  EXPECT_EQ(s.materials[1].emission_lines.size(), 5u);
+  EXPECT_EQ(s.materials[1].emission_fwhm, 2.0f);
+  EXPECT_EQ(s.materials[2].emission_lines.size(), 2u);
+  bool point = false, area = false;
+  for (const Light& l : s.light_set().lights()) {
+    if (l.type == LightType::Point) point = l.lines.size() == 2;
+    if (l.type == LightType::Area && l.lines.size() == 5) area = l.line_fwhm == 2.0f;
+  }
+  EXPECT_TRUE(point);
+  EXPECT_TRUE(area);
+  // The spectrum has luminance = scale: Y of the lines, integrated finely, over Y of 1.
+  const RgbSpectrum sp = RgbSpectrum::lines(*spectral_line_preset("sodium"), 1.0f, 3.0f);
+  double y = 0;
+  for (double l = 570; l < 610; l += 0.01) y += cie_xyz_bar(float(l)).y * sp(float(l)) * 0.01;
+  EXPECT_NEAR(y / cie_y_integral(), 3.0, 0.01);
+
+  const auto mat = [](const std::string& body) {
+    return scene_error([&] {
+      from_text(R"({"materials": {"m": )" + body + R"(}, "objects": [{"type": "quad", "center": [0, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "m"}]})");
+    });
+  };
+  EXPECT_NE(mat(R"({"type": "emission", "spectrum": "neon"})").find("unknown spectrum 'neon'"), std::string::npos);
+  EXPECT_NE(mat(R"({"type": "emission", "emission": 1, "spectrum": "sodium"})").find("not both"), std::string::npos);
+  EXPECT_NE(mat(R"({"type": "emission", "spectrum": {"lines": [[900, 1]]}})").find("/materials/m/spectrum/lines[0]"),
+            std::string::npos);
+  EXPECT_NE(mat(R"({"type": "emission", "spectrum": {"fwhm": 2}})").find("needs 'preset' or 'lines'"), std::string::npos);
 }
 
 }  // namespace

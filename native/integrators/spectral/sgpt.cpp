@@ -29,6 +29,14 @@ struct BaseVertex {
   bool delta = false, transmission = false;
   float pdf = 0;              // BSDF pdf (solid angle, or lobe probability for delta lobes)
   float rr = 1;               // Russian roulette survival probability after this vertex
+  // Next-event estimation from this vertex (shared by the offsets: same random numbers, so the
+  // same point on an area light or direction of a distant light).
+  bool nee_eligible = false;  // NEE was possible here (non-delta BSDF, a light, depth left)
+  bool nee = false;           // ... and drew a light sample ls
+  bool nee_visible = false;   // ls is unoccluded from x_k
+  float u_light = 0;
+  Vec2 u_light2;
+  LightSample ls;
 };
 
 struct BasePath {
@@ -110,10 +118,6 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
   if (!(tau_ >= 0)) throw ParamError("tau must be >= 0");
   if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  for (const Light& l : scene.light_set().lights())
-    if (l.is_delta())
-      throw ParamError("sgpt samples paths by the BSDF only and cannot reach point, spot or sun light '" +
-                       l.name + "'; use spt-hero");
   stride_ = std::clamp(static_cast<int>(std::lround(delta_ * bins_)), 1, bins_ - 1);
   poisson_ = SpectralPoisson(bins_, stride_, alpha_);
   // RGB of each bin's unit integral: the bin's mean CMF (1 nm steps) through the XYZ matrix.
@@ -145,10 +149,23 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
   std::array<int, kMaxWavelengths> bin{};
   for (int j = 0; j < C; ++j)
     bin[j] = std::min(bins_ - 1, static_cast<int>((wl.lambda[j] - kLambdaMin) / bin_width));
+  // Russian roulette's survival probability after vertex k of a path whose hero throughput
+  // ratio is beta (prod f |cos| / pdf, divided by the survival probabilities so far, as pbrt's
+  // beta): roulette on the compensated throughput keeps survivors' weights near 1 (on the raw
+  // ratio the kills compound and the few survivors carry weights 1 / prod(beta), a heavy tail).
+  // The same rule gives the base's and, from the offset's own throughput, the offset's density:
+  // the density a base path sampled at lambda' would have had, which eq. 10-11 need.
+  auto survival = [&](size_t k, float beta) {
+    return k + 1 >= static_cast<size_t>(rr_depth_) ? std::min(1.0f, std::max(0.05f, beta)) : 1.0f;
+  };
 
-  // ---- Base path at the hero wavelength: BSDF sampling only, recorded for the shifts ----
-  BasePath base;
+  // ---- Base path at the hero wavelength, recorded for the shifts ----
+  // Per-thread scratch reused from sample to sample (no allocations per sample).
+  thread_local BasePath base;
+  base.v.clear();
+  base.escaped = false;
   base.camera_ray = ray;
+  float beta = 1.0f;  // hero throughput ratio, for roulette
   for (int depth = 0;; ++depth) {
     ++rays.closest;
     const auto hit = scene_.intersect(ray);
@@ -166,6 +183,19 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     if (Bsdf(mat).is_black() || bv.wo.z == 0) break;
     const Material m = monochromatic(mat, spectra_.albedo[hit->material], lambda);
     BaseVertex& v = base.v.back();
+    // ---- Emitter sampling (next-event estimation), shared by the offsets ----
+    if (!Bsdf(m).is_delta() && !lights.empty()) {
+      v.nee_eligible = true;
+      v.u_light = rng.uniform();
+      v.u_light2 = Vec2(rng.uniform(), rng.uniform());
+      if (auto ls = lights.sample_li(hit->p, v.u_light, v.u_light2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+        v.ls = *ls;
+        v.nee = true;
+        ++rays.shadow;
+        v.nee_visible = !scene_.occluded(hit->p, hit->ng, *ls);
+      }
+    }
+    // ---- BSDF sampling ----
     v.uc = rng.uniform();
     v.u = Vec2(rng.uniform(), rng.uniform());
     const auto bs = Bsdf(m).sample(v.wo, v.uc, v.u);
@@ -177,18 +207,14 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     v.pdf = bs->pdf;
     const Vec3 wi = hit->frame.to_world(bs->wi);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
-    if (depth + 1 >= rr_depth_) {
-      // Survival from the hero's throughput so far (recomputed: cheap at these depths).
-      float beta = 1.0f;
-      for (const BaseVertex& u : base.v) {
-        const Material mu = monochromatic(scene_.material(u.hit.material), spectra_.albedo[u.hit.material], lambda);
-        beta *= u.delta ? delta_scatter(mu, u.wo, u.wi, u.transmission, u.uc, u.u).f_cos / u.pdf
-                        : smooth_scatter(mu, u.wo, u.wi).f_cos / u.pdf;
-      }
-      const float survive = std::min(1.0f, std::max(0.05f, beta));
-      if (rng.uniform() >= survive) break;
-      v.rr = survive;
+    const Scatter s = v.delta ? delta_scatter(m, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(m, v.wo, v.wi);
+    beta *= s.f_cos / s.pdf;
+    v.rr = survival(depth, beta);
+    if (v.rr < 1.0f && rng.uniform() >= v.rr) {
+      v.scattered = false;  // roulette ended the path after NEE at this vertex
+      break;
     }
+    beta /= v.rr;
   }
 
   // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l.
@@ -199,6 +225,12 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     }
     if (h->light < 0 || lights.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
     return spectra_.light[h->light](l);
+  };
+  // Solid-angle pdf with which next-event estimation from p would pick the emission found
+  // along dir (at h, or the environment when h is null): the light strategy of the MIS.
+  auto light_pdf = [&](const Vec3& p, const SurfaceHit* h, const Vec3& dir) -> float {
+    if (!h) return lights.pdf_environment(dir);
+    return h->light >= 0 ? lights.pdf_area(h->light, p, h->p, dir) : 0.0f;
   };
   // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l. The direction was
   // chosen for the hero (or the offset's hero): a smooth dispersive refraction has no density
@@ -211,48 +243,114 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     return delta ? delta_scatter(m, wo, wi, transmission, uc, u) : smooth_scatter(m, wo, wi);
   };
 
-  // ---- Base contributions per path length (k vertices, then emission), per wavelength ----
-  const size_t K = base.v.size() + (base.escaped ? 1 : 0);  // emission events
-  std::vector<Values> fx(K, Values{}), px(K, Values{});
-  std::vector<float> px_sum(K, 0.0f);  // sum over the set of p(x, lambda_k): eq. 4's denominator
+  // ---- Base events: emission found at vertex k (BSDF strategy) and NEE at vertex k ----
+  // Per event and wavelength: f (measurement contribution in the product solid-angle measure)
+  // and the path's density under each strategy that can produce it, p_bsdf and p_light (the
+  // balance heuristic over strategies and over the C wavelengths: eq. 3-4 with NEE).
+  struct Event {
+    bool valid = false;
+    Values f{}, p_bsdf{}, p_light{};
+  };
+  auto sum_p = [&](const Values& a, const Values& b) {
+    float s = 0;
+    for (int i = 0; i < C; ++i) s += a[i] + b[i];
+    return s;
+  };
+  const size_t K = base.v.size() + (base.escaped ? 1 : 0);  // vertices that may emit
+  thread_local std::vector<Event> hit_ev, nee_ev;
+  hit_ev.assign(K, Event{});
+  nee_ev.assign(K, Event{});
   {
-    Values F{}, P{};
+    Values F{}, P{}, P_prev{};
     for (int j = 0; j < C; ++j) {
       F[j] = 1.0f;
       P[j] = SampledWavelengths::pdf();
     }
     Vec3 dir = base.camera_ray.d;
+    float beta_k = 1.0f;
     for (size_t k = 0; k < K; ++k) {
       const bool is_escape = k == base.v.size();
+      const SurfaceHit* h = is_escape ? nullptr : &base.v[k].hit;
+      Event& e = hit_ev[k];
+      e.valid = true;
+      const float pl = (k > 0 && base.v[k - 1].nee_eligible) ? light_pdf(base.v[k - 1].hit.p, h, dir) : 0.0f;
       for (int j = 0; j < C; ++j) {
-        fx[k][j] = F[j] * emitted(is_escape ? nullptr : &base.v[k].hit, dir, wl.lambda[j]);
-        px[k][j] = P[j];
-        px_sum[k] += P[j];
+        e.f[j] = F[j] * emitted(h, dir, wl.lambda[j]);
+        e.p_bsdf[j] = P[j];
+        e.p_light[j] = P_prev[j] * pl;
       }
-      if (is_escape || !base.v[k].scattered) break;
+      if (is_escape) break;
       const BaseVertex& v = base.v[k];
+      if (v.nee) {
+        Event& n = nee_ev[k];
+        n.valid = true;
+        const Vec3 wi = v.hit.frame.to_local(v.ls.wi);
+        const Light& light = lights.lights()[v.ls.light];
+        const float scale = light_scale(v.ls, light);
+        for (int j = 0; j < C; ++j) {
+          const Scatter s = scatter_at(v.hit.material, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
+          n.f[j] = v.nee_visible ? F[j] * s.f_cos * scale * spectra_.light[v.ls.light](wl.lambda[j]) : 0.0f;
+          n.p_light[j] = P[j] * v.ls.pdf;
+          n.p_bsdf[j] = v.ls.delta ? 0.0f : P[j] * s.pdf;
+        }
+        // The BSDF strategy's density includes the roulette it would have applied there.
+        if (!v.ls.delta) {
+          const Scatter s0 = scatter_at(v.hit.material, wl.lambda[0], v.wo, wi, false, false, 0, {}, true);
+          const float rr = s0.pdf > 0 ? survival(k, beta_k * s0.f_cos / s0.pdf) : 1.0f;
+          for (int j = 0; j < C; ++j) n.p_bsdf[j] *= rr;
+        }
+      }
+      if (!v.scattered) break;
+      P_prev = P;
+      float f0 = 0, p0 = 0;
       for (int j = 0; j < C; ++j) {
         const Scatter s = scatter_at(v.hit.material, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
         F[j] *= s.f_cos;
         P[j] *= s.pdf * v.rr;
+        if (j == 0) f0 = s.f_cos, p0 = s.pdf;
       }
+      beta_k *= p0 > 0 ? f0 / p0 / v.rr : 0.0f;
       dir = v.hit.frame.to_world(v.wi);
     }
   }
 
   // This sample's estimates, added to the pixel only if all are finite (NaN/Inf are counted).
-  // Primal: f(x, lambda_j) / sum_k p(x, lambda_k) (eq. 3-4) into bin b_j.
-  std::vector<double> G(bins_, 0.0);
+  // Primal: f(x, lambda_j) / sum over strategies and wavelengths of p (eq. 3-4) into bin b_j.
+  thread_local std::vector<double> G;
+  G.assign(bins_, 0.0);
   Values primal{};
-  for (size_t k = 0; k < K; ++k)
+  auto standard = [&](const Event& e, int sign, const std::array<int, kMaxWavelengths>& gbin) {
+    const float d = sum_p(e.p_bsdf, e.p_light);
+    if (!e.valid || d <= 0) return;
     for (int j = 0; j < C; ++j)
-      if (fx[k][j] > 0 && px_sum[k] > 0) primal[j] += fx[k][j] / px_sum[k];
-  // Standard-sampling share of the remaining base contributions once an offset has failed.
-  auto standard_rest = [&](size_t from, int sign, const std::array<int, kMaxWavelengths>& gbin) {
-    for (size_t r = from; r < K; ++r)
-      for (int j = 0; j < C; ++j)
-        if (fx[r][j] > 0) G[gbin[j]] += (sign > 0 ? -1.0 : 1.0) * fx[r][j] / px_sum[r];
+      if (e.f[j] > 0) G[gbin[j]] += (sign > 0 ? -1.0 : 1.0) * e.f[j] / d;
   };
+  for (size_t k = 0; k < K; ++k)
+    for (const Event* e : {&hit_ev[k], &nee_ev[k]}) {
+      const float d = sum_p(e->p_bsdf, e->p_light);
+      if (e->valid && d > 0)
+        for (int j = 0; j < C; ++j) primal[j] += e->f[j] / d;
+    }
+  // Standard-sampling share of the base events from vertex k on (its NEE included, its
+  // emission only if with_hit) once an offset has failed.
+  auto standard_rest = [&](size_t from, bool with_hit, int sign, const std::array<int, kMaxWavelengths>& gbin) {
+    for (size_t r = from; r < K; ++r) {
+      if (r > from || with_hit) standard(hit_ev[r], sign, gbin);
+      standard(nee_ev[r], sign, gbin);
+    }
+  };
+
+  // Largest base contribution f(x) among the events from vertex k on: where it is <= tau, every
+  // remaining pair falls back to standard sampling whatever the offset gives (eq. 16 takes the
+  // smaller f of the pair), so the offset is not traced further (the cost saving of §3.3).
+  thread_local std::vector<float> f_max_from;
+  f_max_from.assign(K + 1, 0.0f);
+  for (size_t k = K; k-- > 0;) {
+    f_max_from[k] = f_max_from[k + 1];
+    for (const Event* e : {&hit_ev[k], &nee_ev[k]})
+      if (e->valid)
+        for (int j = 0; j < C; ++j) f_max_from[k] = std::max(f_max_from[k], e->f[j]);
+  }
 
   // ---- The two offsets: lambda + delta (forward gradient of bin j) and lambda - delta ----
   for (int sign : {+1, -1}) {
@@ -262,59 +360,124 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       lambda2[j] = wrap_wavelength(static_cast<float>(wl.lambda[j] + sign * stride_ * bin_width));
       gbin[j] = sign > 0 ? bin[j] : (bin[j] - stride_ + bins_) % bins_;
     }
-    enum class State { Same, Reconnected, Diverged, Failed } state = State::Same;
-    Values F2{}, P2{};
+    // One pair of events (x, lambda_j), (y, lambda'_j): eq. 9-11 (C = 1) or eq. 17-18, with
+    // both strategies (BSDF, light) of both paths in the balance heuristic's denominator and
+    // the threshold of eq. 15-16 on the contributions f of the two paths.
+    auto pair = [&](const Event& x, const Values& fy, const Values& py_bsdf, const Values& py_light, float Jy) {
+      float denom = sum_p(x.p_bsdf, x.p_light);  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
+      const float dx = denom;
+      for (int i = 0; i < C; ++i) denom += (py_bsdf[i] + py_light[i]) * Jy;
+      for (int j = 0; j < C; ++j) {
+        if (!(x.f[j] > 0 || fy[j] > 0)) continue;
+        if (std::min(x.f[j], fy[j]) > tau_ && denom > 0) {  // w^s = 1, eq. 16 (f, not f / p)
+          const float g = (fy[j] * Jy - x.f[j]) / denom;    // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
+          G[gbin[j]] += sign > 0 ? g : -g;
+          ++counts.shifted;
+        } else if (dx > 0) {
+          const float cx = x.f[j] / dx;  // standard sampling of the I_lambda term (eq. 15)
+          G[gbin[j]] += sign > 0 ? -cx : cx;
+          ++counts.below_tau;
+        }
+      }
+    };
+    enum class State { Same, Reconnected, Diverged } state = State::Same;
+    Values F2{}, P2{}, P2_prev{};
     for (int j = 0; j < C; ++j) {
       F2[j] = 1.0f;
       P2[j] = SampledWavelengths::pdf();
     }
-    float J = 1.0f;
+    float J = 1.0f, beta2 = 1.0f;
     std::optional<SurfaceHit> y;   // the offset's own vertex while diverged
     Vec3 wo_y;                     // offset's local wo at its current vertex
     Vec3 y_dir = base.camera_ray.d;  // direction of the ray that reached the offset vertex
+    Vec3 y_prev_p;                 // the offset's previous vertex
+    bool y_prev_nee = false;       // ... and whether NEE was possible there
     bool y_escaped = false;
     ++counts.attempts;
     for (size_t k = 0; k < K; ++k) {
+      if (!(f_max_from[k] > tau_)) {  // w^s = 0 for every remaining pair (eq. 16)
+        for (size_t r = k; r < K; ++r)
+          for (const Event* e : {&hit_ev[r], &nee_ev[r]})
+            if (e->valid)
+              for (int j = 0; j < C; ++j) counts.below_tau += e->f[j] > 0;
+        standard_rest(k, true, sign, gbin);
+        break;
+      }
       const bool is_escape = k == base.v.size();
       // Offset vertex k and its emission.
       const SurfaceHit* yk = nullptr;
       if (state == State::Same || state == State::Reconnected) {
         yk = is_escape ? nullptr : &base.v[k].hit;
         if (state == State::Same) wo_y = is_escape ? Vec3() : base.v[k].wo;
-      } else if (state == State::Diverged) {
+      } else {
         yk = y_escaped ? nullptr : &*y;
       }
-      // Pairs (x, lambda_j), (y, lambda'_j) for this path length: eq. 9-11 (C = 1) or eq. 17-18,
-      // with the threshold of eq. 15-16.
-      float denom = 0;  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
-      for (int i = 0; i < C; ++i) denom += px[k][i] + P2[i] * J;
-      for (int j = 0; j < C; ++j) {
-        const float fyJ = F2[j] * emitted(yk, y_dir, lambda2[j]) * J;
-        if (!(fx[k][j] > 0 || fyJ > 0)) continue;
-        const float cx = fx[k][j] / px_sum[k], cy = fyJ / px_sum[k];
-        if (std::min(cx, cy) > tau_ && denom > 0) {
-          const float g = (fyJ - fx[k][j]) / denom;  // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
-          G[gbin[j]] += sign > 0 ? g : -g;
-          ++counts.shifted;
-        } else {
-          G[gbin[j]] += sign > 0 ? -cx : cx;  // standard sampling of the I_lambda term (eq. 15)
-          ++counts.below_tau;
+      {
+        Values fy{}, pb{}, pl{};
+        const float l_pdf = (k > 0 && y_prev_nee) ? light_pdf(y_prev_p, yk, y_dir) : 0.0f;
+        for (int j = 0; j < C; ++j) {
+          fy[j] = F2[j] * emitted(yk, y_dir, lambda2[j]);
+          pb[j] = P2[j];
+          pl[j] = P2_prev[j] * l_pdf;
         }
+        pair(hit_ev[k], fy, pb, pl, J);
       }
-      if (is_escape || !base.v[k].scattered) break;
+      if (is_escape) break;
       if (state == State::Diverged && y_escaped) {  // the offset left the scene, the base did not
         ++counts.failed_mismatch;
-        standard_rest(k + 1, sign, gbin);
+        standard_rest(k, false, sign, gbin);
         break;
       }
-
-      // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry) ----
       const BaseVertex& x = base.v[k];
-      const Material& mat_x = scene_.material(x.hit.material);
-      const Material mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], lambda);
       const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
       const Material& mat_y = scene_.material(yh.material);
       const Material my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
+      const bool y_nee = x.nee_eligible && !Bsdf(my).is_delta() && !Bsdf(mat_y).is_black() && wo_y.z != 0;
+
+      // ---- NEE of the offset: the same light sample (point on an area light, direction of
+      // a distant one), reconnected from y_k; Jacobian as a reconnection (KMA15 §5.2) ----
+      if (x.nee) {
+        Values fy{}, pb{}, pl{};
+        float Jz = 1.0f;
+        // Where the base's light sample gives f(x) <= tau at every wavelength the pair is
+        // standard whatever the offset gives (eq. 16): no shadow ray for the offset.
+        bool needed = false;
+        for (int j = 0; j < C; ++j) needed |= nee_ev[k].f[j] > tau_;
+        if (y_nee && needed) {
+          std::optional<LightSample> ls = x.ls;
+          bool visible = x.nee_visible;
+          if (state == State::Diverged) {
+            ls = lights.sample_li(yh.p, x.u_light, x.u_light2);  // same u: same point / direction
+            visible = false;
+            if (ls && ls->pdf > 0 && !ls->L.is_black()) {
+              ++rays.shadow;
+              visible = !scene_.occluded(yh.p, yh.ng, *ls);
+              if (lights.lights()[ls->light].type == LightType::Area)
+                Jz = reconnection_jacobian(x.hit.p, yh.p, ls->p, ls->n);
+            }
+          }
+          if (ls && visible && ls->pdf > 0) {
+            const Vec3 wi = yh.frame.to_local(ls->wi);
+            const float scale = light_scale(*ls, lights.lights()[ls->light]);
+            Scatter s0{};
+            for (int j = 0; j < C; ++j) {
+              const Scatter s = scatter_at(yh.material, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
+              if (j == 0) s0 = s;
+              fy[j] = F2[j] * s.f_cos * scale * spectra_.light[ls->light](lambda2[j]);
+              pl[j] = P2[j] * ls->pdf;
+              pb[j] = ls->delta ? 0.0f : P2[j] * s.pdf;
+            }
+            const float rr = s0.pdf > 0 ? survival(k, beta2 * s0.f_cos / s0.pdf) : 1.0f;
+            for (int j = 0; j < C; ++j) pb[j] *= rr;
+          }
+        }
+        pair(nee_ev[k], fy, pb, pl, J * Jz);
+      }
+      if (!x.scattered) break;
+
+      // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry) ----
+      const Material& mat_x = scene_.material(x.hit.material);
+      const Material mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], lambda);
       Vec3 wi_y;  // local at the offset vertex
       bool ok = true, diverge_now = false, reconnect_now = false;
       bool delta_y = x.delta;  // the lobe the offset follows: the base's
@@ -379,13 +542,20 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
                              x.uc, x.u, j == 0);
       if (!ok || s2[0].pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
         if (ok) ++counts.failed_mismatch;
-        standard_rest(k + 1, sign, gbin);
+        standard_rest(k + 1, true, sign, gbin);
         break;
       }
+      // The offset's own roulette survival (eq. 10-11 need its density as a base path).
+      beta2 *= s2[0].f_cos / s2[0].pdf;
+      const float rr2 = survival(k, beta2);
+      beta2 /= rr2;
+      P2_prev = P2;
       for (int j = 0; j < C; ++j) {
         F2[j] *= s2[j].f_cos;
-        P2[j] *= s2[j].pdf * x.rr;  // the offset inherits the base's roulette decisions
+        P2[j] *= s2[j].pdf * rr2;
       }
+      y_prev_p = yh.p;
+      y_prev_nee = y_nee;
       if (state == State::Reconnected) state = State::Same;
       // ---- Next offset vertex ----
       if (reconnect_now) {
@@ -474,16 +644,22 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-void SpectralGradientPathTracer::image_totals(std::vector<double>* primal, std::vector<double>* gradient) const {
+void SpectralGradientPathTracer::image_totals(std::vector<double>* primal, std::vector<double>* gradient, int x0,
+                                              int y0, int x1, int y1) const {
   primal->assign(bins_, 0.0);
   gradient->assign(bins_, 0.0);
-  for (size_t i = 0; i < samples_.size(); ++i) {
-    const double w = samples_[i] ? 1.0 / (samples_[i] * static_cast<double>(samples_.size())) : 0.0;
-    for (int j = 0; j < bins_; ++j) {
-      (*primal)[j] += primal_[i * bins_ + j] * w;
-      (*gradient)[j] += gradient_[i * bins_ + j] * w;
+  if (x1 < 0) x1 = width_;
+  if (y1 < 0) y1 = height_;
+  const double n = double(std::max(0, x1 - x0)) * std::max(0, y1 - y0);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      const double w = samples_[i] ? 1.0 / (samples_[i] * n) : 0.0;
+      for (int j = 0; j < bins_; ++j) {
+        (*primal)[j] += primal_[i * bins_ + j] * w;
+        (*gradient)[j] += gradient_[i * bins_ + j] * w;
+      }
     }
-  }
 }
 
 RGB SpectralGradientPathTracer::bins_to_rgb(const double* b) const {

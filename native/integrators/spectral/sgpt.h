@@ -2,35 +2,46 @@
 // spectrum I (B bins over 360-830 nm) and its spectral gradients G_j = I_{j+s} - I_j estimated
 // from pairs of correlated paths, then a 1D screened Poisson reconstruction (eq. 14).
 //
-// Each sample traces a base path at one uniformly sampled wavelength lambda (bin j) and shifts it
-// to lambda + delta and lambda - delta (cyclic, eq. 9) with the spectral shift of §3.1
-// (spectral_shift.h): the offset is the base path until the first wavelength-dependent
+// Each sample traces a base path at one uniformly sampled wavelength lambda (bin j), with
+// next-event estimation and BSDF sampling combined by the balance heuristic as in pt, and
+// shifts it to lambda + delta and lambda - delta (cyclic, eq. 9) with the spectral shift of
+// §3.1 (spectral_shift.h): the offset is the base path until the first wavelength-dependent
 // (dispersive) refraction, copies the generalised half vector (eq. 12) through dispersive and
 // specular vertices with the Jacobian of eq. 13, and reconnects to the base path at two
-// consecutive connectable (neither near-specular nor dispersive) vertices. Pairs are weighted
-// by the symmetric balance heuristic (eq. 10-11); pairs whose smaller contribution is <= tau
-// fall back to standard sampling (eq. 15-16). The base path alone gives the primal I.
+// consecutive connectable (neither near-specular nor dispersive) vertices. At every vertex the
+// offset evaluates the base's light sample (the same random numbers: the same point on an area
+// light, the same direction of a distant one), from its own vertex once diverged, with the
+// reconnection Jacobian at the light point ([KMA*15] §5.2). Each event (emission found by a
+// BSDF-sampled ray, or a light sample) of the base path pairs with the offset's same event;
+// the pair is weighted by the symmetric balance heuristic of eq. 10-11 (eq. 18 with C > 1) whose
+// denominator sums both strategies (BSDF, light) of both paths; pairs whose smaller
+// contribution f is <= tau fall back to standard sampling (eq. 15-16), and the offset is not
+// traced past the point where no base event has f > tau. The base path alone gives the primal I.
+//
+// Russian roulette acts on the roulette-compensated hero throughput (as pt). The offset's
+// density uses the survival probability its own throughput would have had as a base path, so
+// that the two weights of a pair sum to 1.
 //
 // Differences from the paper, deliberately:
 //   - delta is snapped to a whole number of bins s = round(delta * B) (s >= 1), so the
 //     gradient of bin j pairs it exactly with bin j + s (for B = 15, delta 0.15 -> 2 bins =
 //     62.7 nm); the shifted wavelength keeps its position inside the bin.
-//   - paths are sampled by the BSDF only (no next-event estimation): the shift of NEE and its
-//     MIS would double the code for little gain on caustic scenes; as a consequence lights
-//     must be hittable (area or environment lights; delta lights are rejected).
+//   - f in eq. 16 is the measurement contribution in the product solid-angle measure the
+//     estimator works in (throughput times emitted spectral radiance, no pixel importance), so
+//     tau is in units of spectral radiance; the paper's values (2.5-10, Mitsuba's measure) do
+//     not carry over numerically (docs/spectral.md has the measurement behind the default).
 //
 // With `wavelengths` C > 1 the base path carries the hero and C - 1 rotations and each offset
 // their shifted copies (§3.4): every wavelength of the set contributes its pair, weighted by
-// eq. 18 over the 2C techniques; a smooth dispersive refraction leaves only the hero's pair.
-// tau compares f / sum_k p(x, lambda_k) of the two paths of a pair (the paper's eq. 16 compares
-// f): with tau = 0 the decision is "both paths contribute", symmetric between the two
-// directions of a pair; with tau > 0 it is symmetric only approximately.
+// eq. 18 over the 2C techniques (times the two strategies); a smooth dispersive refraction
+// leaves only the hero's pair.
 //
 // Parameters (defaults):
 //   bins         15     spectral bins per pixel (CLI --bins)
 //   wavelengths  1      wavelengths per path C (1 = §3; > 1 = hero combination, §3.4), 1..8
 //   delta        0.15   wavelength shift as a fraction of the domain (CLI --delta)
-//   tau          0      shift threshold of eq. 16 on the per-sample contribution (CLI --tau)
+//   tau          0      shift threshold of eq. 16 on the contributions f of a pair (CLI --tau);
+//                       measured on pool: any tau > 0 in this measure loses (docs/spectral.md)
 //   alpha        0.2    screened Poisson weight of the primal (eq. 14)
 //   max_depth    32     longest path in segments
 //   rr_depth     3      depth from which Russian roulette may end paths
@@ -65,7 +76,9 @@ class SpectralGradientPathTracer : public Integrator {
   int stride() const { return stride_; }
   // Image averages of the per-pixel estimates: primal bins I_j and gradients G_j (for tests:
   // E[G_j] = E[I_{j+s}] - E[I_j] when the shift and its weights are right).
-  void image_totals(std::vector<double>* primal, std::vector<double>* gradient) const;
+  // Optionally over the pixels [x0, x1) x [y0, y1) only (averaged over those).
+  void image_totals(std::vector<double>* primal, std::vector<double>* gradient, int x0 = 0, int y0 = 0,
+                    int x1 = -1, int y1 = -1) const;
 
   // Shift statistics by outcome (also in stats().extra).
   struct ShiftCounts {

@@ -33,7 +33,15 @@ bool use_spectral(SpectralMode mode, const Scene& scene) {
 
 SceneSpectra::SceneSpectra(const Scene& scene) {
   for (const Material& m : scene.materials) albedo.push_back(RgbSpectrum::reflectance(m.color));
-  for (const Light& l : scene.light_set().lights()) light.push_back(RgbSpectrum::illuminant(l.emit));
+  for (const Light& l : scene.light_set().lights()) {
+    if (l.lines.empty()) {
+      light.push_back(RgbSpectrum::illuminant(l.emit));
+    } else {  // luminance from emit = the lines' unit-luminance RGB x luminance
+      const RGB unit = spectral_lines_rgb(l.lines, l.line_fwhm);
+      const float m = unit.max_component();
+      light.push_back(RgbSpectrum::lines(l.lines, l.line_fwhm, m > 0 ? l.emit.max_component() / m : 0.0f));
+    }
+  }
 }
 
 Material monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda) {
@@ -72,16 +80,14 @@ float mean(const SpectralValues& v, int n) {
   return s / n;
 }
 
-// Spectral radiance of a light sample: lights scale their RGB emission by grey factors only
-// (distance, spot falloff), so the factor read off the brightest channel applies to the spectrum.
+}  // namespace
+
 float light_scale(const LightSample& ls, const Light& l) {
   const float m = l.emit.max_component();
   if (m <= 0) return 0.0f;
   const int c = l.emit.r == m ? 0 : (l.emit.g == m ? 1 : 2);
   return ls.L[c] / l.emit[c];
 }
-
-}  // namespace
 
 SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng,
                                       RayCounts& rays) const {

@@ -63,6 +63,11 @@ struct SceneSpectra {
 // upsampled colour spectrum there, so the RGB Bsdf evaluates it unchanged.
 Material monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda);
 
+// Spectral radiance of a light sample over its light's spectrum: lights scale their RGB
+// emission by grey factors only (distance, spot falloff), so the factor read off the brightest
+// channel applies to the spectrum.
+float light_scale(const LightSample& ls, const Light& l);
+
 class SpectralPathTracer : public Integrator {
  public:
   // `hero` selects the default C (4, else 1) and the method name.
