@@ -172,10 +172,10 @@ def test_clamping_and_transparency_greyed_for_methods_that_do_not_read_them():
 
 def test_warnings_of_the_last_render_are_kept_for_the_panel(empty_scene):
     small_scene(empty_scene)
-    bpy.data.lights["Sun"].angle = 0.2
+    bpy.data.lights["Sun"].use_shadow = False
     empty_scene.gradphoton.passes = 1
     bpy.ops.render.render()
-    assert any("sun angle ignored" in m for _, m in session.REPORTS), session.REPORTS
+    assert any("renders with shadows" in m for _, m in session.REPORTS), session.REPORTS
     assert ui.GRADPHOTON_PT_report.poll(type("C", (), {"engine": "GRADPHOTON"})())
 
 
