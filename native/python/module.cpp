@@ -8,6 +8,7 @@
 
 #include "core/film.h"
 #include "distributed/run_info.h"
+#include "integrators/aov.h"
 #include "integrators/integrator.h"
 #include "io/exr.h"
 #include "reconstruction/poisson.h"
@@ -73,10 +74,13 @@ class Session {
     params_ = params_from_dict(params);
     integrator_ = make_integrator(method, *scene_, params_);
     unused_ = params_.unused();
+    aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
   }
+  // One pass of the method, and while they are few, one of the auxiliary passes (aov.h).
   void iterate() {
     py::gil_scoped_release release;
     integrator_->iterate(&sink_);
+    if (aov_->passes() < AovEstimator::kMaxPasses && !sink_.cancel_flag) aov_->add_pass();
   }
   void run(double seconds, int64_t passes) {
     py::gil_scoped_release release;
@@ -90,6 +94,7 @@ class Session {
     {
       py::gil_scoped_release release;
       integrator_->develop(film);
+      aov_->develop(film);
     }
     py::dict out;
     for (const auto& [name, p] : film.passes()) {
@@ -102,6 +107,7 @@ class Session {
   void write_exr_file(const std::string& path) {
     Film film;
     integrator_->develop(film);
+    aov_->develop(film);
     write_exr(path, film, run_info());
   }
   // The run's record for EXR headers (distributed/run_info.h): {"gradphoton.method": ..., ...}.
@@ -126,6 +132,7 @@ class Session {
  private:
   std::shared_ptr<Scene> scene_;
   std::unique_ptr<Integrator> integrator_;
+  std::unique_ptr<AovEstimator> aov_;
   Params params_;
   ProgressSink sink_;
   std::vector<std::string> unused_;
@@ -152,6 +159,8 @@ py::dict method_info(const std::string& method, const py::dict& params) {
     Film film;
     integrator->develop(film);
     for (const auto& [name, pass] : film.passes()) passes.push_back(name);
+    // A Session adds the auxiliary passes to every method's (aov.h).
+    for (auto aux : {pass::kAlbedo, pass::kNormal, pass::kDepth}) passes.emplace_back(aux);
     error_estimate = integrator->estimated_error() >= 0;
   }
   py::dict out;

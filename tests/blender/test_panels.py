@@ -85,9 +85,10 @@ def test_passes_panel_offers_the_methods_passes(empty_scene):
         panel = SimpleNamespace(layout=_Layout())
         ui.GRADPHOTON_PT_passes.draw(panel, SimpleNamespace(scene=empty_scene, view_layer=empty_scene.view_layers[0]))
         drawn[method] = set(panel.layout.drawn)
-    assert drawn["pt"] == set()
-    assert drawn["gpt"] == {"use_pass_primal", "use_pass_gradient_x", "use_pass_gradient_y"}
-    assert drawn["sppm"] == {"use_pass_error", "use_pass_radius", "use_pass_photon_count"}
+    aux = {"use_pass_albedo", "use_pass_normal", "use_pass_depth"}  # every method's (aov.h)
+    assert drawn["pt"] == aux
+    assert drawn["gpt"] == {"use_pass_primal", "use_pass_gradient_x", "use_pass_gradient_y"} | aux
+    assert drawn["sppm"] == {"use_pass_error", "use_pass_radius", "use_pass_photon_count"} | aux
 
 
 def test_max_bounces_as_cycles_counts_them(empty_scene):
