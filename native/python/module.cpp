@@ -85,6 +85,8 @@ class Session {
   void run(double seconds, int64_t passes) {
     py::gil_scoped_release release;
     run_progressive(*integrator_, StopRule{seconds, passes, 0}, &sink_);
+    const int64_t aux = std::min<int64_t>(AovEstimator::kMaxPasses, integrator_->stats().passes);
+    while (aov_->passes() < aux && !sink_.cancel_flag) aov_->add_pass();
   }
   void cancel() { sink_.cancel_flag = true; }
   bool cancelled() { return sink_.cancel_flag; }

@@ -74,6 +74,20 @@ def set_world(scene, color=(0, 0, 0), strength=0.0):
     bg.inputs["Strength"].default_value = strength
 
 
+def add_light(scene, name, kind, shape, power, extra, location):
+    """A light object of Blender type `kind` (shape for area lights, settings in `extra`)."""
+    la = bpy.data.lights.new(name, kind)
+    la.energy = power
+    if shape:
+        la.shape = shape
+    for k, v in extra.items():
+        setattr(la, k, v)
+    ob = bpy.data.objects.new(name, la)
+    scene.collection.objects.link(ob)
+    ob.location = location
+    return ob
+
+
 LIGHT_AT = (3.0, 0.0, 2.0)  # outside the camera's view; every light aims at the origin
 
 # name -> (Blender light type, shape or None, power/strength, extra settings)
@@ -101,18 +115,9 @@ def brightness_scene(scene, case):
         look_at(ob, (0, 0, 0))
     else:
         kind, shape, power, extra = LIGHT_CASES[case]
-        la = bpy.data.lights.new(case, kind)
-        la.energy = power
-        la.color = (1.0, 0.9, 0.8)
         if kind in {'POINT', 'SPOT'}:
-            la.shadow_soft_size = 0.0
-        if shape:
-            la.shape = shape
-        for k, v in extra.items():
-            setattr(la, k, v)
-        ob = bpy.data.objects.new(case, la)
-        scene.collection.objects.link(ob)
-        ob.location = LIGHT_AT
+            extra = dict(extra, shadow_soft_size=0.0)
+        ob = add_light(scene, case, kind, shape, power, dict(extra, color=(1.0, 0.9, 0.8)), LIGHT_AT)
         look_at(ob, (0, 0, 0))
     return scene
 
@@ -204,15 +209,7 @@ def cornell_lit(scene, case):
     kind, shape, power, extra = CORNELL_LIGHTS[case]
     if kind == 'SUN':
         bpy.data.objects.remove(bpy.data.objects["Ceiling"])
-    la = bpy.data.lights.new(case, kind)
-    la.energy = power
-    if shape:
-        la.shape = shape
-    for k, v in extra.items():
-        setattr(la, k, v)
-    ob = bpy.data.objects.new(case, la)
-    scene.collection.objects.link(ob)
-    ob.location = (0.0, 0.0, 1.98 if kind == 'AREA' else 1.8)
+    ob = add_light(scene, case, kind, shape, power, extra, (0.0, 0.0, 1.98 if kind == 'AREA' else 1.8))
     if kind == 'SUN':
         ob.rotation_euler = (math.radians(20), 0.0, 0.0)
     return mats

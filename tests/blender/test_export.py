@@ -71,17 +71,7 @@ def test_every_light_type_and_camera(empty_scene):
     empty_scene.render.resolution_percentage = 50
     lights = {}
     for case in scenes.LIGHT_CASES:
-        kind, shape, power, extra = scenes.LIGHT_CASES[case]
-        la = bpy.data.lights.new(case, kind)
-        la.energy = power
-        if shape:
-            la.shape = shape
-        for k, v in extra.items():
-            setattr(la, k, v)
-        ob = bpy.data.objects.new(case, la)
-        empty_scene.collection.objects.link(ob)
-        ob.location = (1, 2, 3)
-        lights[case] = ob
+        lights[case] = scenes.add_light(empty_scene, case, *scenes.LIGHT_CASES[case], (1, 2, 3))
     lights["area_square"].scale = (2, 1, 1)  # area scales with the object, as in Cycles
     scenes.set_world(empty_scene, (0.1, 0.2, 0.3), 2.0)
 
