@@ -20,6 +20,9 @@
 //              course), energy compensation: (1 - E(mu_i)) (1 - E(mu_o)) / (pi (1 - E_avg)).
 #include "materials/bsdf.h"
 
+#include <map>
+#include <mutex>
+
 #include "core/frame.h"
 #include "core/sampling.h"
 
@@ -458,6 +461,18 @@ MixParts mix_parts(const Material& m) {
 
 void prepare_material(Material& m) {
   if (m.type != MaterialType::Plastic) return;
+  // Scenes have many plastics of few (roughness, IOR) pairs (every Principled non-metal): one
+  // table per pair, shared.
+  static std::mutex cache_mutex;
+  static std::map<std::pair<float, float>, std::shared_ptr<const std::vector<float>>> cache;
+  const std::pair<float, float> key{m.roughness, m.ior};
+  {
+    std::lock_guard lock(cache_mutex);
+    if (auto it = cache.find(key); it != cache.end()) {
+      m.coat_albedo = it->second;
+      return;
+    }
+  }
   // E(mu) = int f_coat |cos_i| dwi, by the coat's own sampler on a fixed 64 x 64 stratified
   // grid (deterministic); a smooth coat reflects exactly Schlick's F(mu).
   auto table = std::make_shared<std::vector<float>>(kCoatAlbedoBins + 2, 0.0f);
@@ -485,7 +500,9 @@ void prepare_material(Material& m) {
     avg += ((*table)[b] * mu0 + (*table)[b + 1] * mu1) * (mu1 - mu0);
   }
   table->back() = static_cast<float>(std::min(avg, 0.999));
-  m.coat_albedo = std::move(table);
+  m.coat_albedo = table;
+  std::lock_guard lock(cache_mutex);
+  cache.emplace(key, std::move(table));
 }
 
 // Exact unpolarized Fresnel reflectance (average of the s and p Fresnel equations).
