@@ -239,6 +239,7 @@ class RenderSession:
         window = exported.border
         rw, rh = (window[2], window[3]) if window else (W, H)
         passes = enabled_passes(view_layer, settings.method)
+        self.session.set_aux_passes(any(p[0] in AUX_PASSES for p in passes))  # no cost unless asked for
         result = engine.begin_result(0, 0, rw, rh, layer=view_layer.name)
         progress = Progress(settings)
         last_update = -1.0

@@ -1,5 +1,7 @@
 #include "integrators/aov.h"
 
+#include <atomic>
+
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "materials/bsdf.h"
@@ -33,15 +35,22 @@ AovEstimator::AovEstimator(const Scene& scene, uint64_t seed, int threads)
       normal_(size_t(width_) * height_ * 3, 0.0f),
       depth_(size_t(width_) * height_, 0.0f) {}
 
-void AovEstimator::add_pass() {
+void AovEstimator::add_pass(const std::function<bool()>& cancelled) {
   constexpr int kMaxSegments = 8;
   constexpr float kNoHitDepth = 1e10f;  // Cycles' Depth of the background
   const Camera& cam = scene_.camera;
   const Vec3 eye = cam.position();
   const Vec3 forward = normalize(cam.camera_to_world.vector(Vec3(0, 0, -1)));
   const int pass = passes_;
+  // This pass's values, added to the sums only once it is whole.
+  std::vector<float> albedo(albedo_.size(), 0.0f), normal(normal_.size(), 0.0f), depths(depth_.size(), 0.0f);
+  std::atomic<bool> stop{false};
   parallel_for(size_t(height_), threads_, [&](size_t y0, size_t y1) {
-    for (size_t y = y0; y < y1; ++y)
+    for (size_t y = y0; y < y1; ++y) {
+      if (stop.load(std::memory_order_relaxed) || (cancelled && cancelled())) {
+        stop = true;
+        return;
+      }
       for (int x = 0; x < width_; ++x) {
         const size_t i = y * width_ + x;
         Rng rng(seed_ * 0x9E3779B97F4A7C15ull + i, uint64_t(pass));
@@ -63,8 +72,8 @@ void AovEstimator::add_pass() {
           if (!bsdf.is_delta()) {
             const RGB a = weight * material_albedo(m);
             for (int k = 0; k < 3; ++k) {
-              albedo_[3 * i + k] += a[k];
-              normal_[3 * i + k] += hit->ns[k];
+              albedo[3 * i + k] = a[k];
+              normal[3 * i + k] = hit->ns[k];
             }
             break;
           }
@@ -75,9 +84,14 @@ void AovEstimator::add_pass() {
           const Vec3 wi = hit->frame.to_world(s->wi);
           ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
         }
-        depth_[i] += depth;
+        depths[i] = depth;
       }
+    }
   });
+  if (stop) return;
+  for (size_t k = 0; k < albedo.size(); ++k) albedo_[k] += albedo[k];
+  for (size_t k = 0; k < normal.size(); ++k) normal_[k] += normal[k];
+  for (size_t k = 0; k < depths.size(); ++k) depth_[k] += depths[k];
   ++passes_;
 }
 

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/film.h"
@@ -30,7 +31,9 @@ class AovEstimator {
  public:
   static constexpr int kMaxPasses = 16;  // enough for antialiased edges; later passes are free
   AovEstimator(const Scene& scene, uint64_t seed, int threads);
-  void add_pass();
+  // One pass; if `cancelled` turns true while it runs, the pass stops and counts for nothing
+  // (the means stay those of the whole passes), so a render's Esc is not held up by it.
+  void add_pass(const std::function<bool()>& cancelled = {});
   int passes() const { return passes_; }
   // Adds the three passes (means so far; zero before any pass) to `film`, of the camera's size.
   void develop(Film& film) const;
