@@ -20,6 +20,10 @@ LAST = None  # the latest RenderSession (tests and the UI test inspect it)
 REPORTS = []  # [(level, message)] of the latest render, shown in the Render tab's Last Render panel
 
 
+# The auxiliary passes every method gets (native/integrators/aov.h), as Cycles registers them.
+AUX_PASSES = {"albedo": ("RGB", 'COLOR'), "normal": ("XYZ", 'VECTOR'), "depth": ("Z", 'VALUE')}
+
+
 def blender_passes():
     """[(native name, Blender pass name, channels, chan_id, type)] for every pass of the core but
     alpha, which is Combined's Alpha (Film > Transparent)."""
@@ -29,6 +33,8 @@ def blender_passes():
             continue
         if name == "combined":
             out.append((name, "Combined", 4, "RGBA", 'COLOR'))
+        elif name in AUX_PASSES:  # Cycles' channel names and types for these
+            out.append((name, label, channels) + AUX_PASSES[name])
         else:
             out.append((name, label, channels, "RGB" if channels == 3 else "X", 'COLOR' if channels == 3 else 'VALUE'))
     return out
@@ -233,6 +239,7 @@ class RenderSession:
         window = exported.border
         rw, rh = (window[2], window[3]) if window else (W, H)
         passes = enabled_passes(view_layer, settings.method)
+        self.session.set_aux_passes(any(p[0] in AUX_PASSES for p in passes))  # no cost unless asked for
         result = engine.begin_result(0, 0, rw, rh, layer=view_layer.name)
         progress = Progress(settings)
         last_update = -1.0

@@ -269,10 +269,10 @@ class GRADPHOTON_LIGHT_PT_light(GradphotonPanel, bpy.types.Panel):
         col.prop(light, "color")
         col.prop(light, "energy", text="Strength" if light.type == 'SUN' else "Power")
         ignored = None
-        if light.type in {'POINT', 'SPOT'} and light.shadow_soft_size > 0:
-            ignored = "Radius ignored: hard shadows"
-        elif light.type == 'SUN' and light.angle > 0:
-            ignored = "Angle ignored: hard shadows"
+        ob = context.object
+        if (light.type != 'AREA' and ob is not None and ob.visible_camera
+                and (light.type == 'SUN' or light.shadow_soft_size > 0)):
+            ignored = "Lights the scene but is not shown to the camera"
         if light.type == 'SPOT':
             col.separator()
             col.prop(light, "spot_size", text="Spot Size")

@@ -38,6 +38,10 @@ inline constexpr std::string_view kPathTracing = "path_tracing";
 // every camera ray escaped to the world, 1 where every one hit the scene; `combined` then holds
 // no background (premultiplied). Blender takes it as the Alpha of Combined, not a pass of its own.
 inline constexpr std::string_view kAlpha = "alpha";
+// Written for every method by integrators/aov.h (Cycles' names for Blender).
+inline constexpr std::string_view kAlbedo = "albedo";
+inline constexpr std::string_view kNormal = "normal";
+inline constexpr std::string_view kDepth = "depth";
 
 struct Info {
   std::string_view name;
@@ -58,6 +62,9 @@ inline constexpr Info kAll[] = {
     {kSampleDensity, 1, "Sample Density"},
     {kPathTracing, 3, "Path Tracing Share"},
     {kAlpha, 1, "Alpha"},
+    {kAlbedo, 3, "Denoising Albedo"},
+    {kNormal, 3, "Normal"},
+    {kDepth, 1, "Depth"},
 };
 }  // namespace pass
 

@@ -79,6 +79,10 @@ struct Bounds3 {
 struct Ray {
   Vec3 o, d;
   float tmin = 0.0f, tmax = kInfinity;
+  // Set by Camera::generate_ray only: surfaces whose material is not visible to the camera
+  // (Blender's object Visibility > Camera, off for light objects) let camera rays through.
+  // Every other ray (bounces, photons, shadow rays) is built fresh and is not a camera ray.
+  bool camera = false;
   Ray() = default;
   Ray(const Vec3& o_, const Vec3& d_, float tmin_ = 0.0f, float tmax_ = kInfinity)
       : o(o_), d(d_), tmin(tmin_), tmax(tmax_) {}

@@ -38,9 +38,22 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
   bool specular_bounce = false;
   float prev_pdf = 0;  // solid-angle pdf of the BSDF sample that produced `ray`
   Vec3 prev_p;
+  constexpr int kMaxPassThrough = 8;  // Cycles: Light Paths > Transparent, 8 by default
+  int pass_through = 0;
   for (int depth = 0;; ++depth) {
     ++rays.closest;
     const auto hit = scene_.intersect(ray);
+
+    // Cycles' point and spot lights of radius > 0: disks that BSDF rays may hit (MIS with
+    // their sampling above; a mirror shows them). Camera rays do not see them.
+    if (depth > 0) {
+      float t_disk, pdf_disk;
+      RGB Le;
+      if (lights.intersect_disk(ray, hit ? hit->t : kInfinity, &t_disk, &Le, &pdf_disk) >= 0) {
+        const float w = specular_bounce ? 1.0f : power_heuristic(prev_pdf, pdf_disk);
+        L += clamped(beta * Le * w, depth <= 1);
+      }
+    }
 
     // ---- Emission found by the ray: full weight for camera and specular rays, MIS otherwise
     // Emission found at depth 0 or 1 is direct light (Cycles' clamping), deeper is indirect.
@@ -65,6 +78,16 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
         L += clamped(beta * Le * w, depth <= 1);
       }
     }
+    // ---- A pass-through surface (a light object): the path goes on as if it were not there,
+    // keeping its MIS state and not counting a bounce (Cycles' lights, a transparent bounce) ----
+    if (scene_.material(hit->material).is_pass_through() && pass_through < kMaxPassThrough) {
+      ++pass_through;
+      const bool camera = ray.camera;
+      ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
+      ray.camera = camera;
+      --depth;
+      continue;
+    }
     if (depth + 1 >= max_depth_) break;
 
     const Bsdf bsdf(scene_.material(hit->material));
@@ -83,7 +106,9 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
           ++rays.shadow;
           const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
           if (!blocked) {
-            const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, bsdf.pdf(wo, wi));
+            const float w = !ls->delta       ? power_heuristic(ls->pdf, bsdf.pdf(wo, wi))
+                            : ls->mis_pdf > 0 ? power_heuristic(ls->mis_pdf, bsdf.pdf(wo, wi))
+                                              : 1.0f;
             L += clamped(beta * f * ls->L * (w / ls->pdf), depth == 0);
           }
         }

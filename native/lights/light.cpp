@@ -13,6 +13,8 @@ LightSet::LightSet(std::vector<Light> lights, const Bounds3& scene_bounds)
   for (size_t i = 0; i < lights_.size(); ++i) {
     if (lights_[i].type == LightType::Environment) environment_ = static_cast<int>(i);
     weights.push_back(power(static_cast<int>(i)));
+    if ((lights_[i].type == LightType::Point || lights_[i].type == LightType::Spot) && lights_[i].radius > 0)
+      disk_lights_.push_back(static_cast<int>(i));
   }
   if (!weights.empty()) select_ = DiscreteDistribution(weights);
 }
@@ -72,21 +74,42 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
     }
     case LightType::Point:
     case LightType::Spot: {
-      const Vec3 d = l.position - p;
+      Vec3 q = l.position;
+      float cos_l = 1.0f;
+      if (l.radius > 0) {
+        // Cycles' sphere light: a uniform point on the disk of radius r facing p, radiance
+        // I / (pi r^2); divided by the area pdf 1 / (pi r^2) the sample carries I cos_l / d^2.
+        const Vec3 to_p = p - l.position;
+        if (length_squared(to_p) <= 0) return std::nullopt;
+        const Frame f(normalize(to_p));
+        const Vec2 disk = sample_uniform_disk_concentric(u) * l.radius;
+        q = l.position + f.s * disk.x + f.t * disk.y;
+        const Vec3 w = normalize(p - q);
+        cos_l = dot(w, f.n);
+      }
+      const Vec3 d = q - p;
       const float d2 = length_squared(d);
-      if (d2 <= 0) return std::nullopt;
+      if (d2 <= 0 || cos_l <= 0) return std::nullopt;
       s.dist = std::sqrt(d2);
       s.wi = d / s.dist;
-      float scale = 1.0f;
-      if (l.type == LightType::Spot) scale = spot_falloff(l, -s.wi);
+      float scale = cos_l;
+      if (l.type == LightType::Spot) scale *= spot_falloff(l, -s.wi);
       if (scale <= 0) return std::nullopt;
       s.L = l.emit * (scale / d2);
       s.pdf = pmf;
       s.delta = true;
+      if (l.radius > 0) s.mis_pdf = pmf * d2 / (cos_l * kPi * l.radius * l.radius);
       return s;
     }
     case LightType::Directional:
       s.wi = -l.direction;
+      if (l.sun_tan_half > 0) {
+        // Cycles' distant light of angle a: a point on the disk of radius tan(a/2) at unit
+        // distance; its pdf and eval_fac are equal, so the sample carries the irradiance.
+        const Frame f(s.wi);
+        const Vec2 disk = sample_uniform_disk_concentric(u) * l.sun_tan_half;
+        s.wi = normalize(s.wi + f.s * disk.x + f.t * disk.y);
+      }
       s.L = l.emit;
       s.pdf = pmf;
       s.delta = true;
@@ -113,6 +136,32 @@ float LightSet::pdf_environment(const Vec3& wi) const {
 
 RGB LightSet::environment_radiance(const Vec3& dir) const {
   return environment_ < 0 ? RGB(0.0f) : lights_[environment_].emit;
+}
+
+int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, float* pdf) const {
+  int found = -1;
+  for (int i : disk_lights_) {
+    const Light& l = lights_[i];
+    const Vec3 to_o = ray.o - l.position;
+    const float d2 = length_squared(to_o);
+    const float r2 = l.radius * l.radius;
+    if (d2 <= 0) continue;
+    const Vec3 n = to_o / std::sqrt(d2);  // the disk faces the ray's origin
+    const float cos_l = -dot(ray.d, n);
+    if (cos_l <= 0) continue;
+    const float t = dot(to_o, n) / cos_l;  // plane through the centre, normal n
+    if (!(t > ray.tmin && t < tmax)) continue;
+    if (length_squared(ray.at(t) - l.position) > r2) continue;
+    float scale = 1.0f;
+    if (l.type == LightType::Spot) scale = spot_falloff(l, -ray.d);
+    if (scale <= 0) continue;
+    tmax = t;
+    found = i;
+    *t_hit = t;
+    *L = l.emit * (scale / (kPi * r2));  // intensity spread over the disk: radiance
+    *pdf = select_.pmf(i) * t * t / (cos_l * kPi * r2);
+  }
+  return found;
 }
 
 RGB LightSet::area_radiance(int i, const Vec3& w) const {

@@ -27,6 +27,12 @@ struct Light {
   // the smoothstep blend in cosine units ((1 - cos_half) * blend), as Cycles does.
   float spot_cos_half = 0.7071f;
   float spot_smooth = 0.0f;
+  // Soft lights as Cycles 3.4 samples them for next-event estimation (still no geometry, so
+  // camera and BSDF rays never hit them): a point or spot light of radius > 0 is a disk of
+  // that radius facing the shading point, a sun of angle > 0 a cone of directions of
+  // half-angle tangent sun_tan_half. Photons still leave the light's centre / axis.
+  float radius = 0.0f;
+  float sun_tan_half = 0.0f;
   // Area light triangle (world space), unit geometric normal, area.
   Vec3 p0, p1, p2, n;
   float area = 0.0f;
@@ -49,6 +55,10 @@ struct LightSample {
   Vec3 p, n;             // the sampled point and its unit normal (area lights only)
   float pdf = 0;         // solid-angle pdf including the light-selection probability; delta: pmf
   bool delta = false;
+  // A point/spot light of radius > 0 is sampled as a delta light (L already divided by the
+  // point's density, pdf the selection pmf) but a path tracer may also hit its disk
+  // (LightSet::intersect_disk): then this is the solid-angle pdf for MIS, else 0.
+  float mis_pdf = 0;
   int light = -1;
 };
 
@@ -89,6 +99,11 @@ class LightSet {
   float pdf_environment(const Vec3& wi) const;
   // Radiance seen along a ray that leaves the scene.
   RGB environment_radiance(const Vec3& dir) const;
+  // The first point/spot light of radius > 0 whose disk (Cycles' sphere light: a disk facing
+  // the ray's origin) the ray crosses before tmax: its index (else -1), the distance, the
+  // radiance it sends back along the ray and the solid-angle pdf sample_li gives that point
+  // (selection included, the LightSample::mis_pdf of that sample).
+  int intersect_disk(const Ray& ray, float tmax, float* t, RGB* L, float* pdf) const;
   // Radiance leaving area light `light` towards direction w (away from the light).
   RGB area_radiance(int light, const Vec3& w) const;
   // Directional emission of a finite light along unit d, the factor sample_le's photon power is
@@ -111,6 +126,7 @@ class LightSet {
  private:
   float spot_falloff(const Light& l, const Vec3& w_from_light) const;
   std::vector<Light> lights_;
+  std::vector<int> disk_lights_;  // point and spot lights of radius > 0
   DiscreteDistribution select_;
   int environment_ = -1;
   float scene_radius_ = 1.0f;

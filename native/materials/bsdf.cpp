@@ -1,7 +1,8 @@
 // BSDFs of the closed material set: Lambertian diffuse, conductor (smooth mirror or GGX
 // microfacet with Schlick Fresnel) and dielectric (smooth or GGX rough glass after Walter et
 // al. 2007, arranged as pbrt-v4's DielectricBxDF), plus the black BSDF of emission-only
-// materials.
+// materials; and two layered ones: plastic (a GGX dielectric coat over a Fresnel-weighted
+// diffuse base) and mix/add of two materials.
 //
 // Every BSDF is two-sided: wo may lie on either side of the shading frame. Diffuse and
 // conductor mirror themselves into the hemisphere of wo; the dielectric treats +z as the
@@ -15,7 +16,12 @@
 //   [Heitz18]  Heitz 2018, "Sampling the GGX Distribution of Visible Normals" (JCGT 7(4)).
 //   [Veach97]  Veach 1997, thesis, ch. 5 (non-symmetric scattering at refraction).
 //   [pbrt-v4]  Pharr, Jakob, Humphreys, "Physically Based Rendering", 4th ed., ch. 9.
+//   [KC17]     Kulla, Conty 2017, "Revisiting Physically Based Shading at Imageworks" (SIGGRAPH
+//              course), energy compensation: (1 - E(mu_i)) (1 - E(mu_o)) / (pi (1 - E_avg)).
 #include "materials/bsdf.h"
+
+#include <map>
+#include <mutex>
 
 #include "core/frame.h"
 #include "core/sampling.h"
@@ -146,6 +152,11 @@ std::optional<BsdfSample> diffuse_sample(const Material& m, const Vec3& wo, Vec2
 
 // ---- Conductor ----
 
+// Schlick's Fresnel with F0 = color, or the plain colour (Blender's Glossy BSDF has none).
+RGB conductor_fresnel(const Material& m, float cos_i) {
+  return m.conductor_fresnel ? fresnel_schlick(m.color, cos_i) : m.color;
+}
+
 RGB conductor_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
   const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
@@ -156,7 +167,7 @@ RGB conductor_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
   if (wm.z < 0) wm = -wm;
   const Ggx ggx{m.roughness};
   // Cook–Torrance microfacet BRDF, [Walter07] eq. 20.
-  return fresnel_schlick(m.color, absdot(wo, wm)) *
+  return conductor_fresnel(m, absdot(wo, wm)) *
          (ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o));
 }
 
@@ -179,7 +190,7 @@ std::optional<BsdfSample> conductor_sample(const Material& m, const Vec3& wo, Ve
     // Perfect mirror: f = F / |cos| so that f |cos| / pdf = F with a unit Dirac pdf.
     BsdfSample s;
     s.wi = mirror_z(wo);
-    s.f = fresnel_schlick(m.color, abs_cos_theta(wo)) / abs_cos_theta(wo);
+    s.f = conductor_fresnel(m, abs_cos_theta(wo)) / abs_cos_theta(wo);
     s.pdf = 1.0f;
     s.delta = true;
     return s;
@@ -194,7 +205,7 @@ std::optional<BsdfSample> conductor_sample(const Material& m, const Vec3& wo, Ve
   BsdfSample s;
   s.wi = wi;
   s.pdf = ggx.D_visible(wo, wm) / (4.0f * wo_dot_wm);  // [Walter07] eq. 14
-  s.f = fresnel_schlick(m.color, wo_dot_wm) *
+  s.f = conductor_fresnel(m, wo_dot_wm) *
         (ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o));  // [Walter07] eq. 20
   if (!valid_sample(s.f, s.pdf)) return std::nullopt;
   return s;
@@ -350,7 +361,149 @@ std::optional<BsdfSample> dielectric_sample(const Material& m, const Vec3& wo, f
   return s;
 }
 
+// ---- Plastic: GGX dielectric coat over a diffuse base ----
+//
+// f = f_coat + f_base. The coat is the GGX microfacet reflection of a dielectric with Schlick's
+// Fresnel of F0 = ((ior - 1) / (ior + 1))^2 (the conductor lobe with a grey F0; a Dirac mirror
+// when smooth). The base is Lambertian, weighted by what the coat lets through both ways
+// ([KC17]'s energy-compensation form, with the coat's own albedo E instead of a Fresnel term):
+//   f_base = Rd / pi (1 - E(cos_i)) (1 - E(cos_o)) / (1 - E_avg),  E_avg = 2 int E(mu) mu dmu,
+// so the base's albedo is Rd (1 - E(cos_o)) and coat + base reflect E + (1 - E) Rd <= 1: all of
+// the light for a white base (the white furnace test checks it). E is tabulated per material
+// (prepare_material). Sampling picks the coat with probability coat_probability(), then that
+// lobe's own sampler, and returns the whole BSDF's f and pdf (one-sample MIS).
+
+float plastic_f0(const Material& m) { return sqr((m.ior - 1.0f) / (m.ior + 1.0f)); }
+
+Material plastic_coat(const Material& m) {
+  Material coat;
+  coat.type = MaterialType::Conductor;
+  coat.color = RGB(plastic_f0(m));
+  coat.roughness = m.roughness;
+  return coat;
+}
+
+// The coat's directional albedo at |cos| = mu (table lookup; Schlick without a table).
+float coat_albedo(const Material& m, float mu) {
+  mu = clamp(mu, 0.0f, 1.0f);
+  if (!m.coat_albedo) return fresnel_schlick(RGB(plastic_f0(m)), mu).r;
+  const std::vector<float>& e = *m.coat_albedo;
+  const float x = mu * kCoatAlbedoBins;
+  const int i = std::min(static_cast<int>(x), kCoatAlbedoBins - 1);
+  return e[i] + (e[i + 1] - e[i]) * (x - static_cast<float>(i));
+}
+float coat_albedo_average(const Material& m) {
+  const float f0 = plastic_f0(m);
+  return m.coat_albedo ? m.coat_albedo->back() : f0 + (1.0f - f0) / 21.0f;  // 2 int Schlick mu
+}
+
+float coat_probability(const Material& m, const Vec3& wo) {
+  const float E = coat_albedo(m, abs_cos_theta(wo));
+  const float base = (1.0f - E) * std::max(0.0f, m.color.average());
+  return clamp(E / (E + base + 1e-6f), 0.1f, 0.9f);
+}
+
+RGB plastic_base_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+  if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+  const float k = (1.0f - coat_albedo(m, abs_cos_theta(wi))) * (1.0f - coat_albedo(m, abs_cos_theta(wo))) /
+                  (1.0f - coat_albedo_average(m));
+  return m.color * (k * kInvPi);
+}
+
+RGB plastic_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+  RGB f = plastic_base_eval(m, wo, wi);
+  if (m.roughness >= kSmoothAlpha) f += conductor_eval(plastic_coat(m), wo, wi);
+  return f;
+}
+
+float plastic_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+  const float pc = coat_probability(m, wo);
+  float pdf = (1.0f - pc) * diffuse_pdf(wo, wi);
+  if (m.roughness >= kSmoothAlpha) pdf += pc * conductor_pdf(plastic_coat(m), wo, wi);
+  return pdf;
+}
+
+std::optional<BsdfSample> plastic_sample(const Material& m, const Vec3& wo, float uc, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  const float pc = coat_probability(m, wo);
+  auto lobe = uc < pc ? conductor_sample(plastic_coat(m), wo, u) : diffuse_sample(m, wo, u);
+  if (!lobe) return std::nullopt;
+  if (lobe->delta) {  // the smooth coat's Dirac weight, chosen with probability pc
+    lobe->pdf *= pc;
+    return lobe;
+  }
+  // A non-Dirac direction: f and pdf of the whole BSDF (one-sample MIS over the lobes).
+  lobe->f = plastic_eval(m, wo, lobe->wi);
+  lobe->pdf = plastic_pdf(m, wo, lobe->wi);
+  if (!valid_sample(lobe->f, lobe->pdf)) return std::nullopt;
+  return lobe;
+}
+
 }  // namespace
+
+// ---- Mix and Add of two materials ----
+//
+// Mix: f = (1 - t) f_a + t f_b; Add: f = f_a + f_b. Sampling picks a component with probability
+// (1 - t, t) (Add: 1/2 each), samples it, and for a non-Dirac direction returns the whole
+// mixture's f and pdf (one-sample MIS); a Dirac sample keeps its lobe's weight times the
+// component's scale, and its pdf times the selection probability.
+
+namespace {
+struct MixParts {
+  float scale_a, scale_b, prob_b;
+};
+MixParts mix_parts(const Material& m) {
+  const float t = clamp(m.mix_factor, 0.0f, 1.0f);
+  if (m.mix_add) return {1.0f, 1.0f, 0.5f};
+  return {1.0f - t, t, t};
+}
+}  // namespace
+
+void prepare_material(Material& m) {
+  if (m.type != MaterialType::Plastic) return;
+  // Scenes have many plastics of few (roughness, IOR) pairs (every Principled non-metal): one
+  // table per pair, shared.
+  static std::mutex cache_mutex;
+  static std::map<std::pair<float, float>, std::shared_ptr<const std::vector<float>>> cache;
+  const std::pair<float, float> key{m.roughness, m.ior};
+  {
+    std::lock_guard lock(cache_mutex);
+    if (auto it = cache.find(key); it != cache.end()) {
+      m.coat_albedo = it->second;
+      return;
+    }
+  }
+  // E(mu) = int f_coat |cos_i| dwi, by the coat's own sampler on a fixed 64 x 64 stratified
+  // grid (deterministic); a smooth coat reflects exactly Schlick's F(mu).
+  auto table = std::make_shared<std::vector<float>>(kCoatAlbedoBins + 2, 0.0f);
+  const Material coat = plastic_coat(m);
+  constexpr int kGrid = 64;
+  for (int b = 0; b <= kCoatAlbedoBins; ++b) {
+    const float mu = std::max(1e-3f, static_cast<float>(b) / kCoatAlbedoBins);
+    const Vec3 wo(safe_sqrt(1.0f - mu * mu), 0.0f, mu);
+    double sum = 0;
+    if (m.roughness < kSmoothAlpha) {
+      sum = fresnel_schlick(coat.color, mu).r;
+    } else {
+      for (int i = 0; i < kGrid; ++i)
+        for (int j = 0; j < kGrid; ++j) {
+          const auto s = conductor_sample(coat, wo, Vec2((i + 0.5f) / kGrid, (j + 0.5f) / kGrid));
+          if (s) sum += s->f.r * abs_cos_theta(s->wi) / s->pdf;
+        }
+      sum /= kGrid * kGrid;
+    }
+    (*table)[b] = static_cast<float>(std::min(1.0, sum));
+  }
+  double avg = 0;  // E_avg = 2 int_0^1 E(mu) mu dmu, trapezoid rule
+  for (int b = 0; b < kCoatAlbedoBins; ++b) {
+    const double mu0 = double(b) / kCoatAlbedoBins, mu1 = double(b + 1) / kCoatAlbedoBins;
+    avg += ((*table)[b] * mu0 + (*table)[b + 1] * mu1) * (mu1 - mu0);
+  }
+  table->back() = static_cast<float>(std::min(avg, 0.999));
+  m.coat_albedo = table;
+  std::lock_guard lock(cache_mutex);
+  cache.emplace(key, std::move(table));
+}
 
 // Exact unpolarized Fresnel reflectance (average of the s and p Fresnel equations).
 float fresnel_dielectric(float cos_i, float eta) {
@@ -367,62 +520,113 @@ float fresnel_dielectric(float cos_i, float eta) {
   return 0.5f * (r_parl * r_parl + r_perp * r_perp);
 }
 
+// A mix whose components are missing (a field-by-field copy of the material, as the spectral
+// integrators make per wavelength) scatters as a diffuse surface of its own colour, which the
+// loader sets to the components' weighted colour.
+MaterialType Bsdf::kind() const {
+  if (m_->type == MaterialType::Mix && (!m_->mix_a || !m_->mix_b)) return MaterialType::Diffuse;
+  return m_->type;
+}
+
 RGB Bsdf::eval(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
-  switch (m_->type) {
+  switch (kind()) {
     case MaterialType::Diffuse: return diffuse_eval(*m_, wo, wi);
     case MaterialType::Conductor:
       return m_->roughness < kSmoothAlpha ? RGB(0.0f) : conductor_eval(*m_, wo, wi);
     case MaterialType::Dielectric: return dielectric_eval(*m_, wo, wi, mode);
     case MaterialType::Emission: return RGB(0.0f);
+    case MaterialType::Plastic: return plastic_eval(*m_, wo, wi);
+    case MaterialType::Mix: {
+      const MixParts p = mix_parts(*m_);
+      RGB f(0.0f);
+      if (p.scale_a > 0) f += Bsdf(*m_->mix_a).eval(wo, wi, mode) * p.scale_a;
+      if (p.scale_b > 0) f += Bsdf(*m_->mix_b).eval(wo, wi, mode) * p.scale_b;
+      return f;
+    }
   }
   return RGB(0.0f);
 }
 
 float Bsdf::pdf(const Vec3& wo, const Vec3& wi) const {
-  switch (m_->type) {
+  switch (kind()) {
     case MaterialType::Diffuse: return diffuse_pdf(wo, wi);
     case MaterialType::Conductor:
       return m_->roughness < kSmoothAlpha ? 0.0f : conductor_pdf(*m_, wo, wi);
     case MaterialType::Dielectric: return dielectric_pdf(*m_, wo, wi);
     case MaterialType::Emission: return 0.0f;
+    case MaterialType::Plastic: return plastic_pdf(*m_, wo, wi);
+    case MaterialType::Mix: {
+      const MixParts p = mix_parts(*m_);
+      float pdf = 0;
+      if (p.prob_b < 1) pdf += (1.0f - p.prob_b) * Bsdf(*m_->mix_a).pdf(wo, wi);
+      if (p.prob_b > 0) pdf += p.prob_b * Bsdf(*m_->mix_b).pdf(wo, wi);
+      return pdf;
+    }
   }
   return 0.0f;
 }
 
 std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
-  switch (m_->type) {
+  switch (kind()) {
     case MaterialType::Diffuse: return diffuse_sample(*m_, wo, u);
     case MaterialType::Conductor: return conductor_sample(*m_, wo, u);
     case MaterialType::Dielectric: return dielectric_sample(*m_, wo, uc, u, mode);
     case MaterialType::Emission: return std::nullopt;
+    case MaterialType::Plastic: return plastic_sample(*m_, wo, uc, u);
+    case MaterialType::Mix: {
+      const MixParts p = mix_parts(*m_);
+      const bool pick_b = uc < p.prob_b;
+      // Reuse uc for the component's own lobe choice, rescaled to [0, 1).
+      const float uc2 = pick_b ? uc / p.prob_b : (uc - p.prob_b) / (1.0f - p.prob_b);
+      const float prob = pick_b ? p.prob_b : 1.0f - p.prob_b;
+      auto s = Bsdf(pick_b ? *m_->mix_b : *m_->mix_a).sample(wo, std::min(uc2, 0x1.fffffep-1f), u, mode);
+      if (!s) return std::nullopt;
+      if (s->delta) {
+        s->f *= pick_b ? p.scale_b : p.scale_a;
+        s->pdf *= prob;
+        return s;
+      }
+      s->f = eval(wo, s->wi, mode);
+      s->pdf = pdf(wo, s->wi);
+      if (!valid_sample(s->f, s->pdf)) return std::nullopt;
+      return s;
+    }
   }
   return std::nullopt;
 }
 
 bool Bsdf::is_delta() const {
-  switch (m_->type) {
+  switch (kind()) {
     case MaterialType::Conductor: return m_->roughness < kSmoothAlpha;
     case MaterialType::Dielectric: return dielectric_is_smooth(*m_);
+    case MaterialType::Mix: return Bsdf(*m_->mix_a).is_delta() && Bsdf(*m_->mix_b).is_delta();
     default: return false;
   }
 }
 
 bool Bsdf::is_black() const {
-  switch (m_->type) {
+  switch (kind()) {
     case MaterialType::Emission: return true;
     // A black conductor still reflects at grazing angles (Schlick), so only these two qualify.
     case MaterialType::Diffuse:
     case MaterialType::Dielectric: return m_->color.is_black();
+    case MaterialType::Mix: {
+      const MixParts p = mix_parts(*m_);
+      return (p.scale_a == 0 || Bsdf(*m_->mix_a).is_black()) && (p.scale_b == 0 || Bsdf(*m_->mix_b).is_black());
+    }
     default: return false;
   }
 }
 
 bool Bsdf::is_diffuse_for_photons(float threshold) const {
-  switch (m_->type) {
+  switch (kind()) {
     case MaterialType::Diffuse: return true;
     case MaterialType::Conductor:
     case MaterialType::Dielectric: return m_->roughness > threshold;
     case MaterialType::Emission: return false;
+    case MaterialType::Plastic: return true;  // its diffuse base stores photons
+    case MaterialType::Mix:
+      return Bsdf(*m_->mix_a).is_diffuse_for_photons(threshold) || Bsdf(*m_->mix_b).is_diffuse_for_photons(threshold);
   }
   return false;
 }

@@ -49,6 +49,7 @@ class Bsdf {
   bool is_diffuse_for_photons(float threshold = kDefaultSpecularThreshold) const;
 
  private:
+  MaterialType kind() const;
   const Material* m_;
 };
 
@@ -60,6 +61,11 @@ inline float adjoint_shading_correction(const Vec3& wo, const Vec3& wi, const Ve
   const float denom = std::abs(dot(wo, ng)) * std::abs(dot(wi, ns));
   return denom > 0 ? std::abs(dot(wo, ns)) * std::abs(dot(wi, ng)) / denom : 0.0f;
 }
+
+// Fills the tables a material's BSDF needs (a plastic's coat albedo); the loader calls it for
+// every material. A plastic without them falls back to Schlick's Fresnel for the coupling.
+inline constexpr int kCoatAlbedoBins = 32;
+void prepare_material(Material& m);
 
 // Fresnel reflectance of a dielectric interface for cos_i (signed: < 0 means from inside)
 // and relative IOR eta = n_inside / n_outside.

@@ -1,7 +1,10 @@
-// The closed material set (DESIGN.md): diffuse, conductor, dielectric, emission-only.
-// A Material is plain parameters; bsdf.h turns it into a BSDF evaluated in a local frame.
+// The closed material set (DESIGN.md): diffuse, conductor, dielectric, emission-only, plastic
+// (a Fresnel-weighted diffuse base under a GGX dielectric coat: Principled's non-metal case)
+// and mix/add of two materials (Blender's Mix and Add Shader). A Material is plain parameters;
+// bsdf.h turns it into a BSDF evaluated in a local frame.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,7 +13,7 @@
 
 namespace gp {
 
-enum class MaterialType { Diffuse, Conductor, Dielectric, Emission };
+enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Mix };
 
 // Default roughness below which a BSDF counts as specular for photon methods
 // (gradient-domain photon density estimation §4.3 / §6: "roughness threshold 0.05").
@@ -25,6 +28,10 @@ struct Material {
   // GGX alpha (Mitsuba's convention; Blender's roughness r maps to alpha = r^2).
   // 0 = perfectly smooth (delta) conductor or dielectric.
   float roughness = 0.0f;
+  // Conductor: Schlick's Fresnel of F0 = color (Principled metal), or none: the colour at
+  // every angle (Blender's Glossy BSDF).
+  bool conductor_fresnel = true;
+  // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
   float ior = 1.5f;       // dielectric: interior IOR (Cauchy A) over an outside of 1
   float cauchy_b = 0.0f;  // Cauchy B in um^2: n(lambda) = A + B / lambda^2 (spectral mode)
   // Emitted radiance (W sr^-1 m^-2) = emission * strength; any type may emit.
@@ -36,8 +43,28 @@ struct Material {
   // radiance() is the RGB-mode colour and strength the luminance.
   std::vector<SpectralLine> emission_lines;
   float emission_fwhm = 1.0f;  // nm
+  // Ray visibility, as Cycles' object Visibility panel: camera rays pass through a surface that
+  // is not visible to the camera; shadow rays pass through one that casts no shadow. A Blender
+  // light object is an emissive pass-through (dielectric of IOR 1) with both off.
+  // Mix: (1 - mix_factor) a + mix_factor b; with mix_add, a + b (Blender's Add Shader). The
+  // components are copies (resolved by name when the scene loads), so a Material stays
+  // self-contained. Emission and visibility are the mix's own, not the components'.
+  std::shared_ptr<const Material> mix_a, mix_b;
+  // Plastic: the coat's directional albedo E(cos theta) at kCoatAlbedoBins + 1 evenly spaced
+  // cosines, then its cosine-weighted average; filled by prepare_material() (bsdf.h).
+  std::shared_ptr<const std::vector<float>> coat_albedo;
+  float mix_factor = 0.5f;
+  bool mix_add = false;
+  bool visible_to_camera = true;
+  bool casts_shadow = true;
 
   RGB radiance() const { return emission * emission_strength; }
+  // A surface light passes straight through unchanged: a clear dielectric of IOR 1 (how a
+  // Blender light object is exported, as Cycles' lights are not geometry).
+  bool is_pass_through() const {
+    return type == MaterialType::Dielectric && ior == 1.0f && cauchy_b == 0.0f && color.r == 1.0f &&
+           color.g == 1.0f && color.b == 1.0f;
+  }
   bool is_emissive() const { return !radiance().is_black(); }
 };
 
@@ -47,6 +74,8 @@ inline const char* to_string(MaterialType t) {
     case MaterialType::Conductor: return "conductor";
     case MaterialType::Dielectric: return "dielectric";
     case MaterialType::Emission: return "emission";
+    case MaterialType::Plastic: return "plastic";
+    case MaterialType::Mix: return "mix";
   }
   return "?";
 }

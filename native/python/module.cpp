@@ -8,6 +8,7 @@
 
 #include "core/film.h"
 #include "distributed/run_info.h"
+#include "integrators/aov.h"
 #include "integrators/integrator.h"
 #include "io/exr.h"
 #include "reconstruction/poisson.h"
@@ -73,15 +74,22 @@ class Session {
     params_ = params_from_dict(params);
     integrator_ = make_integrator(method, *scene_, params_);
     unused_ = params_.unused();
+    aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
   }
+  // One pass of the method, and while they are few, one of the auxiliary passes (aov.h).
   void iterate() {
     py::gil_scoped_release release;
     integrator_->iterate(&sink_);
+    if (aux_ && aov_->passes() < AovEstimator::kMaxPasses) aov_->add_pass([this] { return sink_.cancelled(); });
   }
   void run(double seconds, int64_t passes) {
     py::gil_scoped_release release;
     run_progressive(*integrator_, StopRule{seconds, passes, 0}, &sink_);
+    const int64_t aux = std::min<int64_t>(AovEstimator::kMaxPasses, integrator_->stats().passes);
+    while (aux_ && aov_->passes() < aux && !sink_.cancelled()) aov_->add_pass([this] { return sink_.cancelled(); });
   }
+  // The auxiliary passes (aov.h) are made unless switched off (Blender: when none is enabled).
+  void set_aux_passes(bool on) { aux_ = on; }
   void cancel() { sink_.cancel_flag = true; }
   bool cancelled() { return sink_.cancel_flag; }
   // Every pass as a float32 array of shape (height, width, channels), row 0 at the top.
@@ -90,6 +98,9 @@ class Session {
     {
       py::gil_scoped_release release;
       integrator_->develop(film);
+      // Before a whole auxiliary pass there is nothing to show (Blender keeps them zero): this
+      // keeps the image sent after an early Esc as cheap as before.
+      if (aux_ && aov_->passes() > 0) aov_->develop(film);
     }
     py::dict out;
     for (const auto& [name, p] : film.passes()) {
@@ -102,6 +113,7 @@ class Session {
   void write_exr_file(const std::string& path) {
     Film film;
     integrator_->develop(film);
+    if (aux_ && aov_->passes() > 0) aov_->develop(film);
     write_exr(path, film, run_info());
   }
   // The run's record for EXR headers (distributed/run_info.h): {"gradphoton.method": ..., ...}.
@@ -126,6 +138,8 @@ class Session {
  private:
   std::shared_ptr<Scene> scene_;
   std::unique_ptr<Integrator> integrator_;
+  std::unique_ptr<AovEstimator> aov_;
+  bool aux_ = true;
   Params params_;
   ProgressSink sink_;
   std::vector<std::string> unused_;
@@ -152,6 +166,8 @@ py::dict method_info(const std::string& method, const py::dict& params) {
     Film film;
     integrator->develop(film);
     for (const auto& [name, pass] : film.passes()) passes.push_back(name);
+    // A Session adds the auxiliary passes to every method's (aov.h).
+    for (auto aux : {pass::kAlbedo, pass::kNormal, pass::kDepth}) passes.emplace_back(aux);
     error_estimate = integrator->estimated_error() >= 0;
   }
   py::dict out;
@@ -403,6 +419,8 @@ PYBIND11_MODULE(_native, m) {
       .def("cancel", &Session::cancel, "Ask the current pass to stop (thread-safe)")
       .def_property_readonly("cancelled", &Session::cancelled)
       .def("develop", &Session::develop, "Current passes as {name: float32 array (H, W, C)}")
+      .def("set_aux_passes", &Session::set_aux_passes, py::arg("on"),
+           "Whether to make the albedo, normal and depth passes (on by default)")
       .def("write_exr", &Session::write_exr_file, py::arg("path"), "Write every pass, with run_info in the header")
       .def_property_readonly("run_info", &Session::run_info,
                              "The run's record for EXR headers: {'gradphoton.method': ..., 'gradphoton.seed': ...}")

@@ -26,10 +26,39 @@ void record(const Ray& ray, bool shadow) {
 
 void Accelerator::record_rays(RayRecorder* recorder) { g_recorder.store(recorder); }
 
+// Per-triangle ray visibility of one mesh, for its filter functions.
+struct TriangleVisibility {
+  std::vector<uint8_t> flags;  // kHiddenFromCamera | kNoShadow per triangle
+};
+constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2;
+
+// An intersect context that says whether the ray is a camera ray (Embree passes the context
+// to filter functions; extending it is Embree's documented way to hand them per-ray data).
+struct VisibilityContext {
+  RTCIntersectContext ctx;
+  bool camera;
+};
+
 struct Accelerator::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  std::vector<std::unique_ptr<TriangleVisibility>> visibility;
 };
+
+namespace {
+void reject_where(const RTCFilterFunctionNArguments* args, uint8_t flag) {
+  const auto* vis = static_cast<const TriangleVisibility*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    if (vis->flags[prim] & flag) args->valid[i] = 0;
+  }
+}
+void camera_filter(const RTCFilterFunctionNArguments* args) {
+  if (reinterpret_cast<const VisibilityContext*>(args->context)->camera) reject_where(args, kHiddenFromCamera);
+}
+void shadow_filter(const RTCFilterFunctionNArguments* args) { reject_where(args, kNoShadow); }
+}  // namespace
 
 // Embree is C: never throw through it. Errors are polled after each build step instead.
 static void check_device(RTCDevice device, const char* what) {
@@ -38,7 +67,8 @@ static void check_device(RTCDevice device, const char* what) {
     throw std::runtime_error(fmt::format("Embree error {} while {}", static_cast<int>(code), what));
 }
 
-Accelerator::Accelerator(const std::vector<Mesh>& meshes) : impl_(std::make_unique<Impl>()) {
+Accelerator::Accelerator(const std::vector<Mesh>& meshes, const std::vector<Material>* materials)
+    : impl_(std::make_unique<Impl>()) {
   impl_->device = rtcNewDevice(nullptr);
   if (!impl_->device) throw std::runtime_error("cannot create Embree device");
   impl_->scene = rtcNewScene(impl_->device);
@@ -55,6 +85,22 @@ Accelerator::Accelerator(const std::vector<Mesh>& meshes) : impl_(std::make_uniq
     auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
         g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangle_count()));
     std::copy(m.indices.begin(), m.indices.end(), ib);
+    if (materials) {
+      auto vis = std::make_unique<TriangleVisibility>();
+      vis->flags.resize(m.triangle_count(), 0);
+      uint8_t any = 0;
+      for (size_t t = 0; t < m.triangle_count() && t < m.material_ids.size(); ++t) {
+        const Material& mat = (*materials)[m.material_ids[t]];
+        vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow);
+        any |= vis->flags[t];
+      }
+      if (any) {
+        rtcSetGeometryUserData(g, vis.get());
+        if (any & kHiddenFromCamera) rtcSetGeometryIntersectFilterFunction(g, camera_filter);
+        if (any & kNoShadow) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
+        impl_->visibility.push_back(std::move(vis));
+      }
+    }
     rtcCommitGeometry(g);
     rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(i));
     rtcReleaseGeometry(g);
@@ -70,8 +116,9 @@ Accelerator::~Accelerator() {
 
 bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
   record(ray, false);
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
+  VisibilityContext vctx;
+  rtcInitIntersectContext(&vctx.ctx);
+  vctx.camera = ray.camera;
   RTCRayHit rh;
   rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
   rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
@@ -83,7 +130,7 @@ bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
   rh.ray.flags = 0;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &ctx, &rh);
+  rtcIntersect1(impl_->scene, &vctx.ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
   hit.t = rh.ray.tfar;
   hit.u = rh.hit.u;

@@ -10,6 +10,7 @@
 namespace gp {
 
 struct Mesh;
+struct Material;
 
 struct RawHit {
   float t = kInfinity, u = 0, v = 0;
@@ -26,7 +27,10 @@ struct RayRecorder {
 
 class Accelerator {
  public:
-  explicit Accelerator(const std::vector<Mesh>& meshes);
+  // With materials, triangles whose material is not visible to the camera are skipped by
+  // camera rays and those that cast no shadow by occluded() (Embree filter functions,
+  // installed only on the meshes that have such triangles).
+  explicit Accelerator(const std::vector<Mesh>& meshes, const std::vector<Material>* materials = nullptr);
   ~Accelerator();
   Accelerator(const Accelerator&) = delete;
   Accelerator& operator=(const Accelerator&) = delete;

@@ -25,7 +25,9 @@ Ray Camera::generate_ray(Vec2 film, Vec2 u_lens) const {
     origin = Vec3(lens.x, lens.y, 0);
     dir = focus - origin;
   }
-  return Ray(camera_to_world.point(origin), normalize(camera_to_world.vector(dir)));
+  Ray ray(camera_to_world.point(origin), normalize(camera_to_world.vector(dir)));
+  ray.camera = true;
+  return ray;
 }
 
 }  // namespace gp

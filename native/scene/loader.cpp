@@ -5,6 +5,8 @@
 // know are counted warnings ("unknown key"), the way pbrt reports unused parameters.
 #include "scene/loader.h"
 
+#include "materials/bsdf.h"
+
 #include <fmt/format.h>
 #include <tiny_obj_loader.h>
 
@@ -244,13 +246,15 @@ class Loader {
       Material mat;
       mat.name = it.key();
       const std::string type = get_string(need(m, "type", mpath), sub(mpath, "type"));
-      std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum"};
+      std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum",
+                                            "visible_to_camera", "casts_shadow"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
         keys.push_back("color");
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
-        keys.insert(keys.end(), {"color", "roughness"});
+        keys.insert(keys.end(), {"color", "roughness", "fresnel"});
+        if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = get_bool(*f, sub(mpath, "fresnel"));
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
@@ -258,9 +262,22 @@ class Loader {
       } else if (type == "emission") {
         mat.type = MaterialType::Emission;
         mat.emission = RGB(1.0f);
+      } else if (type == "plastic") {
+        mat.type = MaterialType::Plastic;
+        keys.insert(keys.end(), {"color", "roughness", "ior"});
+      } else if (type == "mix" || type == "add") {
+        mat.type = MaterialType::Mix;
+        mat.mix_add = type == "add";
+        keys.insert(keys.end(), {"a", "b"});
+        if (type == "mix") keys.push_back("factor");
+        // Components are names of other materials, resolved once all are read.
+        mix_refs_.push_back({scene_.materials.size(), get_string(need(m, "a", mpath), sub(mpath, "a")),
+                             get_string(need(m, "b", mpath), sub(mpath, "b")), mpath});
+        if (const json* f = find(m, "factor")) mat.mix_factor = get_in_range(*f, sub(mpath, "factor"), 0.0f, 1.0f);
       } else {
         fail(sub(mpath, "type"),
-             fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission)", type));
+             fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
+                         "mix, add)", type));
       }
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
@@ -283,15 +300,51 @@ class Loader {
       mat.emission_strength = 1.0f;
       if (const json* s = find(m, "strength")) mat.emission_strength = get_nonnegative(*s, sub(mpath, "strength"));
       if (const json* t = find(m, "two_sided")) mat.two_sided = get_bool(*t, sub(mpath, "two_sided"));
+      if (const json* v = find(m, "visible_to_camera")) mat.visible_to_camera = get_bool(*v, sub(mpath, "visible_to_camera"));
+      if (const json* v = find(m, "casts_shadow")) mat.casts_shadow = get_bool(*v, sub(mpath, "casts_shadow"));
       if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
       if (const json* sp = find(m, "spectrum")) {
         if (find(m, "emission")) fail(mpath, "give either 'emission' (a colour) or 'spectrum', not both");
         load_spectrum(*sp, sub(mpath, "spectrum"), mat.emission_lines, mat.emission_fwhm);
         mat.emission = spectral_lines_rgb(mat.emission_lines, mat.emission_fwhm);  // luminance 1
       }
+      prepare_material(mat);
       material_index_[mat.name] = static_cast<uint32_t>(scene_.materials.size());
       scene_.materials.push_back(std::move(mat));
     }
+    // Mix components: copies of the named materials (a mix of mixes resolves depth first; a
+    // cycle is an error).
+    std::vector<int> state(scene_.materials.size(), 0);  // 0 unresolved, 1 resolving, 2 done
+    for (const MixRef& r : mix_refs_) resolve_mix(r, state);
+  }
+
+  struct MixRef {
+    size_t index;
+    std::string a, b, path;
+  };
+  std::vector<MixRef> mix_refs_;
+
+  void resolve_mix(const MixRef& r, std::vector<int>& state) {
+    if (state[r.index] == 2) return;
+    if (state[r.index] == 1) fail(r.path, "mix materials refer to each other in a cycle");
+    state[r.index] = 1;
+    std::shared_ptr<const Material> parts[2];
+    const std::string* names[2] = {&r.a, &r.b};
+    for (int k = 0; k < 2; ++k) {
+      const uint32_t i = material_by_name(json(*names[k]), sub(r.path, k == 0 ? "a" : "b"));
+      for (const MixRef& other : mix_refs_)
+        if (other.index == i) resolve_mix(other, state);
+      parts[k] = std::make_shared<const Material>(scene_.materials[i]);
+    }
+    Material& m = scene_.materials[r.index];
+    m.mix_a = parts[0];
+    m.mix_b = parts[1];
+    m.roughness = std::max(parts[0]->roughness, parts[1]->roughness);  // for roughness-based classifiers
+    // The colour a copy without components falls back to (Bsdf: diffuse of this colour).
+    const float t = m.mix_add ? 1.0f : m.mix_factor;
+    m.color = parts[0]->color * (m.mix_add ? 1.0f : 1.0f - t) + parts[1]->color * t;
+    m.color = RGB(std::min(m.color.r, 1.0f), std::min(m.color.g, 1.0f), std::min(m.color.b, 1.0f));
+    state[r.index] = 2;
   }
 
   uint32_t material_by_name(const json& j, const std::string& path) const {
@@ -741,13 +794,13 @@ class Loader {
     light.name = path;
     if (const json* n = find(l, "name")) light.name = get_string(*n, sub(path, "name"));
     if (type == "point") {
-      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum"});
+      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum", "radius"});
       light.type = LightType::Point;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "spot") {
       check_keys(l, path, {"type", "name", "position", "direction", "look_at", "spot_size", "spot_blend", "intensity",
-                           "power", "color", "spectrum"});
+                           "power", "color", "spectrum", "radius"});
       light.type = LightType::Spot;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
       const json* d = find(l, "direction");
@@ -772,13 +825,16 @@ class Loader {
       light.spot_smooth = (1.0f - light.spot_cos_half) * blend;
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "sun") {
-      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum"});
+      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum", "angle"});
       light.type = LightType::Directional;
       light.direction = get_direction(need(l, "direction", path), sub(path, "direction"));
+      if (const json* a = find(l, "angle"))  // full angle in degrees, as Blender's sun
+        light.sun_tan_half = std::tan(0.5f * get_in_range(*a, sub(path, "angle"), 0.0f, 179.0f) * kPi / 180.0f);
       light.emit = light_value(l, path, "irradiance", "strength", 1.0f, light);
     } else {
       fail(sub(path, "type"), fmt::format("unknown light type '{}' (known: point, spot, sun)", type));
     }
+    if (const json* r = find(l, "radius")) light.radius = get_nonnegative(*r, sub(path, "radius"));
     scene_.lights.push_back(std::move(light));
   }
 

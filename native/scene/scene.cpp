@@ -102,7 +102,7 @@ void Scene::finalize() {
       throw std::runtime_error(fmt::format("{}: light '{}' has a non-finite value", source, l.name));
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);
-  accel_ = std::make_unique<Accelerator>(meshes);
+  accel_ = std::make_unique<Accelerator>(meshes, &materials);
 }
 
 std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {

@@ -74,6 +74,20 @@ def set_world(scene, color=(0, 0, 0), strength=0.0):
     bg.inputs["Strength"].default_value = strength
 
 
+def add_light(scene, name, kind, shape, power, extra, location):
+    """A light object of Blender type `kind` (shape for area lights, settings in `extra`)."""
+    la = bpy.data.lights.new(name, kind)
+    la.energy = power
+    if shape:
+        la.shape = shape
+    for k, v in extra.items():
+        setattr(la, k, v)
+    ob = bpy.data.objects.new(name, la)
+    scene.collection.objects.link(ob)
+    ob.location = location
+    return ob
+
+
 LIGHT_AT = (3.0, 0.0, 2.0)  # outside the camera's view; every light aims at the origin
 
 # name -> (Blender light type, shape or None, power/strength, extra settings)
@@ -101,18 +115,9 @@ def brightness_scene(scene, case):
         look_at(ob, (0, 0, 0))
     else:
         kind, shape, power, extra = LIGHT_CASES[case]
-        la = bpy.data.lights.new(case, kind)
-        la.energy = power
-        la.color = (1.0, 0.9, 0.8)
         if kind in {'POINT', 'SPOT'}:
-            la.shadow_soft_size = 0.0
-        if shape:
-            la.shape = shape
-        for k, v in extra.items():
-            setattr(la, k, v)
-        ob = bpy.data.objects.new(case, la)
-        scene.collection.objects.link(ob)
-        ob.location = LIGHT_AT
+            extra = dict(extra, shadow_soft_size=0.0)
+        ob = add_light(scene, case, kind, shape, power, dict(extra, color=(1.0, 0.9, 0.8)), LIGHT_AT)
         look_at(ob, (0, 0, 0))
     return scene
 
@@ -130,6 +135,10 @@ def configure_cycles(scene, samples, bounces=4):
     c.caustics_reflective = c.caustics_refractive = True
     c.blur_glossy = 0.0
     c.seed = 1
+    # A box pixel filter of one pixel, as gradphoton's film (Cycles' default is a 1.5 px
+    # Blackman-Harris, which softens edges and so the per-pixel comparison of emitters).
+    c.pixel_filter_type = 'BOX'
+    c.filter_width = 1.0
     scene.render.threads_mode = 'FIXED'
     scene.render.threads = 2
 
@@ -155,6 +164,118 @@ def glass_material(name, ior=1.5):
     g.distribution = 'SHARP'
     nt.links.new(g.outputs[0], out.inputs["Surface"])
     return m
+
+
+CORNELL_QUADS = {  # inward-facing walls of the room x, y in [-1, 1], z in [0, 2]
+    "Floor": ([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], "White"),
+    "Ceiling": ([(-1, -1, 2), (-1, 1, 2), (1, 1, 2), (1, -1, 2)], "White"),
+    "Back": ([(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], "White"),
+    "Left": ([(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], "Red"),
+    "Right": ([(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], "Green"),
+}
+
+
+def cornell_room(scene):
+    """The Cornell room's five Diffuse BSDF walls and its camera (no light)."""
+    set_world(scene)
+    mats = {"White": diffuse_material("White", (0.73, 0.73, 0.73)), "Red": diffuse_material("Red", (0.63, 0.065, 0.05)),
+            "Green": diffuse_material("Green", (0.14, 0.45, 0.09))}
+    for name, (v, m) in CORNELL_QUADS.items():
+        add_mesh_object(scene, name, v, [(0, 1, 2, 3)], mats[m])
+    add_camera(scene, (0, -3.9, 1), (0, 0, 1), lens=50.0)
+    return mats
+
+
+# Cornell room lit as a new user lights it: name -> (Blender light type, shape, power, settings);
+# every light sits just under the ceiling, in view, pointing down.
+CORNELL_LIGHTS = {
+    "area": ('AREA', 'SQUARE', 60.0, {"size": 0.5}),
+    "area_disk": ('AREA', 'DISK', 60.0, {"size": 0.5}),
+    "point": ('POINT', None, 60.0, {"shadow_soft_size": 0.1}),  # 0.1 m radius, 0.2 m below the ceiling
+    "spot": ('SPOT', None, 100.0, {"shadow_soft_size": 0.1, "spot_size": math.radians(100), "spot_blend": 0.2}),
+    "sun": ('SUN', None, 3.0, {"angle": math.radians(10)}),
+}
+
+
+def cornell_lit(scene, case):
+    """The Cornell room with one light of CORNELL_LIGHTS[case] (Blender's defaults otherwise:
+    the light object is not visible to the camera), or 'emissive_mesh': a 0.5 m emissive
+    square under the ceiling. A sun shines in through a hole: the ceiling is left out."""
+    mats = cornell_room(scene)
+    if case == "emissive_mesh":
+        add_mesh_object(scene, "Lamp", [(-0.25, -0.25, 1.98), (-0.25, 0.25, 1.98), (0.25, 0.25, 1.98),
+                                        (0.25, -0.25, 1.98)], [(0, 1, 2, 3)], emission_material("Lamp", 60.0))
+        return mats
+    kind, shape, power, extra = CORNELL_LIGHTS[case]
+    if kind == 'SUN':
+        bpy.data.objects.remove(bpy.data.objects["Ceiling"])
+    ob = add_light(scene, case, kind, shape, power, extra, (0.0, 0.0, 1.98 if kind == 'AREA' else 1.8))
+    if kind == 'SUN':
+        ob.rotation_euler = (math.radians(20), 0.0, 0.0)
+    return mats
+
+
+def _node_material(name):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    return m, nt, nt.nodes.new("ShaderNodeOutputMaterial")
+
+
+def principled_material(name, color=(0.7, 0.5, 0.3), roughness=0.5, metallic=0.0, transmission=0.0, ior=1.45):
+    m, nt, out = _node_material(name)
+    p = nt.nodes.new("ShaderNodeBsdfPrincipled")
+    p.inputs["Base Color"].default_value = (*color, 1)
+    p.inputs["Roughness"].default_value = roughness
+    p.inputs["Metallic"].default_value = metallic
+    p.inputs["Transmission"].default_value = transmission
+    p.inputs["IOR"].default_value = ior
+    nt.links.new(p.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def mix_material(name, add=False, factor=0.3):
+    """Mix (or Add) Shader of a Diffuse BSDF and a Glossy BSDF (roughness 0.3)."""
+    m, nt, out = _node_material(name)
+    d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    d.inputs["Color"].default_value = (0.7, 0.5, 0.3, 1)
+    g = nt.nodes.new("ShaderNodeBsdfGlossy")
+    g.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
+    g.inputs["Roughness"].default_value = 0.3
+    g.distribution = 'GGX'
+    mix = nt.nodes.new("ShaderNodeAddShader" if add else "ShaderNodeMixShader")
+    if not add:
+        mix.inputs["Fac"].default_value = factor
+    first = 0 if add else 1
+    if add:
+        d.inputs["Color"].default_value = (0.35, 0.25, 0.15, 1)
+        g.inputs["Color"].default_value = (0.4, 0.4, 0.4, 1)
+    nt.links.new(d.outputs[0], mix.inputs[first])
+    nt.links.new(g.outputs[0], mix.inputs[first + 1])
+    nt.links.new(mix.outputs[0], out.inputs["Surface"])
+    return m
+
+
+# Material cases on the Cornell room (area light): the floor and the back wall get the material.
+CORNELL_MATERIALS = {
+    "principled_plastic": lambda: principled_material("Plastic"),
+    "principled_glossy_plastic": lambda: principled_material("GlossyPlastic", roughness=0.15),
+    "principled_metal": lambda: principled_material("Metal", color=(0.9, 0.6, 0.3), roughness=0.3, metallic=1.0),
+    "principled_half_metal": lambda: principled_material("HalfMetal", roughness=0.4, metallic=0.5),
+    "mix_shader": lambda: mix_material("Mix"),
+    "add_shader": lambda: mix_material("Add", add=True),
+}
+
+
+def cornell_material(scene, case):
+    cornell_lit(scene, "area")
+    m = CORNELL_MATERIALS[case]()
+    for name in ("Floor", "Back"):
+        me = bpy.data.objects[name].data
+        me.materials.clear()
+        me.materials.append(m)
 
 
 def cornell_glass(scene):

@@ -71,17 +71,7 @@ def test_every_light_type_and_camera(empty_scene):
     empty_scene.render.resolution_percentage = 50
     lights = {}
     for case in scenes.LIGHT_CASES:
-        kind, shape, power, extra = scenes.LIGHT_CASES[case]
-        la = bpy.data.lights.new(case, kind)
-        la.energy = power
-        if shape:
-            la.shape = shape
-        for k, v in extra.items():
-            setattr(la, k, v)
-        ob = bpy.data.objects.new(case, la)
-        empty_scene.collection.objects.link(ob)
-        ob.location = (1, 2, 3)
-        lights[case] = ob
+        lights[case] = scenes.add_light(empty_scene, case, *scenes.LIGHT_CASES[case], (1, 2, 3))
     lights["area_square"].scale = (2, 1, 1)  # area scales with the object, as in Cycles
     scenes.set_world(empty_scene, (0.1, 0.2, 0.3), 2.0)
 
@@ -148,3 +138,45 @@ def test_export_operator_writes_a_scene_the_cli_loads(empty_scene, out_dir):
     loaded = native.get().load_scene(path)
     assert loaded.triangle_count == direct.triangle_count == 2 + 64 + 968
     assert loaded.light_count == direct.light_count
+
+
+def test_ray_visibility_as_cycles(empty_scene):
+    """Light objects are pass-through emitters that cast no shadow, shown to the camera only when
+    their Visibility > Camera is on (off by default in Blender 3.4); a mesh object's Camera and
+    Shadow switches become flags of a variant of its material; other ray switches are warnings."""
+    scenes.cornell_lit(empty_scene, "area")
+    lamp = bpy.data.objects["area"]
+    assert not lamp.visible_camera  # Blender 3.4's default for a new light object
+    floor, back = bpy.data.objects["Floor"], bpy.data.objects["Back"]
+    floor.visible_camera = False
+    back.visible_shadow = False
+    back.visible_glossy = False
+    ex = export_current()
+    mats = ex.description["materials"]
+    m = mats["__light_area"]
+    assert (m["type"], m["ior"], m["visible_to_camera"], m["casts_shadow"]) == ("dielectric", 1.0, False, False)
+    names = {r.name: r.materials for r in ex.meshes}
+    assert mats[names["Floor"][0]] == dict(mats["White"], visible_to_camera=False)
+    assert mats[names["Back"][0]] == dict(mats["White"], casts_shadow=False)
+    assert names["Ceiling"] == ["White"]
+    assert any("ray visibility not honoured" in line and "Back: glossy" in line for line in ex.warnings.lines())
+    lamp.visible_camera = True
+    assert export_current().description["materials"]["__light_area"]["visible_to_camera"] is True
+    ex.build(native.get())  # the flags are scene-format keys the core reads
+
+
+def test_skipped_features_are_counted_warnings(empty_scene):
+    """Motion blur, hair and volumes are not rendered: each is one warning naming what it skips."""
+    scenes.cornell_lit(empty_scene, "area")
+    empty_scene.render.use_motion_blur = True
+    floor = bpy.data.objects["Floor"]
+    ps = floor.modifiers.new("hair", 'PARTICLE_SYSTEM').particle_system
+    ps.settings.type = 'HAIR'
+    vol = scenes.diffuse_material("Smoke")
+    nt = vol.node_tree
+    nt.links.new(nt.nodes.new("ShaderNodeVolumePrincipled").outputs[0], nt.nodes["Material Output"].inputs["Volume"])
+    bpy.data.objects["Back"].data.materials[0] = vol
+    lines = export_current().warnings.lines()
+    assert any(line.startswith("motion blur not rendered") for line in lines), lines
+    assert any(line.startswith("hair curves not rendered: Floor") for line in lines), lines
+    assert any(line.startswith("volumes not rendered: material 'Smoke'") for line in lines), lines

@@ -85,9 +85,10 @@ def test_passes_panel_offers_the_methods_passes(empty_scene):
         panel = SimpleNamespace(layout=_Layout())
         ui.GRADPHOTON_PT_passes.draw(panel, SimpleNamespace(scene=empty_scene, view_layer=empty_scene.view_layers[0]))
         drawn[method] = set(panel.layout.drawn)
-    assert drawn["pt"] == set()
-    assert drawn["gpt"] == {"use_pass_primal", "use_pass_gradient_x", "use_pass_gradient_y"}
-    assert drawn["sppm"] == {"use_pass_error", "use_pass_radius", "use_pass_photon_count"}
+    aux = {"use_pass_albedo", "use_pass_normal", "use_pass_depth"}  # every method's (aov.h)
+    assert drawn["pt"] == aux
+    assert drawn["gpt"] == {"use_pass_primal", "use_pass_gradient_x", "use_pass_gradient_y"} | aux
+    assert drawn["sppm"] == {"use_pass_error", "use_pass_radius", "use_pass_photon_count"} | aux
 
 
 def test_max_bounces_as_cycles_counts_them(empty_scene):
@@ -172,10 +173,10 @@ def test_clamping_and_transparency_greyed_for_methods_that_do_not_read_them():
 
 def test_warnings_of_the_last_render_are_kept_for_the_panel(empty_scene):
     small_scene(empty_scene)
-    bpy.data.lights["Sun"].angle = 0.2
+    bpy.data.lights["Sun"].use_shadow = False
     empty_scene.gradphoton.passes = 1
     bpy.ops.render.render()
-    assert any("sun angle ignored" in m for _, m in session.REPORTS), session.REPORTS
+    assert any("renders with shadows" in m for _, m in session.REPORTS), session.REPORTS
     assert ui.GRADPHOTON_PT_report.poll(type("C", (), {"engine": "GRADPHOTON"})())
 
 

@@ -286,9 +286,52 @@ std::vector<Chi2Case> dielectric_cases() {
   return cases;
 }
 
+Material plastic(float alpha, RGB color = RGB(0.6f, 0.3f, 0.1f), float ior = 1.5f) {
+  Material m = make(MaterialType::Plastic, alpha, color, ior);
+  prepare_material(m);
+  return m;
+}
+
+Material mix(const Material& a, const Material& b, float factor, bool add = false) {
+  Material m;
+  m.type = MaterialType::Mix;
+  m.mix_a = std::make_shared<Material>(a);
+  m.mix_b = std::make_shared<Material>(b);
+  m.mix_factor = factor;
+  m.mix_add = add;
+  return m;
+}
+
+std::vector<Chi2Case> plastic_cases() {
+  std::vector<Chi2Case> cases;
+  for (float alpha : {0.0f, 0.05f, 0.3f, 0.8f})
+    for (float c : kCosThetaO)
+      cases.push_back({fmt::format("plastic alpha={} cos_o={}", alpha, c), plastic(alpha), wo_at(c)});
+  cases.push_back({"plastic from below alpha=0.3 cos_o=-0.5", plastic(0.3f, RGB(0.9f), 1.8f), wo_at(-0.5f)});
+  return cases;
+}
+
+// Mix and Add of lobes the scenes combine: diffuse + rough metal, rough metal + rough glass (a
+// transmission lobe), smooth glass + diffuse (a Dirac lobe beside a smooth one), mix of mixes.
+std::vector<Chi2Case> mix_cases() {
+  const Material diffuse = make(MaterialType::Diffuse, 0, RGB(0.7f));
+  const Material metal = make(MaterialType::Conductor, 0.2f, RGB(0.9f, 0.6f, 0.3f));
+  const Material glass = make(MaterialType::Dielectric, 0.3f, RGB(1.0f), 1.5f);
+  const Material smooth_glass = make(MaterialType::Dielectric, 0.0f, RGB(1.0f), 1.5f);
+  std::vector<Chi2Case> cases;
+  for (float c : {0.9f, 0.3f, -0.5f}) {
+    cases.push_back({fmt::format("mix diffuse+metal 0.3 cos_o={}", c), mix(diffuse, metal, 0.3f), wo_at(c)});
+    cases.push_back({fmt::format("mix metal+glass 0.6 cos_o={}", c), mix(metal, glass, 0.6f), wo_at(c)});
+    cases.push_back({fmt::format("add diffuse+smooth glass cos_o={}", c), mix(diffuse, smooth_glass, 0, true), wo_at(c)});
+    cases.push_back({fmt::format("mix of mix and plastic cos_o={}", c),
+                     mix(mix(diffuse, metal, 0.5f), plastic(0.3f), 0.4f), wo_at(c)});
+  }
+  return cases;
+}
+
 // Number of chi-square tests in this file, for the Sidak correction of the significance level.
-const size_t kNumChi2Tests =
-    diffuse_cases().size() + conductor_cases().size() + dielectric_cases().size();
+const size_t kNumChi2Tests = diffuse_cases().size() + conductor_cases().size() + dielectric_cases().size() +
+                             plastic_cases().size() + mix_cases().size();
 
 double sidak_alpha() {
   return 1 - std::pow(1 - kSignificance, 1.0 / static_cast<double>(kNumChi2Tests));
@@ -398,6 +441,16 @@ TEST(BsdfChi2, RoughConductor) {
 TEST(BsdfChi2, RoughDielectric) {
   uint64_t seed = 300;
   for (const auto& c : dielectric_cases()) check_case(c, seed++);
+}
+
+TEST(BsdfChi2, Plastic) {
+  uint64_t seed = 400;
+  for (const auto& c : plastic_cases()) check_case(c, seed++);
+}
+
+TEST(BsdfChi2, MixAndAdd) {
+  uint64_t seed = 500;
+  for (const auto& c : mix_cases()) check_case(c, seed++);
 }
 
 // ---- Reciprocity ----
@@ -770,6 +823,50 @@ TEST(BsdfFurnace, RoughDielectricImportanceAlbedoAtMostOne) {
         EXPECT_LE(mean, 1.0 + 1e-4);
         EXPECT_GT(mean, 0.5);
       }
+}
+
+TEST(BsdfFurnace, PlasticReflectsAtMostAllTheLight) {
+  // White base, coat of IOR 1.5 or 2: the coat reflects E(mu) and the base all the rest,
+  // (1 - E) (the base's weight), so the albedo is one up to the tabulation of E.
+  for (float alpha : {0.0f, 0.1f, 0.5f, 1.0f})
+    for (float ior : {1.5f, 2.0f})
+      for (float c : {0.95f, 0.5f, 0.1f, -0.5f}) {
+        SCOPED_TRACE(fmt::format("alpha {} ior {} cos_o {}", alpha, ior, c));
+        const Material m = plastic(alpha, RGB(1.0f), ior);
+        const Bsdf bsdf(m);
+        const auto [mean, max_weight] = albedo(bsdf, wo_at(c), TransportMode::Radiance, 100000, 4);
+        EXPECT_LE(mean, 1.0 + 5e-3);
+        EXPECT_GT(mean, 0.97);
+      }
+}
+
+TEST(BsdfFurnace, MixIsTheWeightedSumAndAddOfTwoHalvesIsOne) {
+  // Mix of white diffuse and a white mirror reflects everything whatever the factor; Add of
+  // two half-white diffuse BSDFs reflects as one white diffuse.
+  const Material white = make(MaterialType::Diffuse, 0, RGB(1.0f));
+  const Material mirror = make(MaterialType::Conductor, 0.0f, RGB(1.0f));
+  const Material half = make(MaterialType::Diffuse, 0, RGB(0.5f));
+  for (float t : {0.0f, 0.3f, 1.0f}) {
+    const auto [mean, max_weight] = albedo(Bsdf(mix(white, mirror, t)), wo_at(0.6f), TransportMode::Radiance, 50000, 5);
+    EXPECT_NEAR(mean, 1.0, 1e-4) << "factor " << t;
+  }
+  const auto [mean, max_weight] = albedo(Bsdf(mix(half, half, 0, true)), wo_at(0.6f), TransportMode::Radiance, 50000, 6);
+  EXPECT_NEAR(mean, 1.0, 1e-4);
+  EXPECT_NEAR(max_weight, 1.0, 1e-4);
+}
+
+TEST(Bsdf, LayeredClassification) {
+  // Photon methods store photons on the plastic's diffuse base and on a mix with any diffuse
+  // part; a mix is a Dirac BSDF only when both parts are.
+  const Material glass = make(MaterialType::Dielectric, 0, RGB(1.0f));
+  const Material mirror = make(MaterialType::Conductor, 0);
+  const Material diffuse = make(MaterialType::Diffuse, 0);
+  EXPECT_TRUE(Bsdf(plastic(0)).is_diffuse_for_photons());
+  EXPECT_FALSE(Bsdf(plastic(0)).is_delta());
+  EXPECT_TRUE(Bsdf(mix(glass, mirror, 0.5f)).is_delta());
+  EXPECT_FALSE(Bsdf(mix(glass, mirror, 0.5f)).is_diffuse_for_photons());
+  EXPECT_TRUE(Bsdf(mix(glass, diffuse, 0.5f)).is_diffuse_for_photons());
+  EXPECT_FALSE(Bsdf(mix(glass, diffuse, 0.5f)).is_delta());
 }
 
 // ---- Classification and degenerate input ----

@@ -85,6 +85,51 @@ TEST(PathTracer, PointLightOverDiffusePlane) {
   EXPECT_NEAR(m.g, 0.5 / M_PI * 8.0 / 4.0, 2e-3);
 }
 
+TEST(PathTracer, PointLightOfRadiusRIsCyclesDiskFacingTheShadingPoint) {
+  // Cycles' point light of radius r: a disk of radiance I / (pi r^2) facing the shading point.
+  // On the axis at height h it gives E = I / (h^2 + r^2) (a delta light would give I / h^2).
+  // Sampled and hit by BSDF rays (MIS), so a large disk close to the plane tests both.
+  const Scene s = scene_from(std::string("{") + R"("camera": {"position": [0, 0, 0.5], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 2, "width": 8, "height": 8},
+    "materials": {"grey": {"type": "diffuse", "color": 0.5}},
+    "lights": [{"type": "point", "position": [0, 0, 1], "intensity": 8, "radius": 1}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [50, 0, 0], "v": [0, 50, 0], "material": "grey"}]})");
+  Params p;
+  p.set("max_depth", 2);  // direct light only
+  p.set("seed", uint64_t{3});
+  auto integ = make_integrator("pt", s, p);
+  run_progressive(*integ, StopRule{0, 256, 0}, nullptr);
+  Film film;
+  integ->develop(film);
+  EXPECT_NEAR(window_mean(film).g, 0.5 / M_PI * 8.0 / 2.0, 0.01);
+}
+
+TEST(PathTracer, SunOfAngleKeepsItsIrradiance) {
+  // A sun of angle a spreads its directions over a cone; facing it, a plane still receives E
+  // (up to the mean cosine over the cone, 1 - O(a^2): 0.998 at 10 degrees).
+  const Scene s = scene_from(std::string("{") + kCameraAtOriginDown + R"(,
+    "materials": {"grey": {"type": "diffuse", "color": 0.5}},
+    "lights": [{"type": "sun", "direction": [0, 0, -1], "irradiance": 3, "angle": 10}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "grey"}]})");
+  EXPECT_NEAR(window_mean(render(s, 16)).g, 0.5 / M_PI * 3.0 * 0.998, 2e-3);
+}
+
+TEST(PathTracer, LightObjectIsHiddenFromTheCameraCastsNoShadowAndLetsRaysThrough) {
+  // A Blender light object as the addon exports it: an emissive dielectric of IOR 1 (rays
+  // pass through), hidden from camera rays, casting no shadow. Placed between the camera, a
+  // point light and a diffuse plane, emitting upwards (away from the plane): the camera sees
+  // the plane lit by the point light as if the panel were not there.
+  const Scene s = scene_from(std::string("{") + R"("camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 2, "width": 8, "height": 8},
+    "materials": {"grey": {"type": "diffuse", "color": 0.5},
+                  "lamp": {"type": "dielectric", "ior": 1, "emission": 1, "strength": 1,
+                           "visible_to_camera": false, "casts_shadow": false}},
+    "lights": [{"type": "point", "position": [0, 0, 2], "intensity": 8}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "grey"},
+                {"type": "quad", "center": [0, 0, 0.5], "u": [1, 0, 0], "v": [0, 1, 0], "material": "lamp"}]})");
+  EXPECT_TRUE(s.warnings.empty());
+  // The panel takes a share of the light selection: its (rejected) samples make NEE noisier.
+  EXPECT_NEAR(window_mean(render(s, 64)).g, 0.5 / M_PI * 8.0 / 4.0, 0.01);
+}
+
 TEST(PathTracer, SunAtAnAngleOverDiffusePlane) {
   // Directional light of irradiance E at 60 degrees from the normal: L_o = (a / pi) E cos 60.
   const Scene s = scene_from(std::string("{") + kCameraAtOriginDown + R"(,

@@ -499,8 +499,31 @@ TEST(SceneLoader, UnknownMaterialListsTheKnownOnes) {
   });
   EXPECT_NE(msg.find("scenes/x.json: /objects/1/material: unknown material 'glas' (known: glass, white)"),
             std::string::npos) << msg;
-  const std::string type = scene_error([] { from_text(R"({"materials": {"m": {"type": "plastic"}}})"); });
-  EXPECT_NE(type.find("/materials/m/type: unknown material type 'plastic'"), std::string::npos) << type;
+  const std::string type = scene_error([] { from_text(R"({"materials": {"m": {"type": "velvet"}}})"); });
+  EXPECT_NE(type.find("/materials/m/type: unknown material type 'velvet'"), std::string::npos) << type;
+}
+
+TEST(SceneLoader, MixMaterialsResolveTheirPartsInAnyOrderAndRejectCycles) {
+  const Scene s = from_text(R"({"materials": {
+      "outer": {"type": "mix", "a": "inner", "b": "coat", "factor": 0.25},
+      "inner": {"type": "add", "a": "d", "b": "g"},
+      "d": {"type": "diffuse", "color": 0.5}, "g": {"type": "conductor", "roughness": 0.3, "fresnel": false},
+      "coat": {"type": "plastic", "color": 0.2, "roughness": 0.1, "ior": 1.6}}})");
+  EXPECT_EQ(s.warnings.count("unknown key"), 0u);
+  const Material& outer = s.materials[0];
+  ASSERT_EQ(outer.type, MaterialType::Mix);
+  ASSERT_TRUE(outer.mix_a && outer.mix_b);
+  EXPECT_EQ(outer.mix_a->type, MaterialType::Mix);
+  EXPECT_TRUE(outer.mix_a->mix_add);
+  ASSERT_TRUE(outer.mix_a->mix_a && outer.mix_a->mix_b) << "the inner mix is resolved before it is copied";
+  EXPECT_FALSE(outer.mix_a->mix_b->conductor_fresnel);
+  EXPECT_EQ(outer.mix_b->type, MaterialType::Plastic);
+  EXPECT_TRUE(outer.mix_b->coat_albedo) << "plastics get their coat table when loaded";
+  EXPECT_FLOAT_EQ(outer.mix_factor, 0.25f);
+  const std::string missing = scene_error([] { from_text(R"({"materials": {"m": {"type": "mix", "a": "m2", "b": "x"}, "m2": {"type": "diffuse"}}})"); });
+  EXPECT_NE(missing.find("/materials/m/b: unknown material 'x'"), std::string::npos) << missing;
+  const std::string cycle = scene_error([] { from_text(R"({"materials": {"p": {"type": "mix", "a": "q", "b": "q"}, "q": {"type": "add", "a": "p", "b": "p"}}})"); });
+  EXPECT_NE(cycle.find("cycle"), std::string::npos) << cycle;
 }
 
 TEST(SceneLoader, OutOfRangeIndexNamesObjectAndTriangle) {
@@ -543,9 +566,9 @@ TEST(SceneLoader, UnknownKeysAreCountedWarnings) {
   EXPECT_NE(warnings_text(root).find("root.json: /camera2"), std::string::npos) << warnings_text(root);
   const Scene m = from_text(R"({"materials": {"d": {"type": "diffuse", "roughness": 0.5}}})");
   EXPECT_EQ(m.warnings.count("unknown key"), 1u) << "roughness means nothing to a diffuse material";
-  const Scene l = from_text(R"({"lights": [{"type": "point", "position": [0,0,1], "intensity": 1, "radius": 0.1}]})");
+  const Scene l = from_text(R"({"lights": [{"type": "point", "position": [0,0,1], "intensity": 1, "radus": 0.1}]})");
   EXPECT_EQ(l.warnings.count("unknown key"), 1u);
-  EXPECT_NE(warnings_text(l).find("/lights/0/radius"), std::string::npos) << warnings_text(l);
+  EXPECT_NE(warnings_text(l).find("/lights/0/radus"), std::string::npos) << warnings_text(l);
 }
 
 TEST_F(SceneLoaderFiles, ObjFileWithUsemtlMappingAndFallback) {

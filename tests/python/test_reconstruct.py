@@ -93,8 +93,10 @@ def test_gpt_session_and_cli_flags(tmp_path):
     session = _native.Session(scene, "gpt", {"seed": 2, "recon": "l1", "lambda": 0.3})
     session.run(passes=2)
     passes = session.develop()
-    assert set(passes) == {"combined", "primal", "gradient_x", "gradient_y"}
-    assert all(np.isfinite(a).all() and a.shape == (20, 24, 3) for a in passes.values())
+    # The method's passes and the auxiliary ones every session adds (integrators/aov.h).
+    assert set(passes) == {"combined", "primal", "gradient_x", "gradient_y", "albedo", "normal", "depth"}
+    assert all(np.isfinite(a).all() and a.shape == (20, 24, 1 if k == "depth" else 3) for k, a in passes.items())
+    assert passes["depth"].min() > 0  # run() made auxiliary passes too
     assert any(k.startswith("shift failed: ") for k in session.stats)
     out = tmp_path / "gpt.exr"
     p = subprocess.run([str(CLI), "render", str(ROOT / "scenes" / "cornell-box.json"), "--method", "gpt",

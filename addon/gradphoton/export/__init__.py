@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from . import camera, light, material, mesh, world
+from . import camera, light, material, mesh, skipped, world
 from .warnings import Warnings
 
 __all__ = ["ExportedScene", "export_scene", "Warnings"]
@@ -74,12 +74,14 @@ def export_scene(depsgraph, *, export_uvs=False):
         if inst.is_instance and not inst.show_self:
             continue
         kind = ob.type
+        skipped.check_object(ob, kind, w)
         if kind in mesh.GEOMETRY_TYPES:
             mesh.add_instance(meshes, inst, mats, w, export_uvs)
         elif kind == 'LIGHT':
             light.add_light(out, inst, mats, w)
         # cameras, empties, armatures: nothing to render
     out.meshes = [m for m in meshes.values() if m.triangle_count > 0] + out.meshes  # area lights first added
+    skipped.check_scene(scene, mats.used_materials(), w)
     out.description["camera"], out.width, out.height, out.border = camera.export_camera(scene, w)
     env = world.export_world(scene.world, w)
     if env:

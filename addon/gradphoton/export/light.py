@@ -1,20 +1,28 @@
-"""Lights: Blender's watts -> the core's radiometric units, following Cycles so that a scene
+"""Lights: Blender's watts -> the core's radiometric units, following Cycles 3.4 so that a scene
 lit by these renders equally bright in both (tested against Cycles in tests/blender):
 
   point, spot  power P [W]      -> intensity I = P color / (4 pi)  W/sr   ("power" key)
+               radius r         -> a disk of radius r facing the shading point ("radius")
   sun          strength S       -> irradiance E = S color           W/m^2  ("strength" key)
+               angle a          -> directions in a cone of half-angle a/2 ("angle")
   area         power P [W]      -> one-sided emissive quad/disk/ellipse facing the light's -Z,
                                    radiance L = P color / (4 A)     W/(sr m^2)
                (Cycles: eval_fac = 0.25 * invarea for area lights; A in world units, so the
                object's scale changes the area as in Cycles)
 
-Soft-shadow radii (point/spot radius, sun angle) and area-light spread are not modelled: the
-core's point, spot and sun lights are delta lights; each use (a radius, a sun angle above 0,
-a spread below 180 degrees) is a counted warning.
+Cycles' lights are not geometry: rays pass through them (a hit adds the light's emission and
+the path goes on) and they cast no shadow. An area light is therefore an emissive dielectric
+of IOR 1 (a pass-through surface) with casts_shadow off, and shown to camera rays only when the
+object's Visibility > Camera is on (off by default for light objects in Blender 3.4). Point,
+spot and sun lights are never hit by rays (next-event estimation only, as the core's delta
+lights): shown to the camera or in a mirror they are a counted warning. Area-light spread is
+not modelled (a counted warning).
 """
 import math
 
 import numpy as np
+
+from . import visibility
 
 DISK_SEGMENTS = 64
 
@@ -34,19 +42,18 @@ def add_light(out, inst, mats, warnings):
     m = np.array(inst.matrix_world, dtype=np.float64)
     name = ob.name if not inst.is_instance else f"{ob.name} [{inst.random_id & 0xffff}]"
     color = [la.color[0], la.color[1], la.color[2]]
+    visibility.check_light(ob, la, warnings)
     if la.type in {'POINT', 'SPOT'}:
-        if la.shadow_soft_size > 0:
-            warnings.add("light radius ignored (hard shadows)", ob.name)
-        d = {"type": la.type.lower(), "name": name, "position": _pos(m), "power": max(0.0, la.energy), "color": color}
+        d = {"type": la.type.lower(), "name": name, "position": _pos(m), "power": max(0.0, la.energy), "color": color,
+             "radius": max(0.0, la.shadow_soft_size)}
         if la.type == 'SPOT':
             d.update({"direction": _dir(m), "spot_size": min(180.0, math.degrees(la.spot_size)),
                       "spot_blend": min(1.0, max(0.0, la.spot_blend))})
         out.description["lights"].append(d)
     elif la.type == 'SUN':
-        if la.angle > 0:
-            warnings.add("sun angle ignored (hard shadows)", ob.name)
         out.description["lights"].append(
-            {"type": "sun", "name": name, "direction": _dir(m), "strength": max(0.0, la.energy), "color": color})
+            {"type": "sun", "name": name, "direction": _dir(m), "strength": max(0.0, la.energy), "color": color,
+             "angle": min(179.0, math.degrees(la.angle))})
     elif la.type == 'AREA':
         _add_area(out, ob, la, m, name, color, warnings)
     else:
@@ -83,7 +90,9 @@ def _add_area(out, ob, la, m, name, color, warnings):
         return
     mat_name = f"__light_{name}"
     out.description["materials"][mat_name] = {
-        "type": "emission", "emission": color, "strength": max(0.0, la.energy) / (4.0 * area), "two_sided": False}
+        "type": "dielectric", "ior": 1.0, "color": 1.0,  # a pass-through surface, as Cycles' lights
+        "emission": color, "strength": max(0.0, la.energy) / (4.0 * area), "two_sided": False,
+        "visible_to_camera": bool(ob.visible_camera), "casts_shadow": False}
     rec = MeshRecord(name)
     rec.positions, rec.indices, rec.triangle_count = pos, idx, len(idx)
     rec.materials = [mat_name]

@@ -10,6 +10,8 @@ per instance.
 """
 import numpy as np
 
+from . import visibility
+
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT'}
 
 
@@ -69,7 +71,8 @@ def add_instance(records, inst, mats, warnings, export_uvs):
     """Adds one depsgraph instance of a geometry object to `records` (key -> MeshRecord)."""
     ob = inst.object
     slots = [s.material for s in ob.material_slots]
-    names = [mats.name_for(m) for m in slots] or [mats.name_for(None)]
+    flags = visibility.surface_flags(ob, warnings)
+    names = [mats.name_for(m, flags) for m in slots] or [mats.name_for(None, flags)]
     data_key = ob.data.as_pointer() if (ob.type == 'MESH' and ob.data is not None) else ob.as_pointer()
     key = (data_key, tuple(names))
     rec = records.get(key)
