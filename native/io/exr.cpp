@@ -124,7 +124,10 @@ Film read_exr(const std::string& path) {
     auto full = [](const std::string& layer, const std::string& s) {
       return layer.empty() ? s : layer + "." + s;
     };
-    for (const auto& [layer, suffixes] : layers) {
+    for (const auto& entry : layers) {
+      // Not a structured binding: clang 14 (the fuzz build) cannot capture one in a lambda.
+      const std::string& layer = entry.first;
+      const std::vector<std::string>& suffixes = entry.second;
       auto has = [&](const char* s) { return std::find(suffixes.begin(), suffixes.end(), s) != suffixes.end(); };
       const std::string layer_pass = layer.empty() ? std::string(pass::kCombined) : layer;
       std::vector<std::string> used;
