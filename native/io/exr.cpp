@@ -2,10 +2,14 @@
 
 #include <algorithm>
 #include <exception>
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <stdexcept>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include <ImathBox.h>
 #include <ImfChannelList.h>
@@ -14,6 +18,8 @@
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
+
+#include "core/memory.h"
 
 namespace gp {
 
@@ -75,10 +81,45 @@ void write_exr(const std::string& path, const Film& film, const std::map<std::st
 
 namespace {
 
+// OpenEXR allocates an attribute's value at the size its header claims before reading it, so
+// a 1 kB file claiming a 2 GB string takes 2 GB (found by fuzz_exr). The header is walked here
+// first: every attribute (name, type, 32-bit little-endian size, value) must fit in the file.
+// Anything else malformed is left to OpenEXR's own, clear errors.
+void check_header_sizes(const std::string& path, uintmax_t file_size) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[8];
+  if (!in.read(magic, 8)) return;
+  if (!(magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01)) return;  // OpenEXR says why
+  auto read_string = [&](std::string& out) {
+    out.clear();
+    for (char c; in.get(c);) {
+      if (c == 0) return true;
+      if (out.size() >= 256) return false;
+      out += c;
+    }
+    return false;
+  };
+  std::string name, type;
+  while (read_string(name) && !name.empty()) {
+    if (!read_string(type)) return;
+    unsigned char b[4];
+    if (!in.read(reinterpret_cast<char*>(b), 4)) return;
+    const int64_t size = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    const int64_t at = static_cast<int64_t>(in.tellg());
+    if (size < 0 || at + size > static_cast<int64_t>(file_size))
+      fail("cannot read EXR", path,
+           fmt::format("header attribute '{}' claims {} bytes but the file ends {} bytes later (truncated or corrupt)",
+                       name, size, static_cast<int64_t>(file_size) - at));
+    in.seekg(size, std::ios::cur);
+  }
+}
+
 void check_readable(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) fail("cannot read EXR", path, "no such file");
   if (std::filesystem::is_directory(path, ec)) fail("cannot read EXR", path, "is a directory");
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec) check_header_sizes(path, size);
 }
 
 }  // namespace
@@ -106,6 +147,15 @@ Film read_exr(const std::string& path) {
     if (w64 <= 0 || h64 <= 0 || w64 > (1 << 20) || h64 > (1 << 20))
       fail("cannot read EXR", path, "bad data window");
     const int w = int(w64), h = int(h64);
+    // The film this becomes: every channel as a float. A few header bytes can ask for
+    // terabytes (found by fuzz_exr), so the size is checked before anything is allocated.
+    size_t channels = 0;
+    for (auto it = header.channels().begin(); it != header.channels().end(); ++it) ++channels;
+    const double bytes = double(w) * h * sizeof(float) * std::max<size_t>(1, channels);
+    if (const double budget = memory_budget_bytes(); budget > 0 && bytes > budget)
+      fail("cannot read EXR", path,
+           fmt::format("{}x{} pixels with their channels need {:.2f} GB, more than the {:.2f} GB available "
+                       "(GRADPHOTON_MEMORY_LIMIT_MB sets the limit)", w, h, bytes / 1e9, budget / 1e9));
 
     // Group channels into layers by the prefix before the last '.'.
     std::map<std::string, std::vector<std::string>> layers;  // layer -> suffixes

@@ -24,6 +24,7 @@
 #include <string_view>
 #include <unordered_map>
 
+#include "core/memory.h"
 #include "scene/shapes.h"
 
 namespace gp {
@@ -102,24 +103,6 @@ constexpr const char* kUsemtlMtllib = "__gradphoton_usemtl_names__";
 // (about half a vertex of position, normal and uv per triangle, three indices, a material id)
 // and Embree's BVH, measured on a 2 M-triangle torus (docs/reliability.md) and rounded up.
 constexpr double kBytesPerTriangle = 160;
-
-// Memory a scene may fill: GRADPHOTON_MEMORY_LIMIT_MB when set (cluster nodes, the fuzzers),
-// else what the kernel reports as available; 0 when neither is known (no limit).
-double memory_budget_bytes() {
-  if (const char* env = std::getenv("GRADPHOTON_MEMORY_LIMIT_MB"); env && *env) {
-    char* end = nullptr;
-    const double mb = std::strtod(env, &end);
-    if (end != env && mb > 0) return mb * 1024.0 * 1024.0;
-  }
-  std::ifstream meminfo("/proc/meminfo");
-  std::string key;
-  double kb = 0;
-  while (meminfo >> key >> kb) {
-    if (key == "MemAvailable:") return kb * 1024.0;
-    meminfo.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
-  }
-  return 0;
-}
 
 class Loader {
  public:
