@@ -83,9 +83,16 @@ namespace {
 
 // OpenEXR allocates an attribute's value at the size its header claims before reading it, so
 // a 1 kB file claiming a 2 GB string takes 2 GB (found by fuzz_exr). The header is walked here
-// first: every attribute (name, type, 32-bit little-endian size, value) must fit in the file.
-// Anything else malformed is left to OpenEXR's own, clear errors.
+// first, the way OpenEXR 3.1 reads it (Header::readFrom: fixed-size types read their size
+// whatever the header claims, a channel list is parsed, strings, vectors, unknown types and
+// preview images read what they claim): what is read must fit in the file. Anything else
+// malformed is left to OpenEXR's own, clear errors.
 void check_header_sizes(const std::string& path, uintmax_t file_size) {
+  static const std::map<std::string, int64_t> kFixed = {
+      {"box2i", 16}, {"box2f", 16}, {"chromaticities", 32}, {"compression", 1}, {"double", 8}, {"envmap", 1},
+      {"float", 4}, {"int", 4}, {"keycode", 28}, {"lineOrder", 1}, {"m33f", 36}, {"m33d", 72}, {"m44f", 64},
+      {"m44d", 128}, {"rational", 8}, {"tiledesc", 9}, {"timecode", 8}, {"v2i", 8}, {"v2f", 8}, {"v2d", 16},
+      {"v3i", 12}, {"v3f", 12}, {"v3d", 24}, {"deepImageState", 1}};
   std::ifstream in(path, std::ios::binary);
   char magic[8];
   if (!in.read(magic, 8)) return;
@@ -99,18 +106,36 @@ void check_header_sizes(const std::string& path, uintmax_t file_size) {
     }
     return false;
   };
-  std::string name, type;
-  while (read_string(name) && !name.empty()) {
-    if (!read_string(type)) return;
+  auto read_int = [&](int64_t& v) {
     unsigned char b[4];
-    if (!in.read(reinterpret_cast<char*>(b), 4)) return;
-    const int64_t size = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    if (!in.read(reinterpret_cast<char*>(b), 4)) return false;
+    v = int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    return true;
+  };
+  auto check = [&](const std::string& name, int64_t bytes) {
     const int64_t at = static_cast<int64_t>(in.tellg());
-    if (size < 0 || at + size > static_cast<int64_t>(file_size))
+    if (bytes < 0 || at < 0 || at + bytes > static_cast<int64_t>(file_size))
       fail("cannot read EXR", path,
-           fmt::format("header attribute '{}' claims {} bytes but the file ends {} bytes later (truncated or corrupt)",
-                       name, size, static_cast<int64_t>(file_size) - at));
-    in.seekg(size, std::ios::cur);
+           fmt::format("header attribute '{}' needs {} bytes but the file ends {} bytes later (truncated or corrupt)",
+                       name, bytes, static_cast<int64_t>(file_size) - at));
+    in.seekg(bytes, std::ios::cur);
+  };
+  std::string name, type, channel;
+  while (read_string(name) && !name.empty()) {
+    int64_t size = 0;
+    if (!read_string(type) || !read_int(size)) return;
+    if (auto f = kFixed.find(type); f != kFixed.end()) {
+      check(name, f->second);
+    } else if (type == "chlist") {
+      while (read_string(channel) && !channel.empty()) check(name, 16);
+    } else if (type == "preview") {
+      int64_t w = 0, h = 0;
+      if (!read_int(w) || !read_int(h)) return;
+      check(name, w < 0 || h < 0 ? -1 : 4 * (uint32_t(w) * int64_t(uint32_t(h))));
+    } else {
+      check(name, size);  // string, stringvector, floatvector and unknown (opaque) types
+    }
+    if (!in) return;
   }
 }
 
