@@ -65,6 +65,26 @@ TEST(ExtremeInputs, EmissionAtTheTopOfTheFloatRangeGivesFiniteImages) {
                                  "emission 3e38");
 }
 
+TEST(ExtremeInputs, NonFiniteSamplesAreDiscardedAndCountedByEveryMethod) {
+  // Inside a sphere emitting near FLT_MAX that also reflects: emission plus reflection
+  // overflows to Inf. Every method must count such samples and keep them out of its passes.
+  const Scene scene = load_scene_from_string(R"({
+    "camera": {"position": [0, 0, 0], "look_at": [1, 0, 0], "fov": 60, "width": 8, "height": 8},
+    "materials": {"hot": {"type": "diffuse", "color": 0.9, "emission": 1, "strength": 3e38, "two_sided": true}},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 12, "material": "hot"}]})",
+                                             ".", "hot.json");
+  for (const std::string& method : integrator_names()) {
+    Stats stats;
+    const Film film = render(method, scene, 2, photon_params(3000, 1, 2), &stats);
+    EXPECT_GT(stats.invalid_samples, 0) << method << " counted no invalid sample";
+    for (const auto& [name, pass] : film.passes()) {
+      size_t bad = 0;
+      for (float v : pass.data) bad += !std::isfinite(v);
+      EXPECT_EQ(bad, 0u) << method << ", pass " << name;
+    }
+  }
+}
+
 TEST(ExtremeInputs, IorOneAndTenGiveFiniteImages) {
   expect_finite_for_every_method(box_scene(R"({"type": "dielectric", "ior": 1})"), "ior 1");
   expect_finite_for_every_method(box_scene(R"({"type": "dielectric", "ior": 10})"), "ior 10");
