@@ -3,8 +3,8 @@
 
     PYTHONPATH=build/python scripts/cancel_latency.py [--size 1920x1080] [--trials 3] [--methods pt gpm ...]
 
-Renders scenes/cornell-glass.json at 1080p with each method's default parameters (GPM and the
-other photon methods: their default photon count per pass) in a background thread, as Blender's
+Renders scenes/cornell-glass.json at 1080p with each method's default parameters (photon
+methods: their default photon count per pass, or --photons) in a background thread, as Blender's
 render thread does, cancels at a random moment after the first pass has started (as Esc and the
 CLI's Ctrl-C do: ProgressSink::cancel_flag) and measures how long run() takes to return. Prints a
 Markdown table; exit status 1 when a method's worst trial exceeds --limit seconds (default 0.5).
@@ -31,13 +31,15 @@ def main():
     ap.add_argument("--delay", type=float, default=3.0, help="cancel at a uniform random time in [0.2, delay] s")
     ap.add_argument("--limit", type=float, default=0.5)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--photons", type=int, default=0, help="photons per pass for the photon methods (default: theirs)")
     args = ap.parse_args()
     width, height = map(int, args.size.split("x"))
     text = json.loads(pathlib.Path(args.scene).read_text())
     text["camera"]["width"], text["camera"]["height"] = width, height
     scene = _native.load_scene_json(json.dumps(text), str(pathlib.Path(args.scene).parent))
     rng = random.Random(args.seed)
-    print(f"{width}x{height}, default parameters, {args.trials} cancels per method at random times in "
+    print(f"{width}x{height}, default parameters" + (f" but {args.photons} photons per pass" if args.photons else "") +
+          f", {args.trials} cancels per method at random times in "
           f"[0.2, {args.delay}] s\n")
     print("| method | passes done at cancel | latency median (s) | latency max (s) |")
     print("| --- | ---: | ---: | ---: |")
@@ -45,7 +47,10 @@ def main():
     for method in args.methods:
         latencies, passes = [], []
         for trial in range(args.trials):
-            session = _native.Session(scene, method, {"seed": trial + 1})
+            params = {"seed": trial + 1}
+            if args.photons and "photons" not in _native.method_info(method, {"photons": args.photons})["unused"]:
+                params["photons"] = args.photons
+            session = _native.Session(scene, method, params)
             worker = threading.Thread(target=session.run, kwargs={"seconds": 3600})
             worker.start()
             time.sleep(rng.uniform(0.2, args.delay))
