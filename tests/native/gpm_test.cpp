@@ -89,14 +89,17 @@ std::unique_ptr<Integrator> run(const std::string& method, const Scene& s, int p
 }
 
 TEST(Gpm, PrimalIsSppmsImageAndL2OfThePassesIsCombined) {
-  // Both with their defaults (alpha, photons per pass, the initial radius's footprint rule) and
-  // the same seed: GPM's eye paths and photons are SPPM's, so its primal pass is SPPM's image (up
-  // to float summation order).
+  // Both with their defaults (alpha, photons per pass, the footprint rule of the initial radius)
+  // and the same seed, except the footprint's width (SPPM two pixels, GPM one: each wins at equal
+  // time with its own): GPM's eye paths and photons are SPPM's, so its primal pass is SPPM's
+  // image (up to float summation order).
   const Scene s = cornell_box(24, 20);
   Params p;
   p.set("seed", 7);
   Film sppm, gpm;
-  run("sppm", s, 3, p)->develop(sppm);
+  Params sppm_params = p;
+  sppm_params.set("footprint", 1.0);
+  run("sppm", s, 3, sppm_params)->develop(sppm);
   p.set("recon", "l2");  // for the check of the passes below
   run("gpm", s, 3, p)->develop(gpm);
   const DiffResult d = diff_images(gpm.pass(pass::kPrimal), sppm.pass(pass::kCombined), 24, 20);
