@@ -85,7 +85,7 @@ class UsemtlNames : public tinyobj::MaterialReader {
                   std::map<std::string, int>* map, std::string*, std::string*) override {
     for (const std::string& n : names_)
       if (map->find(n) == map->end()) {
-        tinyobj::material_t m;
+        tinyobj::material_t m{};  // value-initialized: its texture options have no initializers (UBSan)
         m.name = n;
         map->emplace(n, static_cast<int>(materials->size()));
         materials->push_back(m);
