@@ -10,7 +10,8 @@ PACKAGES=(
   libembree-dev libtbb-dev libopenexr-dev libimath-dev libopencolorio-dev libpng-dev
   pybind11-dev nlohmann-json3-dev libtinyobjloader-dev libeigen3-dev libfftw3-dev
   libcli11-dev libfmt-dev libgtest-dev libbenchmark-dev
-  python3-dev python3-numpy python3-matplotlib python3-pytest
+  python3-dev python3-numpy python3-matplotlib python3-pytest python3-hypothesis
+  clang libclang-rt-14-dev
   blender xvfb xauth xdotool libgl1-mesa-dri
   slurm-wlm munge
 )

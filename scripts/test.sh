@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
-# Set-up if needed, then every test: native (GoogleTest through CTest), Python, and the Blender
-# addon inside real Blender (background, then its UI under Xvfb).
+# Set-up if needed, then every test: native (GoogleTest through CTest, with the fuzz corpora
+# replayed), a short libFuzzer run of each fuzz target, Python, and the Blender addon inside real
+# Blender (background, then its UI under Xvfb).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 echo "== native tests (ctest) =="
 ctest --test-dir build --output-on-failure --parallel "$(nproc)" --timeout 600
+echo "== fuzz targets, a few seconds each (libFuzzer + ASan/UBSan, build-fuzz/; docs/reliability.md) =="
+scripts/fuzz.sh all "${GRADPHOTON_FUZZ_SECONDS:-5}"
 echo "== python tests (pytest, Debian's /usr/bin/python3: the Python Blender embeds) =="
 PYTHONPATH="$PWD/build/python" /usr/bin/python3 -m pytest -q tests/python
 echo "== Blender tests (pytest inside blender -b) =="

@@ -226,6 +226,12 @@ class RenderSession:
         except (ValueError, TypeError, RuntimeError) as e:  # SceneError, ParamError: one readable line
             self.report('ERROR', f"gradphoton: {e}")
             return
+        except Exception as e:  # an exporter bug: still one report, never a failed render engine
+            import traceback
+            traceback.print_exc()  # the details, for a bug report, on the console only
+            self.report('ERROR', f"gradphoton: internal error exporting the scene ({type(e).__name__}: {e}); "
+                                 "please report it with the console output")
+            return
         for w in nscene.warnings:
             self.report('WARNING', f"gradphoton scene: {w}")
         unused = [u for u in self.session.unused_params if u not in KNOWN_PARAMS]

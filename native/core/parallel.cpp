@@ -6,9 +6,31 @@
 #include <tbb/task_arena.h>
 
 #include <atomic>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace gp {
+
+namespace {
+
+// One arena per thread count, kept for the life of the process: oneTBB 2021.8 (Debian 12)
+// keeps about 7 kB of every task_arena created and destroyed, and an arena per call made that
+// a leak of 7 MB per thousand passes of the path tracer, more for the photon methods
+// (scripts/soak.py, docs/reliability.md). Deliberately never freed (no order-of-destruction
+// trouble with TBB's own globals at exit). Concurrent callers with the same count share it.
+tbb::task_arena& arena_for(int threads) {
+  static std::mutex mutex;
+  static auto* arenas = new std::map<int, std::unique_ptr<tbb::task_arena>>();
+  const int n = resolve_thread_count(threads);
+  std::lock_guard<std::mutex> lock(mutex);
+  std::unique_ptr<tbb::task_arena>& arena = (*arenas)[n];
+  if (!arena) arena = std::make_unique<tbb::task_arena>(n);
+  return *arena;
+}
+
+}  // namespace
 
 int resolve_thread_count(int threads) {
   return threads > 0 ? threads : tbb::info::default_concurrency();
@@ -22,8 +44,7 @@ void parallel_for_tiles(int width, int height, int tile_size, int threads,
     for (int x = 0; x < width; x += tile_size)
       tiles.push_back({x, y, std::min(x + tile_size, width), std::min(y + tile_size, height)});
   std::atomic<bool> stop{false};
-  tbb::task_arena arena(resolve_thread_count(threads));
-  arena.execute([&] {
+  arena_for(threads).execute([&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1),
                       [&](const tbb::blocked_range<size_t>& r) {
                         for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -39,8 +60,7 @@ void parallel_for_tiles(int width, int height, int tile_size, int threads,
 }
 
 void parallel_for(size_t count, int threads, const std::function<void(size_t, size_t)>& fn) {
-  tbb::task_arena arena(resolve_thread_count(threads));
-  arena.execute([&] {
+  arena_for(threads).execute([&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count),
                       [&](const tbb::blocked_range<size_t>& r) { fn(r.begin(), r.end()); });
   });

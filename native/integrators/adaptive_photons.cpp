@@ -130,7 +130,8 @@ AdaptivePhotonSampler::AdaptivePhotonSampler(const PhotonTracer& tracer, int cha
     : tracer_(tracer), seed_(seed), chains_(static_cast<size_t>(std::max(1, chains))) {}
 
 PhotonPassStats AdaptivePhotonSampler::trace(int64_t count, uint64_t pass, int min_deposit_bounce,
-                                             const VisibilityGrid& vis, std::vector<Photon>& out) {
+                                             const VisibilityGrid& vis, std::vector<Photon>& out,
+                                             const std::function<bool()>& cancelled) {
   const size_t n_chains = chains_.size();
   parallel_for(n_chains, tracer_.threads(), [&](size_t lo, size_t hi) {
     for (size_t c = lo; c < hi; ++c) {
@@ -165,13 +166,14 @@ PhotonPassStats AdaptivePhotonSampler::trace(int64_t count, uint64_t pass, int m
       }
       // ---- Initialisation (Fig. 8.2): uniform paths until one is visible, at most n tries ----
       int64_t budget = n;
-      while (ch.u.empty() && budget-- > 0)
+      auto stop = [&](int64_t i) { return i % kCancelPoll == 0 && cancelled && cancelled(); };
+      while (ch.u.empty() && budget-- > 0 && !stop(n - budget))
         if (uniform_path()) {
           ch.u.swap(ch.cand_u);
           ch.photons.swap(ch.cand_photons);
         }
       if (ch.u.empty()) continue;  // nothing visible found this pass: no splats from this chain
-      for (int64_t i = 0; i < n; ++i) {
+      for (int64_t i = 0; i < n && !stop(i + 1); ++i) {
         // ---- Replica exchange with the uniform chain: r = V(u_I) (eq. 8.10) ----
         if (uniform_path()) {
           ch.u.swap(ch.cand_u);

@@ -36,6 +36,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "accel/photon_hash.h"
@@ -81,8 +82,10 @@ class AdaptivePhotonSampler {
   // One photon pass of `count` Markov-chain iterations in total (split over the chains); the
   // splatted photons of every iteration go to `out` (replaced). stats.emitted is the number of
   // iterations that splatted a visible state (N_e of the estimator, to be scaled by vc()).
+  // `cancelled` is polled every kCancelPoll iterations of each chain (PhotonTracer::trace).
   PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, const VisibilityGrid& vis,
-                        std::vector<Photon>& out);
+                        std::vector<Photon>& out, const std::function<bool()>& cancelled = {});
+  static constexpr int64_t kCancelPoll = 1024;
 
   double vc() const;                 // eq. 8.11 (1 until a uniform path has been traced)
   double acceptance_rate() const;    // accepted / mutated over all chains

@@ -139,7 +139,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
 
 PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposit_bounce,
                                     std::vector<Photon>& out, std::vector<PhotonOrigin>* origins,
-                                    std::vector<PhotonChain>* chains) {
+                                    std::vector<PhotonChain>* chains, const std::function<bool()>& cancelled) {
   if (!origins) chains = nullptr;
   PhotonPassStats stats;
   stats.emitted = count;
@@ -159,6 +159,7 @@ PhotonPassStats PhotonTracer::trace(int64_t count, uint64_t pass, int min_deposi
         if (dst_origin) dst_origin->clear();
         std::vector<PhotonChain>* dst_chain = chains ? &chunk_chains_[c] : nullptr;
         if (dst_chain) dst_chain->clear();
+        if (cancelled && cancelled()) continue;  // abandoned pass: the rest stays empty
         Rng rng = Rng::for_key(seed_ ^ 0x70686f746f6e73ULL, c, pass);
         const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
         RngSamples u(rng);

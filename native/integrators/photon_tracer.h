@@ -20,6 +20,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/color.h"
@@ -130,9 +131,12 @@ class PhotonTracer {
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
   // memory stays flat over passes). With `origins`, also fills origins[k] for photon k (GPM),
   // and with `chains` the specular chains they point to; the random streams, and so the
-  // photons, are the same either way.
+  // photons, are the same either way. `cancelled` is polled (from the workers) before every
+  // chunk of kChunk photons: once it returns true the remaining chunks stay empty and the
+  // caller abandons the pass (a million photons would otherwise delay a cancel by a second).
   PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out,
-                        std::vector<PhotonOrigin>* origins = nullptr, std::vector<PhotonChain>* chains = nullptr);
+                        std::vector<PhotonOrigin>* origins = nullptr, std::vector<PhotonChain>* chains = nullptr,
+                        const std::function<bool()>& cancelled = {});
 
   // Traces one photon path from the primary samples `u`, appending its deposits to `out`.
   // Returns the closest-hit rays traced; deposits with NaN/Inf power are dropped and counted

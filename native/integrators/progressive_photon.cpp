@@ -154,6 +154,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
 
   // ---- Photon pass ----
   const auto t_trace = clock_type::now();
+  const std::function<bool()> cancelled = [sink] { return sink && sink->cancelled(); };
   PhotonPassStats ps;
   if (adaptive_) {
     // ---- Adaptive MCMC photon tracing (thesis ch. 8): V(u) against this pass's points ----
@@ -162,11 +163,11 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       if (vp_[i].material >= 0)
         visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
     visibility_.build(visibility_points_, threads_);
-    ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_);
+    ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_, cancelled);
   } else if (spectral_) {
-    ps = spectral_trace(pass);
+    ps = spectral_trace(pass, cancelled);
   } else {
-    ps = tracer_.trace(photons_per_pass_, pass, nee_ ? 1 : 0, photons_);
+    ps = tracer_.trace(photons_per_pass_, pass, nee_ ? 1 : 0, photons_, nullptr, nullptr, cancelled);
   }
   stats_.extra["trace seconds"] += seconds_since(t_trace);
   if (sink && sink->cancelled()) return;
@@ -179,9 +180,10 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);  // §10.2.2
-  if (spectral_) spectral_gather();
+  if (spectral_) spectral_gather(cancelled);
   else parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     for (size_t i = lo; i < hi; ++i) {
+      if (i % kCancelPollPixels == 0 && cancelled()) return;  // abandoned pass: checked below
       gather_m_[i] = 0;
       gather_lap_[i] = 0;
       gather_phi_[i] = RGB(0.0f);
@@ -205,6 +207,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     }
   });
   stats_.extra["lookup seconds"] += seconds_since(t_lookup);
+  if (sink && sink->cancelled()) return;  // a partial gather: the pass is abandoned, statistics untouched
 
   // ---- Update: radius, count, flux and the error statistics of every pixel ----
   const auto t_update = clock_type::now();

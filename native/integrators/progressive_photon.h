@@ -122,8 +122,10 @@ class ProgressivePhotonMapping : public Integrator {
   // One set of wavelengths per pass, shared by its eye paths and photons.
   SampledWavelengths pass_wavelengths(uint64_t pass) const;
   void spectral_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
-  PhotonPassStats spectral_trace(uint64_t pass);
-  void spectral_gather();
+  PhotonPassStats spectral_trace(uint64_t pass, const std::function<bool()>& cancelled);
+  // The gathers poll the cancel check every this many pixels (2 M at 1080p).
+  static constexpr size_t kCancelPollPixels = 4096;
+  void spectral_gather(const std::function<bool()>& cancelled);
   // sample_to_rgb is linear: RGB of a unit value at wavelength k of this pass's set.
   RGB spectral_to_rgb(const SpectralValues& v) const {
     RGB out(0.0f);

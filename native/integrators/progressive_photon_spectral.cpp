@@ -200,7 +200,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
       [sink] { return sink && sink->cancelled(); });
 }
 
-PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass) {
+PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const std::function<bool()>& cancelled) {
   PhotonPassStats stats;
   const int64_t count = photons_per_pass_;
   stats.emitted = count;
@@ -218,6 +218,7 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass) {
       for (size_t c = lo; c < hi; ++c) {
         std::vector<SpectralPhoton>& dst = spectral_chunks_[c];
         dst.clear();
+        if (cancelled && cancelled()) continue;  // abandoned pass (PhotonTracer::trace)
         Rng rng = Rng::for_key(seed_ ^ 0x73706870686fULL, c, pass);
         const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
         for (int64_t n = begin; n < end; ++n) {
@@ -306,13 +307,14 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass) {
   return stats;
 }
 
-void ProgressivePhotonMapping::spectral_gather() {
+void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& cancelled) {
   const size_t n_pixels = px_.size();
   const int C = wl_.count;
   const bool have_photons = !photons_.empty();
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     std::array<Material, kMaxWavelengths> mk;
     for (size_t i = lo; i < hi; ++i) {
+      if (i % kCancelPollPixels == 0 && cancelled()) return;  // abandoned pass (iterate checks)
       gather_m_[i] = 0;
       gather_lap_[i] = 0;
       gather_phi_[i] = RGB(0.0f);

@@ -37,12 +37,12 @@ Params params_from_dict(const py::dict& d) {
 }
 
 // Row-major (K, 4, 4) float array -> transforms.
-std::vector<Transform> transforms_from_array(const py::object& obj) {
+std::vector<Transform> transforms_from_array(const py::object& obj, const std::string& object) {
   std::vector<Transform> out;
   if (obj.is_none()) return out;
   auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(obj);
   if (!a || !(a.ndim() == 3 || a.ndim() == 2) || a.shape(a.ndim() - 1) != 4 || a.shape(a.ndim() - 2) != 4)
-    throw py::value_error("matrices must be a (4, 4) or (K, 4, 4) array");
+    throw py::value_error("object '" + object + "': matrices must be a (4, 4) or (K, 4, 4) array");
   const size_t k = a.ndim() == 3 ? a.shape(0) : 1;
   out.resize(k);
   const float* d = a.data();
@@ -55,14 +55,20 @@ std::vector<Transform> transforms_from_array(const py::object& obj) {
 // Checks dtype, layout and shape without converting: a silent conversion of a million-vertex
 // array would hide a slow path, so the wrong dtype is an error that says which one to use.
 template <typename T>
-py::array_t<T> exact_array(const py::object& obj, const char* what, int columns, const char* dtype) {
+py::array_t<T> exact_array(const py::object& obj, const std::string& object, const char* what, int columns,
+                           const char* dtype) {
+  const std::string prefix = "object '" + object + "': " + what;
   if (!py::isinstance<py::array_t<T>>(obj))
-    throw py::type_error(std::string(what) + " must be a numpy " + dtype + " array");
+    throw py::type_error(prefix + " must be a numpy " + dtype + " array, not " + py::str(py::type::of(obj)).cast<std::string>() +
+                         (py::isinstance<py::array>(obj) ? " of " + py::str(obj.attr("dtype")).cast<std::string>() : ""));
   py::array_t<T> a = obj.cast<py::array_t<T>>();
-  if (!(a.flags() & py::array::c_style)) throw py::type_error(std::string(what) + " must be C-contiguous");
+  if (!(a.flags() & py::array::c_style)) throw py::type_error(prefix + " must be C-contiguous (numpy.ascontiguousarray)");
   const bool ok = columns == 1 ? (a.ndim() == 1) : (a.ndim() == 2 && a.shape(1) == columns) || (a.ndim() == 1 && a.shape(0) % columns == 0);
-  if (!ok)
-    throw py::value_error(std::string(what) + " must have shape (N, " + std::to_string(columns) + ")");
+  if (!ok) {
+    std::string shape;
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
+    throw py::value_error(prefix + " must have shape (N, " + std::to_string(columns) + "), not (" + shape + ")");
+  }
   return a;
 }
 
@@ -367,8 +373,8 @@ PYBIND11_MODULE(_native, m) {
              MeshArrays in;
              in.name = name;
              in.materials = materials;
-             auto pos = exact_array<float>(positions, "positions", 3, "float32");
-             auto idx = exact_array<uint32_t>(indices, "indices", 3, "uint32");
+             auto pos = exact_array<float>(positions, name, "positions", 3, "float32");
+             auto idx = exact_array<uint32_t>(indices, name, "indices", 3, "uint32");
              in.positions = pos.data();
              in.vertex_count = pos.size() / 3;
              in.indices = idx.data();
@@ -376,24 +382,26 @@ PYBIND11_MODULE(_native, m) {
              py::array_t<uint32_t> mid;
              py::array_t<float> nrm, uv;
              if (!material_ids.is_none()) {
-               mid = exact_array<uint32_t>(material_ids, "material_ids", 1, "uint32");
+               mid = exact_array<uint32_t>(material_ids, name, "material_ids", 1, "uint32");
                if (static_cast<size_t>(mid.size()) != in.triangle_count)
                  throw py::value_error("object '" + name + "': material_ids needs one entry per triangle");
                in.material_ids = mid.data();
              }
              if (!normals.is_none()) {
-               nrm = exact_array<float>(normals, "normals", 3, "float32");
+               nrm = exact_array<float>(normals, name, "normals", 3, "float32");
                if (static_cast<size_t>(nrm.size()) != 3 * in.vertex_count)
                  throw py::value_error("object '" + name + "': normals needs one entry per vertex");
                in.normals = nrm.data();
              }
              if (!uvs.is_none()) {
-               uv = exact_array<float>(uvs, "uvs", 2, "float32");
+               uv = exact_array<float>(uvs, name, "uvs", 2, "float32");
                if (static_cast<size_t>(uv.size()) != 2 * in.vertex_count)
                  throw py::value_error("object '" + name + "': uvs needs one entry per vertex");
                in.uvs = uv.data();
              }
-             in.instances = transforms_from_array(matrices);
+             in.instances = transforms_from_array(matrices, name);
+             // An empty (0, 4, 4) array means no copy at all (None means one, untransformed).
+             if (!matrices.is_none() && in.instances.empty()) return;
              in.instance_names = instance_names;
              py::gil_scoped_release release;
              b.add_mesh(in);

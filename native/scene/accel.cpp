@@ -81,7 +81,9 @@ Accelerator::Accelerator(const std::vector<Mesh>& meshes, const std::vector<Mate
     // buffer, and owning them keeps the accelerator valid if a Mesh vector reallocates.
     auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
         g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), m.positions.size()));
-    std::copy(&m.positions.data()->x, &m.positions.data()->x + 3 * m.positions.size(), vb);
+    // (An empty mesh has no data pointer to take ->x of: found by fuzz_obj on an empty file.)
+    for (size_t v = 0; v < m.positions.size(); ++v)
+      for (int k = 0; k < 3; ++k) vb[3 * v + k] = m.positions[v][k];
     auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
         g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangle_count()));
     std::copy(m.indices.begin(), m.indices.end(), ib);

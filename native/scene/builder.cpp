@@ -73,6 +73,11 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
   for (size_t i = 0; i < instances.size(); ++i) {
     const Transform& tr = instances[i];
     const std::string name = in.instance_names.empty() ? in.name : in.instance_names[i];
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c)
+        if (!std::isfinite(tr.m[r][c]))
+          throw SceneError(fmt::format("{}: object '{}': the matrix is not finite (row {}, column {} is {})", source_, name, r,
+                                       c, tr.m[r][c]));
     if (tr.m[3][0] != 0 || tr.m[3][1] != 0 || tr.m[3][2] != 0 || tr.m[3][3] != 1)
       throw SceneError(fmt::format("{}: object '{}': the matrix is not affine (last row must be 0 0 0 1)", source_, name));
     if (linear_determinant(tr) == 0)

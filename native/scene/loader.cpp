@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +26,7 @@
 #include <string_view>
 #include <unordered_map>
 
+#include "core/memory.h"
 #include "scene/shapes.h"
 
 namespace gp {
@@ -85,7 +87,7 @@ class UsemtlNames : public tinyobj::MaterialReader {
                   std::map<std::string, int>* map, std::string*, std::string*) override {
     for (const std::string& n : names_)
       if (map->find(n) == map->end()) {
-        tinyobj::material_t m;
+        tinyobj::material_t m{};  // value-initialized: its texture options have no initializers (UBSan)
         m.name = n;
         map->emplace(n, static_cast<int>(materials->size()));
         materials->push_back(m);
@@ -98,6 +100,11 @@ class UsemtlNames : public tinyobj::MaterialReader {
 };
 
 constexpr const char* kUsemtlMtllib = "__gradphoton_usemtl_names__";
+
+// What one triangle of a tessellated shape costs once the scene is built: the mesh arrays
+// (about half a vertex of position, normal and uv per triangle, three indices, a material id)
+// and Embree's BVH, measured on a 2 M-triangle torus (docs/reliability.md) and rounded up.
+constexpr double kBytesPerTriangle = 160;
 
 class Loader {
  public:
@@ -447,6 +454,19 @@ class Loader {
 
   // ---- Objects ----
 
+  // Analytic shapes are the one place where a few bytes of JSON ask for gigabytes: their
+  // triangles are counted before tessellation, and a scene that would not fit in memory
+  // fails here with the numbers instead of being killed by the kernel halfway through.
+  void reserve_triangles(double triangles, const std::string& path, const std::string& name) {
+    shape_triangles_ += triangles;
+    const double need = shape_triangles_ * kBytesPerTriangle;
+    if (budget_bytes_ < 0) budget_bytes_ = memory_budget_bytes();
+    if (budget_bytes_ > 0 && need > budget_bytes_)
+      fail(path, fmt::format("'{}' brings the scene's shapes to {:.0f} triangles, about {:.2f} GB, more than the {:.2f} GB "
+                             "available (lower the segments; GRADPHOTON_MEMORY_LIMIT_MB sets the limit)",
+                             name, shape_triangles_, need / 1e9, budget_bytes_ / 1e9));
+  }
+
   void load_object(const json& o, const std::string& path) {
     require_object(o, path);
     const std::string type = get_string(need(o, "type", path), sub(path, "type"));
@@ -475,7 +495,9 @@ class Loader {
       keys({"center", "radius", "segments"});
       const Vec3 c = center();
       const float r = get_positive(need(o, "radius", path), sub(path, "radius"));
-      mesh = make_sphere(c, r, segments("segments", 48), material());
+      const int n = segments("segments", 48);
+      reserve_triangles(2.0 * n * (std::max(2, n / 2) - 1), path, name);
+      mesh = make_sphere(c, r, n, material());
     } else if (type == "quad") {
       keys({"center", "u", "v", "corners"});
       if (const json* corners = find(o, "corners")) {
@@ -510,12 +532,16 @@ class Loader {
       const float major = get_positive(need(o, "major_radius", path), sub(path, "major_radius"));
       const float minor = get_positive(need(o, "minor_radius", path), sub(path, "minor_radius"));
       if (!(minor < major)) fail(sub(path, "minor_radius"), fmt::format("must be below major_radius ({} >= {})", minor, major));
-      mesh = make_torus(c, major, minor, segments("segments_major", 48), segments("segments_minor", 24), material());
+      const int n_major = segments("segments_major", 48), n_minor = segments("segments_minor", 24);
+      reserve_triangles(2.0 * n_major * n_minor, path, name);
+      mesh = make_torus(c, major, minor, n_major, n_minor, material());
     } else if (type == "disk") {
       keys({"center", "radius", "segments"});
       const Vec3 c = center();
       const float r = get_positive(need(o, "radius", path), sub(path, "radius"));
-      mesh = make_disk(c, r, segments("segments", 48), material());
+      const int n = segments("segments", 48);
+      reserve_triangles(n, path, name);
+      mesh = make_disk(c, r, n, material());
     } else if (type == "mesh") {
       keys({"positions", "indices", "normals", "uvs", "materials", "material_indices"});
       mesh = load_inline_mesh(o, path, name);
@@ -597,6 +623,9 @@ class Loader {
     const std::string rel = get_string(need(o, "file", path), fpath);
     std::filesystem::path file(rel);
     if (file.is_relative() && !base_dir_.empty()) file = std::filesystem::path(base_dir_) / file;
+    std::error_code ec;
+    if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
+      fail(fpath, fmt::format("OBJ file '{}' is not a regular file", file.string()));
     std::ifstream in(file, std::ios::binary);
     if (!in) fail(fpath, fmt::format("cannot open OBJ file '{}' ({})", file.string(), std::strerror(errno)));
     std::stringstream buffer;
@@ -857,6 +886,8 @@ class Loader {
   std::string file_, base_dir_;
   Scene& scene_;
   std::map<std::string, uint32_t> material_index_;
+  double shape_triangles_ = 0;
+  double budget_bytes_ = -1;  // memory_budget_bytes(), read at the first shape
 };
 
 }  // namespace
@@ -899,6 +930,8 @@ void finalize_scene(Scene& scene) {
 }
 
 Scene load_scene(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw SceneError(fmt::format("{}: is a directory, not a scene file", path));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw SceneError(fmt::format("{}: cannot open scene file ({})", path, std::strerror(errno)));
   std::stringstream buffer;

@@ -70,6 +70,12 @@ def mesh_arrays(me, export_uvs=False):
 def add_instance(records, inst, mats, warnings, export_uvs):
     """Adds one depsgraph instance of a geometry object to `records` (key -> MeshRecord)."""
     ob = inst.object
+    matrix = np.array(inst.matrix_world, dtype=np.float32)
+    if np.isfinite(matrix).all() and np.linalg.det(matrix[:3, :3].astype(np.float64)) == 0:
+        # Zero scale (a common way to hide an object in an animation): nothing to render, as
+        # in Cycles. A NaN/Inf matrix still reaches the core, whose error names the object.
+        warnings.add("zero scale (left out)", ob.name)
+        return
     slots = [s.material for s in ob.material_slots]
     flags = visibility.surface_flags(ob, warnings)
     names = [mats.name_for(m, flags) for m in slots] or [mats.name_for(None, flags)]
@@ -95,6 +101,6 @@ def add_instance(records, inst, mats, warnings, export_uvs):
                 owner.to_mesh_clear()
         rec.materials = names
         records[key] = rec
-    rec.matrices.append(np.array(inst.matrix_world, dtype=np.float32))
+    rec.matrices.append(matrix)
     n = len(rec.matrices)
     rec.instance_names.append(ob.name if n == 1 else f"{ob.name} [{n - 1}]")

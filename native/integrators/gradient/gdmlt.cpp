@@ -143,15 +143,20 @@ GradientDomainMlt::State GradientDomainMlt::evaluate(Sampler& sampler, RayCounts
   return s;
 }
 
-void GradientDomainMlt::bootstrap() {
+bool GradientDomainMlt::bootstrap(ProgressSink* sink) {
   // ---- b from uniform samples, and start states in proportion to T ----
   const size_t n = static_cast<size_t>(bootstrap_per_pixel_) * width_ * height_;
   std::vector<double> t(n, 0.0);
   std::vector<std::pair<int, RGB>> direct(n, {0, RGB(0.0f)});
   std::atomic<int64_t> closest{0}, shadow{0}, invalid{0};
+  std::atomic<bool> stopped{false};
   parallel_for(n, threads_, [&](size_t begin, size_t end) {
     RayCounts rays;
     for (size_t i = begin; i < end; ++i) {
+      if ((i - begin) % kCancelPoll == 0 && (stopped || (sink && sink->cancelled()))) {
+        stopped = true;
+        break;
+      }
       Rng rng = Rng::for_key(seed_, i, kBootstrapKey);
       RngSampler sampler(rng);
       const State st = evaluate(sampler, rays, nullptr);
@@ -163,6 +168,7 @@ void GradientDomainMlt::bootstrap() {
     closest += rays.closest;
     shadow += rays.shadow;
   });
+  if (stopped) return false;
   std::vector<double> cdf(n);
   double sum = 0;
   for (size_t i = 0; i < n; ++i) cdf[i] = (sum += t[i]);
@@ -198,11 +204,12 @@ void GradientDomainMlt::bootstrap() {
   stats_.shadow_rays += shadow + rays.shadow;
   stats_.invalid_samples += invalid;
   started_ = true;
+  return true;
 }
 
 void GradientDomainMlt::iterate(ProgressSink* sink) {
   const auto start = std::chrono::steady_clock::now();
-  if (!started_) bootstrap();
+  if (!started_ && !bootstrap(sink)) return;
   const int64_t total = static_cast<int64_t>(mutations_) * width_ * height_;
   std::vector<ChainResult> results(chain_count_);
   // Brightness estimate so far (bootstrap and earlier large steps): the large-step MIS weights
@@ -217,6 +224,8 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
       r.splats.reserve(2 * count);
       r.visits.reserve(count);
       for (int64_t k = 0; k < count; ++k) {
+        // A chain stopped early is merged as it is: develop() divides by the mutations done.
+        if (k % kCancelPoll == kCancelPoll - 1 && sink && sink->cancelled()) break;
         // ---- Propose: large step (uniform) or small step (perturbation) ----
         chain.sampler.start_iteration();
         const bool large = chain.sampler.large_step();

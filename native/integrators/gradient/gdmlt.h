@@ -150,7 +150,9 @@ class GradientDomainMlt : public Integrator {
   };
   // Evaluates the sampler's current proposal (film position, lens, gpt path sample).
   State evaluate(Sampler& sampler, RayCounts& rays, std::map<std::string, double>* failures) const;
-  void bootstrap();
+  // False when `sink` cancelled it (nothing kept: the next pass starts it again).
+  bool bootstrap(ProgressSink* sink);
+  static constexpr int64_t kCancelPoll = 1024;  // mutations / bootstrap samples between cancel polls
 
   const Scene& scene_;
   GradientPathTracer gpt_;  // the path sampler and its shifts

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Fuzzes a loader with libFuzzer (Debian's clang), AddressSanitizer and UBSan:
+#   scripts/fuzz.sh TARGET SECONDS [libFuzzer flags...]     TARGET: scene, obj, exr or all
+# Configures and builds build-fuzz/ (only the fuzz targets and the parts of the core they use)
+# when needed. Seeds come from fuzz/corpus/TARGET (committed); what the fuzzer finds on top
+# goes to build-fuzz/corpus/TARGET, a failing input to build-fuzz/artifacts/. Prints one line
+# per target: executions, seconds, crashes. Exit status 1 when a target found anything.
+# A finding, once fixed, joins fuzz/corpus/TARGET so that CTest replays it (fuzz_corpus_TARGET).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+[ $# -ge 2 ] || { echo "usage: scripts/fuzz.sh scene|obj|exr|all SECONDS [libFuzzer flags]" >&2; exit 2; }
+what="$1" seconds="$2"
+shift 2
+targets=(scene obj exr)
+[ "$what" = all ] || targets=("$what")
+
+if [ ! -f build-fuzz/build.ninja ]; then
+  CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=Release \
+    -DGRADPHOTON_BUILD_FUZZ=ON -DGRADPHOTON_BUILD_TESTS=OFF -DGRADPHOTON_BUILD_PYTHON=OFF >/dev/null
+fi
+cmake --build build-fuzz --parallel "${GRADPHOTON_JOBS:-$(nproc)}" --target "${targets[@]/#/fuzz_}"
+
+status=0
+for t in "${targets[@]}"; do
+  mkdir -p "build-fuzz/corpus/$t" build-fuzz/artifacts
+  log="build-fuzz/fuzz_$t.log"
+  # -timeout: one input taking 10 s is a hang; -rss_limit_mb: libFuzzer's default memory cap.
+  if build-fuzz/fuzz/fuzz_"$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+      -dict="fuzz/$t.dict" -artifact_prefix="build-fuzz/artifacts/$t-" -print_final_stats=1 "$@" \
+      "build-fuzz/corpus/$t" "fuzz/corpus/$t" >"$log" 2>&1; then
+    crashes=0
+  else
+    crashes=1
+    status=1
+  fi
+  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  secs=$(grep -o 'Done [0-9]* runs in [0-9]* second' "$log" | tail -1 | awk '{print $5}')
+  echo "fuzz $t: ${runs:-?} executions in ${secs:-$seconds} s, corpus $(ls "build-fuzz/corpus/$t" | wc -l) inputs, crashes: $crashes (log: $log)"
+  if [ "$crashes" != 0 ]; then grep -E 'ERROR|SUMMARY|runtime error|artifact|error message' "$log" | head -20 >&2; fi
+done
+exit $status
