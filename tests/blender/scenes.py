@@ -21,13 +21,17 @@ def add_camera(scene, location=(0, 0, 10), target=(0, 0, 0), lens=50.0):
     return ob
 
 
-def diffuse_material(name, color=(0.8, 0.8, 0.8)):
+def _node_material(name):
     m = bpy.data.materials.new(name)
     m.use_nodes = True
     nt = m.node_tree
     for n in list(nt.nodes):
         nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    return m, nt, nt.nodes.new("ShaderNodeOutputMaterial")
+
+
+def diffuse_material(name, color=(0.8, 0.8, 0.8)):
+    m, nt, out = _node_material(name)
     d = nt.nodes.new("ShaderNodeBsdfDiffuse")
     d.inputs["Color"].default_value = (*color, 1)
     nt.links.new(d.outputs[0], out.inputs["Surface"])
@@ -35,12 +39,7 @@ def diffuse_material(name, color=(0.8, 0.8, 0.8)):
 
 
 def emission_material(name, strength, color=(1, 1, 1)):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    m, nt, out = _node_material(name)
     e = nt.nodes.new("ShaderNodeEmission")
     e.inputs["Color"].default_value = (*color, 1)
     e.inputs["Strength"].default_value = strength
@@ -152,12 +151,7 @@ def render_to_exr(scene, path):
 
 
 def glass_material(name, ior=1.5):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    m, nt, out = _node_material(name)
     g = nt.nodes.new("ShaderNodeBsdfGlass")
     g.inputs["Roughness"].default_value = 0.0
     g.inputs["IOR"].default_value = ior
@@ -213,15 +207,6 @@ def cornell_lit(scene, case):
     if kind == 'SUN':
         ob.rotation_euler = (math.radians(20), 0.0, 0.0)
     return mats
-
-
-def _node_material(name):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    return m, nt, nt.nodes.new("ShaderNodeOutputMaterial")
 
 
 def principled_material(name, color=(0.7, 0.5, 0.3), roughness=0.5, metallic=0.0, transmission=0.0, ior=1.45):

@@ -22,18 +22,6 @@ def lit_scene(scene):
     scenes.add_camera(scene, (0, -6, 3), (0, 0, 0.8))
 
 
-def glass_material(name):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    g = nt.nodes.new("ShaderNodeBsdfGlass")
-    nt.links.new(g.outputs[0], out.inputs["Surface"])
-    return m
-
-
 def render(scene, capfd):
     """F12 in this Blender: (reports, combined pixels or None, captured console text)."""
     session.REPORTS.clear()
@@ -129,7 +117,7 @@ def test_lights_of_zero_size_render(empty_scene, capfd, kind):
 def test_camera_inside_glass_renders(empty_scene, capfd):
     lit_scene(empty_scene)
     bpy.ops.mesh.primitive_uv_sphere_add(radius=20, location=(0, 0, 0))
-    bpy.context.active_object.data.materials.append(glass_material("Glass"))
+    bpy.context.active_object.data.materials.append(scenes.glass_material("Glass"))
     reports, pixels, _ = render(empty_scene, capfd)
     assert_rendered_finite(reports, pixels)
 
