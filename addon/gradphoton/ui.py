@@ -251,8 +251,9 @@ class GRADPHOTON_PT_material(GradphotonPanel, bpy.types.Panel):
 
 class GRADPHOTON_LIGHT_PT_light(GradphotonPanel, bpy.types.Panel):
     """The one Light panel: the light types the core renders, with Cycles' settings for them.
-    Settings the core does not model (soft-shadow radius, sun angle, area spread) are not drawn;
-    a non-default value is named below and reported as a warning when rendering."""
+    Point/spot radius and sun angle are rendered as Cycles renders them (export/light.py); area
+    spread is not modelled, so it is not drawn: a non-default value is named below and reported
+    as a warning when rendering."""
     bl_label = "Light"
     bl_context = "data"
 
@@ -268,6 +269,10 @@ class GRADPHOTON_LIGHT_PT_light(GradphotonPanel, bpy.types.Panel):
         col = layout.column()
         col.prop(light, "color")
         col.prop(light, "energy", text="Strength" if light.type == 'SUN' else "Power")
+        if light.type in {'POINT', 'SPOT'}:
+            col.prop(light, "shadow_soft_size", text="Radius")
+        elif light.type == 'SUN':
+            col.prop(light, "angle")
         ignored = None
         ob = context.object
         if (light.type != 'AREA' and ob is not None and ob.visible_camera

@@ -191,3 +191,20 @@ def test_time_budget_stops_at_the_pass_boundary_nearest_the_budget():
     assert not p.done(9, None)      # 1 s passes: one more ends at 10 s
     p.start = time.perf_counter() - 10.0
     assert p.done(100, None)
+
+
+def test_light_panel_draws_the_settings_the_core_renders(empty_scene):
+    """Point/spot radius and sun angle reach the core (export/light.py), so the Light panel offers
+    them as Cycles does; the area light's spread, which it does not model, is not drawn."""
+    from types import SimpleNamespace
+    from test_method_params import _Layout
+    drawn = {}
+    for kind in ("POINT", "SPOT", "SUN", "AREA"):
+        light = bpy.data.lights.new(kind, kind)
+        ob = bpy.data.objects.new(kind, light)
+        panel = SimpleNamespace(layout=_Layout())
+        ui.GRADPHOTON_LIGHT_PT_light.draw(panel, SimpleNamespace(scene=empty_scene, light=light, object=ob))
+        drawn[kind] = set(panel.layout.drawn)
+    assert "shadow_soft_size" in drawn["POINT"] and "shadow_soft_size" in drawn["SPOT"]
+    assert "angle" in drawn["SUN"] and "shadow_soft_size" not in drawn["SUN"]
+    assert "spread" not in drawn["AREA"] and "angle" not in drawn["AREA"]
