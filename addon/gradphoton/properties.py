@@ -228,7 +228,7 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
         description="How photons are sent from the lights")
     photon_chains: IntProperty(name="Chains", default=64, min=1, max=65536,
                                description="Independent explorers of the adaptive sampler (Markov chains)")
-    # MSPPM (thesis ch. 9, hybrid_ppm.h): its own defaults
+    # MSPPM (thesis ch. 9, msppm.h): its own defaults
     msppm_alpha: FloatProperty(name="Alpha", default=0.6, min=0.01, max=0.99,
                                description="How fast the photon radius shrinks; below 2/3 "
                                            "(0.6; thesis eq. 9.23)")

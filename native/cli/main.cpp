@@ -20,7 +20,7 @@
 #include "distributed/merge.h"
 #include "distributed/run_info.h"
 #include "integrators/integrator.h"
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 #include "integrators/spectral/spectral_pt.h"
 #include "io/display.h"
 #include "io/exr.h"

@@ -31,7 +31,7 @@ inline constexpr std::string_view kSpectralPrimal = "spectral_primal";
 inline constexpr std::string_view kSpectralGradient = "spectral_gradient";
 // Metropolis methods: how many chain states (one per mutation) fell in each pixel.
 inline constexpr std::string_view kSampleDensity = "sample_density";
-// Multisampled PPM (integrators/hybrid_ppm): the path-tracing share of `combined` after the
+// Multisampled PPM (integrators/msppm): the path-tracing share of `combined` after the
 // balance-heuristic weights (thesis Fig. 9.10); combined minus it is the density estimation.
 inline constexpr std::string_view kPathTracing = "path_tracing";
 // Coverage of the camera samples with a transparent film (parameter film_transparent): 0 where

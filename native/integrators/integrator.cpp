@@ -3,10 +3,10 @@
 #include "integrators/gradient/gdmlt.h"
 #include "integrators/gradient/gpm.h"
 #include "integrators/gradient/gpt.h"
-#include "integrators/hybrid_ppm.h"
+#include "integrators/photon/msppm.h"
 #include "integrators/path_tracer.h"
-#include "integrators/ppm.h"
-#include "integrators/sppm.h"
+#include "integrators/photon/ppm.h"
+#include "integrators/photon/sppm.h"
 #include "integrators/spectral/sgpt.h"
 #include "integrators/spectral/spectral_pt.h"
 
@@ -53,7 +53,7 @@ std::unique_ptr<Integrator> make_integrator(const std::string& method, const Sce
   if (method == "sppm") return std::make_unique<Sppm>(scene, params);
   // SPPM with photon_sampler defaulting to "adaptive" (thesis ch. 8), for scripts/convergence.py.
   if (method == "sppm-adaptive") return std::make_unique<Sppm>(scene, params, "adaptive");
-  if (method == "msppm") return std::make_unique<HybridPpm>(scene, params);
+  if (method == "msppm") return std::make_unique<Msppm>(scene, params);
   if (method == "gpt") return std::make_unique<GradientPathTracer>(scene, params);
   if (method == "gpm") return std::make_unique<Gpm>(scene, params);
   if (method == "gdmlt") return std::make_unique<GradientDomainMlt>(scene, params);

@@ -69,7 +69,7 @@ struct LightSample {
 struct PhotonEmission {
   Vec3 o, d;
   // Densities sample_le drew o and d with (light selection included in one of them), for the
-  // path densities of multisampled PPM (hybrid_ppm.h). Finite lights: pdf_pos per unit area
+  // path densities of multisampled PPM (msppm.h). Finite lights: pdf_pos per unit area
   // of the light (delta position: the selection pmf), pdf_dir per solid angle. Distant lights
   // (sun, environment): pdf_pos per unit area of the emission disk, pdf_dir per solid angle
   // (sun: the selection pmf, delta direction).

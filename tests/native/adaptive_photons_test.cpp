@@ -11,9 +11,9 @@
 #include <sstream>
 #include <string>
 
-#include "integrators/adaptive_photons.h"
+#include "integrators/photon/adaptive_photons.h"
 #include "integrators/integrator.h"
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 #include "io/metrics.h"
 #include "scene/loader.h"
 #include "render_for_tests.h"

@@ -7,7 +7,7 @@
 #include <atomic>
 
 #include "core/progress.h"
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 #include "render_for_tests.h"
 
 namespace gp {

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "accel/photon_hash.h"
+#include "integrators/photon/photon_hash.h"
 #include "core/rng.h"
 #include "scene/loader.h"
 

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 #include "scene/loader.h"
 
 namespace gp {

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "integrators/integrator.h"
-#include "integrators/sppm.h"
+#include "integrators/photon/sppm.h"
 #include "scene/loader.h"
 #include "render_for_tests.h"
 

@@ -6,9 +6,9 @@
 #include <cmath>
 #include <string>
 
-#include "integrators/error_estimate.h"
+#include "integrators/photon/error_estimate.h"
 #include "integrators/integrator.h"
-#include "integrators/progressive_photon.h"
+#include "integrators/photon/progressive_photon.h"
 #include "io/metrics.h"
 #include "scene/loader.h"
 #include "render_for_tests.h"

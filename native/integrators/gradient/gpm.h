@@ -77,7 +77,7 @@
 
 #include "integrators/gradient/manifold.h"
 #include "integrators/gradient/shift.h"
-#include "integrators/progressive_photon.h"
+#include "integrators/photon/progressive_photon.h"
 #include "reconstruction/poisson.h"
 
 namespace gp {

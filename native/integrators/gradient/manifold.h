@@ -39,7 +39,7 @@
 
 #include "core/math.h"
 #include "integrators/gradient/shift.h"
-#include "integrators/photon_tracer.h"  // ChainVertex, kMaxChainVertices
+#include "integrators/photon/photon_tracer.h"  // ChainVertex, kMaxChainVertices
 #include "scene/scene.h"
 
 namespace gp {

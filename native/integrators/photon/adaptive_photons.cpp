@@ -1,4 +1,4 @@
-#include "integrators/adaptive_photons.h"
+#include "integrators/photon/adaptive_photons.h"
 
 #include <algorithm>
 #include <cmath>

@@ -16,7 +16,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
-#include "integrators/progressive_photon.h"
+#include "integrators/photon/progressive_photon.h"
 #include "materials/bsdf.h"
 
 namespace gp {

@@ -1,4 +1,4 @@
-#include "integrators/error_estimate.h"
+#include "integrators/photon/error_estimate.h"
 
 #include <algorithm>
 

@@ -39,10 +39,10 @@
 #include <functional>
 #include <vector>
 
-#include "accel/photon_hash.h"
+#include "integrators/photon/photon_hash.h"
 #include "core/frame.h"
 #include "core/rng.h"
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 
 namespace gp {
 

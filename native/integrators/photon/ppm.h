@@ -24,7 +24,7 @@
 // Passes: combined, error, radius, photon_count; alpha with film_transparent.
 #pragma once
 
-#include "integrators/progressive_photon.h"
+#include "integrators/photon/progressive_photon.h"
 
 namespace gp {
 

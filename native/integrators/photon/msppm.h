@@ -1,7 +1,7 @@
 // Multisampled progressive photon mapping (MSPPM): Hachisuka, "Progressive density estimation"
-// thesis ch. 9 (Hachisuka, Kaplanyan, Dachsbacher 2014). Photon density estimation and path
-// tracing with next-event estimation combined by multiple importance sampling over full path
-// densities.
+// thesis ch. 9, after Hachisuka, Pantaleoni and Jensen, "A path space extension for robust light
+// transport simulation" (2012). Photon density estimation and path tracing with next-event
+// estimation combined by multiple importance sampling over full path densities.
 //
 // Every iterate():
 //   1. one camera path per pixel, traced to Russian-roulette termination (§9.5 step 2), with a
@@ -93,15 +93,15 @@
 
 #include <vector>
 
-#include "accel/photon_hash.h"
+#include "integrators/photon/photon_hash.h"
 #include "integrators/integrator.h"
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 
 namespace gp {
 
-class HybridPpm : public Integrator {
+class Msppm : public Integrator {
  public:
-  HybridPpm(const Scene& scene, const Params& params);
+  Msppm(const Scene& scene, const Params& params);
   std::string name() const override { return "msppm"; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;

@@ -1,5 +1,5 @@
 // A pixel's progressive photon-mapping estimate, shared by PPM/SPPM (progressive_photon) and
-// MSPPM (hybrid_ppm): what the eye paths saw themselves, averaged over the passes, plus the
+// MSPPM (msppm): what the eye paths saw themselves, averaged over the passes, plus the
 // density estimate of the photon flux gathered within the pixel's radius.
 #pragma once
 

@@ -12,9 +12,9 @@
 #include <string>
 
 #include "core/rng.h"
-#include "integrators/hybrid_ppm.h"
+#include "integrators/photon/msppm.h"
 #include "integrators/integrator.h"
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 #include "materials/bsdf.h"
 #include "io/metrics.h"
 #include "scene/loader.h"
@@ -38,11 +38,11 @@ double mean(const Film& f) {
 
 TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
   const Scene s = cornell_box(8, 8);
-  HybridPpm h(s, Params());
+  Msppm h(s, Params());
   // Camera, floor, back wall, a point on the ceiling light: k = 3.
   Frame floor_frame(Vec3(0, 0, 1)), wall_frame(Vec3(0, -1, 0));
   auto surface = [](Vec3 p, Vec3 n, const Frame* f, int material) {
-    HybridPpm::PathVertex v;
+    Msppm::PathVertex v;
     v.p = p;
     v.ng = n;
     v.frame = f;
@@ -58,13 +58,13 @@ TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
   const auto hit = s.intersect(Ray(Vec3(0.1f, 0.1f, 1.0f), Vec3(0, 0, -1)));
   ASSERT_TRUE(hit);
   white = hit->material;
-  std::vector<HybridPpm::PathVertex> y;
-  HybridPpm::PathVertex cam;
+  std::vector<Msppm::PathVertex> y;
+  Msppm::PathVertex cam;
   cam.p = Vec3(0, -3.9f, 1);
   y.push_back(cam);
   y.push_back(surface(Vec3(0.2f, 0.1f, 0), Vec3(0, 0, 1), &floor_frame, white));
   y.push_back(surface(Vec3(-0.3f, 1, 1.2f), Vec3(0, -1, 0), &wall_frame, white));
-  HybridPpm::PathVertex lv;
+  Msppm::PathVertex lv;
   lv.p = Vec3(0.05f, -0.05f, 1.98f);
   lv.ng = s.light_set().lights()[light].n;
   lv.light = light;
@@ -111,7 +111,7 @@ TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
 // meets the zero-density cases, where both must give 0). Scenes with delta, glossy and
 // diffuse surfaces, area, point, sun and sky lights.
 void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* nonzero) {
-  HybridPpm h(s, Params());
+  Msppm h(s, Params());
   PhotonTracer tracer(s, 16, kDefaultSpecularThreshold, seed, 1);
   Rng rng = Rng::for_key(seed, 7, 0);
   RngSamples u(rng);
@@ -120,7 +120,7 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
   int64_t invalid = 0;
   for (int i = 0; i < 400; ++i) tracer.trace_path(u, 0, photons, invalid, &record);
   ASSERT_FALSE(record.deposit_vertex.empty());
-  std::vector<HybridPpm::PhotonTail> tails;
+  std::vector<Msppm::PhotonTail> tails;
   h.photon_tails(record, tails);
   ASSERT_EQ(tails.size(), record.deposit_vertex.size());
   auto mergeable = [&](const PhotonPathVertex& pv) {
@@ -129,7 +129,7 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
   std::deque<Frame> frames;  // stable addresses for PathVertex::frame
   for (int path = 0; path < 60; ++path) {
     // A camera path traced as eye_pass does (no Russian roulette), as path vertices.
-    std::vector<HybridPpm::PathVertex> yc(1);
+    std::vector<Msppm::PathVertex> yc(1);
     Ray ray = s.camera.generate_ray(Vec2(rng.uniform() * s.camera.width, rng.uniform() * s.camera.height),
                                     Vec2(rng.uniform(), rng.uniform()));
     yc[0].p = ray.o;
@@ -141,7 +141,7 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
       const Vec3 wo = hit->frame.to_local(-ray.d);
       if (wo.z == 0) break;
       frames.push_back(hit->frame);
-      HybridPpm::PathVertex v;
+      Msppm::PathVertex v;
       v.p = hit->p;
       v.ng = hit->ng;
       v.frame = &frames.back();
@@ -163,7 +163,7 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
       const auto ls = s.light_set().sample_li(yc[j].p, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
       if (!ls) continue;
       const Light& l = s.light_set().lights()[ls->light];
-      HybridPpm::PathVertex lv;
+      Msppm::PathVertex lv;
       lv.light = ls->light;
       if (l.is_infinite()) {
         lv.distant = true;
@@ -172,7 +172,7 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
         lv.p = l.type == LightType::Area ? yc[j].p + ls->wi * ls->dist : l.position;
         lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
       }
-      std::vector<HybridPpm::PathVertex> y(yc.begin(), yc.begin() + j + 1);
+      std::vector<Msppm::PathVertex> y(yc.begin(), yc.begin() + j + 1);
       y.push_back(lv);
       for (double npm : {1e-5, 1e-2, 1.0, 1e2})
         for (int tech : {0, 1}) {
@@ -190,7 +190,7 @@ void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* 
         const uint32_t dep = record.deposit_vertex[photon];
         // The full path as the gathering used to build it: y_0 .. y_t, then the photon's
         // earlier vertices back to the light.
-        std::vector<HybridPpm::PathVertex> y(yc.begin(), yc.begin() + t + 1);
+        std::vector<Msppm::PathVertex> y(yc.begin(), yc.begin() + t + 1);
         for (int64_t b = static_cast<int64_t>(dep) - 1; b >= 0; --b) {
           y.push_back(h.photon_path_vertex(record.vertices[b], mergeable(record.vertices[b])));
           if (record.vertices[b].start) break;
@@ -257,7 +257,7 @@ TEST(Msppm, PathSamplesFollowThePhotonCountAndAreTheCountsOfTheWeights) {
     Params p = seeded(6);
     p.set("path_samples", fixed);
     auto integ = make_integrator("msppm", s, p);
-    auto* h = dynamic_cast<HybridPpm*>(integ.get());
+    auto* h = dynamic_cast<Msppm*>(integ.get());
     ASSERT_NE(h, nullptr);
     double traced = 0, found = 0, weighted = 0;
     int max_traced = 0;

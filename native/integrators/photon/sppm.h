@@ -41,7 +41,7 @@
 // spectral photons leave the parameter unread).
 #pragma once
 
-#include "integrators/progressive_photon.h"
+#include "integrators/photon/progressive_photon.h"
 
 namespace gp {
 

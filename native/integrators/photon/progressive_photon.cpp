@@ -1,11 +1,11 @@
-#include "integrators/progressive_photon.h"
+#include "integrators/photon/progressive_photon.h"
 
 #include <atomic>
 #include <chrono>
 
 #include "core/parallel.h"
 #include "core/sampling.h"
-#include "integrators/photon_estimate.h"
+#include "integrators/photon/photon_estimate.h"
 #include "materials/bsdf.h"
 
 namespace gp {

@@ -1,4 +1,4 @@
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 
 #include <atomic>
 

@@ -14,13 +14,13 @@
 #include <string>
 #include <vector>
 
-#include "accel/photon_hash.h"
+#include "integrators/photon/photon_hash.h"
 #include "core/frame.h"
 #include "core/rng.h"
-#include "integrators/adaptive_photons.h"
-#include "integrators/error_estimate.h"
+#include "integrators/photon/adaptive_photons.h"
+#include "integrators/photon/error_estimate.h"
 #include "integrators/integrator.h"
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 #include "integrators/spectral/spectral_pt.h"
 #include "core/sampling.h"
 #include "materials/bsdf.h"

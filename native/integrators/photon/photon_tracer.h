@@ -79,7 +79,7 @@ struct PhotonChain {
 
 // Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to
 // the photon at the previous bounce"), for the path densities of multisampled PPM
-// (hybrid_ppm.h). A path's vertices are consecutive: its light vertex (start = true), then
+// (msppm.h). A path's vertices are consecutive: its light vertex (start = true), then
 // every surface hit in order, specular ones included.
 struct PhotonPathVertex {
   Vec3 p, ng;       // light vertex: origin on the light (or on the emission disk) and its normal

@@ -16,7 +16,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "integrators/photon_tracer.h"
+#include "integrators/photon/photon_tracer.h"
 
 namespace gp {
 

@@ -1,4 +1,4 @@
-#include "accel/photon_hash.h"
+#include "integrators/photon/photon_hash.h"
 
 #include <algorithm>
 #include <atomic>
