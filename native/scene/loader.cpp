@@ -8,7 +8,6 @@
 #include "materials/bsdf.h"
 
 #include <fmt/format.h>
-#include <tiny_obj_loader.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -27,89 +26,23 @@
 #include <unordered_map>
 
 #include "core/memory.h"
+#include "scene/json_reader.h"
+#include "scene/obj_mesh.h"
 #include "scene/shapes.h"
 
 namespace gp {
 
 namespace {
 
-// ordered_json keeps the file's order: materials get indices in the order they are written.
-using json = nlohmann::ordered_json;
-
-// RFC 6901 escaping of one JSON Pointer token.
-std::string pointer_token(std::string_view key) {
-  std::string out;
-  for (char c : key) {
-    if (c == '~') out += "~0";
-    else if (c == '/') out += "~1";
-    else out += c;
-  }
-  return out;
-}
-std::string sub(const std::string& path, std::string_view key) { return path + "/" + pointer_token(key); }
-std::string sub(const std::string& path, size_t index) { return fmt::format("{}/{}", path, index); }
-
-// Finds the byte offset of a JSON error when the DOM parser's exception does not carry one
-// (number overflow such as 1e999 is reported as out_of_range without a position).
-struct ErrorPositionFinder : nlohmann::json_sax<json> {
-  size_t position = 0;
-  bool null() override { return true; }
-  bool boolean(bool) override { return true; }
-  bool number_integer(number_integer_t) override { return true; }
-  bool number_unsigned(number_unsigned_t) override { return true; }
-  bool number_float(number_float_t, const string_t&) override { return true; }
-  bool string(string_t&) override { return true; }
-  bool binary(binary_t&) override { return true; }
-  bool start_object(size_t) override { return true; }
-  bool key(string_t&) override { return true; }
-  bool end_object() override { return true; }
-  bool start_array(size_t) override { return true; }
-  bool end_array() override { return true; }
-  bool parse_error(size_t pos, const std::string&, const nlohmann::detail::exception&) override {
-    position = pos;
-    return false;
-  }
-};
-
-std::string join(const std::vector<std::string>& items) {
-  std::string out;
-  for (size_t i = 0; i < items.size(); ++i) out += (i ? ", " : "") + items[i];
-  return out;
-}
-
-// Gives tinyobjloader the usemtl names found in the OBJ text as if an .mtl had defined them,
-// so faces keep their material names; .mtl contents are not used (materials come from the
-// scene file).
-class UsemtlNames : public tinyobj::MaterialReader {
- public:
-  explicit UsemtlNames(std::vector<std::string> names) : names_(std::move(names)) {}
-  bool operator()(const std::string&, std::vector<tinyobj::material_t>* materials,
-                  std::map<std::string, int>* map, std::string*, std::string*) override {
-    for (const std::string& n : names_)
-      if (map->find(n) == map->end()) {
-        tinyobj::material_t m{};  // value-initialized: its texture options have no initializers (UBSan)
-        m.name = n;
-        map->emplace(n, static_cast<int>(materials->size()));
-        materials->push_back(m);
-      }
-    return true;
-  }
-
- private:
-  std::vector<std::string> names_;
-};
-
-constexpr const char* kUsemtlMtllib = "__gradphoton_usemtl_names__";
-
 // What one triangle of a tessellated shape costs once the scene is built: the mesh arrays
 // (about half a vertex of position, normal and uv per triangle, three indices, a material id)
 // and Embree's BVH, measured on a 2 M-triangle torus (docs/reliability.md) and rounded up.
 constexpr double kBytesPerTriangle = 160;
 
-class Loader {
+class Loader : private JsonReader {
  public:
   Loader(std::string file, std::string base_dir, Scene& scene)
-      : file_(std::move(file)), base_dir_(std::move(base_dir)), scene_(scene) {}
+      : JsonReader(std::move(file), scene.warnings), base_dir_(std::move(base_dir)), scene_(scene) {}
 
   void load(const json& root) {
     if (!root.is_object()) fail("", fmt::format("the scene must be a JSON object, not {}", root.type_name()));
@@ -129,119 +62,6 @@ class Loader {
   }
 
  private:
-  // ---- Errors, warnings and typed access ----
-
-  [[noreturn]] void fail(const std::string& path, const std::string& message) const {
-    throw SceneError(fmt::format("{}: {}: {}", file_, path.empty() ? "/" : path, message));
-  }
-
-  void check_keys(const json& obj, const std::string& path, std::initializer_list<std::string_view> allowed) {
-    for (auto it = obj.begin(); it != obj.end(); ++it)
-      if (std::find(allowed.begin(), allowed.end(), std::string_view(it.key())) == allowed.end())
-        scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(path, it.key())));
-  }
-
-  static const json* find(const json& obj, const char* key) {
-    auto it = obj.find(key);
-    return it == obj.end() ? nullptr : &*it;
-  }
-  const json& need(const json& obj, const char* key, const std::string& path) const {
-    const json* j = find(obj, key);
-    if (!j) fail(path, fmt::format("missing required key '{}'", key));
-    return *j;
-  }
-
-  void require_object(const json& j, const std::string& path) const {
-    if (!j.is_object()) fail(path, fmt::format("expected an object, got {}", describe(j)));
-  }
-  void require_array(const json& j, const std::string& path) const {
-    if (!j.is_array()) fail(path, fmt::format("expected an array, got {}", describe(j)));
-  }
-  static std::string describe(const json& j) {
-    std::string text = j.dump();
-    if (text.size() > 40) text = text.substr(0, 37) + "...";
-    return fmt::format("{} {}", j.type_name(), text);
-  }
-
-  float get_float(const json& j, const std::string& path) const {
-    if (!j.is_number()) fail(path, fmt::format("expected a number, got {}", describe(j)));
-    const double d = j.get<double>();
-    const float f = static_cast<float>(d);
-    if (!std::isfinite(d) || !std::isfinite(f)) fail(path, fmt::format("number {} is not finite as a 32-bit float", d));
-    return f;
-  }
-  float get_nonnegative(const json& j, const std::string& path) const {
-    const float f = get_float(j, path);
-    if (f < 0) fail(path, fmt::format("must not be negative (got {})", f));
-    return f;
-  }
-  float get_positive(const json& j, const std::string& path) const {
-    const float f = get_float(j, path);
-    if (!(f > 0)) fail(path, fmt::format("must be positive (got {})", f));
-    return f;
-  }
-  float get_in_range(const json& j, const std::string& path, float lo, float hi) const {
-    const float f = get_float(j, path);
-    if (f < lo || f > hi) fail(path, fmt::format("must be in [{}, {}] (got {})", lo, hi, f));
-    return f;
-  }
-  int64_t get_int(const json& j, const std::string& path, int64_t lo, int64_t hi) const {
-    if (!j.is_number_integer()) fail(path, fmt::format("expected an integer, got {}", describe(j)));
-    if (j.is_number_unsigned() && j.get<uint64_t>() > static_cast<uint64_t>(hi))
-      fail(path, fmt::format("must be in [{}, {}] (got {})", lo, hi, j.dump()));
-    const int64_t v = j.get<int64_t>();
-    if (v < lo || v > hi) fail(path, fmt::format("must be in [{}, {}] (got {})", lo, hi, v));
-    return v;
-  }
-  bool get_bool(const json& j, const std::string& path) const {
-    if (!j.is_boolean()) fail(path, fmt::format("expected true or false, got {}", describe(j)));
-    return j.get<bool>();
-  }
-  std::string get_string(const json& j, const std::string& path) const {
-    if (!j.is_string()) fail(path, fmt::format("expected a string, got {}", describe(j)));
-    return j.get<std::string>();
-  }
-  void require_length(const json& j, const std::string& path, size_t n, const char* what) const {
-    if (!j.is_array() || j.size() != n)
-      fail(path, fmt::format("expected {} (an array of {} numbers), got {}", what, n, describe(j)));
-  }
-  Vec3 get_vec3(const json& j, const std::string& path) const {
-    require_length(j, path, 3, "a vector [x, y, z]");
-    return {get_float(j[0], sub(path, 0)), get_float(j[1], sub(path, 1)), get_float(j[2], sub(path, 2))};
-  }
-  Vec2 get_vec2(const json& j, const std::string& path) const {
-    require_length(j, path, 2, "a pair [u, v]");
-    return {get_float(j[0], sub(path, 0)), get_float(j[1], sub(path, 1))};
-  }
-  Vec3 get_direction(const json& j, const std::string& path) const {
-    const Vec3 d = get_vec3(j, path);
-    const float len = length(d);
-    if (!(len > 0) || !std::isfinite(len)) fail(path, "direction must be a non-zero vector");
-    return d / len;
-  }
-  // A colour: [r, g, b] or one number (grey); components must not be negative.
-  RGB get_color(const json& j, const std::string& path) const {
-    if (j.is_number()) {
-      const float g = get_nonnegative(j, path);
-      return RGB(g);
-    }
-    if (!j.is_array() || j.size() != 3)
-      fail(path, fmt::format("expected a colour [r, g, b] or a single number, got {}", describe(j)));
-    return {get_nonnegative(j[0], sub(path, 0)), get_nonnegative(j[1], sub(path, 1)),
-            get_nonnegative(j[2], sub(path, 2))};
-  }
-  // 16 numbers, row-major; must be affine (last row 0 0 0 1) with an invertible linear part.
-  Transform get_matrix(const json& j, const std::string& path) const {
-    require_length(j, path, 16, "a row-major 4x4 matrix");
-    Transform t;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) t.m[r][c] = get_float(j[4 * r + c], sub(path, 4 * r + c));
-    if (t.m[3][0] != 0 || t.m[3][1] != 0 || t.m[3][2] != 0 || t.m[3][3] != 1)
-      fail(path, "the last row must be [0, 0, 0, 1] (affine transforms only)");
-    if (linear_determinant(t) == 0) fail(path, "the matrix is singular (its 3x3 part has determinant 0)");
-    return t;
-  }
-
   // ---- Materials ----
 
   void load_materials(const json& mats, const std::string& path) {
@@ -626,131 +446,14 @@ class Loader {
     std::error_code ec;
     if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
       fail(fpath, fmt::format("OBJ file '{}' is not a regular file", file.string()));
-    std::ifstream in(file, std::ios::binary);
-    if (!in) fail(fpath, fmt::format("cannot open OBJ file '{}' ({})", file.string(), std::strerror(errno)));
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    const std::string text = buffer.str();
-
-    // usemtl names, so that faces keep them (see UsemtlNames).
-    std::vector<std::string> usemtl;
-    {
-      std::istringstream lines(text);
-      std::string line;
-      while (std::getline(lines, line)) {
-        std::istringstream words(line);
-        std::string w, n;
-        if (words >> w && w == "usemtl" && words >> n && std::find(usemtl.begin(), usemtl.end(), n) == usemtl.end())
-          usemtl.push_back(n);
-      }
-    }
-    std::istringstream stream(std::string("mtllib ") + kUsemtlMtllib + "\n" + text);
-    UsemtlNames reader(usemtl);
-    tinyobj::attrib_t attrib;
-    std::vector<tinyobj::shape_t> shapes;
-    std::vector<tinyobj::material_t> obj_materials;
-    std::string warn, err;
-    const bool ok = tinyobj::LoadObj(&attrib, &shapes, &obj_materials, &warn, &err, &stream, &reader, true, false);
-    if (!ok || !err.empty()) fail(fpath, fmt::format("OBJ file '{}': {}", file.string(), err.empty() ? "cannot be parsed" : err));
-
-    std::optional<uint32_t> fallback;
-    if (const json* m = find(o, "material")) fallback = material_by_name(*m, sub(path, "material"));
-    // OBJ material id -> scene material (resolved once per name).
-    std::vector<std::optional<uint32_t>> resolved(obj_materials.size());
-    for (size_t i = 0; i < obj_materials.size(); ++i) {
-      auto it = material_index_.find(obj_materials[i].name);
-      if (it != material_index_.end()) resolved[i] = it->second;
-    }
-
-    const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3, nt = attrib.texcoords.size() / 2;
-    bool all_normals = true, all_uvs = true;
-    for (const auto& s : shapes)
-      for (const auto& ix : s.mesh.indices) {
-        all_normals = all_normals && ix.normal_index >= 0;
-        all_uvs = all_uvs && ix.texcoord_index >= 0;
-      }
-    struct Key {
-      int v, n, t;
-      bool operator==(const Key&) const = default;
+    ObjMaterials materials;
+    materials.by_name = [this](const std::string& n) -> std::optional<uint32_t> {
+      auto it = material_index_.find(n);
+      return it == material_index_.end() ? std::nullopt : std::optional<uint32_t>(it->second);
     };
-    struct KeyHash {
-      size_t operator()(const Key& k) const {
-        return std::hash<int64_t>()((int64_t(k.v) * 1000003 + k.n) * 1000003 + k.t);
-      }
-    };
-    std::unordered_map<Key, uint32_t, KeyHash> vertex_of;
-    std::vector<std::string> warned_names;
-    Mesh mesh;
-    size_t face_number = 0;
-    for (const auto& s : shapes) {
-      size_t offset = 0;
-      for (size_t f = 0; f < s.mesh.num_face_vertices.size(); ++f, ++face_number) {
-        const size_t fv = s.mesh.num_face_vertices[f];
-        if (fv != 3) fail(fpath, fmt::format("OBJ file '{}': face {} has {} vertices after triangulation", file.string(), face_number, fv));
-        for (size_t k = 0; k < 3; ++k) {
-          const tinyobj::index_t ix = s.mesh.indices[offset + k];
-          if (ix.vertex_index < 0 || static_cast<size_t>(ix.vertex_index) >= nv)
-            fail(fpath, fmt::format("OBJ file '{}': face {} of '{}' uses vertex {} but the file has {} vertices",
-                                    file.string(), face_number, name, ix.vertex_index + 1, nv));
-          if (all_normals && static_cast<size_t>(ix.normal_index) >= nn)
-            fail(fpath, fmt::format("OBJ file '{}': face {} uses normal {} but the file has {} normals", file.string(),
-                                    face_number, ix.normal_index + 1, nn));
-          if (all_uvs && static_cast<size_t>(ix.texcoord_index) >= nt)
-            fail(fpath, fmt::format("OBJ file '{}': face {} uses texture coordinate {} but the file has {}",
-                                    file.string(), face_number, ix.texcoord_index + 1, nt));
-          const Key key{ix.vertex_index, all_normals ? ix.normal_index : -1, all_uvs ? ix.texcoord_index : -1};
-          auto [it, inserted] = vertex_of.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
-          if (inserted) {
-            const float* p = &attrib.vertices[3 * key.v];
-            const Vec3 position{p[0], p[1], p[2]};
-            if (!is_finite(position))
-              fail(fpath, fmt::format("OBJ file '{}': vertex {} is not finite", file.string(), key.v + 1));
-            mesh.positions.push_back(position);
-            if (all_normals) {
-              const float* n = &attrib.normals[3 * key.n];
-              const Vec3 normal{n[0], n[1], n[2]};
-              const float len = length(normal);
-              mesh.normals.push_back(len > 0 && std::isfinite(len) ? normal / len : normal);
-            }
-            if (all_uvs) mesh.uvs.push_back(Vec2(attrib.texcoords[2 * key.t], attrib.texcoords[2 * key.t + 1]));
-          }
-          mesh.indices.push_back(it->second);
-        }
-        offset += fv;
-        const int id = f < s.mesh.material_ids.size() ? s.mesh.material_ids[f] : -1;
-        if (id >= 0 && static_cast<size_t>(id) < resolved.size() && resolved[id]) {
-          mesh.material_ids.push_back(*resolved[id]);
-          continue;
-        }
-        const bool named = id >= 0 && static_cast<size_t>(id) < obj_materials.size();
-        if (!fallback) {
-          if (named)
-            fail(fpath, fmt::format("OBJ file '{}': usemtl '{}' is not a scene material (known: {}) and the object has "
-                                    "no fallback 'material'", file.string(), obj_materials[id].name, known_materials()));
-          fail(path, fmt::format("OBJ file '{}' has faces without usemtl; give the object a 'material'", file.string()));
-        }
-        if (named && std::find(warned_names.begin(), warned_names.end(), obj_materials[id].name) == warned_names.end()) {
-          warned_names.push_back(obj_materials[id].name);
-          scene_.warnings.add("obj material not in scene",
-                              fmt::format("{}: {}: usemtl '{}' in '{}' uses the fallback material", file_, fpath,
-                                          obj_materials[id].name, file.string()));
-        }
-        mesh.material_ids.push_back(*fallback);
-      }
-    }
-    {
-      // Faces tinyobjloader could not triangulate because of bad indices are dropped with a
-      // warning; that is an error here, like a bad index in a triangle above.
-      std::istringstream lines(warn);
-      std::string line;
-      while (std::getline(lines, line)) {
-        if (line.empty()) continue;
-        if (line.find("out of bounds") != std::string::npos) fail(fpath, fmt::format("OBJ file '{}': {}", file.string(), line));
-        scene_.warnings.add("obj warning", fmt::format("{}: {}: {}", file_, file.string(), line));
-      }
-    }
-    if (mesh.indices.empty()) scene_.warnings.add("empty object", fmt::format("{}: {}: '{}' has no faces", file_, fpath, file.string()));
-    return mesh;
+    if (const json* m = find(o, "material")) materials.fallback = material_by_name(*m, sub(path, "material"));
+    materials.known = known_materials();
+    return read_obj_mesh(*this, file, path, fpath, name, materials, scene_.warnings);
   }
 
   // ---- Lights ----
@@ -883,7 +586,7 @@ class Loader {
     scene_.lights.push_back(std::move(env));
   }
 
-  std::string file_, base_dir_;
+  std::string base_dir_;
   Scene& scene_;
   std::map<std::string, uint32_t> material_index_;
   double shape_triangles_ = 0;
@@ -894,17 +597,7 @@ class Loader {
 
 Scene parse_scene_from_string(const std::string& json_text, const std::string& base_dir,
                               const std::string& name_for_messages) {
-  json root;
-  try {
-    // Comments (// and /* */) are accepted as an extension; the bundled scenes are strict JSON.
-    root = json::parse(json_text, nullptr, true, true);
-  } catch (const json::parse_error& e) {
-    throw SceneError(fmt::format("{}: JSON syntax error at byte {}: {}", name_for_messages, e.byte, e.what()));
-  } catch (const json::exception& e) {
-    ErrorPositionFinder finder;
-    json::sax_parse(json_text, &finder, json::input_format_t::json, true, true);
-    throw SceneError(fmt::format("{}: JSON error at byte {}: {}", name_for_messages, finder.position, e.what()));
-  }
+  const json root = parse_json(json_text, name_for_messages);
   Scene scene;
   scene.source = name_for_messages;
   Loader(name_for_messages, base_dir, scene).load(root);
