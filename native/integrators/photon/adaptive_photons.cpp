@@ -136,7 +136,8 @@ PhotonPassStats AdaptivePhotonSampler::trace(int64_t count, uint64_t pass, int m
   parallel_for(n_chains, tracer_.threads(), [&](size_t lo, size_t hi) {
     for (size_t c = lo; c < hi; ++c) {
       Chain& ch = chains_[c];
-      ch.out.clear();
+      ch.pool.clear();
+      ch.runs.clear();
       ch.uniform = ch.visible = ch.iterations = ch.rays = ch.invalid = ch.paths = 0;
       // Iterations of this chain: count split evenly, the remainder to the first chains.
       const int64_t n = count / static_cast<int64_t>(n_chains) + (static_cast<int64_t>(c) < count % static_cast<int64_t>(n_chains) ? 1 : 0);
@@ -178,6 +179,7 @@ PhotonPassStats AdaptivePhotonSampler::trace(int64_t count, uint64_t pass, int m
         if (uniform_path()) {
           ch.u.swap(ch.cand_u);
           ch.photons.swap(ch.cand_photons);
+          ch.state_changed = true;
         }
         // ---- Mutation (eq. 8.4), accepted iff visible (eq. 8.5) ----
         {
@@ -186,6 +188,7 @@ PhotonPassStats AdaptivePhotonSampler::trace(int64_t count, uint64_t pass, int m
           if (trace_into(u, ch.cand_photons)) {
             ch.u.swap(ch.cand_u);
             ch.photons.swap(ch.cand_photons);
+            ch.state_changed = true;
             ++ch.accepted;
           }
         }
@@ -194,7 +197,15 @@ PhotonPassStats AdaptivePhotonSampler::trace(int64_t count, uint64_t pass, int m
         ch.theta += (A - kTargetAcceptance) / static_cast<double>(ch.mutated);
         ch.theta = std::clamp(ch.theta, kThetaMin, kThetaMax);
         // ---- Splat the current state ----
-        ch.out.insert(ch.out.end(), ch.photons.begin(), ch.photons.end());
+        // A state splatted again (a rejected mutation, no exchange) repeats its run; a new state
+        // copies its photons into the pool once.
+        if (!ch.runs.empty() && !ch.state_changed) {
+          ++ch.runs.back().repeats;
+        } else {
+          ch.runs.push_back({static_cast<uint32_t>(ch.pool.size()), static_cast<uint32_t>(ch.photons.size()), 1});
+          ch.pool.insert(ch.pool.end(), ch.photons.begin(), ch.photons.end());
+          ch.state_changed = false;
+        }
         ++ch.iterations;
       }
     }
@@ -202,11 +213,17 @@ PhotonPassStats AdaptivePhotonSampler::trace(int64_t count, uint64_t pass, int m
   // ---- Concatenate in chain order (independent of the thread count) ----
   PhotonPassStats stats;
   size_t total = 0;
-  for (const Chain& ch : chains_) total += ch.out.size();
+  for (const Chain& ch : chains_)
+    for (const Run& r : ch.runs) total += static_cast<size_t>(r.size) * r.repeats;
   out.clear();
-  out.reserve(total);
+  // A quarter of headroom when it must grow: reserving exactly each new largest pass reallocated
+  // (and fragmented the heap) at every new maximum, a slow creep of the resident set over
+  // thousands of passes (scripts/soak.py, docs/reliability.md).
+  if (out.capacity() < total) out.reserve(total + total / 4);
   for (const Chain& ch : chains_) {
-    out.insert(out.end(), ch.out.begin(), ch.out.end());
+    for (const Run& r : ch.runs)
+      for (uint32_t k = 0; k < r.repeats; ++k)
+        out.insert(out.end(), ch.pool.begin() + r.first, ch.pool.begin() + r.first + r.size);
     stats.emitted += ch.iterations;
     stats.rays += ch.rays;
     stats.invalid += ch.invalid;

@@ -98,6 +98,9 @@ class AdaptivePhotonSampler {
   static float mutate(float u, double theta, float xi0, float xi1);
 
  private:
+  struct Run {
+    uint32_t first, size, repeats;  // pool[first, first + size) splatted `repeats` times
+  };
   struct Chain {
     std::vector<float> u;            // current state (primary samples); empty = none yet
     std::vector<Photon> photons;     // its deposits, splatted every iteration
@@ -105,7 +108,13 @@ class AdaptivePhotonSampler {
     int64_t mutated = 0, accepted = 0;
     // Scratch of one pass, kept for its capacity.
     std::vector<float> cand_u;
-    std::vector<Photon> cand_photons, out;
+    std::vector<Photon> cand_photons;
+    // This pass's splats as runs of one state's photons (each state's photons stored once, in
+    // `pool`): a copy per iteration made each chain's buffer follow its largest pass so far, a
+    // creep of the resident set over thousands of passes (docs/reliability.md).
+    std::vector<Photon> pool;
+    std::vector<Run> runs;
+    bool state_changed = true;
     int64_t uniform = 0, visible = 0, iterations = 0, rays = 0, invalid = 0, paths = 0;
   };
 
