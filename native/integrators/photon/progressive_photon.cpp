@@ -163,6 +163,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       if (vp_[i].material >= 0)
         visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
     visibility_.build(visibility_points_, threads_);
+    if (cancelled()) return;  // the grid of 2 M points at 1080p takes a few hundred ms
     ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_, cancelled);
   } else if (spectral_) {
     ps = spectral_trace(pass, cancelled);
@@ -180,6 +181,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);  // §10.2.2
+  if (cancelled()) return;
   if (spectral_) spectral_gather(cancelled);
   else parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     for (size_t i = lo; i < hi; ++i) {
