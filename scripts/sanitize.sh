@@ -18,14 +18,14 @@ kinds=("$kind")
 status=0
 for k in "${kinds[@]}"; do
   case "$k" in
-    asan) flags="address,undefined" ;;
-    tsan) flags="thread" ;;
+    asan) flags="address,undefined"; extra=() ;;
+    tsan) flags="thread"; extra=(-DGRADPHOTON_PARALLEL=threads) ;;  # std::thread back-end: TSan sees every hand-over
     *) echo "unknown sanitizer build '$k' (asan, tsan, all)" >&2; exit 2 ;;
   esac
   dir="build-$k"
   if [ ! -f "$dir/build.ninja" ]; then
     cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DGRADPHOTON_SANITIZE="$flags" \
-      -DGRADPHOTON_BUILD_PYTHON=OFF >/dev/null
+      -DGRADPHOTON_BUILD_PYTHON=OFF "${extra[@]}" >/dev/null
   fi
   cmake --build "$dir" --parallel "${GRADPHOTON_JOBS:-$(nproc)}"
   echo "== native tests under $flags ($dir) =="

@@ -1,15 +1,72 @@
+// Two back-ends behind one interface: oneTBB (the default), and plain std::threads for the
+// ThreadSanitizer build (GRADPHOTON_PARALLEL_THREADS, scripts/sanitize.sh tsan): Debian's oneTBB
+// is not instrumented, so TSan cannot see its hand-over of a task and reports every one of them;
+// with std::thread and std::atomic every synchronisation is visible and a report is a race in
+// gradphoton's own code. Both hand out the same tiles and chunks in any order; results never
+// depend on the order (each pixel owns its random stream and accumulator).
 #include "core/parallel.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
+#include <algorithm>
 #include <atomic>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <vector>
+
+#if GRADPHOTON_PARALLEL_THREADS
+namespace gp {
+
+int resolve_thread_count(int threads) {
+  return threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+namespace {
+// Runs body(i) for i in [0, n) on `threads` threads (the caller is one of them), each taking
+// the next index from a shared counter.
+void run_indices(size_t n, int threads, const std::function<void(size_t)>& body) {
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (size_t i; (i = next.fetch_add(1)) < n;) body(i);
+  };
+  std::vector<std::thread> pool;
+  const int extra = static_cast<int>(std::min<size_t>(n, resolve_thread_count(threads))) - 1;
+  for (int t = 0; t < extra; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+}
+}  // namespace
+
+void parallel_for_tiles(int width, int height, int tile_size, int threads,
+                        const std::function<void(const Tile&)>& fn,
+                        const std::function<bool()>& cancelled) {
+  std::vector<Tile> tiles;
+  for (int y = 0; y < height; y += tile_size)
+    for (int x = 0; x < width; x += tile_size)
+      tiles.push_back({x, y, std::min(x + tile_size, width), std::min(y + tile_size, height)});
+  std::atomic<bool> stop{false};
+  run_indices(tiles.size(), threads, [&](size_t i) {
+    if (stop.load()) return;
+    if (cancelled && cancelled()) {
+      stop = true;
+      return;
+    }
+    fn(tiles[i]);
+  });
+}
+
+void parallel_for(size_t count, int threads, const std::function<void(size_t, size_t)>& fn) {
+  const size_t chunks = std::min<size_t>(count, 8 * static_cast<size_t>(resolve_thread_count(threads)));
+  if (chunks == 0) return;
+  run_indices(chunks, threads, [&](size_t c) { fn(count * c / chunks, count * (c + 1) / chunks); });
+}
+
+}  // namespace gp
+#else
+#include <tbb/blocked_range.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 namespace gp {
 
@@ -67,3 +124,4 @@ void parallel_for(size_t count, int threads, const std::function<void(size_t, si
 }
 
 }  // namespace gp
+#endif

@@ -69,7 +69,13 @@ static void check_device(RTCDevice device, const char* what) {
 
 Accelerator::Accelerator(const std::vector<Mesh>& meshes, const std::vector<Material>* materials)
     : impl_(std::make_unique<Impl>()) {
+#if GRADPHOTON_PARALLEL_THREADS
+  // The ThreadSanitizer build (core/parallel.cpp): Embree's BVH build on the calling thread only,
+  // so that TSan, which cannot see inside the uninstrumented Embree, sees no threads of its own.
+  impl_->device = rtcNewDevice("threads=1");
+#else
   impl_->device = rtcNewDevice(nullptr);
+#endif
   if (!impl_->device) throw std::runtime_error("cannot create Embree device");
   impl_->scene = rtcNewScene(impl_->device);
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);

@@ -1,7 +1,8 @@
 #include "scene/builder.h"
 
+#include "core/parallel.h"
+
 #include <fmt/format.h>
-#include <tbb/parallel_for.h>
 
 #include <cmath>
 #include <map>
@@ -90,8 +91,8 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
     if (in.normals) m.normals.resize(nv);
     float nm[3][3];
     normal_matrix(tr, nm);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t v = r.begin(); v != r.end(); ++v) {
+    parallel_for(nv, 0, [&](size_t begin, size_t end) {
+      for (size_t v = begin; v != end; ++v) {
         const float* q = in.positions + 3 * v;
         m.positions[v] = tr.point(Vec3(q[0], q[1], q[2]));
         if (in.normals) {
