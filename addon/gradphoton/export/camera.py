@@ -24,6 +24,9 @@ def export_camera(scene, warnings):
             border = (x0, y0, x1 - x0, y1 - y0)
     ob = scene.camera
     d = {"width": width, "height": height}
+    if border is not None:  # the core traces only these pixels (its rows run from the top)
+        x0, y0, w, h = border
+        d["crop"] = [x0, height - (y0 + h), w, h]
     if ob is None:
         warnings.add("no scene camera (default view)", scene.name)
         d["matrix"] = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 5, 0, 0, 0, 1]
