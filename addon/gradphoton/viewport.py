@@ -126,6 +126,7 @@ class ViewportSession:
         self.busy = False         # the worker has work left (Blender keeps redrawing)
         # Measurements (tests, scripts/bench_viewport.py):
         self.events = []          # (kind, seconds from the request to the first image of it)
+        self.freed_at = self.exited_at = None  # perf_counter() of free() and of the worker's end
         self.passes = 0           # passes of the current image
         self.divider = 1
         # UI thread only:
@@ -212,6 +213,7 @@ class ViewportSession:
         thread ends on its own within about half a second)."""
         with self.lock:
             self.stopped = True
+            self.freed_at = time.perf_counter()
             self._cancel_locked()
             self.lock.notify_all()
         self._texture = None
@@ -253,6 +255,7 @@ class ViewportSession:
                         self.stopped = True
                 if self.stopped:
                     self.native = None
+                    self.exited_at = time.perf_counter()
                     return
                 plan, self.plan = self.plan, None
                 restart = plan is not None or self.camera_changed or self.config_changed

@@ -403,7 +403,12 @@ PYBIND11_MODULE(_native, m) {
           throw py::value_error(fmt::format("{} mesh indices for {} matrices", meshes.size(), t.size()));
         py::gil_scoped_release release;
         Scene::UpdateGuard guard(s);
-        for (size_t i = 0; i < meshes.size(); ++i) s.set_mesh_transform(meshes[i], t[i]);
+        try {
+          for (size_t i = 0; i < meshes.size(); ++i) s.set_mesh_transform(meshes[i], t[i]);
+        } catch (...) {
+          s.commit();  // the meshes moved before the bad one: the accelerator follows them
+          throw;
+        }
         s.commit();
       }, py::arg("meshes"), py::arg("matrices"),
          "Move meshes built from arrays: indices into mesh_names and (K,4,4) object-to-world matrices; "
