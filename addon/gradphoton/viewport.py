@@ -126,6 +126,7 @@ class ViewportSession:
         self.busy = False         # the worker has work left (Blender keeps redrawing)
         # Measurements (tests, scripts/bench_viewport.py):
         self.events = []          # (kind, seconds from the request to the first image of it)
+        self._full = None         # the request whose full-resolution image is still to come
         self.freed_at = self.exited_at = None  # perf_counter() of free() and of the worker's end
         self.passes = 0           # passes of the current image
         self.divider = 1
@@ -142,6 +143,7 @@ class ViewportSession:
             self._fail(str(e))
             return
         scene = depsgraph.scene
+        t0 = time.perf_counter()  # the request's time: the export counts too
         try:
             first = self.thread is None
             plan = self.sync.sync(depsgraph, export_uvs=scene.gradphoton.export_uvs, first=first)
@@ -161,7 +163,7 @@ class ViewportSession:
             self.max_passes = scene.gradphoton.viewport_passes
             if changed:
                 kind = "first" if first else ",".join(plan.kinds() or ["settings"])
-                self.request = (kind, time.perf_counter())
+                self.request = (kind, t0)
                 self.error = None
                 self._cancel_locked()
                 self.lock.notify_all()
@@ -330,9 +332,14 @@ class ViewportSession:
             self.busy = not done
             if done:
                 self.native = None
+            now = time.perf_counter()
             if request is not None and self.request is request:
-                self.events.append((request[0], time.perf_counter() - request[1]))
+                self.events.append((request[0], now - request[1]))
                 self.request = None
+                self._full = request
+            if self.divider == 1 and self._full is not None:
+                self.events.append((self._full[0] + " (full resolution)", now - self._full[1]))
+                self._full = None
             self.status = (f"Pass {n}" + (f" / {max_passes}" if max_passes > 0 else "") +
                            (f" | {w}x{h} (1/{self.divider})" if self.divider > 1 else "") +
                            (" | done" if done else ""))
