@@ -189,7 +189,10 @@ class ViewportSession:
                     self.camera, self.camera_changed = cam, True
                     self._cancel_locked()
                     self.lock.notify_all()
-        self._draw(engine, depsgraph.scene, w, h)
+        try:
+            self._draw(engine, depsgraph.scene, w, h)
+        except Exception as e:  # a GPU failure: one line in the view, never a traceback per redraw
+            self.error = f"gradphoton: viewport drawing failed ({type(e).__name__}: {e})"
         engine.update_stats("", self.error or self.status)
 
     def _draw(self, engine, scene, w, h):
@@ -218,7 +221,7 @@ class ViewportSession:
             self.freed_at = time.perf_counter()
             self._cancel_locked()
             self.lock.notify_all()
-        self._texture = None
+        self._texture = None  # here, on Blender's thread (engine.__del__), not on the worker's
 
     def _cancel_locked(self):
         if self.native is not None:
