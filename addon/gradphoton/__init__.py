@@ -13,7 +13,7 @@ bl_info = {
 
 if "bpy" in locals():
     import importlib
-    for _m in ("native", "properties", "export", "session", "engine", "ui", "operators"):
+    for _m in ("native", "properties", "export", "sync", "session", "viewport", "engine", "ui", "operators"):
         if _m in locals():
             importlib.reload(locals()[_m])
 

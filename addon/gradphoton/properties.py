@@ -141,6 +141,18 @@ STOP_RULES = [("TIME", "Time", "Render for a time budget: every method finishes 
 _stop_items = []
 
 
+_viewport_method_items = []
+
+
+def viewport_method_items(self, context):
+    """The render method (default) or any method, for the rendered viewport."""
+    _viewport_method_items.clear()
+    _viewport_method_items.append(('RENDER', "As Render", "The method chosen for final renders", 0))
+    for i, (name, label, desc, _) in enumerate(method_items(self, context)):
+        _viewport_method_items.append((name, label, desc, i + 1))
+    return _viewport_method_items
+
+
 def stop_rule_items(self, context):
     """The stop rules the chosen method can use: Target Error only where it estimates its error."""
     _stop_items.clear()
@@ -186,6 +198,14 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
                                               "Cycles (0 = off): removes fireflies, darkens bright bounces. "
                                               "Greyed out where the method does not clamp")
     seed: IntProperty(name="Seed", default=0, min=0, description="Random seed: another seed gives other noise")
+    use_animated_seed: BoolProperty(name="Use Animated Seed", default=False,
+                                    description="Another seed every frame (a hash of the frame and the seed), "
+                                                "as Cycles: the noise changes over an animation")
+    viewport_method: EnumProperty(name="Method", items=viewport_method_items, default=0,
+                                  description="How light is transported in the rendered viewport "
+                                              "(Path Tracing shows a first image soonest)")
+    viewport_passes: IntProperty(name="Passes", default=1024, min=0,
+                                 description="Passes the rendered viewport refines to (0 = no limit)")
     threads: IntProperty(name="Threads", default=0, min=0, max=1024, description="Worker threads (0 = all cores)")
     photons_per_pass: IntProperty(name="Photons", default=100000, min=1000,
                                   description="Photons traced per pass: more gives smoother caustics per pass, "

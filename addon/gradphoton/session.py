@@ -4,6 +4,12 @@ stats, cancellation and passes. engine.py delegates here; nothing here is a Blen
 Cancellation: each pass runs in a worker thread (the native call releases the GIL); the render
 thread polls test_break() every 20 ms and calls Session.cancel(), which stops the pass between
 tiles; the image so far is kept and returned.
+
+Persistent Data (Render > Performance, as Cycles'): Blender keeps the engine between frames and
+the native scene stays with it (PersistentScene); each frame syncs what changed (sync.py: moved
+objects are transformed natively, unchanged meshes are not exported again).
+
+Border: the camera's crop window (export/camera.py), so only the border's pixels are traced.
 """
 import fnmatch
 import math
@@ -12,7 +18,7 @@ import time
 
 import numpy as np
 
-from . import export, native
+from . import export, native, sync
 from .properties import FILM_TRANSPARENT, KNOWN_PARAMS, method_info, method_params, native_value
 
 POLL_SECONDS = 0.02
@@ -61,9 +67,24 @@ def register_passes(engine, scene, view_layer):
         engine.register_pass(scene, view_layer, bl_name, channels, chan_id, kind)
 
 
-def params_of(settings, method=None):
-    """The native parameters for `method` (default: the chosen one) from the render settings."""
-    return {key: native_value(settings, key, prop) for key, prop in method_params(method or settings.method).items()}
+def animated_seed(seed, frame):
+    """Cycles' Use Animated Seed: another seed every frame, the same for a frame every time (a
+    hash of the frame and the seed; kept below 2^31 like Blender's integer properties)."""
+    h = (seed * 0x9E3779B1 + frame * 0x85EBCA77 + 0x27D4EB2F) & 0xFFFFFFFF
+    h ^= h >> 15
+    h = (h * 0x2C1B3C6D) & 0xFFFFFFFF
+    h ^= h >> 12
+    return h & 0x7FFFFFFF
+
+
+def params_of(settings, method=None, frame=None):
+    """The native parameters for `method` (default: the chosen one) from the render settings;
+    `frame` (the scene's current frame) turns the seed into an animated seed where the
+    settings ask for one."""
+    params = {key: native_value(settings, key, prop) for key, prop in method_params(method or settings.method).items()}
+    if frame is not None and getattr(settings, "use_animated_seed", False) and "seed" in params:
+        params["seed"] = animated_seed(params["seed"], frame)
+    return params
 
 
 # Key statistics of a method on the status line: (Stats key, short label, format). A key with
@@ -179,6 +200,30 @@ class Progress:
         return " | ".join(parts)
 
 
+class PersistentScene:
+    """What an engine keeps between frames with Persistent Data: the sync state and the native
+    scene it describes."""
+
+    def __init__(self):
+        self.sync = sync.SceneSync()
+        self.scene = None
+        self.plans = []  # the kinds of each frame's plan (tests: ["rebuild"], ["transforms"], ...)
+
+    def scene_for(self, depsgraph, N, export_uvs):
+        """(ExportedScene, native Scene) for this frame: updated in place where possible."""
+        first = self.scene is None
+        plan = self.sync.sync(depsgraph, export_uvs=export_uvs, first=first)
+        self.plans.append(plan.kinds())
+        try:
+            self.scene = sync.apply(plan, self.scene, N)
+        except ValueError:
+            if plan.rebuild is not None:
+                raise
+            self.plans[-1] = ["rebuild"]
+            self.scene = sync.apply(sync.Plan(rebuild=plan.exported), None, N)
+        return plan.exported, self.scene
+
+
 class RenderSession:
     """The render loop. Blender callbacks are injected so tests can drive it (e.g. a
     test_break that fires after some time to measure cancellation latency)."""
@@ -215,12 +260,18 @@ class RenderSession:
         settings = scene.gradphoton
         try:
             engine.update_stats("", "Exporting scene")
-            exported = export.export_scene(depsgraph, export_uvs=settings.export_uvs)
+            persistent = getattr(engine, "persistent", None) if scene.render.use_persistent_data else None
+            if persistent is not None:
+                exported, nscene = persistent.scene_for(depsgraph, N, settings.export_uvs)
+            else:
+                if hasattr(engine, "persistent"):
+                    engine.persistent = PersistentScene()  # switched off: the next frame starts anew
+                exported = export.export_scene(depsgraph, export_uvs=settings.export_uvs)
+                engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
+                nscene = exported.build(N)
             if exported.warnings:
                 self.report('WARNING', exported.warnings.summary())
-            engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
-            nscene = exported.build(N)
-            params = params_of(settings, settings.method)
+            params = params_of(settings, settings.method, frame=scene.frame_current)
             params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
             self.session = N.Session(nscene, settings.method, params)
         except (ValueError, TypeError, RuntimeError) as e:  # SceneError, ParamError: one readable line
@@ -260,7 +311,7 @@ class RenderSession:
                 done = cancelled_at is not None or progress.done(n, error)
                 now = progress.elapsed()
                 if done or now - last_update >= interval:
-                    self._write(result, passes, window)
+                    self._write(result, passes)
                     engine.update_result(result)
                     self.updates.append((now, n))
                     last_update = now
@@ -309,7 +360,9 @@ class RenderSession:
                 self.session.cancel()
         return fired
 
-    def _write(self, result, passes, window):
+    def _write(self, result, passes):
+        """Every enabled pass into the result (a border render's images are already the
+        border: the core traced only its pixels)."""
         images = self.session.develop()
         layer = result.layers[0]
         alpha = images.get("alpha") if self.transparent else None
@@ -320,4 +373,4 @@ class RenderSession:
             img = images.get(name)
             if img is None:
                 continue  # the method does not produce this pass: Blender keeps it zero
-            rp.rect.foreach_set(to_blender_pixels(img, channels, window, alpha if name == "combined" else None))
+            rp.rect.foreach_set(to_blender_pixels(img, channels, None, alpha if name == "combined" else None))

@@ -69,6 +69,18 @@ class GRADPHOTON_PT_render(GradphotonPanel, bpy.types.Panel):
         layout.prop(s, "spectral_mode")
 
 
+class GRADPHOTON_PT_viewport(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Viewport"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_render"
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        s = context.scene.gradphoton
+        layout.prop(s, "viewport_method")
+        layout.prop(s, "viewport_passes")
+
+
 class GRADPHOTON_PT_photons(GradphotonPanel, bpy.types.Panel):
     bl_label = "Photons"
     bl_context = "render"
@@ -205,7 +217,10 @@ class GRADPHOTON_PT_performance(GradphotonPanel, bpy.types.Panel):
         layout = _split(self.layout)
         s = context.scene.gradphoton
         layout.prop(s, "threads")
-        layout.prop(s, "seed")
+        row = layout.row(align=True)
+        row.prop(s, "seed")
+        row.prop(s, "use_animated_seed", text="", icon='TIME')
+        layout.prop(context.scene.render, "use_persistent_data", text="Persistent Data")
         layout.prop(s, "export_uvs")
         layout.operator("gradphoton.export_scene", icon='EXPORT')
 
@@ -298,7 +313,7 @@ class GRADPHOTON_LIGHT_PT_light(GradphotonPanel, bpy.types.Panel):
             layout.label(text=ignored, icon='INFO')
 
 
-_classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction,
+_classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_viewport, GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction,
             GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping, GRADPHOTON_PT_film, GRADPHOTON_PT_performance,
             GRADPHOTON_PT_report, GRADPHOTON_PT_passes, GRADPHOTON_PT_material, GRADPHOTON_LIGHT_PT_light)
 

@@ -29,8 +29,8 @@ AovEstimator::AovEstimator(const Scene& scene, uint64_t seed, int threads)
     : scene_(scene),
       seed_(seed),
       threads_(threads),
-      width_(scene.camera.width),
-      height_(scene.camera.height),
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()),
       albedo_(size_t(width_) * height_ * 3, 0.0f),
       normal_(size_t(width_) * height_ * 3, 0.0f),
       depth_(size_t(width_) * height_, 0.0f) {}
@@ -53,8 +53,9 @@ void AovEstimator::add_pass(const std::function<bool()>& cancelled) {
       }
       for (int x = 0; x < width_; ++x) {
         const size_t i = y * width_ + x;
-        Rng rng(seed_ * 0x9E3779B97F4A7C15ull + i, uint64_t(pass));
-        Ray ray = cam.generate_ray(Vec2(x + rng.uniform(), y + rng.uniform()), Vec2(rng.uniform(), rng.uniform()));
+        Rng rng(seed_ * 0x9E3779B97F4A7C15ull + cam.pixel_key(int(x), int(y)), uint64_t(pass));
+        Ray ray = cam.generate_ray(Vec2(int(x) + cam.crop_x + rng.uniform(), int(y) + cam.crop_y + rng.uniform()),
+                                   Vec2(rng.uniform(), rng.uniform()));
         RGB weight(1.0f);
         float depth = kNoHitDepth;
         for (int segment = 0; segment < kMaxSegments; ++segment) {

@@ -18,9 +18,9 @@ PathTracer::PathTracer(const Scene& scene, const Params& params)
       threads_(params.get<int>("threads", 0)),
       tile_size_(params.get<int>("tile_size", 16)),
       seed_(params.get<uint64_t>("seed", 0)),
-      width_(scene.camera.width),
-      height_(scene.camera.height),
-      estimate_(std::max(1, width_), std::max(1, height_)) {  // sizes checked just below
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()),
+      estimate_(std::max(1, width_), std::max(1, height_), &scene.camera) {  // sizes checked just below
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
   if (!(clamp_direct_ >= 0) || !(clamp_indirect_ >= 0))
     throw ParamError("parameters 'clamp_direct' and 'clamp_indirect' must be >= 0 (0 = no clamping)");

@@ -17,6 +17,7 @@
 #include "core/parallel.h"
 #include "core/progress.h"
 #include "core/rng.h"
+#include "scene/camera.h"
 
 namespace gp {
 
@@ -29,8 +30,11 @@ struct PixelSample {
 
 class PixelEstimate {
  public:
-  PixelEstimate(int width, int height)
-      : width_(width), height_(height), sum_(static_cast<size_t>(width) * height * 3, 0.0),
+  // `camera` (optional) gives each pixel's random stream and film position (camera.h
+  // start_pixel: a crop window's pixels take what they take in the whole image); without it
+  // the key is the pixel's index.
+  PixelEstimate(int width, int height, const Camera* camera = nullptr)
+      : width_(width), height_(height), camera_(camera), sum_(static_cast<size_t>(width) * height * 3, 0.0),
         samples_(static_cast<size_t>(width) * height, 0), alpha_(static_cast<size_t>(width) * height, 0.0) {}
 
   // One pass: estimate(rng, film, lens, rays) -> RGB per pixel. Updates `stats` (passes,
@@ -50,7 +54,8 @@ class PixelEstimate {
           for (int y = tile.y0; y < tile.y1; ++y)
             for (int x = tile.x0; x < tile.x1; ++x) {
               const size_t pixel = static_cast<size_t>(y) * width_ + x;
-              auto [rng, film, lens] = start_pixel(seed, pixel, pass, x, y);
+              auto [rng, film, lens] = camera_ ? start_pixel(*camera_, seed, pass, x, y)
+                                               : start_pixel(seed, pixel, pass, x, y);
               RGB L;
               const auto sample = estimate(rng, film, lens, tile_rays);
               if constexpr (std::is_same_v<std::decay_t<decltype(sample)>, PixelSample>) {
@@ -103,6 +108,7 @@ class PixelEstimate {
 
  private:
   int width_, height_;
+  const Camera* camera_;
   std::vector<double> sum_;        // RGB sums per pixel
   std::vector<uint32_t> samples_;  // samples per pixel
   std::vector<double> alpha_;      // alpha sums per pixel

@@ -4,7 +4,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <fmt/format.h>
+
 #include <memory>
+#include <stdexcept>
 
 #include "core/film.h"
 #include "distributed/run_info.h"
@@ -78,18 +81,24 @@ class Session {
   Session(std::shared_ptr<Scene> scene, const std::string& method, const py::dict& params)
       : scene_(std::move(scene)) {
     params_ = params_from_dict(params);
+    Scene::RenderGuard guard(*scene_);
+    generation_ = scene_->generation();
     integrator_ = make_integrator(method, *scene_, params_);
     unused_ = params_.unused();
     aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
   }
   // One pass of the method, and while they are few, one of the auxiliary passes (aov.h).
   void iterate() {
+    check_fresh();
     py::gil_scoped_release release;
+    Scene::RenderGuard guard(*scene_);
     integrator_->iterate(&sink_);
     if (aux_ && aov_->passes() < AovEstimator::kMaxPasses) aov_->add_pass([this] { return sink_.cancelled(); });
   }
   void run(double seconds, int64_t passes) {
+    check_fresh();
     py::gil_scoped_release release;
+    Scene::RenderGuard guard(*scene_);
     run_progressive(*integrator_, StopRule{seconds, passes, 0}, &sink_);
     const int64_t aux = std::min<int64_t>(AovEstimator::kMaxPasses, integrator_->stats().passes);
     while (aux_ && aov_->passes() < aux && !sink_.cancelled()) aov_->add_pass([this] { return sink_.cancelled(); });
@@ -103,6 +112,7 @@ class Session {
     Film film;
     {
       py::gil_scoped_release release;
+      Scene::RenderGuard guard(*scene_);
       integrator_->develop(film);
       // Before a whole auxiliary pass there is nothing to show (Blender keeps them zero): this
       // keeps the image sent after an early Esc as cheap as before.
@@ -138,6 +148,12 @@ class Session {
     return d;
   }
   const std::vector<std::string>& unused() const { return unused_; }
+  // A scene update (Scene.set_camera, ...) since this session was made leaves the integrator
+  // with what it derived from the old scene: it renders no more (make a new Session).
+  bool stale() const { return scene_->generation() != generation_; }
+  void check_fresh() const {
+    if (stale()) throw std::logic_error("the scene changed since this Session was made; make a new Session");
+  }
   std::string method() const { return integrator_->name(); }
   double estimated_error() const { return integrator_->estimated_error(); }
 
@@ -149,6 +165,7 @@ class Session {
   Params params_;
   ProgressSink sink_;
   std::vector<std::string> unused_;
+  uint64_t generation_ = 0;
 };
 
 // What a method produces and reads, asked of the method itself: it is built on a one-pixel
@@ -285,10 +302,23 @@ PYBIND11_MODULE(_native, m) {
         return n;
       })
       .def_property_readonly("warnings", [](const Scene& s) { return s.warnings.summary(); })
+      // Setting the size drops a crop window (it was in pixels of the old size).
       .def_property("width", [](const Scene& s) { return s.camera.width; },
-                    [](Scene& s, int w) { s.camera.width = w; })
+                    [](Scene& s, int w) {
+                      Scene::UpdateGuard guard(s);
+                      Camera c = s.camera;
+                      c.width = w;
+                      c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
+                      s.set_camera(c);
+                    })
       .def_property("height", [](const Scene& s) { return s.camera.height; },
-                    [](Scene& s, int h) { s.camera.height = h; })
+                    [](Scene& s, int h) {
+                      Scene::UpdateGuard guard(s);
+                      Camera c = s.camera;
+                      c.height = h;
+                      c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
+                      s.set_camera(c);
+                    })
       // ---- Read-only views for importers (scripts/json_to_blend.py): the loaded, tessellated scene
       .def("meshes", [](const Scene& s) {
         py::list out;
@@ -349,8 +379,47 @@ PYBIND11_MODULE(_native, m) {
         d["height"] = c.height;
         d["aperture_radius"] = c.aperture_radius;
         d["focus_distance"] = c.focus_distance;
+        d["type"] = c.projection == Projection::Orthographic ? "orthographic" : "perspective";
+        d["ortho_scale"] = c.ortho_scale;
+        d["shift"] = py::make_tuple(c.shift.x, c.shift.y);
+        d["crop"] = c.crop_width > 0 ? py::object(py::make_tuple(c.crop_x, c.crop_y, c.crop_width, c.crop_height))
+                                     : py::object(py::none());
         return d;
-      }, "Camera: camera-to-world matrix rows (looks down -Z, +Y up), fov in degrees, size, lens");
+      }, "Camera: camera-to-world matrix rows (looks down -Z, +Y up), fov in degrees, size, lens, shift, crop")
+      // ---- Updates (the rendered viewport): a Session made before one stops rendering (make a new one)
+      .def_property_readonly("generation", &Scene::generation, "Advances with every update")
+      .def_property_readonly("mesh_names", [](const Scene& s) {
+        std::vector<std::string> n;
+        for (const Mesh& m : s.meshes) n.push_back(m.name);
+        return n;
+      }, "Mesh names in index order (an instance of an array mesh is one mesh)")
+      .def("set_camera", [](Scene& s, const std::string& camera_json) {
+        Scene::UpdateGuard guard(s);
+        set_camera(s, camera_json);
+      }, py::arg("camera_json"), "Replace the camera (the scene format's camera object as JSON text)")
+      .def("set_transforms", [](Scene& s, const std::vector<size_t>& meshes, const py::object& matrices) {
+        const std::vector<Transform> t = transforms_from_array(matrices, "set_transforms");
+        if (t.size() != meshes.size())
+          throw py::value_error(fmt::format("{} mesh indices for {} matrices", meshes.size(), t.size()));
+        py::gil_scoped_release release;
+        Scene::UpdateGuard guard(s);
+        try {
+          for (size_t i = 0; i < meshes.size(); ++i) s.set_mesh_transform(meshes[i], t[i]);
+        } catch (...) {
+          s.commit();  // the meshes moved before the bad one: the accelerator follows them
+          throw;
+        }
+        s.commit();
+      }, py::arg("meshes"), py::arg("matrices"),
+         "Move meshes built from arrays: indices into mesh_names and (K,4,4) object-to-world matrices; "
+         "their arrays are transformed again natively and only their part of the BVH changes")
+      .def("update_description", [](Scene& s, const std::string& json_text) {
+        py::gil_scoped_release release;
+        Scene::UpdateGuard guard(s);
+        update_description(s, json_text);
+      }, py::arg("json_text"),
+         "Replace materials (by name), lights, environment and (if given) the camera from a description "
+         "without objects; SceneError when a material an object uses is missing");
 
   m.def("load_scene", [](const std::string& path) {
     py::gil_scoped_release release;
@@ -433,6 +502,7 @@ PYBIND11_MODULE(_native, m) {
       .def_property_readonly("run_info", &Session::run_info,
                              "The run's record for EXR headers: {'gradphoton.method': ..., 'gradphoton.seed': ...}")
       .def_property_readonly("stats", &Session::stats)
+      .def_property_readonly("stale", &Session::stale, "Whether the scene was updated since this Session was made")
       .def_property_readonly("unused_params", &Session::unused)
       .def_property_readonly("method", &Session::method,
                              "The method that runs (pt becomes spt-hero in spectral mode)")

@@ -42,7 +42,7 @@ struct VisibilityContext {
 struct Accelerator::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
-  std::vector<std::unique_ptr<TriangleVisibility>> visibility;
+  std::vector<std::unique_ptr<TriangleVisibility>> visibility;  // per mesh, null without filters
 };
 
 namespace {
@@ -67,6 +67,43 @@ static void check_device(RTCDevice device, const char* what) {
     throw std::runtime_error(fmt::format("Embree error {} while {}", static_cast<int>(code), what));
 }
 
+namespace {
+// One mesh as an Embree triangle geometry, with its ray-visibility filters; `keep` receives the
+// filters' per-triangle flags (they must outlive the geometry's use in traversal).
+RTCGeometry make_geometry(RTCDevice device, const Mesh& m, const std::vector<Material>* materials,
+                          std::unique_ptr<TriangleVisibility>& keep) {
+  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  // Embree-owned buffers (a copy): Embree may read up to 16 bytes past a shared vertex
+  // buffer, and owning them keeps the accelerator valid if a Mesh vector reallocates.
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), m.positions.size()));
+  // (An empty mesh has no data pointer to take ->x of: found by fuzz_obj on an empty file.)
+  for (size_t v = 0; v < m.positions.size(); ++v)
+    for (int k = 0; k < 3; ++k) vb[3 * v + k] = m.positions[v][k];
+  auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangle_count()));
+  std::copy(m.indices.begin(), m.indices.end(), ib);
+  if (materials) {
+    auto vis = std::make_unique<TriangleVisibility>();
+    vis->flags.resize(m.triangle_count(), 0);
+    uint8_t any = 0;
+    for (size_t t = 0; t < m.triangle_count() && t < m.material_ids.size(); ++t) {
+      const Material& mat = (*materials)[m.material_ids[t]];
+      vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow);
+      any |= vis->flags[t];
+    }
+    if (any) {
+      rtcSetGeometryUserData(g, vis.get());
+      if (any & kHiddenFromCamera) rtcSetGeometryIntersectFilterFunction(g, camera_filter);
+      if (any & kNoShadow) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
+      keep = std::move(vis);
+    }
+  }
+  rtcCommitGeometry(g);
+  return g;
+}
+}  // namespace
+
 Accelerator::Accelerator(const std::vector<Mesh>& meshes, const std::vector<Material>* materials)
     : impl_(std::make_unique<Impl>()) {
 #if GRADPHOTON_PARALLEL_THREADS
@@ -80,39 +117,28 @@ Accelerator::Accelerator(const std::vector<Mesh>& meshes, const std::vector<Mate
   impl_->scene = rtcNewScene(impl_->device);
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+  impl_->visibility.resize(meshes.size());
   for (size_t i = 0; i < meshes.size(); ++i) {
-    const Mesh& m = meshes[i];
-    RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    // Embree-owned buffers (a copy): Embree may read up to 16 bytes past a shared vertex
-    // buffer, and owning them keeps the accelerator valid if a Mesh vector reallocates.
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), m.positions.size()));
-    // (An empty mesh has no data pointer to take ->x of: found by fuzz_obj on an empty file.)
-    for (size_t v = 0; v < m.positions.size(); ++v)
-      for (int k = 0; k < 3; ++k) vb[3 * v + k] = m.positions[v][k];
-    auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangle_count()));
-    std::copy(m.indices.begin(), m.indices.end(), ib);
-    if (materials) {
-      auto vis = std::make_unique<TriangleVisibility>();
-      vis->flags.resize(m.triangle_count(), 0);
-      uint8_t any = 0;
-      for (size_t t = 0; t < m.triangle_count() && t < m.material_ids.size(); ++t) {
-        const Material& mat = (*materials)[m.material_ids[t]];
-        vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow);
-        any |= vis->flags[t];
-      }
-      if (any) {
-        rtcSetGeometryUserData(g, vis.get());
-        if (any & kHiddenFromCamera) rtcSetGeometryIntersectFilterFunction(g, camera_filter);
-        if (any & kNoShadow) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
-        impl_->visibility.push_back(std::move(vis));
-      }
-    }
-    rtcCommitGeometry(g);
+    RTCGeometry g = make_geometry(impl_->device, meshes[i], materials, impl_->visibility[i]);
     rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(i));
     rtcReleaseGeometry(g);
   }
+  commit();
+}
+
+void Accelerator::replace_mesh(size_t index, const Mesh& mesh, const std::vector<Material>* materials) {
+  // No ray is traced between here and commit() (Scene's updates wait for renders to end), so
+  // the old geometry's visibility flags may go with it.
+  if (index >= impl_->visibility.size()) throw std::out_of_range("Accelerator::replace_mesh: no such mesh");
+  rtcDetachGeometry(impl_->scene, static_cast<unsigned>(index));
+  impl_->visibility[index].reset();
+  RTCGeometry g = make_geometry(impl_->device, mesh, materials, impl_->visibility[index]);
+  rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(index));
+  rtcReleaseGeometry(g);
+  check_device(impl_->device, "replacing a mesh");
+}
+
+void Accelerator::commit() {
   rtcCommitScene(impl_->scene);
   check_device(impl_->device, "building the scene");
 }

@@ -35,6 +35,11 @@ class Accelerator {
   Accelerator(const Accelerator&) = delete;
   Accelerator& operator=(const Accelerator&) = delete;
 
+  // Replaces mesh `index`'s geometry (its vertices, winding or ray visibility changed); the
+  // scene's BVH is rebuilt at commit(), the other meshes' buffers are kept as they are.
+  void replace_mesh(size_t index, const Mesh& mesh, const std::vector<Material>* materials);
+  void commit();
+
   bool intersect(const Ray& ray, RawHit& hit) const;
   bool occluded(const Ray& ray) const;
   // Installs (or with nullptr removes) the recorder for all threads; not re-entrant.

@@ -1,8 +1,7 @@
 #include "scene/builder.h"
 
-#include "core/parallel.h"
-
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <map>
@@ -11,28 +10,6 @@
 #include "scene/shapes.h"
 
 namespace gp {
-
-namespace {
-
-// Inverse transpose of the 3x3 part (for normals), up to a positive scale.
-void normal_matrix(const Transform& t, float out[3][3]) {
-  const auto& m = t.m;
-  // Cofactor matrix = det * inverse transpose; the sign of det is folded back in.
-  out[0][0] = m[1][1] * m[2][2] - m[1][2] * m[2][1];
-  out[0][1] = m[1][2] * m[2][0] - m[1][0] * m[2][2];
-  out[0][2] = m[1][0] * m[2][1] - m[1][1] * m[2][0];
-  out[1][0] = m[0][2] * m[2][1] - m[0][1] * m[2][2];
-  out[1][1] = m[0][0] * m[2][2] - m[0][2] * m[2][0];
-  out[1][2] = m[0][1] * m[2][0] - m[0][0] * m[2][1];
-  out[2][0] = m[0][1] * m[1][2] - m[0][2] * m[1][1];
-  out[2][1] = m[0][2] * m[1][0] - m[0][0] * m[1][2];
-  out[2][2] = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-  const float s = linear_determinant(t) < 0 ? -1.0f : 1.0f;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) out[r][c] *= s;
-}
-
-}  // namespace
 
 SceneBuilder::SceneBuilder(std::string source) : source_(std::move(source)) {}
 
@@ -72,47 +49,30 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
   std::vector<Transform> instances = in.instances;
   if (instances.empty()) instances.emplace_back();
   for (size_t i = 0; i < instances.size(); ++i) {
-    const Transform& tr = instances[i];
     const std::string name = in.instance_names.empty() ? in.name : in.instance_names[i];
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c)
-        if (!std::isfinite(tr.m[r][c]))
-          throw SceneError(fmt::format("{}: object '{}': the matrix is not finite (row {}, column {} is {})", source_, name, r,
-                                       c, tr.m[r][c]));
-    if (tr.m[3][0] != 0 || tr.m[3][1] != 0 || tr.m[3][2] != 0 || tr.m[3][3] != 1)
-      throw SceneError(fmt::format("{}: object '{}': the matrix is not affine (last row must be 0 0 0 1)", source_, name));
-    if (linear_determinant(tr) == 0)
-      throw SceneError(fmt::format("{}: object '{}': the matrix is singular (zero scale?)", source_, name));
+    if (const std::string bad = check_object_matrix(instances[i]); !bad.empty())
+      throw SceneError(fmt::format("{}: object '{}': {}", source_, name, bad));
+  }
+  // Object space, once for all instances (Scene::set_mesh_transform moves an instance from it).
+  auto src = std::make_shared<MeshSource>();
+  src->positions.resize(nv);
+  for (size_t v = 0; v < nv; ++v) src->positions[v] = Vec3(in.positions[3 * v], in.positions[3 * v + 1], in.positions[3 * v + 2]);
+  if (in.normals) {
+    src->normals.resize(nv);
+    for (size_t v = 0; v < nv; ++v) src->normals[v] = Vec3(in.normals[3 * v], in.normals[3 * v + 1], in.normals[3 * v + 2]);
+  }
+  for (size_t i = 0; i < instances.size(); ++i) {
     Pending p;
     p.materials = in.materials;
     Mesh& m = p.mesh;
-    m.name = name;
-    m.positions.resize(nv);
-    if (in.normals) m.normals.resize(nv);
-    float nm[3][3];
-    normal_matrix(tr, nm);
-    parallel_for(nv, 0, [&](size_t begin, size_t end) {
-      for (size_t v = begin; v != end; ++v) {
-        const float* q = in.positions + 3 * v;
-        m.positions[v] = tr.point(Vec3(q[0], q[1], q[2]));
-        if (in.normals) {
-          const float* n = in.normals + 3 * v;
-          const Vec3 w{nm[0][0] * n[0] + nm[0][1] * n[1] + nm[0][2] * n[2],
-                       nm[1][0] * n[0] + nm[1][1] * n[1] + nm[1][2] * n[2],
-                       nm[2][0] * n[0] + nm[2][1] * n[1] + nm[2][2] * n[2]};
-          const float len = length(w);
-          m.normals[v] = len > 0 && std::isfinite(len) ? w / len : Vec3(0, 0, 1);
-        }
-      }
-    });
+    m.name = in.instance_names.empty() ? in.name : in.instance_names[i];
+    m.indices.assign(in.indices, in.indices + 3 * nt);
+    transform_mesh(*src, instances[i], m);  // world space, winding kept for a mirroring matrix
+    m.source = src;
     if (in.uvs) {
       m.uvs.resize(nv);
       for (size_t v = 0; v < nv; ++v) m.uvs[v] = Vec2(in.uvs[2 * v], in.uvs[2 * v + 1]);
     }
-    m.indices.assign(in.indices, in.indices + 3 * nt);
-    // A mirroring matrix reverses the winding so geometric normals keep their side (as the loader).
-    if (linear_determinant(tr) < 0)
-      for (size_t k = 0; k < 3 * nt; k += 3) std::swap(m.indices[k + 1], m.indices[k + 2]);
     if (in.material_ids) m.material_ids.assign(in.material_ids, in.material_ids + nt);
     else m.material_ids.assign(nt, 0);
     meshes_.push_back(std::move(p));
@@ -137,6 +97,68 @@ Scene SceneBuilder::finalize() {
   meshes_.clear();
   finalize_scene(scene);
   return scene;
+}
+
+// ---- Updates ----
+
+void update_description(Scene& scene, const std::string& json_text) {
+  const std::string source = scene.source.empty() ? std::string("<scene>") : scene.source;
+  scene.check_not_rendering("update materials and lights");
+  Scene next = parse_scene_from_string(json_text, ".", source);
+  if (!next.meshes.empty())
+    throw SceneError(fmt::format("{}: a description update has no objects (meshes are added by arrays)", source));
+  const bool has_camera = nlohmann::json::parse(json_text).contains("camera");
+  std::map<std::string, size_t> index;
+  for (size_t i = 0; i < next.materials.size(); ++i) index[next.materials[i].name] = i;
+  // Which materials the meshes use: those must survive.
+  std::vector<bool> used(scene.materials.size(), false);
+  for (const Mesh& m : scene.meshes)
+    for (uint32_t id : m.material_ids) used[id] = true;
+  std::vector<Material> materials = scene.materials;
+  std::vector<bool> visibility_changed(materials.size(), false);
+  for (size_t i = 0; i < materials.size(); ++i) {
+    auto it = index.find(materials[i].name);
+    if (it == index.end()) {
+      if (used[i])
+        throw SceneError(fmt::format("{}: material '{}' is used by an object but not in the update", source,
+                                     materials[i].name));
+      continue;
+    }
+    const Material& n = next.materials[it->second];
+    visibility_changed[i] = n.visible_to_camera != materials[i].visible_to_camera ||
+                            n.casts_shadow != materials[i].casts_shadow;
+    materials[i] = n;
+    index.erase(it);
+  }
+  for (size_t i = 0; i < next.materials.size(); ++i)
+    if (index.count(next.materials[i].name)) materials.push_back(next.materials[i]);
+  scene.materials = std::move(materials);
+  scene.lights = std::move(next.lights);
+  if (has_camera) scene.camera = next.camera;
+  scene.warnings = std::move(next.warnings);
+  for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+    for (uint32_t id : scene.meshes[mi].material_ids)
+      if (visibility_changed[id]) {
+        scene.mark_mesh_changed(mi);  // its ray-visibility filters
+        break;
+      }
+  try {
+    scene.commit();
+  } catch (const std::runtime_error& e) {  // Scene::build_lights names the light or mesh
+    throw SceneError(e.what());
+  }
+}
+
+void set_camera(Scene& scene, const std::string& camera_json) {
+  const std::string source = scene.source.empty() ? std::string("<scene>") : scene.source;
+  nlohmann::json root;
+  try {
+    root["camera"] = nlohmann::json::parse(camera_json);
+  } catch (const nlohmann::json::exception& e) {
+    throw SceneError(fmt::format("{}: camera: not JSON: {}", source, e.what()));
+  }
+  Scene next = parse_scene_from_string(root.dump(), ".", source);
+  scene.set_camera(next.camera);
 }
 
 }  // namespace gp

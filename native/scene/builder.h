@@ -34,6 +34,16 @@ struct MeshArrays {
   std::vector<std::string> instance_names;  // optional, one per instance (default: name)
 };
 
+// ---- Updates of a finalized scene (the rendered viewport; scene.h "Updates") ----
+// From the same JSON description SceneBuilder takes, without "objects": materials are replaced
+// by name and keep their indices (so meshes keep theirs; a material a mesh uses must still be
+// described, else SceneError and the caller rebuilds), new names are added; lights and the
+// environment are replaced; the camera is replaced when the description has one. Commits
+// (emission, visibility and the light set follow the new materials).
+void update_description(Scene& scene, const std::string& json_text);
+// Replaces the camera by a description's "camera" object (JSON text). Throws SceneError.
+void set_camera(Scene& scene, const std::string& camera_json);
+
 class SceneBuilder {
  public:
   // `source` names the scene in messages ("Blender scene 'Scene'").

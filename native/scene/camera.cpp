@@ -1,24 +1,40 @@
 #include "scene/camera.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
 #include "core/sampling.h"
 
 namespace gp {
 
-Vec2 Camera::tan_half_extent() const {
-  const float t = std::tan(0.5f * fov_degrees * kPi / 180.0f);
+Vec2 Camera::half_extent() const {
+  const float t = projection == Projection::Orthographic ? 0.5f * ortho_scale
+                                                         : std::tan(0.5f * fov_degrees * kPi / 180.0f);
   const float aspect = static_cast<float>(width) / static_cast<float>(height);
   bool horizontal = sensor_fit == SensorFit::Horizontal ||
                     (sensor_fit == SensorFit::Auto && width >= height);  // Blender's AUTO
   return horizontal ? Vec2(t, t / aspect) : Vec2(t * aspect, t);
 }
 
+float Camera::pixel_footprint(float distance) const {
+  const float pixel = 2.0f * half_extent().x / width;
+  return projection == Projection::Orthographic ? pixel : pixel * distance;
+}
+
 Ray Camera::generate_ray(Vec2 film, Vec2 u_lens) const {
-  const Vec2 ext = tan_half_extent();
-  const float sx = (2.0f * film.x / width - 1.0f) * ext.x;
-  const float sy = (1.0f - 2.0f * film.y / height) * ext.y;
+  const Vec2 ext = half_extent();
+  // Blender's shift is a fraction of the larger extent (Cycles: blender_camera_viewplane).
+  const float s = 2.0f * std::max(ext.x, ext.y);
+  const float sx = (2.0f * film.x / width - 1.0f) * ext.x + shift.x * s;
+  const float sy = (1.0f - 2.0f * film.y / height) * ext.y + shift.y * s;
   Vec3 dir{sx, sy, -1.0f};
   Vec3 origin{0, 0, 0};
-  if (aperture_radius > 0) {
+  if (projection == Projection::Orthographic) {
+    origin = Vec3(sx, sy, 0);
+    dir = Vec3(0, 0, -1);
+  } else if (aperture_radius > 0) {
     // Thin lens: all rays through the pixel meet on the focus plane z = -focus_distance.
     const Vec3 focus = dir * focus_distance;
     const Vec2 lens = sample_uniform_disk_concentric(u_lens) * aperture_radius;
@@ -28,6 +44,24 @@ Ray Camera::generate_ray(Vec2 film, Vec2 u_lens) const {
   Ray ray(camera_to_world.point(origin), normalize(camera_to_world.vector(dir)));
   ray.camera = true;
   return ray;
+}
+
+std::string Camera::check() const {
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      if (!std::isfinite(camera_to_world.m[r][c])) return "the camera matrix is not finite";
+  if (width < 1 || height < 1) return fmt::format("the image is {}x{} pixels", width, height);
+  if (!(std::isfinite(shift.x) && std::isfinite(shift.y))) return "the camera shift is not finite";
+  if (projection == Projection::Orthographic ? !(ortho_scale > 0 && std::isfinite(ortho_scale))
+                                             : !(fov_degrees > 0 && fov_degrees < 180))
+    return "the field of view must be above 0 (and below 180 degrees)";
+  if (crop_width != 0 || crop_height != 0) {
+    if (crop_width < 1 || crop_height < 1 || crop_x < 0 || crop_y < 0 || crop_x + crop_width > width ||
+        crop_y + crop_height > height)
+      return fmt::format("crop window {} {} {}x{} is not inside the {}x{} image", crop_x, crop_y, crop_width,
+                         crop_height, width, height);
+  }
+  return {};
 }
 
 }  // namespace gp

@@ -190,8 +190,8 @@ class Loader : private JsonReader {
 
   void load_camera(const json& c, const std::string& path) {
     require_object(c, path);
-    check_keys(c, path, {"position", "look_at", "up", "matrix", "fov", "sensor_fit", "width", "height",
-                         "aperture_radius", "focus_distance"});
+    check_keys(c, path, {"position", "look_at", "up", "matrix", "type", "fov", "ortho_scale", "sensor_fit", "width",
+                         "height", "shift", "crop", "aperture_radius", "focus_distance"});
     Camera cam;
     if (const json* m = find(c, "matrix")) {
       if (find(c, "position") || find(c, "look_at") || find(c, "up"))
@@ -231,6 +231,23 @@ class Loader : private JsonReader {
     if (const json* h = find(c, "height")) cam.height = static_cast<int>(get_int(*h, sub(path, "height"), 1, 65536));
     if (const json* a = find(c, "aperture_radius")) cam.aperture_radius = get_nonnegative(*a, sub(path, "aperture_radius"));
     if (const json* d = find(c, "focus_distance")) cam.focus_distance = get_positive(*d, sub(path, "focus_distance"));
+    if (const json* t = find(c, "type")) {
+      const std::string type = get_string(*t, sub(path, "type"));
+      if (type == "perspective") cam.projection = Projection::Perspective;
+      else if (type == "orthographic") cam.projection = Projection::Orthographic;
+      else fail(sub(path, "type"), fmt::format("unknown camera type '{}' (known: perspective, orthographic)", type));
+    }
+    if (const json* o = find(c, "ortho_scale")) cam.ortho_scale = get_positive(*o, sub(path, "ortho_scale"));
+    if (const json* s = find(c, "shift")) cam.shift = get_vec2(*s, sub(path, "shift"));
+    if (const json* w = find(c, "crop")) {
+      const std::string wpath = sub(path, "crop");
+      if (!w->is_array() || w->size() != 4) fail(wpath, "must be [x, y, width, height] in pixels");
+      cam.crop_x = static_cast<int>(get_int((*w)[0], sub(wpath, 0), 0, cam.width - 1));
+      cam.crop_y = static_cast<int>(get_int((*w)[1], sub(wpath, 1), 0, cam.height - 1));
+      cam.crop_width = static_cast<int>(get_int((*w)[2], sub(wpath, 2), 1, cam.width - cam.crop_x));
+      cam.crop_height = static_cast<int>(get_int((*w)[3], sub(wpath, 3), 1, cam.height - cam.crop_y));
+    }
+    if (const std::string bad = cam.check(); !bad.empty()) fail(path, bad);
     scene_.camera = cam;
   }
 

@@ -1,11 +1,16 @@
 #include "scene/scene.h"
 
+#include "core/parallel.h"
+
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
 #include "scene/accel.h"
+#include "scene/shapes.h"
 
 namespace gp {
 
@@ -40,6 +45,12 @@ size_t Scene::triangle_count() const {
 }
 
 void Scene::finalize() {
+  build_lights();
+  accel_ = std::make_unique<Accelerator>(meshes, &materials);
+  changed_meshes_.clear();
+}
+
+void Scene::build_lights() {
   bounds_ = Bounds3();
   std::vector<Light> all_lights = lights;
   triangle_light_.assign(meshes.size(), {});
@@ -102,7 +113,114 @@ void Scene::finalize() {
       throw std::runtime_error(fmt::format("{}: light '{}' has a non-finite value", source, l.name));
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);
-  accel_ = std::make_unique<Accelerator>(meshes, &materials);
+}
+
+// ---- Updates ----
+
+Scene::RenderGuard::RenderGuard(const Scene& s) : s_(s) {
+  int n = s_.state_->load();
+  do {
+    if (n < 0) throw std::logic_error(fmt::format("{}: cannot render while the scene is being updated", s_.source));
+  } while (!s_.state_->compare_exchange_weak(n, n + 1));
+}
+
+Scene::UpdateGuard::UpdateGuard(Scene& s) : s_(s) {
+  int idle = 0;
+  if (!s_.state_->compare_exchange_strong(idle, -1))
+    throw std::logic_error(fmt::format("{}: cannot update the scene while {}", s_.source,
+                                       idle > 0 ? "a render uses it (cancel it first)" : "another update runs"));
+}
+
+void Scene::check_not_rendering(const char* what) const {
+  if (rendering())
+    throw std::logic_error(fmt::format("{}: cannot {} while a render uses the scene (cancel it first)", source, what));
+}
+
+std::string check_object_matrix(const Transform& t) {
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      if (!std::isfinite(t.m[r][c]))
+        return fmt::format("the matrix is not finite (row {}, column {} is {})", r, c, t.m[r][c]);
+  if (t.m[3][0] != 0 || t.m[3][1] != 0 || t.m[3][2] != 0 || t.m[3][3] != 1)
+    return "the matrix is not affine (last row must be 0 0 0 1)";
+  if (linear_determinant(t) == 0) return "the matrix is singular (zero scale?)";
+  return {};
+}
+
+void transform_mesh(const MeshSource& src, const Transform& tr, Mesh& m) {
+  // Cofactor matrix of the 3x3 part = det * inverse transpose (for normals); the sign of det
+  // is folded back in so the normals keep their side.
+  const auto& a = tr.m;
+  float nm[3][3] = {{a[1][1] * a[2][2] - a[1][2] * a[2][1], a[1][2] * a[2][0] - a[1][0] * a[2][2],
+                     a[1][0] * a[2][1] - a[1][1] * a[2][0]},
+                    {a[0][2] * a[2][1] - a[0][1] * a[2][2], a[0][0] * a[2][2] - a[0][2] * a[2][0],
+                     a[0][1] * a[2][0] - a[0][0] * a[2][1]},
+                    {a[0][1] * a[1][2] - a[0][2] * a[1][1], a[0][2] * a[1][0] - a[0][0] * a[1][2],
+                     a[0][0] * a[1][1] - a[0][1] * a[1][0]}};
+  const bool mirror = linear_determinant(tr) < 0;
+  if (mirror)
+    for (auto& row : nm)
+      for (float& v : row) v = -v;
+  const size_t nv = src.positions.size();
+  const bool normals = !src.normals.empty();
+  m.positions.resize(nv);
+  m.normals.resize(normals ? nv : 0);
+  parallel_for(nv, 0, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v != end; ++v) {
+      m.positions[v] = tr.point(src.positions[v]);
+      if (normals) {
+        const Vec3& n = src.normals[v];
+        const Vec3 w{nm[0][0] * n.x + nm[0][1] * n.y + nm[0][2] * n.z, nm[1][0] * n.x + nm[1][1] * n.y + nm[1][2] * n.z,
+                     nm[2][0] * n.x + nm[2][1] * n.y + nm[2][2] * n.z};
+        const float len = length(w);
+        m.normals[v] = len > 0 && std::isfinite(len) ? w / len : Vec3(0, 0, 1);
+      }
+    }
+  });
+  // A mirroring matrix reverses the winding so geometric normals keep their side (as the
+  // loader); the indices hold the previous matrix's winding, so swap when the sign changes.
+  if (mirror != (linear_determinant(m.to_world) < 0))
+    for (size_t k = 0; k + 2 < m.indices.size(); k += 3) std::swap(m.indices[k + 1], m.indices[k + 2]);
+  m.to_world = tr;
+}
+
+void Scene::set_mesh_transform(size_t index, const Transform& to_world) {
+  check_not_rendering("move an object");
+  if (index >= meshes.size())
+    throw std::invalid_argument(fmt::format("{}: no mesh {} (the scene has {})", source, index, meshes.size()));
+  Mesh& m = meshes[index];
+  if (!m.source)
+    throw std::invalid_argument(fmt::format("{}: mesh '{}' comes from a scene file and cannot be moved", source, m.name));
+  if (const std::string bad = check_object_matrix(to_world); !bad.empty())
+    throw std::invalid_argument(fmt::format("{}: object '{}': {}", source, m.name, bad));
+  transform_mesh(*m.source, to_world, m);
+  mark_mesh_changed(index);
+}
+
+void Scene::set_camera(const Camera& cam) {
+  check_not_rendering("move the camera");
+  if (const std::string bad = cam.check(); !bad.empty()) throw std::invalid_argument(fmt::format("{}: {}", source, bad));
+  camera = cam;
+  ++generation_;
+}
+
+void Scene::mark_mesh_changed(size_t index) {
+  check_not_rendering("change an object");
+  if (index >= meshes.size())
+    throw std::invalid_argument(fmt::format("{}: no mesh {} (the scene has {})", source, index, meshes.size()));
+  changed_meshes_.push_back(index);
+}
+
+void Scene::commit() {
+  check_not_rendering("update the scene");
+  if (!accel_) throw std::logic_error("Scene::commit before finalize");
+  build_lights();
+  std::sort(changed_meshes_.begin(), changed_meshes_.end());
+  changed_meshes_.erase(std::unique(changed_meshes_.begin(), changed_meshes_.end()), changed_meshes_.end());
+  for (size_t i : changed_meshes_) accel_->replace_mesh(i, meshes[i], &materials);
+  if (!changed_meshes_.empty()) accel_->commit();
+  changed_meshes_.clear();
+  ++generation_;
 }
 
 std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {

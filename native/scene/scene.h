@@ -3,6 +3,7 @@
 // behind scene/accel.
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <optional>
 #include <string>
@@ -19,6 +20,13 @@ namespace gp {
 
 class Accelerator;
 
+// A mesh's arrays in object space (SceneBuilder keeps them, shared by its instances), so a moved
+// object is transformed again from them without its arrays being sent again.
+struct MeshSource {
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;  // empty = flat
+};
+
 struct Mesh {
   std::string name;
   std::vector<Vec3> positions;
@@ -27,7 +35,18 @@ struct Mesh {
   std::vector<uint32_t> indices;       // 3 per triangle
   std::vector<uint32_t> material_ids;  // 1 per triangle, index into Scene::materials
   size_t triangle_count() const { return indices.size() / 3; }
+  // Object space and object-to-world matrix of a mesh given as arrays (null for meshes of scene
+  // files, which cannot be moved by Scene::set_mesh_transform).
+  std::shared_ptr<const MeshSource> source;
+  Transform to_world;
 };
+
+// positions and normals of `mesh` = `source` under `to_world` (normals by the inverse transpose,
+// renormalised); with a mirroring matrix the winding of `mesh.indices` is kept on the geometric
+// normal's side (it is reversed when the sign of the determinant changes). Sets mesh.to_world.
+void transform_mesh(const MeshSource& source, const Transform& to_world, Mesh& mesh);
+// Empty, or why `t` cannot place an object: not finite, not affine, singular.
+std::string check_object_matrix(const Transform& t);
 
 // A ray's closest hit with everything shading needs.
 struct SurfaceHit {
@@ -65,6 +84,51 @@ class Scene {
   void finalize();
   bool finalized() const { return accel_ != nullptr; }
 
+  // ---- Updates of a finalized scene (the rendered viewport, persistent data) ----
+  // An update changes what renders see: it throws std::logic_error while a render holds the
+  // scene (RenderGuard), and each committed update advances generation(), by which a render
+  // made before it (an integrator holds what it derived from the scene) knows it is stale.
+  //
+  // Moves mesh `index` (which must have a source: built from arrays) to `to_world`; takes effect
+  // at commit(). Throws std::invalid_argument for a bad index or matrix.
+  void set_mesh_transform(size_t index, const Transform& to_world);
+  // Replaces the camera (Camera::check'ed: std::invalid_argument); needs no commit().
+  void set_camera(const Camera& camera);
+  // Marks mesh `index` changed in ways commit() must pass on (its materials' ray visibility).
+  void mark_mesh_changed(size_t index);
+  // Rebuilds what depends on meshes, materials and lights: the area lights, the light
+  // distribution and bounds, and the accelerator's changed meshes (their BVH is refit into
+  // the scene's, not the other meshes' arrays copied again). Advances generation().
+  void commit();
+  uint64_t generation() const { return generation_; }
+
+  // Held by a render while it reads the scene (any number at once); an UpdateGuard excludes
+  // them. Each throws std::logic_error when the other is held: callers on several threads (the
+  // Python module) see a clear error, never a race.
+  class RenderGuard {
+   public:
+    explicit RenderGuard(const Scene& s);
+    ~RenderGuard() { s_.state_->fetch_sub(1); }
+    RenderGuard(const RenderGuard&) = delete;
+    RenderGuard& operator=(const RenderGuard&) = delete;
+
+   private:
+    const Scene& s_;
+  };
+  class UpdateGuard {
+   public:
+    explicit UpdateGuard(Scene& s);
+    ~UpdateGuard() { s_.state_->store(0); }
+    UpdateGuard(const UpdateGuard&) = delete;
+    UpdateGuard& operator=(const UpdateGuard&) = delete;
+
+   private:
+    Scene& s_;
+  };
+  bool rendering() const { return state_->load() > 0; }
+  // Throws std::logic_error naming `what` while a render holds the scene.
+  void check_not_rendering(const char* what) const;
+
   std::optional<SurfaceHit> intersect(const Ray& ray) const;
   bool occluded(const Ray& ray) const;
   // Shadow ray between two surface points, both pushed off their surfaces.
@@ -85,6 +149,12 @@ class Scene {
   LightSet light_set_;
   Bounds3 bounds_;
   std::vector<std::vector<int32_t>> triangle_light_;  // per mesh, per triangle: light or -1
+  std::vector<size_t> changed_meshes_;                 // for the accelerator at commit()
+  uint64_t generation_ = 0;
+  // Renders holding the scene (> 0), an update (-1) or neither (0).
+  std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
+
+  void build_lights();  // validation, area lights, light set and bounds (finalize, commit)
 };
 
 }  // namespace gp

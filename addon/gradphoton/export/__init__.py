@@ -59,9 +59,12 @@ class ExportedScene:
         return out
 
 
-def export_scene(depsgraph, *, export_uvs=False):
-    """Exports the evaluated depsgraph (visible objects and instances, modifiers applied)."""
+def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None):
+    """Exports the evaluated depsgraph (visible objects and instances, modifiers applied); mesh
+    arrays come from `mesh_cache` (mesh.MeshCache) where it holds them."""
     t0 = time.perf_counter()
+    if mesh_cache is not None:
+        mesh_cache.hits = mesh_cache.misses = 0
     scene = depsgraph.scene
     out = ExportedScene()
     out.name = scene.name
@@ -76,10 +79,12 @@ def export_scene(depsgraph, *, export_uvs=False):
         kind = ob.type
         skipped.check_object(ob, kind, w)
         if kind in mesh.GEOMETRY_TYPES:
-            mesh.add_instance(meshes, inst, mats, w, export_uvs)
+            mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache)
         elif kind == 'LIGHT':
             light.add_light(out, inst, mats, w)
         # cameras, empties, armatures: nothing to render
+    if mesh_cache is not None:
+        mesh_cache.keep_only(meshes.keys())
     out.meshes = [m for m in meshes.values() if m.triangle_count > 0] + out.meshes  # area lights first added
     skipped.check_scene(scene, mats.used_materials(), w)
     out.description["camera"], out.width, out.height, out.border = camera.export_camera(scene, w)

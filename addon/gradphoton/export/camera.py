@@ -1,8 +1,8 @@
 """Camera: Blender's scene camera -> the core's camera (same conventions: -Z view, +Y up, field
-of view on the fitted axis). Resolution with percentage; border as a pixel window; depth of
-field as Cycles: aperture radius = focal length / (2 f-stop), focus distance from the focus
-object (along the view axis) or the distance field. Shift, orthographic and panoramic cameras
-are approximated (counted warnings)."""
+of view on the fitted axis). Resolution with percentage; border as the core's crop window (only
+its pixels are traced); depth of field as Cycles: aperture radius = focal length / (2 f-stop),
+focus distance from the focus object (along the view axis) or the distance field; lens shift and
+orthographic cameras as Blender's. Panoramic cameras are approximated (a counted warning)."""
 import math
 
 import numpy as np
@@ -24,6 +24,9 @@ def export_camera(scene, warnings):
             border = (x0, y0, x1 - x0, y1 - y0)
     ob = scene.camera
     d = {"width": width, "height": height}
+    if border is not None:  # the core traces only these pixels (its rows run from the top)
+        x0, y0, w, h = border
+        d["crop"] = [x0, height - (y0 + h), w, h]
     if ob is None:
         warnings.add("no scene camera (default view)", scene.name)
         d["matrix"] = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 5, 0, 0, 0, 1]
@@ -34,10 +37,13 @@ def export_camera(scene, warnings):
     t = mw.translation
     d["matrix"] = [rot[0][0], rot[0][1], rot[0][2], t[0], rot[1][0], rot[1][1], rot[1][2], t[1],
                    rot[2][0], rot[2][1], rot[2][2], t[2], 0, 0, 0, 1]
-    if cam.type != 'PERSP':
-        warnings.add("only perspective cameras (rendered as perspective)", f"{ob.name} ({cam.type})")
+    if cam.type == 'ORTHO':
+        d["type"] = "orthographic"
+        d["ortho_scale"] = cam.ortho_scale
+    elif cam.type != 'PERSP':
+        warnings.add("panoramic camera (rendered as perspective)", f"{ob.name} ({cam.type})")
     if cam.shift_x != 0 or cam.shift_y != 0:
-        warnings.add("camera shift ignored", ob.name)
+        d["shift"] = [cam.shift_x, cam.shift_y]
     fit = cam.sensor_fit
     sensor = cam.sensor_height if fit == 'VERTICAL' else cam.sensor_width
     d["fov"] = math.degrees(2.0 * math.atan(0.5 * sensor / cam.lens))

@@ -7,6 +7,10 @@ the core shades flat by the triangle normal). Mixed smooth/flat faces, auto smoo
 split normals (and UVs, when asked for) need per-corner data: then every face corner becomes a
 vertex and its split normal is used. Instances of one mesh share one record with one matrix
 per instance.
+
+A MeshCache (the rendered viewport, persistent data: sync.py) keeps the arrays of each record
+between exports, so an export after a camera, transform or material change reads no mesh data
+from Blender; objects whose geometry changed are dropped from it first (MeshCache.drop).
 """
 import numpy as np
 
@@ -18,6 +22,7 @@ GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT'}
 class MeshRecord:
     def __init__(self, name):
         self.name = name
+        self.geometry_id = None  # the arrays' identity (sync.py): same id, same arrays
         self.positions = self.indices = self.normals = self.uvs = self.material_ids = None
         self.materials = []
         self.matrices = []
@@ -67,8 +72,35 @@ def mesh_arrays(me, export_uvs=False):
     return co.reshape(nv, 3)[loop_vert], idx.reshape(nt, 3), normals.reshape(nl, 3), uvs, mat
 
 
-def add_instance(records, inst, mats, warnings, export_uvs):
-    """Adds one depsgraph instance of a geometry object to `records` (key -> MeshRecord)."""
+class MeshCache:
+    """Arrays of exported meshes by record key, and which objects used each key."""
+
+    def __init__(self):
+        self.arrays = {}     # key -> (geometry_id, positions, indices, normals, uvs, material_ids, triangle_count)
+        self.users = {}      # object name -> keys it used
+        self._next_id = 0
+        self.hits = self.misses = 0  # of the latest export (tests, benchmarks)
+
+    def new_id(self):
+        self._next_id += 1
+        return self._next_id
+
+    def drop(self, object_names):
+        """Forgets the arrays every object in `object_names` used (its geometry changed)."""
+        for name in object_names:
+            for key in self.users.pop(name, ()):
+                self.arrays.pop(key, None)
+
+    def keep_only(self, keys):
+        """Forgets arrays no record of the latest export used."""
+        for key in set(self.arrays) - set(keys):
+            del self.arrays[key]
+        self.users = {n: k & set(keys) for n, k in self.users.items() if k & set(keys)}
+
+
+def add_instance(records, inst, mats, warnings, export_uvs, cache=None):
+    """Adds one depsgraph instance of a geometry object to `records` (key -> MeshRecord); with a
+    MeshCache, a record's arrays come from it when it has them."""
     ob = inst.object
     matrix = np.array(inst.matrix_world, dtype=np.float32)
     if np.isfinite(matrix).all() and np.linalg.det(matrix[:3, :3].astype(np.float64)) == 0:
@@ -82,6 +114,15 @@ def add_instance(records, inst, mats, warnings, export_uvs):
     data_key = ob.data.as_pointer() if (ob.type == 'MESH' and ob.data is not None) else ob.as_pointer()
     key = (data_key, tuple(names))
     rec = records.get(key)
+    if cache is not None:
+        cache.users.setdefault(ob.name, set()).add(key)
+    if rec is None and cache is not None and key in cache.arrays:
+        rec = MeshRecord(ob.name)
+        (rec.geometry_id, rec.positions, rec.indices, rec.normals, rec.uvs, rec.material_ids,
+         rec.triangle_count) = cache.arrays[key]
+        rec.materials = names
+        records[key] = rec
+        cache.hits += 1
     if rec is None:
         rec = MeshRecord(ob.name)
         if ob.type == 'MESH':
@@ -101,6 +142,11 @@ def add_instance(records, inst, mats, warnings, export_uvs):
                 owner.to_mesh_clear()
         rec.materials = names
         records[key] = rec
+        if cache is not None:
+            rec.geometry_id = cache.new_id()
+            cache.arrays[key] = (rec.geometry_id, rec.positions, rec.indices, rec.normals, rec.uvs, rec.material_ids,
+                                 rec.triangle_count)
+            cache.misses += 1
     rec.matrices.append(matrix)
     n = len(rec.matrices)
     rec.instance_names.append(ob.name if n == 1 else f"{ob.name} [{n - 1}]")

@@ -102,8 +102,8 @@ GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
       alpha_(params.get<double>("primal_share", 0.05)),
       large_step_mis_(params.get<bool>("large_step_mis", true)),
       seed_(params.get<uint64_t>("seed", 0)),
-      width_(scene.camera.width),
-      height_(scene.camera.height) {
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()) {
   if (mutations_ < 1) throw ParamError("mutations must be >= 1");
   if (chain_count_ < 1) throw ParamError("chains must be >= 1");
   if (bootstrap_per_pixel_ < 1) throw ParamError("bootstrap must be >= 1");

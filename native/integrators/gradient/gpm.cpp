@@ -175,7 +175,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(seed_, pixel, pass, x, y);
+            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
             OffsetWalk walk(scene_, threshold_, rays, fail_count);
             walk.start(x, y, width_, height_, film, lens);
             EyePath path = trace_eye_path(scene_.camera.generate_ray(film, lens), rng, rays, walk);

@@ -46,8 +46,8 @@ GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
       threads_(params.get<int>("threads", 0)),
       tile_size_(params.get<int>("tile_size", 16)),
       seed_(params.get<uint64_t>("seed", 0)),
-      width_(scene.camera.width),
-      height_(scene.camera.height) {
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()) {
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
   recon_ = gradient_recon_options(params, "gpt", threads_);
   const size_t n = static_cast<size_t>(width_) * height_;
@@ -65,7 +65,9 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
   Offset off[4];
   for (int d = 0; d < 4; ++d) {
     out.diff[d] = RGB(0.0f);
-    const int px = static_cast<int>(film.x) + kOffsetX[d], py = static_cast<int>(film.y) + kOffsetY[d];
+    // `film` is in the whole image's pixels (camera.h start_pixel); the film is the crop window.
+    const int px = static_cast<int>(film.x) - scene_.camera.crop_x + kOffsetX[d],
+              py = static_cast<int>(film.y) - scene_.camera.crop_y + kOffsetY[d];
     out.has[d] = off[d].exists = px >= 0 && px < width_ && py >= 0 && py < height_;
     if (!off[d].exists) continue;
     // Same sub-pixel position and lens sample one pixel over: the camera's Jacobian is 1.
@@ -359,7 +361,7 @@ void GradientPathTracer::iterate(ProgressSink* sink) {
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(seed_, pixel, pass, x, y);
+            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
             RngSampler sampler(rng);
             const Sample s = trace(film, lens, sampler, tile_rays, &tile_failures);
             ++tile_paths;

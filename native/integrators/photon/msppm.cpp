@@ -31,8 +31,8 @@ Msppm::Msppm(const Scene& scene, const Params& params)
       seed_(params.get<uint64_t>("seed", 0)),
       path_samples_(params.get<int>("path_samples", 0)),
       path_samples_max_(params.get<int>("path_samples_max", 64)),
-      width_(scene.camera.width),
-      height_(scene.camera.height),
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()),
       tracer_(scene, max_depth_, threshold_, seed_, threads_) {
   if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
   if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
@@ -55,7 +55,6 @@ Msppm::Msppm(const Scene& scene, const Params& params)
   first_r_.assign(n, 0.0f);
   gather_m_.assign(n, 0.0f);
   gather_phi_.assign(n, RGB(0.0f));
-  pixel_spread_ = 2.0f * scene.camera.tan_half_extent().x / width_;
   if (scene.light_set().empty()) stats_.extra["warning: no lights"] = 1;
 }
 
@@ -83,7 +82,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
         // vertices written to ev[0 .. count). `ratio` = n_pm / n_pt (see light_weight).
         auto trace = [&](Rng& rng, int px, int py, double ratio, EyeVertex* ev, int& count, float& first_r,
                          Vec3& origin) -> RGB {
-            const Vec2 film(px + rng.uniform(), py + rng.uniform());
+            const Vec2 film(px + scene_.camera.crop_x + rng.uniform(), py + scene_.camera.crop_y + rng.uniform());
             const Vec2 lens(rng.uniform(), rng.uniform());
             Ray ray = scene_.camera.generate_ray(film, lens);
             origin = ray.o;
@@ -140,7 +139,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               e.material = hit->material;
               e.delta = bsdf.is_delta();
               e.mergeable = !e.delta && bsdf.is_diffuse_for_photons(threshold_);
-              if (e.mergeable && first_r == 0) first_r = 2.0f * pixel_spread_ * path_length;
+              if (e.mergeable && first_r == 0) first_r = 2.0f * scene_.camera.pixel_footprint(path_length);
               PathVertex sv;
               sv.p = e.p;
               sv.ng = e.ng;
@@ -223,7 +222,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
             const double ratio = npm / npt;
             pass_npm_[pixel] = ratio;
             pass_npm_full_[pixel] = npm;
-            Rng rng = Rng::for_key(seed_, pixel, pass);
+            Rng rng = Rng::for_key(seed_, scene_.camera.pixel_key(px, py), pass);
             int count = 0;
             float first_r = 0;
             RGB Ld = trace(rng, px, py, ratio, &eye_[pixel * max_depth_], count, first_r, eye_origin_[pixel]);

@@ -192,7 +192,6 @@ class Msppm : public Integrator {
   uint64_t seed_;
   int path_samples_, path_samples_max_;
   int width_, height_;
-  float pixel_spread_;
 
   PhotonTracer tracer_;
   PhotonHashGrid grid_;

@@ -30,8 +30,8 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
       tile_size_(params.get<int>("tile_size", 16)),
       threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
       seed_(params.get<uint64_t>("seed", 0)),
-      width_(scene.camera.width),
-      height_(scene.camera.height),
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()),
       tracer_(scene, max_depth_, threshold_, seed_, threads_) {
   const std::string hash = params.get<std::string>("hash", "exact");
   if (hash == "exact") hash_mode_ = PhotonHashMode::Exact;
@@ -63,7 +63,6 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   gather_lap_.assign(n, 0.0f);
   gather_phi_.assign(n, RGB(0.0f));
   error_.assign(n, 0.0f);
-  pixel_spread_ = 2.0f * scene.camera.tan_half_extent().x / width_;
   if (allow_spectral && !adaptive_ &&
       use_spectral(parse_spectral_mode(params.get<std::string>("spectral", "auto")), scene)) {
     spectral_ = true;
@@ -101,7 +100,7 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(seed_, pixel, pass, x, y);
+            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
             EyePath path = trace_eye_path(scene_.camera.generate_ray(film, lens), rng, rays, none);
             if (!path.Ld.is_finite()) {
               ++invalid;

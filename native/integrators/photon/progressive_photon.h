@@ -156,12 +156,11 @@ class ProgressivePhotonMapping : public Integrator {
   float threshold_;
   uint64_t seed_;
   int width_, height_;
-  float pixel_spread_;  // angle one pixel subtends (ray-cone approximation of ray differentials)
   // Initial radius from the pixel footprint: the cone one pixel subtends, grown along the eye
   // path to the gather point (a ray-cone stand-in for ray differentials), `footprint` pixels
   // wide. One rule for SPPM and the methods built on it (GPM's primal is SPPM's image).
   float footprint_radius(float path_length) const {
-    return static_cast<float>(footprint_pixels_) * pixel_spread_ * path_length;
+    return static_cast<float>(footprint_pixels_) * scene_.camera.pixel_footprint(path_length);
   }
 
   PhotonTracer tracer_;

@@ -100,7 +100,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(seed_, pixel, pass, x, y);
+            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
             Ray ray = scene_.camera.generate_ray(film, lens);
             SpectralValues beta{}, Ld{};
             for (int k = 0; k < C; ++k) beta[k] = 1.0f;

@@ -108,8 +108,8 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
       tau_(params.get<double>("tau", 0.0)),
       alpha_(params.get<double>("alpha", 0.2)),
       seed_(params.get<uint64_t>("seed", 0)),
-      width_(scene.camera.width),
-      height_(scene.camera.height),
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()),
       poisson_(2, 1, 1.0) {
   if (bins_ < 3 || bins_ > 256) throw ParamError("bins must be in 3..256");
   if (count_ < 1 || count_ > kMaxWavelengths)
@@ -613,7 +613,7 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(seed_, pixel, pass, x, y);
+            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
             if (!sample_pixel(pixel, rng, scene_.camera.generate_ray(film, lens), tile_rays, tc)) ++invalid;
             ++samples_[pixel];
             ++tile_paths;

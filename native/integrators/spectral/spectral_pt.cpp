@@ -64,9 +64,9 @@ SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params,
       threads_(params.get<int>("threads", 0)),
       tile_size_(params.get<int>("tile_size", 16)),
       seed_(params.get<uint64_t>("seed", 0)),
-      width_(scene.camera.width),
-      height_(scene.camera.height),
-      estimate_(std::max(1, width_), std::max(1, height_)) {  // sizes checked just below
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()),
+      estimate_(std::max(1, width_), std::max(1, height_), &scene.camera) {  // sizes checked just below
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
   if (count_ < 1 || count_ > kMaxWavelengths)
     throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));

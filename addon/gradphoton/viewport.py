@@ -1,0 +1,374 @@
+"""The rendered viewport (a 3D view in Rendered shading), as Cycles' viewport: engine.py's
+view_update / view_draw delegate here; nothing here is a Blender class.
+
+  view_update (Blender's UI thread, on every depsgraph change): sync.py exports what changed
+      (mesh arrays from a cache) and turns it into a Plan; the plan goes to the worker and the
+      pass in progress is cancelled.
+  view_draw (UI thread, on every redraw): the view's camera from the region (a changed view is
+      a new camera for the worker), then the latest image as a GPU texture (Blender's `gpu`
+      module), drawn over the region; Blender applies the view transform to the viewport.
+  worker (one thread per viewport): applies plans to the one native scene it keeps (camera and
+      object moves, material edits: no mesh is exported again, only the moved meshes' part of
+      the BVH changes), then refines: one pass at a reduced resolution (the longer side about
+      START_RESOLUTION pixels, as Cycles' start resolution), halving the pixel size pass by
+      pass, then passes at full resolution until the viewport's pass count. Each new image
+      asks Blender to redraw (RenderEngine.tag_redraw).
+
+Never blocks Blender's UI thread on native work: native calls run on the worker with the GIL
+released; the UI thread only cancels (Session.cancel: the pass stops between tiles). Work stops
+when the engine is freed (leaving Rendered shading, closing the view): engine.py's __del__ calls
+free(); the worker also stops by itself once the engine is gone (a weak reference).
+"""
+import math
+import threading
+import time
+import weakref
+
+import numpy as np
+
+from . import native, sync
+from .export import camera as camera_export
+from .export import Warnings
+from .properties import FILM_TRANSPARENT
+from .session import params_of
+
+START_RESOLUTION = 64      # pixels on the longer side of the first pass (Cycles' default)
+IDLE_WAIT = 0.25           # seconds the worker sleeps between checks when it has nothing to do
+LAST = None                # the latest ViewportSession (tests and benchmarks inspect it)
+
+
+def view_camera(context, scene, width, height):
+    """The scene-format camera (a JSON-able dict) of the 3D view's region: its view matrix and
+    projection (perspective or orthographic, off-centre as the view's window matrix says: a
+    camera view with zoom and offset, or a panned view), `width` x `height` pixels."""
+    rv3d = context.region_data
+    view = rv3d.view_matrix.inverted()
+    P = rv3d.window_matrix
+    d = {"width": int(width), "height": int(height), "sensor_fit": "horizontal"}
+    if rv3d.is_perspective:
+        ext = (1.0 / P[0][0], 1.0 / P[1][1])            # tan of the half angles
+        centre = (P[0][2] / P[0][0], P[1][2] / P[1][1])  # the frustum's off-centre at distance 1
+        d["fov"] = math.degrees(2.0 * math.atan(ext[0]))
+    else:
+        ext = (1.0 / P[0][0], 1.0 / P[1][1])             # metres
+        centre = (-P[0][3] / P[0][0], -P[1][3] / P[1][1])
+        d["type"] = "orthographic"
+        d["ortho_scale"] = 2.0 * ext[0]
+        # Blender's orthographic views see behind their origin (clipping from -clip_end / 2):
+        # start the rays that far back.
+        space = context.space_data
+        back = 0.5 * getattr(space, "clip_end", 1000.0)
+        z = view.col[2].xyz.normalized()
+        view.translation = view.translation + z * back
+    s = 2.0 * max(ext[0], ext[0] * height / max(1, width))  # the larger extent (camera.h shift)
+    if abs(centre[0]) > 1e-7 or abs(centre[1]) > 1e-7:
+        d["shift"] = [centre[0] / s, centre[1] / s]
+    rot = view.to_quaternion().to_matrix()
+    t = view.translation
+    d["matrix"] = [rot[0][0], rot[0][1], rot[0][2], t[0], rot[1][0], rot[1][1], rot[1][2], t[1],
+                   rot[2][0], rot[2][1], rot[2][2], t[2], 0, 0, 0, 1]
+    if rv3d.is_perspective and rv3d.view_perspective == 'CAMERA' and scene.camera is not None:
+        # Looking through the scene camera: its depth of field too (Cycles does).
+        cam, *_ = camera_export.export_camera(scene, Warnings())
+        for key in ("aperture_radius", "focus_distance"):
+            if key in cam:
+                d[key] = cam[key]
+    return d
+
+
+def dividers(width, height):
+    """Pixel sizes of the passes before full resolution: START_RESOLUTION on the longer side,
+    halved each pass (64 px first, as Cycles)."""
+    d = 1
+    while max(width, height) / (2 * d) >= START_RESOLUTION:
+        d *= 2
+    out = []
+    while d >= 1:
+        out.append(d)
+        d //= 2
+    return out
+
+
+def viewport_config(scene):
+    """(method, params) the viewport renders with: the viewport's method (default: the render
+    method), the render settings' parameters, no auxiliary passes."""
+    settings = scene.gradphoton
+    method = settings.viewport_method
+    if method == 'RENDER' or not method:
+        method = settings.method
+    params = params_of(settings, method, frame=scene.frame_current)
+    params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
+    return method, params
+
+
+class ViewportSession:
+    def __init__(self, engine):
+        global LAST
+        LAST = self
+        self._engine = weakref.ref(engine)
+        self.sync = sync.SceneSync()
+        self.lock = threading.Condition()
+        self.thread = None
+        self.stopped = False
+        # Shared with the worker (under `lock`):
+        self.plan = None          # sync.Plan not applied yet
+        self.config = None        # (method, params)
+        self.config_changed = False
+        self.camera = None        # the view's camera dict (full resolution)
+        self.camera_changed = False
+        self.max_passes = 0
+        self.request = None       # (kind, perf_counter) of the latest change asked for
+        self.image = None         # (serial, float32 array (H, W, 4) bottom row first)
+        self.serial = 0
+        self.status = ""
+        self.error = None
+        self.native = None        # the native Session the worker iterates (cancel)
+        self.busy = False         # the worker has work left (Blender keeps redrawing)
+        # Measurements (tests, scripts/bench_viewport.py):
+        self.events = []          # (kind, seconds from the request to the first image of it)
+        self._full = None         # the request whose full-resolution image is still to come
+        self.freed_at = self.exited_at = None  # perf_counter() of free() and of the worker's end
+        self.passes = 0           # passes of the current image
+        self.divider = 1
+        # UI thread only:
+        self._texture = None
+        self._texture_serial = -1
+
+    # ---- Blender's UI thread ----
+
+    def view_update(self, context, depsgraph):
+        try:
+            native.get()
+        except RuntimeError as e:
+            self._fail(str(e))
+            return
+        scene = depsgraph.scene
+        t0 = time.perf_counter()  # the request's time: the export counts too
+        try:
+            first = self.thread is None
+            plan = self.sync.sync(depsgraph, export_uvs=scene.gradphoton.export_uvs, first=first)
+            config = viewport_config(scene)
+        except Exception as e:  # an exporter bug: one line in the viewport, details on the console
+            import traceback
+            traceback.print_exc()
+            self._fail(f"gradphoton: viewport export failed ({type(e).__name__}: {e})")
+            return
+        with self.lock:
+            changed = False
+            if not plan.empty:
+                self.plan = plan if self.plan is None else self.plan.merged(plan)
+                changed = True
+            if config != self.config:
+                self.config, self.config_changed, changed = config, True, True
+            self.max_passes = scene.gradphoton.viewport_passes
+            if changed:
+                kind = "first" if first else ",".join(plan.kinds() or ["settings"])
+                self.request = (kind, t0)
+                self.error = None
+                self._cancel_locked()
+                self.lock.notify_all()
+        if self.thread is None:
+            self.thread = threading.Thread(target=self._run, name="gradphoton viewport", daemon=True)
+            self.thread.start()
+
+    def view_draw(self, engine, context, depsgraph):
+        region = context.region
+        w, h = region.width, region.height
+        if w < 1 or h < 1:
+            return
+        try:
+            cam = view_camera(context, depsgraph.scene, w, h)
+        except Exception as e:
+            self._fail(f"gradphoton: viewport camera ({type(e).__name__}: {e})")
+            cam = None
+        if cam is not None:
+            with self.lock:
+                if cam != self.camera:
+                    if self.camera is not None:  # the first camera belongs to the first image
+                        self.request = ("camera", time.perf_counter())
+                    self.camera, self.camera_changed = cam, True
+                    self._cancel_locked()
+                    self.lock.notify_all()
+        try:
+            self._draw(engine, depsgraph.scene, w, h)
+        except Exception as e:  # a GPU failure: one line in the view, never a traceback per redraw
+            self.error = f"gradphoton: viewport drawing failed ({type(e).__name__}: {e})"
+        engine.update_stats("", self.error or self.status)
+
+    def _draw(self, engine, scene, w, h):
+        import gpu
+        from gpu_extras.presets import draw_texture_2d
+        image = self.image
+        if image is None:
+            return
+        serial, pixels = image
+        if serial != self._texture_serial:
+            ih, iw = pixels.shape[:2]
+            buf = gpu.types.Buffer('FLOAT', iw * ih * 4, pixels.reshape(-1))
+            self._texture = gpu.types.GPUTexture((iw, ih), format='RGBA16F', data=buf)
+            self._texture_serial = serial
+        gpu.state.blend_set('ALPHA_PREMULT')
+        engine.bind_display_space_shader(scene)
+        draw_texture_2d(self._texture, (0, 0), w, h)
+        engine.unbind_display_space_shader()
+        gpu.state.blend_set('NONE')
+
+    def free(self):
+        """Stops the worker (never waits for it: the pass in progress is cancelled and the
+        thread ends on its own within about half a second)."""
+        with self.lock:
+            self.stopped = True
+            self.freed_at = time.perf_counter()
+            self._cancel_locked()
+            self.lock.notify_all()
+        self._texture = None  # here, on Blender's thread (engine.__del__), not on the worker's
+
+    def _cancel_locked(self):
+        if self.native is not None:
+            self.native.cancel()
+
+    def _fail(self, message):
+        with self.lock:
+            self.error = message
+            self.busy = False
+        self._tag_redraw()
+
+    # ---- The worker thread ----
+
+    def _tag_redraw(self):
+        engine = self._engine()
+        if engine is None:
+            return False
+        try:
+            engine.tag_redraw()
+            return True
+        except ReferenceError:  # Blender freed the engine
+            return False
+
+    def _run(self):
+        N = native.get()
+        scene = None          # the native scene
+        session = None        # the native Session of the current image
+        steps = []            # pixel sizes still to render at reduced resolution
+        camera = None
+        while True:
+            with self.lock:
+                while not self.stopped and self.plan is None and not self.camera_changed and \
+                        not self.config_changed and (session is None or not self.busy):
+                    self.lock.wait(IDLE_WAIT)
+                    if self._engine() is None:
+                        self.stopped = True
+                if self.stopped:
+                    self.native = None
+                    self.exited_at = time.perf_counter()
+                    return
+                plan, self.plan = self.plan, None
+                restart = plan is not None or self.camera_changed or self.config_changed
+                camera, config = self.camera, self.config
+                self.camera_changed = self.config_changed = False
+                max_passes = self.max_passes
+                request = self.request
+            if camera is None or config is None:
+                continue  # the first draw brings the camera
+            try:
+                if plan is not None or scene is None:
+                    scene = self._apply(plan, scene, N)
+                if restart or session is None:
+                    steps = dividers(camera["width"], camera["height"])
+                    session = None
+                if session is None or (self.divider > 1 and session.stats["passes"] >= 1):
+                    divider = steps.pop(0) if steps else 1
+                    session = self._start(N, scene, camera, config, divider)
+                    with self.lock:
+                        if self.stopped or self.plan is not None or self.camera_changed or self.config_changed:
+                            continue  # changed while it started: begin again
+                        self.native, self.busy = session, True
+                session.iterate()
+                if session.cancelled or session.stale:
+                    session = None
+                    continue
+                self._publish(session, request, max_passes)
+            except Exception as e:  # SceneError, ParamError, a native failure: one line in the view
+                session = None
+                with self.lock:
+                    self.error = f"gradphoton: {e}"
+                    self.busy = False
+                    self.native = None
+                self._tag_redraw()
+
+    def _apply(self, plan, scene, N):
+        if plan is None:
+            plan = sync.Plan(rebuild=self.sync.exported)
+        try:
+            return sync.apply(plan, scene, N)
+        except ValueError:
+            if plan.rebuild is not None or plan.exported is None:
+                raise
+            return sync.apply(sync.Plan(rebuild=plan.exported), None, N)  # e.g. a material is gone
+
+    def _start(self, N, scene, camera, config, divider):
+        cam = dict(camera, width=max(1, math.ceil(camera["width"] / divider)),
+                   height=max(1, math.ceil(camera["height"] / divider)))
+        import json
+        scene.set_camera(json.dumps(cam))
+        method, params = config
+        s = N.Session(scene, method, params)
+        s.set_aux_passes(False)
+        self.divider = divider
+        return s
+
+    def _publish(self, session, request, max_passes):
+        images = session.develop()
+        rgb = images["combined"]
+        h, w = rgb.shape[:2]
+        out = np.empty((h, w, 4), np.float32)
+        out[..., :3] = rgb[::-1]
+        alpha = images.get("alpha") if self.config[1].get(FILM_TRANSPARENT) else None
+        out[..., 3] = alpha[::-1, :, 0] if alpha is not None else 1.0
+        np.nan_to_num(out, copy=False, nan=0.0, posinf=0.0, neginf=0.0)  # never drawn
+        n = session.stats["passes"]
+        done = self.divider == 1 and max_passes > 0 and n >= max_passes
+        with self.lock:
+            self.serial += 1
+            self.image = (self.serial, out)
+            self.passes = n
+            self.busy = not done
+            if done:
+                self.native = None
+            now = time.perf_counter()
+            if request is not None and self.request is request:
+                self.events.append((request[0], now - request[1]))
+                self.request = None
+                self._full = request
+            if self.divider == 1 and self._full is not None:
+                self.events.append((self._full[0] + " (full resolution)", now - self._full[1]))
+                self._full = None
+            self.status = (f"Pass {n}" + (f" / {max_passes}" if max_passes > 0 else "") +
+                           (f" | {w}x{h} (1/{self.divider})" if self.divider > 1 else "") +
+                           (" | done" if done else ""))
+        if not self._tag_redraw():
+            with self.lock:
+                self.stopped = True
+
+
+# ---- engine.py's delegations ----
+
+def view_update(engine, context, depsgraph):
+    if engine.viewport is None:
+        engine.viewport = ViewportSession(engine)
+    engine.viewport.view_update(context, depsgraph)
+
+
+def view_draw(engine, context, depsgraph):
+    if engine.viewport is not None:
+        engine.viewport.view_draw(engine, context, depsgraph)
+
+
+def free(engine):
+    """From the engine's __del__: stop the viewport's worker (never raises)."""
+    try:
+        vp = engine.__dict__.get("viewport")
+    except (ReferenceError, AttributeError):
+        return
+    if vp is not None:
+        vp.free()
