@@ -277,21 +277,29 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   stats_.seconds += seconds_since(start);
 }
 
-void ProgressivePhotonMapping::update_error_estimate() {
-  const double i = static_cast<double>(stats_.passes);
+ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_t k) const {
+  const PixelState& s = px_[k];
   const double ne_total = static_cast<double>(emitted_total_);
+  ErrorTerms e;
+  e.radiance = pixel_radiance(k).luminance();
+  e.radius = std::sqrt(s.r2);
+  e.laplacian = s.r2 > 0 && ne_total > 0 ? photon_scale() * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+  e.bias = error_kernel::kBiasDisc * s.r2 * e.laplacian;  // eq. 6.20
+  e.half_width = interval_half_width(t_quantile_, s.err);
+  e.corrected_mean = s.err.n > 0 ? s.err.sum / s.err.n : 0.0;
+  return e;
+}
+
+void ProgressivePhotonMapping::update_error_estimate() {
   // t(i, 1 - beta/2) with 1 - beta the user's confidence (eq. 6.10; the thesis uses i dof).
-  const double t_q = student_t_quantile(i, 0.5 * (1.0 + confidence_));
+  t_quantile_ = student_t_quantile(static_cast<double>(stats_.passes), 0.5 * (1.0 + confidence_));
   double sum = 0;
   size_t count = 0;
   for (size_t k = 0; k < px_.size(); ++k) {
-    const PixelState& s = px_[k];
-    const double L = pixel_radiance(k).luminance();
+    const ErrorTerms e = error_terms(k);
     double rel = 0;
-    if (L > 0) {
-      const double lap_L = s.r2 > 0 && ne_total > 0 ? photon_scale() * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
-      const double bias = error_kernel::kBiasDisc * s.r2 * lap_L;            // eq. 6.20
-      rel = relative_bound(interval_half_width(t_q, s.err), bias, L);     // eq. 6.10, 6.13
+    if (e.radiance > 0) {
+      rel = relative_bound(e.half_width, e.bias, e.radiance);  // eq. 6.10, 6.13
       sum += rel;
       ++count;
     }

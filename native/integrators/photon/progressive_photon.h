@@ -74,6 +74,16 @@ class ProgressivePhotonMapping : public Integrator {
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
+  // The terms of pixel i's error bound (thesis §6.3, luminance), as the `error` pass uses them.
+  struct ErrorTerms {
+    double radiance = 0;        // L_i (eq. 5.13 / 7.1)
+    double laplacian = 0;       // progressive smooth-kernel estimate of Lap L (eq. 6.30-6.32)
+    double bias = 0;            // B'_i = kBiasDisc R_i^2 Lap L (eq. 6.20, disc kernel)
+    double half_width = 0;      // E_i of eq. 6.10 at the user's confidence (INFINITY below 2 passes)
+    double corrected_mean = 0;  // mean of the bias-corrected per-pass samples x_j (eq. 6.22)
+    double radius = 0;          // R_i
+  };
+  ErrorTerms error_terms(size_t i) const;
   // True when the passes carry sampled wavelengths (spectral photons).
   bool spectral() const { return spectral_; }
 
@@ -180,6 +190,7 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
   double estimated_error_ = INFINITY;
+  double t_quantile_ = INFINITY;       // t(i, 1 - beta/2) of the last pass (eq. 6.10)
   std::vector<float> error_;           // per-pixel relative bound (eq. 6.13)
   int64_t emitted_total_ = 0;
 };
