@@ -174,9 +174,18 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
 
   // ---- Lookup: hash grid of this pass's photons, gathered by every measurement point ----
   const auto t_lookup = clock_type::now();
-  double max_r2 = 0;
+  // Cells are twice the largest radius (§10.2.2) of the pixels that have received photons: a
+  // pixel that never does keeps its initial radius, and letting it set the cells made every
+  // query scan many times the photons it finds (and left the stochastic grid few buckets to
+  // keep photons in). Such a pixel's query still finds everything in range (more cells).
+  // Before any pixel has received photons, every pixel with a point counts.
+  double max_r2 = 0, max_r2_all = 0;
   for (size_t i = 0; i < n_pixels; ++i)
-    if (vp_[i].material >= 0) max_r2 = std::max(max_r2, px_[i].r2);
+    if (vp_[i].material >= 0) {
+      max_r2_all = std::max(max_r2_all, px_[i].r2);
+      if (px_[i].n > 0) max_r2 = std::max(max_r2, px_[i].r2);
+    }
+  if (max_r2 == 0) max_r2 = max_r2_all;
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);  // §10.2.2
