@@ -45,27 +45,6 @@ TEST(PhotonUpdate, RadiusAndFluxFollowEquations5_9And5_12) {
   EXPECT_EQ(none.ratio, 1);
 }
 
-TEST(ErrorEstimate, KernelAndQuantiles) {
-  using namespace error_kernel;
-  EXPECT_DOUBLE_EQ(K(0), 1);
-  EXPECT_NEAR(K(1 - 1e-12), 0, 1e-9);
-  EXPECT_NEAR(dK(1 - 1e-9), 0, 1e-9);
-  // Integral of K over the unit disk is k1 = 2 pi / 7 (appendix 6.8.1).
-  double integral = 0;
-  const int n = 20000;
-  for (int i = 0; i < n; ++i) {
-    const double t = (i + 0.5) / n;
-    integral += K(t) * 2 * M_PI * t / n;
-  }
-  EXPECT_NEAR(integral, kK1, 1e-6);
-  EXPECT_NEAR(normal_quantile(0.975), 1.959963985, 1e-6);
-  EXPECT_NEAR(student_t_quantile(1, 0.95), 6.313751515, 1e-6);
-  EXPECT_NEAR(student_t_quantile(2, 0.95), 2.919985580, 1e-6);
-  EXPECT_NEAR(student_t_quantile(5, 0.95), 2.015048373, 2e-3);
-  EXPECT_NEAR(student_t_quantile(30, 0.975), 2.042272456, 1e-4);
-  EXPECT_NEAR(student_t_quantile(10, 0.75), 0.699812061, 1e-3);
-}
-
 TEST(Sppm, ConvergesToThePathTracedCornellBox) {
   const Film sppm = render("sppm", cornell_box(40, 40), 48, photon_params(20000));
   const DiffResult d = diff_images(sppm.pass(pass::kCombined), cornell_reference().pass(pass::kCombined), 40, 40);

@@ -540,7 +540,6 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto t_update = clock_type::now();
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
-  const double ne_total = static_cast<double>(emitted_total_);
   std::atomic<int64_t> invalid_phi{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     int64_t bad = 0;
@@ -574,12 +573,7 @@ void Gpm::iterate(ProgressSink* sink) {
       s.lap = (s.lap + lap_j) * u.ratio;
       s.n = u.n_new;
       s.r2 = u.r2_new;
-      double x = Ld.luminance();
-      if (r2_query > 0) {
-        const double lap_L = s.r2 > 0 ? s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
-        x += phi.luminance() / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
-      }
-      s.err.add(x);
+      record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, r2_query, ne_pass);  // eq. 6.22
     }
     invalid_phi += bad;
   });

@@ -27,18 +27,17 @@ Msppm::Msppm(const Scene& scene, const Params& params)
       rr_depth_(params.get<int>("rr_depth", 3)),
       threads_(params.get<int>("threads", 0)),
       tile_size_(params.get<int>("tile_size", 16)),
-      threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
       seed_(params.get<uint64_t>("seed", 0)),
       path_samples_(params.get<int>("path_samples", 0)),
       path_samples_max_(params.get<int>("path_samples_max", 64)),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
-      tracer_(scene, max_depth_, threshold_, seed_, threads_) {
+      // §9.6: photons at every non-delta vertex, where the weights weigh them against path tracing
+      tracer_(scene, max_depth_, kDefaultSpecularThreshold, seed_, threads_, DepositRule::NonDelta) {
   if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
   if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
   if (photons_per_pass_ < 0) throw ParamError("parameter 'photons' must be >= 0 (0 = one per pixel)");
   check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
   if (path_samples_ < 0) throw ParamError("parameter 'path_samples' must be >= 0 (0 = the local photon count)");
   if (path_samples_max_ < 1) throw ParamError("parameter 'path_samples_max' must be at least 1");
   const size_t n = static_cast<size_t>(width_) * height_;
@@ -138,7 +137,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               e.beta = beta;
               e.material = hit->material;
               e.delta = bsdf.is_delta();
-              e.mergeable = !e.delta && bsdf.is_diffuse_for_photons(threshold_);
+              e.mergeable = !e.delta;  // no diffuse/glossy classification (thesis §9.6)
               if (e.mergeable && first_r == 0) first_r = 2.0f * scene_.camera.pixel_footprint(path_length);
               PathVertex sv;
               sv.p = e.p;

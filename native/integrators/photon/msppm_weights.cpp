@@ -124,7 +124,7 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
     z.clear();
     for (int a = 0; a <= n; ++a) {
       const PhotonPathVertex& pv = record.vertices[begin + a];
-      const bool m = !pv.start && !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
+      const bool m = !pv.start && !pv.delta;  // mergeable: every non-delta vertex (§9.6)
       z.push_back(photon_path_vertex(pv, m));
     }
     const int k = n + 1;

@@ -9,8 +9,8 @@
 namespace gp {
 
 PhotonTracer::PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed,
-                           int threads)
-    : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads) {}
+                           int threads, DepositRule rule)
+    : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads), rule_(rule) {}
 
 int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& dst,
                                  int64_t& invalid, PhotonPathRecord* record,
@@ -67,8 +67,8 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       v.delta = bsdf.is_delta();
       record->vertices.push_back(v);
     }
-    // ---- Deposit at diffuse vertices ----
-    if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
+    // ---- Deposit (at diffuse vertices, or every non-delta one: DepositRule) ----
+    if (bounce >= min_deposit_bounce && deposits_at(bsdf)) {
       if (beta.is_finite()) {
         dst.push_back(Photon{hit->p, -ray.d, beta});
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));

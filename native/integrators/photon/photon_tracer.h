@@ -2,7 +2,8 @@
 // "photon tracing passes"): photons leave the lights in proportion to their power
 // (LightSet::sample_le), scatter with the importance (adjoint) form of the BSDFs, are ended
 // by Russian roulette, and are deposited at every vertex whose BSDF is diffuse for photon
-// methods (Bsdf::is_diffuse_for_photons: roughness above the specular threshold).
+// methods (Bsdf::is_diffuse_for_photons: roughness above the specular threshold), or for
+// MSPPM at every non-delta vertex (DepositRule).
 //
 // A photon path is a function of its primary samples, a point of the unit hypercube (thesis
 // §8.2.1-8.2.2, after Kelemen et al.): trace_path() reads them one by one from a
@@ -27,6 +28,7 @@
 #include "core/frame.h"
 #include "core/math.h"
 #include "core/rng.h"
+#include "materials/bsdf.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -122,11 +124,17 @@ class RngSamples final : public PrimarySamples {
   Rng& rng_;
 };
 
+// Where photons are deposited: at vertices diffuse for photon methods (roughness above the
+// specular threshold; (S)PPM, GPM), or at every non-delta vertex (MSPPM, whose weights decide
+// between density estimation and path tracing without a classification, thesis §9.6).
+enum class DepositRule { DiffuseForPhotons, NonDelta };
+
 class PhotonTracer {
  public:
   // max_depth: longest photon path in segments; min_deposit_bounce: deposits happen from this
   // many scattering events on (0 = also the first hit from the light; 1 = skip direct light).
-  PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads);
+  PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads,
+               DepositRule rule = DepositRule::DiffuseForPhotons);
 
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
   // memory stays flat over passes). With `origins`, also fills origins[k] for photon k (GPM),
@@ -149,6 +157,10 @@ class PhotonTracer {
                      std::vector<PhotonChain>* chains = nullptr) const;
 
   int max_depth() const { return max_depth_; }
+  // Whether a photon arriving at a surface with this BSDF is deposited there.
+  bool deposits_at(const Bsdf& bsdf) const {
+    return rule_ == DepositRule::NonDelta ? !bsdf.is_delta() : bsdf.is_diffuse_for_photons(threshold_);
+  }
   int threads() const { return threads_; }
   uint64_t seed() const { return seed_; }
 
@@ -160,6 +172,7 @@ class PhotonTracer {
   float threshold_;
   uint64_t seed_;
   int threads_;
+  DepositRule rule_;
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
   std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
   std::vector<std::vector<PhotonChain>> chunk_chains_;    // and for `chains`

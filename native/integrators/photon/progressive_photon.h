@@ -74,6 +74,19 @@ class ProgressivePhotonMapping : public Integrator {
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
+  // The terms of pixel i's error bound (thesis §6.3, luminance), as the `error` pass uses them.
+  struct ErrorTerms {
+    double radiance = 0;        // L_i (eq. 5.13 / 7.1)
+    double laplacian = 0;       // progressive smooth-kernel estimate of Lap L (eq. 6.30-6.32)
+    double bias = 0;            // B'_i: kBiasDisc R^2 Lap L (eq. 6.18-6.20, see error_bound)
+    double bias_sd = 0;         // standard error of B'_i, from the per-pass Laplacians
+    double noise_sd = 0;        // sqrt(V_i / i) (eq. 6.10, 6.22; INFINITY below 2 passes)
+    double half_width = 0;      // E_i of eq. 6.10 at the user's confidence
+    double bound = 0;           // absolute error bound at the user's confidence (the error pass x L_i)
+    double corrected_mean = 0;  // mean of the bias-corrected per-pass samples x_j (eq. 6.22)
+    double radius = 0;          // R_i
+  };
+  ErrorTerms error_terms(size_t i) const;
   // True when the passes carry sampled wavelengths (spectral photons).
   bool spectral() const { return spectral_; }
 
@@ -93,7 +106,14 @@ class ProgressivePhotonMapping : public Integrator {
     double direct[3] = {0, 0, 0};  // sum over passes of the eye path's own light (Le, NEE)
     double coverage = 0;           // passes whose camera ray hit the scene (film_transparent)
     ErrorStats err;                // bias-corrected per-pass samples (eq. 6.22)
+    ErrorStats lap_err;            // per-pass Laplacian estimates (the bias estimate's own noise)
+    double r2_sum = 0;             // sum of the query radii R_j^2 of the passes with a point (eq. 6.18)
   };
+  // After pass j's update of pixel s (radius, flux and Laplacian already reduced): its
+  // bias-corrected sample x_j = L_p,j - B'_j (eq. 6.22) and its own Laplacian estimate, from the
+  // eye path's light Ld, the photon flux phi and Laplacian sum lap_j gathered with radius
+  // sqrt(r2_query) (0: no point this pass) from ne_pass photons. Shared with GPM.
+  void record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query, double ne_pass) const;
 
   void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
 
@@ -179,6 +199,14 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
   double estimated_error_ = INFINITY;
+  double t_quantile_ = INFINITY;       // t(dof, 1 - beta/2) of the last pass (eq. 6.10)
+  // error_bound = "thesis": eq. 6.12 as written (E_i + |B'_i|, B' with R_i^2 (eq. 6.19), t with
+  // i dof); "calibrated" (default): B' with the mean of the passes' R_j^2 (eq. 6.18), t with i - 1
+  // dof, and the bound at exactly the confidence for an error B' + noise, the noise of L_i and of
+  // B' itself combined (FoldedNormalQuantile). docs/error-calibration.md measures both.
+  bool thesis_bound_ = false;
+  FoldedNormalQuantile folded_;
+  double t_over_z_ = 1;               // t(dof, 1 - beta/2) / z(1 - beta/2)
   std::vector<float> error_;           // per-pixel relative bound (eq. 6.13)
   int64_t emitted_total_ = 0;
 };
