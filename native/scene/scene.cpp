@@ -133,6 +133,19 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   return h;
 }
 
+Vec2 Scene::uv_at(int mesh, int prim, const Vec3& p) const {
+  const Mesh& m = meshes[mesh];
+  const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
+  // Barycentrics of p's projection onto the triangle's plane.
+  const Vec3 e1 = m.positions[i1] - m.positions[i0], e2 = m.positions[i2] - m.positions[i0], d = p - m.positions[i0];
+  const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), dp1 = dot(d, e1), dp2 = dot(d, e2);
+  const float det = d11 * d22 - d12 * d12;
+  if (!(std::abs(det) > 0)) return m.uvs.empty() ? Vec2() : m.uvs[i0];
+  const float b1 = (d22 * dp1 - d12 * dp2) / det, b2 = (d11 * dp2 - d12 * dp1) / det;
+  if (m.uvs.empty()) return Vec2(b1, b2);  // as intersect() without uvs
+  return m.uvs[i0] * (1 - b1 - b2) + m.uvs[i1] * b1 + m.uvs[i2] * b2;
+}
+
 bool Scene::occluded(const Ray& ray) const { return accel_->occluded(ray); }
 
 bool Scene::occluded_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const {
