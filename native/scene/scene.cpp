@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "scene/accel.h"
+#include "textures/normal_mapping.h"
 
 namespace gp {
 
@@ -125,10 +126,23 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   }
   if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
   else h.uv = Vec2(b1, b2);
+  h.material = static_cast<int>(m.material_ids[raw.prim]);
+  if (const Material& mat = materials[h.material]; mat.perturbs_normal()) {
+    // ---- Normal and bump maps: the shading normal of every method ----
+    Vec3 dpdu, dpdv;
+    const bool has_uvs = !m.uvs.empty();
+    if (triangle_dpduv(m.positions[i0], m.positions[i1], m.positions[i2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
+                       has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &dpdu, &dpdv)) {
+      Vec3 n = h.ns;
+      if (mat.normal_tex) n = normal_mapped(mat.normal_tex, mat.normal_strength, h.uv, n, dpdu, dpdv);
+      if (mat.bump_tex) n = bump_mapped(mat.bump_tex, mat.bump_strength, mat.bump_distance, h.uv, n, dpdu, dpdv);
+      if (dot(n, h.ng) < 0) n = -n;  // stays on the geometric side
+      h.ns = valid_reflection_normal(h.ng, -ray.d, n);
+    }
+  }
   h.frame = Frame(h.ns);
   h.mesh = raw.geom;
   h.prim = raw.prim;
-  h.material = static_cast<int>(m.material_ids[raw.prim]);
   h.light = triangle_light_[raw.geom][raw.prim];
   return h;
 }

@@ -31,6 +31,7 @@ struct TextureImage {
   int width = 0, height = 0;
   std::vector<float> rgba;  // 4 * width * height
   bool missing = false;     // the file could not be read: magenta, as Cycles renders it
+  RGBA mean;                // average texel (constant stand-ins: spectral modes, fallbacks)
 
   RGBA texel(int x, int y) const {
     const float* p = &rgba[4 * (static_cast<size_t>(y) * width + x)];

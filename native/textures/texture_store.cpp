@@ -61,6 +61,7 @@ std::shared_ptr<const TextureImage> magenta(const std::string& path) {
   img->path = path;
   img->width = img->height = 1;
   img->rgba = {1.0f, 0.0f, 1.0f, 1.0f};
+  img->mean = {RGB(1, 0, 1), 1.0f};
   img->missing = true;
   return img;
 }
@@ -144,6 +145,10 @@ TextureLoad load_texture(const std::string& path, const std::string& colorspace)
     convert_to_scene_linear(img->rgba, cs);
   }
   img->colorspace = cs;
+  double sum[4] = {0, 0, 0, 0};
+  for (size_t i = 0; i < img->rgba.size(); ++i) sum[i % 4] += img->rgba[i];
+  const double n = static_cast<double>(img->width) * img->height;
+  img->mean = {RGB(float(sum[0] / n), float(sum[1] / n), float(sum[2] / n)), float(sum[3] / n)};
   for (auto it = g_store.begin(); it != g_store.end();) it = it->second.expired() ? g_store.erase(it) : std::next(it);
   out.image = img;
   g_store[key] = out.image;
