@@ -544,6 +544,16 @@ BsdfParams bsdf_params(const Material& m, Vec2 uv) {
 }
 
 RGB Bsdf::eval(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
+  return wrong_side(wo, wi) ? RGB(0.0f) : eval_lobes(wo, wi, mode);
+}
+
+std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
+  auto s = sample_lobes(wo, uc, u, mode);
+  if (s && wrong_side(wo, s->wi)) return std::nullopt;
+  return s;
+}
+
+RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
   switch (kind()) {
     case MaterialType::Diffuse: return diffuse_eval(p_, wo, wi);
     case MaterialType::Conductor:
@@ -581,7 +591,7 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi) const {
   return 0.0f;
 }
 
-std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
+std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
   switch (kind()) {
     case MaterialType::Diffuse: return diffuse_sample(p_, wo, u);
     case MaterialType::Conductor: return conductor_sample(p_, wo, u);

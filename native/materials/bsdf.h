@@ -67,6 +67,11 @@ class Bsdf {
   bool is_black() const;
   // Photon-method classification: diffuse when roughness > threshold (GPM §4.3).
   bool is_diffuse_for_photons(float threshold = kDefaultSpecularThreshold) const;
+  // The geometric normal in the local frame, where a normal or bump map bent the shading normal:
+  // then a direction pair on the wrong side of the geometric surface for its lobe (a
+  // reflection through the surface, a transmission that stays on one side) scatters nothing,
+  // as Cycles does, so a bent normal never lets light through an opaque surface.
+  void set_geometric_normal(const Vec3& ng_local) { ng_ = ng_local; }
   // The parameters it evaluates (type, IOR, colour at this point).
   const BsdfParams& params() const { return p_; }
 
@@ -75,6 +80,13 @@ class Bsdf {
   Bsdf component(const Material* m) const { return Bsdf(*m, uv_); }
   BsdfParams p_;
   Vec2 uv_;
+  Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)
+  bool wrong_side(const Vec3& wo, const Vec3& wi) const {
+    if (ng_.x == 0 && ng_.y == 0 && ng_.z == 0) return false;
+    return (dot(wo, ng_) * dot(wi, ng_) > 0) != (wo.z * wi.z > 0);
+  }
+  RGB eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const;
+  std::optional<BsdfSample> sample_lobes(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const;
 };
 
 // Shading-normal correction of the adjoint (importance) BSDF, Veach 1997 eq. 5.20: with world

@@ -34,11 +34,13 @@ float texel_coordinate(float u, int n) {
 
 }  // namespace
 
+float srgb_eotf(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
+
 RGBA TextureImage::lookup(Vec2 uv, TextureWrap wrap, TextureFilter filter) const {
   if (width <= 0 || height <= 0) return {RGB(1, 0, 1), 1.0f};
   const float x = texel_coordinate(uv.x, width), y = texel_coordinate(uv.y, height);
   if (filter == TextureFilter::Closest)
-    return texel_or_zero(*this, static_cast<int>(std::floor(x)), static_cast<int>(std::floor(y)), wrap);
+    return decoded(texel_or_zero(*this, static_cast<int>(std::floor(x)), static_cast<int>(std::floor(y)), wrap));
   // Bilinear between the four texel centres around (x, y).
   const float fx = x - 0.5f, fy = y - 0.5f;
   const float x0f = std::floor(fx), y0f = std::floor(fy);
@@ -47,7 +49,13 @@ RGBA TextureImage::lookup(Vec2 uv, TextureWrap wrap, TextureFilter filter) const
   const RGBA a = texel_or_zero(*this, x0, y0, wrap), b = texel_or_zero(*this, x0 + 1, y0, wrap);
   const RGBA c = texel_or_zero(*this, x0, y0 + 1, wrap), d = texel_or_zero(*this, x0 + 1, y0 + 1, wrap);
   const float wa = (1 - tx) * (1 - ty), wb = tx * (1 - ty), wc = (1 - tx) * ty, wd = tx * ty;
-  return {a.rgb * wa + b.rgb * wb + c.rgb * wc + d.rgb * wd, a.a * wa + b.a * wb + c.a * wc + d.a * wd};
+  return decoded({a.rgb * wa + b.rgb * wb + c.rgb * wc + d.rgb * wd, a.a * wa + b.a * wb + c.a * wc + d.a * wd});
+}
+
+RGBA TextureImage::decoded(RGBA t) const {
+  if (srgb_encoded)
+    for (int c = 0; c < 3; ++c) t.rgb[c] = srgb_eotf(t.rgb[c]);
+  return t;
 }
 
 RGB TextureRef::rgb(Vec2 uv) const {

@@ -31,16 +31,24 @@ struct TextureImage {
   int width = 0, height = 0;
   std::vector<float> rgba;  // 4 * width * height
   bool missing = false;     // the file could not be read: magenta, as Cycles renders it
-  RGBA mean;                // average texel (constant stand-ins: spectral modes, fallbacks)
+  RGBA mean;                // average texel, linear (constant stand-ins: spectral modes, fallbacks)
+  // 8-bit sRGB images keep their encoded texels and are decoded after filtering, as Cycles
+  // does (it filters such images before the conversion; filtering linear values renders
+  // edges between contrasting texels a few percent brighter).
+  bool srgb_encoded = false;
 
   RGBA texel(int x, int y) const {
     const float* p = &rgba[4 * (static_cast<size_t>(y) * width + x)];
     return {RGB(p[0], p[1], p[2]), p[3]};
   }
-  // Filtered value at uv (texel centres at (i + 1/2) / width, as Cycles).
+  // Filtered value at uv (texel centres at (i + 1/2) / width, as Cycles), linear.
   RGBA lookup(Vec2 uv, TextureWrap wrap, TextureFilter filter) const;
+  RGBA decoded(RGBA t) const;  // a stored texel value as linear (srgb_encoded)
   size_t bytes() const { return rgba.size() * sizeof(float); }
 };
+
+// The sRGB transfer function's decoding (IEC 61966-2-1).
+float srgb_eotf(float v);
 
 // Which value of an image a scalar input takes: one channel, or the luminance of the colour
 // (how Blender converts a Color output linked to a float input).

@@ -34,10 +34,6 @@ OCIO::ConstConfigRcPtr ocio_config() {
   return config;
 }
 
-float srgb_eotf(float v) {
-  return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
-}
-
 bool is_linear_rec709(const std::string& cs) {
   return cs == "Linear" || cs == "Linear Rec.709" || cs == "scene_linear" || cs == "linear";
 }
@@ -67,7 +63,7 @@ std::shared_ptr<const TextureImage> magenta(const std::string& path) {
 }
 
 // Reads the file into float RGBA, bottom row first. Throws std::runtime_error.
-std::shared_ptr<TextureImage> read_image(const std::string& path, bool* is_float) {
+std::shared_ptr<TextureImage> read_image(const std::string& path, bool* is_float, bool* is_byte) {
   OIIO::ImageSpec hints;
   hints.attribute("oiio:UnassociatedAlpha", 1);  // colours as stored (Blender's "Straight" alpha)
   auto in = OIIO::ImageInput::open(path, &hints);
@@ -77,6 +73,7 @@ std::shared_ptr<TextureImage> read_image(const std::string& path, bool* is_float
   if (w <= 0 || h <= 0 || nc <= 0) throw std::runtime_error("empty image");
   if (static_cast<double>(w) * h > 1 << 28) throw std::runtime_error(fmt::format("image too large ({} x {})", w, h));
   *is_float = spec.format.is_floating_point();
+  *is_byte = spec.format == OIIO::TypeDesc::UINT8;
   std::vector<float> pixels(static_cast<size_t>(w) * h * nc);
   if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, pixels.data())) throw std::runtime_error(in->geterror());
   auto img = std::make_shared<TextureImage>();
@@ -129,16 +126,17 @@ TextureLoad load_texture(const std::string& path, const std::string& colorspace)
   if (auto it = g_store.find(key); it != g_store.end())
     if (auto shared = it->second.lock()) return {shared, ""};
   TextureLoad out;
-  bool is_float = false;
+  bool is_float = false, is_byte = false;
   std::shared_ptr<TextureImage> img;
   try {
-    img = read_image(abs.string(), &is_float);
+    img = read_image(abs.string(), &is_float, &is_byte);
   } catch (const std::exception& e) {
     return {magenta(path), fmt::format("image texture '{}' cannot be read ({}; rendered magenta)", path, e.what())};
   }
   std::string cs = colorspace.empty() ? (is_float ? "Linear" : "sRGB") : colorspace;
   try {
-    convert_to_scene_linear(img->rgba, cs);
+    if (is_byte && cs == "sRGB") img->srgb_encoded = true;  // decoded after filtering (lookup)
+    else convert_to_scene_linear(img->rgba, cs);
   } catch (const std::exception& e) {
     cs = is_float ? "Linear" : "sRGB";
     out.warning = fmt::format("image texture '{}': {}, read as {}", path, e.what(), cs);
@@ -146,7 +144,7 @@ TextureLoad load_texture(const std::string& path, const std::string& colorspace)
   }
   img->colorspace = cs;
   double sum[4] = {0, 0, 0, 0};
-  for (size_t i = 0; i < img->rgba.size(); ++i) sum[i % 4] += img->rgba[i];
+  for (size_t i = 0; i < img->rgba.size(); ++i) sum[i % 4] += img->srgb_encoded && i % 4 != 3 ? srgb_eotf(img->rgba[i]) : img->rgba[i];
   const double n = static_cast<double>(img->width) * img->height;
   img->mean = {RGB(float(sum[0] / n), float(sum[1] / n), float(sum[2] / n)), float(sum[3] / n)};
   for (auto it = g_store.begin(); it != g_store.end();) it = it->second.expired() ? g_store.erase(it) : std::next(it);

@@ -227,9 +227,11 @@ TEST(NormalMap, FlatMapEqualsNoMapAndATiltedTexelTiltsAlongU) {
   EXPECT_GE(r.z, 0.0f);
 }
 
-TEST(NormalMap, WhiteNormalMappedQuadUnderAConstantEnvironmentStaysAtOne) {
-  // A bumpy normal map (8-bit, Non-Color) on a white diffuse quad: the furnace radiance is 1
-  // whatever the normals (energy-bounded BSDF in a shading frame), for PT and PPM alike.
+TEST(NormalMap, WhiteNormalMappedQuadUnderAConstantEnvironmentIsEnergyBounded) {
+  // A bumpy normal map (8-bit, Non-Color, tilts up to 45 degrees) on a white diffuse quad under
+  // a white environment: the radiance is at most 1 (no energy from a bent frame), and below 1
+  // only by the shading hemisphere's part under the geometric surface, which scatters nothing
+  // (Bsdf::set_geometric_normal, as Cycles); for PT and PPM alike.
   std::vector<uint8_t> px;
   for (int i = 0; i < 16; ++i) {
     const float a = 0.7f * std::sin(1.3f * i), b = 0.6f * std::cos(2.1f * i);
@@ -246,7 +248,8 @@ TEST(NormalMap, WhiteNormalMappedQuadUnderAConstantEnvironmentStaysAtOne) {
     const Film f = render(method, scene, 24, p);
     for (int q = 0; q < 4; ++q) {
       const RGB c = quadrant_mean(f, q % 2, q / 2);
-      EXPECT_NEAR(c.g, 1.0f, tolerance) << method << " quadrant " << q;
+      EXPECT_LE(c.g, 1.0f + tolerance) << method << " quadrant " << q;
+      EXPECT_GE(c.g, 0.85f - tolerance) << method << " quadrant " << q;
     }
   }
 }
