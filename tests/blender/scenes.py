@@ -301,6 +301,8 @@ def save_image(name, pixels, path, colorspace='sRGB'):
     """An 8-bit PNG of RGBA pixels (h, w, 4; row 0 at the bottom, values as stored), loaded back
     as a file image in `colorspace`, as an image of a downloaded scene."""
     import numpy as np
+    if name in bpy.data.images:  # from an earlier test (the test fixture keeps images)
+        bpy.data.images.remove(bpy.data.images[name])
     h, w = pixels.shape[:2]
     tmp = bpy.data.images.new(name + "_tmp", w, h, alpha=True)
     tmp.pixels.foreach_set(np.asarray(pixels, np.float32).ravel())
