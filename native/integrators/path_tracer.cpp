@@ -90,7 +90,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
     }
     if (depth + 1 >= max_depth_) break;
 
-    const Bsdf bsdf(scene_.material(hit->material));
+    const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;

@@ -93,15 +93,15 @@ struct OffsetWalk : EyePathHooks {
   }
   // Offset vertices: same kind, or the shift is not invertible (§4.3).
   void vertex(const SurfaceHit& hit, const Vec3&) {
-    const VertexKind kind = classify_vertex(scene.material(hit.material), threshold);
+    const VertexKind kind = classify_vertex(scene.bsdf(hit), threshold);
     for (int d = 0; d < 4; ++d) {
       if (!off[d].ok()) continue;
       if (!ohit[d]) {
         fail(d, ShiftFailure::Missed);
         continue;
       }
-      const Material& om = scene.material(ohit[d]->material);
-      if (classify_vertex(om, threshold) != kind || Bsdf(om).is_black()) {
+      const Bsdf ob = scene.bsdf(*ohit[d]);
+      if (classify_vertex(ob, threshold) != kind || ob.is_black()) {
         fail(d, ShiftFailure::NotInvertible);
         continue;
       }
@@ -119,7 +119,7 @@ struct OffsetWalk : EyePathHooks {
       float w = 1.0f;  // failed sensor shift: offset 0, weight 1
       if (off[d].ok()) {
         const SurfaceHit& ov = *ohit[d];
-        c_off = off[d].beta * direct_light(scene, ov, Bsdf(scene.material(ov.material)), ov.frame.to_local(-oray[d].d),
+        c_off = off[d].beta * direct_light(scene, ov, scene.bsdf(ov.material, ov.uv), ov.frame.to_local(-oray[d].d),
                                            u_light, u2, rays);
         w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
       }
@@ -134,6 +134,7 @@ struct OffsetWalk : EyePathHooks {
       off[d].frame = ohit[d]->frame;
       off[d].wo = ohit[d]->frame.to_local(-oray[d].d);
       off[d].material = ohit[d]->material;
+      off[d].uv = ohit[d]->uv;
     }
   }
   // Specular or glossy vertex: the offsets follow by half-vector copy (§4.1).
@@ -143,7 +144,7 @@ struct OffsetWalk : EyePathHooks {
       if (!o.ok()) continue;
       const SurfaceHit& ov = *ohit[d];
       const Vec3 owo = ov.frame.to_local(-oray[d].d);
-      const ScatterShift ss = shift_scatter(scene.material(ov.material), wo, bs.wi, bs.delta, bs.transmission, owo);
+      const ScatterShift ss = shift_scatter(scene.bsdf(ov), wo, bs.wi, bs.delta, bs.transmission, owo);
       if (!ss.ok()) {
         fail(d, ss.failure);
         continue;
@@ -242,7 +243,7 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   ++rays;
   const auto h = scene.intersect(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
   if (!h) s.failure = ShiftFailure::Missed;
-  else if (!Bsdf(scene.material(h->material)).is_diffuse_for_photons(threshold))
+  else if (!scene.bsdf(*h).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
   else s.hit = *h;
   return s;
@@ -285,7 +286,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
   }
   // ---- Step 2, DD ending: reconnect y'_s to y_{s-1} (its BSDF re-evaluated) ----
   const Vec3 wi_l = org.frame.to_local(wi_prev);
-  const Bsdf prev_bsdf(scene_.material(org.material));
+  const Bsdf prev_bsdf = scene_.bsdf(org.material, org.uv);
   const Vec3 wo_prev = org.frame.to_world(org.wo);
   const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
   const float corr = adjoint_shading_correction(wo_prev, wi_prev, org.ng, org.frame.n);
@@ -330,7 +331,7 @@ RGB Gpm::reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& 
   }
   const Frame frame(chain.ns);
   const Vec3 wo = frame.to_local(chain.wo), wi = frame.to_local(dir);
-  const Bsdf bsdf(scene_.material(chain.material));
+  const Bsdf bsdf = scene_.bsdf(chain.material, chain.uv);
   const float corr = adjoint_shading_correction(chain.wo, dir, chain.ng, chain.ns);
   if (corr == 0) return RGB(0.0f);
   pdf = bsdf.pdf(wo, wi);
@@ -395,7 +396,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   rays += static_cast<int64_t>(walk.iterations) * (chain.count + 1);
   if (!walk.ok()) return failed(walk.failure);
   const ManifoldChain& c = walk.chain;
-  if (!Bsdf(scene_.material(walk.end_hit.material)).is_diffuse_for_photons(threshold_))
+  if (!scene_.bsdf(walk.end_hit.material, walk.end_hit.uv).is_diffuse_for_photons(threshold_))
     return failed(ShiftFailure::NotInvertible);
   const ChainVertex& last = c.v[c.count - 1];
   if (!photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, c.end, last.p, last.ng, tol, rays))
@@ -472,7 +473,7 @@ void Gpm::iterate(ProgressSink* sink) {
       for (RGB& g : gather_diff_[i]) g = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf(scene_.material(vp.material));
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv);
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       const auto& off = off_[i];
       double m = 0, lap = 0;
@@ -509,7 +510,7 @@ void Gpm::iterate(ProgressSink* sink) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {
               // The base path's kernel (same radius) around the offset gather point.
-              c_off = o.beta * Bsdf(scene_.material(o.material)).eval(o.wo, sh.wi_gather) * sh.power * weight;
+              c_off = o.beta * scene_.bsdf(o.material, o.uv).eval(o.wo, sh.wi_gather) * sh.power * weight;
               // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
               const double ratio = o.ratio * sh.ratio_y;
               if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));

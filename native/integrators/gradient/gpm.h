@@ -102,6 +102,7 @@ class Gpm : public ProgressivePhotonMapping {
     RGB beta;             // f(T z) |T'(z)| / p(z): throughput in the base's measure (eq. 4)
     double ratio = 1;     // p(T z) |T'(z)| / p(z), for eq. 11
     int material = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     bool ok() const { return exists && failure == ShiftFailure::None; }
   };
 

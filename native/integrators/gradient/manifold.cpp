@@ -206,8 +206,7 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
     const Frame frame(ns);
     const Vec3 wo_w = normalize(prev - x.p), wi_w = normalize(next - x.p);
     const Vec3 wo = frame.to_local(wo_w), wi = frame.to_local(wi_w);
-    const Material& m = scene.material(scene.meshes[x.mesh].material_ids[x.prim]);
-    const Bsdf bsdf(m);
+    const Bsdf bsdf = scene.bsdf(scene.meshes[x.mesh].material_ids[x.prim], scene.uv_at(x.mesh, x.prim, x.p));
     const float corr = adjoint_shading_correction(wo_w, wi_w, ng, ns);
     if (corr == 0 || wo.z == 0) return out;
     if (bsdf.is_delta()) {
@@ -220,7 +219,7 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
     } else {
       out.f *= bsdf.eval(wo, wi, TransportMode::Importance) * (std::abs(wi.z) * corr);
       out.pdf *= bsdf.pdf(wo, wi);
-      out.jacobian *= half_vector_direction_jacobian(wo, wi, m.ior, x.transmission);
+      out.jacobian *= half_vector_direction_jacobian(wo, wi, bsdf.params().ior, x.transmission);
     }
   }
   out.wi_end = normalize((c.count > 0 ? c.v[c.count - 1].p : c.start) - c.end);
@@ -336,7 +335,8 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain) {
   if (!half_vectors(chain, surf, h)) return out;
   for (int j = 0; j < chain.count; ++j) {
     const ChainVertex& x = chain.v[j];
-    out.chain.target[j] = Bsdf(scene.material(scene.meshes[x.mesh].material_ids[x.prim])).is_delta() ? Vec2(0, 0) : h[j];
+    const Bsdf bsdf = scene.bsdf(scene.meshes[x.mesh].material_ids[x.prim], scene.uv_at(x.mesh, x.prim, x.p));
+    out.chain.target[j] = bsdf.is_delta() ? Vec2(0, 0) : h[j];
   }
   const auto T = tangent_map(scene, chain, surf);
   if (!T) return out;

@@ -23,8 +23,7 @@ std::string_view failure_stat_name(ShiftFailure f) {
   return "shift failed: ?";
 }
 
-VertexKind classify_vertex(const Material& m, float threshold) {
-  const Bsdf bsdf(m);
+VertexKind classify_vertex(const Bsdf& bsdf, float threshold) {
   if (bsdf.is_diffuse_for_photons(threshold)) return VertexKind::Diffuse;
   if (bsdf.is_delta()) return VertexKind::Delta;
   return VertexKind::Glossy;
@@ -64,10 +63,9 @@ std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, boo
 
 }  // namespace
 
-ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_wi, bool base_delta,
+ScatterShift shift_scatter(const Bsdf& bsdf, const Vec3& wo, const Vec3& base_wi, bool base_delta,
                            bool base_transmission, const Vec3& wo_offset) {
   ScatterShift r;
-  const Bsdf bsdf(m);
   if (base_delta) {
     const auto os = sample_same_lobe(bsdf, wo_offset, base_transmission);
     if (!os) {
@@ -79,7 +77,7 @@ ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_w
     r.f_cos = os->f * std::abs(r.wi.z);
     return r;
   }
-  const DirectionShift hs = shift_half_vector(m, wo, base_wi, wo_offset);
+  const DirectionShift hs = shift_half_vector(bsdf, wo, base_wi, wo_offset);
   if (!hs.ok()) {
     r.failure = hs.failure;
     return r;
@@ -91,8 +89,9 @@ ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_w
   return r;
 }
 
-DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset) {
+DirectionShift shift_half_vector(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset) {
   DirectionShift r;
+  const BsdfParams& m = bsdf.params();
   if (wo.z == 0 || wi.z == 0 || wo_offset.z == 0) {
     r.failure = ShiftFailure::ZeroLength;
     return r;
@@ -103,7 +102,7 @@ DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& 
     return r;
   }
   const bool reflection = wo.z * wi.z > 0;
-  const bool delta = Bsdf(m).is_delta();
+  const bool delta = bsdf.is_delta();
   if (reflection) {
     Vec3 h = delta ? Vec3(0, 0, 1) : wo + wi;
     if (length_squared(h) == 0) {

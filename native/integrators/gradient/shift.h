@@ -17,6 +17,7 @@
 
 #include "core/color.h"
 #include "core/math.h"
+#include "materials/bsdf.h"
 #include "materials/material.h"
 
 namespace gp {
@@ -39,7 +40,7 @@ inline constexpr int kShiftFailureCount = 9;
 std::string_view failure_stat_name(ShiftFailure f);
 
 enum class VertexKind { Diffuse, Glossy, Delta };
-VertexKind classify_vertex(const Material& m, float threshold = kDefaultSpecularThreshold);
+VertexKind classify_vertex(const Bsdf& bsdf, float threshold = kDefaultSpecularThreshold);
 
 // Half-vector copy at one vertex, in the local shading frames (normal +z) of the base and the
 // offset vertex: the base pair (wo, wi) defines the (generalized) half-vector h, which the offset
@@ -54,7 +55,7 @@ struct DirectionShift {
   double jacobian = 0;  // |d omega_i' / d omega_i|
   bool ok() const { return failure == ShiftFailure::None; }
 };
-DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset);
+DirectionShift shift_half_vector(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset);
 
 // The offset's scattering at a delta or glossy vertex where the base sampled direction `base_wi`
 // (a delta lobe when base_delta, refraction when base_transmission): the same delta lobe from the
@@ -69,7 +70,7 @@ struct ScatterShift {
   double jacobian = 1;
   bool ok() const { return failure == ShiftFailure::None; }
 };
-ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_wi, bool base_delta,
+ScatterShift shift_scatter(const Bsdf& bsdf, const Vec3& wo, const Vec3& base_wi, bool base_delta,
                            bool base_transmission, const Vec3& wo_offset);
 
 // Reconnection of the offset vertex to the base path's next vertex `target` (normal n_target):

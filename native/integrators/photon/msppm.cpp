@@ -125,7 +125,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                   y.pop_back();
                 }
               }
-              const Bsdf bsdf(scene_.material(hit->material));
+              const Bsdf bsdf = scene_.bsdf(*hit);
               if (bsdf.is_black()) break;
               const Vec3 wo = hit->frame.to_local(-ray.d);
               if (wo.z == 0) break;
@@ -136,6 +136,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               e.frame = hit->frame;
               e.beta = beta;
               e.material = hit->material;
+              e.uv = hit->uv;
               e.delta = bsdf.is_delta();
               e.mergeable = !e.delta;  // no diffuse/glossy classification (thesis §9.6)
               if (e.mergeable && first_r == 0) first_r = 2.0f * scene_.camera.pixel_footprint(path_length);
@@ -144,6 +145,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               sv.ng = e.ng;
               sv.frame = &e.frame;
               sv.material = e.material;
+              sv.uv = e.uv;
               sv.delta = e.delta;
               sv.mergeable = e.mergeable;
               y.push_back(sv);
@@ -399,6 +401,7 @@ void Msppm::iterate(ProgressSink* sink) {
         v.ng = ev[a].ng;
         v.frame = &ev[a].frame;
         v.material = ev[a].material;
+        v.uv = ev[a].uv;
         v.delta = ev[a].delta;
         v.mergeable = ev[a].mergeable;
       }
@@ -409,7 +412,7 @@ void Msppm::iterate(ProgressSink* sink) {
         const EyeVertex& e = ev[j];
         if (!e.mergeable) continue;
         ++local_points;
-        const Bsdf bsdf(scene_.material(e.material));
+        const Bsdf bsdf = scene_.bsdf(e.material, e.uv);
         const Vec3 wo = e.frame.to_local(e.wo);
         // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the
         // tail, a cache miss each: found photons are collected and their tails prefetched

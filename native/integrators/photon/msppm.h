@@ -118,6 +118,7 @@ class Msppm : public Integrator {
     Vec3 p, ng;
     const Frame* frame = nullptr;
     int material = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     bool delta = false;      // specular BSDF
     bool mergeable = false;  // not delta: density estimation possible here (§9.6)
     int light = -1;          // light vertex: its light
@@ -144,6 +145,7 @@ class Msppm : public Integrator {
     Vec3 to_next;     // depth >= 2: towards y_{t+2}; depth 1 (light vertex): its `dir`
     double A_P = 0, A_H = 0, B_H = 0;
     int material = -1, light = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     int depth = 0;    // segments from the light to the deposit (d = k - t)
     bool delta = false, mergeable = false, distant = false;
   };
@@ -172,6 +174,7 @@ class Msppm : public Integrator {
     Frame frame;
     RGB beta;        // camera-path throughput up to this vertex
     int material = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     bool delta = false, mergeable = false;
   };
   struct PixelState {

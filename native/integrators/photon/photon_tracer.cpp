@@ -53,7 +53,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     ++rays;
     const auto hit = scene_.intersect(ray);
     if (!hit) break;
-    const Bsdf bsdf(scene_.material(hit->material));
+    const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     if (record) {
       PhotonPathVertex v;
@@ -64,6 +64,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       const float cos_in = std::abs(dot(hit->ng, ray.d));
       v.pdf_fwd = bounce == 0 && distant ? em->pdf_pos * cos_in : pdf_dir_prev * cos_in / (hit->t * hit->t);
       v.material = hit->material;
+      v.uv = hit->uv;
       v.delta = bsdf.is_delta();
       record->vertices.push_back(v);
     }
@@ -112,6 +113,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       last.scale = beta / (bs->pdf * p_continue);
       last.pdf = bs->pdf;
       last.material = hit->material;
+      last.uv = hit->uv;
       last.diffuse = bsdf.is_diffuse_for_photons(threshold_);
     }
     if (chains) {
@@ -121,6 +123,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         chain.ns = hit->ns;
         chain.wo = wo_world;
         chain.material = hit->material;
+        chain.uv = hit->uv;
         chain.light = -1;
         chain.dir = Vec3(0.0f);
         chain.count = 0;

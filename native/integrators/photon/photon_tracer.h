@@ -51,6 +51,7 @@ struct PhotonOrigin {
   RGB scale;           // power arriving at y_{s-1} / (pdf * Russian-roulette survival)
   float pdf = 0;       // solid-angle pdf with which y_{s-1} sampled the direction to y_s
   int material = -1;   // material at y_{s-1}
+  Vec2 uv;  // texture coordinate there (Scene::bsdf)
   bool diffuse = false;  // y_{s-1} is diffuse for photon methods (a DD ending, GPM §4.2 step 2)
   Vec3 n_photon;       // geometric normal at the photon y_s
   int32_t chain = -1;  // !diffuse: its PhotonChain in the pass's list (-1: none recorded)
@@ -74,6 +75,7 @@ struct PhotonChain {
   Vec3 dir;           // distant light: the unit direction of its photons; zero otherwise
   Vec3 wo;            // surface y_b: unit world direction towards y_{b-1}
   int material = -1;  // surface y_b
+  Vec2 uv;  // texture coordinate there (Scene::bsdf)
   int light = -1;     // y_b is a vertex on this light
   int count = 0;
   std::array<ChainVertex, kMaxChainVertices> v{};
@@ -90,6 +92,7 @@ struct PhotonPathVertex {
   float pdf_fwd;    // area density the light side sampled this vertex with (light vertex: see
                     // PhotonEmission; distant lights: pdf_dir, and the first hit pdf_pos |cos|)
   int material = -1;
+  Vec2 uv;  // texture coordinate there (Scene::bsdf)
   int light = -1;   // light vertex: the light
   bool delta = false;  // specular BSDF: its direction density counts as 1 on both sides
   bool start = false;

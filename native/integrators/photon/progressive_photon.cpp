@@ -204,7 +204,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       gather_phi_[i] = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf(scene_.material(vp.material));
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv);
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       double m = 0, lap = 0;
       RGB phi(0.0f);

@@ -97,6 +97,7 @@ class ProgressivePhotonMapping : public Integrator {
     Vec3 wo;            // local
     RGB beta;           // eye path throughput up to the point
     int material = -1;  // -1: no measurement point this pass
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
   };
   struct PixelState {
     double r2 = 0;                 // R_i^2 (0 until the pixel first sees a diffuse surface)
@@ -229,7 +230,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     }
     out.path_length += hit->t;
     if (hit->light >= 0) out.Ld += beta * lights.area_radiance(hit->light, -ray.d);
-    const Bsdf bsdf(scene_.material(hit->material));
+    const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
@@ -248,6 +249,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
       out.vp.wo = wo;
       out.vp.beta = beta;
       out.vp.material = hit->material;
+      out.vp.uv = hit->uv;
       hooks.gather(*hit);
       break;
     }

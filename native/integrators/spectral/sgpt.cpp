@@ -180,7 +180,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     base.v.push_back(bv);
     if (depth + 1 >= max_depth_) break;
     const Material& mat = scene_.material(hit->material);
-    if (Bsdf(mat).is_black() || bv.wo.z == 0) break;
+    if (scene_.bsdf(*hit).is_black() || bv.wo.z == 0) break;
     const Material m = monochromatic(mat, spectra_.albedo[hit->material], lambda);
     BaseVertex& v = base.v.back();
     // ---- Emitter sampling (next-event estimation), shared by the offsets ----
@@ -432,7 +432,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
       const Material& mat_y = scene_.material(yh.material);
       const Material my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
-      const bool y_nee = x.nee_eligible && !Bsdf(my).is_delta() && !Bsdf(mat_y).is_black() && wo_y.z != 0;
+      const bool y_nee = x.nee_eligible && !Bsdf(my).is_delta() && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
 
       // ---- NEE of the offset: the same light sample (point on an area light, direction of
       // a distant one), reconnected from y_k; Jacobian as a reconnection (KMA15 §5.2) ----

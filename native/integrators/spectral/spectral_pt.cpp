@@ -135,7 +135,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     const bool dispersive = is_dispersive(base);
     for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_.albedo[hit->material], wl.lambda[k]);
     const Bsdf hero_bsdf(mk[0]);
-    if (Bsdf(base).is_black()) break;
+    if (scene_.bsdf(*hit).is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
 
