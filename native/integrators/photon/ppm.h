@@ -11,6 +11,8 @@
 //   alpha               0.7     fraction of new photons kept (eq. 5.7)
 //   radius              0       initial radius in metres; 0 = two pixel footprints
 //   confidence          0.5     confidence 1 - beta of the error bound (eq. 6.10; §6.5.1 uses 50 %)
+//   error_bound         calibrated  calibrated | thesis: the error pass's bound (progressive_photon.h,
+//                               docs/error-calibration.md); thesis = eq. 6.12 as written
 //   hash                exact   photon lookup: exact | stochastic (thesis ch. 10)
 //   specular_threshold  0.05    roughness at or below which a surface is specular for photons
 //   max_depth           32      longest eye or photon path in segments

@@ -320,9 +320,17 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_
   if (thesis_bound_) {
     e.bound = e.half_width + std::abs(e.bias);  // eq. 6.12
   } else {
-    // |L_i - L| ~ |B' + sigma T|, sigma^2 the variance of L_i plus that of B' (B' is itself an
-    // estimate); its quantile at the confidence, the t correction taken at m = 0 (exact there).
-    const double sigma = std::sqrt(e.noise_sd * e.noise_sd + e.bias_sd * e.bias_sd);
+    // B' is itself an estimate, and a noisy one: from the same photons, B' = R^2 Lap L / 8 with
+    // the smooth kernel's weights (K'' + K'/t) is 2.1 times noisier than the disc estimate of L
+    // (ratio of the weights' rms over the disc), so where the
+    // true bias is small |B'| is mostly noise, and eq. 6.12 adds that noise to every bound.
+    // Shrink it by its signal-to-noise ratio (B' (1 - sd^2 / B'^2), 0 where |B'| <= sd: a
+    // James-Stein-like estimate), and count the kept part's uncertainty in the noise:
+    // |L_i - L| ~ |B + sigma T|, sigma^2 = Var L_i + w^2 sd^2; its quantile at the confidence,
+    // the t correction taken at m = 0 (exact there).
+    const double w = e.bias_sd > 0 ? std::max(0.0, 1.0 - e.bias_sd * e.bias_sd / (e.bias * e.bias)) : 1.0;
+    e.bias *= w;
+    const double sigma = std::sqrt(e.noise_sd * e.noise_sd + w * w * e.bias_sd * e.bias_sd);
     e.bound = sigma > 0 && std::isfinite(sigma) ? sigma * t_over_z_ * folded_(std::abs(e.bias) / sigma)
                                                  : (std::isfinite(sigma) ? std::abs(e.bias) : INFINITY);
   }
