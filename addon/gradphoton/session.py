@@ -13,7 +13,7 @@ import time
 import numpy as np
 
 from . import export, native
-from .properties import FILM_TRANSPARENT, KNOWN_PARAMS, method_info, method_params, native_value
+from .properties import FILM_TRANSPARENT, declared, method_info, params_of
 
 POLL_SECONDS = 0.02
 LAST = None  # the latest RenderSession (tests and the UI test inspect it)
@@ -59,11 +59,6 @@ def register_passes(engine, scene, view_layer):
     method = scene.gradphoton.method if scene is not None and hasattr(scene, "gradphoton") else None
     for name, bl_name, channels, chan_id, kind in enabled_passes(view_layer, method):
         engine.register_pass(scene, view_layer, bl_name, channels, chan_id, kind)
-
-
-def params_of(settings, method=None):
-    """The native parameters for `method` (default: the chosen one) from the render settings."""
-    return {key: native_value(settings, key, prop) for key, prop in method_params(method or settings.method).items()}
 
 
 # Key statistics of a method on the status line: (Stats key, short label, format). A key with
@@ -221,7 +216,8 @@ class RenderSession:
             engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
             nscene = exported.build(N)
             params = params_of(settings, settings.method)
-            params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
+            if any(d["name"] == FILM_TRANSPARENT for d in declared(settings.method)):
+                params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
             self.session = N.Session(nscene, settings.method, params)
         except (ValueError, TypeError, RuntimeError) as e:  # SceneError, ParamError: one readable line
             self.report('ERROR', f"gradphoton: {e}")
@@ -234,13 +230,16 @@ class RenderSession:
             return
         for w in nscene.warnings:
             self.report('WARNING', f"gradphoton scene: {w}")
-        unused = [u for u in self.session.unused_params if u not in KNOWN_PARAMS]
-        if unused:
-            self.report('WARNING', f"gradphoton: parameters not used by {settings.method}: {', '.join(unused)}")
-        if scene.render.film_transparent and FILM_TRANSPARENT in self.session.unused_params:
+        # The session sends only what the method declares: a name it does not know is a bug here.
+        for line in self.session.unused_report:
+            if "is not a parameter of" in line:
+                self.report('WARNING', f"gradphoton: {line}")
+        if scene.render.film_transparent and (FILM_TRANSPARENT in self.session.unused_params
+                                              or FILM_TRANSPARENT not in params):
             self.report('WARNING', f"gradphoton: {self.session.method} has no transparent film: "
                                    "the background stays opaque")
-        self.transparent = scene.render.film_transparent and FILM_TRANSPARENT not in self.session.unused_params
+        self.transparent = (scene.render.film_transparent and FILM_TRANSPARENT in params
+                            and FILM_TRANSPARENT not in self.session.unused_params)
         W, H = exported.width, exported.height
         window = exported.border
         rw, rh = (window[2], window[3]) if window else (W, H)

@@ -122,25 +122,54 @@ std::string scene_summary(const Scene& scene) {
 
 // ---- render ----
 struct RenderArgs {
-  std::string scene, method = "pt", out, png, recon;
-  double lambda = 0;
+  std::string scene, method = "pt", out, png;
   double seconds = 0;
   int64_t passes = 0;
-  int width = 0, height = 0, threads = 0, max_depth = 0;
-  uint64_t seed = 0;
-  // Photon methods (ppm, sppm): set only when given, so each method keeps its defaults.
-  std::optional<double> alpha, radius, confidence;
-  std::optional<int64_t> photons;
-  std::optional<std::string> hash;
-  std::optional<std::string> photon_sampler;
+  int width = 0, height = 0;
   double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
-  // Spectral mode and spectral gradient sampling (docs/spectral.md); unset = method defaults.
-  std::string spectral;
-  std::optional<double> delta, tau;
-  std::optional<int> bins;
+  // Method parameters given as --<name> (one option per declared name, methods.h): set only
+  // when given, so each method keeps its own defaults.
+  std::map<std::string, std::string> method_params;
 };
+
+// A command-line value as the JSON of the parameter's declared type: strings as given, numbers
+// and booleans parsed (a value that does not parse stays a string, and its declaration's check
+// names it).
+nlohmann::json param_value(const std::string& name, const std::string& text) {
+  for (const Method& m : methods())
+    if (const ParamDecl* d = m.find(name); d && d->type == ParamType::String) return text;
+  auto parsed = nlohmann::json::parse(text, nullptr, false);
+  return parsed.is_discarded() ? nlohmann::json(text) : parsed;
+}
+
+// Help of --<name>: the declaration's description, symbol and equation, range, and each
+// method's default ("0.7: ppm, sppm, sppm-adaptive, gpm; 0.6: msppm").
+std::string param_help(const std::string& name) {
+  const ParamDecl* first = nullptr;
+  std::vector<std::pair<std::string, std::string>> defaults;  // (default, its methods)
+  std::string all_methods;
+  for (const Method& m : methods()) {
+    all_methods += (all_methods.empty() ? "" : ", ") + m.name;
+    const ParamDecl* d = m.find(name);
+    if (!d) continue;
+    if (!first) first = d;
+    const std::string v = d->default_text();
+    auto it = std::find_if(defaults.begin(), defaults.end(), [&](const auto& e) { return e.first == v; });
+    if (it == defaults.end()) defaults.emplace_back(v, m.name);
+    else it->second += ", " + m.name;
+  }
+  std::string h = first->description;
+  if (!first->symbol.empty() || !first->reference.empty())
+    h += " (" + first->symbol + (first->symbol.empty() || first->reference.empty() ? "" : ", ") + first->reference + ")";
+  if (const std::string r = first->range_text(); !r.empty()) h += "; " + r;
+  h += ". Default";
+  for (size_t i = 0; i < defaults.size(); ++i)
+    h += (i ? "; " : " ") + defaults[i].first + " (" +
+         (defaults[i].second.size() == all_methods.size() ? std::string("every method") : defaults[i].second) + ")";
+  return h;
+}
 
 void make_parent_dirs(const std::string& path) {
   const fs::path parent = fs::path(path).parent_path();
@@ -155,31 +184,14 @@ int run_render(const RenderArgs& a) {
   if (a.width > 0) scene.camera.width = a.width;
   if (a.height > 0) scene.camera.height = a.height;
   Params params;
-  params.set("seed", a.seed);
-  params.set("threads", a.threads);
-  if (a.max_depth > 0) params.set("max_depth", a.max_depth);
-  if (a.alpha) params.set("alpha", *a.alpha);
-  if (a.radius) params.set("radius", *a.radius);
-  if (a.confidence) params.set("confidence", *a.confidence);
-  if (a.photons) params.set("photons", *a.photons);
-  if (a.hash) params.set("hash", *a.hash);
-  if (!a.recon.empty()) params.set("recon", a.recon);
-  if (a.lambda > 0) params.set("lambda", a.lambda);
-  if (!a.spectral.empty()) params.set("spectral", a.spectral);
-  if (a.delta) params.set("delta", *a.delta);
-  if (a.tau) params.set("tau", *a.tau);
-  if (a.bins) params.set("bins", *a.bins);
-  if (a.photon_sampler) params.set("photon_sampler", *a.photon_sampler);
-  for (const std::string& kv : a.params) {  // --param name=value, value parsed as JSON if it can be
+  for (const auto& [name, value] : a.method_params) params.set(name, param_value(name, value));
+  for (const std::string& kv : a.params) {  // --param name=value
     const auto eq = kv.find('=');
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
-    const std::string value = kv.substr(eq + 1);
-    auto parsed = nlohmann::json::parse(value, nullptr, false);
-    params.set(kv.substr(0, eq), parsed.is_discarded() ? nlohmann::json(value) : parsed);
+    params.set(kv.substr(0, eq), param_value(kv.substr(0, eq), kv.substr(eq + 1)));
   }
   auto integrator = make_integrator(a.method, scene, params);
-  for (const auto& name : params.unused())
-    fmt::print(stderr, "warning: parameter '{}' is not used by method '{}'\n", name, a.method);
+  for (const auto& line : unused_parameter_report(a.method, params)) fmt::print(stderr, "warning: {}\n", line);
 
   StopRule stop;
   stop.seconds = a.seconds;
@@ -229,6 +241,29 @@ int run_render(const RenderArgs& a) {
   if (!a.png.empty()) {
     write_png(a.png, film);
     fmt::print("png        {} ({})\n", a.png, describe_display({}));
+  }
+  return 0;
+}
+
+// ---- methods ----
+// The methods, or one method's parameters, as declared (methods.cpp).
+int run_methods(const std::string& name) {
+  if (name.empty()) {
+    for (const Method& m : methods()) fmt::print("{:<14} {}\n", m.name, m.summary);
+    fmt::print("\n`gradphoton methods NAME` lists a method's parameters; give them to render as --<name> VALUE.\n");
+    return 0;
+  }
+  const Method& m = find_method(name);
+  fmt::print("{}: {}\n\n", m.name, m.summary);
+  for (const ParamDecl& d : m.params) {
+    fmt::print("  {:<22} {:<6} default {:<8} {}\n", d.flag(), to_string(d.type),
+               d.zero_means.empty() ? d.default_text() : std::string("0"), d.range_text());
+    std::string more = d.description;
+    if (!d.zero_means.empty()) more += "; 0 = " + d.zero_means;
+    if (!d.read_when.empty()) more += "; read only with " + d.read_when;
+    if (!d.symbol.empty() || !d.reference.empty())
+      more += " (" + d.symbol + (d.symbol.empty() || d.reference.empty() ? "" : ", ") + d.reference + ")";
+    fmt::print("      {}\n", more);
   }
   return 0;
 }
@@ -519,43 +554,40 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
 
   RenderArgs ra;
-  std::string methods;
-  for (const auto& n : integrator_names()) methods += (methods.empty() ? "" : "|") + n;
+  std::string method_list;
+  for (const auto& n : integrator_names()) method_list += (method_list.empty() ? "" : "|") + n;
   auto* render = app.add_subcommand("render", "Render a scene progressively to a multi-layer EXR");
   render->add_option("scene", ra.scene, "Scene file (JSON, see docs/scene-format.md)")->required()->check(CLI::ExistingFile);
-  render->add_option("--method", ra.method, "Rendering method: " + methods)->capture_default_str();
+  render->add_option("--method", ra.method, "Rendering method: " + method_list)->capture_default_str();
   render->add_option("--time", ra.seconds, "Stop after this many seconds of rendering");
   render->add_option("--passes", ra.passes, "Stop after this many passes (default 16 if no --time)");
   render->add_option("--width", ra.width, "Image width (overrides the scene)");
   render->add_option("--height", ra.height, "Image height (overrides the scene)");
-  render->add_option("--threads", ra.threads, "Worker threads (0 = all cores)")->capture_default_str();
-  render->add_option("--seed", ra.seed, "Random seed")->capture_default_str();
-  render->add_option("--max-depth", ra.max_depth, "Longest path in segments");
   render->add_option("-o,--output", ra.out, "Output EXR (one layer per pass)")->required();
   render->add_option("--png", ra.png, "Also write a display PNG through OpenColorIO");
   render->add_option("--checkpoints", ra.checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
-  render->add_option("--recon", ra.recon, "Gradient methods: screened Poisson reconstruction l2 or l1 (default l2 for gpt; l1 for gpm and gdmlt)")
-      ->check(CLI::IsMember({"l1", "l2"}));
-  render->add_option("--lambda", ra.lambda, "Gradient methods: weight of the primal image (default 0.2)")
-      ->check(CLI::PositiveNumber);
-  render->add_option("--param", ra.params, "Method parameter name=value (repeatable)");
-  render->add_option("--alpha", ra.alpha, "photon methods: fraction of new photons kept per pass, in (0,1) (default 0.7; msppm 0.6)");
-  render->add_option("--photons", ra.photons, "photon methods: photons emitted per pass (default 100000; msppm: one per pixel)");
-  render->add_option("--radius", ra.radius, "photon methods: initial gathering radius in metres (default: from the pixel footprint)");
-  render->add_option("--confidence", ra.confidence, "ppm/sppm: confidence of the error estimate, in (0,1) (default 0.5)");
-  render->add_option("--hash", ra.hash, "ppm/sppm: photon lookup, exact|stochastic (default exact)");
-  render->add_option("--photon-sampler", ra.photon_sampler,
-                     "ppm/sppm: photon paths by uniform sampling or by adaptive MCMC on their visibility "
-                     "(thesis ch. 8), uniform|adaptive (default uniform)");
+  render->add_option("--param", ra.params, "Method parameter name=value (repeatable; the same as --<name> value)");
   render->add_option("--target-error", ra.target_error,
                      "Stop when the average estimated relative error falls below this (ppm/sppm)");
-  render->add_option("--spectral", ra.spectral,
-                     "Spectral mode: auto (spectral only with a dispersive material), rgb or spectral")
-      ->check(CLI::IsMember({"auto", "rgb", "spectral"}));
-  render->add_option("--delta", ra.delta, "sgpt: wavelength shift as a fraction of 360-830 nm (default 0.15)");
-  render->add_option("--tau", ra.tau, "sgpt: shift threshold tau of the paper's eq. 16 (default 0)");
-  render->add_option("--bins", ra.bins, "sgpt: spectral bins per pixel (default 15)");
+  // One option per parameter any method declares (methods.cpp): --alpha, --photons, --lambda ...
+  std::vector<const ParamDecl*> declared;
+  for (const Method& m : methods())
+    for (const ParamDecl& d : m.params)
+      if (std::none_of(declared.begin(), declared.end(), [&](const ParamDecl* e) { return e->name == d.name; }))
+        declared.push_back(&d);
+  for (const ParamDecl* d : declared) {
+    const std::string name = d->name;
+    render->add_option_function<std::string>(d->flag(), [&ra, name](const std::string& v) { ra.method_params[name] = v; },
+                                             param_help(name))
+        ->type_name(d->type == ParamType::String ? "TEXT" : d->type == ParamType::Bool ? "BOOL"
+                    : d->type == ParamType::Int  ? "INT" : "FLOAT")
+        ->group("Method parameters (each method reads its own; `gradphoton methods` lists them)");
+  }
+
+  std::string methods_name;
+  auto* methods_cmd = app.add_subcommand("methods", "List the methods, or one method's parameters and defaults");
+  methods_cmd->add_option("method", methods_name, "A method's name: list its parameters");
 
   std::vector<std::string> merge_inputs;
   std::string merge_out, merge_png;
@@ -637,6 +669,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     if (*render) return run_render(ra);
+    if (*methods_cmd) return run_methods(methods_name);
     if (*merge) return run_merge(merge_inputs, merge_out, merge_png, merge_threads);
     if (*diff) return run_diff(diff_a, diff_ref, diff_pass, diff_png, diff_error_pass);
     if (*info) {

@@ -38,7 +38,7 @@ double mean(const Film& f) {
 
 TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
   const Scene s = cornell_box(8, 8);
-  Msppm h(s, Params());
+  Msppm h(s, find_method("msppm").bind());
   // Camera, floor, back wall, a point on the ceiling light: k = 3.
   Frame floor_frame(Vec3(0, 0, 1)), wall_frame(Vec3(0, -1, 0));
   auto surface = [](Vec3 p, Vec3 n, const Frame* f, int material) {
@@ -111,7 +111,7 @@ TEST(Msppm, BalanceHeuristicWeightsSumToOne) {
 // meets the zero-density cases, where both must give 0). Scenes with delta, glossy and
 // diffuse surfaces, area, point, sun and sky lights.
 void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* nonzero) {
-  Msppm h(s, Params());
+  Msppm h(s, find_method("msppm").bind());
   PhotonTracer tracer(s, 16, kDefaultSpecularThreshold, seed, 1);
   Rng rng = Rng::for_key(seed, 7, 0);
   RngSamples u(rng);

@@ -180,7 +180,7 @@ TEST(Sgpt, ConvergesToTheSptReferenceOnThePrism) {
 // the largest |z|.
 double check_gradients(const Scene& s, Params p, int passes, double tol, const std::string& what, double z_max = 4.0,
                        std::array<int, 4> region = {0, 0, -1, -1}) {
-  SpectralGradientPathTracer sg(s, p);
+  SpectralGradientPathTracer sg(s, find_method("sgpt").bind(p));
   const int B = sg.bins(), st = sg.stride();
   std::vector<double> sum(B, 0.0), sum2(B, 0.0), prev_d(B, 0.0), I, G;
   for (int k = 1; k <= passes; ++k) {

@@ -97,29 +97,23 @@ Etas etas_of(const Material& m, const Vec3& wo, bool transmission) {
 SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
       spectra_(scene),
-      bins_(params.get<int>("bins", 15)),
-      count_(params.get<int>("wavelengths", 1)),
+      bins_(params.get<int>("bins")),
+      count_(params.get<int>("wavelengths")),
       stride_(1),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      delta_(params.get<double>("delta", 0.15)),
-      tau_(params.get<double>("tau", 0.0)),
-      alpha_(params.get<double>("alpha", 0.2)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      delta_(params.get<double>("delta")),
+      tau_(params.get<double>("tau")),
+      lambda_(params.get<double>("lambda")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.width),
       height_(scene.camera.height),
       poisson_(2, 1, 1.0) {
-  if (bins_ < 3 || bins_ > 256) throw ParamError("bins must be in 3..256");
-  if (count_ < 1 || count_ > kMaxWavelengths)
-    throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
-  if (!(delta_ > 0 && delta_ < 1)) throw ParamError("delta must be in (0, 1) (a fraction of 360-830 nm)");
-  if (!(tau_ >= 0)) throw ParamError("tau must be >= 0");
-  if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
   stride_ = std::clamp(static_cast<int>(std::lround(delta_ * bins_)), 1, bins_ - 1);
-  poisson_ = SpectralPoisson(bins_, stride_, alpha_);
+  poisson_ = SpectralPoisson(bins_, stride_, lambda_);
   // RGB of each bin's unit integral: the bin's mean CMF (1 nm steps) through the XYZ matrix.
   const double width = double(kLambdaRange) / bins_;
   for (int j = 0; j < bins_; ++j) {
