@@ -283,7 +283,7 @@ TEST(SpectralShift, ReconnectionJacobianMatchesFiniteDifferences) {
   const Vec3 w = normalize(Vec3(0.4f, 0.1f, 1.0f));
   const Vec3 xn = hit(w);
   const double fd = finite_difference_jacobian(w, [&](const Vec3& v) { return normalize(hit(v) - y); });
-  const float J = reconnection_jacobian(x, y, xn, n);
+  const float J = reconnection_jacobian<float>(x, y, xn, n);
   EXPECT_NEAR(J, fd, 2e-2 * fd);
   EXPECT_GT(std::abs(J - 1.0), 0.2) << "the test should exercise a Jacobian far from 1";
 }

@@ -47,10 +47,12 @@
 // reconstruction), spectral_gradient (RMS of the B gradient estimates).
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "core/rng.h"
 #include "core/spectrum.h"
+#include "integrators/gradient/shift.h"
 #include "integrators/integrator.h"
 #include "integrators/spectral/spectral_pt.h"
 #include "reconstruction/spectral_poisson.h"
@@ -72,10 +74,12 @@ class SpectralGradientPathTracer : public Integrator {
   void image_totals(std::vector<double>* primal, std::vector<double>* gradient, int x0 = 0, int y0 = 0,
                     int x1 = -1, int y1 = -1) const;
 
-  // Shift statistics by outcome (also in stats().extra).
+  // Shift statistics by outcome (also in stats().extra); failures by the reasons every shift
+  // mapping counts (gradient/shift.h ShiftFailure: "shift failed: occluded", ...).
   struct ShiftCounts {
-    int64_t attempts = 0, shifted = 0, below_tau = 0, failed_tir = 0, failed_blocked = 0,
-            failed_mismatch = 0;
+    int64_t attempts = 0, shifted = 0, below_tau = 0;
+    std::array<int64_t, kShiftFailureCount> failed{};
+    void fail(ShiftFailure f) { ++failed[static_cast<int>(f)]; }
   };
 
  private:
