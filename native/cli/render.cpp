@@ -9,8 +9,10 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 
 #include "cli/commands.h"
+#include "core/parallel.h"
 #include "distributed/run_info.h"
 #include "integrators/integrator.h"
 #include "integrators/spectral/spectral_pt.h"
@@ -86,6 +88,7 @@ struct RenderArgs {
   double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
+  std::vector<int> pixel;  // --pixel X,Y (empty: the whole image)
   // Method parameters given as --<name> (one option per declared name, methods.h): set only
   // when given, so each method keeps its own defaults.
   std::map<std::string, std::string> method_params;
@@ -142,6 +145,19 @@ int run_render(const RenderArgs& a) {
     if (eq == std::string::npos) throw ParamError("--param expects name=value, got '" + kv + "'");
     params.set(kv.substr(0, eq), param_value(kv.substr(0, eq), kv.substr(eq + 1)));
   }
+  // --pixel X,Y: that pixel only, single-threaded (PixelWindow, core/parallel.h), as pbrt's.
+  std::optional<PixelWindow> window;
+  if (!a.pixel.empty()) {
+    const int x = a.pixel[0], y = a.pixel[1];
+    if (x < 0 || y < 0 || x >= scene.camera.width || y >= scene.camera.height)
+      throw ParamError(fmt::format("--pixel {},{} is outside the {}x{} image", x, y, scene.camera.width,
+                                   scene.camera.height));
+    if (!find_method(a.method).per_pixel)
+      throw ParamError("--pixel: method '" + a.method + "' does not trace its pixels independently (Markov chains "
+                       "over the whole image)");
+    params.set("threads", 1);
+    window.emplace(x, y);
+  }
   auto integrator = make_integrator(a.method, scene, params);
   for (const auto& line : unused_parameter_report(a.method, params)) fmt::print(stderr, "warning: {}\n", line);
 
@@ -187,6 +203,14 @@ int run_render(const RenderArgs& a) {
       fmt::print("{:<10} {:.6g}\n", label, m[0] / n);
   }
   for (const auto& [k, v] : s.extra) fmt::print("{:<16} {:g}\n", k, v);
+  if (window) {  // the pixel's value in every pass, to the last digit (for comparisons)
+    const size_t i = static_cast<size_t>(a.pixel[1]) * film.width() + a.pixel[0];
+    for (const auto& [name, p] : film.passes()) {
+      std::string v;
+      for (int k = 0; k < p.channels; ++k) v += fmt::format(" {:.9g}", p.data[p.channels * i + k]);
+      fmt::print("pixel {},{} {}{}\n", a.pixel[0], a.pixel[1], name, v);
+    }
+  }
   if (progress.cancel_flag) fmt::print("cancelled  yes (image so far written)\n");
   fmt::print("exr        {}\n", a.out);
   for (const auto& p : progress.written) fmt::print("checkpoint {}\n", p);
@@ -237,6 +261,12 @@ std::vector<Command> add_render_commands(CLI::App& app) {
   render->add_option("--png", ra->png, "Also write a display PNG through OpenColorIO");
   render->add_option("--checkpoints", ra->checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")
       ->delimiter(',');
+  render->add_option("--pixel", ra->pixel,
+                     "Render only pixel X,Y (0,0 = top left), single-threaded, and print its value in every pass: "
+                     "for debugging a method. Its samples are the full render's for the same seed (every pixel "
+                     "draws its own random stream; photon methods to float rounding); a gradient method's primal "
+                     "pass, not its reconstruction (docs/methods.md)")
+      ->delimiter(',')->expected(2);
   render->add_option("--param", ra->params, "Method parameter name=value (repeatable; the same as --<name> value)");
   render->add_option("--target-error", ra->target_error,
                      "Stop when the average estimated relative error falls below this (ppm/sppm)");

@@ -248,7 +248,8 @@ std::vector<Method> make_methods() {
                        .group = "Metropolis"},
                       recon("l1"), lambda(), max_depth(32), rr_depth()},
                      common()}),
-               [](const Scene& s, const Params& p) { return std::make_unique<GradientDomainMlt>(s, p); }});
+               [](const Scene& s, const Params& p) { return std::make_unique<GradientDomainMlt>(s, p); },
+               /*per_pixel=*/false});
   auto spt = [](bool hero) {
     return [hero](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
       require_spectral(hero ? "spt-hero" : "spt", p);

@@ -22,6 +22,9 @@ struct Method {
   ParamDecls params;
   // Builds the method from parameters already bound to `params` (Params::bound).
   std::function<std::unique_ptr<Integrator>(const Scene&, const Params&)> make;
+  // Pixels are traced independently (each from its own random stream): `render --pixel`
+  // renders one pixel's samples as the full render does. False: global Markov chains (gdmlt).
+  bool per_pixel = true;
 
   const ParamDecl* find(const std::string& param) const;
   // `params` checked and bound to this method's declarations (Params::bound), for building one
