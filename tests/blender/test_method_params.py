@@ -3,7 +3,6 @@
 descriptions, drawn in its panels and nothing else; they reach the core, their statistics reach
 the status line, and every pass the method produces reaches the compositor. Settings saved under
 the old shared property names are moved into the methods' groups."""
-import math
 import os
 
 import bpy
