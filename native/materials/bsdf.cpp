@@ -101,25 +101,6 @@ RGB fresnel_schlick(const RGB& f0, float cos_i) {
   return f0 + (RGB(1.0f) - f0) * m5;
 }
 
-// Refraction of wi about n (same side as wi or not) for relative IOR eta = n_t / n_i seen from
-// the side n points to; pbrt-v4 Refract(). Returns false on total internal reflection.
-// etap receives the relative IOR actually crossed (inverted when wi is below n).
-bool refract(const Vec3& wi, Vec3 n, float eta, float* etap, Vec3* wt) {
-  float cos_i = dot(n, wi);
-  if (cos_i < 0) {  // wi on the inside: flip the interface
-    eta = 1.0f / eta;
-    cos_i = -cos_i;
-    n = -n;
-  }
-  const float sin2_i = std::max(0.0f, 1.0f - cos_i * cos_i);
-  const float sin2_t = sin2_i / (eta * eta);  // Snell's law
-  if (sin2_t >= 1.0f) return false;
-  const float cos_t = safe_sqrt(1.0f - sin2_t);
-  *wt = -wi / eta + n * (cos_i / eta - cos_t);
-  if (etap) *etap = eta;
-  return true;
-}
-
 // Mirror direction about the shading normal.
 Vec3 mirror_z(const Vec3& w) { return {-w.x, -w.y, w.z}; }
 

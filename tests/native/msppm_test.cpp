@@ -263,7 +263,7 @@ TEST(Msppm, EmissionDensitiesOfTheWeightsAreThoseThePhotonsLeaveWith) {
 // meets the zero-density cases, where both must give 0). Scenes with delta, glossy and
 // diffuse surfaces, area, point, sun and sky lights.
 void check_fast_merge_weight(const Scene& s, uint64_t seed, int* compared, int* nonzero) {
-  Msppm h(s, Params());
+  Msppm h(s, find_method("msppm").bind());
   PhotonTracer tracer(s, 16, kDefaultSpecularThreshold, seed, 1);
   Rng rng = Rng::for_key(seed, 7, 0);
   RngSamples u(rng);

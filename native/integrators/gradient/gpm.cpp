@@ -31,20 +31,12 @@ constexpr int kPhotonFailureBase = kShiftFailureCount;
 
 }  // namespace
 
-Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
-  // The initial radius by SPPM's footprint rule, one pixel wide (§5: "the projected pixel size";
-  // SPPM's default is two): every gathered photon costs four shifts, and one pixel wins at equal
-  // time where two lose to SPPM (docs/gradient.md, "Defaults"). With footprint=1 given to SPPM,
-  // or footprint=2 to GPM, the primal pass is SPPM's image.
-  footprint_pixels_ = params.get<double>("footprint", 1.0);
-  // alpha and photons per pass: SPPM's defaults (0.7, 100 000), which win at equal time at the
-  // sizes and budgets users run (docs/gradient.md, "Defaults"); the paper's 0.9 and 1 M suit
-  // megapixel renders of many minutes.
-  recon_ = gradient_recon_options(params, "gpm", threads_);
-  // Mitsuba's 20 (GPM §5: 5), with stuck walks given up early (manifold.h): a cap that cuts off
-  // walks still converging biases the gradients.
-  manifold_iterations_ = params.get<int>("manifold_iterations", 20);
-  if (manifold_iterations_ < 0) throw ParamError("parameter 'manifold_iterations' must be >= 0");
+Gpm::Gpm(const Scene& scene, const Params& params)
+    : ProgressivePhotonMapping(scene, params, {.retrace = true, .nee = true}) {
+  // The defaults, why they differ from the paper's and from SPPM's (footprint 1, alpha 0.7,
+  // 100 000 photons, manifold_iterations 20): methods.cpp, docs/gradient.md "Defaults".
+  recon_ = gradient_recon_options(params, threads_);
+  manifold_iterations_ = params.get<int>("manifold_iterations");
   const size_t n = px_.size();
   off_.assign(n, {});
   grad_.assign(n, GradState{});

@@ -41,15 +41,15 @@ struct Offset {
 
 GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()) {
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  recon_ = gradient_recon_options(params, "gpt", threads_);
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
+  recon_ = gradient_recon_options(params, threads_);
   const size_t n = static_cast<size_t>(width_) * height_;
   primal_.assign(3 * n, 0.0);
   direct_.assign(3 * n, 0.0);

@@ -168,15 +168,6 @@ std::optional<TangentMap> tangent_map(const Scene& scene, const ManifoldChain& c
   return T;
 }
 
-bool refract_local(const Vec3d& wo, const Vec3d& h, double eta, Vec3d& wt) {
-  // wo on h's side; eta = n_wo / n_wt.
-  const double cos_i = wo.dot(h);
-  const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
-  if (sin2_t >= 1.0) return false;
-  const double cos_t = std::sqrt(1.0 - sin2_t);
-  wt = -eta * wo + (eta * cos_i - cos_t) * h;
-  return true;
-}
 
 
 // |d omega_b / dA(y_s)| from the tangent map (see chain_direction_per_area); from a distant
@@ -293,8 +284,8 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
     if (c.v[j].transmission) {
       const bool outside = wo.z() > 0;
       const Vec3d hh = wo.dot(h) >= 0 ? h : Vec3d(-h);
-      const double eta = outside ? 1.0 / ls.ior : ls.ior;  // n_wo / n_wi
-      if (!refract_local(wo, hh, eta, wi)) return ShiftFailure::TotalInternalReflection;
+      const double eta = outside ? ls.ior : 1.0 / ls.ior;  // n_wi / n_wo
+      if (!refract_oriented(wo, hh, wo.dot(hh), eta, &wi)) return ShiftFailure::TotalInternalReflection;
       if (wi.z() * wo.z() >= 0) return ShiftFailure::NotInvertible;
     } else {
       wi = 2.0 * wo.dot(h) * h - wo;

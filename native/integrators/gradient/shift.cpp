@@ -29,26 +29,6 @@ VertexKind classify_vertex(const Bsdf& bsdf, float threshold) {
   return VertexKind::Glossy;
 }
 
-namespace {
-
-// Refraction of w about the microfacet normal h (any side) for the interior IOR `ior` below +z;
-// false on total internal reflection.
-bool refract_about(const Vec3& w, Vec3 h, float ior, Vec3* wt) {
-  float cos_i = dot(h, w);
-  float eta = ior;
-  if (cos_i < 0) {
-    eta = 1.0f / ior;
-    cos_i = -cos_i;
-    h = -h;
-  }
-  const float sin2_t = std::max(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
-  if (sin2_t >= 1.0f) return false;
-  const float cos_t = std::sqrt(1.0f - sin2_t);
-  *wt = -w / eta + h * (cos_i / eta - cos_t);
-  return true;
-}
-
-}  // namespace
 
 namespace {
 
@@ -133,7 +113,7 @@ DirectionShift shift_half_vector(const Bsdf& bsdf, const Vec3& wo, const Vec3& w
   }
   h = normalize(h);
   if (h.z < 0) h = -h;
-  if (!refract_about(wo_offset, h, m.ior, &r.wi)) {
+  if (!refract(wo_offset, h, m.ior, nullptr, &r.wi)) {  // about h, the interior IOR below +z
     r.failure = ShiftFailure::TotalInternalReflection;
     return r;
   }
@@ -166,13 +146,8 @@ ReconnectShift shift_reconnect(const Vec3& base_p, const Vec3& offset_p, const V
   }
   r.distance = static_cast<float>(std::sqrt(l2_off));
   r.wi = d_off / r.distance;
-  const double cos_base = std::abs(dot(n_target, d_base)) / std::sqrt(l2_base);
-  const double cos_off = std::abs(dot(n_target, r.wi));
-  if (cos_base <= 0 || cos_off <= 0) {
-    r.failure = ShiftFailure::ZeroLength;
-    return r;
-  }
-  r.jacobian = (cos_off / l2_off) / (cos_base / l2_base);
+  r.jacobian = reconnection_jacobian<double>(base_p, offset_p, target, n_target);
+  if (!(r.jacobian > 0)) r.failure = ShiftFailure::ZeroLength;  // a cosine at the target is 0
   return r;
 }
 

@@ -84,6 +84,22 @@ struct ReconnectShift {
   double jacobian = 0;
   bool ok() const { return failure == ShiftFailure::None; }
 };
+// Reconnection Jacobian (KMA15 §5.2), the one place it is written: the direction from the base
+// vertex x_k to the next base vertex x_next (normal n_next) replaced by the direction from the
+// offset's y_k, (cos_y / |y_k - x_next|^2) / (cos_x / |x_k - x_next|^2) with the cosines at
+// x_next: solid angle per area there, offset over base. 0 when a distance or cos_x is 0. Real:
+// the precision of the ratio (gpt double, sgpt float).
+template <class Real>
+Real reconnection_jacobian(const Vec3& x_k, const Vec3& y_k, const Vec3& x_next, const Vec3& n_next) {
+  const Vec3 dx = x_k - x_next, dy = y_k - x_next;
+  const Real lx2 = length_squared(dx), ly2 = length_squared(dy);
+  if (lx2 <= 0 || ly2 <= 0) return Real(0);
+  const Real cos_x = std::abs(dot(n_next, dx)) / std::sqrt(lx2);
+  const Real cos_y = std::abs(dot(n_next, dy)) / std::sqrt(ly2);
+  if (cos_x <= 0) return Real(0);
+  return (cos_y / ly2) / (cos_x / lx2);
+}
+
 ReconnectShift shift_reconnect(const Vec3& base_p, const Vec3& offset_p, const Vec3& target, const Vec3& n_target);
 
 // Gradient-domain photon density estimation eq. 4: the solid-angle Jacobian J_omega of the last

@@ -72,17 +72,8 @@
 // every pass. path_samples = k > 0 takes k samples per pass instead (k = 1: one per pass, as
 // the per-pass eye tracing of §9.5's last paragraph and as this integrator did before).
 //
-// Parameters (defaults):
-//   photons             0       photons per pass; 0 = the number of pixels (§9.5)
-//   alpha               0.6     fraction of new photons kept (eq. 7.2); < 2/3 (eq. 9.23)
-//   radius              0       initial radius in metres; 0 = two pixel footprints at the
-//                               first non-delta vertex
-//   max_depth           16      longest camera or photon path in segments
-//   rr_depth            3       camera-path depth from which Russian roulette may end it
-//   path_samples        0       path-tracing samples per pixel and pass; 0 = the expected local
-//                               photon count (§9.4.5, see "Sample counts")
-//   path_samples_max    64      upper bound of that count (caustic pixels find hundreds)
-//   seed 0, threads 0, tile_size 16 as for "pt"
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods msppm`, docs/methods.md#msppm).
 //
 // Passes: combined, radius, photon_count. Statistics: path tracing samples (total, and per pixel
 // and pass), photons traced/stored, photon rays,

@@ -14,50 +14,32 @@ namespace {
 using clock_type = std::chrono::steady_clock;
 }  // namespace
 
-ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
-                                                   const std::string& default_sampler, bool allow_spectral)
+ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params,
+                                                   const PhotonMethodOptions& options)
     : scene_(scene),
-      retrace_(retrace),
-      nee_(nee),
-      alpha_(params.get<double>("alpha", 0.7)),
-      radius_(params.get<double>("radius", 0.0)),
-      footprint_pixels_(params.get<double>("footprint", 2.0)),
-      confidence_(params.get<double>("confidence", 0.5)),
-      photons_per_pass_(params.get<int64_t>("photons", 100000)),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      retrace_(options.retrace),
+      nee_(options.nee),
+      alpha_(params.get<double>("alpha")),
+      radius_(params.get<double>("radius")),
+      footprint_pixels_(params.get<double>("footprint")),
+      confidence_(params.get<double>("confidence")),
+      photons_per_pass_(params.get<int64_t>("photons")),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      threshold_(params.get<float>("specular_threshold")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
       tracer_(scene, max_depth_, threshold_, seed_, threads_) {
-  const std::string bound = params.get<std::string>("error_bound", "calibrated");
-  if (bound == "thesis") thesis_bound_ = true;
-  else if (bound != "calibrated")
-    throw ParamError("parameter 'error_bound' must be 'calibrated' or 'thesis' (got '" + bound + "')");
-  const std::string hash = params.get<std::string>("hash", "exact");
-  if (hash == "exact") hash_mode_ = PhotonHashMode::Exact;
-  else if (hash == "stochastic") hash_mode_ = PhotonHashMode::Stochastic;
-  else throw ParamError("parameter 'hash' must be 'exact' or 'stochastic' (got '" + hash + "')");
-  const std::string sampler = params.get<std::string>("photon_sampler", default_sampler);
-  if (sampler == "adaptive") {
-    const int chains = params.get<int>("chains", 64);
-    if (chains < 1) throw ParamError("parameter 'chains' must be at least 1");
-    adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, chains, seed_);
-  } else if (sampler != "uniform") {
-    throw ParamError("parameter 'photon_sampler' must be 'uniform' or 'adaptive' (got '" + sampler + "')");
-  }
-  if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
-  if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
-  if (!(footprint_pixels_ > 0) || !std::isfinite(footprint_pixels_))
-    throw ParamError("parameter 'footprint' must be > 0 (pixels)");
-  if (!(confidence_ > 0 && confidence_ < 1)) throw ParamError("parameter 'confidence' must be in (0, 1)");
+  // Values are checked against their declarations (methods.cpp) before a method is built.
+  thesis_bound_ = params.get<std::string>("error_bound") == "thesis";
   folded_ = FoldedNormalQuantile(confidence_);
-  if (photons_per_pass_ < 1) throw ParamError("parameter 'photons' must be at least 1");
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
+  hash_mode_ = params.get<std::string>("hash") == "stochastic" ? PhotonHashMode::Stochastic : PhotonHashMode::Exact;
+  if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
+    adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
+  check_image_size(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});
@@ -68,12 +50,11 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   gather_lap_.assign(n, 0.0f);
   gather_phi_.assign(n, RGB(0.0f));
   error_.assign(n, 0.0f);
-  if (allow_spectral && !adaptive_ &&
-      use_spectral(parse_spectral_mode(params.get<std::string>("spectral", "auto")), scene)) {
+  if (options.spectral_photons && !adaptive_ &&
+      use_spectral(parse_spectral_mode(params.get<std::string>("spectral")), scene)) {
     spectral_ = true;
     spectra_ = std::make_unique<SceneSpectra>(scene);
-    const int c = params.get<int>("wavelengths", 4);
-    if (c < 1 || c > kMaxWavelengths) throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
+    const int c = params.get<int>("wavelengths");
     wl_.count = c;
     stats_.extra["spectral wavelengths"] = c;  // the CLI lists it: this run used spectral photons
     vp_beta_.assign(n, SpectralValues{});

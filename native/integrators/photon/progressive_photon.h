@@ -57,17 +57,24 @@ struct EyePathHooks {
 RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
                  const Vec2& u2, int64_t& rays);
 
+// What a photon method built on ProgressivePhotonMapping does; its parameters (and their
+// defaults) are its declarations in methods.cpp.
+struct PhotonMethodOptions {
+  // New measurement points every pass (SPPM) or once (PPM).
+  bool retrace = true;
+  // Direct light at the measurement point by next-event estimation and photons only after one
+  // bounce (SPPM), or every photon deposit (PPM, as the thesis' ch. 5).
+  bool nee = true;
+  // Reads photon_sampler (and with "adaptive", chains): adaptive MCMC photons (adaptive_photons.h).
+  bool adaptive_photons = false;
+  // Spectral photons (sppm.h "Spectral photons") when the parameter `spectral` asks for them
+  // (use_spectral) and the photon sampler is uniform; reads spectral and wavelengths.
+  bool spectral_photons = false;
+};
+
 class ProgressivePhotonMapping : public Integrator {
  public:
-  // retrace: new measurement points every pass (SPPM) or once (PPM).
-  // nee: direct light at the measurement point by next-event estimation and photons only
-  //      after one bounce (SPPM), or every photon deposit (PPM, as the thesis' ch. 5).
-  // default_sampler: the value of the "photon_sampler" parameter when it is not given
-  //      ("uniform", or "adaptive" for the method alias sppm-adaptive; adaptive_photons.h).
-  // allow_spectral: spectral photons (sppm.h "Spectral photons") when the parameter
-  //      `spectral` asks for them (use_spectral) and the photon sampler is uniform.
-  ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
-                           const std::string& default_sampler = "uniform", bool allow_spectral = false);
+  ProgressivePhotonMapping(const Scene& scene, const Params& params, const PhotonMethodOptions& options);
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   double estimated_error() const override { return estimated_error_; }
@@ -136,7 +143,7 @@ class ProgressivePhotonMapping : public Integrator {
   // Reads parameter film_transparent (PPM, SPPM: their RGB eye pass writes the alpha pass);
   // spectral photons leave it unread, so it is reported as unused there.
   void read_film_transparent(const Params& params) {
-    if (!spectral_) film_transparent_ = params.get<bool>("film_transparent", false);
+    if (!spectral_) film_transparent_ = params.get<bool>("film_transparent");
   }
 
   // ---- Spectral photons (progressive_photon_spectral.cpp) ----
