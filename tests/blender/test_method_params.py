@@ -244,7 +244,11 @@ class _Layout:
 
 
 # Render settings the panels draw that are not method parameters.
-NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "export_uvs"}
+# Render settings that are not method parameters: stop rule, export, the viewport's own settings,
+# Cycles' animated seed and Persistent Data.
+NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "export_uvs",
+                  "viewport_method", "viewport_passes", "use_animated_seed"}
+BLENDER_RENDER_SETTINGS = {"use_persistent_data"}
 
 
 def drawn_parameters(scene, method):
@@ -259,7 +263,8 @@ def drawn_parameters(scene, method):
             panel = SimpleNamespace(layout=_Layout(), group=getattr(cls, "group", None))
             cls.draw(panel, context)
             drawn += panel.layout.drawn_on
-    return {d for d in drawn if not (d[0] == "GradphotonRenderSettings" and d[1] in NOT_PARAMETERS)}
+    return {d for d in drawn if not (d[0] == "GradphotonRenderSettings" and d[1] in NOT_PARAMETERS)
+            and not (d[0] == "RenderSettings" and d[1] in BLENDER_RENDER_SETTINGS)}
 
 
 @pytest.mark.parametrize("method", METHODS)
