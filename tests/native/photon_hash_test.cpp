@@ -54,6 +54,23 @@ TEST(PhotonHash, ExactQueryFindsExactlyThePhotonsInRange) {
   EXPECT_NEAR(grid_sum(g, q, 0.2f), brute, 1e-6 * (1 + brute));
 }
 
+// A cancelled build (Esc during a photon pass's grid build) stops between its stages and leaves
+// an empty grid; a build polled but not cancelled is the full grid.
+TEST(PhotonHash, CancelledExactBuildStopsAndLeavesAnEmptyGrid) {
+  const std::vector<Photon> photons = cornell_photons(20000);
+  PhotonHashGrid g;
+  int polls = 0;
+  g.build(photons, 0.16f, PhotonHashMode::Exact, 0, 0, 0, 0, [&] { ++polls; return false; });
+  EXPECT_EQ(polls, 3);  // polled between the stages, not cancelled: the full grid
+  EXPECT_EQ(g.stored(), photons.size());
+  EXPECT_GT(grid_sum(g, photons[7].p, 0.08f), 0.0);
+  polls = 0;  // a later build cancelled at its first poll replaces that grid by an empty one
+  g.build(photons, 0.16f, PhotonHashMode::Exact, 0, 0, 0, 0, [&] { return ++polls >= 1; });
+  EXPECT_EQ(polls, 1);
+  EXPECT_EQ(g.stored(), 0u);
+  EXPECT_EQ(grid_sum(g, photons[7].p, 0.08f), 0.0);
+}
+
 TEST(PhotonHash, StochasticSelectionIsUnbiased) {
   // Thesis §10.2.1: one photon per bucket, power times the bucket count. Averaged over many
   // independent selections, every query's sum must approach the exact one.

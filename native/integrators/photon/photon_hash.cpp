@@ -14,7 +14,9 @@ size_t PhotonHashGrid::capacity_bytes() const {
 }
 
 void PhotonHashGrid::build(const std::vector<Photon>& photons, float cell_size, PhotonHashMode mode,
-                           uint64_t seed, uint64_t pass, int threads, uint32_t min_buckets) {
+                           uint64_t seed, uint64_t pass, int threads, uint32_t min_buckets,
+                           const std::function<bool()>& cancelled) {
+  built_ = false;  // until this build completes
   cell_ = cell_size > 0 ? cell_size : 1.0f;
   inv_cell_ = 1.0f / cell_;
   const size_t n = photons.size();
@@ -23,12 +25,19 @@ void PhotonHashGrid::build(const std::vector<Photon>& photons, float cell_size, 
   mask_ = buckets - 1;
   stochastic_ = mode == PhotonHashMode::Stochastic;
   if (stochastic_) build_stochastic(photons, buckets, seed, pass, threads);
-  else build_exact(photons, buckets, threads);
+  else if (!build_exact(photons, buckets, threads, cancelled)) return;  // cancelled: left unbuilt
   built_ = true;
 }
 
-void PhotonHashGrid::build_exact(const std::vector<Photon>& photons, uint32_t buckets, int threads) {
+bool PhotonHashGrid::build_exact(const std::vector<Photon>& photons, uint32_t buckets, int threads,
+                                 const std::function<bool()>& cancelled) {
   const size_t n = photons.size();
+  // Each stage over 16 M buckets (the visibility grid at 1080p) takes up to a few hundred ms.
+  auto stop = [&] {
+    if (!cancelled || !cancelled()) return false;
+    stored_ = 0;  // left unbuilt (built_ false): every query finds nothing
+    return true;
+  };
   // ---- 1. bucket of every photon, and bucket sizes (parallel, atomic counts) ----
   key_.resize(n);
   std::vector<std::atomic<uint32_t>> counts(buckets);  // value-initialised to 0
@@ -39,6 +48,7 @@ void PhotonHashGrid::build_exact(const std::vector<Photon>& photons, uint32_t bu
       counts[key_[i]].fetch_add(1, std::memory_order_relaxed);
     }
   });
+  if (stop()) return false;
   // ---- 2. exclusive prefix sum ----
   start_.resize(buckets + 1);
   uint32_t acc = 0;
@@ -48,6 +58,7 @@ void PhotonHashGrid::build_exact(const std::vector<Photon>& photons, uint32_t bu
     counts[b].store(start_[b], std::memory_order_relaxed);  // becomes the write cursor
   }
   start_[buckets] = acc;
+  if (stop()) return false;
   // ---- 3. scatter photon indices, then order each bucket by index (determinism) ----
   order_.resize(n);
   parallel_for(n, threads, [&](size_t lo, size_t hi) {
@@ -58,11 +69,13 @@ void PhotonHashGrid::build_exact(const std::vector<Photon>& photons, uint32_t bu
     for (size_t b = lo; b < hi; ++b)
       if (start_[b + 1] - start_[b] > 1) std::sort(order_.begin() + start_[b], order_.begin() + start_[b + 1]);
   });
+  if (stop()) return false;
   photons_.resize(n);
   parallel_for(n, threads, [&](size_t lo, size_t hi) {
     for (size_t i = lo; i < hi; ++i) photons_[i] = photons[order_[i]];
   });
   stored_ = n;
+  return true;
 }
 
 void PhotonHashGrid::build_stochastic(const std::vector<Photon>& photons, uint32_t buckets, uint64_t seed,

@@ -18,6 +18,8 @@
 //               whatever the thread count.
 #pragma once
 
+#include <functional>
+
 #include <atomic>
 #include <cstdint>
 #include <type_traits>
@@ -33,8 +35,10 @@ class PhotonHashGrid {
  public:
   // min_buckets: at least this many buckets (a power of two is used), for grids queried far
   // more often than built, where fewer hash collisions pay (adaptive_photons.h).
+  // `cancelled` is polled between the exact build's stages; once it returns true the build stops
+  // and the grid is left empty (a cancelled pass is abandoned anyway).
   void build(const std::vector<Photon>& photons, float cell_size, PhotonHashMode mode, uint64_t seed,
-             uint64_t pass, int threads, uint32_t min_buckets = 0);
+             uint64_t pass, int threads, uint32_t min_buckets = 0, const std::function<bool()>& cancelled = {});
 
   // Calls fn(photon, distance^2, weight) for every stored photon within `radius` of p. The
   // weight is 1 (exact) or the number of photons its bucket held (stochastic): the factor
@@ -117,7 +121,8 @@ class PhotonHashGrid {
             (static_cast<uint32_t>(z) * 83492791u)) & mask_;
   }
 
-  void build_exact(const std::vector<Photon>& photons, uint32_t buckets, int threads);
+  bool build_exact(const std::vector<Photon>& photons, uint32_t buckets, int threads,
+                   const std::function<bool()>& cancelled);  // false: cancelled
   void build_stochastic(const std::vector<Photon>& photons, uint32_t buckets, uint64_t seed, uint64_t pass,
                         int threads);
 

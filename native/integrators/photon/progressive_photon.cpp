@@ -147,7 +147,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     for (size_t i = 0; i < n_pixels; ++i)
       if (vp_[i].material >= 0)
         visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
-    visibility_.build(visibility_points_, threads_);
+    visibility_.build(visibility_points_, threads_, cancelled);
     if (cancelled()) return;  // the grid of 2 M points at 1080p takes a few hundred ms
     ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_, cancelled);
   } else if (spectral_) {
@@ -174,7 +174,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   if (max_r2 == 0) max_r2 = max_r2_all;
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
-  if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);  // §10.2.2
+  if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_, 0, cancelled);  // §10.2.2
   if (cancelled()) return;
   if (spectral_) spectral_gather(cancelled);
   else parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
