@@ -207,6 +207,16 @@ class Session {
 // scene (a quad under an emissive quad) with `params` and developed before any pass. The passes its develop()
 // writes, whether it has an error estimate (estimated_error() >= 0) and which of `params` it
 // left unread. Cheap: no pass runs.
+// Scene.width / .height: a new image size drops any crop window (it was in pixels of the old size).
+void resize_image(Scene& s, int width, int height) {
+  Scene::UpdateGuard guard(s);
+  Camera c = s.camera;
+  c.width = width;
+  c.height = height;
+  c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
+  s.set_camera(c);
+}
+
 py::dict method_info(const std::string& method, const py::dict& params) {
   static const char* kProbeScene = R"({
     "camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 1, "height": 1},
@@ -346,21 +356,9 @@ PYBIND11_MODULE(_native, m) {
       .def_property_readonly("warnings", [](const Scene& s) { return s.warnings.summary(); })
       // Setting the size drops a crop window (it was in pixels of the old size).
       .def_property("width", [](const Scene& s) { return s.camera.width; },
-                    [](Scene& s, int w) {
-                      Scene::UpdateGuard guard(s);
-                      Camera c = s.camera;
-                      c.width = w;
-                      c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
-                      s.set_camera(c);
-                    })
+                    [](Scene& s, int w) { resize_image(s, w, s.camera.height); })
       .def_property("height", [](const Scene& s) { return s.camera.height; },
-                    [](Scene& s, int h) {
-                      Scene::UpdateGuard guard(s);
-                      Camera c = s.camera;
-                      c.height = h;
-                      c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
-                      s.set_camera(c);
-                    })
+                    [](Scene& s, int h) { resize_image(s, s.camera.width, h); })
       // ---- Read-only views for importers (scripts/json_to_blend.py): the loaded, tessellated scene
       .def("meshes", [](const Scene& s) {
         py::list out;

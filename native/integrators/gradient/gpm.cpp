@@ -425,12 +425,7 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto t_eye = clock_type::now();
   gpm_eye_pass(pass, sink, rays, invalid, failures);
   if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
-  const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
-  for (size_t i = 0; i < n_pixels; ++i)
-    if (px_[i].r2 == 0 && vp_[i].material >= 0) {
-      const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
-      px_[i].r2 = r * r;
-    }
+  set_initial_radii();
   stats_.extra["eye seconds"] += seconds_since(t_eye);
 
   // ---- Photon pass (SPPM's, with each photon's previous vertex) ----

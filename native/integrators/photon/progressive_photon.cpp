@@ -64,6 +64,15 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
     stats_.extra["warning: no lights"] = 1;  // the image is black; reported, never a hang
 }
 
+void ProgressivePhotonMapping::set_initial_radii() {
+  const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
+  for (size_t i = 0; i < px_.size(); ++i)
+    if (px_[i].r2 == 0 && vp_[i].material >= 0) {
+      const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
+      px_[i].r2 = r * r;
+    }
+}
+
 RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
                  const Vec2& u2, int64_t& rays) {
   const auto ls = scene.light_set().sample_li(hit.p, u_light, u2);
@@ -128,12 +137,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     else eye_pass(pass, sink, rays, invalid);
     if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
     have_points_ = true;
-    const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
-    for (size_t i = 0; i < n_pixels; ++i)
-      if (px_[i].r2 == 0 && vp_[i].material >= 0) {
-        const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
-        px_[i].r2 = r * r;
-      }
+    set_initial_radii();
   }
   stats_.extra["eye seconds"] += seconds_since(t_eye);
 

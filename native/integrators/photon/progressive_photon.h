@@ -190,6 +190,9 @@ class ProgressivePhotonMapping : public Integrator {
   float footprint_radius(float path_length) const {
     return static_cast<float>(footprint_pixels_) * scene_.camera.pixel_footprint(path_length);
   }
+  // First radius of every pixel whose gather point is new: `radius` if given, else its
+  // footprint (first_r_), never below a scene-relative floor. Pixels with a radius keep it.
+  void set_initial_radii();
 
   PhotonTracer tracer_;
   std::unique_ptr<AdaptivePhotonSampler> adaptive_;  // photon_sampler = adaptive (thesis ch. 8)
