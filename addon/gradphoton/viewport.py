@@ -35,6 +35,14 @@ from .session import params_of
 START_RESOLUTION = 64      # pixels on the longer side of the first pass (Cycles' default)
 IDLE_WAIT = 0.25           # seconds the worker sleeps between checks when it has nothing to do
 LAST = None                # the latest ViewportSession (tests and benchmarks inspect it)
+# GPU textures let go of on another thread (an engine freed while the worker held it): a GPU
+# object must be freed where Blender's GPU context is, on its main thread, so they wait here for
+# the next draw.
+_RETIRED = []
+
+
+def _on_main_thread():
+    return threading.current_thread() is threading.main_thread()
 
 
 def view_camera(context, scene, width, height):
@@ -173,6 +181,7 @@ class ViewportSession:
             self.thread.start()
 
     def view_draw(self, engine, context, depsgraph):
+        _RETIRED.clear()  # (Blender's main thread)
         region = context.region
         w, h = region.width, region.height
         if w < 1 or h < 1:
@@ -200,7 +209,7 @@ class ViewportSession:
         import gpu
         from gpu_extras.presets import draw_texture_2d
         image = self.image
-        if image is None:
+        if image is None or self.stopped:
             return
         serial, pixels = image
         if serial != self._texture_serial:
@@ -208,9 +217,12 @@ class ViewportSession:
             buf = gpu.types.Buffer('FLOAT', iw * ih * 4, pixels.reshape(-1))
             self._texture = gpu.types.GPUTexture((iw, ih), format='RGBA16F', data=buf)
             self._texture_serial = serial
+        texture = self._texture  # (held here: the worker may drop the attribute when it stops)
+        if texture is None:
+            return
         gpu.state.blend_set('ALPHA_PREMULT')
         engine.bind_display_space_shader(scene)
-        draw_texture_2d(self._texture, (0, 0), w, h)
+        draw_texture_2d(texture, (0, 0), w, h)
         engine.unbind_display_space_shader()
         gpu.state.blend_set('NONE')
 
@@ -222,7 +234,12 @@ class ViewportSession:
             self.freed_at = time.perf_counter()
             self._cancel_locked()
             self.lock.notify_all()
-        self._texture = None  # here, on Blender's thread (engine.__del__), not on the worker's
+        self._drop_texture()
+
+    def _drop_texture(self):
+        texture, self._texture = self._texture, None
+        if texture is not None and not _on_main_thread():
+            _RETIRED.append(texture)  # freed by the next draw, on Blender's thread
 
     def _cancel_locked(self):
         if self.native is not None:
@@ -262,6 +279,9 @@ class ViewportSession:
                 if self.stopped:
                     self.native = None
                     self.exited_at = time.perf_counter()
+                    # This thread may hold the session's last reference: its texture must not
+                    # be freed here when the session goes.
+                    self._drop_texture()
                     return
                 plan, self.plan = self.plan, None
                 restart = plan is not None or self.camera_changed or self.config_changed

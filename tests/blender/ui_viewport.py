@@ -7,6 +7,7 @@ regions off, so the area shows only the drawn image), waits for the progressive 
 screenshots of the area, then edits the cube's material colour, moves the cube, turns the view,
 and leaves Rendered shading; each change must reach the screen (the screenshot changes as the
 edit says) and leaving must stop the worker. Writes OUT_DIR/ui_viewport.json."""
+import faulthandler
 import json
 import os
 import sys
@@ -15,6 +16,8 @@ import traceback
 
 import bpy
 import numpy as np
+
+faulthandler.enable(all_threads=True)  # a crash prints every thread's Python stack (test_ui.py)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "addon"))
