@@ -226,10 +226,29 @@ void Scene::commit() {
 std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   RawHit raw;
   if (!accel_->intersect(ray, raw)) return std::nullopt;
+  return surface_hit(raw);
+}
+
+void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceHit>* hits) const {
+  thread_local std::vector<RawHit> raw;
+  thread_local std::vector<char> found;  // (not vector<bool>: the stream writes a bool array)
+  raw.resize(n);
+  found.resize(n);
+  static_assert(sizeof(char) == sizeof(bool));
+  accel_->intersect_stream(rays, n, raw.data(), reinterpret_cast<bool*>(found.data()), true);
+  for (size_t i = 0; i < n; ++i) {
+    if (found[i]) hits[i] = surface_hit(raw[i]);
+    else hits[i].reset();
+  }
+}
+
+std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw) const {
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
   const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
-  SurfaceHit h;
+  // Built in place in the returned optional (no copy of the record on every ray).
+  std::optional<SurfaceHit> out(std::in_place);
+  SurfaceHit& h = *out;
   h.t = raw.t;
   // Interpolating the vertices is more precise than o + t d far from the ray origin.
   h.p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
@@ -248,7 +267,7 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   h.prim = raw.prim;
   h.material = static_cast<int>(m.material_ids[raw.prim]);
   h.light = triangle_light_[raw.geom][raw.prim];
-  return h;
+  return out;
 }
 
 bool Scene::occluded(const Ray& ray) const { return accel_->occluded(ray); }
