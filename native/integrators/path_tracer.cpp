@@ -142,10 +142,7 @@ void PathTracer::iterate(ProgressSink* sink) {
                            [this](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
                              std::vector<Ray> camera(n);
                              std::vector<std::optional<SurfaceHit>> hits(n);
-                             const Vec2 ext = scene_.camera.half_extent();
-                             for (size_t i = 0; i < n; ++i)
-                               camera[i] = scene_.camera.generate_ray(starts[i].film, starts[i].lens, ext);
-                             scene_.intersect_coherent(camera.data(), n, hits.data());
+                             trace_camera_rays(scene_, starts, n, camera.data(), hits.data());
                              for (size_t i = 0; i < n; ++i) {
                                bool escaped = false;
                                const RGB L = Li(camera[i], starts[i].rng, rays, &escaped, &hits[i]);

@@ -242,6 +242,13 @@ void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceH
   }
 }
 
+void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
+                       std::optional<SurfaceHit>* hits) {
+  const Vec2 ext = scene.camera.half_extent();  // a tan: once, not per ray
+  for (size_t i = 0; i < n; ++i) rays[i] = scene.camera.generate_ray(starts[i].film, starts[i].lens, ext);
+  scene.intersect_coherent(rays, n, hits);
+}
+
 std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw) const {
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];

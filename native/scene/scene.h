@@ -12,6 +12,7 @@
 #include "core/frame.h"
 #include "core/log.h"
 #include "core/math.h"
+#include "core/rng.h"
 #include "lights/light.h"
 #include "materials/material.h"
 #include "scene/camera.h"
@@ -61,6 +62,12 @@ struct SurfaceHit {
   int material = -1;
   int light = -1; // area light index of this triangle, or -1
 };
+
+// The camera rays of n pixels (their PixelStart: film position and lens sample) and their
+// closest hits, traced together (Scene::intersect_coherent): what a tile's paths start from.
+class Scene;
+void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
+                       std::optional<SurfaceHit>* hits);
 
 // Ray origin pushed off a surface so the next ray does not re-hit it ("A Fast and Robust
 // Method for Avoiding Self-Intersection", Wächter & Binder, Ray Tracing Gems ch. 6).

@@ -58,6 +58,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     if (!hit) break;
     const Bsdf bsdf(scene_.material(hit->material));
     if (bsdf.is_black()) break;
+    const bool diffuse = bsdf.is_diffuse_for_photons(threshold_);
     if (record) {
       PhotonPathVertex v;
       v.p = hit->p;
@@ -71,7 +72,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       record->vertices.push_back(v);
     }
     // ---- Deposit at diffuse vertices ----
-    if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
+    if (bounce >= min_deposit_bounce && diffuse) {
       if (beta.is_finite()) {
         dst.push_back(Photon{hit->p, -ray.d, beta});
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
@@ -115,10 +116,10 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       last.scale = beta / (bs->pdf * p_continue);
       last.pdf = bs->pdf;
       last.material = hit->material;
-      last.diffuse = bsdf.is_diffuse_for_photons(threshold_);
+      last.diffuse = diffuse;
     }
     if (chains) {
-      if (bsdf.is_diffuse_for_photons(threshold_)) {  // the new reconnection vertex y_b
+      if (diffuse) {  // the new reconnection vertex y_b
         chain->p = hit->p;
         chain->ng = hit->ng;
         chain->ns = hit->ns;
