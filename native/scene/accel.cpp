@@ -224,6 +224,7 @@ void Accelerator::intersect_stream(const Ray* rays, size_t n, RawHit* hits, bool
 }
 
 void Accelerator::occluded_stream(const Ray* rays, size_t n, bool* blocked, bool coherent) const {
+  if (n == 0) return;
   t_rays.resize(n);
   for (size_t i = 0; i < n; ++i) {
     record(rays[i], true);

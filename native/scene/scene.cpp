@@ -231,11 +231,14 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
 
 void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceHit>* hits) const {
   thread_local std::vector<RawHit> raw;
-  thread_local std::vector<char> found;  // (not vector<bool>: the stream writes a bool array)
+  thread_local std::unique_ptr<bool[]> found;  // (vector<bool> has no bool array to write into)
+  thread_local size_t capacity = 0;
   raw.resize(n);
-  found.resize(n);
-  static_assert(sizeof(char) == sizeof(bool));
-  accel_->intersect_stream(rays, n, raw.data(), reinterpret_cast<bool*>(found.data()), true);
+  if (capacity < n) {
+    found.reset(new bool[n]);
+    capacity = n;
+  }
+  accel_->intersect_stream(rays, n, raw.data(), found.get(), true);
   for (size_t i = 0; i < n; ++i) {
     if (found[i]) hits[i] = surface_hit(raw[i]);
     else hits[i].reset();
