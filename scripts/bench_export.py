@@ -55,3 +55,32 @@ run("flat (no normals)")
 grid.data.polygons[0].use_smooth = True
 grid.data.update()
 run("mixed smooth/flat (per-corner normals)")
+
+# A textured material (image colour + normal map, export/texture.py): the UV map is exported,
+# which takes the per-corner path; the image is read once by the native build.
+import tempfile  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+for p in grid.data.polygons:
+    p.use_smooth = True
+grid.data.update()
+img = bpy.data.images.new("bench_pattern", 512, 512)
+img.pixels.foreach_set(np.random.default_rng(1).random(512 * 512 * 4).astype(np.float32))
+img.filepath_raw = os.path.join(tempfile.mkdtemp(), "bench_pattern.png")
+img.file_format = 'PNG'
+img.save()
+mat = bpy.data.materials.new("Textured")
+mat.use_nodes = True
+nt = mat.node_tree
+bsdf = nt.nodes["Principled BSDF"]
+tex = nt.nodes.new("ShaderNodeTexImage")
+tex.image = bpy.data.images.load(img.filepath_raw)
+nt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+nmap = nt.nodes.new("ShaderNodeNormalMap")
+ntex = nt.nodes.new("ShaderNodeTexImage")
+ntex.image = tex.image
+nt.links.new(ntex.outputs["Color"], nmap.inputs["Color"])
+nt.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+grid.data.materials.append(mat)
+run("textured (image + normal map: UVs, per-corner)")

@@ -91,6 +91,23 @@ def passes():
     return [tuple(p) for p in m.passes()] if m else [("combined", 3, "Combined")]
 
 
+_params = {}  # method -> its parameter declarations, asked once per session of Blender
+
+
+def method_params(method):
+    """The method's parameter declarations (_native.method_params: name, type, default, range,
+    label, description, ...), [] without the module or for an unknown method."""
+    m = load()
+    if m is None:
+        return []
+    if method not in _params:
+        try:
+            _params[method] = [dict(d) for d in m.method_params(method)]
+        except (ValueError, RuntimeError):
+            _params[method] = []
+    return _params[method]
+
+
 _info = {}  # (method, params) -> method_info, asked once per session of Blender
 
 

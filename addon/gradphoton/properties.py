@@ -1,13 +1,17 @@
 """Settings: Scene.gradphoton (render), ViewLayer.gradphoton (passes), Material.gradphoton.
 
 Method names and pass names come from the native module (`_native.methods()`,
-`_native.passes()`); which passes a method writes, whether it estimates its error and which
-parameters it reads come from the method itself (`native.method_info`). Method parameters are
-the union of what the methods read; parameters a method does not read are dropped silently by
-the session. Labels and tooltips speak to artists first; the paper reference comes after.
+`_native.passes()`); which passes a method writes and whether it estimates its error come from
+the method itself (`native.method_info`). Each method's parameters are properties made from its
+declarations in the core (`_native.method_params`, integrators/methods.cpp): its own names,
+defaults, ranges and descriptions, one group per method (Scene.gradphoton.sppm.alpha), so a
+parameter added or renamed there appears here with no edit.
 """
 import bpy
-from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty)
+import math
+
+from bpy.app.handlers import persistent
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
 from . import native
 
@@ -41,8 +45,8 @@ _method_items = []  # Blender needs dynamic enum strings kept alive
 
 
 def method_info(method):
-    """What `method` declares (native.method_info): its passes, error estimate, unread parameters."""
-    return native.method_info(method, PROBE_PARAMS)
+    """What `method` produces (native.method_info): its passes and whether it estimates its error."""
+    return native.method_info(method)
 
 
 def method_items(self, context):
@@ -53,84 +57,233 @@ def method_items(self, context):
     return _method_items
 
 
-# Native parameter name -> property name on GradphotonRenderSettings. The session sends every
-# one of these; each method reads its own (Session.unused_params lists the others).
-METHOD_PARAMS = {
-    "max_depth": "max_bounces",
-    "seed": "seed",
-    "threads": "threads",
-    "photons": "photons_per_pass",
-    "alpha": "alpha",
-    "radius": "initial_radius",
-    "confidence": "confidence",
-    "hash": "photon_hash",
-    "lambda": "poisson_lambda",
-    "recon": "reconstruction",
-    "spectral": "spectral_mode",
-    "clamp_direct": "clamp_direct",
-    "clamp_indirect": "clamp_indirect",
-}
-# Parameters that Blender itself holds (scene.render), as Cycles reads them.
+# ---- Method parameters: made from the core's declarations (_native.method_params) ----
+# Each method has its own property group, Scene.gradphoton.<method, '-' as '_'>, with a property
+# per parameter it declares, named as the parameter, with its default, range and description.
+# A parameter declared `shared` (seed, threads, tile size, spectral mode) is one property of the
+# render settings for every method; film_transparent is Blender's own (Film > Transparent).
 FILM_TRANSPARENT = "film_transparent"
-# Parameters the panels grey out for a method that leaves them unread (method_info's "unused").
-PROBE_PARAMS = {"clamp_direct": 0.0, "clamp_indirect": 0.0, FILM_TRANSPARENT: True}
-
-# Parameters of one method only: native name -> property name, added to (or replacing)
-# METHOD_PARAMS for that method. A method whose paper default differs from the shared
-# property's gets its own property with the core's default (msppm's alpha 0.6 and one photon
-# per pixel, gpm's and gdmlt's L1 reconstruction), and a choice that would override a method alias's
-# default (photon_sampler: sppm-adaptive is sppm with "adaptive") is sent only where it is one.
-_ADAPTIVE_PHOTONS = {"photon_sampler": "photon_sampler", "chains": "photon_chains"}
-METHOD_SPECIFIC_PARAMS = {
-    "sppm": _ADAPTIVE_PHOTONS,
-    "ppm": _ADAPTIVE_PHOTONS,
-    "sppm-adaptive": {"chains": "photon_chains"},
-    "gpm": {"recon": "gpm_reconstruction", "manifold_iterations": "manifold_iterations"},
-    "msppm": {"alpha": "msppm_alpha", "photons": "msppm_photons", "max_depth": "msppm_max_bounces",
-              "path_samples": "msppm_path_samples"},
-    "gdmlt": {"mutations": "mlt_mutations", "chains": "mlt_chains", "large_step": "mlt_large_step",
-              "sigma": "mlt_sigma", "primal_share": "mlt_primal_share", "bootstrap": "mlt_bootstrap",
-              "recon": "mlt_reconstruction"},
-}
-# Every native name the addon may send (the session warns only about others left unused).
-KNOWN_PARAMS = set(METHOD_PARAMS).union(*METHOD_SPECIFIC_PARAMS.values()) | {FILM_TRANSPARENT}
-
-# A property whose value 0 means "automatic" in the core is shown with an "Auto" toggle
-# instead: property -> its toggle. The core receives 0 while the toggle is on.
-AUTO_TOGGLES = {
-    "initial_radius": "use_auto_radius",
-    "msppm_photons": "use_auto_msppm_photons",
-    "msppm_path_samples": "use_auto_msppm_path_samples",
-}
+SHARED_PROPS = {"spectral": "spectral_mode"}  # shared parameter -> property name, where they differ
+BLENDER_HELD = {FILM_TRANSPARENT}             # held by Blender itself (scene.render)
 # Cycles counts bounces (0 = direct light only); the core counts path segments, the camera
 # ray and the segment to the light included, so max_depth = bounces + 2 (path_tracer.h).
 BOUNCES_TO_SEGMENTS = 2
+BOUNCES = {"max_depth": "max_bounces"}  # parameter in segments -> property in bounces
 
 
-def native_value(settings, name, prop):
-    """The value the core receives for native parameter `name` held by property `prop`."""
-    if prop in AUTO_TOGGLES and getattr(settings, AUTO_TOGGLES[prop]):
+def method_group(method):
+    """Attribute of Scene.gradphoton holding `method`'s parameters."""
+    return method.replace("-", "_")
+
+
+def declared(method):
+    """The method's parameter declarations, [] without the module or for an unknown method."""
+    return native.method_params(method)
+
+
+def prop_name(decl):
+    """The property that holds a parameter: its name, or max_bounces for max_depth (in bounces)."""
+    if decl["shared"]:
+        return SHARED_PROPS.get(decl["name"], decl["name"])
+    return BOUNCES.get(decl["name"], decl["name"])
+
+
+def auto_toggle(decl):
+    """The "Auto" toggle's property for a parameter whose 0 means automatic, else None."""
+    return "use_auto_" + decl["name"] if decl["zero_means"] else None
+
+
+def holder(settings, method, decl):
+    """The property group that holds `decl` for `method`: the render settings for a shared one."""
+    return settings if decl["shared"] else getattr(settings, method_group(method))
+
+
+def native_value(settings, method, decl):
+    """The value the core receives for one of `method`'s parameters."""
+    group = holder(settings, method, decl)
+    toggle = auto_toggle(decl)
+    if toggle and getattr(group, toggle):
         return 0
-    value = getattr(settings, prop)
-    return value + BOUNCES_TO_SEGMENTS if name == "max_depth" else value
+    value = getattr(group, prop_name(decl))
+    return value + BOUNCES_TO_SEGMENTS if decl["name"] in BOUNCES else value
 
 
-def method_params(method):
-    """Native parameter name -> property name for one method."""
-    return {**METHOD_PARAMS, **METHOD_SPECIFIC_PARAMS.get(method, {})}
+def params_of(settings, method=None):
+    """The native parameters of `method` (default: the chosen one) from the render settings:
+    each parameter it declares but the ones Blender holds itself (film_transparent)."""
+    method = method or settings.method
+    return {d["name"]: native_value(settings, method, d) for d in declared(method) if d["name"] not in BLENDER_HELD}
 
 
-def param_prop(method, name):
-    """The property that holds native parameter `name` for `method` (for the panel)."""
-    return method_params(method).get(name, name)
+def read_when(settings, method, decl):
+    """False when the declaration says the parameter is read only with another one's value
+    ("photon_sampler=adaptive") and that is not the value now: the panel greys it out."""
+    cond = decl["read_when"]
+    if not cond or " " in cond or cond.count("=") != 1:
+        return True
+    name, value = cond.split("=")
+    other = next((d for d in declared(method) if d["name"] == name), None)
+    if other is None:
+        return True
+    return str(native_value(settings, method, other)) == value
 
 
-# Which parameter groups the panel shows for a method (the core reads only its own).
-PHOTON_METHODS = {"ppm", "sppm", "sppm-adaptive", "gpm", "msppm"}
-GRADIENT_METHODS = {"gpt", "gpm", "gdmlt"}
-ADAPTIVE_PHOTON_METHODS = {"ppm", "sppm", "sppm-adaptive"}  # read photon_sampler / chains
-ERROR_ESTIMATE_METHODS = {"ppm", "sppm", "sppm-adaptive", "gpm"}  # read confidence (and hash)
-MLT_METHODS = {"gdmlt"}
+def _tooltip(decl):
+    text = decl["description"]
+    text = text[0].upper() + text[1:]
+    if decl["zero_means"]:
+        text += f"; Auto: {decl['zero_means']}"
+    ref = ", ".join(x for x in (decl["symbol"], decl["reference"]) if x)
+    if ref:
+        text += f" ({ref})"
+    if decl["name"] in BOUNCES:
+        text += f". Core: {decl['name']} = bounces + {BOUNCES_TO_SEGMENTS}"
+    return text
+
+
+def _choice_label(c):
+    return c.upper() if len(c) <= 2 else c.capitalize()
+
+
+def _bound(decl, which):
+    """A Blender min/max: open ends nudged inside (Blender's are closed), None when unbounded."""
+    v = decl[which]
+    if v is None:
+        return None
+    if decl[which + "_open"]:
+        eps = 1e-4 * max(1.0, abs(v))
+        v = v + eps if which == "min" else v - eps
+    return v
+
+
+def make_property(decl):
+    """{property name: bpy property} for one declaration (with its Auto toggle)."""
+    name, kind = decl["name"], decl["type"]
+    label, tip = decl["label"], _tooltip(decl)
+    default = decl["manual_value"] if decl["zero_means"] else decl["default"]
+    kw = {}
+    out = {}
+    if kind == "bool":
+        prop = BoolProperty(name=label, default=bool(default), description=tip)
+    elif kind == "string":
+        items = [(c, _choice_label(c), c) for c in decl["choices"]]
+        prop = EnumProperty(name=label, default=default, items=items, description=tip)
+    else:
+        lo, hi = _bound(decl, "min"), _bound(decl, "max")
+        if name in BOUNCES:
+            default -= BOUNCES_TO_SEGMENTS
+            label = "Max Bounces"
+            lo = 0
+            hi = None if hi is None else hi - BOUNCES_TO_SEGMENTS
+        if lo is not None:
+            kw["min"] = int(math.ceil(lo)) if kind == "int" else lo
+        if hi is not None:
+            kw["max"] = int(math.floor(hi)) if kind == "int" else hi
+        if kind == "int":
+            prop = IntProperty(name=label, default=int(default), description=tip, **kw)
+        else:
+            prop = FloatProperty(name=label, default=float(default), description=tip,
+                                 precision=max(3, -int(math.floor(math.log10(abs(default))))) if default else 3,
+                                 **kw)
+    if decl["zero_means"]:
+        out[auto_toggle(decl)] = BoolProperty(name="Auto", default=True,
+                                              description=f"Automatic: {decl['zero_means']}")
+    out[prop_name(decl)] = prop
+    return out
+
+
+def _method_settings_class(method):
+    annotations = {}
+    for d in declared(method):
+        if not d["shared"]:
+            annotations.update(make_property(d))
+    return type(f"GradphotonParams_{method_group(method)}", (bpy.types.PropertyGroup,),
+                {"__annotations__": annotations, "__doc__": f"Parameters of {method}"})
+
+
+def _shared_annotations():
+    """The shared parameters' properties (first declaration of each), Blender-held ones aside."""
+    out = {}
+    for method in native.methods():
+        for d in declared(method):
+            if d["shared"] and d["name"] not in BLENDER_HELD and prop_name(d) not in out:
+                prop = make_property(d)
+                if d["name"] == "spectral":
+                    prop[prop_name(d)] = EnumProperty(
+                        name="Spectral", default="auto", description=_tooltip(d),
+                        items=[("auto", "Auto", "Spectral rendering only when a material disperses (Abbe "
+                                                "number or Cauchy B)"),
+                               ("rgb", "RGB", "Always RGB (dispersion ignored)"),
+                               ("spectral", "Spectral", "Always spectral (path tracing runs with hero "
+                                                        "wavelengths)")])
+                out.update(prop)
+    return out
+
+
+# ---- Settings saved before the parameters were per method (one shared property each) ----
+# old property -> (methods, parameter). Values a .blend file holds under the old names are moved
+# into each method's group when the file loads (migrate_settings), enums by their identifiers.
+_PHOTON = ("ppm", "sppm", "sppm-adaptive", "gpm")
+_OLD_ENUMS = {"reconstruction": ("l2", "l1"), "gpm_reconstruction": ("l2", "l1"), "mlt_reconstruction": ("l2", "l1"),
+              "photon_hash": ("exact", "stochastic"), "photon_sampler": ("uniform", "adaptive")}
+OLD_PROPERTIES = {
+    "max_bounces": (("pt", "ppm", "sppm", "sppm-adaptive", "gpt", "gpm", "gdmlt", "spt", "spt-hero", "sgpt"),
+                    "max_bounces"),
+    "msppm_max_bounces": (("msppm",), "max_bounces"),
+    "clamp_direct": (("pt",), "clamp_direct"),
+    "clamp_indirect": (("pt",), "clamp_indirect"),
+    "photons_per_pass": (_PHOTON, "photons"),
+    "alpha": (_PHOTON, "alpha"),
+    "use_auto_radius": (_PHOTON + ("msppm",), "use_auto_radius"),
+    "initial_radius": (_PHOTON + ("msppm",), "radius"),
+    "confidence": (_PHOTON, "confidence"),
+    "photon_hash": (_PHOTON, "hash"),
+    "poisson_lambda": (("gpt", "gpm", "gdmlt", "sgpt"), "lambda"),
+    "reconstruction": (("gpt",), "recon"),
+    "photon_sampler": (("ppm", "sppm"), "photon_sampler"),
+    "photon_chains": (("ppm", "sppm", "sppm-adaptive"), "chains"),
+    "msppm_alpha": (("msppm",), "alpha"),
+    "use_auto_msppm_photons": (("msppm",), "use_auto_photons"),
+    "msppm_photons": (("msppm",), "photons"),
+    "use_auto_msppm_path_samples": (("msppm",), "use_auto_path_samples"),
+    "msppm_path_samples": (("msppm",), "path_samples"),
+    "gpm_reconstruction": (("gpm",), "recon"),
+    "manifold_iterations": (("gpm",), "manifold_iterations"),
+    "mlt_mutations": (("gdmlt",), "mutations"),
+    "mlt_chains": (("gdmlt",), "chains"),
+    "mlt_large_step": (("gdmlt",), "large_step"),
+    "mlt_sigma": (("gdmlt",), "sigma"),
+    "mlt_primal_share": (("gdmlt",), "primal_share"),
+    "mlt_bootstrap": (("gdmlt",), "bootstrap"),
+    "mlt_reconstruction": (("gdmlt",), "recon"),
+}
+
+
+def migrate_settings(scene):
+    """Moves values saved under the old shared property names into the methods' groups; returns
+    the old names it moved. A value the new property refuses is left as it was (and reported)."""
+    s = scene.gradphoton
+    moved = []
+    for old, (methods, new) in OLD_PROPERTIES.items():
+        if old not in s.keys():
+            continue
+        value = s[old]
+        if old in _OLD_ENUMS:
+            value = _OLD_ENUMS[old][int(value)]
+        for method in methods:
+            group = getattr(s, method_group(method), None)
+            if group is not None and hasattr(group, new):
+                setattr(group, new, value)
+        del s[old]
+        moved.append(old)
+    return moved
+
+
+@persistent
+def _migrate_on_load(_):
+    for scene in bpy.data.scenes:
+        if getattr(scene, "gradphoton", None) is not None:
+            migrate_settings(scene)
 
 
 STOP_RULES = [("TIME", "Time", "Render for a time budget: every method finishes in the same time", 0),
@@ -171,7 +324,9 @@ def _method_changed(self, context):
         view_layer.update_render_passes()
 
 
-class GradphotonRenderSettings(bpy.types.PropertyGroup):
+class _RenderSettings:
+    """Scene.gradphoton: method, stop rule, export options; the method parameters are added from
+    the core's declarations (_render_settings_class)."""
     method: EnumProperty(name="Method", items=method_items, update=_method_changed,
                          description="How light is transported: each method suits different light")
     stop_rule: EnumProperty(name="Stop", items=stop_rule_items, default=0,
@@ -185,19 +340,6 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
     target_error: FloatProperty(name="Target Error", default=0.05, min=1e-4, max=1.0,
                                 description="Relative error of the image to stop at, as the method "
                                             "estimates it (0.05 = 5 %; thesis eq. 6.33)")
-    max_bounces: IntProperty(name="Max Bounces", default=30, min=0, max=1022,
-                             description="Scatterings a path may have, as Cycles counts them "
-                                         "(0 = direct light only); photon methods limit camera and "
-                                         "photon paths each. Core: max_depth = bounces + 2")
-    clamp_direct: FloatProperty(name="Direct Light", default=0.0, min=0.0, soft_max=100.0,
-                                description="Largest value a sample of direct light may add, as in Cycles "
-                                            "(0 = off): removes fireflies, darkens bright light. "
-                                            "Greyed out where the method does not clamp")
-    clamp_indirect: FloatProperty(name="Indirect Light", default=0.0, min=0.0, soft_max=100.0,
-                                  description="Largest value a sample of indirect light may add, as in "
-                                              "Cycles (0 = off): removes fireflies, darkens bright bounces. "
-                                              "Greyed out where the method does not clamp")
-    seed: IntProperty(name="Seed", default=0, min=0, description="Random seed: another seed gives other noise")
     use_animated_seed: BoolProperty(name="Use Animated Seed", default=False,
                                     description="Another seed every frame (a hash of the frame and the seed), "
                                                 "as Cycles: the noise changes over an animation")
@@ -206,92 +348,6 @@ class GradphotonRenderSettings(bpy.types.PropertyGroup):
                                               "(Path Tracing shows a first image soonest)")
     viewport_passes: IntProperty(name="Passes", default=1024, min=0,
                                  description="Passes the rendered viewport refines to (0 = no limit)")
-    threads: IntProperty(name="Threads", default=0, min=0, max=1024, description="Worker threads (0 = all cores)")
-    photons_per_pass: IntProperty(name="Photons", default=100000, min=1000,
-                                  description="Photons traced per pass: more gives smoother caustics per pass, "
-                                              "longer passes")
-    alpha: FloatProperty(name="Alpha", default=0.7, min=0.01, max=1.0,
-                         description="How fast the photon radius shrinks: lower sharpens sooner, "
-                                     "higher stays smoother (0.7; thesis eq. 5.9)")
-    use_auto_radius: BoolProperty(name="Auto", default=True,
-                                  description="Start the photon radius from each pixel's footprint")
-    initial_radius: FloatProperty(name="Initial Radius", default=0.01, min=1e-6, unit='LENGTH', subtype='DISTANCE',
-                                  description="Photon gathering radius of the first pass: larger is smoother "
-                                              "and blurrier at first")
-    confidence: FloatProperty(name="Confidence", default=0.5, min=0.01, max=0.999,
-                              description="How sure the error estimate is: higher stops later with "
-                                          "Target Error (thesis eq. 6.10)")
-    photon_hash: EnumProperty(name="Lookup", default="exact",
-                              items=[("exact", "Exact", "Find every photon near each point"),
-                                     ("stochastic", "Stochastic", "Keep one photon per grid cell: faster "
-                                                                  "with many photons (thesis ch. 10)")],
-                              description="How photons near a point are found")
-    poisson_lambda: FloatProperty(name="Lambda", default=0.2, min=0.0,
-                                  description="Weight of the noisy image against its smooth gradients in the "
-                                              "reconstruction: higher keeps more noise and detail "
-                                              "(screened Poisson)")
-    reconstruction: EnumProperty(name="Reconstruction", default="l2",
-                                 items=[("l2", "L2", "Screened Poisson, least squares"),
-                                        ("l1", "L1", "Screened Poisson, L1 by iteratively reweighted least squares")])
-    spectral_mode: EnumProperty(
-        name="Spectral", default="auto",
-        items=[("auto", "Auto", "Spectral rendering only when a material disperses (Abbe number or Cauchy B)"),
-               ("rgb", "RGB", "Always RGB (dispersion ignored)"),
-               ("spectral", "Spectral", "Always spectral (path tracing runs with hero wavelengths)")],
-        description="Spectral mode of the core (--spectral)")
-    # Adaptive photon tracing (thesis ch. 8, adaptive_photons.h): ppm, sppm, sppm-adaptive
-    photon_sampler: EnumProperty(
-        name="Photon Sampler", default="uniform",
-        items=[("uniform", "Uniform", "Photon paths from independent uniform random numbers"),
-               ("adaptive", "Adaptive", "Send photons where the camera sees them: for light behind "
-                                        "openings (MCMC on path visibility, thesis ch. 8)")],
-        description="How photons are sent from the lights")
-    photon_chains: IntProperty(name="Chains", default=64, min=1, max=65536,
-                               description="Independent explorers of the adaptive sampler (Markov chains)")
-    # MSPPM (thesis ch. 9, msppm.h): its own defaults
-    msppm_alpha: FloatProperty(name="Alpha", default=0.6, min=0.01, max=0.99,
-                               description="How fast the photon radius shrinks; below 2/3 "
-                                           "(0.6; thesis eq. 9.23)")
-    use_auto_msppm_photons: BoolProperty(name="Auto", default=True,
-                                         description="One photon per pixel and pass (thesis §9.5)")
-    msppm_photons: IntProperty(name="Photons", default=100000, min=1,
-                               description="Photons traced per pass")
-    msppm_max_bounces: IntProperty(name="Max Bounces", default=14, min=0, max=1022,
-                                   description="Scatterings a camera or photon path may have, as Cycles "
-                                               "counts them (14; core max_depth 16)")
-    use_auto_msppm_path_samples: BoolProperty(
-        name="Auto", default=True,
-        description="As many path-tracing samples as the pixel expects photons (thesis §9.5)")
-    msppm_path_samples: IntProperty(
-        name="Path Samples", default=1, min=1, max=1024,
-        description="Path-tracing samples per pixel and pass (1 often converges faster in short renders)")
-    gpm_reconstruction: EnumProperty(name="Reconstruction", default="l1",
-                                     items=[("l2", "L2", "Screened Poisson, least squares (unbiased)"),
-                                            ("l1", "L1", "Screened Poisson, L1: robust to stray caustic "
-                                                         "gradients (wins at equal time)")])
-    manifold_iterations: IntProperty(
-        name="Manifold Steps", default=20, min=0, max=100,
-        description="Effort to move caustic photons between neighbouring pixels: 0 leaves caustics "
-                    "out of the gradients; fewer than 20 darkens or brightens caustic edges "
-                    "(manifold walk projections; the paper uses 5)")
-    # Gradient-domain MLT (gdmlt.h)
-    mlt_mutations: IntProperty(name="Mutations", default=1, min=1, max=1024,
-                               description="Mutations per pixel and pass (a pass costs about one gradient PT pass)")
-    mlt_chains: IntProperty(name="Chains", default=64, min=1, max=65536,
-                            description="Independent explorers (Markov chains)")
-    mlt_large_step: FloatProperty(name="Large Step", default=0.3, min=0.0, max=1.0,
-                                  description="How often a path is replaced by a fresh one instead of "
-                                              "a small change (Kelemen's p_large)")
-    mlt_sigma: FloatProperty(name="Step Size", default=0.01, min=1e-5, max=0.99, precision=4,
-                             description="Size of a small change to a path (sigma in primary sample space)")
-    mlt_primal_share: FloatProperty(name="Image Share", default=0.05, min=1e-4, max=100.0, precision=3,
-                                    description="How much the image itself, not only its gradients, guides "
-                                                "the exploration (primal share of the target function)")
-    mlt_bootstrap: IntProperty(name="Bootstrap", default=1, min=1, max=1024,
-                               description="Plain samples per pixel to start the chains and set the brightness")
-    mlt_reconstruction: EnumProperty(name="Reconstruction", default="l1",
-                                     items=[("l2", "L2", "Screened Poisson, least squares (unbiased)"),
-                                            ("l1", "L1", "Screened Poisson, L1 (robust; GD-MLT's default)")])
     export_uvs: BoolProperty(name="Export UVs", default=False,
                              description="Export UV maps (splits vertices at UV seams; no material uses UVs yet)")
 
@@ -330,17 +386,35 @@ class GradphotonMaterialSettings(bpy.types.PropertyGroup):
 _classes = []
 
 
+def _render_settings_class():
+    """Scene.gradphoton: the settings above, the shared parameters, and one group per method."""
+    groups = {}
+    for method in native.methods():
+        cls = _method_settings_class(method)
+        bpy.utils.register_class(cls)
+        _classes.append(cls)
+        groups[method_group(method)] = PointerProperty(type=cls, name=method)
+    annotations = {**_RenderSettings.__annotations__, **_shared_annotations(), **groups}
+    return type("GradphotonRenderSettings", (bpy.types.PropertyGroup,),
+                {"__annotations__": annotations, "__doc__": _RenderSettings.__doc__})
+
+
 def register():
     global _classes
-    _classes = [GradphotonRenderSettings, _pass_toggles_class(), GradphotonMaterialSettings]
-    for c in _classes:
+    _classes = []
+    settings = _render_settings_class()  # registers the method groups first
+    _classes += [settings, _pass_toggles_class(), GradphotonMaterialSettings]
+    for c in _classes[-3:]:
         bpy.utils.register_class(c)
-    bpy.types.Scene.gradphoton = PointerProperty(type=_classes[0])
-    bpy.types.ViewLayer.gradphoton = PointerProperty(type=_classes[1])
-    bpy.types.Material.gradphoton = PointerProperty(type=_classes[2])
+    bpy.types.Scene.gradphoton = PointerProperty(type=settings)
+    bpy.types.ViewLayer.gradphoton = PointerProperty(type=_classes[-2])
+    bpy.types.Material.gradphoton = PointerProperty(type=_classes[-1])
+    bpy.app.handlers.load_post.append(_migrate_on_load)
 
 
 def unregister():
+    if _migrate_on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_migrate_on_load)
     del bpy.types.Material.gradphoton
     del bpy.types.ViewLayer.gradphoton
     del bpy.types.Scene.gradphoton

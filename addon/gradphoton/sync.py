@@ -162,14 +162,7 @@ def apply(plan, scene, native_module):
     an object uses is gone) raises the module's SceneError (a ValueError): the caller rebuilds
     (the sync's export, plan.rebuild or sync.exported). Releases the GIL in the native calls."""
     if plan.rebuild is not None or scene is None:
-        scene = plan.rebuild.build(native_module)
-        if plan.transforms:  # folded in after the rebuild's export
-            scene.set_transforms(plan.transforms[0], plan.transforms[1])
-        if plan.description is not None:
-            scene.update_description(plan.description)
-        if plan.camera is not None:
-            scene.set_camera(plan.camera)
-        return scene
+        scene = plan.rebuild.build(native_module)  # the updates below are folded in after its export
     if plan.transforms:
         scene.set_transforms(plan.transforms[0], plan.transforms[1])
     if plan.description is not None:

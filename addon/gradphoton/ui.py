@@ -10,9 +10,8 @@ import textwrap
 import bpy
 
 from . import native, session
-from .properties import (ADAPTIVE_PHOTON_METHODS, AUTO_TOGGLES, ERROR_ESTIMATE_METHODS, FILM_TRANSPARENT,
-                         GRADIENT_METHODS, METHOD_LABELS, MLT_METHODS, NOT_A_PASS_TOGGLE, PHOTON_METHODS, method_info,
-                         param_prop)
+from .properties import (FILM_TRANSPARENT, METHOD_LABELS, NOT_A_PASS_TOGGLE, auto_toggle, declared, holder,
+                         prop_name, read_when)
 
 ENGINE = "GRADPHOTON"
 
@@ -33,20 +32,48 @@ def _split(layout):
     return layout
 
 
-def prop_auto(layout, s, prop, text=None):
-    """`prop` with its "Auto" toggle (properties.AUTO_TOGGLES): the value greyed while automatic."""
-    auto = AUTO_TOGGLES[prop]
-    row = layout.row(heading=text or s.bl_rna.properties[prop].name, align=True)
-    row.prop(s, auto, text="Auto")
-    sub = row.row(align=True)
-    sub.active = not getattr(s, auto)
-    sub.prop(s, prop, text="")
-
-
 def reads(method, name):
-    """Whether `method` reads parameter `name` of properties.PROBE_PARAMS (its own declaration)."""
-    info = method_info(method)
-    return info is not None and name not in info["unused"]
+    """Whether `method` declares parameter `name` (its declarations in the core)."""
+    return any(d["name"] == name for d in declared(method))
+
+
+def draw_param(layout, settings, method, decl):
+    """One parameter of `method`: its property, with its "Auto" toggle where 0 means automatic,
+    greyed out while the settings leave it unread (its declaration's read_when)."""
+    group = holder(settings, method, decl)
+    prop = prop_name(decl)
+    col = layout.column()
+    col.active = read_when(settings, method, decl)
+    toggle = auto_toggle(decl)
+    if toggle:
+        row = col.row(heading=decl["label"], align=True)
+        row.prop(group, toggle, text="Auto")
+        sub = row.row(align=True)
+        sub.active = not getattr(group, toggle)
+        sub.prop(group, prop, text="")
+    else:
+        col.prop(group, prop)
+
+
+def group_params(method, group):
+    """The method's declarations drawn in panel `group`, Blender-held ones aside."""
+    return [d for d in declared(method) if d["group"] == group and d["name"] != FILM_TRANSPARENT]
+
+
+class MethodParamsPanel(GradphotonPanel):
+    """A Render tab panel of one group of parameters (their declarations' `group`): drawn for a
+    method that declares any, with only the method's own."""
+    group = ""
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and bool(group_params(context.scene.gradphoton.method, cls.group))
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        s = context.scene.gradphoton
+        for d in group_params(s.method, self.group):
+            draw_param(layout, s, s.method, d)
 
 
 def method_label(method):
@@ -66,7 +93,8 @@ class GRADPHOTON_PT_render(GradphotonPanel, bpy.types.Panel):
         layout.prop(s, "stop_rule")
         rule = s.stop_rule or 'TIME'
         layout.prop(s, {"TIME": "time_limit", "PASSES": "passes", "ERROR": "target_error"}[rule])
-        layout.prop(s, "spectral_mode")
+        for d in group_params(s.method, "Rendering"):
+            draw_param(layout, s, s.method, d)
 
 
 class GRADPHOTON_PT_viewport(GradphotonPanel, bpy.types.Panel):
@@ -81,97 +109,25 @@ class GRADPHOTON_PT_viewport(GradphotonPanel, bpy.types.Panel):
         layout.prop(s, "viewport_passes")
 
 
-class GRADPHOTON_PT_photons(GradphotonPanel, bpy.types.Panel):
-    bl_label = "Photons"
-    bl_context = "render"
-    bl_parent_id = "GRADPHOTON_PT_render"
-
-    @classmethod
-    def poll(cls, context):
-        return super().poll(context) and context.scene.gradphoton.method in PHOTON_METHODS
-
-    def draw(self, context):
-        layout = _split(self.layout)
-        s = context.scene.gradphoton
-        m = s.method
-        # A parameter's property can depend on the method (properties.METHOD_SPECIFIC_PARAMS).
-        if m == "msppm":
-            prop_auto(layout, s, "msppm_photons")
-        else:
-            layout.prop(s, param_prop(m, "photons"))
-        layout.prop(s, param_prop(m, "alpha"))
-        prop_auto(layout, s, "initial_radius")
-        if m in ERROR_ESTIMATE_METHODS:
-            layout.prop(s, "photon_hash")
-            layout.prop(s, "confidence")
-        if m == "msppm":
-            prop_auto(layout, s, "msppm_path_samples")
-        if m in ADAPTIVE_PHOTON_METHODS:
-            if m != "sppm-adaptive":
-                layout.prop(s, "photon_sampler")
-            sub = layout.column()
-            sub.active = m == "sppm-adaptive" or s.photon_sampler == "adaptive"
-            sub.prop(s, "photon_chains")
+def _params_panel(ident, group, label, parent="GRADPHOTON_PT_render", options=None):
+    attrs = {"bl_label": label, "bl_context": "render", "group": group}
+    if parent:
+        attrs["bl_parent_id"] = parent
+    if options:
+        attrs["bl_options"] = options
+    return type(ident, (MethodParamsPanel, bpy.types.Panel), attrs)
 
 
-class GRADPHOTON_PT_metropolis(GradphotonPanel, bpy.types.Panel):
-    bl_label = "Metropolis"
-    bl_context = "render"
-    bl_parent_id = "GRADPHOTON_PT_render"
-
-    @classmethod
-    def poll(cls, context):
-        return super().poll(context) and context.scene.gradphoton.method in MLT_METHODS
-
-    def draw(self, context):
-        layout = _split(self.layout)
-        s = context.scene.gradphoton
-        for name in ("mutations", "chains", "large_step", "sigma", "primal_share", "bootstrap"):
-            layout.prop(s, param_prop(s.method, name))
-
-
-class GRADPHOTON_PT_reconstruction(GradphotonPanel, bpy.types.Panel):
-    bl_label = "Reconstruction"
-    bl_context = "render"
-    bl_parent_id = "GRADPHOTON_PT_render"
-
-    @classmethod
-    def poll(cls, context):
-        return super().poll(context) and context.scene.gradphoton.method in GRADIENT_METHODS
-
-    def draw(self, context):
-        layout = _split(self.layout)
-        s = context.scene.gradphoton
-        layout.prop(s, param_prop(s.method, "recon"))
-        layout.prop(s, "poisson_lambda")
-        if s.method == "gpm":
-            layout.prop(s, "manifold_iterations")
-
-
-class GRADPHOTON_PT_light_paths(GradphotonPanel, bpy.types.Panel):
-    bl_label = "Light Paths"
-    bl_context = "render"
-
-    def draw(self, context):
-        layout = _split(self.layout)
-        s = context.scene.gradphoton
-        layout.prop(s, param_prop(s.method, "max_depth"))
-
-
-class GRADPHOTON_PT_clamping(GradphotonPanel, bpy.types.Panel):
-    bl_label = "Clamping"
-    bl_context = "render"
-    bl_parent_id = "GRADPHOTON_PT_light_paths"
-
-    def draw(self, context):
-        layout = _split(self.layout)
-        s = context.scene.gradphoton
-        col = layout.column(align=True)
-        col.active = reads(s.method, "clamp_direct")
-        col.prop(s, "clamp_direct")
-        col.prop(s, "clamp_indirect")
-        if not col.active:
-            layout.label(text=f"{method_label(s.method)} does not clamp", icon='INFO')
+# One panel per group of the declarations (methods.cpp `group`), in Cycles' order.
+GRADPHOTON_PT_photons = _params_panel("GRADPHOTON_PT_photons", "Photons", "Photons")
+GRADPHOTON_PT_metropolis = _params_panel("GRADPHOTON_PT_metropolis", "Metropolis", "Metropolis")
+GRADPHOTON_PT_reconstruction = _params_panel("GRADPHOTON_PT_reconstruction", "Reconstruction", "Reconstruction")
+GRADPHOTON_PT_spectral = _params_panel("GRADPHOTON_PT_spectral", "Spectral", "Spectral")
+GRADPHOTON_PT_light_paths = _params_panel("GRADPHOTON_PT_light_paths", "Light Paths", "Light Paths", parent=None)
+GRADPHOTON_PT_clamping = _params_panel("GRADPHOTON_PT_clamping", "Clamping", "Clamping",
+                                       parent="GRADPHOTON_PT_light_paths")
+PARAM_PANELS = (GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction, GRADPHOTON_PT_spectral,
+                GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping)
 
 
 class GRADPHOTON_PT_film(GradphotonPanel, bpy.types.Panel):
@@ -179,14 +135,13 @@ class GRADPHOTON_PT_film(GradphotonPanel, bpy.types.Panel):
     bl_context = "render"
     bl_options = {'DEFAULT_CLOSED'}
 
+    @classmethod
+    def poll(cls, context):  # Blender's own setting, drawn for the methods that declare it
+        return super().poll(context) and reads(context.scene.gradphoton.method, FILM_TRANSPARENT)
+
     def draw(self, context):
         layout = _split(self.layout)
-        col = layout.column()
-        col.active = reads(context.scene.gradphoton.method, FILM_TRANSPARENT)
-        col.prop(context.scene.render, "film_transparent", text="Transparent")
-        if not col.active:
-            layout.label(text=f"{method_label(context.scene.gradphoton.method)}: background stays opaque",
-                         icon='INFO')
+        layout.prop(context.scene.render, "film_transparent", text="Transparent")
 
 
 class GRADPHOTON_PT_report(GradphotonPanel, bpy.types.Panel):
@@ -216,10 +171,13 @@ class GRADPHOTON_PT_performance(GradphotonPanel, bpy.types.Panel):
     def draw(self, context):
         layout = _split(self.layout)
         s = context.scene.gradphoton
-        layout.prop(s, "threads")
-        row = layout.row(align=True)
-        row.prop(s, "seed")
-        row.prop(s, "use_animated_seed", text="", icon='TIME')
+        for d in group_params(s.method, "Performance"):
+            if d["name"] == "seed":  # Cycles' seed row: the clock toggles Use Animated Seed
+                row = layout.row(align=True)
+                draw_param(row, s, s.method, d)
+                row.prop(s, "use_animated_seed", text="", icon='TIME')
+            else:
+                draw_param(layout, s, s.method, d)
         layout.prop(context.scene.render, "use_persistent_data", text="Persistent Data")
         layout.prop(s, "export_uvs")
         layout.operator("gradphoton.export_scene", icon='EXPORT')
@@ -314,7 +272,7 @@ class GRADPHOTON_LIGHT_PT_light(GradphotonPanel, bpy.types.Panel):
 
 
 _classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_viewport, GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction,
-            GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping, GRADPHOTON_PT_film, GRADPHOTON_PT_performance,
+            GRADPHOTON_PT_spectral, GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping, GRADPHOTON_PT_film, GRADPHOTON_PT_performance,
             GRADPHOTON_PT_report, GRADPHOTON_PT_passes, GRADPHOTON_PT_material, GRADPHOTON_LIGHT_PT_light)
 
 # Blender's panels for its own renderer that gradphoton draws itself (the Light panel and its

@@ -29,7 +29,7 @@ import numpy as np
 from . import native, sync
 from .export import camera as camera_export
 from .export import Warnings
-from .properties import FILM_TRANSPARENT
+from .properties import FILM_TRANSPARENT, declared
 from .session import params_of
 
 START_RESOLUTION = 64      # pixels on the longer side of the first pass (Cycles' default)
@@ -97,7 +97,8 @@ def viewport_config(scene):
     if method == 'RENDER' or not method:
         method = settings.method
     params = params_of(settings, method, frame=scene.frame_current)
-    params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
+    if any(d["name"] == FILM_TRANSPARENT for d in declared(method)):
+        params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
     return method, params
 
 

@@ -63,6 +63,33 @@ inline bool is_finite(const Vec3& v) {
 // Reflect wo about n (both pointing away from the surface).
 inline Vec3 reflect(const Vec3& wo, const Vec3& n) { return -wo + n * (2.0f * dot(wo, n)); }
 
+// Snell's law, the one place it is written (pbrt-v4's Refract): the direction refracted from w
+// about n, w on n's side (cos_i = dot(n, w) >= 0), for the relative index eta = n_t / n_i (the
+// index across the surface over the index on w's side). False on total internal reflection. A
+// template so the manifold walk's double-precision Eigen vectors share it.
+template <class V, class Real>
+bool refract_oriented(const V& w, const V& n, Real cos_i, Real eta, V* wt) {
+  const Real sin2_t = std::max(Real(0), Real(1) - cos_i * cos_i) / (eta * eta);
+  if (sin2_t >= Real(1)) return false;
+  const Real cos_t = std::sqrt(Real(1) - sin2_t);
+  *wt = -w / eta + n * (cos_i / eta - cos_t);
+  return true;
+}
+
+// Refraction of w about n from either side, for eta = n_t / n_i seen from the side n points to:
+// from below, n and eta are flipped. `etap` (if given) receives the relative index crossed.
+inline bool refract(const Vec3& w, Vec3 n, float eta, float* etap, Vec3* wt) {
+  float cos_i = dot(n, w);
+  if (cos_i < 0) {  // w on the inside: flip the interface
+    eta = 1.0f / eta;
+    cos_i = -cos_i;
+    n = -n;
+  }
+  if (!refract_oriented(w, n, cos_i, eta, wt)) return false;
+  if (etap) *etap = eta;
+  return true;
+}
+
 inline float clamp(float v, float lo, float hi) { return std::min(std::max(v, lo), hi); }
 inline float safe_sqrt(float v) { return std::sqrt(std::max(0.0f, v)); }
 inline float sqr(float v) { return v * v; }

@@ -12,6 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <optional>
 #include <vector>
 
 #if GRADPHOTON_PARALLEL_THREADS
@@ -93,9 +94,21 @@ int resolve_thread_count(int threads) {
   return threads > 0 ? threads : tbb::info::default_concurrency();
 }
 
+namespace {
+std::optional<Tile> g_pixel_window;  // PixelWindow
+}  // namespace
+
+PixelWindow::PixelWindow(int x, int y) { g_pixel_window = Tile{x, y, x + 1, y + 1}; }
+PixelWindow::~PixelWindow() { g_pixel_window.reset(); }
+
 void parallel_for_tiles(int width, int height, int tile_size, int threads,
                         const std::function<void(const Tile&)>& fn,
                         const std::function<bool()>& cancelled) {
+  if (g_pixel_window) {
+    const Tile& w = *g_pixel_window;
+    if (w.x0 >= 0 && w.y0 >= 0 && w.x0 < width && w.y0 < height && !(cancelled && cancelled())) fn(w);
+    return;
+  }
   std::vector<Tile> tiles;
   for (int y = 0; y < height; y += tile_size)
     for (int x = 0; x < width; x += tile_size)

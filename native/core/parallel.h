@@ -16,6 +16,19 @@ void parallel_for_tiles(int width, int height, int tile_size, int threads,
                         const std::function<void(const Tile&)>& fn,
                         const std::function<bool()>& cancelled = {});
 
+// Debugging one pixel (the CLI's --pixel, as pbrt-v4's): while a PixelWindow lives,
+// parallel_for_tiles hands out only the 1x1 tile of pixel (x, y), on the calling thread; every
+// other pixel is left untouched. Each pixel draws its own random stream, so a method whose
+// pixels are traced independently computes that pixel's samples exactly as in the full render.
+// Process-wide (the CLI renders one image); not for concurrent renders.
+class PixelWindow {
+ public:
+  PixelWindow(int x, int y);
+  ~PixelWindow();
+  PixelWindow(const PixelWindow&) = delete;
+  PixelWindow& operator=(const PixelWindow&) = delete;
+};
+
 // Runs fn(begin, end) over [0, count) in parallel chunks.
 void parallel_for(size_t count, int threads, const std::function<void(size_t, size_t)>& fn);
 

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "integrators/gradient/gradient_passes.h"
+#include "integrators/methods.h"
 #include "io/exr.h"
 
 namespace gp {
@@ -154,7 +155,8 @@ MergeResult merge_runs(const std::vector<MergeInput>& runs, int threads) {
     if (!primal || !gx || !gy || !combined_name)
       refuse(first.path, fmt::format("a {} run needs its combined, primal, gradient_x and gradient_y passes to be "
                                      "merged (in Blender: enable them under View Layer > Passes)", method));
-    const ReconOptions recon = gradient_recon_options(Params(first.run.params), method, threads);
+    const Method& m = find_method(method);
+    const ReconOptions recon = gradient_recon_options(Params(first.run.params).bound(m.name, m.params), threads);
     const Pass& P = out.film.pass(*primal);
     const int c = P.channels;
     std::vector<float> rec = screened_poisson(P.data, out.film.pass(*gx).data, out.film.pass(*gy).data, W, H, c, recon);

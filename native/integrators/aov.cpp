@@ -8,7 +8,8 @@
 
 namespace gp {
 
-RGB material_albedo(const Material& m) {
+RGB material_albedo(const Material& material, Vec2 uv) {
+  const BsdfParams m = bsdf_params(material, uv);
   switch (m.type) {
     case MaterialType::Emission: return RGB(0.0f);
     case MaterialType::Plastic: {
@@ -18,7 +19,7 @@ RGB material_albedo(const Material& m) {
     case MaterialType::Mix:
       if (m.mix_a && m.mix_b) {
         const float wa = m.mix_add ? 1.0f : 1.0f - m.mix_factor, wb = m.mix_add ? 1.0f : m.mix_factor;
-        return material_albedo(*m.mix_a) * wa + material_albedo(*m.mix_b) * wb;
+        return material_albedo(*m.mix_a, uv) * wa + material_albedo(*m.mix_b, uv) * wb;
       }
       return m.color;
     default: return m.color;
@@ -69,9 +70,9 @@ void AovEstimator::add_pass(const std::function<bool()>& cancelled) {
             continue;
           }
           if (depth == kNoHitDepth) depth = dot(hit->p - eye, forward);
-          const Bsdf bsdf(m);
+          const Bsdf bsdf = scene_.bsdf(*hit);
           if (!bsdf.is_delta()) {
-            const RGB a = weight * material_albedo(m);
+            const RGB a = weight * material_albedo(m, hit->uv);
             for (int k = 0; k < 3; ++k) {
               albedo[3 * i + k] = a[k];
               normal[3 * i + k] = hit->ns[k];

@@ -25,7 +25,7 @@ namespace gp {
 // A surface's reflectance for the albedo pass: the colour of diffuse, conductor and glass;
 // a plastic's base seen through its coat plus the coat's normal-incidence reflectance; the
 // weighted albedo of a mix's parts; 0 for emission only.
-RGB material_albedo(const Material& m);
+RGB material_albedo(const Material& m, Vec2 uv);
 
 class AovEstimator {
  public:

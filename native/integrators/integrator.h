@@ -10,6 +10,7 @@
 #include "core/film.h"
 #include "core/params.h"
 #include "core/progress.h"
+#include "integrators/methods.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -44,16 +45,16 @@ struct StopRule {
 // to a larger total.
 void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink);
 
-// The checks every image integrator makes of the parameters they share, with one wording:
-// throws ParamError naming the first bad one (max_depth >= 1, rr_depth >= 0, threads >= 0,
-// tile_size >= 1, an image of at least 1x1).
-void check_common_params(int max_depth, int rr_depth, int threads, int tile_size, int width, int height);
+// Throws ParamError unless the image is at least 1x1 (parameters are checked by their
+// declarations, methods.h, before an integrator is built).
+void check_image_size(int width, int height);
 
-// Builds a method by name ("pt", ...). Unknown names and parameters with wrong types throw
-// ParamError; unread parameters are left in `params.unused()` for the caller to report.
+// Builds a method by name ("pt", ...) from its registration (methods.h). Unknown names and
+// values outside their declaration (type, range, choices) throw ParamError; unread parameters
+// are left in `params.unused()` for the caller to report (unused_parameter_report).
 std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
                                             const Params& params);
-// Names make_integrator accepts, for --help texts and the Blender enum.
+// Names make_integrator accepts, in the order of methods(), for --help texts and the Blender enum.
 std::vector<std::string> integrator_names();
 
 }  // namespace gp

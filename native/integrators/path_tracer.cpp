@@ -10,20 +10,18 @@ namespace gp {
 
 PathTracer::PathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
-      film_transparent_(params.get<bool>("film_transparent", false)),
-      clamp_direct_(params.get<float>("clamp_direct", 0.0f)),
-      clamp_indirect_(params.get<float>("clamp_indirect", 0.0f)),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      film_transparent_(params.get<bool>("film_transparent")),
+      clamp_direct_(params.get<float>("clamp_direct")),
+      clamp_indirect_(params.get<float>("clamp_indirect")),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
       estimate_(std::max(1, width_), std::max(1, height_), &scene.camera) {  // sizes checked just below
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  if (!(clamp_direct_ >= 0) || !(clamp_indirect_ >= 0))
-    throw ParamError("parameters 'clamp_direct' and 'clamp_indirect' must be >= 0 (0 = no clamping)");
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
 }
 
 RGB PathTracer::clamped(const RGB& c, bool direct) const {
@@ -92,7 +90,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
     }
     if (depth + 1 >= max_depth_) break;
 
-    const Bsdf bsdf(scene_.material(hit->material));
+    const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;

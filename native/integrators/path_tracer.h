@@ -3,17 +3,10 @@
 // One sample per pixel per pass, box pixel filter; every pixel of every pass draws from its
 // own random stream, so the image is independent of the thread count.
 //
-// Parameters (defaults):
-//   max_depth  32     longest path in segments (camera ray = 1)
-//   rr_depth   3      depth from which Russian roulette may end paths
-//   seed       0      random seed
-//   threads    0      worker threads (0 = all cores)
-//   tile_size  16     pixels per tile edge (scheduling only; does not change the image)
-//   film_transparent  false  camera rays that escape see no background; writes pass alpha
-//   clamp_direct      0      largest sum of R+G+B one direct-light contribution may add (0 = off)
-//   clamp_indirect    0      the same for indirect light (0 = off); as Cycles' Light Paths >
-//                            Clamping: direct is emission seen by the camera and light reaching
-//                            the first surface (NEE there, or emission hit by its BSDF ray)
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods pt`, docs/methods.md#pt). Clamping as Cycles' Light Paths > Clamping:
+// direct is emission seen by the camera and light reaching the first surface (NEE there, or
+// emission hit by its BSDF ray); indirect is the rest.
 //
 // Passes: combined; alpha with film_transparent.
 #pragma once

@@ -101,25 +101,6 @@ RGB fresnel_schlick(const RGB& f0, float cos_i) {
   return f0 + (RGB(1.0f) - f0) * m5;
 }
 
-// Refraction of wi about n (same side as wi or not) for relative IOR eta = n_t / n_i seen from
-// the side n points to; pbrt-v4 Refract(). Returns false on total internal reflection.
-// etap receives the relative IOR actually crossed (inverted when wi is below n).
-bool refract(const Vec3& wi, Vec3 n, float eta, float* etap, Vec3* wt) {
-  float cos_i = dot(n, wi);
-  if (cos_i < 0) {  // wi on the inside: flip the interface
-    eta = 1.0f / eta;
-    cos_i = -cos_i;
-    n = -n;
-  }
-  const float sin2_i = std::max(0.0f, 1.0f - cos_i * cos_i);
-  const float sin2_t = sin2_i / (eta * eta);  // Snell's law
-  if (sin2_t >= 1.0f) return false;
-  const float cos_t = safe_sqrt(1.0f - sin2_t);
-  *wt = -wi / eta + n * (cos_i / eta - cos_t);
-  if (etap) *etap = eta;
-  return true;
-}
-
 // Mirror direction about the shading normal.
 Vec3 mirror_z(const Vec3& w) { return {-w.x, -w.y, w.z}; }
 
@@ -129,7 +110,7 @@ bool valid_sample(const RGB& f, float pdf) {
 
 // ---- Diffuse ----
 
-RGB diffuse_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+RGB diffuse_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   return same_hemisphere(wo, wi) ? m.color * kInvPi : RGB(0.0f);
 }
 
@@ -137,7 +118,7 @@ float diffuse_pdf(const Vec3& wo, const Vec3& wi) {
   return same_hemisphere(wo, wi) ? cosine_hemisphere_pdf(abs_cos_theta(wi)) : 0.0f;
 }
 
-std::optional<BsdfSample> diffuse_sample(const Material& m, const Vec3& wo, Vec2 u) {
+std::optional<BsdfSample> diffuse_sample(const BsdfParams& m, const Vec3& wo, Vec2 u) {
   if (wo.z == 0) return std::nullopt;
   Vec3 wi = sample_cosine_hemisphere(u);
   if (wo.z < 0) wi.z = -wi.z;
@@ -153,11 +134,11 @@ std::optional<BsdfSample> diffuse_sample(const Material& m, const Vec3& wo, Vec2
 // ---- Conductor ----
 
 // Schlick's Fresnel with F0 = color, or the plain colour (Blender's Glossy BSDF has none).
-RGB conductor_fresnel(const Material& m, float cos_i) {
+RGB conductor_fresnel(const BsdfParams& m, float cos_i) {
   return m.conductor_fresnel ? fresnel_schlick(m.color, cos_i) : m.color;
 }
 
-RGB conductor_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
   const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
   if (cos_o == 0 || cos_i == 0) return RGB(0.0f);
@@ -171,7 +152,7 @@ RGB conductor_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
          (ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o));
 }
 
-float conductor_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+float conductor_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return 0.0f;
   Vec3 wm = wi + wo;
   if (length_squared(wm) == 0) return 0.0f;
@@ -184,7 +165,7 @@ float conductor_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
   return Ggx{m.roughness}.D_visible(wo, wm) / (4.0f * wo_dot_wm);
 }
 
-std::optional<BsdfSample> conductor_sample(const Material& m, const Vec3& wo, Vec2 u) {
+std::optional<BsdfSample> conductor_sample(const BsdfParams& m, const Vec3& wo, Vec2 u) {
   if (wo.z == 0) return std::nullopt;
   if (m.roughness < kSmoothAlpha) {
     // Perfect mirror: f = F / |cos| so that f |cos| / pdf = F with a unit Dirac pdf.
@@ -213,13 +194,13 @@ std::optional<BsdfSample> conductor_sample(const Material& m, const Vec3& wo, Ve
 
 // ---- Dielectric ----
 
-bool dielectric_is_smooth(const Material& m) { return m.roughness < kSmoothAlpha || m.ior == 1.0f; }
+bool dielectric_is_smooth(const BsdfParams& m) { return m.roughness < kSmoothAlpha || m.ior == 1.0f; }
 
 // Generalized half vector of a reflection or refraction pair, [Walter07] eq. 16 in pbrt-v4's
 // form wm = wo + etap wi, faced to +z. Returns false for degenerate pairs (grazing directions,
 // zero-length half vector) and for pairs whose microfacet is back-facing to wo or wi, which no
 // microfacet can produce. etap is the IOR on wi's side over the IOR on wo's side.
-bool dielectric_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, Vec3* wm,
+bool dielectric_half_vector(const BsdfParams& m, const Vec3& wo, const Vec3& wi, Vec3* wm,
                             float* etap, bool* reflect_pair) {
   const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
   if (cos_o == 0 || cos_i == 0) return false;
@@ -238,13 +219,13 @@ bool dielectric_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, V
 // seen from either side, but from the dense side near the critical angle cos_t = sqrt(1 -
 // sin^2_t) cancels and float round-off in wm.w becomes a large error in 1 - F; evaluated from
 // the outside direction F is well conditioned (and eval stays reciprocal to float precision).
-float dielectric_fresnel(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wm,
+float dielectric_fresnel(const BsdfParams& m, const Vec3& wo, const Vec3& wi, const Vec3& wm,
                          bool reflect_pair) {
   const Vec3& w = (reflect_pair || wo.z > 0) ? wo : wi;
   return fresnel_dielectric(dot(w, wm), m.ior);
 }
 
-RGB dielectric_eval(const Material& m, const Vec3& wo, const Vec3& wi, TransportMode mode) {
+RGB dielectric_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, TransportMode mode) {
   if (dielectric_is_smooth(m)) return RGB(0.0f);
   Vec3 wm;
   float etap;
@@ -266,7 +247,7 @@ RGB dielectric_eval(const Material& m, const Vec3& wo, const Vec3& wi, Transport
   return m.color * ft;
 }
 
-float dielectric_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+float dielectric_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (dielectric_is_smooth(m)) return 0.0f;
   Vec3 wm;
   float etap;
@@ -288,7 +269,7 @@ float dielectric_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
   return ggx.D_visible(wo, wm) * dwm_dwi * T;
 }
 
-std::optional<BsdfSample> dielectric_sample_smooth(const Material& m, const Vec3& wo, float uc,
+std::optional<BsdfSample> dielectric_sample_smooth(const BsdfParams& m, const Vec3& wo, float uc,
                                                    TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
   const float R = fresnel_dielectric(cos_theta(wo), m.ior);
@@ -316,7 +297,7 @@ std::optional<BsdfSample> dielectric_sample_smooth(const Material& m, const Vec3
   return s;
 }
 
-std::optional<BsdfSample> dielectric_sample(const Material& m, const Vec3& wo, float uc, Vec2 u,
+std::optional<BsdfSample> dielectric_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u,
                                             TransportMode mode) {
   if (dielectric_is_smooth(m)) return dielectric_sample_smooth(m, wo, uc, mode);
   if (wo.z == 0) return std::nullopt;
@@ -373,10 +354,10 @@ std::optional<BsdfSample> dielectric_sample(const Material& m, const Vec3& wo, f
 // (prepare_material). Sampling picks the coat with probability coat_probability(), then that
 // lobe's own sampler, and returns the whole BSDF's f and pdf (one-sample MIS).
 
-float plastic_f0(const Material& m) { return sqr((m.ior - 1.0f) / (m.ior + 1.0f)); }
+float plastic_f0(const BsdfParams& m) { return sqr((m.ior - 1.0f) / (m.ior + 1.0f)); }
 
-Material plastic_coat(const Material& m) {
-  Material coat;
+BsdfParams plastic_coat(const BsdfParams& m) {
+  BsdfParams coat;
   coat.type = MaterialType::Conductor;
   coat.color = RGB(plastic_f0(m));
   coat.roughness = m.roughness;
@@ -384,7 +365,7 @@ Material plastic_coat(const Material& m) {
 }
 
 // The coat's directional albedo at |cos| = mu (table lookup; Schlick without a table).
-float coat_albedo(const Material& m, float mu) {
+float coat_albedo(const BsdfParams& m, float mu) {
   mu = clamp(mu, 0.0f, 1.0f);
   if (!m.coat_albedo) return fresnel_schlick(RGB(plastic_f0(m)), mu).r;
   const std::vector<float>& e = *m.coat_albedo;
@@ -392,38 +373,38 @@ float coat_albedo(const Material& m, float mu) {
   const int i = std::min(static_cast<int>(x), kCoatAlbedoBins - 1);
   return e[i] + (e[i + 1] - e[i]) * (x - static_cast<float>(i));
 }
-float coat_albedo_average(const Material& m) {
+float coat_albedo_average(const BsdfParams& m) {
   const float f0 = plastic_f0(m);
   return m.coat_albedo ? m.coat_albedo->back() : f0 + (1.0f - f0) / 21.0f;  // 2 int Schlick mu
 }
 
-float coat_probability(const Material& m, const Vec3& wo) {
+float coat_probability(const BsdfParams& m, const Vec3& wo) {
   const float E = coat_albedo(m, abs_cos_theta(wo));
   const float base = (1.0f - E) * std::max(0.0f, m.color.average());
   return clamp(E / (E + base + 1e-6f), 0.1f, 0.9f);
 }
 
-RGB plastic_base_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+RGB plastic_base_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
   const float k = (1.0f - coat_albedo(m, abs_cos_theta(wi))) * (1.0f - coat_albedo(m, abs_cos_theta(wo))) /
                   (1.0f - coat_albedo_average(m));
   return m.color * (k * kInvPi);
 }
 
-RGB plastic_eval(const Material& m, const Vec3& wo, const Vec3& wi) {
+RGB plastic_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   RGB f = plastic_base_eval(m, wo, wi);
   if (m.roughness >= kSmoothAlpha) f += conductor_eval(plastic_coat(m), wo, wi);
   return f;
 }
 
-float plastic_pdf(const Material& m, const Vec3& wo, const Vec3& wi) {
+float plastic_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   const float pc = coat_probability(m, wo);
   float pdf = (1.0f - pc) * diffuse_pdf(wo, wi);
   if (m.roughness >= kSmoothAlpha) pdf += pc * conductor_pdf(plastic_coat(m), wo, wi);
   return pdf;
 }
 
-std::optional<BsdfSample> plastic_sample(const Material& m, const Vec3& wo, float uc, Vec2 u) {
+std::optional<BsdfSample> plastic_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u) {
   if (wo.z == 0) return std::nullopt;
   const float pc = coat_probability(m, wo);
   auto lobe = uc < pc ? conductor_sample(plastic_coat(m), wo, u) : diffuse_sample(m, wo, u);
@@ -452,7 +433,7 @@ namespace {
 struct MixParts {
   float scale_a, scale_b, prob_b;
 };
-MixParts mix_parts(const Material& m) {
+MixParts mix_parts(const BsdfParams& m) {
   const float t = clamp(m.mix_factor, 0.0f, 1.0f);
   if (m.mix_add) return {1.0f, 1.0f, 0.5f};
   return {1.0f - t, t, t};
@@ -476,7 +457,7 @@ void prepare_material(Material& m) {
   // E(mu) = int f_coat |cos_i| dwi, by the coat's own sampler on a fixed 64 x 64 stratified
   // grid (deterministic); a smooth coat reflects exactly Schlick's F(mu).
   auto table = std::make_shared<std::vector<float>>(kCoatAlbedoBins + 2, 0.0f);
-  const Material coat = plastic_coat(m);
+  const BsdfParams coat = plastic_coat(bsdf_params(m, Vec2()));
   constexpr int kGrid = 64;
   for (int b = 0; b <= kCoatAlbedoBins; ++b) {
     const float mu = std::max(1e-3f, static_cast<float>(b) / kCoatAlbedoBins);
@@ -524,23 +505,48 @@ float fresnel_dielectric(float cos_i, float eta) {
 // integrators make per wavelength) scatters as a diffuse surface of its own colour, which the
 // loader sets to the components' weighted colour.
 MaterialType Bsdf::kind() const {
-  if (m_->type == MaterialType::Mix && (!m_->mix_a || !m_->mix_b)) return MaterialType::Diffuse;
-  return m_->type;
+  if (p_.type == MaterialType::Mix && (!p_.mix_a || !p_.mix_b)) return MaterialType::Diffuse;
+  return p_.type;
+}
+
+BsdfParams bsdf_params(const Material& m, Vec2 uv) {
+  BsdfParams p;
+  p.type = m.type;
+  p.color = m.color_tex ? m.color_tex.rgb(uv) : m.color;
+  p.roughness = m.roughness_tex ? clamp(m.roughness_tex.value(uv), 0.0f, 1.0f) : m.roughness;
+  p.conductor_fresnel = m.conductor_fresnel;
+  p.ior = m.ior;
+  p.coat_albedo = m.coat_albedo.get();
+  p.mix_factor = m.factor_tex ? m.factor_tex.value(uv) : m.mix_factor;
+  p.mix_add = m.mix_add;
+  p.mix_a = m.mix_a.get();
+  p.mix_b = m.mix_b.get();
+  return p;
 }
 
 RGB Bsdf::eval(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
+  return wrong_side(wo, wi) ? RGB(0.0f) : eval_lobes(wo, wi, mode);
+}
+
+std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
+  auto s = sample_lobes(wo, uc, u, mode);
+  if (s && wrong_side(wo, s->wi)) return std::nullopt;
+  return s;
+}
+
+RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
   switch (kind()) {
-    case MaterialType::Diffuse: return diffuse_eval(*m_, wo, wi);
+    case MaterialType::Diffuse: return diffuse_eval(p_, wo, wi);
     case MaterialType::Conductor:
-      return m_->roughness < kSmoothAlpha ? RGB(0.0f) : conductor_eval(*m_, wo, wi);
-    case MaterialType::Dielectric: return dielectric_eval(*m_, wo, wi, mode);
+      return p_.roughness < kSmoothAlpha ? RGB(0.0f) : conductor_eval(p_, wo, wi);
+    case MaterialType::Dielectric: return dielectric_eval(p_, wo, wi, mode);
     case MaterialType::Emission: return RGB(0.0f);
-    case MaterialType::Plastic: return plastic_eval(*m_, wo, wi);
+    case MaterialType::Plastic: return plastic_eval(p_, wo, wi);
     case MaterialType::Mix: {
-      const MixParts p = mix_parts(*m_);
+      const MixParts p = mix_parts(p_);
       RGB f(0.0f);
-      if (p.scale_a > 0) f += Bsdf(*m_->mix_a).eval(wo, wi, mode) * p.scale_a;
-      if (p.scale_b > 0) f += Bsdf(*m_->mix_b).eval(wo, wi, mode) * p.scale_b;
+      if (p.scale_a > 0) f += component(p_.mix_a).eval(wo, wi, mode) * p.scale_a;
+      if (p.scale_b > 0) f += component(p_.mix_b).eval(wo, wi, mode) * p.scale_b;
       return f;
     }
   }
@@ -551,35 +557,35 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi) const {
   switch (kind()) {
     case MaterialType::Diffuse: return diffuse_pdf(wo, wi);
     case MaterialType::Conductor:
-      return m_->roughness < kSmoothAlpha ? 0.0f : conductor_pdf(*m_, wo, wi);
-    case MaterialType::Dielectric: return dielectric_pdf(*m_, wo, wi);
+      return p_.roughness < kSmoothAlpha ? 0.0f : conductor_pdf(p_, wo, wi);
+    case MaterialType::Dielectric: return dielectric_pdf(p_, wo, wi);
     case MaterialType::Emission: return 0.0f;
-    case MaterialType::Plastic: return plastic_pdf(*m_, wo, wi);
+    case MaterialType::Plastic: return plastic_pdf(p_, wo, wi);
     case MaterialType::Mix: {
-      const MixParts p = mix_parts(*m_);
+      const MixParts p = mix_parts(p_);
       float pdf = 0;
-      if (p.prob_b < 1) pdf += (1.0f - p.prob_b) * Bsdf(*m_->mix_a).pdf(wo, wi);
-      if (p.prob_b > 0) pdf += p.prob_b * Bsdf(*m_->mix_b).pdf(wo, wi);
+      if (p.prob_b < 1) pdf += (1.0f - p.prob_b) * component(p_.mix_a).pdf(wo, wi);
+      if (p.prob_b > 0) pdf += p.prob_b * component(p_.mix_b).pdf(wo, wi);
       return pdf;
     }
   }
   return 0.0f;
 }
 
-std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
+std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
   switch (kind()) {
-    case MaterialType::Diffuse: return diffuse_sample(*m_, wo, u);
-    case MaterialType::Conductor: return conductor_sample(*m_, wo, u);
-    case MaterialType::Dielectric: return dielectric_sample(*m_, wo, uc, u, mode);
+    case MaterialType::Diffuse: return diffuse_sample(p_, wo, u);
+    case MaterialType::Conductor: return conductor_sample(p_, wo, u);
+    case MaterialType::Dielectric: return dielectric_sample(p_, wo, uc, u, mode);
     case MaterialType::Emission: return std::nullopt;
-    case MaterialType::Plastic: return plastic_sample(*m_, wo, uc, u);
+    case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u);
     case MaterialType::Mix: {
-      const MixParts p = mix_parts(*m_);
+      const MixParts p = mix_parts(p_);
       const bool pick_b = uc < p.prob_b;
       // Reuse uc for the component's own lobe choice, rescaled to [0, 1).
       const float uc2 = pick_b ? uc / p.prob_b : (uc - p.prob_b) / (1.0f - p.prob_b);
       const float prob = pick_b ? p.prob_b : 1.0f - p.prob_b;
-      auto s = Bsdf(pick_b ? *m_->mix_b : *m_->mix_a).sample(wo, std::min(uc2, 0x1.fffffep-1f), u, mode);
+      auto s = component(pick_b ? p_.mix_b : p_.mix_a).sample(wo, std::min(uc2, 0x1.fffffep-1f), u, mode);
       if (!s) return std::nullopt;
       if (s->delta) {
         s->f *= pick_b ? p.scale_b : p.scale_a;
@@ -597,9 +603,9 @@ std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, Transpo
 
 bool Bsdf::is_delta() const {
   switch (kind()) {
-    case MaterialType::Conductor: return m_->roughness < kSmoothAlpha;
-    case MaterialType::Dielectric: return dielectric_is_smooth(*m_);
-    case MaterialType::Mix: return Bsdf(*m_->mix_a).is_delta() && Bsdf(*m_->mix_b).is_delta();
+    case MaterialType::Conductor: return p_.roughness < kSmoothAlpha;
+    case MaterialType::Dielectric: return dielectric_is_smooth(p_);
+    case MaterialType::Mix: return component(p_.mix_a).is_delta() && component(p_.mix_b).is_delta();
     default: return false;
   }
 }
@@ -609,10 +615,10 @@ bool Bsdf::is_black() const {
     case MaterialType::Emission: return true;
     // A black conductor still reflects at grazing angles (Schlick), so only these two qualify.
     case MaterialType::Diffuse:
-    case MaterialType::Dielectric: return m_->color.is_black();
+    case MaterialType::Dielectric: return p_.color.is_black();
     case MaterialType::Mix: {
-      const MixParts p = mix_parts(*m_);
-      return (p.scale_a == 0 || Bsdf(*m_->mix_a).is_black()) && (p.scale_b == 0 || Bsdf(*m_->mix_b).is_black());
+      const MixParts p = mix_parts(p_);
+      return (p.scale_a == 0 || component(p_.mix_a).is_black()) && (p.scale_b == 0 || component(p_.mix_b).is_black());
     }
     default: return false;
   }
@@ -622,11 +628,11 @@ bool Bsdf::is_diffuse_for_photons(float threshold) const {
   switch (kind()) {
     case MaterialType::Diffuse: return true;
     case MaterialType::Conductor:
-    case MaterialType::Dielectric: return m_->roughness > threshold;
+    case MaterialType::Dielectric: return p_.roughness > threshold;
     case MaterialType::Emission: return false;
     case MaterialType::Plastic: return true;  // its diffuse base stores photons
     case MaterialType::Mix:
-      return Bsdf(*m_->mix_a).is_diffuse_for_photons(threshold) || Bsdf(*m_->mix_b).is_diffuse_for_photons(threshold);
+      return component(p_.mix_a).is_diffuse_for_photons(threshold) || component(p_.mix_b).is_diffuse_for_photons(threshold);
   }
   return false;
 }

@@ -30,9 +30,29 @@ struct BsdfSample {
   float eta = 1.0f;      // relative IOR crossed (1 for reflection)
 };
 
+// A material's BSDF parameters at one surface point: its constants, with the inputs an image
+// texture drives looked up there. Plain values, cheap to make per hit.
+struct BsdfParams {
+  MaterialType type = MaterialType::Diffuse;
+  RGB color{0.8f};
+  float roughness = 0.0f;
+  bool conductor_fresnel = true;
+  float ior = 1.5f;
+  const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
+  float mix_factor = 0.5f;
+  bool mix_add = false;
+  const Material *mix_a = nullptr, *mix_b = nullptr;
+};
+
+// The parameters of `m` at texture coordinate uv.
+BsdfParams bsdf_params(const Material& m, Vec2 uv);
+
 class Bsdf {
  public:
-  explicit Bsdf(const Material& m) : m_(&m) {}
+  // The BSDF of material m at surface texture coordinate uv (SurfaceHit::uv).
+  Bsdf(const Material& m, Vec2 uv) : p_(bsdf_params(m, uv)), uv_(uv) {}
+  // An untextured material's BSDF (tests, tables): its textures, if any, are read at uv (0, 0).
+  explicit Bsdf(const Material& m) : Bsdf(m, Vec2()) {}
 
   RGB eval(const Vec3& wo, const Vec3& wi, TransportMode mode = TransportMode::Radiance) const;
   float pdf(const Vec3& wo, const Vec3& wi) const;
@@ -47,10 +67,26 @@ class Bsdf {
   bool is_black() const;
   // Photon-method classification: diffuse when roughness > threshold (GPM §4.3).
   bool is_diffuse_for_photons(float threshold = kDefaultSpecularThreshold) const;
+  // The geometric normal in the local frame, where a normal or bump map bent the shading normal:
+  // then a direction pair on the wrong side of the geometric surface for its lobe (a
+  // reflection through the surface, a transmission that stays on one side) scatters nothing,
+  // as Cycles does, so a bent normal never lets light through an opaque surface.
+  void set_geometric_normal(const Vec3& ng_local) { ng_ = ng_local; }
+  // The parameters it evaluates (type, IOR, colour at this point).
+  const BsdfParams& params() const { return p_; }
 
  private:
   MaterialType kind() const;
-  const Material* m_;
+  Bsdf component(const Material* m) const { return Bsdf(*m, uv_); }
+  BsdfParams p_;
+  Vec2 uv_;
+  Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)
+  bool wrong_side(const Vec3& wo, const Vec3& wi) const {
+    if (ng_.x == 0 && ng_.y == 0 && ng_.z == 0) return false;
+    return (dot(wo, ng_) * dot(wi, ng_) > 0) != (wo.z * wi.z > 0);
+  }
+  RGB eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const;
+  std::optional<BsdfSample> sample_lobes(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const;
 };
 
 // Shading-normal correction of the adjoint (importance) BSDF, Veach 1997 eq. 5.20: with world

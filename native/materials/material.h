@@ -1,7 +1,8 @@
 // The closed material set (DESIGN.md): diffuse, conductor, dielectric, emission-only, plastic
 // (a Fresnel-weighted diffuse base under a GGX dielectric coat: Principled's non-metal case)
-// and mix/add of two materials (Blender's Mix and Add Shader). A Material is plain parameters;
-// bsdf.h turns it into a BSDF evaluated in a local frame.
+// and mix/add of two materials (Blender's Mix and Add Shader). A Material is plain parameters,
+// some of which an image texture may drive (textures/texture.h); bsdf.h turns it into a BSDF
+// at one surface point, evaluated in a local frame.
 #pragma once
 
 #include <memory>
@@ -10,6 +11,7 @@
 
 #include "core/color.h"
 #include "core/spectrum.h"
+#include "textures/texture.h"
 
 namespace gp {
 
@@ -57,6 +59,30 @@ struct Material {
   bool mix_add = false;
   bool visible_to_camera = true;
   bool casts_shadow = true;
+
+  // ---- Textured inputs (an empty TextureRef: the constant above) ----
+  // Looked up at the hit's uv by Bsdf (colour, roughness, mix factor; in a mix, each
+  // component's own) and by the scene (alpha, normal map, bump: the top-level material's).
+  TextureRef color_tex;      // replaces `color`
+  TextureRef roughness_tex;  // replaces `roughness` (GGX alpha)
+  TextureRef factor_tex;     // replaces `mix_factor`
+  // Coverage (Principled Alpha, a Mix with a Transparent BSDF): the surface is there with
+  // probability alpha and otherwise let through by every ray (Cycles' transparency, as a
+  // stochastic cut-out: scene/accel).
+  float alpha = 1.0f;
+  TextureRef alpha_tex;      // replaces `alpha`
+  // Tangent-space normal map (Blender's Normal Map node): n = normalize(2 c - 1) in the frame
+  // (tangent, bitangent, shading normal), blended toward the shading normal by strength.
+  TextureRef normal_tex;
+  float normal_strength = 1.0f;
+  // Bump map (Blender's Bump node): the surface displaced by distance * height along the normal,
+  // blended by strength.
+  TextureRef bump_tex;
+  float bump_strength = 1.0f, bump_distance = 1.0f;
+
+  bool has_bsdf_textures() const { return color_tex || roughness_tex || factor_tex || (mix_a && mix_a->has_bsdf_textures()) || (mix_b && mix_b->has_bsdf_textures()); }
+  bool perturbs_normal() const { return normal_tex || bump_tex; }
+  bool has_coverage() const { return alpha < 1.0f || alpha_tex; }
 
   RGB radiance() const { return emission * emission_strength; }
   // A surface light passes straight through unchanged: a clear dielectric of IOR 1 (how a

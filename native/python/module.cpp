@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <memory>
 #include <stdexcept>
 
@@ -13,6 +14,7 @@
 #include "distributed/run_info.h"
 #include "integrators/aov.h"
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "io/exr.h"
 #include "reconstruction/poisson.h"
 #include "scene/builder.h"
@@ -37,6 +39,37 @@ py::array_t<T> to_array(const T* data, std::vector<size_t> shape) {
 Params params_from_dict(const py::dict& d) {
   py::object dumps = py::module_::import("json").attr("dumps");
   return Params(nlohmann::json::parse(dumps(d).cast<std::string>()));
+}
+
+py::object to_python(const nlohmann::json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
+
+// One method's parameter declarations (methods.h), in declaration order: what the addon's
+// properties and panels, the docs table and the tests are made from.
+py::list method_params(const std::string& method) {
+  py::list out;
+  for (const ParamDecl& d : find_method(method).params) {
+    py::dict p;
+    p["name"] = d.name;
+    p["type"] = to_string(d.type);
+    p["default"] = to_python(d.default_value);
+    p["min"] = std::isfinite(d.min) ? py::object(py::float_(d.min)) : py::none();
+    p["max"] = std::isfinite(d.max) ? py::object(py::float_(d.max)) : py::none();
+    p["min_open"] = d.min_open;
+    p["max_open"] = d.max_open;
+    p["choices"] = d.choices;
+    p["range"] = d.range_text();
+    p["label"] = d.label;
+    p["description"] = d.description;
+    p["symbol"] = d.symbol;
+    p["reference"] = d.reference;
+    p["zero_means"] = d.zero_means;
+    p["manual_value"] = to_python(d.manual_value);
+    p["read_when"] = d.read_when;
+    p["shared"] = d.shared;
+    p["group"] = d.group;
+    out.append(p);
+  }
+  return out;
 }
 
 // Row-major (K, 4, 4) float array -> transforms.
@@ -85,6 +118,7 @@ class Session {
     generation_ = scene_->generation();
     integrator_ = make_integrator(method, *scene_, params_);
     unused_ = params_.unused();
+    unused_report_ = unused_parameter_report(method, params_);
     aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
   }
   // One pass of the method, and while they are few, one of the auxiliary passes (aov.h).
@@ -154,6 +188,7 @@ class Session {
   void check_fresh() const {
     if (stale()) throw std::logic_error("the scene changed since this Session was made; make a new Session");
   }
+  const std::vector<std::string>& unused_report() const { return unused_report_; }
   std::string method() const { return integrator_->name(); }
   double estimated_error() const { return integrator_->estimated_error(); }
 
@@ -164,7 +199,7 @@ class Session {
   bool aux_ = true;
   Params params_;
   ProgressSink sink_;
-  std::vector<std::string> unused_;
+  std::vector<std::string> unused_, unused_report_;
   uint64_t generation_ = 0;
 };
 
@@ -172,6 +207,16 @@ class Session {
 // scene (a quad under an emissive quad) with `params` and developed before any pass. The passes its develop()
 // writes, whether it has an error estimate (estimated_error() >= 0) and which of `params` it
 // left unread. Cheap: no pass runs.
+// Scene.width / .height: a new image size drops any crop window (it was in pixels of the old size).
+void resize_image(Scene& s, int width, int height) {
+  Scene::UpdateGuard guard(s);
+  Camera c = s.camera;
+  c.width = width;
+  c.height = height;
+  c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
+  s.set_camera(c);
+}
+
 py::dict method_info(const std::string& method, const py::dict& params) {
   static const char* kProbeScene = R"({
     "camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 1, "height": 1},
@@ -213,6 +258,13 @@ PYBIND11_MODULE(_native, m) {
       out.append(py::make_tuple(std::string(p.name), p.channels, std::string(p.label)));
     return out;
   }, "Every pass any method may produce: [(name, channels, label)] (film.h pass::kAll)");
+  m.def("method_params", &method_params, py::arg("method"),
+        "The method's parameters as it declares them (integrators/methods.cpp), in order: [{'name', 'type' "
+        "(int|float|bool|string), 'default', 'min', 'max' (None: unbounded), 'min_open', 'max_open', 'choices', "
+        "'range' (text), 'label', 'description', 'symbol', 'reference', 'zero_means' (0 = automatic: what it "
+        "does), 'manual_value', 'read_when', 'shared' (one value for every method), 'group' (panel)}]");
+  m.def("method_summary", [](const std::string& method) { return find_method(method).summary; }, py::arg("method"),
+        "One line on what the method computes and its paper");
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
         "What a method declares by running: {'passes': names its develop() writes with these params, "
         "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read}");
@@ -304,21 +356,9 @@ PYBIND11_MODULE(_native, m) {
       .def_property_readonly("warnings", [](const Scene& s) { return s.warnings.summary(); })
       // Setting the size drops a crop window (it was in pixels of the old size).
       .def_property("width", [](const Scene& s) { return s.camera.width; },
-                    [](Scene& s, int w) {
-                      Scene::UpdateGuard guard(s);
-                      Camera c = s.camera;
-                      c.width = w;
-                      c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
-                      s.set_camera(c);
-                    })
+                    [](Scene& s, int w) { resize_image(s, w, s.camera.height); })
       .def_property("height", [](const Scene& s) { return s.camera.height; },
-                    [](Scene& s, int h) {
-                      Scene::UpdateGuard guard(s);
-                      Camera c = s.camera;
-                      c.height = h;
-                      c.crop_width = c.crop_height = c.crop_x = c.crop_y = 0;
-                      s.set_camera(c);
-                    })
+                    [](Scene& s, int h) { resize_image(s, s.camera.width, h); })
       // ---- Read-only views for importers (scripts/json_to_blend.py): the loaded, tessellated scene
       .def("meshes", [](const Scene& s) {
         py::list out;
@@ -504,6 +544,9 @@ PYBIND11_MODULE(_native, m) {
       .def_property_readonly("stats", &Session::stats)
       .def_property_readonly("stale", &Session::stale, "Whether the scene was updated since this Session was made")
       .def_property_readonly("unused_params", &Session::unused)
+      .def_property_readonly("unused_report", &Session::unused_report,
+                             "One line per unused parameter: not the method's (with a near name), or not read "
+                             "with these settings")
       .def_property_readonly("method", &Session::method,
                              "The method that runs (pt becomes spt-hero in spectral mode)")
       .def_property_readonly("estimated_error", &Session::estimated_error,

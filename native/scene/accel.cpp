@@ -4,9 +4,11 @@
 #include <fmt/format.h>
 
 #include <atomic>
+#include <cstring>
 #include <mutex>
 #include <stdexcept>
 
+#include "core/rng.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -28,9 +30,15 @@ void Accelerator::record_rays(RayRecorder* recorder) { g_recorder.store(recorder
 
 // Per-triangle ray visibility of one mesh, for its filter functions.
 struct TriangleVisibility {
-  std::vector<uint8_t> flags;  // kHiddenFromCamera | kNoShadow per triangle
+  std::vector<uint8_t> flags;  // kHiddenFromCamera | kNoShadow | kPartial per triangle
+  // kPartial triangles: their material's coverage (Material::alpha / alpha_tex) at the hit's
+  // uv, with the mesh's uvs and indices (copies: the accelerator owns what its filters read).
+  std::vector<uint32_t> material_ids, indices;
+  std::vector<Vec2> uvs;
+  std::vector<float> alpha;          // per material id
+  std::vector<TextureRef> alpha_tex;  // per material id
 };
-constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2;
+constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2, kPartial = 4;
 
 // An intersect context that says whether the ray is a camera ray (Embree passes the context
 // to filter functions; extending it is Embree's documented way to hand them per-ray data).
@@ -46,16 +54,49 @@ struct Accelerator::Impl {
 };
 
 namespace {
+uint32_t float_bits(float f) {
+  uint32_t b;
+  std::memcpy(&b, &f, 4);
+  return b;
+}
+
+// Whether a ray stops at a partially covered triangle: with probability alpha (Cycles'
+// transparency as a stochastic cut-out, unbiased for every estimator). The uniform number is a
+// hash of the ray and the triangle, so the decision is the same whichever way Embree visits
+// the hit, and independent between rays.
+bool covered(const TriangleVisibility& vis, const RTCFilterFunctionNArguments* args, unsigned i, unsigned prim) {
+  const uint32_t mat = vis.material_ids[prim];
+  float alpha = vis.alpha[mat];
+  if (const TextureRef& tex = vis.alpha_tex[mat]) {
+    const float b1 = RTCHitN_u(args->hit, args->N, i), b2 = RTCHitN_v(args->hit, args->N, i);
+    const uint32_t* t = &vis.indices[3 * prim];
+    const Vec2 uv = vis.uvs.empty() ? Vec2(b1, b2) : vis.uvs[t[0]] * (1 - b1 - b2) + vis.uvs[t[1]] * b1 + vis.uvs[t[2]] * b2;
+    alpha = tex.value(uv);
+  }
+  if (alpha >= 1.0f) return true;
+  if (!(alpha > 0.0f)) return false;
+  RTCRayN* r = args->ray;  // (Embree's accessors take a non-const pointer; nothing is written)
+  const unsigned n = args->N;
+  const uint64_t a = (uint64_t(float_bits(RTCRayN_org_x(r, n, i))) << 32) ^ float_bits(RTCRayN_dir_x(r, n, i));
+  const uint64_t b = (uint64_t(float_bits(RTCRayN_org_y(r, n, i))) << 32) ^ float_bits(RTCRayN_dir_y(r, n, i));
+  const uint64_t c = (uint64_t(float_bits(RTCRayN_org_z(r, n, i))) << 32) ^ float_bits(RTCRayN_dir_z(r, n, i));
+  const uint64_t h = mix_bits(a ^ mix_bits(b ^ mix_bits(c ^ (uint64_t(prim) << 20) ^ RTCHitN_geomID(args->hit, n, i))));
+  const float u = static_cast<float>(h >> 40) * 0x1p-24f;
+  return u < alpha;
+}
+
 void reject_where(const RTCFilterFunctionNArguments* args, uint8_t flag) {
   const auto* vis = static_cast<const TriangleVisibility*>(args->geometryUserPtr);
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
-    if (vis->flags[prim] & flag) args->valid[i] = 0;
+    const uint8_t f = vis->flags[prim];
+    if ((f & flag) || ((f & kPartial) && !covered(*vis, args, i, prim))) args->valid[i] = 0;
   }
 }
 void camera_filter(const RTCFilterFunctionNArguments* args) {
-  if (reinterpret_cast<const VisibilityContext*>(args->context)->camera) reject_where(args, kHiddenFromCamera);
+  const bool camera = reinterpret_cast<const VisibilityContext*>(args->context)->camera;
+  reject_where(args, camera ? kHiddenFromCamera : 0);
 }
 void shadow_filter(const RTCFilterFunctionNArguments* args) { reject_where(args, kNoShadow); }
 }  // namespace
@@ -89,13 +130,23 @@ RTCGeometry make_geometry(RTCDevice device, const Mesh& m, const std::vector<Mat
     uint8_t any = 0;
     for (size_t t = 0; t < m.triangle_count() && t < m.material_ids.size(); ++t) {
       const Material& mat = (*materials)[m.material_ids[t]];
-      vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow);
+      vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow) |
+                      (mat.has_coverage() ? kPartial : 0);
       any |= vis->flags[t];
+    }
+    if (any & kPartial) {  // alpha cut-out: the filters look up the coverage at the hit's uv
+      vis->material_ids = m.material_ids;
+      vis->indices = m.indices;
+      vis->uvs = m.uvs;
+      for (const Material& mat : *materials) {
+        vis->alpha.push_back(mat.alpha);
+        vis->alpha_tex.push_back(mat.alpha_tex);
+      }
     }
     if (any) {
       rtcSetGeometryUserData(g, vis.get());
-      if (any & kHiddenFromCamera) rtcSetGeometryIntersectFilterFunction(g, camera_filter);
-      if (any & kNoShadow) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
+      if (any & (kHiddenFromCamera | kPartial)) rtcSetGeometryIntersectFilterFunction(g, camera_filter);
+      if (any & (kNoShadow | kPartial)) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
       keep = std::move(vis);
     }
   }

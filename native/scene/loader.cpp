@@ -29,6 +29,7 @@
 #include "scene/json_reader.h"
 #include "scene/obj_mesh.h"
 #include "scene/shapes.h"
+#include "textures/texture_store.h"
 
 namespace gp {
 
@@ -74,7 +75,7 @@ class Loader : private JsonReader {
       mat.name = it.key();
       const std::string type = get_string(need(m, "type", mpath), sub(mpath, "type"));
       std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum",
-                                            "visible_to_camera", "casts_shadow"};
+                                            "visible_to_camera", "casts_shadow", "alpha", "normal_map", "bump"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
         keys.push_back("color");
@@ -100,7 +101,10 @@ class Loader : private JsonReader {
         // Components are names of other materials, resolved once all are read.
         mix_refs_.push_back({scene_.materials.size(), get_string(need(m, "a", mpath), sub(mpath, "a")),
                              get_string(need(m, "b", mpath), sub(mpath, "b")), mpath});
-        if (const json* f = find(m, "factor")) mat.mix_factor = get_in_range(*f, sub(mpath, "factor"), 0.0f, 1.0f);
+        if (const json* f = find(m, "factor")) {
+          if (is_texture(*f)) mat.factor_tex = load_texture_ref(*f, sub(mpath, "factor"), false, {}, &mat.mix_factor);
+          else mat.mix_factor = get_in_range(*f, sub(mpath, "factor"), 0.0f, 1.0f);
+        }
       } else {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
@@ -109,8 +113,31 @@ class Loader : private JsonReader {
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
           scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(mpath, k.key())));
-      if (const json* c = find(m, "color")) mat.color = get_color(*c, sub(mpath, "color"));
-      if (const json* r = find(m, "roughness")) mat.roughness = get_in_range(*r, sub(mpath, "roughness"), 0.0f, 1.0f);
+      // Textured inputs keep their texture's mean in the constant (spectral modes, mix fallbacks).
+      if (const json* c = find(m, "color")) {
+        if (is_texture(*c)) mat.color_tex = load_texture_ref(*c, sub(mpath, "color"), true, {}, nullptr, &mat.color);
+        else mat.color = get_color(*c, sub(mpath, "color"));
+      }
+      if (const json* r = find(m, "roughness")) {
+        if (is_texture(*r)) mat.roughness_tex = load_texture_ref(*r, sub(mpath, "roughness"), false, {}, &mat.roughness);
+        else mat.roughness = get_in_range(*r, sub(mpath, "roughness"), 0.0f, 1.0f);
+        mat.roughness = std::min(mat.roughness, 1.0f);
+      }
+      if (const json* a = find(m, "alpha")) {
+        if (is_texture(*a)) mat.alpha_tex = load_texture_ref(*a, sub(mpath, "alpha"), false, {});
+        else mat.alpha = get_in_range(*a, sub(mpath, "alpha"), 0.0f, 1.0f);
+      }
+      if (const json* n = find(m, "normal_map")) {
+        const std::string npath = sub(mpath, "normal_map");
+        mat.normal_tex = load_texture_ref(*n, npath, true, {"strength"}, nullptr, nullptr, "Non-Color");
+        if (const json* s = find(*n, "strength")) mat.normal_strength = get_nonnegative(*s, sub(npath, "strength"));
+      }
+      if (const json* b = find(m, "bump")) {
+        const std::string bpath = sub(mpath, "bump");
+        mat.bump_tex = load_texture_ref(*b, bpath, false, {"strength", "distance"}, nullptr, nullptr, "Non-Color");
+        if (const json* s = find(*b, "strength")) mat.bump_strength = get_nonnegative(*s, sub(bpath, "strength"));
+        if (const json* d = find(*b, "distance")) mat.bump_distance = get_float(*d, sub(bpath, "distance"));
+      }
       if (const json* n = find(m, "ior")) mat.ior = get_positive(*n, sub(mpath, "ior"));
       if (find(m, "cauchy_b") && find(m, "abbe")) fail(mpath, "give either 'cauchy_b' or 'abbe', not both");
       if (const json* b = find(m, "cauchy_b")) mat.cauchy_b = get_nonnegative(*b, sub(mpath, "cauchy_b"));
@@ -143,6 +170,85 @@ class Loader : private JsonReader {
     // cycle is an error).
     std::vector<int> state(scene_.materials.size(), 0);  // 0 unresolved, 1 resolving, 2 done
     for (const MixRef& r : mix_refs_) resolve_mix(r, state);
+  }
+
+  // ---- Textured inputs ----
+
+  static bool is_texture(const json& j) { return j.is_object() && j.contains("texture"); }
+
+  // A texture reference (docs/scene-format.md, "Textures"): the image, read once through the
+  // texture store, and how the input reads it. `color` inputs default to the RGB channel,
+  // scalar ones to the luminance. mean_value / mean_color receive the texture's average.
+  TextureRef load_texture_ref(const json& j, const std::string& path, bool color,
+                              std::initializer_list<std::string_view> extra_keys, float* mean_value = nullptr,
+                              RGB* mean_color = nullptr, const char* default_colorspace = "") {
+    require_object(j, path);
+    std::vector<std::string_view> keys = {"texture", "colorspace", "channel", "wrap", "interpolation",
+                                          "mapping", "scale", "square"};
+    keys.insert(keys.end(), extra_keys.begin(), extra_keys.end());
+    for (auto k = j.begin(); k != j.end(); ++k)
+      if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
+        scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(path, k.key())));
+    std::filesystem::path file = get_string(need(j, "texture", path), sub(path, "texture"));
+    if (file.empty()) fail(sub(path, "texture"), "empty file name");
+    if (file.is_relative() && !base_dir_.empty()) file = std::filesystem::path(base_dir_) / file;
+    std::string colorspace = default_colorspace;
+    if (const json* c = find(j, "colorspace")) colorspace = get_string(*c, sub(path, "colorspace"));
+    TextureRef t;
+    TextureLoad loaded = load_texture(file.string(), colorspace);
+    if (!loaded.warning.empty())
+      scene_.warnings.add(loaded.image->missing ? "missing image texture (magenta)" : "image texture approximated",
+                          fmt::format("{}: {}: {}", file_, path, loaded.warning));
+    t.image = loaded.image;
+    t.channel = color ? TextureChannel::RGB : TextureChannel::Luminance;
+    if (const json* c = find(j, "channel")) {
+      static const std::pair<const char*, TextureChannel> kChannels[] = {
+          {"rgb", TextureChannel::RGB}, {"r", TextureChannel::R}, {"g", TextureChannel::G},
+          {"b", TextureChannel::B},     {"a", TextureChannel::A}, {"luminance", TextureChannel::Luminance}};
+      t.channel = pick(*c, sub(path, "channel"), kChannels, "rgb, r, g, b, a, luminance");
+    }
+    if (const json* w = find(j, "wrap")) {
+      static const std::pair<const char*, TextureWrap> kWraps[] = {
+          {"repeat", TextureWrap::Repeat}, {"extend", TextureWrap::Extend}, {"clip", TextureWrap::Clip}};
+      t.wrap = pick(*w, sub(path, "wrap"), kWraps, "repeat, extend, clip");
+    }
+    if (const json* f = find(j, "interpolation")) {
+      static const std::pair<const char*, TextureFilter> kFilters[] = {{"linear", TextureFilter::Linear},
+                                                                       {"closest", TextureFilter::Closest}};
+      t.filter = pick(*f, sub(path, "interpolation"), kFilters, "linear, closest");
+    }
+    if (const json* mp = find(j, "mapping")) {
+      const std::string mpath = sub(path, "mapping");
+      if (!mp->is_array() || mp->size() != 2)
+        fail(mpath, fmt::format("expected [[a, b, c], [d, e, f]] (uv' = M uv + t), got {}", describe(*mp)));
+      for (int r = 0; r < 2; ++r) {
+        const json& row = (*mp)[r];
+        if (!row.is_array() || row.size() != 3) fail(sub(mpath, r), fmt::format("expected 3 numbers, got {}", describe(row)));
+        for (int c = 0; c < 3; ++c) t.mapping[r][c] = get_float(row[c], sub(sub(mpath, r), c));
+      }
+    }
+    if (const json* s = find(j, "scale")) t.scale = get_float(*s, sub(path, "scale"));
+    if (const json* q = find(j, "square")) t.square = get_bool(*q, sub(path, "square"));
+    const RGBA& mean = t.image->mean;
+    if (mean_color) *mean_color = RGB(std::clamp(mean.rgb.r * t.scale, 0.0f, 1.0f), std::clamp(mean.rgb.g * t.scale, 0.0f, 1.0f),
+                                      std::clamp(mean.rgb.b * t.scale, 0.0f, 1.0f));
+    if (mean_value) {
+      float v = t.channel == TextureChannel::A ? mean.a : mean.rgb.luminance();
+      if (t.channel == TextureChannel::R) v = mean.rgb.r;
+      if (t.channel == TextureChannel::G) v = mean.rgb.g;
+      if (t.channel == TextureChannel::B) v = mean.rgb.b;
+      v *= t.scale;
+      *mean_value = std::clamp(t.square ? v * v : v, 0.0f, 1.0f);
+    }
+    return t;
+  }
+
+  template <typename T, size_t N>
+  T pick(const json& j, const std::string& path, const std::pair<const char*, T> (&choices)[N], const char* known) const {
+    const std::string s = get_string(j, path);
+    for (const auto& [name, value] : choices)
+      if (s == name) return value;
+    fail(path, fmt::format("unknown value '{}' (known: {})", s, known));
   }
 
   struct MixRef {

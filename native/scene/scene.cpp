@@ -11,6 +11,7 @@
 
 #include "scene/accel.h"
 #include "scene/shapes.h"
+#include "textures/normal_mapping.h"
 
 namespace gp {
 
@@ -226,7 +227,7 @@ void Scene::commit() {
 std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   RawHit raw;
   if (!accel_->intersect(ray, raw)) return std::nullopt;
-  return surface_hit(raw);
+  return surface_hit(raw, ray.d);
 }
 
 void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceHit>* hits) const {
@@ -240,7 +241,7 @@ void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceH
   }
   accel_->intersect_stream(rays, n, raw.data(), found.get(), true);
   for (size_t i = 0; i < n; ++i) {
-    if (found[i]) hits[i] = surface_hit(raw[i]);
+    if (found[i]) hits[i] = surface_hit(raw[i], rays[i].d);
     else hits[i].reset();
   }
 }
@@ -252,7 +253,7 @@ void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, R
   scene.intersect_coherent(rays, n, hits);
 }
 
-std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw) const {
+std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_dir) const {
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
   const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
@@ -272,12 +273,38 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw) const {
   }
   if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
   else h.uv = Vec2(b1, b2);
+  h.material = static_cast<int>(m.material_ids[raw.prim]);
+  if (const Material& mat = materials[h.material]; mat.perturbs_normal()) {
+    // ---- Normal and bump maps: the shading normal of every method ----
+    Vec3 dpdu, dpdv;
+    const bool has_uvs = !m.uvs.empty();
+    if (triangle_dpduv(m.positions[i0], m.positions[i1], m.positions[i2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
+                       has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &dpdu, &dpdv)) {
+      Vec3 n = h.ns;
+      if (mat.normal_tex) n = normal_mapped(mat.normal_tex, mat.normal_strength, h.uv, n, dpdu, dpdv);
+      if (mat.bump_tex) n = bump_mapped(mat.bump_tex, mat.bump_strength, mat.bump_distance, h.uv, n, dpdu, dpdv);
+      if (dot(n, h.ng) < 0) n = -n;  // stays on the geometric side
+      h.ns = valid_reflection_normal(h.ng, -ray_dir, n);
+    }
+  }
   h.frame = Frame(h.ns);
   h.mesh = raw.geom;
   h.prim = raw.prim;
-  h.material = static_cast<int>(m.material_ids[raw.prim]);
   h.light = triangle_light_[raw.geom][raw.prim];
   return out;
+}
+
+Vec2 Scene::uv_at(int mesh, int prim, const Vec3& p) const {
+  const Mesh& m = meshes[mesh];
+  const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
+  // Barycentrics of p's projection onto the triangle's plane.
+  const Vec3 e1 = m.positions[i1] - m.positions[i0], e2 = m.positions[i2] - m.positions[i0], d = p - m.positions[i0];
+  const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), dp1 = dot(d, e1), dp2 = dot(d, e2);
+  const float det = d11 * d22 - d12 * d12;
+  if (!(std::abs(det) > 0)) return m.uvs.empty() ? Vec2() : m.uvs[i0];
+  const float b1 = (d22 * dp1 - d12 * dp2) / det, b2 = (d11 * dp2 - d12 * dp1) / det;
+  if (m.uvs.empty()) return Vec2(b1, b2);  // as intersect() without uvs
+  return m.uvs[i0] * (1 - b1 - b2) + m.uvs[i1] * b1 + m.uvs[i2] * b2;
 }
 
 bool Scene::occluded(const Ray& ray) const { return accel_->occluded(ray); }

@@ -14,6 +14,7 @@
 #include "core/math.h"
 #include "core/rng.h"
 #include "lights/light.h"
+#include "materials/bsdf.h"
 #include "materials/material.h"
 #include "scene/camera.h"
 
@@ -153,6 +154,16 @@ class Scene {
   const Bounds3& bounds() const { return bounds_; }
   size_t triangle_count() const;
   const Material& material(int i) const { return materials[i]; }
+  // The BSDF at a surface point: its material with the textures looked up at its uv. Every
+  // integrator shades through these, so the photon and gradient methods see the same textures.
+  Bsdf bsdf(const SurfaceHit& h) const {
+    Bsdf b(materials[h.material], h.uv);
+    if (materials[h.material].perturbs_normal()) b.set_geometric_normal(h.frame.to_local(h.ng));
+    return b;
+  }
+  Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
+  // The texture coordinate at point p of a triangle (a vertex a manifold walk moved).
+  Vec2 uv_at(int mesh, int prim, const Vec3& p) const;
   // The raw accelerator, for benchmarks that measure Embree without shading.
   const Accelerator& accelerator() const { return *accel_; }
 
@@ -167,7 +178,8 @@ class Scene {
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 
   void build_lights();  // validation, area lights, light set and bounds (finalize, commit)
-  std::optional<SurfaceHit> surface_hit(const RawHit& raw) const;  // what shading needs of a hit
+  // What shading needs of a hit (ray_dir: the normal map keeps the view side valid).
+  std::optional<SurfaceHit> surface_hit(const RawHit& raw, const Vec3& ray_dir) const;
 };
 
 }  // namespace gp

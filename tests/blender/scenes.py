@@ -284,3 +284,115 @@ def cornell_glass(scene):
     bpy.ops.object.shade_smooth()
     sphere.data.materials.append(glass_material("Glass"))
     add_camera(scene, (0, -3.9, 1), (0, 0, 1), lens=50.0)
+
+
+# ---- Textured scenes (export/texture.py) ----
+
+def uv_plane(scene, name, size, material=None, location=(0, 0, 0), tiles=1.0):
+    """A square plane with a UV map (uv 0..tiles across it)."""
+    ob = add_plane(scene, name, size, material, location)
+    uv = ob.data.uv_layers.new(name="UVMap")
+    for loop, co in zip(uv.data, [(0, 0), (1, 0), (1, 1), (0, 1)]):
+        loop.uv = (co[0] * tiles, co[1] * tiles)
+    return ob
+
+
+def save_image(name, pixels, path, colorspace='sRGB'):
+    """An 8-bit PNG of RGBA pixels (h, w, 4; row 0 at the bottom, values as stored), loaded back
+    as a file image in `colorspace`, as an image of a downloaded scene."""
+    import numpy as np
+    if name in bpy.data.images:  # from an earlier test (the test fixture keeps images)
+        bpy.data.images.remove(bpy.data.images[name])
+    h, w = pixels.shape[:2]
+    tmp = bpy.data.images.new(name + "_tmp", w, h, alpha=True)
+    tmp.pixels.foreach_set(np.asarray(pixels, np.float32).ravel())
+    tmp.filepath_raw = path
+    tmp.file_format = 'PNG'
+    tmp.save()
+    bpy.data.images.remove(tmp)
+    img = bpy.data.images.load(path)
+    img.name = name
+    img.colorspace_settings.name = colorspace
+    return img
+
+
+def pattern_pixels(n=32):
+    """A colour checker over a smooth gradient (n x n RGBA)."""
+    import numpy as np
+    y, x = np.mgrid[0:n, 0:n] / (n - 1)
+    check = ((np.mgrid[0:n, 0:n][0] // 4 + np.mgrid[0:n, 0:n][1] // 4) % 2).astype(float)
+    r = 0.2 + 0.6 * x * check + 0.1 * (1 - check)
+    g = 0.3 + 0.4 * y
+    b = 0.8 - 0.5 * check
+    return np.dstack([r, g, b, np.ones_like(r)])
+
+
+def normal_map_pixels(n=32, k=3, a=0.6):
+    """A tangent-space normal map of sine bumps (n x n RGBA, Non-Color values)."""
+    import numpy as np
+    y, x = np.mgrid[0:n, 0:n] / n
+    nx, ny = -a * np.cos(2 * np.pi * k * x), -a * np.cos(2 * np.pi * k * y)
+    norm = np.sqrt(nx * nx + ny * ny + 1)
+    return np.dstack([(nx / norm + 1) / 2, (ny / norm + 1) / 2, (1 / norm + 1) / 2, np.ones_like(nx)])
+
+
+def image_node(nt, image, interpolation='Linear'):
+    t = nt.nodes.new("ShaderNodeTexImage")
+    t.image = image
+    t.interpolation = interpolation
+    return t
+
+
+def textured_material(name, case, color_image, normal_image=None):
+    """Material cases for the textured floor: 'diffuse' (an image as Diffuse colour),
+    'normal_map' (white Diffuse with a normal map), 'mix' (Mix Shader of Diffuse and Glossy,
+    Fac from the image), 'principled' (Principled with a base colour, a roughness map and a
+    normal map)."""
+    m, nt, out = _node_material(name)
+    tex = image_node(nt, color_image)
+    if case in ("diffuse", "normal_map"):
+        d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        if case == "diffuse":
+            nt.links.new(tex.outputs["Color"], d.inputs["Color"])
+        else:
+            d.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
+            nm = nt.nodes.new("ShaderNodeNormalMap")
+            nt.links.new(image_node(nt, normal_image).outputs["Color"], nm.inputs["Color"])
+            nt.links.new(nm.outputs["Normal"], d.inputs["Normal"])
+        nt.links.new(d.outputs[0], out.inputs["Surface"])
+    elif case == "mix":
+        d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        d.inputs["Color"].default_value = (0.7, 0.5, 0.3, 1)
+        g = nt.nodes.new("ShaderNodeBsdfGlossy")
+        g.inputs["Roughness"].default_value = 0.3
+        g.distribution = 'GGX'
+        mix = nt.nodes.new("ShaderNodeMixShader")
+        nt.links.new(tex.outputs["Color"], mix.inputs["Fac"])
+        nt.links.new(d.outputs[0], mix.inputs[1])
+        nt.links.new(g.outputs[0], mix.inputs[2])
+        nt.links.new(mix.outputs[0], out.inputs["Surface"])
+    else:
+        p = nt.nodes.new("ShaderNodeBsdfPrincipled")
+        nt.links.new(tex.outputs["Color"], p.inputs["Base Color"])
+        sep = nt.nodes.new("ShaderNodeSeparateColor")
+        nt.links.new(tex.outputs["Color"], sep.inputs[0])
+        nt.links.new(sep.outputs["Green"], p.inputs["Roughness"])
+        nm = nt.nodes.new("ShaderNodeNormalMap")
+        nt.links.new(image_node(nt, normal_image).outputs["Color"], nm.inputs["Color"])
+        nt.links.new(nm.outputs["Normal"], p.inputs["Normal"])
+        nt.links.new(p.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def textured_floor(scene, case, folder):
+    """A textured floor (case as textured_material) seen from above under a low sun and a dim
+    sky, its images saved as PNG files in `folder`."""
+    import os
+    set_world(scene, (0.5, 0.6, 0.7), 0.3)
+    color = save_image("Pattern", pattern_pixels(), os.path.join(folder, "pattern.png"))
+    normal = save_image("Bumps", normal_map_pixels(), os.path.join(folder, "bumps.png"), 'Non-Color')
+    uv_plane(scene, "Floor", 6.0, textured_material("Textured", case, color, normal), tiles=2.0)
+    add_camera(scene, (0, 0, 6), (0, 0, 0), lens=50.0)
+    sun = add_light(scene, "Sun", 'SUN', None, 3.0, {"angle": 0.0}, (3, 0, 3))
+    sun.rotation_euler = (math.radians(50), 0.0, math.radians(30))
+    return scene

@@ -49,7 +49,7 @@ def render_both(scene, out_dir, case, samples, bounces):
     cycles = read_rgb(scenes.render_to_exr(scene, os.path.join(out_dir, f"{case}_cycles.exr")))
     scene.render.engine = 'GRADPHOTON'
     g = scene.gradphoton
-    g.method, g.stop_rule, g.passes, g.max_bounces = 'pt', 'PASSES', samples, bounces
+    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
     ours = read_rgb(scenes.render_to_exr(scene, os.path.join(out_dir, f"{case}_gradphoton.exr")))
     return ours, cycles
 

@@ -1,6 +1,8 @@
-"""The methods' own parameters (adaptive photon tracing, MSPPM, GD-MLT) reach the core with the
-core's defaults, their key statistics reach the status line, and every pass they produce
-reaches the compositor."""
+"""Blender's properties and panels are made from the core's parameter declarations
+(_native.method_params): every method's own parameters with its own defaults, ranges and
+descriptions, drawn in its panels and nothing else; they reach the core, their statistics reach
+the status line, and every pass the method produces reaches the compositor. Settings saved under
+the old shared property names are moved into the methods' groups."""
 import os
 
 import bpy
@@ -10,7 +12,7 @@ import pytest
 from gradphoton import native, properties, session
 from test_render import ROOT, small_scene
 
-SPECIFIC = properties.METHOD_SPECIFIC_PARAMS
+METHODS = native.get().methods()
 
 
 def core_scene(w=16, h=12):
@@ -19,62 +21,104 @@ def core_scene(w=16, h=12):
     return scene
 
 
-def test_every_parameter_has_its_property(empty_scene):
-    """Each (method, native name) maps to a property of the render settings."""
+def prop_of(settings, method, decl):
+    """(property group, property name, RNA property) that holds `decl` for `method`."""
+    group = properties.holder(settings, method, decl)
+    name = properties.prop_name(decl)
+    return group, name, group.bl_rna.properties[name]
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_properties_are_the_declarations(empty_scene, method):
+    """Each declared parameter has its property: its label, description, default (Max Bounces
+    in Cycles' bounces), range and choices; the method's group holds nothing else."""
     s = empty_scene.gradphoton
-    for method in native.get().methods():
-        for name, prop in properties.method_params(method).items():
-            assert hasattr(s, prop), (method, name, prop)
-    assert properties.KNOWN_PARAMS >= set(properties.METHOD_PARAMS)
+    own = set()
+    for d in native.get().method_params(method):
+        if d["name"] in properties.BLENDER_HELD:
+            continue
+        group, name, rna = prop_of(s, method, d)
+        if not d["shared"]:
+            own.add(name)
+        assert d["description"][1:] in rna.description, (method, d["name"], rna.description)
+        default = d["manual_value"] if d["zero_means"] else d["default"]
+        if d["name"] == "max_depth":
+            default -= properties.BOUNCES_TO_SEGMENTS
+            assert rna.name == "Max Bounces"
+        else:
+            assert rna.name == d["label"], (method, d["name"])
+        if d["type"] == "string":
+            assert [i.identifier for i in rna.enum_items] == d["choices"], d["name"]
+            assert rna.default == default
+        elif d["type"] == "bool":
+            assert rna.default == default
+        else:
+            assert rna.default == pytest.approx(default, rel=1e-6), (method, d["name"])
+            if d["min"] is not None and d["name"] != "max_depth":
+                assert rna.hard_min >= d["min"] - 1e-6 and (d["min_open"] or rna.hard_min <= d["min"] + 1e-6)
+            if d["max"] is not None:
+                assert rna.hard_max <= d["max"] + 1e-6
+        if d["zero_means"]:
+            toggle = properties.auto_toggle(d)
+            own.add(toggle)
+            assert getattr(group, toggle) is True, "automatic by default: the core's 0"
+    group = getattr(s, properties.method_group(method))
+    assert {p.identifier for p in group.bl_rna.properties if p.identifier not in ("rna_type", "name")} == own
 
 
-@pytest.mark.parametrize("method", sorted(SPECIFIC))
-def test_method_parameters_are_read_by_the_core(empty_scene, method):
-    """What the session sends for a method: its own parameters are all read (none in
-    unused_params), and whatever it leaves unused is a shared one the session knows."""
+@pytest.mark.parametrize("method", METHODS)
+def test_defaults_render_the_cores_image(empty_scene, method):
+    """What the session sends with every property at its default is what the core uses when
+    given nothing: the same image (to float32 rounding: a FloatProperty holds 0.6 as
+    0.6000000238)."""
     s = empty_scene.gradphoton
-    s.photon_sampler = "adaptive"  # the chains of the adaptive sampler are read only then
-    params = session.params_of(s, method)
-    params.update(photons=2000, threads=1) if method != "msppm" else params.update(threads=1)
-    N = native.get()
-    ses = N.Session(core_scene(), method, params)
-    assert ses.method == method
-    unused = set(ses.unused_params)
-    assert not unused & set(SPECIFIC[method]), unused
-    assert unused <= properties.KNOWN_PARAMS, unused
-
-
-@pytest.mark.parametrize("method", ["sppm", "sppm-adaptive", "msppm", "gpm", "gdmlt"])
-def test_method_defaults_are_the_cores(empty_scene, method):
-    """The properties' defaults are the core's (the papers') defaults: sending them renders the
-    same image as leaving them to the core (to float32 rounding: Blender's FloatProperty holds
-    0.6 as 0.6000000238)."""
-    s = empty_scene.gradphoton
-    sent = {name: properties.native_value(s, name, prop) for name, prop in SPECIFIC[method].items()}
-    base = {"threads": 1, "photons": 2000} if method in ("sppm", "sppm-adaptive") else {"threads": 1}
+    sent = session.params_of(s, method)
+    assert set(sent) == {d["name"] for d in native.get().method_params(method)} - properties.BLENDER_HELD
+    base = {"threads": 1, "photons": 2000} if "photons" in sent and method != "msppm" else {"threads": 1}
     N = native.get()
     scene = core_scene(12, 9)
     images = []
-    for params in (base, dict(base, **sent)):
+    for params in (base, dict(sent, **base)):
         ses = N.Session(scene, method, params)
+        assert not ses.unused_report or all("is not read with these settings" in u for u in ses.unused_report)
         ses.iterate()
         ses.iterate()
         images.append(ses.develop()["combined"])
     np.testing.assert_allclose(images[0], images[1], rtol=1e-5, atol=1e-7)
 
 
-def render(scene, method, passes=2, **settings):
+def test_old_settings_move_into_the_methods_groups(empty_scene):
+    """A file saved with the shared properties (alpha, poisson_lambda, reconstruction as an
+    enum index, ...) keeps its values: each goes to the methods that read it."""
+    s = empty_scene.gradphoton
+    s["alpha"], s["msppm_alpha"], s["poisson_lambda"], s["reconstruction"] = 0.5, 0.55, 0.3, 1
+    s["photon_chains"], s["mlt_chains"], s["max_bounces"], s["use_auto_radius"] = 7, 9, 5, 0
+    moved = properties.migrate_settings(empty_scene)
+    assert set(moved) == {"alpha", "msppm_alpha", "poisson_lambda", "reconstruction", "photon_chains", "mlt_chains",
+                          "max_bounces", "use_auto_radius"}
+    assert "alpha" not in s.keys()
+    assert s.sppm.alpha == pytest.approx(0.5) and s.gpm.alpha == pytest.approx(0.5)
+    assert s.msppm.alpha == pytest.approx(0.55)
+    assert all(getattr(s, m).__getattribute__("lambda") == pytest.approx(0.3) for m in ("gpt", "gpm", "gdmlt", "sgpt"))
+    assert s.gpt.recon == "l1" and s.gpm.recon == "l1"  # gpm's own reconstruction was not saved: its default
+    assert s.sppm.chains == 7 and s.gdmlt.chains == 9 and s.pt.max_bounces == 5 and s.msppm.max_bounces == 14
+    assert s.sppm.use_auto_radius is False  # (the fixture resets the groups: property_unset)
+
+
+def render(scene, method, passes=2, **params):
+    """Renders `method` with properties of its group set (chains=5: Scene.gradphoton.gdmlt.chains)."""
     small_scene(scene)
     s = scene.gradphoton
     s.method, s.passes = method, passes
-    for k, v in settings.items():
-        setattr(s, k, v)
+    group = getattr(s, properties.method_group(method))
+    for k, v in params.items():
+        setattr(group, k, v)
     bpy.ops.render.render()
     return session.LAST
 
 
 def test_gdmlt_chains_reach_the_core_and_the_status_line(empty_scene):
-    last = render(empty_scene, "gdmlt", mlt_chains=5, mlt_large_step=0.5)
+    last = render(empty_scene, "gdmlt", chains=5, large_step=0.5)
     stats = last.session.stats
     assert stats["chains"] == 5
     assert "chains 5" in last.status_line and "accept " in last.status_line, last.status_line
@@ -85,17 +129,17 @@ def test_gdmlt_chains_reach_the_core_and_the_status_line(empty_scene):
 def test_photon_sampler_choice_for_sppm(empty_scene):
     """sppm with the adaptive photon sampler reports the sampler's statistics (acceptance rate,
     mutation size, V_c) on the status line; uniform has none; sppm-adaptive stays adaptive
-    whatever the choice (the choice is sppm's and ppm's)."""
-    last = render(empty_scene, "sppm", photon_sampler="adaptive", photons_per_pass=5000, photon_chains=8)
+    by default (its declaration's default)."""
+    last = render(empty_scene, "sppm", photon_sampler="adaptive", photons=5000, chains=8)
     stats = last.session.stats
     assert last.session.method == "sppm"
     assert {"acceptance rate", "mutation size", "V_c"} <= set(stats), stats
     assert 0 < stats["V_c"] <= 1
     for label in ("accept ", "theta ", "V_c "):
         assert label in last.status_line, last.status_line
-    last = render(empty_scene, "sppm", photon_sampler="uniform", photons_per_pass=5000)
+    last = render(empty_scene, "sppm", photon_sampler="uniform", photons=5000)
     assert "acceptance rate" not in last.session.stats and "accept " not in last.status_line
-    last = render(empty_scene, "sppm-adaptive", photon_sampler="uniform", photons_per_pass=5000)
+    last = render(empty_scene, "sppm-adaptive", photons=5000)  # its own default: adaptive
     assert last.session.method == "sppm-adaptive" and "acceptance rate" in last.session.stats
     assert "V_c " in last.status_line
 
@@ -106,7 +150,7 @@ def test_msppm_status_line_and_defaults(empty_scene):
     # one photon per pixel by default (Photons: Auto, the core's 0), 2 passes
     assert last.session.stats["photons traced"] == 2 * 32 * 24
     # Path Samples reaches the core: a fixed count per pixel and pass instead of §9.5's
-    last = render(empty_scene, "msppm", use_auto_msppm_path_samples=False, msppm_path_samples=3)
+    last = render(empty_scene, "msppm", use_auto_path_samples=False, path_samples=3)
     assert last.session.stats["path tracing samples per pixel and pass"] == pytest.approx(3.0)
 
 
@@ -152,7 +196,9 @@ def test_every_pass_of_the_method_reaches_the_compositor(empty_scene, out_dir, m
     produced = sorted(probe.develop())
     labels = {n: label for n, _, label in N.passes()}
     s = empty_scene.gradphoton
-    s.method, s.passes, s.photons_per_pass = method, 3, 5000  # the Render Layers node shows its passes
+    s.method, s.passes = method, 3  # the Render Layers node shows its passes
+    if hasattr(getattr(s, properties.method_group(method)), "photons"):
+        getattr(s, properties.method_group(method)).photons = 5000
     empty_scene.view_layers[0].update_render_passes()
     try:
         path = _compositor_file_output(empty_scene, out_dir, [(n, labels[n]) for n in produced])
@@ -172,12 +218,13 @@ def test_every_pass_of_the_method_reaches_the_compositor(empty_scene, out_dir, m
 class _Layout:
     """Records the properties a panel draws (panels cannot be drawn without a window)."""
 
-    def __init__(self, drawn=None):
+    def __init__(self, drawn=None, drawn_on=None):
         self.drawn = [] if drawn is None else drawn
+        self.drawn_on = [] if drawn_on is None else drawn_on  # (data's RNA type, property)
         self.use_property_split = self.use_property_decorate = self.active = False
 
     def column(self, **kwargs):
-        return _Layout(self.drawn)
+        return _Layout(self.drawn, self.drawn_on)
 
     row = column
 
@@ -190,33 +237,58 @@ class _Layout:
     def prop(self, data, name, **kwargs):
         assert hasattr(data, name), name
         self.drawn.append(name)
+        self.drawn_on.append((data.bl_rna.identifier, name))
 
     def label(self, **kwargs):
         pass
 
 
-@pytest.mark.parametrize("method,shown,hidden", [
-    ("gdmlt", {"mlt_chains", "mlt_mutations", "mlt_large_step", "mlt_sigma", "mlt_primal_share", "mlt_bootstrap",
-               "mlt_reconstruction", "poisson_lambda"}, {"photon_chains", "photon_sampler", "reconstruction"}),
-    ("sppm", {"photon_sampler", "photon_chains", "photons_per_pass", "alpha", "confidence"}, {"mlt_chains"}),
-    ("sppm-adaptive", {"photon_chains"}, {"photon_sampler", "mlt_chains"}),
-    ("msppm", {"msppm_alpha", "msppm_photons", "use_auto_msppm_photons", "msppm_max_bounces", "msppm_path_samples"},
-     {"alpha", "photons_per_pass", "max_bounces", "confidence", "photon_hash", "photon_chains"}),
-    ("gpm", {"alpha", "photons_per_pass", "gpm_reconstruction", "manifold_iterations"},
-     {"reconstruction", "photon_sampler", "mlt_chains"}),
-    ("pt", {"max_bounces", "clamp_direct", "film_transparent"},
-     {"photon_chains", "mlt_chains", "photon_sampler", "msppm_alpha", "manifold_iterations"}),
-])
-def test_method_panels_show_the_methods_own_parameters(empty_scene, method, shown, hidden):
-    """What the Render tab's panels that poll true for the method draw (subpanels by group)."""
+# Render settings the panels draw that are not method parameters.
+# Render settings that are not method parameters: stop rule, export, the viewport's own settings,
+# Cycles' animated seed and Persistent Data.
+NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "export_uvs",
+                  "viewport_method", "viewport_passes", "use_animated_seed"}
+BLENDER_RENDER_SETTINGS = {"use_persistent_data"}
+
+
+def drawn_parameters(scene, method):
+    """(property group, property) of everything the Render tab's panels polling true draw."""
     from types import SimpleNamespace
     from gradphoton import ui
-    empty_scene.gradphoton.method = method
-    context = SimpleNamespace(scene=empty_scene, engine="GRADPHOTON")
-    drawn = set()
+    scene.gradphoton.method = method
+    context = SimpleNamespace(scene=scene, engine="GRADPHOTON")
+    drawn = []
     for cls in ui._classes:
         if getattr(cls, "bl_context", "") == "render" and cls.poll(context):
-            panel = SimpleNamespace(layout=_Layout())
+            panel = SimpleNamespace(layout=_Layout(), group=getattr(cls, "group", None))
             cls.draw(panel, context)
-            drawn |= set(panel.layout.drawn)
-    assert shown <= drawn and not hidden & drawn, drawn
+            drawn += panel.layout.drawn_on
+    return {d for d in drawn if not (d[0] == "GradphotonRenderSettings" and d[1] in NOT_PARAMETERS)
+            and not (d[0] == "RenderSettings" and d[1] in BLENDER_RENDER_SETTINGS)}
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_panels_draw_exactly_the_methods_parameters(empty_scene, method):
+    """The Render tab draws each parameter the method declares, once, where it is held (its
+    group, the render settings for a shared one, Film > Transparent for film_transparent), with
+    its Auto toggle; and no parameter of another method."""
+    expected = set()
+    for d in native.get().method_params(method):
+        if d["name"] == properties.FILM_TRANSPARENT:
+            expected.add(("RenderSettings", "film_transparent"))
+            continue
+        owner = "GradphotonRenderSettings" if d["shared"] else f"GradphotonParams_{properties.method_group(method)}"
+        expected.add((owner, properties.prop_name(d)))
+        if d["zero_means"]:
+            expected.add((owner, properties.auto_toggle(d)))
+    assert drawn_parameters(empty_scene, method) == expected
+
+
+def test_chains_are_greyed_out_unless_the_adaptive_sampler_reads_them(empty_scene):
+    s = empty_scene.gradphoton
+    chains = next(d for d in native.get().method_params("sppm") if d["name"] == "chains")
+    assert chains["read_when"] == "photon_sampler=adaptive"
+    assert not properties.read_when(s, "sppm", chains)
+    s.sppm.photon_sampler = "adaptive"
+    assert properties.read_when(s, "sppm", chains)
+    assert properties.read_when(s, "sppm-adaptive", chains)  # adaptive by default

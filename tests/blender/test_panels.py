@@ -50,12 +50,11 @@ def test_method_info_is_what_the_method_renders(method):
     info = properties.method_info(method)
     scene = native.get().load_scene(os.path.join(os.path.dirname(__file__), "..", "..", "scenes", "cornell-glass.json"))
     scene.width, scene.height = 8, 6
-    params = {"threads": 1, "photons": 2000, **properties.PROBE_PARAMS}
+    params = {"threads": 1, "photons": 2000} if method in ("ppm", "sppm", "sppm-adaptive", "gpm") else {"threads": 1}
     s = native.get().Session(scene, method, params)
     s.iterate()
     assert sorted(s.develop()) == sorted(info["passes"])
     assert (s.estimated_error >= 0) == info["error_estimate"]
-    assert sorted(set(s.unused_params) & set(properties.PROBE_PARAMS)) == sorted(info["unused"])
 
 
 def test_stop_rules_follow_the_method(empty_scene):
@@ -93,13 +92,13 @@ def test_passes_panel_offers_the_methods_passes(empty_scene):
 
 def test_max_bounces_as_cycles_counts_them(empty_scene):
     s = empty_scene.gradphoton
-    s.max_bounces = 0  # direct light only: camera ray plus the segment to the light
+    s.pt.max_bounces = 0  # direct light only: camera ray plus the segment to the light
     assert session.params_of(s, "pt")["max_depth"] == 2
-    s.msppm_max_bounces = 14
+    assert s.msppm.max_bounces == 14  # its own default: core max_depth 16
     assert session.params_of(s, "msppm")["max_depth"] == 16
-    s.use_auto_radius = True
+    s.sppm.use_auto_radius = True
     assert session.params_of(s, "sppm")["radius"] == 0
-    s.use_auto_radius, s.initial_radius = False, 0.05
+    s.sppm.use_auto_radius, s.sppm.radius = False, 0.05
     assert session.params_of(s, "sppm")["radius"] == pytest.approx(0.05)
 
 
@@ -108,7 +107,9 @@ def _alpha_scene(scene, method):
     small_scene(scene)
     scenes.set_world(scene, (0.2, 0.4, 1.0), 1.0)
     s = scene.gradphoton
-    s.method, s.passes, s.photons_per_pass = method, 2, 5000
+    s.method, s.passes = method, 2
+    if method == "sppm":
+        s.sppm.photons = 5000
 
 
 @pytest.mark.parametrize("method", ["pt", "sppm"])
@@ -154,18 +155,18 @@ def test_clamping_reaches_path_tracing(empty_scene, out_dir):
     s = empty_scene.gradphoton
     s.passes = 4
     free = _mean_combined(empty_scene, out_dir, "free")
-    s.clamp_direct = s.clamp_indirect = 1e6  # a limit above every sample: the same image
+    s.pt.clamp_direct = s.pt.clamp_indirect = 1e6  # a limit above every sample: the same image
     assert np.array_equal(_mean_combined(empty_scene, out_dir, "high"), free)
-    s.clamp_direct, s.clamp_indirect = 0.05, 0.0
+    s.pt.clamp_direct, s.pt.clamp_indirect = 0.05, 0.0
     direct = _mean_combined(empty_scene, out_dir, "direct")
-    s.clamp_direct, s.clamp_indirect = 0.0, 0.001
+    s.pt.clamp_direct, s.pt.clamp_indirect = 0.0, 0.001
     indirect = _mean_combined(empty_scene, out_dir, "indirect")
-    s.clamp_direct = s.clamp_indirect = 0.0
+    s.pt.clamp_direct = s.pt.clamp_indirect = 0.0
     assert direct.sum() < 0.8 * free.sum()  # the sunlit floor is direct light
     assert indirect.sum() < free.sum() and indirect.sum() > direct.sum()
 
 
-def test_clamping_and_transparency_greyed_for_methods_that_do_not_read_them():
+def test_clamping_and_transparency_only_for_methods_that_declare_them():
     assert ui.reads("pt", "clamp_direct") and ui.reads("pt", "film_transparent")
     assert not ui.reads("sppm", "clamp_direct") and ui.reads("sppm", "film_transparent")
     assert not ui.reads("gdmlt", "clamp_direct") and not ui.reads("gdmlt", "film_transparent")

@@ -19,6 +19,7 @@
 #include "core/frame.h"
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "chi2.h"
 
 namespace gp {
 namespace {
@@ -26,41 +27,6 @@ namespace {
 // ============================================================================================
 // Chi-square goodness-of-fit helper
 // ============================================================================================
-
-// Regularized upper incomplete gamma function Q(a, x) = Gamma(a, x) / Gamma(a), the p-value of
-// a chi-square statistic chi2 with k degrees of freedom being Q(k / 2, chi2 / 2). Series for
-// P = 1 - Q when x < a + 1, Lentz's continued fraction for Q otherwise (Numerical Recipes,
-// 3rd ed., §6.2, gser/gcf).
-double gamma_q(double a, double x) {
-  if (a <= 0 || x < 0) return std::nan("");
-  if (x == 0) return 1.0;
-  const double log_prefactor = -x + a * std::log(x) - std::lgamma(a);
-  if (x < a + 1) {
-    double ap = a, term = 1.0 / a, sum = term;
-    for (int n = 0; n < 10000; ++n) {
-      ap += 1;
-      term *= x / ap;
-      sum += term;
-      if (std::abs(term) < std::abs(sum) * 1e-16) break;
-    }
-    return std::max(0.0, 1.0 - sum * std::exp(log_prefactor));
-  }
-  constexpr double kTiny = 1e-300;
-  double b = x + 1 - a, c = 1 / kTiny, d = 1 / b, h = d;
-  for (int i = 1; i < 10000; ++i) {
-    const double an = -i * (i - a);
-    b += 2;
-    d = an * d + b;
-    if (std::abs(d) < kTiny) d = kTiny;
-    c = b + an / c;
-    if (std::abs(c) < kTiny) c = kTiny;
-    d = 1 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1) < 1e-16) break;
-  }
-  return std::exp(log_prefactor) * h;
-}
 
 // Adaptive Simpson quadrature with Richardson extrapolation and Lyness's stopping rule, as in
 // pbrt-v4's bsdfs_test.cpp.
@@ -129,15 +95,6 @@ int bin_of(const Vec3& w) {
   return ci * kPhiRes + pi;
 }
 
-struct Chi2Result {
-  double statistic = 0;
-  int dof = 0;
-  double p_value = 0;
-  double pdf_integral = 0;        // integral of pdf over the sphere (<= 1: rejected samples)
-  double accepted_fraction = 0;   // samples that came back (non-delta)
-  size_t zero_expected_hits = 0;  // samples in bins of zero expected count
-  std::string error;              // set when the test could not be run
-};
 
 using Sampler = std::function<std::optional<BsdfSample>(float uc, Vec2 u)>;
 using Density = std::function<float(const Vec3& wi)>;
@@ -197,33 +154,7 @@ Chi2Result chi2_test(const Sampler& sample, const Density& pdf, uint64_t seed) {
   observed.push_back(static_cast<double>(kSamples - accepted));
   expected.push_back(std::max(0.0, kSamples - r.pdf_integral * kSamples));
 
-  // ---- Pool low-expectation cells, then Pearson's statistic ----
-  std::vector<int> order(kBins + 1);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return expected[a] < expected[b]; });
-  double pooled_obs = 0, pooled_exp = 0;
-  for (int b : order) {
-    if (expected[b] == 0) {
-      // Samples where the pdf is zero: the sampler and pdf disagree about the support.
-      r.zero_expected_hits += static_cast<size_t>(observed[b]);
-    } else if (expected[b] < kMinExpected || (pooled_exp > 0 && pooled_exp < kMinExpected)) {
-      pooled_obs += observed[b];
-      pooled_exp += expected[b];
-    } else {
-      r.statistic += (observed[b] - expected[b]) * (observed[b] - expected[b]) / expected[b];
-      ++r.dof;
-    }
-  }
-  if (pooled_exp > 0) {
-    r.statistic += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
-    ++r.dof;
-  }
-  r.dof -= 1;  // the counts are constrained by their sum; no fitted parameters
-  if (r.dof <= 0) {
-    r.error = fmt::format("too few degrees of freedom ({})", r.dof);
-    return r;
-  }
-  r.p_value = gamma_q(0.5 * r.dof, 0.5 * r.statistic);
+  pearson_pooled(observed, expected, kMinExpected, r);
   return r;
 }
 

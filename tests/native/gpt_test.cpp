@@ -61,9 +61,9 @@ TEST(Shift, HalfVectorCopyJacobianMatchesFiniteDifferencesReflection) {
   const Material m = glossy_conductor(0.03f);
   const Vec3 wo = normalize(Vec3(0.3f, -0.2f, 0.9f)), wo_off = normalize(Vec3(0.45f, -0.1f, 0.85f));
   const Vec3 wi = normalize(Vec3(-0.35f, 0.25f, 0.88f));
-  const DirectionShift s = shift_half_vector(m, wo, wi, wo_off);
+  const DirectionShift s = shift_half_vector(Bsdf(m), wo, wi, wo_off);
   ASSERT_TRUE(s.ok());
-  const double fd = fd_jacobian(wi, [&](const Vec3& w) { return shift_half_vector(m, wo, w, wo_off).wi; });
+  const double fd = fd_jacobian(wi, [&](const Vec3& w) { return shift_half_vector(Bsdf(m), wo, w, wo_off).wi; });
   EXPECT_NEAR(s.jacobian, fd, 2e-3 * fd);
   EXPECT_NE(s.jacobian, 1.0);  // the test would not notice a missing Jacobian otherwise
 }
@@ -73,10 +73,10 @@ TEST(Shift, HalfVectorCopyJacobianMatchesFiniteDifferencesRefraction) {
   for (float side : {1.0f, -1.0f}) {  // from outside and from inside the glass
     const Vec3 wo = normalize(Vec3(0.3f, -0.2f, 0.9f * side)), wo_off = normalize(Vec3(0.4f, -0.05f, 0.88f * side));
     const Vec3 wi = normalize(Vec3(-0.2f, 0.15f, -0.95f * side));
-    const DirectionShift s = shift_half_vector(m, wo, wi, wo_off);
+    const DirectionShift s = shift_half_vector(Bsdf(m), wo, wi, wo_off);
     ASSERT_TRUE(s.ok()) << "side " << side;
     EXPECT_LT(s.wi.z * wo_off.z, 0) << "refraction stays refraction";
-    const double fd = fd_jacobian(wi, [&](const Vec3& w) { return shift_half_vector(m, wo, w, wo_off).wi; });
+    const double fd = fd_jacobian(wi, [&](const Vec3& w) { return shift_half_vector(Bsdf(m), wo, w, wo_off).wi; });
     EXPECT_NEAR(s.jacobian, fd, 3e-3 * fd) << "side " << side;
   }
 }
@@ -85,7 +85,7 @@ TEST(Shift, HalfVectorCopyReportsTotalInternalReflection) {
   // From inside the glass, an offset wo' far from the normal cannot refract about h.
   const Material m = rough_glass(0.03f);
   const Vec3 wo = normalize(Vec3(0.05f, 0, -1)), wi = normalize(Vec3(-0.05f, 0, 1));
-  const DirectionShift s = shift_half_vector(m, wo, wi, normalize(Vec3(0.9f, 0, -0.3f)));
+  const DirectionShift s = shift_half_vector(Bsdf(m), wo, wi, normalize(Vec3(0.9f, 0, -0.3f)));
   EXPECT_EQ(s.failure, ShiftFailure::TotalInternalReflection);
   EXPECT_EQ(failure_stat_name(s.failure), "shift failed: total internal reflection");
 }
@@ -118,7 +118,7 @@ TEST(Shift, HalfVectorCopyThenReconnectionJacobianIsTheProductOfBoth) {
   const Vec3 wo = normalize(cam - x1), wo_off = normalize(cam_off - x1o);  // local = world (normal +z)
   const Vec3 w1 = normalize(Vec3(0.1f, 1, 0.7f)), w2 = normalize(Vec3(-0.2f, -0.5f, -1));
   auto joint = [&](const Vec3& a, const Vec3& b, Vec3* a_off, Vec3* b_off) {
-    const DirectionShift hv = shift_half_vector(m, wo, a, wo_off);
+    const DirectionShift hv = shift_half_vector(Bsdf(m), wo, a, wo_off);
     const Vec3 x2 = hit_plane(x1, a, wall_q, wall_n), x2o = hit_plane(x1o, hv.wi, wall_q, wall_n);
     const Vec3 x3 = hit_plane(x2, b, floor_q, floor_n);
     *a_off = hv.wi;

@@ -5,6 +5,10 @@
 #include <string>
 
 #include "integrators/photon/photon_hash.h"
+
+#include <map>
+
+#include "chi2.h"
 #include "core/rng.h"
 #include "scene/loader.h"
 
@@ -50,6 +54,23 @@ TEST(PhotonHash, ExactQueryFindsExactlyThePhotonsInRange) {
   EXPECT_NEAR(grid_sum(g, q, 0.2f), brute, 1e-6 * (1 + brute));
 }
 
+// A cancelled build (Esc during a photon pass's grid build) stops between its stages and leaves
+// an empty grid; a build polled but not cancelled is the full grid.
+TEST(PhotonHash, CancelledExactBuildStopsAndLeavesAnEmptyGrid) {
+  const std::vector<Photon> photons = cornell_photons(20000);
+  PhotonHashGrid g;
+  int polls = 0;
+  g.build(photons, 0.16f, PhotonHashMode::Exact, 0, 0, 0, 0, [&] { ++polls; return false; });
+  EXPECT_EQ(polls, 3);  // polled between the stages, not cancelled: the full grid
+  EXPECT_EQ(g.stored(), photons.size());
+  EXPECT_GT(grid_sum(g, photons[7].p, 0.08f), 0.0);
+  polls = 0;  // a later build cancelled at its first poll replaces that grid by an empty one
+  g.build(photons, 0.16f, PhotonHashMode::Exact, 0, 0, 0, 0, [&] { return ++polls >= 1; });
+  EXPECT_EQ(polls, 1);
+  EXPECT_EQ(g.stored(), 0u);
+  EXPECT_EQ(grid_sum(g, photons[7].p, 0.08f), 0.0);
+}
+
 TEST(PhotonHash, StochasticSelectionIsUnbiased) {
   // Thesis §10.2.1: one photon per bucket, power times the bucket count. Averaged over many
   // independent selections, every query's sum must approach the exact one.
@@ -74,6 +95,51 @@ TEST(PhotonHash, StochasticSelectionIsUnbiased) {
   int close = 0;
   for (size_t i = 0; i < queries.size(); ++i) close += std::abs(got[i] - want[i]) <= 0.2 * want[i] + 1e-9;
   EXPECT_GE(close, static_cast<int>(0.9 * queries.size()));
+}
+
+TEST(PhotonHash, StochasticBuildKeepsAUniformChoiceWeightedByTheCount) {
+  // Thesis §10.2.1 / §10.2.4: 8 photons in one cell, told apart by their power (1 .. 8); over
+  // 8000 builds (passes) each must be the bucket's photon 1/8 of the time (chi-square), with
+  // weight 8. A build that kept the first photon written or the lowest index would fail.
+  std::vector<Photon> photons;
+  for (int k = 0; k < 8; ++k) photons.push_back(Photon{Vec3(0.1f + 0.01f * k, 0.2f, 0.3f), Vec3(0, 0, 1), RGB(float(k + 1))});
+  PhotonHashGrid g;
+  std::vector<double> observed(8, 0.0), expected(8, 1000.0);
+  for (int pass = 0; pass < 8000; ++pass) {
+    g.build(photons, 1.0f, PhotonHashMode::Stochastic, 5, pass, 0);
+    ASSERT_EQ(g.stored(), 1u);
+    int found = 0;
+    g.query(Vec3(0.12f, 0.2f, 0.3f), 0.2f, [&](const Photon& ph, float, float w) {
+      EXPECT_EQ(w, 8.0f);
+      observed[static_cast<int>(ph.power.g) - 1] += 1;
+      ++found;
+    });
+    ASSERT_EQ(found, 1);
+  }
+  Chi2Result r;
+  pearson_pooled(observed, expected, 5, r);
+  EXPECT_GE(r.p_value, 1e-3) << "chi2 " << r.statistic;
+}
+
+TEST(PhotonHash, StochasticBuildIsTheSameWhateverTheThreadCount) {
+  // The atomic minimum does not depend on the order of the writes; the counts add up to the
+  // photons written.
+  const std::vector<Photon> photons = cornell_photons(20000);
+  PhotonHashGrid one, two;
+  one.build(photons, 0.1f, PhotonHashMode::Stochastic, 3, 7, 1);
+  two.build(photons, 0.1f, PhotonHashMode::Stochastic, 3, 7, 2);
+  EXPECT_EQ(one.stored(), two.stored());
+  double total = 0;
+  for (size_t k = 0; k < photons.size(); k += 53) {
+    double n1 = 0, n2 = 0;
+    EXPECT_EQ(grid_sum(one, photons[k].p, 0.05f, &n1), grid_sum(two, photons[k].p, 0.05f, &n2));
+    EXPECT_EQ(n1, n2);
+  }
+  // Every photon is counted once: with cells larger than the box, a query covering the box
+  // sums the weights to n.
+  one.build(photons, 8.0f, PhotonHashMode::Stochastic, 3, 7, 2);
+  one.query(Vec3(0, 0, 1), 3.9f, [&](const Photon&, float, float w) { total += w; });
+  EXPECT_EQ(total, static_cast<double>(photons.size()));
 }
 
 }  // namespace

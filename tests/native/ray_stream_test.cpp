@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/rng.h"
+#include "integrators/methods.h"
 #include "integrators/path_tracer.h"
 #include "scene/accel.h"
 #include "scene/loader.h"
@@ -115,7 +116,7 @@ TEST(RayStreams, PathFromATracedFirstHitIsThePathItself) {
   const Scene scene = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-glass.json");
   Params params;
   params.set("threads", 1);
-  PathTracer pt(scene, params);
+  PathTracer pt(scene, find_method("pt").bind(params));
   std::vector<PixelStart> starts;
   for (int k = 0; k < 64; ++k) starts.push_back(start_pixel(scene.camera, 5, 0, 3 * k % 97, 5 * k % 89));
   std::vector<Ray> camera(starts.size());

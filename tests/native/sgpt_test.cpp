@@ -180,7 +180,7 @@ TEST(Sgpt, ConvergesToTheSptReferenceOnThePrism) {
 // the largest |z|.
 double check_gradients(const Scene& s, Params p, int passes, double tol, const std::string& what, double z_max = 4.0,
                        std::array<int, 4> region = {0, 0, -1, -1}) {
-  SpectralGradientPathTracer sg(s, p);
+  SpectralGradientPathTracer sg(s, find_method("sgpt").bind(p));
   const int B = sg.bins(), st = sg.stride();
   std::vector<double> sum(B, 0.0), sum2(B, 0.0), prev_d(B, 0.0), I, G;
   for (int k = 1; k <= passes; ++k) {
@@ -283,7 +283,7 @@ TEST(SpectralShift, ReconnectionJacobianMatchesFiniteDifferences) {
   const Vec3 w = normalize(Vec3(0.4f, 0.1f, 1.0f));
   const Vec3 xn = hit(w);
   const double fd = finite_difference_jacobian(w, [&](const Vec3& v) { return normalize(hit(v) - y); });
-  const float J = reconnection_jacobian(x, y, xn, n);
+  const float J = reconnection_jacobian<float>(x, y, xn, n);
   EXPECT_NEAR(J, fd, 2e-2 * fd);
   EXPECT_GT(std::abs(J - 1.0), 0.2) << "the test should exercise a Jacobian far from 1";
 }

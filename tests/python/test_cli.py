@@ -122,3 +122,24 @@ def test_ctrl_c_stops_the_render_and_writes_the_image_so_far(tmp_path, method):
     assert p.returncode == 0, stderr
     assert "cancelled  yes" in stdout
     assert out.exists()
+
+
+def test_pixel_renders_one_pixel_as_the_full_render(tmp_path):
+    """--pixel X,Y renders that pixel alone, single-threaded, and prints it: the value of the
+    full (multi-threaded) render of the same seed, to the last digit."""
+    import numpy as np
+    from gradphoton import _native as N
+    full = tmp_path / "full.exr"
+    args = ("render", CORNELL, "--passes", 3, "--width", 16, "--height", 12, "--seed", 4)
+    run(*args, "--threads", 2, "-o", full)
+    p = run(*args, "--pixel", "5,7", "-o", tmp_path / "one.exr")
+    line = re.search(r"^pixel 5,7 combined (\S+) (\S+) (\S+)$", p.stdout, re.M)
+    assert line, p.stdout
+    expected = N.read_exr(str(full))["combined"][7, 5]
+    np.testing.assert_array_equal(np.float32([float(v) for v in line.groups()]), expected)
+    one = N.read_exr(str(tmp_path / "one.exr"))["combined"]
+    assert np.count_nonzero(one.sum(axis=2)) == 1  # only that pixel was rendered
+    bad = run(*args, "--pixel", "16,0", "-o", tmp_path / "x.exr", ok=False)
+    assert bad.returncode == 1 and "--pixel 16,0 is outside the 16x12 image" in bad.stderr
+    chains = run(*args, "--method", "gdmlt", "--pixel", "1,1", "-o", tmp_path / "x.exr", ok=False)
+    assert chains.returncode == 1 and "does not trace its pixels independently" in chains.stderr

@@ -3,6 +3,7 @@ set_transforms, update_description): each renders what a fresh build renders; a 
 before an update is stale and says so; an update during a render is an error, not a race."""
 import json
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -98,22 +99,35 @@ def test_a_session_made_before_an_update_is_stale():
 def test_an_update_during_a_render_is_an_error():
     scene = build()
     scene.width, scene.height = 256, 192
-    s = _native.Session(scene, "pt", {"threads": 1, "max_depth": 64})
-    t = threading.Thread(target=s.run, kwargs={"passes": 1000})
-    t.start()
-    try:
-        # The render holds the scene (the GIL is released while it runs).
-        for _ in range(100):
+    # The render holds the scene from the moment its thread enters run() (the GIL is released
+    # there). An update that comes before that goes through and leaves the session stale, so
+    # the render refuses to start: then try again with a new session (on a loaded machine the
+    # thread may not get there for a while).
+    for attempt in range(10):
+        s = _native.Session(scene, "pt", {"threads": 1, "max_depth": 64})
+        errors = []
+
+        def render():
             try:
-                scene.set_camera(json.dumps(CAMERA))
-            except RuntimeError as e:
-                assert "cancel it first" in str(e)
-                break
-        else:
-            pytest.fail("an update during a render went through")
-    finally:
+                s.run(passes=1000)
+            except RuntimeError as e:  # stale: the update came first
+                errors.append(str(e))
+
+        t = threading.Thread(target=render)
+        t.start()
+        time.sleep(0.05 * (attempt + 1))
+        try:
+            scene.set_camera(json.dumps(CAMERA))
+        except RuntimeError as e:
+            assert "cancel it first" in str(e)
+            s.cancel()
+            t.join()
+            break
         s.cancel()
         t.join()
+        assert errors and "make a new Session" in errors[0], errors  # it went through: never rendering
+    else:
+        pytest.fail("no update was refused during a render in 10 tries")
     scene.set_camera(json.dumps(CAMERA))  # after the render: fine
 
 

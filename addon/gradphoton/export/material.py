@@ -14,15 +14,25 @@ Principled BSDF, as layers of the core's materials:
   on top): gradphoton's plastic reflects at most all the light, so a Principled non-metal
   renders a little darker than in Cycles (docs/blender.md gives the measured difference).
 
+Textures (export/texture.py): an Image Texture may drive Base Color / Color, Roughness,
+Metallic (the mix factor of the metal layer), Alpha (coverage: a stochastic cut-out), a Mix
+Shader's Fac; Normal inputs take a Normal Map or Bump node. Normal maps, bump and alpha belong
+to the whole material (lifted out of Mix/Add parts; the first found wins). A Mix Shader with a
+Transparent BSDF on one side is the other side with that coverage (alpha).
+
 Approximations, each a counted warning (Warnings) rather than silence:
-  - a linked input (a texture or any node feeding a socket) uses the socket's own value;
+  - a linked input fed by anything but the image chains above uses the socket's own value;
   - sheen, clearcoat and subsurface of a Principled BSDF are dropped;
   - any other shader node (Toon, Hair, Holdout, ...) renders as 0.8 grey diffuse.
 Emission is two-sided, as in Cycles; inside a Mix or Add it is weighted like the BSDFs.
 Dispersion comes from the material's gradphoton panel.
 """
 
+from .texture import TextureReader
+
 DEFAULT = "__gradphoton_default"
+# Keys that belong to the whole material, not to one layer of it (lifted out of mix parts).
+SURFACE_KEYS = ("normal_map", "bump", "alpha")
 
 
 def _rgb(socket):
@@ -35,9 +45,15 @@ class MaterialExporter:
         self.table = table  # name -> scene-format material dict
         self.w = warnings
         self._used = {}     # Blender materials exported, by name
+        self.tex = TextureReader(warnings)
+        self._textured = set()  # exported materials that read textures (their meshes need UVs)
 
     def used_materials(self):
         return list(self._used.values())
+
+    def needs_uvs(self, mat):
+        """True when Blender material `mat` reads a texture (its meshes must export UVs)."""
+        return mat is not None and mat.name in self._textured
 
     def name_for(self, mat, flags=None):
         """The core's material name for a Blender material (None: the default grey), with an
@@ -50,7 +66,10 @@ class MaterialExporter:
             name = mat.name
             self._used[name] = mat
             if name not in self.table:
+                self.tex.used = False
                 self.table[name] = self.convert(mat)
+                if self.tex.used:
+                    self._textured.add(name)
         if not flags:
             return name
         variant = name + " [" + ", ".join(f"{k}={v}" for k, v in sorted(flags.items())) + "]"
@@ -63,9 +82,28 @@ class MaterialExporter:
     def _value(self, node, name, mat):
         s = node.inputs[name]
         if s.is_linked:
-            self.w.add("linked input uses its own value (textures unsupported)",
+            self.w.add("linked input uses its own value (node unsupported)",
                        f"'{mat.name}': {node.name}.{name}")
         return s
+
+    def _input(self, node, name, mat, scalar=False, square=False):
+        """An input's value: a texture dict when an image drives it, else its constant (a float
+        when scalar, squared when asked: Blender roughness r -> GGX alpha r^2; else [r, g, b])."""
+        s = node.inputs[name]
+        if s.is_linked:
+            ref = self.tex.value(s, mat, scalar, square)
+            if ref is not None:
+                return ref
+            self.w.add("linked input uses its own value (node unsupported)", f"'{mat.name}': {node.name}.{name}")
+        v = s.default_value
+        if scalar:
+            return float(v) * float(v) if square else float(v)
+        return [float(v[0]), float(v[1]), float(v[2])]
+
+    def _with_normal(self, d, node, mat):
+        if "Normal" in node.inputs:
+            d.update(self.tex.normal(node.inputs["Normal"], mat))
+        return d
 
     def _surface_node(self, mat):
         tree = mat.node_tree
@@ -115,15 +153,15 @@ class MaterialExporter:
         if kind == 'ShaderNodeBsdfDiffuse':
             if self._value(node, "Roughness", mat).default_value > 0:
                 self.w.add("Oren-Nayar roughness ignored (Lambertian)", f"'{mat.name}'")
-            return {"type": "diffuse", "color": _rgb(self._value(node, "Color", mat))}
+            return self._with_normal({"type": "diffuse", "color": self._input(node, "Color", mat)}, node, mat)
         if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic'):
-            r = self._value(node, "Roughness", mat).default_value
-            return {"type": "conductor", "color": _rgb(self._value(node, "Color", mat)), "roughness": r * r,
-                    "fresnel": False}  # Cycles' Glossy BSDF: the colour at every angle
+            return self._with_normal({"type": "conductor", "color": self._input(node, "Color", mat),
+                                      "roughness": self._input(node, "Roughness", mat, scalar=True, square=True),
+                                      "fresnel": False}, node, mat)  # Cycles' Glossy BSDF: the colour at every angle
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
-            r = self._value(node, "Roughness", mat).default_value
-            return {"type": "dielectric", "color": _rgb(self._value(node, "Color", mat)), "roughness": r * r,
-                    "ior": max(1e-3, self._value(node, "IOR", mat).default_value)}
+            return self._with_normal({"type": "dielectric", "color": self._input(node, "Color", mat),
+                                      "roughness": self._input(node, "Roughness", mat, scalar=True, square=True),
+                                      "ior": max(1e-3, self._value(node, "IOR", mat).default_value)}, node, mat)
         if kind == 'ShaderNodeEmission':
             return {"type": "emission", "emission": _rgb(self._value(node, "Color", mat)),
                     "strength": max(0.0, self._value(node, "Strength", mat).default_value), "two_sided": True}
@@ -137,8 +175,16 @@ class MaterialExporter:
         if add:
             t, sockets = 0.5, (node.inputs[0], node.inputs[1])
         else:
-            t = min(1.0, max(0.0, self._value(node, "Fac", mat).default_value))
+            t = self._input(node, "Fac", mat, scalar=True)
+            if not isinstance(t, dict):
+                t = min(1.0, max(0.0, t))
             sockets = (node.inputs[1], node.inputs[2])
+            cut_out = self._transparent_mix(sockets, t, mat, depth)
+            if cut_out is not None:
+                return cut_out
+        if isinstance(t, dict) and any(self._linked_node(s) is not None and
+                                       self._linked_node(s).bl_idname == 'ShaderNodeEmission' for s in sockets):
+            self.w.add("emission in a texture-weighted Mix Shader weighted by one half", f"'{mat.name}': {node.name}")
         parts = []
         for s in sockets:
             src = self._linked_node(s)
@@ -147,7 +193,13 @@ class MaterialExporter:
         # Emission inside a mix, weighted like the BSDFs, is carried by the mix itself (the
         # core takes a mix's emission from the mix, not from its parts).
         emission = [0.0, 0.0, 0.0]
-        for d, w in zip(parts, (1.0, 1.0) if add else (1.0 - t, t)):
+        tw = 0.5 if isinstance(t, dict) else t
+        lifted = {}
+        for d in parts:
+            for key in SURFACE_KEYS:
+                if key in d:
+                    lifted.setdefault(key, d.pop(key))
+        for d, w in zip(parts, (1.0, 1.0) if add else (1.0 - tw, tw)):
             if d.get("strength", 0) > 0 and "emission" in d:
                 emission = [acc + w * d["strength"] * c for acc, c in zip(emission, d["emission"])]
             for key in ("emission", "strength", "two_sided"):
@@ -158,7 +210,28 @@ class MaterialExporter:
             out["factor"] = t
         if any(c > 0 for c in emission):
             out.update({"emission": emission, "strength": 1.0, "two_sided": True})
+        out.update(lifted)
         return out
+
+    def _transparent_mix(self, sockets, t, mat, depth):
+        """Mix Shader of a Transparent BSDF (white) and one other shader: that shader with
+        coverage alpha = Fac (transparent first) or 1 - Fac (transparent second); None otherwise."""
+        nodes = [self._linked_node(s) for s in sockets]
+        kinds = [n.bl_idname if n is not None else None for n in nodes]
+        if kinds.count('ShaderNodeBsdfTransparent') != 1:
+            return None
+        k = kinds.index('ShaderNodeBsdfTransparent')
+        other = nodes[1 - k]
+        if any(c < 0.999 for c in nodes[k].inputs["Color"].default_value[:3]) or nodes[k].inputs["Color"].is_linked:
+            return None  # a tinted transparency is no cut-out
+        if k == 1 and isinstance(t, dict):
+            self.w.add("texture-driven coverage with Transparent second read as opaque", f"'{mat.name}'")
+            return None
+        alpha = t if k == 0 else 1.0 - t
+        d = self._node(other, mat, depth + 1) if other is not None else {"type": "emission", "strength": 0.0}
+        if isinstance(alpha, dict) or alpha < 1.0:
+            d["alpha"] = alpha
+        return d
 
     @staticmethod
     def _one_sided(d, mat):
@@ -168,23 +241,30 @@ class MaterialExporter:
         return d
 
     def _principled(self, node, mat):
-        base = _rgb(self._value(node, "Base Color", mat))
-        metallic = min(1.0, max(0.0, self._value(node, "Metallic", mat).default_value))
-        rough = self._value(node, "Roughness", mat).default_value
+        base = self._input(node, "Base Color", mat)
+        metallic = self._input(node, "Metallic", mat, scalar=True)
+        alpha = self._input(node, "Roughness", mat, scalar=True, square=True)  # GGX alpha = r^2
         trans = min(1.0, max(0.0, self._value(node, "Transmission", mat).default_value))
         spec = max(0.0, self._value(node, "Specular", mat).default_value)
-        alpha = rough * rough
         # Cycles: F0 = 0.08 Specular for the dielectric layer: IOR (1 + sqrt F0) / (1 - sqrt F0).
         sf0 = min(0.99, (0.08 * spec) ** 0.5)
         d = {"type": "plastic", "color": base, "roughness": alpha, "ior": (1 + sf0) / (1 - sf0)}
         if sf0 == 0:  # Specular 0: no coat, the plastic is its Lambertian base
             d = {"type": "diffuse", "color": base}
         metal = {"type": "conductor", "color": base, "roughness": alpha}
-        if metallic >= 1.0:
-            d = metal
-        elif metallic > 0:
+        if isinstance(metallic, dict):  # a metallic map: the metal layer's weight per point
             d = {"type": "mix", "a": self._part(d, mat, node, "plastic"), "b": self._part(metal, mat, node, "metal"),
                  "factor": metallic}
+            if trans > 0:
+                self.w.add("Transmission with a Metallic texture weighted as if metallic were 0", f"'{mat.name}'")
+            metallic = 0.0
+        else:
+            metallic = min(1.0, max(0.0, metallic))
+            if metallic >= 1.0:
+                d = metal
+            elif metallic > 0:
+                d = {"type": "mix", "a": self._part(d, mat, node, "plastic"),
+                     "b": self._part(metal, mat, node, "metal"), "factor": metallic}
         t_glass = (1.0 - metallic) * trans
         glass = {"type": "dielectric", "color": base, "roughness": alpha,
                  "ior": max(1e-3, self._value(node, "IOR", mat).default_value)}
@@ -201,7 +281,10 @@ class MaterialExporter:
         strength = self._value(node, "Emission Strength", mat).default_value
         if strength > 0 and any(c > 0 for c in emission):
             d = dict(d, emission=emission, strength=strength, two_sided=True)
-        return d
+        coverage = self._input(node, "Alpha", mat, scalar=True)
+        if isinstance(coverage, dict) or coverage < 1.0:
+            d["alpha"] = coverage if isinstance(coverage, dict) else max(0.0, coverage)
+        return self._with_normal(d, node, mat)
 
     def _dispersion(self, d, mat):
         gp = getattr(mat, "gradphoton", None)

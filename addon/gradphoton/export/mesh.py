@@ -4,9 +4,9 @@ uint32 indices), so no Python loop runs per vertex or per triangle.
 
 A mesh is exported per vertex when it is all smooth (vertex normals) or all flat (no normals:
 the core shades flat by the triangle normal). Mixed smooth/flat faces, auto smooth and custom
-split normals (and UVs, when asked for) need per-corner data: then every face corner becomes a
-vertex and its split normal is used. Instances of one mesh share one record with one matrix
-per instance.
+split normals (and UVs: the active render UV map, exported when a material of the object reads
+a texture or when asked for) need per-corner data: then every face corner becomes a vertex and
+its split normal is used. Instances of one mesh share one record with one matrix per instance.
 
 A MeshCache (the rendered viewport, persistent data: sync.py) keeps the arrays of each record
 between exports, so an export after a camera, transform or material change reads no mesh data
@@ -42,7 +42,11 @@ def mesh_arrays(me, export_uvs=False):
     tris.foreach_get("material_index", mat)
     smooth = np.empty(nt, bool)
     tris.foreach_get("use_smooth", smooth)
-    uv_layer = me.uv_layers.active if export_uvs else None
+    # The UV map Cycles renders with: the one marked for render (the camera icon).
+    uv_layer = next((layer for layer in me.uv_layers if layer.active_render), me.uv_layers.active) if export_uvs else None
+    # By name: calc_normals_split() below reallocates the loop data, and a layer reference taken
+    # before it reads zeros.
+    uv_name = uv_layer.name if uv_layer is not None else None
     all_smooth = bool(smooth.all()) if nt else True
     per_corner = (uv_layer is not None or me.has_custom_normals or
                   (me.use_auto_smooth and all_smooth) or not (all_smooth or not smooth.any()))
@@ -65,9 +69,9 @@ def mesh_arrays(me, export_uvs=False):
     normals = np.empty(nl * 3, np.float32)
     me.loops.foreach_get("normal", normals)
     uvs = None
-    if uv_layer is not None:
+    if uv_name is not None:
         uvs = np.empty(nl * 2, np.float32)
-        uv_layer.data.foreach_get("uv", uvs)
+        me.uv_layers[uv_name].data.foreach_get("uv", uvs)
         uvs = uvs.reshape(nl, 2)
     return co.reshape(nv, 3)[loop_vert], idx.reshape(nt, 3), normals.reshape(nl, 3), uvs, mat
 
@@ -111,6 +115,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None):
     slots = [s.material for s in ob.material_slots]
     flags = visibility.surface_flags(ob, warnings)
     names = [mats.name_for(m, flags) for m in slots] or [mats.name_for(None, flags)]
+    needs_uvs = export_uvs or any(mats.needs_uvs(m) for m in slots)
     data_key = ob.data.as_pointer() if (ob.type == 'MESH' and ob.data is not None) else ob.as_pointer()
     key = (data_key, tuple(names))
     rec = records.get(key)
@@ -131,7 +136,9 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None):
             me, owner = ob.to_mesh(), ob
         try:
             if me is not None and len(me.polygons):
-                pos, idx, nrm, uvs, mat = mesh_arrays(me, export_uvs)
+                pos, idx, nrm, uvs, mat = mesh_arrays(me, needs_uvs)
+                if needs_uvs and uvs is None and not export_uvs:
+                    warnings.add("textured object without a UV map (textures read at uv 0)", ob.name)
                 rec.positions, rec.indices, rec.normals, rec.uvs = pos, idx, nrm, uvs
                 rec.triangle_count = len(idx)
                 if len(names) > 1:

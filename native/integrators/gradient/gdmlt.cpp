@@ -93,28 +93,21 @@ void PrimarySampleChain::reject() {
 GradientDomainMlt::GradientDomainMlt(const Scene& scene, const Params& params)
     : scene_(scene),
       gpt_(scene, params),
-      mutations_(params.get<int>("mutations", 1)),
-      chain_count_(params.get<int>("chains", 64)),
-      bootstrap_per_pixel_(params.get<int>("bootstrap", 1)),
-      threads_(params.get<int>("threads", 0)),
-      large_step_(params.get<double>("large_step", 0.3)),
-      sigma_(params.get<double>("sigma", 0.01)),
-      alpha_(params.get<double>("primal_share", 0.05)),
-      large_step_mis_(params.get<bool>("large_step_mis", true)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      mutations_(params.get<int>("mutations")),
+      chain_count_(params.get<int>("chains")),
+      bootstrap_per_pixel_(params.get<int>("bootstrap")),
+      threads_(params.get<int>("threads")),
+      large_step_(params.get<double>("large_step")),
+      sigma_(params.get<double>("sigma")),
+      alpha_(params.get<double>("primal_share")),
+      large_step_mis_(params.get<bool>("large_step_mis")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()) {
-  if (mutations_ < 1) throw ParamError("mutations must be >= 1");
-  if (chain_count_ < 1) throw ParamError("chains must be >= 1");
-  if (bootstrap_per_pixel_ < 1) throw ParamError("bootstrap must be >= 1");
-  if (!(large_step_ >= 0 && large_step_ <= 1)) throw ParamError("large_step must be in [0, 1]");
-  if (!(sigma_ > 0 && sigma_ < 1)) throw ParamError("sigma must be in (0, 1)");
-  // primal_share > 0 keeps T > 0 wherever the primal is non-zero (the estimator divides by T).
-  if (!(alpha_ > 0)) throw ParamError("primal_share must be > 0");
-  recon_ = gradient_recon_options(params, "gdmlt", threads_);
-  const std::string direct = params.get<std::string>("direct", "chain");
-  if (direct != "uniform" && direct != "chain") throw ParamError("direct must be 'uniform' or 'chain'");
-  direct_uniform_ = direct == "uniform";
+  // Checked by the declarations (methods.cpp); primal_share > 0 keeps T > 0 wherever the primal
+  // is non-zero (the estimator divides by T).
+  recon_ = gradient_recon_options(params, threads_);
+  direct_uniform_ = params.get<std::string>("direct") == "uniform";
   const size_t n = static_cast<size_t>(width_) * height_;
   primal_.assign(3 * n, 0.0);
   direct_.assign(3 * n, 0.0);

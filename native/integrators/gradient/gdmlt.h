@@ -47,22 +47,8 @@
 // Rng::for_key(seed, chain, ...) stream and its own list of splats per pass; the lists are summed
 // in chain order, so the image does not depend on the thread count.
 //
-// Parameters (defaults):
-//   mutations    1      mutations per pixel per pass (a pass costs about one gpt pass)
-//   chains       64     independent Markov chains
-//   large_step   0.3    probability of a large step (Kelemen's p_large)
-//   sigma        0.01   deviation of a small step in primary sample space (pbrt-v3's default)
-//   primal_share 0.05   alpha: share of the primal throughput in the target function (not
-//                       named "alpha", which is SPPM's radius reduction in the CLI and addon)
-//   bootstrap    1      uniform bootstrap samples per pixel for b and the chains' start states
-//   recon        "l1"   reconstruction: "l1" (robust) or "l2" (unbiased)
-//   large_step_mis true  Kelemen et al. 2002's balance-heuristic weights (above); false: a / T and
-//                       (1 - a) / T scaled by b (Veach's expected values alone)
-//   direct       "chain" the delta-only light from the chains' splats ("chain", T includes it) or
-//                       as plain Monte Carlo from the uniform samples (bootstrap + large steps;
-//                       "uniform", T leaves it out)
-//   lambda       0.2    weight of the primal image in the screened Poisson problem
-//   max_depth, rr_depth, seed, threads   as gpt (tile_size is read but unused)
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods gdmlt`, docs/methods.md#gdmlt).
 //
 // Bias and convergence (measured, docs/gradient.md "Bias and stuck chains"): no bias within error
 // bars. cornell-glass 48 x 36, 24 seeds, L2: image mean / path-traced mean 1.004 +- 0.007 after

@@ -31,20 +31,12 @@ constexpr int kPhotonFailureBase = kShiftFailureCount;
 
 }  // namespace
 
-Gpm::Gpm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, true, true) {
-  // The initial radius by SPPM's footprint rule, one pixel wide (§5: "the projected pixel size";
-  // SPPM's default is two): every gathered photon costs four shifts, and one pixel wins at equal
-  // time where two lose to SPPM (docs/gradient.md, "Defaults"). With footprint=1 given to SPPM,
-  // or footprint=2 to GPM, the primal pass is SPPM's image.
-  footprint_pixels_ = params.get<double>("footprint", 1.0);
-  // alpha and photons per pass: SPPM's defaults (0.7, 100 000), which win at equal time at the
-  // sizes and budgets users run (docs/gradient.md, "Defaults"); the paper's 0.9 and 1 M suit
-  // megapixel renders of many minutes.
-  recon_ = gradient_recon_options(params, "gpm", threads_);
-  // Mitsuba's 20 (GPM §5: 5), with stuck walks given up early (manifold.h): a cap that cuts off
-  // walks still converging biases the gradients.
-  manifold_iterations_ = params.get<int>("manifold_iterations", 20);
-  if (manifold_iterations_ < 0) throw ParamError("parameter 'manifold_iterations' must be >= 0");
+Gpm::Gpm(const Scene& scene, const Params& params)
+    : ProgressivePhotonMapping(scene, params, {.retrace = true, .nee = true}) {
+  // The defaults, why they differ from the paper's and from SPPM's (footprint 1, alpha 0.7,
+  // 100 000 photons, manifold_iterations 20): methods.cpp, docs/gradient.md "Defaults".
+  recon_ = gradient_recon_options(params, threads_);
+  manifold_iterations_ = params.get<int>("manifold_iterations");
   const size_t n = px_.size();
   off_.assign(n, {});
   grad_.assign(n, GradState{});
@@ -93,15 +85,15 @@ struct OffsetWalk : EyePathHooks {
   }
   // Offset vertices: same kind, or the shift is not invertible (§4.3).
   void vertex(const SurfaceHit& hit, const Vec3&) {
-    const VertexKind kind = classify_vertex(scene.material(hit.material), threshold);
+    const VertexKind kind = classify_vertex(scene.bsdf(hit), threshold);
     for (int d = 0; d < 4; ++d) {
       if (!off[d].ok()) continue;
       if (!ohit[d]) {
         fail(d, ShiftFailure::Missed);
         continue;
       }
-      const Material& om = scene.material(ohit[d]->material);
-      if (classify_vertex(om, threshold) != kind || Bsdf(om).is_black()) {
+      const Bsdf ob = scene.bsdf(*ohit[d]);
+      if (classify_vertex(ob, threshold) != kind || ob.is_black()) {
         fail(d, ShiftFailure::NotInvertible);
         continue;
       }
@@ -119,7 +111,7 @@ struct OffsetWalk : EyePathHooks {
       float w = 1.0f;  // failed sensor shift: offset 0, weight 1
       if (off[d].ok()) {
         const SurfaceHit& ov = *ohit[d];
-        c_off = off[d].beta * direct_light(scene, ov, Bsdf(scene.material(ov.material)), ov.frame.to_local(-oray[d].d),
+        c_off = off[d].beta * direct_light(scene, ov, scene.bsdf(ov.material, ov.uv), ov.frame.to_local(-oray[d].d),
                                            u_light, u2, rays);
         w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
       }
@@ -134,6 +126,7 @@ struct OffsetWalk : EyePathHooks {
       off[d].frame = ohit[d]->frame;
       off[d].wo = ohit[d]->frame.to_local(-oray[d].d);
       off[d].material = ohit[d]->material;
+      off[d].uv = ohit[d]->uv;
     }
   }
   // Specular or glossy vertex: the offsets follow by half-vector copy (§4.1).
@@ -143,7 +136,7 @@ struct OffsetWalk : EyePathHooks {
       if (!o.ok()) continue;
       const SurfaceHit& ov = *ohit[d];
       const Vec3 owo = ov.frame.to_local(-oray[d].d);
-      const ScatterShift ss = shift_scatter(scene.material(ov.material), wo, bs.wi, bs.delta, bs.transmission, owo);
+      const ScatterShift ss = shift_scatter(scene.bsdf(ov), wo, bs.wi, bs.delta, bs.transmission, owo);
       if (!ss.ok()) {
         fail(d, ss.failure);
         continue;
@@ -242,7 +235,7 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   ++rays;
   const auto h = scene.intersect(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
   if (!h) s.failure = ShiftFailure::Missed;
-  else if (!Bsdf(scene.material(h->material)).is_diffuse_for_photons(threshold))
+  else if (!scene.bsdf(*h).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
   else s.hit = *h;
   return s;
@@ -285,7 +278,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
   }
   // ---- Step 2, DD ending: reconnect y'_s to y_{s-1} (its BSDF re-evaluated) ----
   const Vec3 wi_l = org.frame.to_local(wi_prev);
-  const Bsdf prev_bsdf(scene_.material(org.material));
+  const Bsdf prev_bsdf = scene_.bsdf(org.material, org.uv);
   const Vec3 wo_prev = org.frame.to_world(org.wo);
   const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
   const float corr = adjoint_shading_correction(wo_prev, wi_prev, org.ng, org.frame.n);
@@ -330,7 +323,7 @@ RGB Gpm::reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& 
   }
   const Frame frame(chain.ns);
   const Vec3 wo = frame.to_local(chain.wo), wi = frame.to_local(dir);
-  const Bsdf bsdf(scene_.material(chain.material));
+  const Bsdf bsdf = scene_.bsdf(chain.material, chain.uv);
   const float corr = adjoint_shading_correction(chain.wo, dir, chain.ng, chain.ns);
   if (corr == 0) return RGB(0.0f);
   pdf = bsdf.pdf(wo, wi);
@@ -395,7 +388,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   rays += static_cast<int64_t>(walk.iterations) * (chain.count + 1);
   if (!walk.ok()) return failed(walk.failure);
   const ManifoldChain& c = walk.chain;
-  if (!Bsdf(scene_.material(walk.end_hit.material)).is_diffuse_for_photons(threshold_))
+  if (!scene_.bsdf(walk.end_hit.material, walk.end_hit.uv).is_diffuse_for_photons(threshold_))
     return failed(ShiftFailure::NotInvertible);
   const ChainVertex& last = c.v[c.count - 1];
   if (!photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, c.end, last.p, last.ng, tol, rays))
@@ -432,12 +425,7 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto t_eye = clock_type::now();
   gpm_eye_pass(pass, sink, rays, invalid, failures);
   if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
-  const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
-  for (size_t i = 0; i < n_pixels; ++i)
-    if (px_[i].r2 == 0 && vp_[i].material >= 0) {
-      const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
-      px_[i].r2 = r * r;
-    }
+  set_initial_radii();
   stats_.extra["eye seconds"] += seconds_since(t_eye);
 
   // ---- Photon pass (SPPM's, with each photon's previous vertex) ----
@@ -472,7 +460,7 @@ void Gpm::iterate(ProgressSink* sink) {
       for (RGB& g : gather_diff_[i]) g = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf(scene_.material(vp.material));
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv);
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       const auto& off = off_[i];
       double m = 0, lap = 0;
@@ -509,7 +497,7 @@ void Gpm::iterate(ProgressSink* sink) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {
               // The base path's kernel (same radius) around the offset gather point.
-              c_off = o.beta * Bsdf(scene_.material(o.material)).eval(o.wo, sh.wi_gather) * sh.power * weight;
+              c_off = o.beta * scene_.bsdf(o.material, o.uv).eval(o.wo, sh.wi_gather) * sh.power * weight;
               // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
               const double ratio = o.ratio * sh.ratio_y;
               if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));
@@ -540,7 +528,6 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto t_update = clock_type::now();
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
-  const double ne_total = static_cast<double>(emitted_total_);
   std::atomic<int64_t> invalid_phi{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     int64_t bad = 0;
@@ -574,12 +561,7 @@ void Gpm::iterate(ProgressSink* sink) {
       s.lap = (s.lap + lap_j) * u.ratio;
       s.n = u.n_new;
       s.r2 = u.r2_new;
-      double x = Ld.luminance();
-      if (r2_query > 0) {
-        const double lap_L = s.r2 > 0 ? s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
-        x += phi.luminance() / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
-      }
-      s.err.add(x);
+      record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, r2_query, ne_pass);  // eq. 6.22
     }
     invalid_phi += bad;
   });

@@ -44,22 +44,10 @@
 // the offset gather points take the same light sample (as GPT), own visibility and BSDF, with
 // the sensor subpath's ratio in the MIS weight (the light point's area density is shared).
 //
-// Parameters (defaults; the rest as sppm.h). alpha, photons and the initial radius are SPPM's,
-// so that the primal pass is SPPM's image with both methods' defaults; they, and L1, are the
-// ones that win at equal time at the sizes and budgets users run (docs/gradient.md, "Defaults"):
-//   alpha               0.7     radius reduction (SPPM's; the paper's 0.9 suits long megapixel runs)
-//   radius              0       initial radius; 0 = SPPM's footprint rule: two pixels of the
-//                               camera ray cone at the distance travelled to the gather point
-//                               (§5 starts from one pixel)
-//   photons             100000  photons per pass (SPPM's; the paper's 1 M suits megapixel images)
-//   specular_threshold  0.05    roughness at or below which a vertex is specular (§4.3)
-//   recon               "l1"    screened Poisson reconstruction: l1 (IRLS to a tolerance) or l2 (eq. 3)
-//   manifold_iterations 20      projections a manifold walk may take (Mitsuba's; GPM §5: 5); a
-//                               stuck walk gives up earlier (manifold.h). 0 disables the walk
-//                               (caustic photons primal-only, an ablation). A walk cut off while
-//                               still converging falls back on its side only, which biases the
-//                               gradients (gpm_test: ExpectedGradient...: 20 sd at a cap of 5)
-//   lambda              0.2     weight of the primal image in eq. 3
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods gpm`, docs/methods.md#gpm).
+// alpha, photons and the initial radius are SPPM's, so that the primal pass is SPPM's image
+// with both methods' defaults (footprint=1 given to sppm); why each default: docs/methods.md#gpm.
 //
 // Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image for the same
 // seed, alpha and radius), gradient_x,
@@ -102,6 +90,7 @@ class Gpm : public ProgressivePhotonMapping {
     RGB beta;             // f(T z) |T'(z)| / p(z): throughput in the base's measure (eq. 4)
     double ratio = 1;     // p(T z) |T'(z)| / p(z), for eq. 11
     int material = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     bool ok() const { return exists && failure == ShiftFailure::None; }
   };
 

@@ -41,15 +41,15 @@ struct Offset {
 
 GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()) {
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  recon_ = gradient_recon_options(params, "gpt", threads_);
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
+  recon_ = gradient_recon_options(params, threads_);
   const size_t n = static_cast<size_t>(width_) * height_;
   primal_.assign(3 * n, 0.0);
   direct_.assign(3 * n, 0.0);
@@ -174,11 +174,11 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
     }
     if (!hit || depth + 1 >= max_depth_) break;
 
-    const Bsdf bsdf(scene_.material(hit->material));
+    const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
-    const VertexKind kind = classify_vertex(scene_.material(hit->material));
+    const VertexKind kind = classify_vertex(bsdf);
 
     // ---- Offset vertices: kinds must match for the shift to be invertible ----
     for (int d = 0; d < 4; ++d) {
@@ -188,7 +188,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         fail(o, ShiftFailure::Missed);
         continue;
       }
-      if (classify_vertex(scene_.material(o.hit->material)) != kind || Bsdf(scene_.material(o.hit->material)).is_black())
+      if (const Bsdf ob = scene_.bsdf(*o.hit); classify_vertex(ob) != kind || ob.is_black())
         fail(o, ShiftFailure::NotInvertible);
     }
 
@@ -230,7 +230,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         } else if (o.link == Link::RecentlyConnected) {  // same vertex and light point: same visibility
           c_off[d] = o.beta * nee(*hit, bsdf, hit->frame.to_local(o.wo), &base_visible);
         } else {
-          const Bsdf ob(scene_.material(o.hit->material));
+          const Bsdf ob = scene_.bsdf(*o.hit);
           c_off[d] = o.beta * nee(*o.hit, ob, o.hit->frame.to_local(-o.ray.d), nullptr);
         }
       }
@@ -249,7 +249,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
     const std::optional<SurfaceHit> next = scene_.intersect(next_ray);
     // Reconnection needs diffuse here and a diffuse (or emitting) vertex next, or no vertex at all.
     const bool next_diffuse =
-        !next || next->light >= 0 || classify_vertex(scene_.material(next->material)) == VertexKind::Diffuse;
+        !next || next->light >= 0 || classify_vertex(scene_.bsdf(*next)) == VertexKind::Diffuse;
     const bool can_reconnect = kind == VertexKind::Diffuse && next_diffuse;
 
     for (int d = 0; d < 4; ++d) {
@@ -272,7 +272,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         continue;
       }
       const SurfaceHit& ov = *o.hit;
-      const Bsdf ob(scene_.material(ov.material));
+      const Bsdf ob = scene_.bsdf(ov.material, ov.uv);
       const Vec3 owo = ov.frame.to_local(-o.ray.d);
       if (can_reconnect) {
         Vec3 wi_o;
@@ -312,7 +312,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         continue;
       }
       // ---- half-vector copy (glossy and non-reconnectable diffuse vertices) or delta lobe ----
-      const ScatterShift ss = shift_scatter(scene_.material(ov.material), wo, bs->wi, bs->delta, bs->transmission, owo);
+      const ScatterShift ss = shift_scatter(ob, wo, bs->wi, bs->delta, bs->transmission, owo);
       if (!ss.ok()) {
         fail(o, ss.failure);
         continue;

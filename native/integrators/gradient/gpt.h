@@ -17,14 +17,8 @@
 // mirrors and glass) does not go through the gradients: it is kept apart and added after the
 // reconstruction, as in the public gradient-domain code.
 //
-// Parameters (defaults):
-//   max_depth  32     longest path in segments (camera ray = 1)
-//   rr_depth   3      depth from which Russian roulette may end paths (base and offsets together)
-//   recon      "l2"   reconstruction: "l2" (unbiased) or "l1" (robust, slightly biased)
-//   lambda     0.2    weight of the primal image in the screened Poisson problem (KMA15's alpha)
-//   seed       0      random seed
-//   threads    0      worker threads (0 = all cores)
-//   tile_size  16     pixels per tile edge (scheduling only)
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods gpt`, docs/methods.md#gpt).
 //
 // Passes: combined (reconstruction + direct light), primal (the base paths' plain path-traced
 // image, direct light included), gradient_x, gradient_y (the estimated forward differences plus

@@ -2,19 +2,12 @@
 
 namespace gp {
 
-// L1 for gpm and gdmlt: lower relMSE than L2 at equal time on every scene measured
-// (docs/gradient.md); gpt keeps L2, KMA15's unbiased choice.
-const char* default_recon_norm(std::string_view method) { return method == "gpt" ? "l2" : "l1"; }
-
-ReconOptions gradient_recon_options(const Params& params, std::string_view method, int threads) {
+// The defaults (methods.cpp): L1 for gpm and gdmlt, lower relMSE than L2 at equal time on every
+// scene measured (docs/gradient.md); gpt keeps L2, KMA15's unbiased choice.
+ReconOptions gradient_recon_options(const Params& params, int threads) {
   ReconOptions o;
-  try {
-    o.norm = parse_recon_norm(params.get<std::string>("recon", default_recon_norm(method)));
-  } catch (const std::invalid_argument& e) {
-    throw ParamError(std::string("parameter 'recon': ") + e.what());
-  }
-  o.lambda = params.get<double>("lambda", 0.2);
-  if (!(o.lambda > 0)) throw ParamError("parameter 'lambda' must be > 0");
+  o.norm = parse_recon_norm(params.get<std::string>("recon"));  // "l1" or "l2": checked by the declaration
+  o.lambda = params.get<double>("lambda");
   o.threads = threads;
   return o;
 }

@@ -15,13 +15,10 @@
 
 namespace gp {
 
-// The reconstruction a gradient method uses when its parameters do not say: "l1" for gdmlt,
-// "l2" for gpt and gpm.
-const char* default_recon_norm(std::string_view method);
-// The method's reconstruction from its parameters "recon" (default_recon_norm) and "lambda"
-// (0.2); throws ParamError on a bad value. The integrators and `gradphoton merge` (which
-// reconstructs merged runs as they would) both read it here.
-ReconOptions gradient_recon_options(const Params& params, std::string_view method, int threads);
+// The method's reconstruction from its parameters "recon" and "lambda", `params` bound to its
+// declarations (the defaults: l2 for gpt, l1 for gpm and gdmlt; lambda 0.2; methods.cpp). The
+// integrators and `gradphoton merge` (which reconstructs merged runs as they would) read it here.
+ReconOptions gradient_recon_options(const Params& params, int threads);
 
 // All arrays are width * height * 3, row-major, row 0 at the top.
 void develop_gradient_passes(Film& film, const std::vector<double>& primal, const std::vector<double>& gx,

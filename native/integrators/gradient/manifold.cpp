@@ -168,15 +168,6 @@ std::optional<TangentMap> tangent_map(const Scene& scene, const ManifoldChain& c
   return T;
 }
 
-bool refract_local(const Vec3d& wo, const Vec3d& h, double eta, Vec3d& wt) {
-  // wo on h's side; eta = n_wo / n_wt.
-  const double cos_i = wo.dot(h);
-  const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
-  if (sin2_t >= 1.0) return false;
-  const double cos_t = std::sqrt(1.0 - sin2_t);
-  wt = -eta * wo + (eta * cos_i - cos_t) * h;
-  return true;
-}
 
 
 // |d omega_b / dA(y_s)| from the tangent map (see chain_direction_per_area); from a distant
@@ -206,8 +197,7 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
     const Frame frame(ns);
     const Vec3 wo_w = normalize(prev - x.p), wi_w = normalize(next - x.p);
     const Vec3 wo = frame.to_local(wo_w), wi = frame.to_local(wi_w);
-    const Material& m = scene.material(scene.meshes[x.mesh].material_ids[x.prim]);
-    const Bsdf bsdf(m);
+    const Bsdf bsdf = scene.bsdf(scene.meshes[x.mesh].material_ids[x.prim], scene.uv_at(x.mesh, x.prim, x.p));
     const float corr = adjoint_shading_correction(wo_w, wi_w, ng, ns);
     if (corr == 0 || wo.z == 0) return out;
     if (bsdf.is_delta()) {
@@ -220,7 +210,7 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
     } else {
       out.f *= bsdf.eval(wo, wi, TransportMode::Importance) * (std::abs(wi.z) * corr);
       out.pdf *= bsdf.pdf(wo, wi);
-      out.jacobian *= half_vector_direction_jacobian(wo, wi, m.ior, x.transmission);
+      out.jacobian *= half_vector_direction_jacobian(wo, wi, bsdf.params().ior, x.transmission);
     }
   }
   out.wi_end = normalize((c.count > 0 ? c.v[c.count - 1].p : c.start) - c.end);
@@ -294,8 +284,8 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
     if (c.v[j].transmission) {
       const bool outside = wo.z() > 0;
       const Vec3d hh = wo.dot(h) >= 0 ? h : Vec3d(-h);
-      const double eta = outside ? 1.0 / ls.ior : ls.ior;  // n_wo / n_wi
-      if (!refract_local(wo, hh, eta, wi)) return ShiftFailure::TotalInternalReflection;
+      const double eta = outside ? ls.ior : 1.0 / ls.ior;  // n_wi / n_wo
+      if (!refract_oriented(wo, hh, wo.dot(hh), eta, &wi)) return ShiftFailure::TotalInternalReflection;
       if (wi.z() * wo.z() >= 0) return ShiftFailure::NotInvertible;
     } else {
       wi = 2.0 * wo.dot(h) * h - wo;
@@ -336,7 +326,8 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain) {
   if (!half_vectors(chain, surf, h)) return out;
   for (int j = 0; j < chain.count; ++j) {
     const ChainVertex& x = chain.v[j];
-    out.chain.target[j] = Bsdf(scene.material(scene.meshes[x.mesh].material_ids[x.prim])).is_delta() ? Vec2(0, 0) : h[j];
+    const Bsdf bsdf = scene.bsdf(scene.meshes[x.mesh].material_ids[x.prim], scene.uv_at(x.mesh, x.prim, x.p));
+    out.chain.target[j] = bsdf.is_delta() ? Vec2(0, 0) : h[j];
   }
   const auto T = tangent_map(scene, chain, surf);
   if (!T) return out;

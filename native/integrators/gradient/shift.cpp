@@ -23,33 +23,12 @@ std::string_view failure_stat_name(ShiftFailure f) {
   return "shift failed: ?";
 }
 
-VertexKind classify_vertex(const Material& m, float threshold) {
-  const Bsdf bsdf(m);
+VertexKind classify_vertex(const Bsdf& bsdf, float threshold) {
   if (bsdf.is_diffuse_for_photons(threshold)) return VertexKind::Diffuse;
   if (bsdf.is_delta()) return VertexKind::Delta;
   return VertexKind::Glossy;
 }
 
-namespace {
-
-// Refraction of w about the microfacet normal h (any side) for the interior IOR `ior` below +z;
-// false on total internal reflection.
-bool refract_about(const Vec3& w, Vec3 h, float ior, Vec3* wt) {
-  float cos_i = dot(h, w);
-  float eta = ior;
-  if (cos_i < 0) {
-    eta = 1.0f / ior;
-    cos_i = -cos_i;
-    h = -h;
-  }
-  const float sin2_t = std::max(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
-  if (sin2_t >= 1.0f) return false;
-  const float cos_t = std::sqrt(1.0f - sin2_t);
-  *wt = -w / eta + h * (cos_i / eta - cos_t);
-  return true;
-}
-
-}  // namespace
 
 namespace {
 
@@ -64,10 +43,9 @@ std::optional<BsdfSample> sample_same_lobe(const Bsdf& bsdf, const Vec3& wo, boo
 
 }  // namespace
 
-ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_wi, bool base_delta,
+ScatterShift shift_scatter(const Bsdf& bsdf, const Vec3& wo, const Vec3& base_wi, bool base_delta,
                            bool base_transmission, const Vec3& wo_offset) {
   ScatterShift r;
-  const Bsdf bsdf(m);
   if (base_delta) {
     const auto os = sample_same_lobe(bsdf, wo_offset, base_transmission);
     if (!os) {
@@ -79,7 +57,7 @@ ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_w
     r.f_cos = os->f * std::abs(r.wi.z);
     return r;
   }
-  const DirectionShift hs = shift_half_vector(m, wo, base_wi, wo_offset);
+  const DirectionShift hs = shift_half_vector(bsdf, wo, base_wi, wo_offset);
   if (!hs.ok()) {
     r.failure = hs.failure;
     return r;
@@ -91,8 +69,9 @@ ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_w
   return r;
 }
 
-DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset) {
+DirectionShift shift_half_vector(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset) {
   DirectionShift r;
+  const BsdfParams& m = bsdf.params();
   if (wo.z == 0 || wi.z == 0 || wo_offset.z == 0) {
     r.failure = ShiftFailure::ZeroLength;
     return r;
@@ -103,7 +82,7 @@ DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& 
     return r;
   }
   const bool reflection = wo.z * wi.z > 0;
-  const bool delta = Bsdf(m).is_delta();
+  const bool delta = bsdf.is_delta();
   if (reflection) {
     Vec3 h = delta ? Vec3(0, 0, 1) : wo + wi;
     if (length_squared(h) == 0) {
@@ -134,7 +113,7 @@ DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& 
   }
   h = normalize(h);
   if (h.z < 0) h = -h;
-  if (!refract_about(wo_offset, h, m.ior, &r.wi)) {
+  if (!refract(wo_offset, h, m.ior, nullptr, &r.wi)) {  // about h, the interior IOR below +z
     r.failure = ShiftFailure::TotalInternalReflection;
     return r;
   }
@@ -167,13 +146,8 @@ ReconnectShift shift_reconnect(const Vec3& base_p, const Vec3& offset_p, const V
   }
   r.distance = static_cast<float>(std::sqrt(l2_off));
   r.wi = d_off / r.distance;
-  const double cos_base = std::abs(dot(n_target, d_base)) / std::sqrt(l2_base);
-  const double cos_off = std::abs(dot(n_target, r.wi));
-  if (cos_base <= 0 || cos_off <= 0) {
-    r.failure = ShiftFailure::ZeroLength;
-    return r;
-  }
-  r.jacobian = (cos_off / l2_off) / (cos_base / l2_base);
+  r.jacobian = reconnection_jacobian<double>(base_p, offset_p, target, n_target);
+  if (!(r.jacobian > 0)) r.failure = ShiftFailure::ZeroLength;  // a cosine at the target is 0
   return r;
 }
 

@@ -17,6 +17,7 @@
 
 #include "core/color.h"
 #include "core/math.h"
+#include "materials/bsdf.h"
 #include "materials/material.h"
 
 namespace gp {
@@ -39,7 +40,7 @@ inline constexpr int kShiftFailureCount = 9;
 std::string_view failure_stat_name(ShiftFailure f);
 
 enum class VertexKind { Diffuse, Glossy, Delta };
-VertexKind classify_vertex(const Material& m, float threshold = kDefaultSpecularThreshold);
+VertexKind classify_vertex(const Bsdf& bsdf, float threshold = kDefaultSpecularThreshold);
 
 // Half-vector copy at one vertex, in the local shading frames (normal +z) of the base and the
 // offset vertex: the base pair (wo, wi) defines the (generalized) half-vector h, which the offset
@@ -54,7 +55,7 @@ struct DirectionShift {
   double jacobian = 0;  // |d omega_i' / d omega_i|
   bool ok() const { return failure == ShiftFailure::None; }
 };
-DirectionShift shift_half_vector(const Material& m, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset);
+DirectionShift shift_half_vector(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi, const Vec3& wo_offset);
 
 // The offset's scattering at a delta or glossy vertex where the base sampled direction `base_wi`
 // (a delta lobe when base_delta, refraction when base_transmission): the same delta lobe from the
@@ -69,7 +70,7 @@ struct ScatterShift {
   double jacobian = 1;
   bool ok() const { return failure == ShiftFailure::None; }
 };
-ScatterShift shift_scatter(const Material& m, const Vec3& wo, const Vec3& base_wi, bool base_delta,
+ScatterShift shift_scatter(const Bsdf& bsdf, const Vec3& wo, const Vec3& base_wi, bool base_delta,
                            bool base_transmission, const Vec3& wo_offset);
 
 // Reconnection of the offset vertex to the base path's next vertex `target` (normal n_target):
@@ -83,6 +84,22 @@ struct ReconnectShift {
   double jacobian = 0;
   bool ok() const { return failure == ShiftFailure::None; }
 };
+// Reconnection Jacobian (KMA15 §5.2), the one place it is written: the direction from the base
+// vertex x_k to the next base vertex x_next (normal n_next) replaced by the direction from the
+// offset's y_k, (cos_y / |y_k - x_next|^2) / (cos_x / |x_k - x_next|^2) with the cosines at
+// x_next: solid angle per area there, offset over base. 0 when a distance or cos_x is 0. Real:
+// the precision of the ratio (gpt double, sgpt float).
+template <class Real>
+Real reconnection_jacobian(const Vec3& x_k, const Vec3& y_k, const Vec3& x_next, const Vec3& n_next) {
+  const Vec3 dx = x_k - x_next, dy = y_k - x_next;
+  const Real lx2 = length_squared(dx), ly2 = length_squared(dy);
+  if (lx2 <= 0 || ly2 <= 0) return Real(0);
+  const Real cos_x = std::abs(dot(n_next, dx)) / std::sqrt(lx2);
+  const Real cos_y = std::abs(dot(n_next, dy)) / std::sqrt(ly2);
+  if (cos_x <= 0) return Real(0);
+  return (cos_y / ly2) / (cos_x / lx2);
+}
+
 ReconnectShift shift_reconnect(const Vec3& base_p, const Vec3& offset_p, const Vec3& target, const Vec3& n_target);
 
 // Gradient-domain photon density estimation eq. 4: the solid-angle Jacobian J_omega of the last

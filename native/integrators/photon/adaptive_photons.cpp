@@ -9,7 +9,7 @@ namespace gp {
 
 // ---- Visibility grid: the measurement points of this pass ----
 
-void VisibilityGrid::build(const std::vector<Point>& points, int threads) {
+void VisibilityGrid::build(const std::vector<Point>& points, int threads, const std::function<bool()>& cancelled) {
   points_.clear();
   positions_.clear();
   max_r_ = 0;
@@ -25,7 +25,7 @@ void VisibilityGrid::build(const std::vector<Point>& points, int threads) {
   // 16 buckets per point: most deposits of invisible paths land in cells with no point, and
   // a query there should find an empty bucket rather than a collision.
   const uint32_t min_buckets = static_cast<uint32_t>(std::min<size_t>(16 * points_.size(), 1u << 24));
-  grid_.build(positions_, 2.0f * max_r_, PhotonHashMode::Exact, 0, 0, threads, min_buckets);
+  grid_.build(positions_, 2.0f * max_r_, PhotonHashMode::Exact, 0, 0, threads, min_buckets, cancelled);
 }
 
 bool VisibilityGrid::splats(const Photon& ph) const {

@@ -58,7 +58,8 @@ class VisibilityGrid {
     float R2 = 0;  // set by build(): R * R, as the gathering squares it
   };
   // Rebuilds the grid (capacity kept between passes). Points with R <= 0 are skipped.
-  void build(const std::vector<Point>& points, int threads);
+  // `cancelled` (polled between the grid's build stages) leaves it empty.
+  void build(const std::vector<Point>& points, int threads, const std::function<bool()>& cancelled = {});
   // V for one deposit: the same test as the gathering (distance <= R, same hemisphere).
   bool splats(const Photon& ph) const;
   // V(u) for a whole path: any of its deposits splats.

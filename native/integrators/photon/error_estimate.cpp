@@ -46,4 +46,28 @@ double student_t_quantile(double dof, double p) {
   return z + g1 / v + g2 / (v * v) + g3 / (v * v * v) + g4 / (v * v * v * v);
 }
 
+FoldedNormalQuantile::FoldedNormalQuantile(double confidence) : one_tail_(normal_quantile(confidence)) {
+  auto Phi = [](double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); };
+  const int n = static_cast<int>(kMax / kStep) + 1;
+  table_.resize(n);
+  for (int k = 0; k < n; ++k) {
+    const double m = k * kStep;
+    double lo = 0, hi = m + 10;
+    for (int it = 0; it < 60; ++it) {
+      const double q = 0.5 * (lo + hi);
+      (Phi(q - m) - Phi(-q - m) < confidence ? lo : hi) = q;
+    }
+    table_[k] = 0.5 * (lo + hi);
+  }
+}
+
+double FoldedNormalQuantile::operator()(double m) const {
+  m = std::abs(m);
+  if (!(m < kMax)) return m + one_tail_;
+  const double x = m / kStep;
+  const size_t k = static_cast<size_t>(x);
+  const double f = x - static_cast<double>(k);
+  return table_[k] * (1 - f) + table_[std::min(k + 1, table_.size() - 1)] * f;
+}
+
 }  // namespace gp

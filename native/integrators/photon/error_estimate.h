@@ -17,6 +17,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 namespace gp {
 
@@ -58,6 +59,21 @@ struct ErrorStats {
 inline double interval_half_width(double t_quantile, const ErrorStats& s) {
   return s.n < 2 ? INFINITY : t_quantile * std::sqrt(s.variance() / s.n);
 }
+
+// Quantile q(m) of |m + Z|, Z standard normal: P(|m + Z| <= q) = c. The bound of an error
+// that is a known shift m plus unit normal noise at exactly the confidence c, where eq. 6.12's
+// E + |B| (q = m + z_{(1+c)/2}) over-covers: for m = 0 it is z_{(1+c)/2}, for large m it tends
+// to m + z_c (one tail). Tabulated at construction (bisection on a grid of m), interpolated.
+class FoldedNormalQuantile {
+ public:
+  explicit FoldedNormalQuantile(double confidence = 0.5);
+  double operator()(double m) const;
+
+ private:
+  static constexpr double kStep = 1.0 / 16, kMax = 12;
+  double one_tail_;            // z_c, for m beyond the table
+  std::vector<double> table_;  // q at m = k * kStep
+};
 
 // Relative stochastic bound of eq. 6.13: (E_i + |B'_i|) / L_i (infinite when L_i <= 0).
 inline double relative_bound(double half_width, double bias, double radiance) {

@@ -20,27 +20,21 @@ using clock_type = std::chrono::steady_clock;
 
 Msppm::Msppm(const Scene& scene, const Params& params)
     : scene_(scene),
-      alpha_(params.get<double>("alpha", 0.6)),
-      radius_(params.get<double>("radius", 0.0)),
-      photons_per_pass_(params.get<int64_t>("photons", 0)),
-      max_depth_(params.get<int>("max_depth", 16)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
-      seed_(params.get<uint64_t>("seed", 0)),
-      path_samples_(params.get<int>("path_samples", 0)),
-      path_samples_max_(params.get<int>("path_samples_max", 64)),
+      alpha_(params.get<double>("alpha")),
+      radius_(params.get<double>("radius")),
+      photons_per_pass_(params.get<int64_t>("photons")),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      seed_(params.get<uint64_t>("seed")),
+      path_samples_(params.get<int>("path_samples")),
+      path_samples_max_(params.get<int>("path_samples_max")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
-      tracer_(scene, max_depth_, threshold_, seed_, threads_) {
-  if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
-  if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
-  if (photons_per_pass_ < 0) throw ParamError("parameter 'photons' must be >= 0 (0 = one per pixel)");
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
-  if (path_samples_ < 0) throw ParamError("parameter 'path_samples' must be >= 0 (0 = the local photon count)");
-  if (path_samples_max_ < 1) throw ParamError("parameter 'path_samples_max' must be at least 1");
+      // §9.6: photons at every non-delta vertex, where the weights weigh them against path tracing
+      tracer_(scene, max_depth_, kDefaultSpecularThreshold, seed_, threads_, DepositRule::NonDelta) {
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
   const size_t n = static_cast<size_t>(width_) * height_;
   if (photons_per_pass_ == 0) photons_per_pass_ = static_cast<int64_t>(n);  // §9.5
   px_.assign(n, PixelState{});
@@ -126,7 +120,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                   y.pop_back();
                 }
               }
-              const Bsdf bsdf(scene_.material(hit->material));
+              const Bsdf bsdf = scene_.bsdf(*hit);
               if (bsdf.is_black()) break;
               const Vec3 wo = hit->frame.to_local(-ray.d);
               if (wo.z == 0) break;
@@ -137,14 +131,16 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               e.frame = hit->frame;
               e.beta = beta;
               e.material = hit->material;
+              e.uv = hit->uv;
               e.delta = bsdf.is_delta();
-              e.mergeable = !e.delta && bsdf.is_diffuse_for_photons(threshold_);
+              e.mergeable = !e.delta;  // no diffuse/glossy classification (thesis §9.6)
               if (e.mergeable && first_r == 0) first_r = 2.0f * scene_.camera.pixel_footprint(path_length);
               PathVertex sv;
               sv.p = e.p;
               sv.ng = e.ng;
               sv.frame = &e.frame;
               sv.material = e.material;
+              sv.uv = e.uv;
               sv.delta = e.delta;
               sv.mergeable = e.mergeable;
               y.push_back(sv);
@@ -400,6 +396,7 @@ void Msppm::iterate(ProgressSink* sink) {
         v.ng = ev[a].ng;
         v.frame = &ev[a].frame;
         v.material = ev[a].material;
+        v.uv = ev[a].uv;
         v.delta = ev[a].delta;
         v.mergeable = ev[a].mergeable;
       }
@@ -410,7 +407,7 @@ void Msppm::iterate(ProgressSink* sink) {
         const EyeVertex& e = ev[j];
         if (!e.mergeable) continue;
         ++local_points;
-        const Bsdf bsdf(scene_.material(e.material));
+        const Bsdf bsdf = scene_.bsdf(e.material, e.uv);
         const Vec3 wo = e.frame.to_local(e.wo);
         // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the
         // tail, a cache miss each: found photons are collected and their tails prefetched

@@ -5,11 +5,13 @@
 //
 // Every iterate():
 //   1. one camera path per pixel, traced to Russian-roulette termination (§9.5 step 2), with a
-//      measurement point at every vertex whose BSDF is diffuse for photons; along the same path
+//      measurement point at every non-delta vertex (glossy ones included: no diffuse/glossy
+//      classification, the weights decide, §9.6); along the same path
 //      and n_pt - 1 more (see "Sample counts"), path tracing: emission hit by the path and
 //      next-event estimation at every non-delta vertex (§9.5 step 5), each weighted by the
 //      balance heuristic;
-//   2. one photon pass, photons deposited from the first hit on, whole photon paths recorded
+//   2. one photon pass, photons deposited at every non-delta vertex from the first hit on, whole
+//      photon paths recorded
 //      (§9.5 step 1, PhotonPathRecord);
 //   3. every measurement point gathers the photons within its pixel's radius; each photon's
 //      flux is weighted by the balance heuristic for the full path it closes (§9.5 step 4);
@@ -21,7 +23,7 @@
 //
 // Techniques for a path y_1 .. y_k (y_k on a light; y_0 the camera): hit (the camera path
 // samples every vertex), nee (light sample at y_k from y_{k-1}), and density estimation at
-// every photon-diffuse y_t, 1 <= t < k (camera samples y_1..y_t, photon y_k..y_t). With the
+// every non-delta y_t, 1 <= t < k (camera samples y_1..y_t, photon y_k..y_t). With the
 // path densities of eq. 9.6-9.8 as products of per-vertex area densities E_i (camera side) and
 // L_i (light side),
 //   q_hit = prod_{i<=k} E_i,   q_nee = prod_{i<k} E_i * p_light(y_k),
@@ -34,7 +36,7 @@
 // over the techniques that can make a path keep the combination consistent).
 //
 // Incremental weights (eq. 9.5 for density estimation in O(1) per gathered photon). With
-// PE[s] = prod_{i<=s} E_i, SL[s] = prod_{i>=s} L_i and m_s = 1 where y_s is photon-diffuse,
+// PE[s] = prod_{i<=s} E_i, SL[s] = prod_{i>=s} L_i and m_s = 1 where y_s is not delta,
 //   1 / w_t = sum_s q(s) / q(t) = (L_{t-1} / E_t) B_{t-1} + R_t, where
 //   B_j = m_j + (L_{j-1} / E_j) B_{j-1},  B_0 = 0                       (camera side)
 //   R_j = m_j + (E_{j+1} / L_j) R_{j+1}                                   (light side)
@@ -70,18 +72,8 @@
 // every pass. path_samples = k > 0 takes k samples per pass instead (k = 1: one per pass, as
 // the per-pass eye tracing of §9.5's last paragraph and as this integrator did before).
 //
-// Parameters (defaults):
-//   photons             0       photons per pass; 0 = the number of pixels (§9.5)
-//   alpha               0.6     fraction of new photons kept (eq. 7.2); < 2/3 (eq. 9.23)
-//   radius              0       initial radius in metres; 0 = two pixel footprints at the
-//                               first photon-diffuse vertex
-//   specular_threshold  0.05    roughness at or below which a surface is specular for photons
-//   max_depth           16      longest camera or photon path in segments
-//   rr_depth            3       camera-path depth from which Russian roulette may end it
-//   path_samples        0       path-tracing samples per pixel and pass; 0 = the expected local
-//                               photon count (§9.4.5, see "Sample counts")
-//   path_samples_max    64      upper bound of that count (caustic pixels find hundreds)
-//   seed 0, threads 0, tile_size 16 as for "pt"
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods msppm`, docs/methods.md#msppm).
 //
 // Passes: combined, radius, photon_count. Statistics: path tracing samples (total, and per pixel
 // and pass), photons traced/stored, photon rays,
@@ -117,8 +109,9 @@ class Msppm : public Integrator {
     Vec3 p, ng;
     const Frame* frame = nullptr;
     int material = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     bool delta = false;      // specular BSDF
-    bool mergeable = false;  // photon-diffuse: density estimation possible here
+    bool mergeable = false;  // not delta: density estimation possible here (§9.6)
     int light = -1;          // light vertex: its light
     bool distant = false;    // light vertex of a sun / environment: `dir` is the light's direction of travel
     Vec3 dir;
@@ -143,6 +136,7 @@ class Msppm : public Integrator {
     Vec3 to_next;     // depth >= 2: towards y_{t+2}; depth 1 (light vertex): its `dir`
     double A_P = 0, A_H = 0, B_H = 0;
     int material = -1, light = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     int depth = 0;    // segments from the light to the deposit (d = k - t)
     bool delta = false, mergeable = false, distant = false;
   };
@@ -171,6 +165,7 @@ class Msppm : public Integrator {
     Frame frame;
     RGB beta;        // camera-path throughput up to this vertex
     int material = -1;
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
     bool delta = false, mergeable = false;
   };
   struct PixelState {
@@ -188,7 +183,6 @@ class Msppm : public Integrator {
   double alpha_, radius_;
   int64_t photons_per_pass_;
   int max_depth_, rr_depth_, threads_, tile_size_;
-  float threshold_;
   uint64_t seed_;
   int path_samples_, path_samples_max_;
   int width_, height_;

@@ -25,7 +25,7 @@ struct PathDensities {
     const Msppm::PathVertex& a = y(v);
     if (a.delta) return 1.0;
     if (a.material < 0 || !a.frame) return 0.0;
-    const Bsdf bsdf(scene.material(a.material));
+    const Bsdf bsdf = scene.bsdf(a.material, a.uv);
     return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)));
   }
   double to_area(int a, int b) const {

@@ -27,7 +27,7 @@ double Msppm::mis_weight(const std::vector<PathVertex>& y, int technique, double
     const PathVertex& a = y[v];
     if (a.delta) return 1.0;  // specular: the same delta on both sides, left out
     if (a.material < 0 || !a.frame) return 0.0;
-    const Bsdf bsdf(scene_.material(a.material));
+    const Bsdf bsdf = scene_.bsdf(a.material, a.uv);
     return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)));
   };
   // Area density conversion at vertex b of a segment leaving a: |cos_b| / d^2.
@@ -104,6 +104,7 @@ Msppm::PathVertex Msppm::photon_path_vertex(const PhotonPathVertex& pv, bool mer
   }
   v.frame = &pv.frame;
   v.material = pv.material;
+  v.uv = pv.uv;
   v.delta = pv.delta;
   v.mergeable = mergeable;
   return v;
@@ -124,7 +125,7 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
     z.clear();
     for (int a = 0; a <= n; ++a) {
       const PhotonPathVertex& pv = record.vertices[begin + a];
-      const bool m = !pv.start && !pv.delta && Bsdf(scene_.material(pv.material)).is_diffuse_for_photons(threshold_);
+      const bool m = !pv.start && !pv.delta;  // mergeable: every non-delta vertex (§9.6)
       z.push_back(photon_path_vertex(pv, m));
     }
     const int k = n + 1;
@@ -163,6 +164,7 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
       } else {
         tl.frame = *v.frame;
         tl.material = v.material;
+        tl.uv = v.uv;
         tl.delta = v.delta;
         tl.mergeable = v.mergeable;
         // In the photon's own indexing y_{t+1} = z_{dd-1} is y_{j1}, j1 = k - (dd - 1).
@@ -205,7 +207,7 @@ double Msppm::merge_weight(const PathVertex* yc, int t, const double* c, const P
   // The full path: y_0 .. y_t from the camera, y_{t+1} = the tail's vertex, then the photon's
   // earlier vertices; k = t + depth. 1 / w_t = sum_s q(s) / q(t) = (L_{t-1} / E_t) B_{t-1} + R_t.
   const PathVertex& e = yc[t];
-  const Bsdf bsdf(scene_.material(e.material));
+  const Bsdf bsdf = scene_.bsdf(e.material, e.uv);
   const Vec3 to_prev = normalize(yc[t - 1].p - e.p);  // towards(t, t - 1)
   double P, H;
   if (tl.depth == 1) {
@@ -226,7 +228,7 @@ double Msppm::merge_weight(const PathVertex* yc, int t, const double* c, const P
     const Vec3 to_cam = normalize(dv);
     double p_fwd = 1.0, p_rev = 1.0;  // at y_{t+1}: towards y_t from y_{t+2}, and back
     if (!tl.delta) {
-      const Bsdf b(scene_.material(tl.material));
+      const Bsdf b = scene_.bsdf(tl.material, tl.uv);
       const Vec3 lc = tl.frame.to_local(to_cam), ln = tl.frame.to_local(tl.to_next);
       p_fwd = b.pdf(ln, lc);
       p_rev = b.pdf(lc, ln);

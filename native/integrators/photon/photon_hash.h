@@ -2,16 +2,25 @@
 // photon mapping, rebuilt (in parallel) every pass and then discarded with the photons.
 //
 // Cells are cubes of side `cell_size` (callers use twice the largest query radius, thesis
-// §10.2.2, so a query touches at most 2 x 2 x 2 cells); cells map to 2^k buckets by the
-// hash of Teschner et al. 2003. Two modes:
-//   exact       every photon of the pass is kept, bucket by bucket (counting sort);
-//   stochastic  thesis ch. 10 (§10.2.1): each bucket keeps one of its n photons, chosen
-//               uniformly, with its power multiplied by n, so every query does exactly one
-//               fetch per bucket; unbiased: the expected sum over a bucket is unchanged.
-// The build is deterministic: photons inside a bucket are ordered by their index, and the
-// stochastic choice draws from a stream keyed by (seed, pass, bucket).
+// §10.2.2, so a query touches at most 2 x 2 x 2 cells); cells map to 2^k buckets (at least
+// twice the photons, §10.3: no fewer entries than photons) by the hash of Teschner et al. 2003.
+// Two modes:
+//   exact       every photon of the pass is kept, bucket by bucket (counting sort; photons
+//               inside a bucket ordered by their index, so the build is deterministic);
+//   stochastic  thesis ch. 10 as §10.2.4 builds it, in one parallel pass over the photons with
+//               no lists and no sort: every photon draws a random priority (the "depth value"
+//               of §10.2.4's first approach, keyed by seed, pass and photon index) and is
+//               written to its bucket by an atomic minimum on (priority, index), while an atomic
+//               counter counts the bucket's photons; the winner is a uniform choice among the n
+//               photons of its bucket and carries its power times n (§10.2.1), so the expected
+//               sum over a bucket is unchanged and every query reads one entry per bucket. The
+//               minimum does not depend on the order of the writes: the table is the same
+//               whatever the thread count.
 #pragma once
 
+#include <functional>
+
+#include <atomic>
 #include <cstdint>
 #include <type_traits>
 #include <vector>
@@ -26,15 +35,18 @@ class PhotonHashGrid {
  public:
   // min_buckets: at least this many buckets (a power of two is used), for grids queried far
   // more often than built, where fewer hash collisions pay (adaptive_photons.h).
+  // `cancelled` is polled between the exact build's stages; once it returns true the build stops
+  // and the grid is left empty (a cancelled pass is abandoned anyway).
   void build(const std::vector<Photon>& photons, float cell_size, PhotonHashMode mode, uint64_t seed,
-             uint64_t pass, int threads, uint32_t min_buckets = 0);
+             uint64_t pass, int threads, uint32_t min_buckets = 0, const std::function<bool()>& cancelled = {});
 
   // Calls fn(photon, distance^2, weight) for every stored photon within `radius` of p. The
   // weight is 1 (exact) or the number of photons its bucket held (stochastic): the factor
   // that multiplies its power (thesis §10.2.1) and its count.
   template <typename Fn>
   void query(const Vec3& p, float radius, Fn&& fn) const {
-    visit(p, radius, [&](uint32_t i, float d2) { fn(photons_[i], d2, count_[i]); });
+    if (stochastic_) visit(p, radius, [&](uint32_t i, float d2) { fn(photons_[i], d2, static_cast<float>(count_[i])); });
+    else visit(p, radius, [&](uint32_t i, float d2) { fn(photons_[i], d2, 1.0f); });
   }
 
   // Exact mode only: calls fn(index, distance^2) with the index of every photon within `radius`
@@ -50,8 +62,8 @@ class PhotonHashGrid {
     return visit(p, radius, [&](uint32_t i, float d2) { return pred(order_[i], d2); });
   }
 
-  size_t stored() const { return photons_.size(); }
-  size_t bucket_count() const { return start_.empty() ? 0 : start_.size() - 1; }
+  size_t stored() const { return stored_; }
+  size_t bucket_count() const { return static_cast<size_t>(mask_) + (built_ ? 1 : 0); }
   float cell_size() const { return cell_; }
   // Memory held (bytes), for the flat-memory test.
   size_t capacity_bytes() const;
@@ -61,7 +73,7 @@ class PhotonHashGrid {
   // returns bool, true stops the visit and is returned.
   template <typename Fn>
   bool visit(const Vec3& p, float radius, Fn&& fn) const {
-    if (start_.empty() || !(radius > 0)) return false;
+    if (!built_ || !(radius > 0)) return false;
     const float r2 = radius * radius;
     const int x0 = cell_coord(p.x - radius), x1 = cell_coord(p.x + radius);
     const int y0 = cell_coord(p.y - radius), y1 = cell_coord(p.y + radius);
@@ -85,7 +97,10 @@ class PhotonHashGrid {
             if (dup) continue;
             seen[n_seen++] = b;
           }
-          for (uint32_t i = start_[b], e = start_[b + 1]; i < e; ++i) {
+          // Stochastic: bucket b holds one photon (slot b) or none; exact: slots start_[b] ..
+          const uint32_t first = stochastic_ ? b : start_[b];
+          const uint32_t last = stochastic_ ? b + (count_[b] > 0 ? 1 : 0) : start_[b + 1];
+          for (uint32_t i = first; i < last; ++i) {
             const Photon& ph = photons_[i];
             const float d2 = length_squared(ph.p - p);
             if (d2 <= r2) {
@@ -106,14 +121,21 @@ class PhotonHashGrid {
             (static_cast<uint32_t>(z) * 83492791u)) & mask_;
   }
 
+  bool build_exact(const std::vector<Photon>& photons, uint32_t buckets, int threads,
+                   const std::function<bool()>& cancelled);  // false: cancelled
+  void build_stochastic(const std::vector<Photon>& photons, uint32_t buckets, uint64_t seed, uint64_t pass,
+                        int threads);
+
   float cell_ = 1, inv_cell_ = 1;
   uint32_t mask_ = 0;
-  std::vector<Photon> photons_;     // bucket order
-  std::vector<float> count_;        // per stored photon: 1 (exact) or the bucket's count (stochastic)
-  std::vector<uint32_t> start_;     // bucket b holds photons_[start_[b], start_[b + 1])
-  std::vector<uint32_t> key_;               // scratch, capacity kept between passes
-  std::vector<uint32_t> order_;             // slot -> index given to build() (query_index in exact mode)
-  std::vector<uint32_t> bucket_count_;      // scratch
+  bool built_ = false, stochastic_ = false;
+  size_t stored_ = 0;
+  std::vector<Photon> photons_;     // exact: bucket order; stochastic: slot b = bucket b's photon
+  std::vector<uint32_t> count_;     // stochastic: photons written to bucket b (0 = empty)
+  std::vector<uint32_t> start_;     // exact: bucket b holds photons_[start_[b], start_[b + 1])
+  std::vector<uint32_t> key_;       // exact: scratch, capacity kept between passes
+  std::vector<uint32_t> order_;     // exact: slot -> index given to build() (query_index)
+  std::vector<uint64_t> winner_;    // stochastic: (priority << 32 | index) of bucket b's photon
 };
 
 }  // namespace gp

@@ -10,8 +10,8 @@
 namespace gp {
 
 PhotonTracer::PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed,
-                           int threads)
-    : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads) {}
+                           int threads, DepositRule rule)
+    : scene_(scene), max_depth_(max_depth), threshold_(specular_threshold), seed_(seed), threads_(threads), rule_(rule) {}
 
 int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& dst,
                                  int64_t& invalid, PhotonPathRecord* record,
@@ -56,7 +56,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     ++rays;
     const auto hit = scene_.intersect(ray);
     if (!hit) break;
-    const Bsdf bsdf(scene_.material(hit->material));
+    const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const bool diffuse = bsdf.is_diffuse_for_photons(threshold_);
     if (record) {
@@ -68,11 +68,12 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       const float cos_in = std::abs(dot(hit->ng, ray.d));
       v.pdf_fwd = bounce == 0 && distant ? em->pdf_pos * cos_in : pdf_dir_prev * cos_in / (hit->t * hit->t);
       v.material = hit->material;
+      v.uv = hit->uv;
       v.delta = bsdf.is_delta();
       record->vertices.push_back(v);
     }
-    // ---- Deposit at diffuse vertices ----
-    if (bounce >= min_deposit_bounce && diffuse) {
+    // ---- Deposit (at diffuse vertices, or every non-delta one: DepositRule) ----
+    if (bounce >= min_deposit_bounce && deposits_at(bsdf)) {
       if (beta.is_finite()) {
         dst.push_back(Photon{hit->p, -ray.d, beta});
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
@@ -116,6 +117,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       last.scale = beta / (bs->pdf * p_continue);
       last.pdf = bs->pdf;
       last.material = hit->material;
+      last.uv = hit->uv;
       last.diffuse = diffuse;
     }
     if (chains) {
@@ -125,6 +127,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         chain->ns = hit->ns;
         chain->wo = wo_world;
         chain->material = hit->material;
+        chain->uv = hit->uv;
         chain->light = -1;
         chain->dir = Vec3(0.0f);
         chain->count = 0;

@@ -2,7 +2,8 @@
 // "photon tracing passes"): photons leave the lights in proportion to their power
 // (LightSet::sample_le), scatter with the importance (adjoint) form of the BSDFs, are ended
 // by Russian roulette, and are deposited at every vertex whose BSDF is diffuse for photon
-// methods (Bsdf::is_diffuse_for_photons: roughness above the specular threshold).
+// methods (Bsdf::is_diffuse_for_photons: roughness above the specular threshold), or for
+// MSPPM at every non-delta vertex (DepositRule).
 //
 // A photon path is a function of its primary samples, a point of the unit hypercube (thesis
 // §8.2.1-8.2.2, after Kelemen et al.): trace_path() reads them one by one from a
@@ -27,6 +28,7 @@
 #include "core/frame.h"
 #include "core/math.h"
 #include "core/rng.h"
+#include "materials/bsdf.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -49,6 +51,7 @@ struct PhotonOrigin {
   RGB scale;           // power arriving at y_{s-1} / (pdf * Russian-roulette survival)
   float pdf = 0;       // solid-angle pdf with which y_{s-1} sampled the direction to y_s
   int material = -1;   // material at y_{s-1}
+  Vec2 uv;  // texture coordinate there (Scene::bsdf)
   bool diffuse = false;  // y_{s-1} is diffuse for photon methods (a DD ending, GPM §4.2 step 2)
   Vec3 n_photon;       // geometric normal at the photon y_s
   int32_t chain = -1;  // !diffuse: its PhotonChain in the pass's list (-1: none recorded)
@@ -72,6 +75,7 @@ struct PhotonChain {
   Vec3 dir;           // distant light: the unit direction of its photons; zero otherwise
   Vec3 wo;            // surface y_b: unit world direction towards y_{b-1}
   int material = -1;  // surface y_b
+  Vec2 uv;  // texture coordinate there (Scene::bsdf)
   int light = -1;     // y_b is a vertex on this light
   int count = 0;
   std::array<ChainVertex, kMaxChainVertices> v{};
@@ -88,6 +92,7 @@ struct PhotonPathVertex {
   float pdf_fwd;    // area density the light side sampled this vertex with (light vertex: see
                     // PhotonEmission; distant lights: pdf_dir, and the first hit pdf_pos |cos|)
   int material = -1;
+  Vec2 uv;  // texture coordinate there (Scene::bsdf)
   int light = -1;   // light vertex: the light
   bool delta = false;  // specular BSDF: its direction density counts as 1 on both sides
   bool start = false;
@@ -122,11 +127,17 @@ class RngSamples final : public PrimarySamples {
   Rng& rng_;
 };
 
+// Where photons are deposited: at vertices diffuse for photon methods (roughness above the
+// specular threshold; (S)PPM, GPM), or at every non-delta vertex (MSPPM, whose weights decide
+// between density estimation and path tracing without a classification, thesis §9.6).
+enum class DepositRule { DiffuseForPhotons, NonDelta };
+
 class PhotonTracer {
  public:
   // max_depth: longest photon path in segments; min_deposit_bounce: deposits happen from this
   // many scattering events on (0 = also the first hit from the light; 1 = skip direct light).
-  PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads);
+  PhotonTracer(const Scene& scene, int max_depth, float specular_threshold, uint64_t seed, int threads,
+               DepositRule rule = DepositRule::DiffuseForPhotons);
 
   // Traces `count` photon paths for pass `pass`; replaces `out` (its capacity is reused, so
   // memory stays flat over passes). With `origins`, also fills origins[k] for photon k (GPM),
@@ -149,6 +160,10 @@ class PhotonTracer {
                      std::vector<PhotonChain>* chains = nullptr) const;
 
   int max_depth() const { return max_depth_; }
+  // Whether a photon arriving at a surface with this BSDF is deposited there.
+  bool deposits_at(const Bsdf& bsdf) const {
+    return rule_ == DepositRule::NonDelta ? !bsdf.is_delta() : bsdf.is_diffuse_for_photons(threshold_);
+  }
   int threads() const { return threads_; }
   uint64_t seed() const { return seed_; }
 
@@ -160,6 +175,7 @@ class PhotonTracer {
   float threshold_;
   uint64_t seed_;
   int threads_;
+  DepositRule rule_;
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
   std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
   std::vector<std::vector<PhotonChain>> chunk_chains_;    // and for `chains`

@@ -6,18 +6,8 @@
 // direct included, comes from photons; emission seen along the eye path is added as is.
 // The error estimate is thesis ch. 6 (error_estimate.h).
 //
-// Parameters (defaults):
-//   photons             100000  photons emitted per pass (thesis default)
-//   alpha               0.7     fraction of new photons kept (eq. 5.7)
-//   radius              0       initial radius in metres; 0 = two pixel footprints
-//   confidence          0.5     confidence 1 - beta of the error bound (eq. 6.10; §6.5.1 uses 50 %)
-//   hash                exact   photon lookup: exact | stochastic (thesis ch. 10)
-//   specular_threshold  0.05    roughness at or below which a surface is specular for photons
-//   max_depth           32      longest eye or photon path in segments
-//   rr_depth            3       eye-path depth from which Russian roulette may end it
-//   photon_sampler      uniform uniform | adaptive (thesis ch. 8, adaptive_photons.h)
-//   chains              64      Markov chains of the adaptive sampler
-//   seed 0, threads 0, tile_size 16 as for "pt"
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods ppm`, docs/methods.md#ppm).
 //
 //   film_transparent    false   camera rays that escape see no background; writes pass alpha
 //
@@ -30,7 +20,8 @@ namespace gp {
 
 class Ppm : public ProgressivePhotonMapping {
  public:
-  Ppm(const Scene& scene, const Params& params) : ProgressivePhotonMapping(scene, params, false, false) {
+  Ppm(const Scene& scene, const Params& params)
+      : ProgressivePhotonMapping(scene, params, {.retrace = false, .nee = false, .adaptive_photons = true}) {
     read_film_transparent(params);
   }
   std::string name() const override { return "ppm"; }

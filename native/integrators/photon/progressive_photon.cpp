@@ -14,45 +14,32 @@ namespace {
 using clock_type = std::chrono::steady_clock;
 }  // namespace
 
-ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
-                                                   const std::string& default_sampler, bool allow_spectral)
+ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params,
+                                                   const PhotonMethodOptions& options)
     : scene_(scene),
-      retrace_(retrace),
-      nee_(nee),
-      alpha_(params.get<double>("alpha", 0.7)),
-      radius_(params.get<double>("radius", 0.0)),
-      footprint_pixels_(params.get<double>("footprint", 2.0)),
-      confidence_(params.get<double>("confidence", 0.5)),
-      photons_per_pass_(params.get<int64_t>("photons", 100000)),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      threshold_(params.get<float>("specular_threshold", kDefaultSpecularThreshold)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      retrace_(options.retrace),
+      nee_(options.nee),
+      alpha_(params.get<double>("alpha")),
+      radius_(params.get<double>("radius")),
+      footprint_pixels_(params.get<double>("footprint")),
+      confidence_(params.get<double>("confidence")),
+      photons_per_pass_(params.get<int64_t>("photons")),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      threshold_(params.get<float>("specular_threshold")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
       tracer_(scene, max_depth_, threshold_, seed_, threads_) {
-  const std::string hash = params.get<std::string>("hash", "exact");
-  if (hash == "exact") hash_mode_ = PhotonHashMode::Exact;
-  else if (hash == "stochastic") hash_mode_ = PhotonHashMode::Stochastic;
-  else throw ParamError("parameter 'hash' must be 'exact' or 'stochastic' (got '" + hash + "')");
-  const std::string sampler = params.get<std::string>("photon_sampler", default_sampler);
-  if (sampler == "adaptive") {
-    const int chains = params.get<int>("chains", 64);
-    if (chains < 1) throw ParamError("parameter 'chains' must be at least 1");
-    adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, chains, seed_);
-  } else if (sampler != "uniform") {
-    throw ParamError("parameter 'photon_sampler' must be 'uniform' or 'adaptive' (got '" + sampler + "')");
-  }
-  if (!(alpha_ > 0 && alpha_ < 1)) throw ParamError("parameter 'alpha' must be in (0, 1)");
-  if (!(radius_ >= 0) || !std::isfinite(radius_)) throw ParamError("parameter 'radius' must be >= 0 (0 = from the pixel footprint)");
-  if (!(footprint_pixels_ > 0) || !std::isfinite(footprint_pixels_))
-    throw ParamError("parameter 'footprint' must be > 0 (pixels)");
-  if (!(confidence_ > 0 && confidence_ < 1)) throw ParamError("parameter 'confidence' must be in (0, 1)");
-  if (photons_per_pass_ < 1) throw ParamError("parameter 'photons' must be at least 1");
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  if (!(threshold_ >= 0)) throw ParamError("parameter 'specular_threshold' must be >= 0");
+  // Values are checked against their declarations (methods.cpp) before a method is built.
+  thesis_bound_ = params.get<std::string>("error_bound") == "thesis";
+  folded_ = FoldedNormalQuantile(confidence_);
+  hash_mode_ = params.get<std::string>("hash") == "stochastic" ? PhotonHashMode::Stochastic : PhotonHashMode::Exact;
+  if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
+    adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
+  check_image_size(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});
@@ -63,12 +50,11 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   gather_lap_.assign(n, 0.0f);
   gather_phi_.assign(n, RGB(0.0f));
   error_.assign(n, 0.0f);
-  if (allow_spectral && !adaptive_ &&
-      use_spectral(parse_spectral_mode(params.get<std::string>("spectral", "auto")), scene)) {
+  if (options.spectral_photons && !adaptive_ &&
+      use_spectral(parse_spectral_mode(params.get<std::string>("spectral")), scene)) {
     spectral_ = true;
     spectra_ = std::make_unique<SceneSpectra>(scene);
-    const int c = params.get<int>("wavelengths", 4);
-    if (c < 1 || c > kMaxWavelengths) throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
+    const int c = params.get<int>("wavelengths");
     wl_.count = c;
     stats_.extra["spectral wavelengths"] = c;  // the CLI lists it: this run used spectral photons
     vp_beta_.assign(n, SpectralValues{});
@@ -76,6 +62,15 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   }
   if (scene.light_set().empty())
     stats_.extra["warning: no lights"] = 1;  // the image is black; reported, never a hang
+}
+
+void ProgressivePhotonMapping::set_initial_radii() {
+  const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
+  for (size_t i = 0; i < px_.size(); ++i)
+    if (px_[i].r2 == 0 && vp_[i].material >= 0) {
+      const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
+      px_[i].r2 = r * r;
+    }
 }
 
 RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
@@ -151,12 +146,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     else eye_pass(pass, sink, rays, invalid);
     if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
     have_points_ = true;
-    const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
-    for (size_t i = 0; i < n_pixels; ++i)
-      if (px_[i].r2 == 0 && vp_[i].material >= 0) {
-        const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
-        px_[i].r2 = r * r;
-      }
+    set_initial_radii();
   }
   stats_.extra["eye seconds"] += seconds_since(t_eye);
 
@@ -170,7 +160,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     for (size_t i = 0; i < n_pixels; ++i)
       if (vp_[i].material >= 0)
         visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
-    visibility_.build(visibility_points_, threads_);
+    visibility_.build(visibility_points_, threads_, cancelled);
     if (cancelled()) return;  // the grid of 2 M points at 1080p takes a few hundred ms
     ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_, cancelled);
   } else if (spectral_) {
@@ -183,12 +173,21 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
 
   // ---- Lookup: hash grid of this pass's photons, gathered by every measurement point ----
   const auto t_lookup = clock_type::now();
-  double max_r2 = 0;
+  // Cells are twice the largest radius (§10.2.2) of the pixels that have received photons: a
+  // pixel that never does keeps its initial radius, and letting it set the cells made every
+  // query scan many times the photons it finds (and left the stochastic grid few buckets to
+  // keep photons in). Such a pixel's query still finds everything in range (more cells).
+  // Before any pixel has received photons, every pixel with a point counts.
+  double max_r2 = 0, max_r2_all = 0;
   for (size_t i = 0; i < n_pixels; ++i)
-    if (vp_[i].material >= 0) max_r2 = std::max(max_r2, px_[i].r2);
+    if (vp_[i].material >= 0) {
+      max_r2_all = std::max(max_r2_all, px_[i].r2);
+      if (px_[i].n > 0) max_r2 = std::max(max_r2, px_[i].r2);
+    }
+  if (max_r2 == 0) max_r2 = max_r2_all;
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
-  if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);  // §10.2.2
+  if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_, 0, cancelled);  // §10.2.2
   if (cancelled()) return;
   if (spectral_) spectral_gather(cancelled);
   else parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
@@ -199,7 +198,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       gather_phi_[i] = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf(scene_.material(vp.material));
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv);
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       double m = 0, lap = 0;
       RGB phi(0.0f);
@@ -223,8 +222,6 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const auto t_update = clock_type::now();
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
-  const double ne_total = static_cast<double>(emitted_total_);
-  const double scale = photon_scale();  // V_c (eq. 8.11) or 1
   std::atomic<int64_t> invalid_phi{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     int64_t bad = 0;
@@ -248,15 +245,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       s.lap = (s.lap + lap_j) * u.ratio;  // thesis eq. 6.32: derivatives scale like the flux
       s.n = u.n_new;
       s.r2 = u.r2_new;
-      // Bias-corrected sample of this pass, x_j = L_p,j - B'_j (eq. 6.22): the pass's own
-      // estimate with the query radius, minus the disc-kernel bias at that radius (eq. 6.17)
-      // from the progressive Laplacian (eq. 6.20).
-      double x = Ld.luminance();
-      if (r2_query > 0 && ne_pass > 0 && ne_total > 0) {
-        const double lap_L = s.r2 > 0 ? scale * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
-        x += scale * phi.luminance() / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
-      }
-      s.err.add(x);
+      record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, vp_[i].material >= 0 ? r2_query : 0.0, ne_pass);
     }
     invalid_phi += bad;
   });
@@ -287,21 +276,77 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   stats_.seconds += seconds_since(start);
 }
 
-void ProgressivePhotonMapping::update_error_estimate() {
-  const double i = static_cast<double>(stats_.passes);
+void ProgressivePhotonMapping::record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query,
+                                                   double ne_pass) const {
   const double ne_total = static_cast<double>(emitted_total_);
-  // t(i, 1 - beta/2) with 1 - beta the user's confidence (eq. 6.10; the thesis uses i dof).
-  const double t_q = student_t_quantile(i, 0.5 * (1.0 + confidence_));
+  const double scale = photon_scale();  // V_c (eq. 8.11) or 1
+  // Bias-corrected sample of this pass, x_j = L_p,j - B'_j (eq. 6.22): the pass's own estimate
+  // with the query radius, minus the disc-kernel bias at that radius (eq. 6.17) from the
+  // progressive Laplacian (eq. 6.20).
+  double x = Ld;
+  if (r2_query > 0 && ne_pass > 0 && ne_total > 0) {
+    const double lap_L = s.r2 > 0 ? scale * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+    x += scale * phi / (ne_pass * M_PI * r2_query) - error_kernel::kBiasDisc * r2_query * lap_L;
+    s.lap_err.add(scale * lap_j / (ne_pass * error_kernel::kK1 * r2_query));  // this pass's Lap L (eq. 6.31)
+    s.r2_sum += r2_query;
+  }
+  s.err.add(x);
+}
+
+ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_t k) const {
+  const PixelState& s = px_[k];
+  const double ne_total = static_cast<double>(emitted_total_);
+  const double passes = static_cast<double>(stats_.passes);
+  ErrorTerms e;
+  e.radiance = pixel_radiance(k).luminance();
+  e.radius = std::sqrt(s.r2);
+  e.laplacian = s.r2 > 0 && ne_total > 0 ? photon_scale() * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
+  // Bias of the progressive estimate: the mean of the passes' biases (eq. 6.14, 6.18), each
+  // pass's with its own query radius; eq. 6.19 replaces them all by R_i^2, which underestimates
+  // it while the radius shrinks (by 24 % at alpha 0.7 on the analytic scene of error_estimate_test).
+  const double n_lap = static_cast<double>(s.lap_err.n);
+  const double r2_bias = thesis_bound_ || n_lap == 0 ? s.r2 : s.r2_sum / n_lap;
+  e.bias = error_kernel::kBiasDisc * r2_bias * e.laplacian;
+  // Lap L_i is about (1 / i) sum of the n passes' own Laplacians: standard error sqrt(n V) / i.
+  e.bias_sd = n_lap > 1 && passes > 0 ? error_kernel::kBiasDisc * r2_bias * std::sqrt(n_lap * s.lap_err.variance()) / passes : 0.0;
+  e.noise_sd = s.err.n < 2 ? INFINITY : std::sqrt(s.err.variance() / s.err.n);
+  e.half_width = interval_half_width(t_quantile_, s.err);
+  if (thesis_bound_) {
+    e.bound = e.half_width + std::abs(e.bias);  // eq. 6.12
+  } else {
+    // B' is itself an estimate, and a noisy one: from the same photons, B' = R^2 Lap L / 8 with
+    // the smooth kernel's weights (K'' + K'/t) is 2.1 times noisier than the disc estimate of L
+    // (ratio of the weights' rms over the disc), so where the
+    // true bias is small |B'| is mostly noise, and eq. 6.12 adds that noise to every bound.
+    // Shrink it by its signal-to-noise ratio (B' (1 - sd^2 / B'^2), 0 where |B'| <= sd: a
+    // James-Stein-like estimate), and count the kept part's uncertainty in the noise:
+    // |L_i - L| ~ |B + sigma T|, sigma^2 = Var L_i + w^2 sd^2; its quantile at the confidence,
+    // the t correction taken at m = 0 (exact there).
+    const double w = e.bias_sd > 0 ? std::max(0.0, 1.0 - e.bias_sd * e.bias_sd / (e.bias * e.bias)) : 1.0;
+    e.bias *= w;
+    const double sigma = std::sqrt(e.noise_sd * e.noise_sd + w * w * e.bias_sd * e.bias_sd);
+    e.bound = sigma > 0 && std::isfinite(sigma) ? sigma * t_over_z_ * folded_(std::abs(e.bias) / sigma)
+                                                 : (std::isfinite(sigma) ? std::abs(e.bias) : INFINITY);
+  }
+  e.corrected_mean = s.err.n > 0 ? s.err.sum / s.err.n : 0.0;
+  return e;
+}
+
+void ProgressivePhotonMapping::update_error_estimate() {
+  // t(dof, 1 - beta/2) with 1 - beta the user's confidence (eq. 6.10; the thesis uses i dof,
+  // the sample variance of i samples has i - 1).
+  const double passes = static_cast<double>(stats_.passes);
+  const double dof = thesis_bound_ ? passes : passes - 1;
+  const double p = 0.5 * (1.0 + confidence_);
+  t_quantile_ = dof >= 1 ? student_t_quantile(dof, p) : INFINITY;
+  t_over_z_ = t_quantile_ / normal_quantile(p);
   double sum = 0;
   size_t count = 0;
   for (size_t k = 0; k < px_.size(); ++k) {
-    const PixelState& s = px_[k];
-    const double L = pixel_radiance(k).luminance();
+    const ErrorTerms e = error_terms(k);
     double rel = 0;
-    if (L > 0) {
-      const double lap_L = s.r2 > 0 && ne_total > 0 ? photon_scale() * s.lap / (ne_total * error_kernel::kK1 * s.r2) : 0.0;
-      const double bias = error_kernel::kBiasDisc * s.r2 * lap_L;            // eq. 6.20
-      rel = relative_bound(interval_half_width(t_q, s.err), bias, L);     // eq. 6.10, 6.13
+    if (e.radiance > 0) {
+      rel = e.bound / e.radiance;  // eq. 6.13
       sum += rel;
       ++count;
     }

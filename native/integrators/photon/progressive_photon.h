@@ -57,23 +57,43 @@ struct EyePathHooks {
 RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
                  const Vec2& u2, int64_t& rays);
 
+// What a photon method built on ProgressivePhotonMapping does; its parameters (and their
+// defaults) are its declarations in methods.cpp.
+struct PhotonMethodOptions {
+  // New measurement points every pass (SPPM) or once (PPM).
+  bool retrace = true;
+  // Direct light at the measurement point by next-event estimation and photons only after one
+  // bounce (SPPM), or every photon deposit (PPM, as the thesis' ch. 5).
+  bool nee = true;
+  // Reads photon_sampler (and with "adaptive", chains): adaptive MCMC photons (adaptive_photons.h).
+  bool adaptive_photons = false;
+  // Spectral photons (sppm.h "Spectral photons") when the parameter `spectral` asks for them
+  // (use_spectral) and the photon sampler is uniform; reads spectral and wavelengths.
+  bool spectral_photons = false;
+};
+
 class ProgressivePhotonMapping : public Integrator {
  public:
-  // retrace: new measurement points every pass (SPPM) or once (PPM).
-  // nee: direct light at the measurement point by next-event estimation and photons only
-  //      after one bounce (SPPM), or every photon deposit (PPM, as the thesis' ch. 5).
-  // default_sampler: the value of the "photon_sampler" parameter when it is not given
-  //      ("uniform", or "adaptive" for the method alias sppm-adaptive; adaptive_photons.h).
-  // allow_spectral: spectral photons (sppm.h "Spectral photons") when the parameter
-  //      `spectral` asks for them (use_spectral) and the photon sampler is uniform.
-  ProgressivePhotonMapping(const Scene& scene, const Params& params, bool retrace, bool nee,
-                           const std::string& default_sampler = "uniform", bool allow_spectral = false);
+  ProgressivePhotonMapping(const Scene& scene, const Params& params, const PhotonMethodOptions& options);
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   double estimated_error() const override { return estimated_error_; }
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
+  // The terms of pixel i's error bound (thesis §6.3, luminance), as the `error` pass uses them.
+  struct ErrorTerms {
+    double radiance = 0;        // L_i (eq. 5.13 / 7.1)
+    double laplacian = 0;       // progressive smooth-kernel estimate of Lap L (eq. 6.30-6.32)
+    double bias = 0;            // B'_i: kBiasDisc R^2 Lap L (eq. 6.18-6.20, see error_bound)
+    double bias_sd = 0;         // standard error of B'_i, from the per-pass Laplacians
+    double noise_sd = 0;        // sqrt(V_i / i) (eq. 6.10, 6.22; INFINITY below 2 passes)
+    double half_width = 0;      // E_i of eq. 6.10 at the user's confidence
+    double bound = 0;           // absolute error bound at the user's confidence (the error pass x L_i)
+    double corrected_mean = 0;  // mean of the bias-corrected per-pass samples x_j (eq. 6.22)
+    double radius = 0;          // R_i
+  };
+  ErrorTerms error_terms(size_t i) const;
   // True when the passes carry sampled wavelengths (spectral photons).
   bool spectral() const { return spectral_; }
 
@@ -84,6 +104,7 @@ class ProgressivePhotonMapping : public Integrator {
     Vec3 wo;            // local
     RGB beta;           // eye path throughput up to the point
     int material = -1;  // -1: no measurement point this pass
+    Vec2 uv;  // texture coordinate there (Scene::bsdf)
   };
   struct PixelState {
     double r2 = 0;                 // R_i^2 (0 until the pixel first sees a diffuse surface)
@@ -93,7 +114,14 @@ class ProgressivePhotonMapping : public Integrator {
     double direct[3] = {0, 0, 0};  // sum over passes of the eye path's own light (Le, NEE)
     double coverage = 0;           // passes whose camera ray hit the scene (film_transparent)
     ErrorStats err;                // bias-corrected per-pass samples (eq. 6.22)
+    ErrorStats lap_err;            // per-pass Laplacian estimates (the bias estimate's own noise)
+    double r2_sum = 0;             // sum of the query radii R_j^2 of the passes with a point (eq. 6.18)
   };
+  // After pass j's update of pixel s (radius, flux and Laplacian already reduced): its
+  // bias-corrected sample x_j = L_p,j - B'_j (eq. 6.22) and its own Laplacian estimate, from the
+  // eye path's light Ld, the photon flux phi and Laplacian sum lap_j gathered with radius
+  // sqrt(r2_query) (0: no point this pass) from ne_pass photons. Shared with GPM.
+  void record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query, double ne_pass) const;
 
   void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
 
@@ -117,7 +145,7 @@ class ProgressivePhotonMapping : public Integrator {
   // Reads parameter film_transparent (PPM, SPPM: their RGB eye pass writes the alpha pass);
   // spectral photons leave it unread, so it is reported as unused there.
   void read_film_transparent(const Params& params) {
-    if (!spectral_) film_transparent_ = params.get<bool>("film_transparent", false);
+    if (!spectral_) film_transparent_ = params.get<bool>("film_transparent");
   }
 
   // ---- Spectral photons (progressive_photon_spectral.cpp) ----
@@ -165,6 +193,9 @@ class ProgressivePhotonMapping : public Integrator {
   float footprint_radius(float path_length, Vec2 half_extent) const {
     return static_cast<float>(footprint_pixels_) * scene_.camera.pixel_footprint(path_length, half_extent);
   }
+  // First radius of every pixel whose gather point is new: `radius` if given, else its
+  // footprint (first_r_), never below a scene-relative floor. Pixels with a radius keep it.
+  void set_initial_radii();
 
   PhotonTracer tracer_;
   std::unique_ptr<AdaptivePhotonSampler> adaptive_;  // photon_sampler = adaptive (thesis ch. 8)
@@ -182,6 +213,14 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
   double estimated_error_ = INFINITY;
+  double t_quantile_ = INFINITY;       // t(dof, 1 - beta/2) of the last pass (eq. 6.10)
+  // error_bound = "thesis": eq. 6.12 as written (E_i + |B'_i|, B' with R_i^2 (eq. 6.19), t with
+  // i dof); "calibrated" (default): B' with the mean of the passes' R_j^2 (eq. 6.18), t with i - 1
+  // dof, and the bound at exactly the confidence for an error B' + noise, the noise of L_i and of
+  // B' itself combined (FoldedNormalQuantile). docs/error-calibration.md measures both.
+  bool thesis_bound_ = false;
+  FoldedNormalQuantile folded_;
+  double t_over_z_ = 1;               // t(dof, 1 - beta/2) / z(1 - beta/2)
   std::vector<float> error_;           // per-pixel relative bound (eq. 6.13)
   int64_t emitted_total_ = 0;
 };
@@ -207,7 +246,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     }
     out.path_length += hit->t;
     if (hit->light >= 0) out.Ld += beta * lights.area_radiance(hit->light, -ray.d);
-    const Bsdf bsdf(scene_.material(hit->material));
+    const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
@@ -226,6 +265,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
       out.vp.wo = wo;
       out.vp.beta = beta;
       out.vp.material = hit->material;
+      out.vp.uv = hit->uv;
       hooks.gather(*hit);
       break;
     }

@@ -137,7 +137,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                 add_light(spectra_->light[hit->light],
                           grey_factor(lights.area_radiance(hit->light, -ray.d), lights.lights()[hit->light].emit));
               const Material& base = scene_.material(hit->material);
-              const Bsdf bsdf(base);
+              const Bsdf bsdf = scene_.bsdf(*hit);
               if (bsdf.is_black()) break;
               const Vec3 wo = hit->frame.to_local(-ray.d);
               if (wo.z == 0) break;
@@ -170,6 +170,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                 vp.wo = wo;
                 vp.beta = RGB(1.0f);  // unused: the spectral throughput is vp_beta_
                 vp.material = hit->material;
+                vp.uv = hit->uv;
                 break;
               }
               const float uc = rng.uniform();
@@ -250,7 +251,7 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             const auto hit = scene_.intersect(ray);
             if (!hit) break;
             const Material& base = scene_.material(hit->material);
-            const Bsdf bsdf(base);
+            const Bsdf bsdf = scene_.bsdf(*hit);
             if (bsdf.is_black()) break;
             if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
               bool ok = true;

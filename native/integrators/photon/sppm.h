@@ -12,24 +12,8 @@
 // The error estimate (thesis ch. 6) treats each pixel as one measurement point whose per-pass
 // sample is this pass's direct light plus its photon estimate.
 //
-// Parameters (defaults):
-//   photons             100000  photons emitted per pass
-//   alpha               0.7     fraction of new photons kept (eq. 7.2)
-//   radius              0       initial radius in metres; 0 = from the pixel footprint
-//                               (the pixel's cone grown along the eye path, two pixels wide)
-//   confidence          0.5     confidence 1 - beta of the error bound (eq. 6.10)
-//   hash                exact   photon lookup: exact | stochastic (thesis ch. 10)
-//   specular_threshold  0.05    roughness at or below which a surface is specular for photons
-//   max_depth           32      longest eye or photon path in segments
-//   rr_depth            3       eye-path depth from which Russian roulette may end it
-//   photon_sampler      uniform uniform | adaptive: photon paths by adaptive MCMC on their
-//                               visibility (thesis ch. 8, adaptive_photons.h; alias sppm-adaptive)
-//   chains              64      Markov chains of the adaptive sampler
-//   seed 0, threads 0, tile_size 16 as for "pt"
-//   spectral            auto    auto | rgb | spectral (spectral_pt.h use_spectral): spectral
-//                               photons; auto only on scenes with a dispersive material
-//   wavelengths         4       wavelengths per pass in spectral mode (1..8)
-//   film_transparent    false   camera rays that escape see no background; writes pass alpha
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods sppm`, docs/methods.md#sppm).
 //
 // Spectral photons (progressive_photon_spectral.cpp, docs/spectral.md): each pass samples one
 // set of wavelengths (hero + rotations; the heroes of successive passes stratified), shared by
@@ -47,10 +31,12 @@ namespace gp {
 
 class Sppm : public ProgressivePhotonMapping {
  public:
-  // default_sampler "adaptive" makes the method alias "sppm-adaptive" (adaptive_photons.h).
-  Sppm(const Scene& scene, const Params& params, const std::string& default_sampler = "uniform")
-      : ProgressivePhotonMapping(scene, params, true, true, default_sampler, true),
-        name_(default_sampler == "uniform" ? "sppm" : "sppm-adaptive") {
+  // `name`: "sppm", or its alias "sppm-adaptive", whose photon_sampler defaults to "adaptive"
+  // (methods.cpp, adaptive_photons.h).
+  Sppm(const Scene& scene, const Params& params, std::string name)
+      : ProgressivePhotonMapping(scene, params, {.retrace = true, .nee = true, .adaptive_photons = true,
+                                                 .spectral_photons = true}),
+        name_(std::move(name)) {
     read_film_transparent(params);
   }
   std::string name() const override { return name_; }

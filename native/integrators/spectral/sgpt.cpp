@@ -97,29 +97,23 @@ Etas etas_of(const Material& m, const Vec3& wo, bool transmission) {
 SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
       spectra_(scene),
-      bins_(params.get<int>("bins", 15)),
-      count_(params.get<int>("wavelengths", 1)),
+      bins_(params.get<int>("bins")),
+      count_(params.get<int>("wavelengths")),
       stride_(1),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      delta_(params.get<double>("delta", 0.15)),
-      tau_(params.get<double>("tau", 0.0)),
-      alpha_(params.get<double>("alpha", 0.2)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      delta_(params.get<double>("delta")),
+      tau_(params.get<double>("tau")),
+      lambda_(params.get<double>("lambda")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
       poisson_(2, 1, 1.0) {
-  if (bins_ < 3 || bins_ > 256) throw ParamError("bins must be in 3..256");
-  if (count_ < 1 || count_ > kMaxWavelengths)
-    throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
-  if (!(delta_ > 0 && delta_ < 1)) throw ParamError("delta must be in (0, 1) (a fraction of 360-830 nm)");
-  if (!(tau_ >= 0)) throw ParamError("tau must be >= 0");
-  if (!(alpha_ > 0)) throw ParamError("alpha must be > 0");
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
   stride_ = std::clamp(static_cast<int>(std::lround(delta_ * bins_)), 1, bins_ - 1);
-  poisson_ = SpectralPoisson(bins_, stride_, alpha_);
+  poisson_ = SpectralPoisson(bins_, stride_, lambda_);
   // RGB of each bin's unit integral: the bin's mean CMF (1 nm steps) through the XYZ matrix.
   const double width = double(kLambdaRange) / bins_;
   for (int j = 0; j < bins_; ++j) {
@@ -180,7 +174,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     base.v.push_back(bv);
     if (depth + 1 >= max_depth_) break;
     const Material& mat = scene_.material(hit->material);
-    if (Bsdf(mat).is_black() || bv.wo.z == 0) break;
+    if (scene_.bsdf(*hit).is_black() || bv.wo.z == 0) break;
     const Material m = monochromatic(mat, spectra_.albedo[hit->material], lambda);
     BaseVertex& v = base.v.back();
     // ---- Emitter sampling (next-event estimation), shared by the offsets ----
@@ -424,7 +418,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       }
       if (is_escape) break;
       if (state == State::Diverged && y_escaped) {  // the offset left the scene, the base did not
-        ++counts.failed_mismatch;
+        counts.fail(ShiftFailure::Missed);
         standard_rest(k, false, sign, gbin);
         break;
       }
@@ -432,7 +426,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
       const Material& mat_y = scene_.material(yh.material);
       const Material my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
-      const bool y_nee = x.nee_eligible && !Bsdf(my).is_delta() && !Bsdf(mat_y).is_black() && wo_y.z != 0;
+      const bool y_nee = x.nee_eligible && !Bsdf(my).is_delta() && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
 
       // ---- NEE of the offset: the same light sample (point on an area light, direction of
       // a distant one), reconnected from y_k; Jacobian as a reconnection (KMA15 §5.2) ----
@@ -453,7 +447,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
               ++rays.shadow;
               visible = !scene_.occluded(yh.p, yh.ng, *ls);
               if (lights.lights()[ls->light].type == LightType::Area)
-                Jz = reconnection_jacobian(x.hit.p, yh.p, ls->p, ls->n);
+                Jz = reconnection_jacobian<float>(x.hit.p, yh.p, ls->p, ls->n);
             }
           }
           if (ls && visible && ls->pdf > 0) {
@@ -481,9 +475,9 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       Vec3 wi_y;  // local at the offset vertex
       bool ok = true, diverge_now = false, reconnect_now = false;
       bool delta_y = x.delta;  // the lobe the offset follows: the base's
-      auto fail = [&](int64_t& counter) {
+      auto fail = [&](ShiftFailure why) {
         ok = false;
-        ++counter;
+        counts.fail(why);
       };
       if (state == State::Same || state == State::Reconnected) {
         if (is_dispersive(mat_x) && x.transmission) {
@@ -492,7 +486,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           const auto h = half_vector(x.wo, x.wi, e, true);
           const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, true) : std::nullopt;
           if (!wi2) {
-            fail(counts.failed_tir);
+            fail(ShiftFailure::TotalInternalReflection);
           } else {
             wi_y = *wi2;
             if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, true);  // eq. 13
@@ -509,24 +503,24 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           const BaseVertex& xn = base.v[k + 1];
           ++rays.shadow;
           if (scene_.occluded_between(yh.p, yh.ng, xn.hit.p, xn.hit.ng)) {
-            fail(counts.failed_blocked);
+            fail(ShiftFailure::Occluded);
           } else {
             const Vec3 d = normalize(xn.hit.p - yh.p);
             wi_y = yh.frame.to_local(d);
-            J *= reconnection_jacobian(x.hit.p, yh.p, xn.hit.p, xn.hit.ng);
+            J *= reconnection_jacobian<float>(x.hit.p, yh.p, xn.hit.p, xn.hit.ng);
             reconnect_now = true;
             delta_y = false;
           }
         } else {
           // ---- Half-vector copy at the offset's own vertex ----
           if (Bsdf(my).is_delta() != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
-            fail(counts.failed_mismatch);
+            fail(ShiftFailure::NotInvertible);  // the vertex kinds differ
           } else {
             const Etas e = etas_of(mx, x.wo, x.transmission), e2 = etas_of(my, wo_y, x.transmission);
             const auto h = half_vector(x.wo, x.wi, e, x.transmission);
             const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, x.transmission) : std::nullopt;
             if (!wi2) {
-              fail(counts.failed_tir);
+              fail(ShiftFailure::TotalInternalReflection);
             } else {
               wi_y = *wi2;
               if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, x.transmission);
@@ -541,7 +535,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           s2[j] = scatter_at(yh.material, lambda2[j], wo_y, wi_y, delta_y, x.transmission && !reconnect_now,
                              x.uc, x.u, j == 0);
       if (!ok || s2[0].pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
-        if (ok) ++counts.failed_mismatch;
+        if (ok) counts.fail(ShiftFailure::NotInvertible);  // no density for the base's lobe
         standard_rest(k + 1, true, sign, gbin);
         break;
       }
@@ -625,9 +619,7 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
         counts_.attempts += tc.attempts;
         counts_.shifted += tc.shifted;
         counts_.below_tau += tc.below_tau;
-        counts_.failed_tir += tc.failed_tir;
-        counts_.failed_blocked += tc.failed_blocked;
-        counts_.failed_mismatch += tc.failed_mismatch;
+        for (int k = 0; k < kShiftFailureCount; ++k) counts_.failed[k] += tc.failed[k];
       },
       [sink] { return sink && sink->cancelled(); });
   stats_.invalid_samples += invalid;
@@ -638,9 +630,9 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
   stats_.extra["shift_attempts"] = static_cast<double>(counts_.attempts);
   stats_.extra["shifted_pairs"] = static_cast<double>(counts_.shifted);
   stats_.extra["standard_pairs"] = static_cast<double>(counts_.below_tau);
-  stats_.extra["shift_fail_tir"] = static_cast<double>(counts_.failed_tir);
-  stats_.extra["shift_fail_blocked"] = static_cast<double>(counts_.failed_blocked);
-  stats_.extra["shift_fail_mismatch"] = static_cast<double>(counts_.failed_mismatch);
+  for (int k = 1; k < kShiftFailureCount; ++k)
+    if (counts_.failed[k] > 0)
+      stats_.extra[std::string(failure_stat_name(static_cast<ShiftFailure>(k)))] = static_cast<double>(counts_.failed[k]);
   stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 

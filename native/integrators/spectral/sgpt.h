@@ -36,16 +36,8 @@
 // eq. 18 over the 2C techniques (times the two strategies); a smooth dispersive refraction
 // leaves only the hero's pair.
 //
-// Parameters (defaults):
-//   bins         15     spectral bins per pixel (CLI --bins)
-//   wavelengths  1      wavelengths per path C (1 = §3; > 1 = hero combination, §3.4), 1..8
-//   delta        0.15   wavelength shift as a fraction of the domain (CLI --delta)
-//   tau          0      shift threshold of eq. 16 on the contributions f of a pair (CLI --tau);
-//                       measured on pool: any tau > 0 in this measure loses (docs/spectral.md)
-//   alpha        0.2    screened Poisson weight of the primal (eq. 14)
-//   max_depth    32     longest path in segments
-//   rr_depth     3      depth from which Russian roulette may end paths
-//   seed, threads, tile_size  as pt
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods sgpt`, docs/methods.md#sgpt).
 //
 // Colour: the primal colour is summed per sample with the exact CMFs at lambda (as spt does);
 // the reconstruction's correction (I' - I, zero-mean because the L2 solve is linear and
@@ -55,10 +47,12 @@
 // reconstruction), spectral_gradient (RMS of the B gradient estimates).
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "core/rng.h"
 #include "core/spectrum.h"
+#include "integrators/gradient/shift.h"
 #include "integrators/integrator.h"
 #include "integrators/spectral/spectral_pt.h"
 #include "reconstruction/spectral_poisson.h"
@@ -80,10 +74,12 @@ class SpectralGradientPathTracer : public Integrator {
   void image_totals(std::vector<double>* primal, std::vector<double>* gradient, int x0 = 0, int y0 = 0,
                     int x1 = -1, int y1 = -1) const;
 
-  // Shift statistics by outcome (also in stats().extra).
+  // Shift statistics by outcome (also in stats().extra); failures by the reasons every shift
+  // mapping counts (gradient/shift.h ShiftFailure: "shift failed: occluded", ...).
   struct ShiftCounts {
-    int64_t attempts = 0, shifted = 0, below_tau = 0, failed_tir = 0, failed_blocked = 0,
-            failed_mismatch = 0;
+    int64_t attempts = 0, shifted = 0, below_tau = 0;
+    std::array<int64_t, kShiftFailureCount> failed{};
+    void fail(ShiftFailure f) { ++failed[static_cast<int>(f)]; }
   };
 
  private:
@@ -95,7 +91,7 @@ class SpectralGradientPathTracer : public Integrator {
   const Scene& scene_;
   SceneSpectra spectra_;
   int bins_, count_, stride_, max_depth_, rr_depth_, threads_, tile_size_;
-  double delta_, tau_, alpha_;
+  double delta_, tau_, lambda_;  // lambda_: the weight alpha of the paper's eq. 14
   uint64_t seed_;
   int width_, height_;
   SpectralPoisson poisson_;

@@ -58,18 +58,16 @@ SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params,
     : scene_(scene),
       spectra_(scene),
       hero_(hero),
-      max_depth_(params.get<int>("max_depth", 32)),
-      rr_depth_(params.get<int>("rr_depth", 3)),
-      count_(params.get<int>("wavelengths", hero ? 4 : 1)),
-      threads_(params.get<int>("threads", 0)),
-      tile_size_(params.get<int>("tile_size", 16)),
-      seed_(params.get<uint64_t>("seed", 0)),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      count_(params.get<int>("wavelengths")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      seed_(params.get<uint64_t>("seed")),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
       estimate_(std::max(1, width_), std::max(1, height_), &scene.camera) {  // sizes checked just below
-  check_common_params(max_depth_, rr_depth_, threads_, tile_size_, width_, height_);
-  if (count_ < 1 || count_ > kMaxWavelengths)
-    throw ParamError("wavelengths must be in 1.." + std::to_string(kMaxWavelengths));
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
 }
 
 namespace {
@@ -137,7 +135,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     const bool dispersive = is_dispersive(base);
     for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_.albedo[hit->material], wl.lambda[k]);
     const Bsdf hero_bsdf(mk[0]);
-    if (Bsdf(base).is_black()) break;
+    if (scene_.bsdf(*hit).is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
 

@@ -15,13 +15,8 @@
 // Methods: `spt` (C = 1) and `spt-hero` (C = 4); `pt` on a dispersive scene in spectral mode
 // "auto" (see spectral_mode()) runs `spt-hero`.
 //
-// Parameters (defaults):
-//   max_depth    32     longest path in segments (camera ray = 1)
-//   rr_depth     3      depth from which Russian roulette may end paths
-//   wavelengths  1 / 4  wavelengths per path C (spt / spt-hero), 1..8
-//   seed         0      random seed
-//   threads      0      worker threads (0 = all cores)
-//   tile_size    16     pixels per tile edge (scheduling only; does not change the image)
+// Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
+// (`gradphoton methods spt`, docs/methods.md#spt).
 //
 // Passes: combined (RGB through CIE XYZ).
 #pragma once

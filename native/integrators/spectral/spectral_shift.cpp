@@ -26,17 +26,8 @@ std::optional<Vec3> copy_half_vector(const Vec3& wo, const Vec3& h, const Etas& 
     return wi;
   }
   // Snell's law at the microfacet h, from wo's side (IOR e.wo) into wi's side (IOR e.wi).
-  Vec3 n = h;
-  float cos_i = dot(wo, n);
-  if (cos_i < 0) {
-    n = -n;
-    cos_i = -cos_i;
-  }
-  const float eta = e.wi / e.wo;
-  const float sin2_t = std::max(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
-  if (sin2_t >= 1.0f) return std::nullopt;  // total internal reflection
-  const float cos_t = std::sqrt(1.0f - sin2_t);
-  wi = -wo / eta + n * (cos_i / eta - cos_t);
+  const Vec3 n = dot(wo, h) < 0 ? -h : h;
+  if (!refract_oriented(wo, n, dot(wo, n), e.wi / e.wo, &wi)) return std::nullopt;  // total internal reflection
   if (wi.z * wo.z >= 0) return std::nullopt;  // must cross the surface
   return normalize(wi);
 }
@@ -53,17 +44,6 @@ float half_vector_jacobian(const Vec3& wo, const Vec3& wi, const Etas& e, const 
   const float d = absdot(wi2, h) * base * base;
   if (d <= 0) return 0.0f;
   return sqr(e.wi / e2.wi) * absdot(wi, h) * off * off / d;
-}
-
-float reconnection_jacobian(const Vec3& x_k, const Vec3& y_k, const Vec3& x_next, const Vec3& n_next) {
-  const Vec3 dx = x_k - x_next, dy = y_k - x_next;
-  const float lx2 = length_squared(dx), ly2 = length_squared(dy);
-  if (lx2 <= 0 || ly2 <= 0) return 0.0f;
-  const float cos_x = std::abs(dot(n_next, dx)) / std::sqrt(lx2);
-  const float cos_y = std::abs(dot(n_next, dy)) / std::sqrt(ly2);
-  if (cos_x <= 0) return 0.0f;
-  // (cos_y / |y - x'|^2) / (cos_x / |x - x'|^2): solid angle per area at x_{k+1}, offset over base.
-  return (cos_y / ly2) / (cos_x / lx2);
 }
 
 }  // namespace gp

@@ -36,8 +36,4 @@ float half_vector_jacobian(const Vec3& wo, const Vec3& wi, const Etas& e, const 
                            const Vec3& wi_offset, const Etas& e_offset, const Vec3& h,
                            bool transmission);
 
-// Reconnection Jacobian ([KMA*15] §5.2): the base direction x_k -> x_{k+1} replaced by the
-// offset's y_k -> x_{k+1}; n is the unit normal at x_{k+1}.
-float reconnection_jacobian(const Vec3& x_k, const Vec3& y_k, const Vec3& x_next, const Vec3& n_next);
-
 }  // namespace gp

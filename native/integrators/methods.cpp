@@ -1,0 +1,360 @@
+// The methods and their parameters, declared once (methods.h). A parameter shared by several
+// methods is declared by one function below, so its name, type, description and panel are the
+// same wherever it appears ("one name means one thing", DESIGN.md); a method passes its own
+// default and, where it differs, its own range, symbol and equation.
+#include "integrators/methods.h"
+
+#include <algorithm>
+
+#include "core/spectrum.h"
+#include "integrators/gradient/gdmlt.h"
+#include "integrators/gradient/gpm.h"
+#include "integrators/gradient/gpt.h"
+#include "integrators/path_tracer.h"
+#include "integrators/photon/msppm.h"
+#include "integrators/photon/ppm.h"
+#include "integrators/photon/sppm.h"
+#include "integrators/spectral/sgpt.h"
+#include "integrators/spectral/spectral_pt.h"
+
+namespace gp {
+
+namespace {
+
+// ---- Parameters of every image method ----
+ParamDecl max_depth(int d) {
+  return {.name = "max_depth", .type = ParamType::Int, .default_value = d, .min = 1, .label = "Max Depth",
+          .description = "longest path in segments, the camera ray and the segment to a light included "
+                         "(Cycles' bounces + 2)",
+          .group = "Light Paths"};
+}
+ParamDecl rr_depth() {
+  return {.name = "rr_depth", .type = ParamType::Int, .default_value = 3, .min = 0, .label = "Roulette Depth",
+          .description = "path depth from which Russian roulette may end a path", .group = "Light Paths"};
+}
+ParamDecl seed() {
+  return {.name = "seed", .type = ParamType::Int, .default_value = 0, .min = 0, .label = "Seed",
+          .description = "random seed: another seed gives other noise", .shared = true, .group = "Performance"};
+}
+ParamDecl threads() {
+  return {.name = "threads", .type = ParamType::Int, .default_value = 0, .min = 0, .label = "Threads",
+          .description = "worker threads, 0 = all cores (images do not depend on it)", .shared = true,
+          .group = "Performance"};
+}
+ParamDecl tile_size() {
+  return {.name = "tile_size", .type = ParamType::Int, .default_value = 16, .min = 1, .label = "Tile Size",
+          .description = "tile edge in pixels (scheduling only: images do not depend on it)", .shared = true,
+          .group = "Performance"};
+}
+ParamDecls common() { return {seed(), threads(), tile_size()}; }
+
+ParamDecl spectral(std::string read_when = "") {
+  return {.name = "spectral", .type = ParamType::String, .default_value = "auto", .choices = {"auto", "rgb", "spectral"},
+          .label = "Spectral",
+          .description = "spectral mode: auto renders by wavelength only scenes with a dispersive material",
+          .read_when = std::move(read_when), .shared = true, .group = "Rendering"};
+}
+ParamDecl wavelengths(int d, std::string read_when = "") {
+  return {.name = "wavelengths", .type = ParamType::Int, .default_value = d, .min = 1, .max = kMaxWavelengths,
+          .label = "Wavelengths", .description = "wavelengths carried together: a hero and its rotations",
+          .reference = "Wilkie et al. 2014", .read_when = std::move(read_when), .group = "Spectral"};
+}
+ParamDecl film_transparent() {
+  return {.name = "film_transparent", .type = ParamType::Bool, .default_value = false, .label = "Transparent",
+          .description = "camera rays that leave the scene see no background; writes pass alpha", .shared = true,
+          .group = "Film"};
+}
+ParamDecl clamp(const char* name, const char* label, const char* which) {
+  return {.name = name, .type = ParamType::Float, .default_value = 0.0, .min = 0, .label = label,
+          .description = std::string("largest sum of RGB a sample of ") + which + " light may add, 0 = off (as Cycles)",
+          .group = "Clamping"};
+}
+
+// ---- Photon density estimation (thesis ch. 5-10) ----
+ParamDecl photons(int64_t d) {
+  ParamDecl p{.name = "photons", .type = ParamType::Int, .default_value = d, .min = 1, .label = "Photons",
+              .description = "photons emitted per pass", .group = "Photons"};
+  if (d == 0) {
+    p.min = 0;
+    p.zero_means = "one per pixel (thesis §9.5)";
+    p.manual_value = 100000;
+  }
+  return p;
+}
+ParamDecl alpha(double d, const char* reference) {
+  return {.name = "alpha", .type = ParamType::Float, .default_value = d, .min = 0, .max = 1, .min_open = true,
+          .max_open = true, .label = "Alpha",
+          .description = "fraction of new photons kept per pass: lower shrinks the radius sooner",
+          .symbol = "α", .reference = reference, .group = "Photons"};
+}
+ParamDecl radius() {
+  return {.name = "radius", .type = ParamType::Float, .default_value = 0.0, .min = 0, .label = "Initial Radius",
+          .description = "gathering radius of the first pass, in metres", .symbol = "R_0",
+          .zero_means = "from the pixel footprint", .manual_value = 0.01, .group = "Photons"};
+}
+ParamDecl footprint(double d, const char* reference) {
+  return {.name = "footprint", .type = ParamType::Float, .default_value = d, .min = 0, .min_open = true,
+          .label = "Footprint", .description = "initial radius from the pixel footprint, in pixels (radius 0)",
+          .reference = reference, .group = "Photons"};
+}
+ParamDecl confidence() {
+  return {.name = "confidence", .type = ParamType::Float, .default_value = 0.5, .min = 0, .max = 1, .min_open = true,
+          .max_open = true, .label = "Confidence",
+          .description = "confidence of the error estimate's bound: higher stops later at a target error",
+          .symbol = "1 - β", .reference = "thesis eq. 6.10", .group = "Photons"};
+}
+ParamDecl error_bound() {
+  return {.name = "error_bound", .type = ParamType::String, .default_value = "calibrated",
+          .choices = {"calibrated", "thesis"}, .label = "Error Bound",
+          .description = "the error pass's bound: calibrated to its confidence, or eq. 6.12 as written "
+                         "(docs/error-calibration.md)",
+          .reference = "thesis eq. 6.12", .group = "Photons"};
+}
+ParamDecl hash() {
+  return {.name = "hash", .type = ParamType::String, .default_value = "exact", .choices = {"exact", "stochastic"},
+          .label = "Lookup", .description = "photon lookup: every photon near a point, or one per grid cell",
+          .reference = "thesis ch. 10", .group = "Photons"};
+}
+ParamDecl photon_sampler(const char* d) {
+  return {.name = "photon_sampler", .type = ParamType::String, .default_value = d,
+          .choices = {"uniform", "adaptive"}, .label = "Photon Sampler",
+          .description = "photon paths from uniform random numbers, or by MCMC on their visibility",
+          .reference = "thesis ch. 8", .group = "Photons"};
+}
+ParamDecl chains(int d, const char* group, std::string read_when = "") {
+  return {.name = "chains", .type = ParamType::Int, .default_value = d, .min = 1, .label = "Chains",
+          .description = "Markov chains run side by side", .read_when = std::move(read_when), .group = group};
+}
+ParamDecl specular_threshold() {
+  return {.name = "specular_threshold", .type = ParamType::Float, .default_value = 0.05,  // kDefaultSpecularThreshold
+          .min = 0, .label = "Specular Cutoff",
+          .description = "roughness at or below which a surface is specular for photons",
+          .reference = "gradient-domain photon density estimation §5", .group = "Light Paths"};
+}
+ParamDecls photon_common(double alpha_default, const char* alpha_ref, double footprint_default,
+                         const char* footprint_ref) {
+  return {photons(100000), alpha(alpha_default, alpha_ref), radius(), footprint(footprint_default, footprint_ref),
+          confidence(), error_bound(), hash()};
+}
+
+// ---- Gradient-domain reconstruction ----
+ParamDecl recon(const char* d) {
+  return {.name = "recon", .type = ParamType::String, .default_value = d, .choices = {"l1", "l2"},
+          .label = "Reconstruction",
+          .description = "screened Poisson reconstruction: l2 (unbiased) or l1 (robust to outlier gradients)",
+          .reference = "gradient-domain photon density estimation eq. 3", .group = "Reconstruction"};
+}
+ParamDecl lambda(const char* symbol = "λ", const char* reference = "gradient-domain photon density estimation eq. 3") {
+  return {.name = "lambda", .type = ParamType::Float, .default_value = 0.2, .min = 0, .min_open = true,
+          .label = "Lambda",
+          .description = "weight of the primal image against the gradients: higher keeps more noise and detail",
+          .symbol = symbol, .reference = reference, .group = "Reconstruction"};
+}
+
+ParamDecls join(std::initializer_list<ParamDecls> parts) {
+  ParamDecls out;
+  for (const ParamDecls& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
+}
+
+SpectralMode spectral_mode(const Params& p) { return parse_spectral_mode(p.get<std::string>("spectral")); }
+
+// spt, spt-hero and sgpt are spectral: mode rgb is a contradiction, not a fallback.
+void require_spectral(const std::string& method, const Params& p) {
+  if (spectral_mode(p) == SpectralMode::Rgb)
+    throw ParamError("method '" + method + "' is spectral; spectral mode 'rgb' needs method 'pt'");
+}
+
+std::vector<Method> make_methods() {
+  const std::string adaptive_only = "photon_sampler=adaptive";
+  std::vector<Method> m;
+  m.push_back({"pt", "path tracing with next-event estimation and MIS (Veach 1997); spectral on dispersive scenes",
+               join({{max_depth(32), rr_depth(), clamp("clamp_direct", "Direct Light", "direct"),
+                      clamp("clamp_indirect", "Indirect Light", "indirect"), spectral(),
+                      wavelengths(4, "spectral=spectral, or auto on a dispersive scene"), film_transparent()},
+                     common()}),
+               [](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
+                 // `pt` turns into the hero-wavelength spectral path tracer when the mode asks
+                 // for it; in "auto" only dispersive scenes do.
+                 if (use_spectral(spectral_mode(p), s)) return std::make_unique<SpectralPathTracer>(s, p, true);
+                 return std::make_unique<PathTracer>(s, p);
+               }});
+  m.push_back({"ppm", "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
+               join({photon_common(0.7, "thesis eq. 5.7", 2.0, "thesis §7.4"),
+                     {photon_sampler("uniform"), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
+                      specular_threshold(), film_transparent()},
+                     common()}),
+               [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); }});
+  auto sppm_params = [&](const char* sampler) {
+    return join({photon_common(0.7, "thesis eq. 7.2", 2.0, "thesis §7.4"),
+                 {photon_sampler(sampler), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
+                  specular_threshold(), spectral("photon_sampler=uniform"),
+                  wavelengths(4, "spectral photons: spectral=spectral or a dispersive scene, photon_sampler=uniform"),
+                  film_transparent()},
+                 common()});
+  };
+  m.push_back({"sppm", "stochastic progressive photon mapping: new camera paths every pass (thesis ch. 7)",
+               sppm_params("uniform"),
+               [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); }});
+  m.push_back({"sppm-adaptive", "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
+               sppm_params("adaptive"),
+               [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm-adaptive"); }});
+  m.push_back({"msppm", "multisampled PPM: path tracing and SPPM combined per path by MIS (thesis ch. 9)",
+               join({{photons(0), alpha(0.6, "thesis eq. 7.2; below 2/3 for eq. 9.25"), radius(),
+                      {.name = "path_samples", .type = ParamType::Int, .default_value = 0, .min = 0,
+                       .label = "Path Samples", .description = "path-tracing samples per pixel and pass",
+                       .zero_means = "as many as the pixel expects photons (thesis §9.5)", .manual_value = 1,
+                       .group = "Photons"},
+                      {.name = "path_samples_max", .type = ParamType::Int, .default_value = 64, .min = 1,
+                       .label = "Path Samples Max", .description = "most path-tracing samples per pixel and pass",
+                       .read_when = "path_samples=0", .group = "Photons"},
+                      max_depth(16), rr_depth()},
+                     common()}),
+               [](const Scene& s, const Params& p) { return std::make_unique<Msppm>(s, p); }});
+  m.push_back({"gpt", "gradient-domain path tracing: gradients by shifted paths, screened Poisson (KMA15)",
+               join({{recon("l2"), lambda(), max_depth(32), rr_depth()}, common()}),
+               [](const Scene& s, const Params& p) { return std::make_unique<GradientPathTracer>(s, p); }});
+  m.push_back({"gpm", "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
+               join({photon_common(0.7, "thesis eq. 7.2 (the paper: 0.9)", 1.0,
+                                   "gradient-domain photon density estimation §5"),
+                     {recon("l1"), lambda(),
+                      {.name = "manifold_iterations", .type = ParamType::Int, .default_value = 20, .min = 0,
+                       .label = "Manifold Steps",
+                       .description = "steps of the manifold walk that shifts a caustic photon; 0 leaves caustics "
+                                      "out of the gradients",
+                       .reference = "gradient-domain photon density estimation §4.2 (the paper: 5)",
+                       .group = "Reconstruction"},
+                      max_depth(32), rr_depth(), specular_threshold()},
+                     common()}),
+               [](const Scene& s, const Params& p) { return std::make_unique<Gpm>(s, p); }});
+  m.push_back({"gdmlt", "gradient-domain Metropolis light transport in primary sample space (Lehtinen et al. 2013)",
+               join({{{.name = "mutations", .type = ParamType::Int, .default_value = 1, .min = 1, .label = "Mutations",
+                       .description = "mutations per pixel and pass", .group = "Metropolis"},
+                      chains(64, "Metropolis"),
+                      {.name = "large_step", .type = ParamType::Float, .default_value = 0.3, .min = 0, .max = 1,
+                       .label = "Large Step", .description = "probability of a large step: a fresh path",
+                       .symbol = "p_large", .reference = "Kelemen et al. 2002", .group = "Metropolis"},
+                      {.name = "sigma", .type = ParamType::Float, .default_value = 0.01, .min = 0, .max = 1,
+                       .min_open = true, .max_open = true, .label = "Step Size",
+                       .description = "deviation of a small step in primary sample space", .symbol = "σ",
+                       .reference = "Kelemen et al. 2002", .group = "Metropolis"},
+                      {.name = "primal_share", .type = ParamType::Float, .default_value = 0.05, .min = 0,
+                       .min_open = true, .label = "Image Share",
+                       .description = "share of the primal throughput in the chains' target function",
+                       .symbol = "α", .reference = "GD-MLT slides", .group = "Metropolis"},
+                      {.name = "bootstrap", .type = ParamType::Int, .default_value = 1, .min = 1, .label = "Bootstrap",
+                       .description = "uniform samples per pixel that start the chains and set the brightness b",
+                       .group = "Metropolis"},
+                      {.name = "large_step_mis", .type = ParamType::Bool, .default_value = true,
+                       .label = "Large Step MIS",
+                       .description = "weigh chain and large-step samples by the balance heuristic",
+                       .reference = "Kelemen et al. 2002", .group = "Metropolis"},
+                      {.name = "direct", .type = ParamType::String, .default_value = "chain",
+                       .choices = {"chain", "uniform"}, .label = "Direct Light",
+                       .description = "delta-only light from the chains' splats, or from the uniform samples",
+                       .group = "Metropolis"},
+                      recon("l1"), lambda(), max_depth(32), rr_depth()},
+                     common()}),
+               [](const Scene& s, const Params& p) { return std::make_unique<GradientDomainMlt>(s, p); },
+               /*per_pixel=*/false});
+  auto spt = [](bool hero) {
+    return [hero](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
+      require_spectral(hero ? "spt-hero" : "spt", p);
+      return std::make_unique<SpectralPathTracer>(s, p, hero);
+    };
+  };
+  m.push_back({"spt", "spectral path tracing, one wavelength per path, Cauchy dispersion",
+               join({{max_depth(32), rr_depth(), spectral(), wavelengths(1)}, common()}), spt(false)});
+  m.push_back({"spt-hero", "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
+               join({{max_depth(32), rr_depth(), spectral(), wavelengths(4)}, common()}), spt(true)});
+  m.push_back({"sgpt", "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
+               join({{{.name = "bins", .type = ParamType::Int, .default_value = 15, .min = 3, .max = 256,
+                       .label = "Bins", .description = "spectral bins per pixel", .reference = "Petitjean et al. §3.2",
+                       .group = "Spectral"},
+                      {.name = "delta", .type = ParamType::Float, .default_value = 0.15, .min = 0, .max = 1,
+                       .min_open = true, .max_open = true, .label = "Delta",
+                       .description = "wavelength shift as a fraction of 360-830 nm", .symbol = "δ",
+                       .reference = "Petitjean et al. §4", .group = "Spectral"},
+                      {.name = "tau", .type = ParamType::Float, .default_value = 0.0, .min = 0, .label = "Tau",
+                       .description = "throughput below which a path is not shifted", .symbol = "τ",
+                       .reference = "Petitjean et al. eq. 16", .group = "Spectral"},
+                      lambda("α", "Petitjean et al. eq. 14"), spectral(), wavelengths(1), max_depth(32), rr_depth()},
+                     common()}),
+               [](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
+                 require_spectral("sgpt", p);
+                 return std::make_unique<SpectralGradientPathTracer>(s, p);
+               }});
+  return m;
+}
+
+size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+const ParamDecl* Method::find(const std::string& param) const {
+  for (const ParamDecl& d : params)
+    if (d.name == param) return &d;
+  return nullptr;
+}
+
+const std::vector<Method>& methods() {
+  static const std::vector<Method> all = make_methods();
+  return all;
+}
+
+const Method& find_method(const std::string& name) {
+  for (const Method& m : methods())
+    if (m.name == name) return m;
+  std::string known;
+  for (const Method& m : methods()) known += (known.empty() ? "" : ", ") + m.name;
+  throw ParamError("unknown method '" + name + "' (known: " + known + ")");
+}
+
+std::vector<std::string> integrator_names() {
+  std::vector<std::string> out;
+  for (const Method& m : methods()) out.push_back(m.name);
+  return out;
+}
+
+std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene, const Params& params) {
+  const Method& m = find_method(method);
+  const Params bound = params.bound(m.name, m.params);
+  auto integrator = m.make(scene, bound);
+  params.mark_read(bound);
+  return integrator;
+}
+
+std::vector<std::string> unused_parameter_report(const std::string& method, const Params& params) {
+  const Method& m = find_method(method);
+  std::vector<std::string> out;
+  for (const std::string& name : params.unused()) {
+    if (const ParamDecl* d = m.find(name)) {
+      out.push_back("parameter '" + name + "' of " + method + " is not read with these settings" +
+                    (d->read_when.empty() ? "" : " (read only with " + d->read_when + ")"));
+      continue;
+    }
+    std::string line = "parameter '" + name + "' is not a parameter of " + method;
+    const ParamDecl* best = nullptr;
+    size_t best_d = 3;  // suggest only near misses: two edits at most
+    for (const ParamDecl& d : m.params)
+      if (const size_t e = edit_distance(name, d.name); e < best_d) best_d = e, best = &d;
+    if (best) line += " (did you mean '" + best->name + "'?)";
+    out.push_back(line);
+  }
+  return out;
+}
+
+}  // namespace gp

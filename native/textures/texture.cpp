@@ -1,0 +1,91 @@
+#include "textures/texture.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gp {
+
+namespace {
+
+// Texel index for wrap mode; -1 = outside (Clip).
+int wrap_index(int i, int n, TextureWrap wrap) {
+  switch (wrap) {
+    case TextureWrap::Repeat: {
+      const int m = i % n;
+      return m < 0 ? m + n : m;
+    }
+    case TextureWrap::Extend: return std::clamp(i, 0, n - 1);
+    case TextureWrap::Clip: return (i < 0 || i >= n) ? -1 : i;
+  }
+  return -1;
+}
+
+RGBA texel_or_zero(const TextureImage& img, int x, int y, TextureWrap wrap) {
+  const int xi = wrap_index(x, img.width, wrap), yi = wrap_index(y, img.height, wrap);
+  if (xi < 0 || yi < 0) return {RGB(0.0f), 0.0f};  // Clip: transparent black outside
+  return img.texel(xi, yi);
+}
+
+// uv -> continuous texel coordinates, kept in a range where floor() is exact.
+float texel_coordinate(float u, int n) {
+  if (!std::isfinite(u)) return 0.0f;
+  return std::clamp(u, -1e6f, 1e6f) * static_cast<float>(n);
+}
+
+}  // namespace
+
+float srgb_eotf(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
+
+RGBA TextureImage::lookup(Vec2 uv, TextureWrap wrap, TextureFilter filter) const {
+  if (width <= 0 || height <= 0) return {RGB(1, 0, 1), 1.0f};
+  const float x = texel_coordinate(uv.x, width), y = texel_coordinate(uv.y, height);
+  if (filter == TextureFilter::Closest)
+    return decoded(texel_or_zero(*this, static_cast<int>(std::floor(x)), static_cast<int>(std::floor(y)), wrap));
+  // Bilinear between the four texel centres around (x, y).
+  const float fx = x - 0.5f, fy = y - 0.5f;
+  const float x0f = std::floor(fx), y0f = std::floor(fy);
+  const float tx = fx - x0f, ty = fy - y0f;
+  const int x0 = static_cast<int>(x0f), y0 = static_cast<int>(y0f);
+  const RGBA a = texel_or_zero(*this, x0, y0, wrap), b = texel_or_zero(*this, x0 + 1, y0, wrap);
+  const RGBA c = texel_or_zero(*this, x0, y0 + 1, wrap), d = texel_or_zero(*this, x0 + 1, y0 + 1, wrap);
+  const float wa = (1 - tx) * (1 - ty), wb = tx * (1 - ty), wc = (1 - tx) * ty, wd = tx * ty;
+  return decoded({a.rgb * wa + b.rgb * wb + c.rgb * wc + d.rgb * wd, a.a * wa + b.a * wb + c.a * wc + d.a * wd});
+}
+
+RGBA TextureImage::decoded(RGBA t) const {
+  if (srgb_encoded)
+    for (int c = 0; c < 3; ++c) t.rgb[c] = srgb_eotf(t.rgb[c]);
+  return t;
+}
+
+RGB TextureRef::rgb(Vec2 uv) const {
+  if (channel != TextureChannel::RGB) return RGB(value(uv));
+  RGB c = lookup(uv).rgb * scale;
+  if (square) c = c * c;
+  return c;
+}
+
+float TextureRef::value(Vec2 uv) const {
+  const RGBA t = lookup(uv);
+  float v = 0;
+  switch (channel) {
+    case TextureChannel::R: v = t.rgb.r; break;
+    case TextureChannel::G: v = t.rgb.g; break;
+    case TextureChannel::B: v = t.rgb.b; break;
+    case TextureChannel::A: v = t.a; break;
+    case TextureChannel::RGB:
+    case TextureChannel::Luminance: v = t.rgb.luminance(); break;
+  }
+  v *= scale;
+  return square ? v * v : v;
+}
+
+Vec2 TextureRef::gradient(Vec2 uv) const {
+  // One texel of the image, in the uv units before mapping (the mapping's diagonal scale).
+  const float du = 1.0f / (image->width * std::max(1e-6f, std::abs(mapping[0][0]) + std::abs(mapping[0][1])));
+  const float dv = 1.0f / (image->height * std::max(1e-6f, std::abs(mapping[1][0]) + std::abs(mapping[1][1])));
+  return {(value(uv + Vec2(du, 0)) - value(uv - Vec2(du, 0))) / (2 * du),
+          (value(uv + Vec2(0, dv)) - value(uv - Vec2(0, dv))) / (2 * dv)};
+}
+
+}  // namespace gp

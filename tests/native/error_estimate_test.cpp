@@ -1,0 +1,247 @@
+// The progressive error estimate of thesis ch. 6 against analytic truth: the smooth kernel and
+// the quantiles, and the thesis' Figure 6.3 scene (a point light over a Lambertian plane, whose
+// radiance and Laplacian are known in closed form), where the progressive Laplacian estimate
+// (eq. 6.30-6.32), the bias estimate B' (eq. 6.20) and the interval of eq. 6.10 can each be
+// compared with what they estimate.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+
+#include "integrators/integrator.h"
+#include "integrators/photon/error_estimate.h"
+#include "integrators/photon/progressive_photon.h"
+#include "render_for_tests.h"
+#include "scene/loader.h"
+
+namespace gp {
+namespace {
+
+TEST(ErrorEstimate, KernelAndQuantiles) {
+  using namespace error_kernel;
+  EXPECT_DOUBLE_EQ(K(0), 1);
+  EXPECT_NEAR(K(1 - 1e-12), 0, 1e-9);
+  EXPECT_NEAR(dK(1 - 1e-9), 0, 1e-9);
+  // Integral of K over the unit disk is k1 = 2 pi / 7 (appendix 6.8.1).
+  double integral = 0;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    const double t = (i + 0.5) / n;
+    integral += K(t) * 2 * M_PI * t / n;
+  }
+  EXPECT_NEAR(integral, kK1, 1e-6);
+  // The kernel Laplacian integrated against x^2 + y^2 over the disk is 4 k1 (Lap (x^2 + y^2) = 4,
+  // integration by parts: K and K' vanish at t = 1), so the estimate of eq. 6.31 is exact for
+  // a quadratic radiance.
+  double lap_moment = 0;
+  for (int i = 0; i < n; ++i) {
+    const double t = (i + 0.5) / n;
+    lap_moment += laplacian(t * t, 1.0) * t * t * 2 * M_PI * t / n;
+  }
+  EXPECT_NEAR(lap_moment, 4 * kK1, 1e-5);
+  EXPECT_NEAR(normal_quantile(0.975), 1.959963985, 1e-6);
+  EXPECT_NEAR(student_t_quantile(1, 0.95), 6.313751515, 1e-6);
+  EXPECT_NEAR(student_t_quantile(2, 0.95), 2.919985580, 1e-6);
+  EXPECT_NEAR(student_t_quantile(5, 0.95), 2.015048373, 2e-3);
+  EXPECT_NEAR(student_t_quantile(30, 0.975), 2.042272456, 1e-4);
+  EXPECT_NEAR(student_t_quantile(10, 0.75), 0.699812061, 1e-3);
+}
+
+// ---- Thesis Figure 6.3: a point light at height h over a Lambertian plane ----
+// Radiance at distance r from the foot of the light: L(r) = rho / pi * I h / (h^2 + r^2)^(3/2);
+// its surface Laplacian (L'' + L' / r) is rho / pi * I h (15 r^2 (h^2 + r^2)^(-7/2) - 6 (h^2 +
+// r^2)^(-5/2)), -6 L(0) / h^2 at r = 0. The camera looks straight down at the foot through a
+// field of view 0.02 h wide, so every pixel's measurement point is at r < 0.015 h (L within
+// 0.04 % of L(0)). PPM (fixed points, all light from photons, the thesis' setting) with a large
+// initial radius and alpha = 0.98, so that the radius stays near 0.3 h and the bias is large
+// (-6 % of L).
+constexpr double kH = 1.0, kRho = 0.5;
+
+Scene point_over_plane(int size) {
+  const std::string json = R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0],
+      "fov": 0.3819, "width": )" + std::to_string(size) + R"(, "height": )" + std::to_string(size) + R"(},
+    "materials": {"white": {"type": "diffuse", "color": 0.5}},
+    "lights": [{"type": "point", "position": [0, 0, 1], "intensity": 100}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [40, 0, 0], "v": [0, 40, 0], "material": "white"}]})";
+  return load_scene_from_string(json, ".", "point-over-plane.json");
+}
+
+struct Analytic {
+  double I;  // luminance of the light's intensity (W/sr)
+  double L(double r) const { return kRho / M_PI * I * kH / std::pow(kH * kH + r * r, 1.5); }
+  double lap(double r) const {
+    const double s = kH * kH + r * r;
+    return kRho / M_PI * I * kH * (15 * r * r * std::pow(s, -3.5) - 6 * std::pow(s, -2.5));
+  }
+  // What the disc-kernel estimate with radius R converges to at r = 0: the mean of L over the disc.
+  double disc_mean(double R) const {
+    return kRho / M_PI * I * kH * 2 / (R * R) * (1 / kH - 1 / std::sqrt(kH * kH + R * R));
+  }
+  // What the smooth-kernel Laplacian estimate with radius R converges to at r = 0 (eq. 6.31
+  // integrated by parts): the K-weighted mean of Lap L over the disc.
+  double kernel_lap(double R) const {
+    double num = 0;
+    const int n = 4000;
+    for (int i = 0; i < n; ++i) {
+      const double t = (i + 0.5) / n;
+      num += error_kernel::K(t) * lap(t * R) * 2 * M_PI * t / n;
+    }
+    return num / error_kernel::kK1;
+  }
+};
+
+struct PixelMeans {
+  double L = 0, lap = 0, bias = 0, corrected = 0, half_width = 0, R = 0;
+};
+
+// What the progressive estimates converge to, from the radius R_j each pass queried with
+// (eq. 6.14-6.16: the progressive estimate is the mean of the per-pass estimates).
+struct Expected {
+  double bias = 0;  // (1 / i) sum_j disc_mean(R_j) - L(0): the exact bias of L_i (eq. 6.14)
+  double lap = 0;   // (1 / i) sum_j kernel_lap(R_j)
+};
+
+struct PointOverPlane {
+  double radius = 0.3 * kH, alpha = 0.98, confidence = 0.5;
+  int passes = 40;
+  int64_t photons = 100000;
+  uint64_t seed = 3;
+};
+
+// Runs PPM on the scene and returns the terms averaged over the pixels (and pixel 0's own).
+PixelMeans run_point_over_plane(const Analytic& a, const PointOverPlane& c, Expected* expected,
+                                ProgressivePhotonMapping::ErrorTerms* first_pixel = nullptr) {
+  const int size = 5;
+  const Scene s = point_over_plane(size);
+  Params p = photon_params(c.photons, c.seed);
+  p.set("radius", c.radius);
+  p.set("alpha", c.alpha);
+  p.set("confidence", c.confidence);
+  auto integ = make_integrator("ppm", s, p);
+  auto* ppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
+  Expected e;
+  for (int i = 0; i < c.passes; ++i) {
+    const double R = i == 0 ? c.radius : ppm->error_terms(0).radius;  // the pixels' radii agree closely
+    e.bias += a.disc_mean(R) / c.passes;
+    e.lap += a.kernel_lap(R) / c.passes;
+    integ->iterate(nullptr);
+  }
+  e.bias -= a.L(0);
+  *expected = e;
+  PixelMeans m;
+  for (int i = 0; i < size * size; ++i) {
+    const auto t = ppm->error_terms(i);
+    m.L += t.radiance / (size * size);
+    m.lap += t.laplacian / (size * size);
+    m.bias += t.bias / (size * size);
+    m.corrected += t.corrected_mean / (size * size);
+    m.half_width += t.half_width / (size * size);
+    m.R += t.radius / (size * size);
+  }
+  if (first_pixel) *first_pixel = ppm->error_terms(0);
+  return m;
+}
+
+Analytic analytic_of_point_over_plane() {
+  const Scene s = point_over_plane(5);
+  return Analytic{s.light_set().emitted(0, Vec3(0, 0, -1)).luminance()};
+}
+
+void print(const char* what, const Analytic& a, const PixelMeans& m, const Expected& x) {
+  std::printf("%s: R %.4f  L %.5g (L(0) %.5g, expected %.5g)  Lap %.5g (expected %.5g, Lap L(0) %.5g)  "
+              "B' %.5g (exact %.5g)  bias-corrected mean %.5g\n",
+              what, m.R, m.L, a.L(0), a.L(0) + x.bias, m.lap, x.lap, a.lap(0), m.bias, x.bias, m.corrected);
+}
+
+TEST(ErrorEstimate, LaplacianAndBiasMatchTheAnalyticPointLightOverAPlane) {
+  const Analytic a = analytic_of_point_over_plane();
+  Expected x;
+  const PixelMeans m = run_point_over_plane(a, PointOverPlane{}, &x);
+  print("alpha 0.98", a, m, x);
+  ASSERT_GT(m.R, 0.28 * kH);
+  // The image is biased as the disc kernel predicts (exact bias -6 % of L): the estimate is
+  // L(0) + B, not L(0).
+  EXPECT_NEAR(m.L / (a.L(0) + x.bias), 1.0, 0.01);
+  EXPECT_LT(m.L, 0.97 * a.L(0));
+  // The progressive Laplacian converges to the kernel-weighted Laplacian, which is 8 % below
+  // Lap L(0) at this radius. Its relative noise here is about 8 % (seeds 3-6 gave -7 % .. +7 %).
+  EXPECT_NEAR(m.lap / x.lap, 1.0, 0.25);
+  // B' = R^2 Lap L / 8 (eq. 6.20, disc kernel) against the exact bias of the progressive
+  // estimate (the second-order term of eq. 6.17 is 7 % above the exact value at R = 0.3 h),
+  // within the Laplacian's noise: a wrong constant (the thesis' k2 = 10 pi / 168 in place of
+  // 1/4, or a missing 1/2) is a factor of 2 or more.
+  EXPECT_NEAR(m.bias / x.bias, 1.0, 0.3);
+  // The bias-corrected samples (eq. 6.22) average to the true radiance, not to the biased one.
+  EXPECT_NEAR(m.corrected / a.L(0), 1.0, 0.02);
+}
+
+TEST(ErrorEstimate, LaplacianFollowsTheShrinkingRadius) {
+  // alpha = 0.7 from R = 0.6 h: the radius falls to about 0.3 h in 40 passes, so the flux
+  // derivatives must be rescaled with the flux at every reduction (eq. 6.32) for the
+  // progressive Laplacian to stay the mean of the per-pass ones.
+  const Analytic a = analytic_of_point_over_plane();
+  PointOverPlane c;
+  c.radius = 0.6 * kH;
+  c.alpha = 0.7;
+  Expected x;
+  const PixelMeans m = run_point_over_plane(a, c, &x);
+  print("alpha 0.7", a, m, x);
+  EXPECT_LT(m.R, 0.45 * kH);
+  EXPECT_NEAR(m.L / (a.L(0) + x.bias), 1.0, 0.01);
+  EXPECT_NEAR(m.lap / x.lap, 1.0, 0.25);
+  // B' from the mean of the passes' R_j^2 (eq. 6.18): within 8 % of the exact bias here (measured),
+  // where eq. 6.19's R_i^2 was 24 % low (error_bound = thesis).
+  EXPECT_NEAR(m.bias / x.bias, 1.0, 0.15);
+}
+
+TEST(ErrorEstimate, IntervalCoversTheTruthAtTheRequestedRate) {
+  // Over independent runs on the analytic scene: the error bound (the `error` pass times L_i)
+  // covers |L_i - L| in about the requested share of runs, for 50 % and 90 %, and the variance
+  // estimate (eq. 6.22) matches the variance of L_i over the runs. The bias here is 3.4
+  // standard deviations of L_i (2.5 after the shrinkage of the calibrated bound), so a missing
+  // bias term drops the coverage to 0 (measured); a noise half-width 1.5 times too wide gives a
+  // variance ratio of 2.3 (measured), outside [0.5, 2]. Measured: 11/20 at 50 %, 14/20 at 90 %
+  // (the shrinkage of a noisy B' trims a real bias here; docs/error-calibration.md).
+  const Analytic a = analytic_of_point_over_plane();
+  const int runs = 20, passes = 10;
+  const double t50 = student_t_quantile(passes - 1, 0.75), t90 = student_t_quantile(passes - 1, 0.95);
+  for (double confidence : {0.5, 0.9}) {
+    int covered = 0, covered_noise = 0;
+    double est_var = 0, sum = 0, sum2 = 0, bias = 0;
+    for (int seed = 0; seed < runs; ++seed) {
+      Expected x;
+      ProgressivePhotonMapping::ErrorTerms e;
+      PointOverPlane c;
+      c.passes = passes;
+      c.photons = 20000;
+      c.seed = 100 + seed;
+      c.confidence = confidence;
+      run_point_over_plane(a, c, &x, &e);
+      covered += std::abs(e.radiance - a.L(0)) <= e.bound;
+      // The noise interval alone (eq. 6.10), around the biased expectation.
+      covered_noise += std::abs(e.radiance - (a.L(0) + x.bias)) <= (confidence == 0.5 ? t50 : t90) * e.noise_sd;
+      est_var += e.noise_sd * e.noise_sd / runs;  // V_i / i of eq. 6.10
+      sum += e.radiance;
+      sum2 += e.radiance * e.radiance;
+      bias += e.bias / runs;
+    }
+    const double var = (sum2 - sum * sum / runs) / (runs - 1);
+    std::printf("confidence %.2f: bound covers %d / %d runs, noise interval %d / %d; estimated variance of L_i %.4g, "
+                "across runs %.4g (ratio %.3f); |B'| / sd %.1f\n",
+                confidence, covered, runs, covered_noise, runs, est_var, var, est_var / var,
+                std::abs(bias) / std::sqrt(var));
+    // The variance estimate of eq. 6.22 against the variance of L_i over independent runs (its
+    // own relative noise with 20 runs is about 0.3).
+    EXPECT_GT(est_var / var, 0.5);
+    EXPECT_LT(est_var / var, 2.0);
+    EXPECT_GE(covered, static_cast<int>(confidence * runs) - 6) << confidence;
+    EXPECT_LE(covered, static_cast<int>(confidence * runs) + 6) << confidence;
+    EXPECT_GE(covered_noise, static_cast<int>(confidence * runs) - 7) << confidence;
+    EXPECT_LE(covered_noise, static_cast<int>(confidence * runs) + 7) << confidence;
+  }
+}
+
+}  // namespace
+}  // namespace gp

@@ -1,0 +1,316 @@
+// Image textures (native/textures, materials' textured inputs, normal/bump maps, alpha): the
+// lookup against hand-computed values, colour-space conversion, the shared store, and scenes
+// whose renders have known answers (a textured quad under a constant environment shows its
+// texels; a white normal-mapped quad stays energy-bounded; alpha lets rays through in
+// proportion).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "integrators/integrator.h"
+#include "render_for_tests.h"
+#include "scene/loader.h"
+#include "scene/shapes.h"
+#include "textures/normal_mapping.h"
+#include "core/rng.h"
+#include "textures/texture_store.h"
+
+namespace gp {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::shared_ptr<TextureImage> image(int w, int h, std::vector<float> rgba) {
+  auto img = std::make_shared<TextureImage>();
+  img->width = w;
+  img->height = h;
+  img->rgba = std::move(rgba);
+  return img;
+}
+
+// An 8-bit binary PPM (OpenImageIO reads it; 8-bit files default to sRGB), rows top first.
+std::string write_ppm(const std::string& name, int w, int h, const std::vector<uint8_t>& rgb_top_first) {
+  const fs::path dir = fs::temp_directory_path() / "gradphoton_texture_test";
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  std::ofstream f(p, std::ios::binary);
+  f << "P6\n" << w << " " << h << "\n255\n";
+  f.write(reinterpret_cast<const char*>(rgb_top_first.data()), static_cast<std::streamsize>(rgb_top_first.size()));
+  return p.string();
+}
+
+float srgb_to_linear(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
+
+// ---- Lookup ----
+
+TEST(Texture, BilinearLookupMatchesHandComputedValues) {
+  // 2 x 2, row 0 at the bottom: values 0, 1 (bottom), 2, 3 (top) in red.
+  auto img = image(2, 2, {0, 0, 0, 1, 1, 0, 0, 1, 2, 0, 0, 1, 3, 0, 0, 1});
+  auto red = [&](float u, float v, TextureWrap w) { return img->lookup(Vec2(u, v), w, TextureFilter::Linear).rgb.r; };
+  // Texel centres (0.25, 0.25) ... (0.75, 0.75) hold the texels exactly.
+  EXPECT_FLOAT_EQ(red(0.25f, 0.25f, TextureWrap::Repeat), 0.0f);
+  EXPECT_FLOAT_EQ(red(0.75f, 0.75f, TextureWrap::Repeat), 3.0f);
+  // Halfway between all four: their mean; a quarter of the way right of the first centre.
+  EXPECT_FLOAT_EQ(red(0.5f, 0.5f, TextureWrap::Repeat), 1.5f);
+  EXPECT_FLOAT_EQ(red(0.375f, 0.25f, TextureWrap::Repeat), 0.25f);
+  // At u = 0 (between texel 1 of the previous tile and texel 0): Repeat mixes 1 and 0, Extend
+  // holds texel 0, Clip fades to transparent black outside.
+  EXPECT_FLOAT_EQ(red(0.0f, 0.25f, TextureWrap::Repeat), 0.5f);
+  EXPECT_FLOAT_EQ(red(0.0f, 0.25f, TextureWrap::Extend), 0.0f);
+  EXPECT_FLOAT_EQ(red(1.0f, 0.25f, TextureWrap::Extend), 1.0f);
+  EXPECT_FLOAT_EQ(red(1.0f, 0.25f, TextureWrap::Clip), 0.5f);
+  EXPECT_FLOAT_EQ(red(1.5f, 0.25f, TextureWrap::Clip), 0.0f);
+  EXPECT_FLOAT_EQ(red(1.25f, 0.75f, TextureWrap::Repeat), 2.0f);
+  EXPECT_FLOAT_EQ(red(-0.75f, 0.75f, TextureWrap::Repeat), 2.0f);
+  EXPECT_FLOAT_EQ(img->lookup(Vec2(0.6f, 0.4f), TextureWrap::Repeat, TextureFilter::Closest).rgb.r, 1.0f);
+  // A mapping (Mapping node) scales uv before the lookup: 2 u repeats the image twice.
+  TextureRef t;
+  t.image = img;
+  t.mapping[0][0] = 2.0f;
+  EXPECT_FLOAT_EQ(t.rgb(Vec2(0.125f + 0.5f, 0.25f)).r, 0.0f);
+  t.channel = TextureChannel::R;
+  t.scale = 0.5f;
+  t.square = true;
+  EXPECT_FLOAT_EQ(t.value(Vec2(0.625f, 0.75f)), 1.0f);  // (2 * 0.5)^2
+}
+
+TEST(Texture, SrgbTexelsBecomeLinearAndDataStaysAsIs) {
+  std::vector<float> px = {0.5f, 0.2f, 1.0f, 0.7f};
+  convert_to_scene_linear(px, "sRGB");
+  EXPECT_NEAR(px[0], srgb_to_linear(0.5f), 2e-3f);  // 0.214
+  EXPECT_NEAR(px[1], srgb_to_linear(0.2f), 2e-3f);
+  EXPECT_NEAR(px[2], 1.0f, 2e-3f);
+  EXPECT_FLOAT_EQ(px[3], 0.7f);  // alpha is never converted
+  std::vector<float> data = {0.5f, 0.2f, 1.0f, 0.7f};
+  convert_to_scene_linear(data, "Non-Color");
+  EXPECT_EQ(data, (std::vector<float>{0.5f, 0.2f, 1.0f, 0.7f}));
+  EXPECT_THROW(convert_to_scene_linear(data, "No Such Space"), std::runtime_error);
+}
+
+TEST(Texture, FilesAreReadOnceBottomRowFirstAndMissingOnesAreMagenta) {
+  // 1 x 2: top texel red, bottom texel blue.
+  const std::string path = write_ppm("top_red.ppm", 1, 2, {255, 0, 0, 0, 0, 255});
+  TextureLoad a = load_texture(path, "sRGB");
+  TextureLoad b = load_texture(path, "sRGB");
+  ASSERT_TRUE(a.warning.empty()) << a.warning;
+  EXPECT_EQ(a.image.get(), b.image.get());  // shared, not read twice
+  EXPECT_NE(load_texture(path, "Non-Color").image.get(), a.image.get());  // another colour space: another image
+  EXPECT_FLOAT_EQ(a.image->texel(0, 0).rgb.b, 1.0f);  // row 0 = the file's last row
+  EXPECT_FLOAT_EQ(a.image->texel(0, 1).rgb.r, 1.0f);
+  EXPECT_NEAR(a.image->mean.rgb.r, 0.5f, 1e-6f);
+  TextureLoad missing = load_texture(path + ".nope", "sRGB");
+  EXPECT_TRUE(missing.image->missing);
+  EXPECT_NE(missing.warning.find("not found"), std::string::npos);
+  const RGBA m = missing.image->lookup(Vec2(0.3f, 0.3f), TextureWrap::Repeat, TextureFilter::Linear);
+  EXPECT_EQ(m.rgb.r, 1.0f);
+  EXPECT_EQ(m.rgb.g, 0.0f);
+  EXPECT_EQ(m.rgb.b, 1.0f);
+}
+
+// ---- Scenes ----
+
+// A unit quad (uv 0..1) facing +z seen from above, with material `mat`, under a constant white
+// environment: a diffuse surface there has radiance = its albedo.
+std::string furnace_scene(const std::string& material_json, const std::string& extra_objects = "") {
+  return R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 16, "height": 16},
+    "materials": {"m": )" + material_json + R"(},
+    "objects": [{"type": "mesh", "positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                 "indices": [[0, 1, 2], [0, 2, 3]], "uvs": [[0, 0], [1, 0], [1, 1], [0, 1]], "material": "m"})" +
+         extra_objects + R"(],
+    "environment": {"color": [1, 1, 1], "strength": 1}})";
+}
+
+RGB quadrant_mean(const Film& f, int qx, int qy) {
+  // Quadrant (qx, qy) of the image, qy = 0 at the top; a margin keeps clear of the texel edges.
+  double s[3] = {0, 0, 0};
+  int n = 0;
+  const int h = f.height() / 2, w = f.width() / 2;
+  for (int y = qy * h + 2; y < (qy + 1) * h - 2; ++y)
+    for (int x = qx * w + 2; x < (qx + 1) * w - 2; ++x, ++n) {
+      const RGB c = f.rgb(pass::kCombined, x, y);
+      for (int k = 0; k < 3; ++k) s[k] += c[k];
+    }
+  return RGB(float(s[0] / n), float(s[1] / n), float(s[2] / n));
+}
+
+TEST(TexturedScene, QuadUnderAConstantEnvironmentShowsItsTexels) {
+  // 2 x 2 texture (closest): top-left red, top-right green, bottom-left blue, bottom-right grey,
+  // sRGB 8-bit: the render must show the linear values.
+  const std::string path = write_ppm("quadrants.ppm", 2, 2, {255, 0, 0, 0, 255, 0, 0, 0, 255, 128, 128, 128});
+  const std::string mat = R"({"type": "diffuse", "color": {"texture": ")" + path +
+                          R"(", "colorspace": "sRGB", "interpolation": "closest"}})";
+  const Scene scene = load_scene_from_string(furnace_scene(mat), ".", "furnace.json");
+  const float grey = srgb_to_linear(128 / 255.0f);
+  const RGB expect[2][2] = {{RGB(1, 0, 0), RGB(0, 1, 0)}, {RGB(0, 0, 1), RGB(grey)}};
+  Params p;
+  p.set("seed", 3);
+  p.set("photons", int64_t(40000));
+  // PPM (photons carry all the light; SPPM would take it by NEE): on an untextured white quad at
+  // this budget its 4 x 4-pixel windows stray
+  // by up to 0.085 (photon noise); a texture ignored by photons would be off by 0.7.
+  for (const auto& [method, tolerance] : {std::pair{"pt", 0.04f}, {"gpt", 0.04f}, {"ppm", 0.12f}}) {
+    const Film f = render(method, scene, std::string(method) == "pt" ? 16 : 24, p);
+    for (int qy = 0; qy < 2; ++qy)
+      for (int qx = 0; qx < 2; ++qx) {
+        const RGB c = quadrant_mean(f, qx, qy);
+        for (int k = 0; k < 3; ++k)
+          EXPECT_NEAR(c[k], expect[qy][qx][k], tolerance) << method << " quadrant " << qx << "," << qy << " channel " << k;
+      }
+  }
+}
+
+TEST(TexturedScene, MixFactorFromATextureWeighsItsComponentsPerPoint) {
+  // Factor texture: left column 0 (all of `a`, black), right column 1 (all of `b`, white).
+  const std::string path = write_ppm("half.ppm", 2, 1, {0, 0, 0, 255, 255, 255});
+  const std::string json = R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 16, "height": 16},
+    "materials": {"black": {"type": "diffuse", "color": 0}, "white": {"type": "diffuse", "color": 1},
+                  "m": {"type": "mix", "a": "black", "b": "white",
+                        "factor": {"texture": ")" + path + R"(", "colorspace": "Non-Color", "interpolation": "closest"}}},
+    "objects": [{"type": "mesh", "positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                 "indices": [[0, 1, 2], [0, 2, 3]], "uvs": [[0, 0], [1, 0], [1, 1], [0, 1]], "material": "m"}],
+    "environment": {"color": [1, 1, 1], "strength": 1}})";
+  const Scene scene = load_scene_from_string(json, ".", "mix.json");
+  const Film f = render("pt", scene, 16, Params());
+  EXPECT_NEAR(quadrant_mean(f, 0, 0).g, 0.0f, 0.01f);
+  EXPECT_NEAR(quadrant_mean(f, 1, 0).g, 1.0f, 0.03f);
+}
+
+// A quad with a normal map made of one texel (a float image in memory).
+Scene normal_mapped_quad(RGB texel, float strength = 1.0f) {
+  Scene s;
+  Material m;
+  m.name = "n";
+  m.color = RGB(1.0f);
+  m.normal_tex.image = image(1, 1, {texel.r, texel.g, texel.b, 1.0f});
+  m.normal_strength = strength;
+  s.materials.push_back(m);
+  Mesh q;
+  q.name = "quad";
+  q.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+  q.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  q.indices = {0, 1, 2, 0, 2, 3};
+  q.material_ids = {0, 0};
+  s.meshes.push_back(q);
+  s.lights.push_back(Light{});
+  s.lights.back().type = LightType::Point;
+  s.lights.back().position = Vec3(0, 0, 5);
+  s.lights.back().emit = RGB(1.0f);
+  s.finalize();
+  return s;
+}
+
+TEST(NormalMap, FlatMapEqualsNoMapAndATiltedTexelTiltsAlongU) {
+  const Ray down(Vec3(0.2f, 0.1f, 2), Vec3(0, 0, -1));
+  const auto flat = normal_mapped_quad(RGB(0.5f, 0.5f, 1.0f)).intersect(down);
+  ASSERT_TRUE(flat);
+  EXPECT_NEAR(flat->ns.z, 1.0f, 1e-6f);
+  // t = 2c - 1 = (sin 30deg, 0, cos 30deg): 30 degrees toward +u = +x.
+  const float s30 = 0.5f, c30 = std::sqrt(3.0f) / 2;
+  const auto tilted = normal_mapped_quad(RGB((s30 + 1) / 2, 0.5f, (c30 + 1) / 2)).intersect(down);
+  ASSERT_TRUE(tilted);
+  EXPECT_NEAR(tilted->ns.x, s30, 1e-3f);
+  EXPECT_NEAR(tilted->ns.y, 0.0f, 1e-3f);
+  EXPECT_NEAR(tilted->ns.z, c30, 1e-3f);
+  // Strength 0 is no map.
+  const auto off = normal_mapped_quad(RGB((s30 + 1) / 2, 0.5f, (c30 + 1) / 2), 0.0f).intersect(down);
+  EXPECT_NEAR(off->ns.z, 1.0f, 1e-6f);
+  // A map tilted so far that the mirror direction would go below the surface is bent back.
+  const Ray grazing(Vec3(-2, 0.1f, 0.5f), normalize(Vec3(2.2f, 0, -0.5f)));
+  const auto bent = normal_mapped_quad(RGB(0.98f, 0.5f, 0.6f)).intersect(grazing);
+  ASSERT_TRUE(bent);
+  const Vec3 wo = -grazing.d;
+  const Vec3 r = bent->ns * (2 * dot(bent->ns, wo)) - wo;
+  EXPECT_GE(r.z, 0.0f);
+}
+
+TEST(NormalMap, WhiteNormalMappedQuadUnderAConstantEnvironmentIsEnergyBounded) {
+  // A bumpy normal map (8-bit, Non-Color, tilts up to 45 degrees) on a white diffuse quad under
+  // a white environment: the radiance is at most 1 (no energy from a bent frame), and below 1
+  // only by the shading hemisphere's part under the geometric surface, which scatters nothing
+  // (Bsdf::set_geometric_normal, as Cycles); for PT and PPM alike.
+  std::vector<uint8_t> px;
+  for (int i = 0; i < 16; ++i) {
+    const float a = 0.7f * std::sin(1.3f * i), b = 0.6f * std::cos(2.1f * i);
+    const Vec3 n = normalize(Vec3(a, b, 1.0f));
+    for (int k = 0; k < 3; ++k) px.push_back(static_cast<uint8_t>(std::lround((n[k] + 1) * 0.5f * 255)));
+  }
+  const std::string path = write_ppm("bumpy_normals.ppm", 4, 4, px);
+  const std::string mat = R"({"type": "diffuse", "color": 1, "normal_map": {"texture": ")" + path + R"("}})";
+  const Scene scene = load_scene_from_string(furnace_scene(mat), ".", "furnace.json");
+  // (PPM's tolerance as in QuadUnderAConstantEnvironmentShowsItsTexels.)
+  for (const auto& [method, tolerance] : {std::pair{"pt", 0.04f}, {"ppm", 0.12f}}) {
+    Params p;
+    p.set("photons", int64_t(40000));
+    const Film f = render(method, scene, 24, p);
+    for (int q = 0; q < 4; ++q) {
+      const RGB c = quadrant_mean(f, q % 2, q / 2);
+      EXPECT_LE(c.g, 1.0f + tolerance) << method << " quadrant " << q;
+      EXPECT_GE(c.g, 0.85f - tolerance) << method << " quadrant " << q;
+    }
+  }
+}
+
+TEST(Alpha, CutOutLetsRaysThroughInProportion) {
+  Scene s;
+  Material m;
+  m.name = "leaf";
+  m.alpha = 0.3f;
+  s.materials.push_back(m);
+  Material cut = m;
+  cut.name = "cut";
+  cut.alpha = 1.0f;
+  // Coverage texture: left half 0 (a hole), right half 1.
+  cut.alpha_tex.image = image(2, 1, {1, 1, 1, 0, 1, 1, 1, 1});
+  cut.alpha_tex.channel = TextureChannel::A;
+  cut.alpha_tex.filter = TextureFilter::Closest;
+  s.materials.push_back(cut);
+  Mesh q = make_quad_corners(Vec3(-1, -1, 0), Vec3(1, -1, 0), Vec3(1, 1, 0), Vec3(-1, 1, 0), 0);
+  Mesh r = make_quad_corners(Vec3(-1, -1, -1), Vec3(1, -1, -1), Vec3(1, 1, -1), Vec3(-1, 1, -1), 1);
+  r.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  s.meshes = {q};
+  s.finalize();
+  int blocked = 0, hits = 0;
+  const int n = 20000;
+  Rng rng(7, 1);
+  for (int i = 0; i < n; ++i) {
+    const Vec3 o(rng.uniform() * 1.6f - 0.8f, rng.uniform() * 1.6f - 0.8f, 1);
+    blocked += s.occluded(Ray(o, Vec3(0, 0, -1), 0, 2));
+    hits += s.intersect(Ray(o, Vec3(0.01f, 0, -1))).has_value();
+  }
+  const double sigma = std::sqrt(0.3 * 0.7 / n);
+  EXPECT_NEAR(blocked / double(n), 0.3, 4 * sigma);
+  EXPECT_NEAR(hits / double(n), 0.3, 4 * sigma);
+  // The textured cut-out: exactly the covered half blocks.
+  Scene t;
+  t.materials = {m, cut};
+  t.meshes = {r};
+  t.finalize();
+  EXPECT_FALSE(t.occluded(Ray(Vec3(-0.5f, 0, 0), Vec3(0, 0, -1), 0, 2)));
+  EXPECT_TRUE(t.occluded(Ray(Vec3(0.5f, 0, 0), Vec3(0, 0, -1), 0, 2)));
+  EXPECT_FALSE(t.intersect(Ray(Vec3(-0.5f, 0, 0), Vec3(0, 0, -1))).has_value());
+  EXPECT_TRUE(t.intersect(Ray(Vec3(0.5f, 0, 0), Vec3(0, 0, -1))).has_value());
+}
+
+TEST(TexturedScene, BadTextureReferencesNameTheirPath) {
+  auto load = [](const std::string& tex) {
+    return load_scene_from_string(furnace_scene(R"({"type": "diffuse", "color": )" + tex + "}"), ".", "bad.json");
+  };
+  try {
+    load(R"({"texture": "x.png", "wrap": "mirror"})");
+    FAIL();
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("/materials/m/color/wrap"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(load(R"({"texture": 3})"), SceneError);
+  EXPECT_THROW(load(R"({"texture": "x.png", "mapping": [[1, 0]]})"), SceneError);
+  // A missing file is no error: magenta and a counted warning, as Cycles.
+  const Scene s = load(R"({"texture": "no/such/file.png"})");
+  EXPECT_EQ(s.warnings.count("missing image texture (magenta)"), 1u);
+}
+
+}  // namespace
+}  // namespace gp
