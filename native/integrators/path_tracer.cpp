@@ -30,7 +30,7 @@ RGB PathTracer::clamped(const RGB& c, bool direct) const {
   return limit > 0 && sum > limit ? c * (limit / sum) : c;
 }
 
-RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
+RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
   const LightSet& lights = scene_.light_set();
   RGB L(0.0f), beta(1.0f);
   bool specular_bounce = false;
@@ -40,7 +40,9 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
   int pass_through = 0;
   for (int depth = 0;; ++depth) {
     ++rays.closest;
-    const auto hit = scene_.intersect(ray);
+    const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
+    const std::optional<SurfaceHit>& hit = first ? *first : traced;
+    first = nullptr;  // only the camera ray's hit is given
 
     // Cycles' point and spot lights of radius > 0: disks that BSDF rays may hit (MIS with
     // their sampling above; a mirror shows them). Camera rays do not see them.
@@ -132,12 +134,19 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped) const {
 }
 
 void PathTracer::iterate(ProgressSink* sink) {
-  estimate_.run_pass(seed_, tile_size_, threads_, sink, stats_,
-                     [this](Rng& rng, Vec2 film, Vec2 lens, RayCounts& rays) {
-                       bool escaped = false;
-                       const RGB L = Li(scene_.camera.generate_ray(film, lens), rng, rays, &escaped);
-                       return PixelSample{L, escaped ? 0.0f : 1.0f};
-                     });
+  // A tile's camera rays are traced together (Embree packets: the same hits, several times
+  // faster than one by one), then each path goes on alone from its first hit.
+  estimate_.run_pass_tiles(seed_, tile_size_, threads_, sink, stats_,
+                           [this](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
+                             std::vector<Ray> camera(n);
+                             std::vector<std::optional<SurfaceHit>> hits(n);
+                             trace_camera_rays(scene_, starts, n, camera.data(), hits.data());
+                             for (size_t i = 0; i < n; ++i) {
+                               bool escaped = false;
+                               const RGB L = Li(camera[i], starts[i].rng, rays, &escaped, &hits[i]);
+                               out[i] = PixelSample{L, escaped ? 0.0f : 1.0f};
+                             }
+                           });
 }
 
 void PathTracer::develop(Film& film) const {

@@ -29,7 +29,10 @@ class PathTracer : public Integrator {
 
   // Radiance along one camera ray (exposed for tests); counts the rays it traces. With
   // film_transparent, a camera ray that escapes gives 0 and sets *escaped.
-  RGB Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped = nullptr) const;
+  // `first`, when given, is the closest hit of `ray` already traced (a tile's camera rays are
+  // traced together, Scene::intersect_coherent).
+  RGB Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped = nullptr,
+         const std::optional<SurfaceHit>* first = nullptr) const;
 
  private:
   // A contribution clamped as Cycles does (sum of |R|+|G|+|B| at most the limit; 0 = off).

@@ -43,6 +43,22 @@ class PixelEstimate {
   template <typename Estimator>
   void run_pass(uint64_t seed, int tile_size, int threads, ProgressSink* sink, Stats& stats,
                 const Estimator& estimate) {
+    run_pass_tiles(seed, tile_size, threads, sink, stats,
+                   [&](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
+                     for (size_t i = 0; i < n; ++i) {
+                       const auto sample = estimate(starts[i].rng, starts[i].film, starts[i].lens, rays);
+                       if constexpr (std::is_same_v<std::decay_t<decltype(sample)>, PixelSample>) out[i] = sample;
+                       else out[i] = PixelSample{sample, 1.0f};
+                     }
+                   });
+  }
+
+  // The same pass with the estimator called once per tile, so that it can trace the tile's
+  // camera rays together (Scene::intersect_coherent): estimate_tile(starts, n, rays, out)
+  // fills out[i] from starts[i], the PixelStart of the tile's i-th pixel in row order.
+  template <typename TileEstimator>
+  void run_pass_tiles(uint64_t seed, int tile_size, int threads, ProgressSink* sink, Stats& stats,
+                      const TileEstimator& estimate_tile) {
     const auto start = std::chrono::steady_clock::now();
     const uint64_t pass = static_cast<uint64_t>(stats.passes);
     std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
@@ -50,22 +66,20 @@ class PixelEstimate {
         width_, height_, tile_size, threads,
         [&](const Tile& tile) {
           RayCounts tile_rays;
-          int64_t tile_paths = 0, tile_invalid = 0;
+          int64_t tile_invalid = 0;
+          std::vector<PixelStart> starts;
           for (int y = tile.y0; y < tile.y1; ++y)
-            for (int x = tile.x0; x < tile.x1; ++x) {
+            for (int x = tile.x0; x < tile.x1; ++x)
+              starts.push_back(camera_ ? start_pixel(*camera_, seed, pass, x, y)
+                                       : start_pixel(seed, static_cast<size_t>(y) * width_ + x, pass, x, y));
+          std::vector<PixelSample> samples(starts.size());
+          estimate_tile(starts.data(), starts.size(), tile_rays, samples.data());
+          size_t k = 0;
+          for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x, ++k) {
               const size_t pixel = static_cast<size_t>(y) * width_ + x;
-              auto [rng, film, lens] = camera_ ? start_pixel(*camera_, seed, pass, x, y)
-                                               : start_pixel(seed, pixel, pass, x, y);
-              RGB L;
-              const auto sample = estimate(rng, film, lens, tile_rays);
-              if constexpr (std::is_same_v<std::decay_t<decltype(sample)>, PixelSample>) {
-                L = sample.L;
-                alpha_[pixel] += sample.alpha;
-              } else {
-                L = sample;
-                alpha_[pixel] += 1.0;
-              }
-              ++tile_paths;
+              const RGB& L = samples[k].L;
+              alpha_[pixel] += samples[k].alpha;
               ++samples_[pixel];
               if (!L.is_finite()) {
                 ++tile_invalid;
@@ -77,7 +91,7 @@ class PixelEstimate {
             }
           closest += tile_rays.closest;
           shadow += tile_rays.shadow;
-          paths += tile_paths;
+          paths += static_cast<int64_t>(starts.size());
           invalid += tile_invalid;
         },
         [sink] { return sink && sink->cancelled(); });

@@ -199,23 +199,18 @@ Accelerator::~Accelerator() {
   if (impl_->device) rtcReleaseDevice(impl_->device);
 }
 
-bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
-  record(ray, false);
-  VisibilityContext vctx;
-  rtcInitIntersectContext(&vctx.ctx);
-  vctx.camera = ray.camera;
-  RTCRayHit rh;
-  rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
-  rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
-  rh.ray.tnear = ray.tmin;
-  rh.ray.tfar = ray.tmax;
-  rh.ray.time = 0;
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.ray.id = 0;
-  rh.ray.flags = 0;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &vctx.ctx, &rh);
+namespace {
+void to_embree(const Ray& ray, RTCRay& r) {
+  r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
+  r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
+  r.tnear = ray.tmin;
+  r.tfar = ray.tmax;
+  r.time = 0;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+}
+bool from_embree(const RTCRayHit& rh, RawHit& hit) {
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
   hit.t = rh.ray.tfar;
   hit.u = rh.hit.u;
@@ -225,22 +220,72 @@ bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
   hit.prim = static_cast<int>(rh.hit.primID);
   return true;
 }
+}  // namespace
+
+bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
+  record(ray, false);
+  VisibilityContext vctx;
+  rtcInitIntersectContext(&vctx.ctx);
+  vctx.camera = ray.camera;
+  RTCRayHit rh;
+  to_embree(ray, rh.ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &vctx.ctx, &rh);
+  return from_embree(rh, hit);
+}
 
 bool Accelerator::occluded(const Ray& ray) const {
   record(ray, true);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRay r;
-  r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
-  r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
-  r.tnear = ray.tmin;
-  r.tfar = ray.tmax;
-  r.time = 0;
-  r.mask = 0xFFFFFFFFu;
-  r.id = 0;
-  r.flags = 0;
+  to_embree(ray, r);
   rtcOccluded1(impl_->scene, &ctx, &r);
   return r.tfar < 0;  // Embree sets tfar = -inf on a hit
+}
+
+namespace {
+// Per-thread buffers of the stream calls, kept between calls (no allocation per batch).
+thread_local std::vector<RTCRayHit> t_rayhits;
+thread_local std::vector<RTCRay> t_rays;
+}  // namespace
+
+void Accelerator::intersect_stream(const Ray* rays, size_t n, RawHit* hits, bool* found, bool coherent) const {
+  t_rayhits.resize(n);
+  // The camera flag lives in the context, one per call: split the stream where it changes.
+  for (size_t lo = 0; lo < n;) {
+    size_t hi = lo + 1;
+    while (hi < n && rays[hi].camera == rays[lo].camera) ++hi;
+    for (size_t i = lo; i < hi; ++i) {
+      record(rays[i], false);
+      RTCRayHit& rh = t_rayhits[i];
+      to_embree(rays[i], rh.ray);
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    }
+    VisibilityContext vctx;
+    rtcInitIntersectContext(&vctx.ctx);
+    if (coherent) vctx.ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    vctx.camera = rays[lo].camera;
+    rtcIntersect1M(impl_->scene, &vctx.ctx, t_rayhits.data() + lo, static_cast<unsigned>(hi - lo), sizeof(RTCRayHit));
+    for (size_t i = lo; i < hi; ++i) found[i] = from_embree(t_rayhits[i], hits[i]);
+    lo = hi;
+  }
+}
+
+void Accelerator::occluded_stream(const Ray* rays, size_t n, bool* blocked, bool coherent) const {
+  if (n == 0) return;
+  t_rays.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    record(rays[i], true);
+    to_embree(rays[i], t_rays[i]);
+  }
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcOccluded1M(impl_->scene, &ctx, t_rays.data(), static_cast<unsigned>(n), sizeof(RTCRay));
+  for (size_t i = 0; i < n; ++i) blocked[i] = t_rays[i].tfar < 0;
 }
 
 }  // namespace gp

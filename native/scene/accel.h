@@ -42,6 +42,13 @@ class Accelerator {
 
   bool intersect(const Ray& ray, RawHit& hit) const;
   bool occluded(const Ray& ray) const;
+  // The same queries for n rays at once through Embree's stream interface (rtcIntersect1M,
+  // rtcOccluded1M): found[i] / blocked[i] and hits[i] as intersect() / occluded() of rays[i].
+  // Embree may regroup the rays into packets; `coherent` says they start near each other in
+  // similar directions (camera rays of one tile), which lets it. For benchmarks and for
+  // integrators that trace rays in batches; thread-safe, no allocation after a thread's first.
+  void intersect_stream(const Ray* rays, size_t n, RawHit* hits, bool* found, bool coherent = false) const;
+  void occluded_stream(const Ray* rays, size_t n, bool* blocked, bool coherent = false) const;
   // Installs (or with nullptr removes) the recorder for all threads; not re-entrant.
   static void record_rays(RayRecorder* recorder);
 

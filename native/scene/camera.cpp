@@ -18,13 +18,12 @@ Vec2 Camera::half_extent() const {
   return horizontal ? Vec2(t, t / aspect) : Vec2(t * aspect, t);
 }
 
-float Camera::pixel_footprint(float distance) const {
-  const float pixel = 2.0f * half_extent().x / width;
+float Camera::pixel_footprint(float distance, Vec2 ext) const {
+  const float pixel = 2.0f * ext.x / width;
   return projection == Projection::Orthographic ? pixel : pixel * distance;
 }
 
-Ray Camera::generate_ray(Vec2 film, Vec2 u_lens) const {
-  const Vec2 ext = half_extent();
+Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext) const {
   // Blender's shift is a fraction of the larger extent (Cycles: blender_camera_viewplane).
   const float s = 2.0f * std::max(ext.x, ext.y);
   const float sx = (2.0f * film.x / width - 1.0f) * ext.x + shift.x * s;

@@ -40,13 +40,16 @@ struct Camera {
   // Ray through position (x, y) in pixels of the whole image (0,0 = its top-left corner; a crop
   // window's film pixel (x, y) lies at (x + crop_x, y + crop_y)) with lens sample u_lens in
   // [0,1)^2. Direction is normalised.
-  Ray generate_ray(Vec2 film, Vec2 u_lens) const;
+  Ray generate_ray(Vec2 film, Vec2 u_lens) const { return generate_ray(film, u_lens, half_extent()); }
+  // The same with half_extent() computed once by a caller that makes many rays (it costs a tan).
+  Ray generate_ray(Vec2 film, Vec2 u_lens, Vec2 half_extent) const;
   // Half-extents of the image plane: at distance 1 (tan of the half angles) for a perspective
   // camera, in metres for an orthographic one.
   Vec2 half_extent() const;
   // Width of one pixel's footprint at `distance` along a camera ray (the ray-cone approximation
   // of ray differentials that photon methods use to size their first radius).
-  float pixel_footprint(float distance) const;
+  float pixel_footprint(float distance) const { return pixel_footprint(distance, half_extent()); }
+  float pixel_footprint(float distance, Vec2 half_extent) const;
   Vec3 position() const { return camera_to_world.point({0, 0, 0}); }
   // An empty string, or what is wrong (a crop outside the image, a non-finite value).
   std::string check() const;

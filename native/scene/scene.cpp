@@ -227,10 +227,39 @@ void Scene::commit() {
 std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   RawHit raw;
   if (!accel_->intersect(ray, raw)) return std::nullopt;
+  return surface_hit(raw, ray.d);
+}
+
+void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceHit>* hits) const {
+  thread_local std::vector<RawHit> raw;
+  thread_local std::unique_ptr<bool[]> found;  // (vector<bool> has no bool array to write into)
+  thread_local size_t capacity = 0;
+  raw.resize(n);
+  if (capacity < n) {
+    found.reset(new bool[n]);
+    capacity = n;
+  }
+  accel_->intersect_stream(rays, n, raw.data(), found.get(), true);
+  for (size_t i = 0; i < n; ++i) {
+    if (found[i]) hits[i] = surface_hit(raw[i], rays[i].d);
+    else hits[i].reset();
+  }
+}
+
+void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
+                       std::optional<SurfaceHit>* hits) {
+  const Vec2 ext = scene.camera.half_extent();  // a tan: once, not per ray
+  for (size_t i = 0; i < n; ++i) rays[i] = scene.camera.generate_ray(starts[i].film, starts[i].lens, ext);
+  scene.intersect_coherent(rays, n, hits);
+}
+
+std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_dir) const {
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
   const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
-  SurfaceHit h;
+  // Built in place in the returned optional (no copy of the record on every ray).
+  std::optional<SurfaceHit> out(std::in_place);
+  SurfaceHit& h = *out;
   h.t = raw.t;
   // Interpolating the vertices is more precise than o + t d far from the ray origin.
   h.p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
@@ -255,14 +284,14 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
       if (mat.normal_tex) n = normal_mapped(mat.normal_tex, mat.normal_strength, h.uv, n, dpdu, dpdv);
       if (mat.bump_tex) n = bump_mapped(mat.bump_tex, mat.bump_strength, mat.bump_distance, h.uv, n, dpdu, dpdv);
       if (dot(n, h.ng) < 0) n = -n;  // stays on the geometric side
-      h.ns = valid_reflection_normal(h.ng, -ray.d, n);
+      h.ns = valid_reflection_normal(h.ng, -ray_dir, n);
     }
   }
   h.frame = Frame(h.ns);
   h.mesh = raw.geom;
   h.prim = raw.prim;
   h.light = triangle_light_[raw.geom][raw.prim];
-  return h;
+  return out;
 }
 
 Vec2 Scene::uv_at(int mesh, int prim, const Vec3& p) const {

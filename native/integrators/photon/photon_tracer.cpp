@@ -1,6 +1,7 @@
 #include "integrators/photon/photon_tracer.h"
 
 #include <atomic>
+#include <optional>
 
 #include "core/parallel.h"
 #include "core/rng.h"
@@ -31,13 +32,15 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   PhotonOrigin last;                 // the previous scattering vertex (valid from bounce 1 on)
   // The light subpath since its last diffuse vertex (GPM's specular chains); a distant light's
   // chain keeps its direction (PhotonChain::dir).
-  PhotonChain chain;
+  // Only built when asked for: it is a few hundred bytes to clear on every path.
+  std::optional<PhotonChain> chain_store;
+  PhotonChain* chain = chains ? &chain_store.emplace() : nullptr;
   bool chain_ok = chains != nullptr;
   if (chains) {
-    chain.p = em->o;
-    chain.ng = distant ? Vec3(0.0f) : em->n;
-    chain.dir = distant ? em->d : Vec3(0.0f);
-    chain.light = em->light;
+    chain->p = em->o;
+    chain->ng = distant ? Vec3(0.0f) : em->n;
+    chain->dir = distant ? em->d : Vec3(0.0f);
+    chain->light = em->light;
   }
   if (record) {
     PhotonPathVertex lv;
@@ -55,6 +58,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     if (!hit) break;
     const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
+    const bool diffuse = bsdf.is_diffuse_for_photons(threshold_);
     if (record) {
       PhotonPathVertex v;
       v.p = hit->p;
@@ -76,9 +80,9 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         if (origins) {
           last.n_photon = hit->ng;
           last.chain = -1;
-          if (chain_ok && !last.diffuse && bounce > 0 && chain.count > 0) {
+          if (chain_ok && !last.diffuse && bounce > 0 && chain->count > 0) {
             last.chain = static_cast<int32_t>(chains->size());
-            chains->push_back(chain);
+            chains->push_back(*chain);
           }
           origins->push_back(last);
         }
@@ -114,22 +118,22 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       last.pdf = bs->pdf;
       last.material = hit->material;
       last.uv = hit->uv;
-      last.diffuse = bsdf.is_diffuse_for_photons(threshold_);
+      last.diffuse = diffuse;
     }
     if (chains) {
-      if (bsdf.is_diffuse_for_photons(threshold_)) {  // the new reconnection vertex y_b
-        chain.p = hit->p;
-        chain.ng = hit->ng;
-        chain.ns = hit->ns;
-        chain.wo = wo_world;
-        chain.material = hit->material;
-        chain.uv = hit->uv;
-        chain.light = -1;
-        chain.dir = Vec3(0.0f);
-        chain.count = 0;
+      if (diffuse) {  // the new reconnection vertex y_b
+        chain->p = hit->p;
+        chain->ng = hit->ng;
+        chain->ns = hit->ns;
+        chain->wo = wo_world;
+        chain->material = hit->material;
+        chain->uv = hit->uv;
+        chain->light = -1;
+        chain->dir = Vec3(0.0f);
+        chain->count = 0;
         chain_ok = true;
-      } else if (chain.count < kMaxChainVertices) {
-        chain.v[chain.count++] = ChainVertex{hit->p, hit->ng, hit->mesh, hit->prim, bs->transmission};
+      } else if (chain->count < kMaxChainVertices) {
+        chain->v[chain->count++] = ChainVertex{hit->p, hit->ng, hit->mesh, hit->prim, bs->transmission};
       } else {
         chain_ok = false;
       }

@@ -92,11 +92,20 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         EyePathHooks none;
+        // The tile's camera rays are traced together (Embree packets: the same hits, several
+        // times faster than one by one), then each path goes on alone from its first hit.
+        std::vector<PixelStart> starts;
         for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) {
+          for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(scene_.camera, seed_, pass, x, y));
+        std::vector<Ray> camera(starts.size());
+        std::vector<std::optional<SurfaceHit>> hits(starts.size());
+        trace_camera_rays(scene_, starts.data(), starts.size(), camera.data(), hits.data());
+        const Vec2 ext = scene_.camera.half_extent();
+        size_t k = 0;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x, ++k) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
-            EyePath path = trace_eye_path(scene_.camera.generate_ray(film, lens), rng, rays, none);
+            EyePath path = trace_eye_path(camera[k], starts[k].rng, rays, none, &hits[k]);
             if (!path.Ld.is_finite()) {
               ++invalid;
               path.Ld = RGB(0.0f);
@@ -108,7 +117,7 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
             pass_direct_[pixel] = path.Ld;
             pass_covered_[pixel] = path.escaped ? 0 : 1;
             vp_[pixel] = path.vp;
-            first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length) : 0.0f;
+            first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length, ext) : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;

@@ -135,8 +135,10 @@ class ProgressivePhotonMapping : public Integrator {
   // SPPM's camera path: through specular and glossy vertices by BSDF sampling (Russian roulette
   // from rr_depth) to the first photon-diffuse vertex, where it takes NEE when photons skip
   // direct light, and stops there as the measurement point.
+  // `first`, when given, is the closest hit of `ray` already traced (Scene::intersect_coherent).
   template <class Hooks>
-  EyePath trace_eye_path(Ray ray, Rng& rng, int64_t& rays, Hooks& hooks) const;
+  EyePath trace_eye_path(Ray ray, Rng& rng, int64_t& rays, Hooks& hooks,
+                         const std::optional<SurfaceHit>* first = nullptr) const;
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
@@ -187,8 +189,9 @@ class ProgressivePhotonMapping : public Integrator {
   // Initial radius from the pixel footprint: the cone one pixel subtends, grown along the eye
   // path to the gather point (a ray-cone stand-in for ray differentials), `footprint` pixels
   // wide. One rule for SPPM and the methods built on it (GPM's primal is SPPM's image).
-  float footprint_radius(float path_length) const {
-    return static_cast<float>(footprint_pixels_) * scene_.camera.pixel_footprint(path_length);
+  float footprint_radius(float path_length) const { return footprint_radius(path_length, scene_.camera.half_extent()); }
+  float footprint_radius(float path_length, Vec2 half_extent) const {
+    return static_cast<float>(footprint_pixels_) * scene_.camera.pixel_footprint(path_length, half_extent);
   }
   // First radius of every pixel whose gather point is new: `radius` if given, else its
   // footprint (first_r_), never below a scene-relative floor. Pixels with a radius keep it.
@@ -224,13 +227,16 @@ class ProgressivePhotonMapping : public Integrator {
 
 template <class Hooks>
 ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray ray, Rng& rng, int64_t& rays,
-                                                                           Hooks& hooks) const {
+                                                                           Hooks& hooks,
+                                                                           const std::optional<SurfaceHit>* first) const {
   const LightSet& lights = scene_.light_set();
   EyePath out;
   RGB beta(1.0f);
   for (int depth = 0; depth < max_depth_; ++depth) {
     ++rays;
-    const auto hit = scene_.intersect(ray);
+    const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
+    const std::optional<SurfaceHit>& hit = first ? *first : traced;
+    first = nullptr;
     // Emission seen along the camera path: only at depth 0 or after specular/glossy bounces,
     // which no photon covers, so nothing is counted twice.
     if (!hit) {

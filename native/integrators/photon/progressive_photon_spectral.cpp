@@ -97,11 +97,21 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         std::array<Material, kMaxWavelengths> mk;
+        // The tile's camera rays are traced together (as in eye_pass).
+        std::vector<PixelStart> starts;
         for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) {
+          for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(scene_.camera, seed_, pass, x, y));
+        std::vector<Ray> camera(starts.size());
+        std::vector<std::optional<SurfaceHit>> hits(starts.size());
+        trace_camera_rays(scene_, starts.data(), starts.size(), camera.data(), hits.data());
+        const Vec2 ext = scene_.camera.half_extent();
+        size_t i = 0;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x, ++i) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
-            Ray ray = scene_.camera.generate_ray(film, lens);
+            Rng& rng = starts[i].rng;
+            Ray ray = camera[i];
+            const std::optional<SurfaceHit>* first = &hits[i];
             SpectralValues beta{}, Ld{};
             for (int k = 0; k < C; ++k) beta[k] = 1.0f;
             bool hero_only = false;
@@ -112,7 +122,9 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
             };
             for (int depth = 0; depth < max_depth_; ++depth) {
               ++rays;
-              const auto hit = scene_.intersect(ray);
+              const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
+              const std::optional<SurfaceHit>& hit = first ? *first : traced;
+              first = nullptr;
               if (!hit) {
                 const int env = lights.environment();
                 if (env >= 0)
@@ -193,7 +205,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
             vp_[pixel] = vp;
             vp_beta_[pixel] = beta;
             vp_hero_[pixel] = hero_only ? 1 : 0;
-            first_r_[pixel] = vp.material >= 0 ? footprint_radius(path_length) : 0.0f;
+            first_r_[pixel] = vp.material >= 0 ? footprint_radius(path_length, ext) : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;

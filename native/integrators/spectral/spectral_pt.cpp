@@ -87,8 +87,8 @@ float light_scale(const LightSample& ls, const Light& l) {
   return ls.L[c] / l.emit[c];
 }
 
-SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng,
-                                      RayCounts& rays) const {
+SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
+                                      const std::optional<SurfaceHit>* first) const {
   const LightSet& lights = scene_.light_set();
   const int C = wl.count;
   // beta: throughput divided by the hero's path pdf. r_u: p(x | lambda_k) / p(x | hero) of the
@@ -111,7 +111,9 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
 
   for (int depth = 0;; ++depth) {
     ++rays.closest;
-    const auto hit = scene_.intersect(ray);
+    const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
+    const std::optional<SurfaceHit>& hit = first ? *first : traced;
+    first = nullptr;  // only the camera ray's hit is given
 
     // ---- Emission found by the ray ----
     if (!hit) {
@@ -227,11 +229,18 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
 }
 
 void SpectralPathTracer::iterate(ProgressSink* sink) {
-  estimate_.run_pass(seed_, tile_size_, threads_, sink, stats_,
-                     [this](Rng& rng, Vec2 film, Vec2 lens, RayCounts& rays) {
-                       const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
-                       return sample_to_rgb(Li(scene_.camera.generate_ray(film, lens), wl, rng, rays), wl);
-                     });
+  // A tile's camera rays are traced together (as in PathTracer::iterate).
+  estimate_.run_pass_tiles(seed_, tile_size_, threads_, sink, stats_,
+                           [this](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
+                             std::vector<Ray> camera(n);
+                             std::vector<std::optional<SurfaceHit>> hits(n);
+                             trace_camera_rays(scene_, starts, n, camera.data(), hits.data());
+                             for (size_t i = 0; i < n; ++i) {
+                               Rng& rng = starts[i].rng;
+                               const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
+                               out[i].L = sample_to_rgb(Li(camera[i], wl, rng, rays, &hits[i]), wl);
+                             }
+                           });
 }
 
 void SpectralPathTracer::develop(Film& film) const { estimate_.develop(film, pass::kCombined); }

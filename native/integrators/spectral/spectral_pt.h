@@ -73,7 +73,9 @@ class SpectralPathTracer : public Integrator {
 
   int wavelengths() const { return count_; }
   // Spectral radiance at the wavelengths `wl` along one camera ray (exposed for tests).
-  SpectralValues Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays) const;
+  // `first`, when given, is the closest hit of `ray` already traced (trace_camera_rays).
+  SpectralValues Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
+                    const std::optional<SurfaceHit>* first = nullptr) const;
 
  private:
   const Scene& scene_;

@@ -1,0 +1,93 @@
+"""F12 to the first pass on screen, in real Blender, split into its phases.
+
+    blender -b --factory-startup --python scripts/json_to_blend.py -- scenes/cornell-dense.json /tmp/cd.blend
+    blender -b /tmp/cd.blend --python scripts/bench_f12.py [-- --method pt --threads 2 --repeats 3]
+
+Renders the file's scene with gradphoton (bpy.ops.render.render, what F12 runs) stopping after
+one pass, and times, from the operator's call: the depsgraph export to numpy arrays, the native
+build (SceneBuilder: world-space copy, Embree BVH), the native session (the integrator's set-up),
+the first pass, its develop + copy into the render result, and the end of the first
+update_result (the image on screen). Each phase is timed by wrapping the addon's own functions,
+so the script measures the addon as it is. Background mode: Blender's window drawing is not
+included (the UI redraws the image editor after update_result).
+"""
+import os
+import sys
+import time
+
+import bpy
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+import addon_utils  # noqa: E402
+
+args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+
+
+def arg(name, default, kind=str):
+    return kind(args[args.index(name) + 1]) if name in args else default
+
+
+method = arg("--method", "pt")
+threads = arg("--threads", 2, int)
+repeats = arg("--repeats", 3, int)
+
+addon_utils.enable("gradphoton", default_set=False)
+from gradphoton import export, session  # noqa: E402
+
+marks = {}  # phase -> (wall start, wall end, cpu seconds of the whole process), this render's first
+
+
+def timed(name, fn):
+    def wrapper(*a, **kw):
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            return fn(*a, **kw)
+        finally:
+            marks.setdefault(name, (t0, time.perf_counter(), time.process_time() - c0))
+    return wrapper
+
+
+export.export_scene = timed("export", export.export_scene)
+session.export.export_scene = export.export_scene  # session.py reads it through its module
+export.ExportedScene.build = timed("build", export.ExportedScene.build)
+session.RenderSession._iterate_cancellable = timed("first pass", session.RenderSession._iterate_cancellable)
+session.RenderSession._write = timed("develop + copy", session.RenderSession._write)
+
+scene = bpy.context.scene
+scene.render.engine = 'GRADPHOTON'
+settings = scene.gradphoton
+settings.method = method
+settings.stop_rule = 'PASSES'
+settings.passes = 1
+if hasattr(settings, "threads"):
+    settings.threads = threads
+scene.render.threads_mode = 'FIXED'
+scene.render.threads = threads
+scene.render.use_persistent_data = False
+
+print(f"gradphoton F12: {bpy.data.filepath or 'unsaved scene'}, {scene.render.resolution_x}x"
+      f"{scene.render.resolution_y} at {scene.render.resolution_percentage}%, method {method}, "
+      f"threads {threads}, load average {os.getloadavg()[0]:.1f}")
+# What runs between the timed phases, by the phase it leads to.
+GAPS = {"export": "Blender before the export (render set-up, depsgraph)", "first pass":
+        "session set-up (native Session, begin_result)", "build": "between export and build"}
+totals = []
+for r in range(repeats):
+    marks.clear()
+    t0, c0 = time.perf_counter(), time.process_time()
+    bpy.ops.render.render()
+    total, cpu = time.perf_counter() - t0, time.process_time() - c0
+    first_on_screen = marks["develop + copy"][1] - t0  # update_result follows _write at once
+    print(f"run {r + 1}: first pass on screen {1e3 * first_on_screen:.0f} ms "
+          f"(operator {1e3 * total:.0f} ms wall, {1e3 * cpu:.0f} ms CPU)")
+    prev = t0
+    for name, (s, e, c) in sorted(marks.items(), key=lambda kv: kv[1][0]):
+        if s - prev > 0.005:
+            print(f"  {GAPS.get(name, 'untimed'):<48} {1e3 * (s - prev):6.0f} ms")
+        print(f"  {name:<48} {1e3 * (e - s):6.0f} ms  (CPU {1e3 * c:.0f} ms)")
+        prev = e
+    totals.append(first_on_screen)
+print(f"F12 to the first pass on screen: best {1e3 * min(totals):.0f} ms, median "
+      f"{1e3 * sorted(totals)[len(totals) // 2]:.0f} ms over {repeats} renders; load average "
+      f"{os.getloadavg()[0]:.1f} at the end")
