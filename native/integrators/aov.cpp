@@ -12,6 +12,7 @@ RGB material_albedo(const Material& material, Vec2 uv) {
   const BsdfParams m = bsdf_params(material, uv);
   switch (m.type) {
     case MaterialType::Emission: return RGB(0.0f);
+    case MaterialType::Principled: return m.color + RGB(sqr((m.ior - 1.0f) / (m.ior + 1.0f)));  // lobes added
     case MaterialType::Plastic: {
       const float f0 = sqr((m.ior - 1.0f) / (m.ior + 1.0f));
       return m.color * (1.0f - f0) + RGB(f0);

@@ -94,12 +94,14 @@ struct Ggx {
 
 // ---- Fresnel ----
 
-// Schlick 1994 approximation with per-channel normal-incidence reflectance f0.
-RGB fresnel_schlick(const RGB& f0, float cos_i) {
-  const float m = clamp(1.0f - cos_i, 0.0f, 1.0f);
-  const float m5 = (m * m) * (m * m) * m;
-  return f0 + (RGB(1.0f) - f0) * m5;
+// x^5 of x clamped to [0, 1] (Schlick's weight (1 - cos)^5).
+float pow5(float x) {
+  const float m = clamp(x, 0.0f, 1.0f);
+  return (m * m) * (m * m) * m;
 }
+
+// Schlick 1994 approximation with per-channel normal-incidence reflectance f0.
+RGB fresnel_schlick(const RGB& f0, float cos_i) { return f0 + (RGB(1.0f) - f0) * pow5(1.0f - cos_i); }
 
 // Mirror direction about the shading normal.
 Vec3 mirror_z(const Vec3& w) { return {-w.x, -w.y, w.z}; }
@@ -420,6 +422,77 @@ std::optional<BsdfSample> plastic_sample(const BsdfParams& m, const Vec3& wo, fl
   return lobe;
 }
 
+// ---- Principled: Cycles 3.4's Principled BSDF (v1), its non-metal part ----
+//
+// Two closures added, as Cycles' svm_closure.h builds them for Metallic 0, Transmission 0:
+//   f = Rd / pi * f_burley(wo, wi) + f_spec(wo, wi).
+// f_burley is Burley's diffuse ("Physically Based Shading at Disney", 2012, §5.3) in the split
+// form of "Extending the Disney BRDF to a BSDF with Integrated Subsurface Scattering" (2015,
+// §3.1): a Lambertian part (1 - F_L / 2)(1 - F_V / 2) plus the retro-reflection
+// R_R (F_L + F_V + F_L F_V (R_R - 1)), F = (1 - cos)^5, R_R = 2 r cos^2 theta_d = r (1 + wi.wo),
+// r Blender's roughness (sqrt of the GGX alpha). f_spec is the GGX microfacet reflection with
+// the exact dielectric Fresnel at the microfacet, F(wi.wm, ior): Cycles' "principled v1"
+// Fresnel, lerp(cspec0, 1, (F - F0) / (1 - F0)), is exactly that when cspec0 = F0 = 0.08
+// Specular (Specular Tint 0). Neither lobe is weighted by the other (Cycles adds them), so the
+// albedo may exceed one by a few per cent; that is Cycles' look, which this type reproduces
+// (the energy-conserving layer is `plastic`). Sampling picks the specular lobe with
+// probability ~ F(cos_o) against the diffuse colour, then returns the whole BSDF's f and pdf.
+
+float burley_diffuse(float r, const Vec3& wo, const Vec3& wi) {
+  const float fl = pow5(1.0f - abs_cos_theta(wi)), fv = pow5(1.0f - abs_cos_theta(wo));
+  const float rr = r * (1.0f + dot(wi, wo));
+  return (1.0f - 0.5f * fl) * (1.0f - 0.5f * fv) + rr * (fl + fv + fl * fv * (rr - 1.0f));
+}
+
+RGB principled_spec_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  if (m.roughness < kSmoothAlpha || !same_hemisphere(wo, wi)) return RGB(0.0f);
+  const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
+  if (cos_o == 0 || cos_i == 0) return RGB(0.0f);
+  Vec3 wm = wi + wo;
+  if (length_squared(wm) == 0) return RGB(0.0f);
+  wm = normalize(wm);
+  if (wm.z < 0) wm = -wm;
+  const Ggx ggx{m.roughness};
+  return RGB(fresnel_dielectric(absdot(wi, wm), m.ior) * ggx.D(wm) * ggx.G(wo, wi) /
+             (4.0f * cos_i * cos_o));  // [Walter07] eq. 20
+}
+
+RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+  const float r = std::sqrt(std::max(0.0f, m.roughness));
+  return m.color * (kInvPi * burley_diffuse(r, wo, wi)) + principled_spec_eval(m, wo, wi);
+}
+
+float principled_spec_probability(const BsdfParams& m, const Vec3& wo) {
+  const float F = fresnel_dielectric(abs_cos_theta(wo), m.ior);
+  return clamp(F / (F + std::max(0.0f, m.color.average()) + 1e-6f), 0.1f, 0.9f);
+}
+
+float principled_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  const float ps = principled_spec_probability(m, wo);
+  float pdf = (1.0f - ps) * diffuse_pdf(wo, wi);
+  if (m.roughness >= kSmoothAlpha) pdf += ps * conductor_pdf(m, wo, wi);
+  return pdf;
+}
+
+std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  const float ps = principled_spec_probability(m, wo);
+  // The conductor sampler of the same alpha draws the specular lobe's direction (its Fresnel
+  // plays no part in the direction); f is recomputed below.
+  auto lobe = uc < ps ? conductor_sample(m, wo, u) : diffuse_sample(m, wo, u);
+  if (!lobe) return std::nullopt;
+  if (lobe->delta) {  // a smooth specular lobe: its Dirac weight F / |cos|, chosen with probability ps
+    lobe->f = RGB(fresnel_dielectric(abs_cos_theta(wo), m.ior) / abs_cos_theta(wo));
+    lobe->pdf *= ps;
+    return lobe;
+  }
+  lobe->f = principled_eval(m, wo, lobe->wi);
+  lobe->pdf = principled_pdf(m, wo, lobe->wi);
+  if (!valid_sample(lobe->f, lobe->pdf)) return std::nullopt;
+  return lobe;
+}
+
 }  // namespace
 
 // ---- Mix and Add of two materials ----
@@ -542,6 +615,7 @@ RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
     case MaterialType::Dielectric: return dielectric_eval(p_, wo, wi, mode);
     case MaterialType::Emission: return RGB(0.0f);
     case MaterialType::Plastic: return plastic_eval(p_, wo, wi);
+    case MaterialType::Principled: return principled_eval(p_, wo, wi);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       RGB f(0.0f);
@@ -561,6 +635,7 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi) const {
     case MaterialType::Dielectric: return dielectric_pdf(p_, wo, wi);
     case MaterialType::Emission: return 0.0f;
     case MaterialType::Plastic: return plastic_pdf(p_, wo, wi);
+    case MaterialType::Principled: return principled_pdf(p_, wo, wi);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       float pdf = 0;
@@ -579,6 +654,7 @@ std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, T
     case MaterialType::Dielectric: return dielectric_sample(p_, wo, uc, u, mode);
     case MaterialType::Emission: return std::nullopt;
     case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u);
+    case MaterialType::Principled: return principled_sample(p_, wo, uc, u);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       const bool pick_b = uc < p.prob_b;
@@ -630,7 +706,8 @@ bool Bsdf::is_diffuse_for_photons(float threshold) const {
     case MaterialType::Conductor:
     case MaterialType::Dielectric: return p_.roughness > threshold;
     case MaterialType::Emission: return false;
-    case MaterialType::Plastic: return true;  // its diffuse base stores photons
+    case MaterialType::Plastic:
+    case MaterialType::Principled: return true;  // its diffuse lobe stores photons
     case MaterialType::Mix:
       return component(p_.mix_a).is_diffuse_for_photons(threshold) || component(p_.mix_b).is_diffuse_for_photons(threshold);
   }

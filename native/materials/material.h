@@ -1,6 +1,6 @@
 // The closed material set (DESIGN.md): diffuse, conductor, dielectric, emission-only, plastic
-// (a Fresnel-weighted diffuse base under a GGX dielectric coat: Principled's non-metal case)
-// and mix/add of two materials (Blender's Mix and Add Shader). A Material is plain parameters,
+// (a Fresnel-weighted diffuse base under a GGX dielectric coat), principled (Cycles' Principled
+// BSDF non-metal: Burley diffuse plus GGX specular, added as Cycles does) and mix/add of two materials (Blender's Mix and Add Shader). A Material is plain parameters,
 // some of which an image texture may drive (textures/texture.h); bsdf.h turns it into a BSDF
 // at one surface point, evaluated in a local frame.
 #pragma once
@@ -15,7 +15,7 @@
 
 namespace gp {
 
-enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Mix };
+enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Principled, Mix };
 
 // Default roughness below which a BSDF counts as specular for photon methods
 // (gradient-domain photon density estimation §4.3 / §6: "roughness threshold 0.05").
@@ -34,6 +34,9 @@ struct Material {
   // every angle (Blender's Glossy BSDF).
   bool conductor_fresnel = true;
   // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
+  // Principled (Cycles 3.4's Principled BSDF, non-metal): `color` the base colour, `roughness`
+  // the specular lobe's GGX alpha (its square root drives the diffuse retro-reflection), `ior`
+  // the specular lobe's (from Blender's Specular s: F0 = 0.08 s).
   float ior = 1.5f;       // dielectric: interior IOR (Cauchy A) over an outside of 1
   float cauchy_b = 0.0f;  // Cauchy B in um^2: n(lambda) = A + B / lambda^2 (spectral mode)
   // Emitted radiance (W sr^-1 m^-2) = emission * strength; any type may emit.
@@ -101,6 +104,7 @@ inline const char* to_string(MaterialType t) {
     case MaterialType::Dielectric: return "dielectric";
     case MaterialType::Emission: return "emission";
     case MaterialType::Plastic: return "plastic";
+    case MaterialType::Principled: return "principled";
     case MaterialType::Mix: return "mix";
   }
   return "?";

@@ -90,8 +90,8 @@ class Loader : private JsonReader {
       } else if (type == "emission") {
         mat.type = MaterialType::Emission;
         mat.emission = RGB(1.0f);
-      } else if (type == "plastic") {
-        mat.type = MaterialType::Plastic;
+      } else if (type == "plastic" || type == "principled") {
+        mat.type = type == "plastic" ? MaterialType::Plastic : MaterialType::Principled;
         keys.insert(keys.end(), {"color", "roughness", "ior"});
       } else if (type == "mix" || type == "add") {
         mat.type = MaterialType::Mix;
@@ -108,7 +108,7 @@ class Loader : private JsonReader {
       } else {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
-                         "mix, add)", type));
+                         "principled, mix, add)", type));
       }
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())

@@ -6,13 +6,14 @@ any of these (nested too), a material without nodes (its viewport diffuse colour
 roughness r becomes the GGX alpha r^2.
 
 Principled BSDF, as layers of the core's materials:
-  - the non-metal part is a plastic: a GGX dielectric coat (IOR from Specular, F0 = 0.08
-    Specular, as Cycles) over a Fresnel-weighted diffuse base of the base colour;
-  - Metallic m mixes it with a conductor of the base colour: mix(plastic, metal, m);
+  - the non-metal part is the core's `principled`: Cycles 3.4's two closures added, Burley's
+    diffuse with its retro-reflection (roughness r) and a GGX specular lobe (alpha r^2) with the
+    dielectric Fresnel of IOR (1 + sqrt F0) / (1 - sqrt F0), F0 = 0.08 Specular, as Cycles;
+  - Metallic m mixes it with a conductor of the base colour: mix(principled, metal, m), as
+    Cycles' weights (diffuse 1 - m, its one specular closure linear in m);
   - Transmission t mixes that with glass: mix(..., glass, (1 - m) t).
-  Cycles 3.4's Principled diffuse is not Fresnel-weighted (Disney diffuse, the specular added
-  on top): gradphoton's plastic reflects at most all the light, so a Principled non-metal
-  renders a little darker than in Cycles (docs/blender.md gives the measured difference).
+  Specular Tint is ignored (a counted warning); the metal's Fresnel is Schlick's of the base
+  colour (Cycles interpolates with the dielectric Fresnel: within 1 % in the tests).
 
 Textures (export/texture.py): an Image Texture may drive Base Color / Color, Roughness,
 Metallic (the mix factor of the metal layer), Alpha (coverage: a stochastic cut-out), a Mix
@@ -246,11 +247,13 @@ class MaterialExporter:
         alpha = self._input(node, "Roughness", mat, scalar=True, square=True)  # GGX alpha = r^2
         trans = min(1.0, max(0.0, self._value(node, "Transmission", mat).default_value))
         spec = max(0.0, self._value(node, "Specular", mat).default_value)
-        # Cycles: F0 = 0.08 Specular for the dielectric layer: IOR (1 + sqrt F0) / (1 - sqrt F0).
+        # Cycles: F0 = 0.08 Specular for the specular lobe: IOR (1 + sqrt F0) / (1 - sqrt F0)
+        # (Specular 0: IOR 1, no specular reflection, the Burley diffuse alone).
         sf0 = min(0.99, (0.08 * spec) ** 0.5)
-        d = {"type": "plastic", "color": base, "roughness": alpha, "ior": (1 + sf0) / (1 - sf0)}
-        if sf0 == 0:  # Specular 0: no coat, the plastic is its Lambertian base
-            d = {"type": "diffuse", "color": base}
+        d = {"type": "principled", "color": base, "roughness": alpha, "ior": (1 + sf0) / (1 - sf0)}
+        tint = node.inputs.get("Specular Tint")
+        if tint is not None and (tint.is_linked or tint.default_value > 0):
+            self.w.add("Principled BSDF Specular Tint ignored", f"'{mat.name}'")
         metal = {"type": "conductor", "color": base, "roughness": alpha}
         if isinstance(metallic, dict):  # a metallic map: the metal layer's weight per point
             d = {"type": "mix", "a": self._part(d, mat, node, "plastic"), "b": self._part(metal, mat, node, "metal"),
