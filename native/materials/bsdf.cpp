@@ -110,6 +110,34 @@ bool valid_sample(const RGB& f, float pdf) {
   return pdf > 0 && std::isfinite(pdf) && f.is_finite();
 }
 
+// ---- Bump shadowing (Cycles' diffuse closures under a normal or bump map) ----
+//
+// Chiang, Li, Burley 2019, "Taming the Shadow Terminator" (SIGGRAPH Talks), eq. 3-4: a diffuse
+// lobe whose shading normal n a map has bent away from the surface's smooth normal n_s is
+// scaled by G = min(1, (n_s.w) / ((n.w)(n_s.n))) for the light's direction w, smoothed as
+// -G^3 + G^2 + G; 0 where w is below n_s. Cycles 3.4 applies it to every diffuse closure whose
+// normal differs from the smooth one, in evaluation and sampling alike (kernel/closure/bsdf.h),
+// so a normal-mapped diffuse surface reflects less light arriving at grazing angles to its
+// geometry (the sky, a low sun) than the bare bent cosine would.
+// `m.smooth_normal` (local frame) is zero where no map bent the normal: G = 1.
+float bump_shadowing_term(const Vec3& n_smooth, const Vec3& w) {
+  if (w.z == 0) return 0.0f;
+  const Vec3 ns = w.z < 0 ? -n_smooth : n_smooth;  // the side w lies on (two-sided BSDFs)
+  const float denom = w.z * ns.z;
+  if (denom == 0) return 0.0f;
+  const float g = dot(ns, w) / denom;
+  if (g >= 1.0f) return 1.0f;
+  if (g < 0.0f) return 0.0f;
+  return g * (1.0f + g * (1.0f - g));  // -g^3 + g^2 + g
+}
+
+// The term for a pair: the light arrives along wi in radiance transport, along wo in importance
+// transport (photons), where the BSDF is the adjoint.
+float bump_shadowing(const BsdfParams& m, const Vec3& wo, const Vec3& wi, TransportMode mode) {
+  if (m.smooth_normal.x == 0 && m.smooth_normal.y == 0 && m.smooth_normal.z == 0) return 1.0f;
+  return bump_shadowing_term(m.smooth_normal, mode == TransportMode::Radiance ? wi : wo);
+}
+
 // ---- Diffuse ----
 
 RGB diffuse_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
@@ -393,8 +421,8 @@ RGB plastic_base_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   return m.color * (k * kInvPi);
 }
 
-RGB plastic_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
-  RGB f = plastic_base_eval(m, wo, wi);
+RGB plastic_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f) {
+  RGB f = plastic_base_eval(m, wo, wi) * g;
   if (m.roughness >= kSmoothAlpha) f += conductor_eval(plastic_coat(m), wo, wi);
   return f;
 }
@@ -406,7 +434,7 @@ float plastic_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   return pdf;
 }
 
-std::optional<BsdfSample> plastic_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u) {
+std::optional<BsdfSample> plastic_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u, TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
   const float pc = coat_probability(m, wo);
   auto lobe = uc < pc ? conductor_sample(plastic_coat(m), wo, u) : diffuse_sample(m, wo, u);
@@ -416,7 +444,7 @@ std::optional<BsdfSample> plastic_sample(const BsdfParams& m, const Vec3& wo, fl
     return lobe;
   }
   // A non-Dirac direction: f and pdf of the whole BSDF (one-sample MIS over the lobes).
-  lobe->f = plastic_eval(m, wo, lobe->wi);
+  lobe->f = plastic_eval(m, wo, lobe->wi, bump_shadowing(m, wo, lobe->wi, mode));
   lobe->pdf = plastic_pdf(m, wo, lobe->wi);
   if (!valid_sample(lobe->f, lobe->pdf)) return std::nullopt;
   return lobe;
@@ -457,10 +485,10 @@ RGB principled_spec_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
              (4.0f * cos_i * cos_o));  // [Walter07] eq. 20
 }
 
-RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
   const float r = std::sqrt(std::max(0.0f, m.roughness));
-  return m.color * (kInvPi * burley_diffuse(r, wo, wi)) + principled_spec_eval(m, wo, wi);
+  return m.color * (kInvPi * burley_diffuse(r, wo, wi) * g) + principled_spec_eval(m, wo, wi);
 }
 
 float principled_spec_probability(const BsdfParams& m, const Vec3& wo) {
@@ -475,7 +503,7 @@ float principled_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   return pdf;
 }
 
-std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u) {
+std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u, TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
   const float ps = principled_spec_probability(m, wo);
   // The conductor sampler of the same alpha draws the specular lobe's direction (its Fresnel
@@ -487,7 +515,7 @@ std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo,
     lobe->pdf *= ps;
     return lobe;
   }
-  lobe->f = principled_eval(m, wo, lobe->wi);
+  lobe->f = principled_eval(m, wo, lobe->wi, bump_shadowing(m, wo, lobe->wi, mode));
   lobe->pdf = principled_pdf(m, wo, lobe->wi);
   if (!valid_sample(lobe->f, lobe->pdf)) return std::nullopt;
   return lobe;
@@ -609,13 +637,13 @@ std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, Transpo
 
 RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
   switch (kind()) {
-    case MaterialType::Diffuse: return diffuse_eval(p_, wo, wi);
+    case MaterialType::Diffuse: return diffuse_eval(p_, wo, wi) * bump_shadowing(p_, wo, wi, mode);
     case MaterialType::Conductor:
       return p_.roughness < kSmoothAlpha ? RGB(0.0f) : conductor_eval(p_, wo, wi);
     case MaterialType::Dielectric: return dielectric_eval(p_, wo, wi, mode);
     case MaterialType::Emission: return RGB(0.0f);
-    case MaterialType::Plastic: return plastic_eval(p_, wo, wi);
-    case MaterialType::Principled: return principled_eval(p_, wo, wi);
+    case MaterialType::Plastic: return plastic_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode));
+    case MaterialType::Principled: return principled_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode));
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       RGB f(0.0f);
@@ -649,12 +677,16 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi) const {
 
 std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
   switch (kind()) {
-    case MaterialType::Diffuse: return diffuse_sample(p_, wo, u);
+    case MaterialType::Diffuse: {
+      auto s = diffuse_sample(p_, wo, u);
+      if (s) s->f *= bump_shadowing(p_, wo, s->wi, mode);
+      return s;
+    }
     case MaterialType::Conductor: return conductor_sample(p_, wo, u);
     case MaterialType::Dielectric: return dielectric_sample(p_, wo, uc, u, mode);
     case MaterialType::Emission: return std::nullopt;
-    case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u);
-    case MaterialType::Principled: return principled_sample(p_, wo, uc, u);
+    case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u, mode);
+    case MaterialType::Principled: return principled_sample(p_, wo, uc, u, mode);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       const bool pick_b = uc < p.prob_b;

@@ -42,6 +42,9 @@ struct BsdfParams {
   float mix_factor = 0.5f;
   bool mix_add = false;
   const Material *mix_a = nullptr, *mix_b = nullptr;
+  // The surface's smooth normal (before a normal or bump map) in the shading frame, for the
+  // bump shadowing term of diffuse lobes (bsdf.cpp); zero where no map bent the normal.
+  Vec3 smooth_normal{0, 0, 0};
 };
 
 // The parameters of `m` at texture coordinate uv.
@@ -67,17 +70,27 @@ class Bsdf {
   bool is_black() const;
   // Photon-method classification: diffuse when roughness > threshold (GPM §4.3).
   bool is_diffuse_for_photons(float threshold = kDefaultSpecularThreshold) const;
-  // The geometric normal in the local frame, where a normal or bump map bent the shading normal:
-  // then a direction pair on the wrong side of the geometric surface for its lobe (a
-  // reflection through the surface, a transmission that stays on one side) scatters nothing,
-  // as Cycles does, so a bent normal never lets light through an opaque surface.
-  void set_geometric_normal(const Vec3& ng_local) { ng_ = ng_local; }
+  // Where a normal or bump map bent the shading normal: the geometric normal and the smooth
+  // (interpolated, unmapped) normal in the local frame. Then a direction pair on the wrong side
+  // of the geometric surface for its lobe (a reflection through the surface, a transmission
+  // that stays on one side) scatters nothing, as Cycles does, so a bent normal never lets light
+  // through an opaque surface; and diffuse lobes take Cycles' bump shadowing term against the
+  // smooth normal (bsdf.cpp).
+  void set_surface_normals(const Vec3& ng_local, const Vec3& smooth_local) {
+    ng_ = ng_local;
+    p_.smooth_normal = smooth_local;
+  }
   // The parameters it evaluates (type, IOR, colour at this point).
   const BsdfParams& params() const { return p_; }
 
  private:
   MaterialType kind() const;
-  Bsdf component(const Material* m) const { return Bsdf(*m, uv_); }
+  Bsdf component(const Material* m) const {  // a mix's part, with the surface's normals
+    Bsdf b(*m, uv_);
+    b.ng_ = ng_;
+    b.p_.smooth_normal = p_.smooth_normal;
+    return b;
+  }
   BsdfParams p_;
   Vec2 uv_;
   Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)

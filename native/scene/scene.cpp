@@ -271,6 +271,7 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
     if (len > 0 && std::isfinite(len)) h.ns = n / len;
     if (dot(h.ns, h.ng) < 0) h.ns = -h.ns;  // shading normal on the geometric side
   }
+  h.n_smooth = h.ns;
   if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
   else h.uv = Vec2(b1, b2);
   h.material = static_cast<int>(m.material_ids[raw.prim]);

@@ -57,6 +57,7 @@ struct SurfaceHit {
   Vec3 p;
   Vec3 ng;        // unit geometric normal (triangle winding)
   Vec3 ns;        // unit shading normal, on the same side as ng
+  Vec3 n_smooth;  // the interpolated normal before normal/bump maps (Cycles' sd->N)
   Vec2 uv;
   Frame frame;    // shading frame around ns
   int mesh = -1, prim = -1;
@@ -158,7 +159,8 @@ class Scene {
   // integrator shades through these, so the photon and gradient methods see the same textures.
   Bsdf bsdf(const SurfaceHit& h) const {
     Bsdf b(materials[h.material], h.uv);
-    if (materials[h.material].perturbs_normal()) b.set_geometric_normal(h.frame.to_local(h.ng));
+    if (materials[h.material].perturbs_normal())
+      b.set_surface_normals(h.frame.to_local(h.ng), h.frame.to_local(h.n_smooth));
     return b;
   }
   Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }

@@ -1,8 +1,8 @@
 """Textures against Cycles 3.4, from the same .blend: a floor whose image drives a Diffuse
 colour, a normal map, a Mix Shader's factor, or a Principled BSDF's base colour, roughness
 and normal (scenes.textured_floor). Means within 0.5 % where the closures are Cycles' own (the
-normal-map and Principled cases are held to bands around their measured ratios, see RATIO); relMSE (as test_cycles_brightness) below
-about twice what was measured. Also: a missing image is one warning and renders magenta, a
+Principled case within 1 %, see RATIO); relMSE (as test_cycles_brightness) below about twice
+what was measured. Also: a missing image is one warning and renders magenta, a
 packed image renders as its file does."""
 import os
 
@@ -16,23 +16,26 @@ from test_cycles_brightness import read_rgb, relmse, render_both
 
 SIZE = (48, 36)
 # Measured (64 samples each, seeded), gradphoton/Cycles mean and relMSE: diffuse 1.0003 /
-# 0.0046, mix 0.9973 / 0.0050, normal_map 1.043 / 0.0083, principled 1.021 / 0.19. Bounds:
-# about twice the relMSE; means within 0.5 % where Cycles' closures are ours (diffuse, mix).
-# Held to bands around the measured ratio, so a change shows (docs/blender.md):
-#  - normal_map: lit by the sun alone it agrees within 2 % (relMSE 0.0009); the dim sky, which
-#    also lights the floor from below its plane, comes out 11 % brighter than in Cycles, whose
-#    bent-normal diffuse loses more of the sky than ours (not yet understood);
-#  - principled: a Fresnel-weighted plastic by design (test_cycles_brightness: 0.94 untextured),
-#    here with the normal map's excess on top; its sun highlights differ pixel by pixel.
-RATIO = {"diffuse": (0.995, 1.005), "mix": (0.995, 1.005), "normal_map": (1.02, 1.07), "principled": (0.99, 1.06)}
-RELMSE = {"diffuse": 0.01, "mix": 0.01, "normal_map": 0.02, "principled": 0.4}
+# 0.0046, mix 0.9973 / 0.0050, normal_map 0.9996 / 0.0059, principled (512 samples) 1.0015 / 0.0044
+# (seeds 2, 3: 0.9991, 0.9937). Cycles' own mean moves by 0.005 % between seeds (normal map, 64
+# samples).
+# Bounds: about twice the relMSE; means within 0.5 % (Cycles' closures are ours: the normal map
+# through Cycles' bump shadowing term on diffuse lobes, the Principled as the core's
+# `principled`); 1 % for the Principled (our noise: see SAMPLES).
+RATIO = {"diffuse": (0.995, 1.005), "mix": (0.995, 1.005), "normal_map": (0.995, 1.005), "principled": (0.99, 1.01)}
+RELMSE = {"diffuse": 0.01, "mix": 0.01, "normal_map": 0.012, "principled": 0.01}
+# The Principled floor's highlights come from a rough-mapped, normal-mapped specular lobe:
+# within a pixel they vary faster than our independent pixel samples resolve (Cycles' stratified
+# ones do better): at 64 samples our mean moves by +-2 % between seeds (Cycles' by 0.2 %), at
+# 1024 both agree within 0.15 % (relMSE 0.0007). So that case takes 512 samples.
+SAMPLES = {"principled": 512}
 
 
 @pytest.mark.parametrize("case", list(RATIO))
 def test_textured_floor_against_cycles(empty_scene, out_dir, case):
     scenes.textured_floor(empty_scene, case, str(out_dir))
     empty_scene.render.resolution_x, empty_scene.render.resolution_y = SIZE
-    ours, cycles = render_both(empty_scene, str(out_dir), case, samples=64, bounces=4)
+    ours, cycles = render_both(empty_scene, str(out_dir), case, samples=SAMPLES.get(case, 64), bounces=4)
     ratio = ours.sum() / cycles.sum()
     err = relmse(ours, cycles)
     print(f"TEXTURE {case}: gradphoton/cycles = {ratio:.4f}, relMSE {err:.5f}")

@@ -815,6 +815,55 @@ TEST(BsdfFurnace, PrincipledMatchesCyclesClosuresInClosedForm) {
   EXPECT_LT(mean, 1.07);
 }
 
+TEST(BumpShadowing, CyclesTermOnDiffuseLobesOnly) {
+  // Shading normal +z bent 30 degrees from the smooth (and geometric) normal ns. Light along
+  // w = (-0.5, 0, 0.866): G = (ns.w) / ((n.w)(ns.n)) = 0.5 / 0.75 = 2/3, smoothed to
+  // -G^3 + G^2 + G = 0.8148 (Chiang et al. 2019). Light along ns: G >= 1, no change.
+  const Vec3 ns(0.5f, 0.0f, std::sqrt(0.75f));
+  const Vec3 w_low(-0.5f, 0.0f, std::sqrt(0.75f)), wo = wo_at(0.8f);
+  const float g = 2.0f / 3.0f, expected = -g * g * g + g * g + g;
+  const Material white = make(MaterialType::Diffuse, 0, RGB(1.0f));
+  Bsdf bent(white), flat(white);
+  bent.set_surface_normals(ns, ns);
+  EXPECT_NEAR(bent.eval(wo, w_low).r / flat.eval(wo, w_low).r, expected, 1e-5);
+  EXPECT_NEAR(bent.eval(wo, ns).r / flat.eval(wo, ns).r, 1.0f, 1e-6);
+  // Importance transport (photons): the light arrives along wo, so the pair is read reversed.
+  EXPECT_NEAR(bent.eval(w_low, wo, TransportMode::Importance).r / flat.eval(w_low, wo).r, expected, 1e-5);
+  // A glossy lobe keeps its value; a mix's diffuse part takes the term.
+  const Material metal = make(MaterialType::Conductor, 0.3f, RGB(0.9f));
+  Bsdf bent_metal(metal);
+  bent_metal.set_surface_normals(ns, ns);
+  EXPECT_NEAR(bent_metal.eval(wo, w_low).r, Bsdf(metal).eval(wo, w_low).r, 1e-6);
+  const Material m = mix(white, metal, 0.5f);
+  Bsdf bent_mix(m);
+  bent_mix.set_surface_normals(ns, ns);
+  const float mixed = 0.5f * flat.eval(wo, w_low).r * expected + 0.5f * Bsdf(metal).eval(wo, w_low).r;
+  EXPECT_NEAR(bent_mix.eval(wo, w_low).r, mixed, 1e-5);
+}
+
+TEST(BumpShadowing, SampledWeightsIntegrateTheShadowedLobe) {
+  // The sampler returns f with the term (its pdf unchanged): the mean weight equals the
+  // albedo of f G cos by quadrature over the hemisphere of wo (200 x 400 midpoint grid).
+  const Vec3 ns = normalize(Vec3(0.6f, 0.2f, 0.75f));
+  for (MaterialType type : {MaterialType::Diffuse, MaterialType::Principled}) {
+    const Material m = make(type, 0.25f, RGB(0.8f));
+    Bsdf bsdf(m);
+    bsdf.set_surface_normals(ns, ns);
+    const Vec3 wo = wo_at(0.7f, 2.5f);
+    double quad = 0;
+    constexpr int kT = 200, kP = 400;
+    for (int i = 0; i < kT; ++i)
+      for (int j = 0; j < kP; ++j) {
+        const float ct = (i + 0.5f) / kT, phi = 2 * kPi * (j + 0.5f) / kP, st = std::sqrt(1 - ct * ct);
+        const Vec3 wi(st * std::cos(phi), st * std::sin(phi), ct);
+        quad += bsdf.eval(wo, wi).r * ct * (1.0 / kT) * (2 * kPi / kP);  // d omega = d cos d phi
+      }
+    const auto [mean, max_weight] = albedo(bsdf, wo, TransportMode::Radiance, 200000, 10);
+    EXPECT_NEAR(mean, quad, 3e-3) << to_string(type);
+    EXPECT_LT(quad, 0.8 * 0.99) << to_string(type);  // the term takes something away here
+  }
+}
+
 TEST(BsdfFurnace, MixIsTheWeightedSumAndAddOfTwoHalvesIsOne) {
   // Mix of white diffuse and a white mirror reflects everything whatever the factor; Add of
   // two half-white diffuse BSDFs reflects as one white diffuse.
