@@ -33,7 +33,15 @@ def _principled(name, m):
         bsdf.inputs["IOR"].default_value = m["ior"]
         if m["cauchy_b"] > 0:
             mat.gradphoton.dispersion, mat.gradphoton.cauchy_b = 'CAUCHY', m["cauchy_b"]
-    elif m["type"] == "diffuse":
+    elif m["type"] == "diffuse" and not (m["strength"] > 0 and max(m["emission"]) > 0):
+        # A Lambertian surface is Blender's Diffuse BSDF (a Principled BSDF's diffuse is Burley's).
+        nodes = mat.node_tree.nodes
+        nodes.remove(bsdf)
+        diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+        diffuse.inputs["Color"].default_value = color
+        mat.node_tree.links.new(diffuse.outputs[0], nodes["Material Output"].inputs["Surface"])
+        return mat
+    elif m["type"] == "diffuse":  # emissive: the Principled's own emission, Specular 0
         bsdf.inputs["Specular"].default_value = 0.0
     if m["type"] == "emission":
         nodes = mat.node_tree.nodes
