@@ -103,6 +103,13 @@ struct Bounds3 {
   Vec3 center() const { return (lo + hi) * 0.5f; }
 };
 
+// Cycles' per-object Ray Visibility switches as bits: camera, and the three kinds of bounce
+// ray, whose kind is the BSDF lobe that sampled them (a transmission of any roughness is
+// kRayTransmission; diffuse and glossy are reflections). BsdfSample::lobe and the lobe masks of
+// Bsdf::eval/pdf use the same bits.
+enum RayVisibility : uint8_t { kRayCamera = 1, kRayDiffuse = 2, kRayGlossy = 4, kRayTransmission = 8 };
+inline constexpr uint8_t kAllLobes = kRayDiffuse | kRayGlossy | kRayTransmission;
+
 struct Ray {
   Vec3 o, d;
   float tmin = 0.0f, tmax = kInfinity;
@@ -110,6 +117,10 @@ struct Ray {
   // (Blender's object Visibility > Camera, off for light objects) let camera rays through.
   // Every other ray (bounces, photons, shadow rays) is built fresh and is not a camera ray.
   bool camera = false;
+  // A bounce ray's kind (kRayDiffuse, kRayGlossy or kRayTransmission), set by integrators that
+  // honour the per-kind switches (the path tracer): surfaces hidden from that kind let it
+  // through. 0: not a bounce ray of a known kind, every surface is there.
+  uint8_t bounce = 0;
   Ray() = default;
   Ray(const Vec3& o_, const Vec3& d_, float tmin_ = 0.0f, float tmax_ = kInfinity)
       : o(o_), d(d_), tmin(tmin_), tmax(tmax_) {}

@@ -30,12 +30,61 @@ RGB PathTracer::clamped(const RGB& c, bool direct) const {
   return limit > 0 && sum > limit ? c * (limit / sum) : c;
 }
 
+namespace {
+// Cycles' per-kind ray visibility of lights (Light::visible_lobes). A BSDF ray's kind is the lobe
+// that sampled it; a light hidden from some kinds is lit only through the lobes that see it.
+// For an unbiased estimate of that restricted integral, int f_V Le, which next-event
+// estimation (f and pdf restricted to the visible lobes V) and BSDF hits share under MIS, a hit
+// counts only when the sampled lobe is in V, weighted f_V cos / p_V with p_V the density of
+// reaching the direction through V's lobes (the restricted BSDF pdf): its expectation is then
+// int f_V Le w_bsdf(p_V), and NEE's int f_V Le w_light(p_V), which sum to int f_V Le.
+struct LobeSplit {
+  RGB f[3];        // f of the diffuse, glossy, transmission lobes for the sampled direction
+  float pdf[3]{};  // their share of the BSDF's sampling density
+  RGB beta;        // throughput before the vertex (Russian roulette's factor included)
+  float cos = 0;   // |cos| of the sampled direction
+  uint8_t lobe = 0;
+
+  void fill(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi) {
+    for (int k = 0; k < 3; ++k) {
+      const uint8_t bit = static_cast<uint8_t>(kRayDiffuse << k);
+      f[k] = bsdf.eval(wo, wi, TransportMode::Radiance, bit);
+      pdf[k] = bsdf.pdf(wo, wi, bit);
+    }
+    cos = std::abs(wi.z);
+  }
+  // The contribution of emission Le found by the BSDF ray, from a light visible to `vis`
+  // (a Dirac sample: full weight when its lobe sees the light).
+  RGB weigh(const RGB& Le, uint8_t vis, bool delta, const RGB& beta_now, float pdf_light) const {
+    if (!(vis & lobe)) return RGB(0.0f);
+    if (delta) return beta_now * Le;
+    RGB fv(0.0f);
+    float pv = 0;
+    for (int k = 0; k < 3; ++k)
+      if (vis & (kRayDiffuse << k)) {
+        fv += f[k];
+        pv += pdf[k];
+      }
+    if (!(pv > 0)) return RGB(0.0f);
+    return beta * fv * (cos / pv) * Le * power_heuristic(pv, pdf_light);
+  }
+};
+}  // namespace
+
 RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
   const LightSet& lights = scene_.light_set();
+  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
   RGB L(0.0f), beta(1.0f);
   bool specular_bounce = false;
   float prev_pdf = 0;  // solid-angle pdf of the BSDF sample that produced `ray`
   Vec3 prev_p;
+  LobeSplit prev;      // the previous vertex's lobes, where some light is hidden from some kinds
+  // Emission Le found by the BSDF ray from a light visible to `vis` (MIS against pdf_light).
+  auto emitted = [&](int depth, const RGB& Le, uint8_t vis, float pdf_light) -> RGB {
+    if (depth == 0) return beta * Le;
+    if (vis != kAllLobes) return prev.weigh(Le, vis, specular_bounce, beta, pdf_light);
+    return beta * Le * (specular_bounce ? 1.0f : power_heuristic(prev_pdf, pdf_light));
+  };
   constexpr int kMaxPassThrough = 8;  // Cycles: Light Paths > Transparent, 8 by default
   int pass_through = 0;
   for (int depth = 0;; ++depth) {
@@ -49,10 +98,8 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
     if (depth > 0) {
       float t_disk, pdf_disk;
       RGB Le;
-      if (lights.intersect_disk(ray, hit ? hit->t : kInfinity, &t_disk, &Le, &pdf_disk) >= 0) {
-        const float w = specular_bounce ? 1.0f : power_heuristic(prev_pdf, pdf_disk);
-        L += clamped(beta * Le * w, depth <= 1);
-      }
+      if (const int l = lights.intersect_disk(ray, hit ? hit->t : kInfinity, &t_disk, &Le, &pdf_disk); l >= 0)
+        L += clamped(emitted(depth, Le, lights.lights()[l].visible_lobes, pdf_disk), depth <= 1);
     }
 
     // ---- Emission found by the ray: full weight for camera and specular rays, MIS otherwise
@@ -63,28 +110,25 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
         break;
       }
       const RGB Le = lights.environment_radiance(ray.d);
-      if (!Le.is_black()) {
-        const float w = (depth == 0 || specular_bounce) ? 1.0f : power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
-        L += clamped(beta * Le * w, depth <= 1);
-      }
+      if (!Le.is_black()) L += clamped(emitted(depth, Le, kAllLobes, lights.pdf_environment(ray.d)), depth <= 1);
       break;
     }
     if (hit->light >= 0) {
       const RGB Le = lights.area_radiance(hit->light, -ray.d);
-      if (!Le.is_black()) {
-        const float w = (depth == 0 || specular_bounce)
-                            ? 1.0f
-                            : power_heuristic(prev_pdf, lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
-        L += clamped(beta * Le * w, depth <= 1);
-      }
+      if (!Le.is_black())
+        L += clamped(emitted(depth, Le, lights.lights()[hit->light].visible_lobes,
+                             depth == 0 ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d)),
+                     depth <= 1);
     }
     // ---- A pass-through surface (a light object): the path goes on as if it were not there,
     // keeping its MIS state and not counting a bounce (Cycles' lights, a transparent bounce) ----
     if (scene_.material(hit->material).is_pass_through() && pass_through < kMaxPassThrough) {
       ++pass_through;
       const bool camera = ray.camera;
+      const uint8_t bounce = ray.bounce;
       ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
       ray.camera = camera;
+      ray.bounce = bounce;
       --depth;
       continue;
     }
@@ -96,18 +140,21 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
     if (wo.z == 0) break;
 
     // ---- Emitter sampling (next-event estimation) ----
+    // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
+    // visible to (Cycles' closure exclusion), with the MIS density of those lobes.
     if (!bsdf.is_delta() && !lights.empty()) {
       const float u_light = rng.uniform();
       const Vec2 u2(rng.uniform(), rng.uniform());
       if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+        const uint8_t vis = ls->light >= 0 ? lights.lights()[ls->light].visible_lobes : kAllLobes;
         const Vec3 wi = hit->frame.to_local(ls->wi);
-        const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
+        const RGB f = bsdf.eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
         if (!f.is_black()) {
           ++rays.shadow;
           const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
           if (!blocked) {
-            const float w = !ls->delta       ? power_heuristic(ls->pdf, bsdf.pdf(wo, wi))
-                            : ls->mis_pdf > 0 ? power_heuristic(ls->mis_pdf, bsdf.pdf(wo, wi))
+            const float w = !ls->delta       ? power_heuristic(ls->pdf, bsdf.pdf(wo, wi, vis))
+                            : ls->mis_pdf > 0 ? power_heuristic(ls->mis_pdf, bsdf.pdf(wo, wi, vis))
                                               : 1.0f;
             L += clamped(beta * f * ls->L * (w / ls->pdf), depth == 0);
           }
@@ -120,15 +167,23 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
     const Vec2 u(rng.uniform(), rng.uniform());
     const auto bs = bsdf.sample(wo, uc, u);
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+    if (split_lobes) {
+      prev.beta = beta;
+      prev.lobe = bs->lobe;
+      if (!bs->delta) prev.fill(bsdf, wo, bs->wi);
+    }
     beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
     specular_bounce = bs->delta;
     prev_pdf = bs->pdf;
     prev_p = hit->p;
     const Vec3 wi = hit->frame.to_world(bs->wi);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    ray.bounce = bs->lobe;  // surfaces hidden from this kind of ray let it through
 
     // ---- Russian roulette ----
-    if (depth + 1 >= rr_depth_ && !russian_roulette(beta, rng.uniform())) break;
+    float survival = 1.0f;
+    if (depth + 1 >= rr_depth_ && !russian_roulette(beta, rng.uniform(), &survival)) break;
+    prev.beta = prev.beta / survival;
   }
   return L;
 }

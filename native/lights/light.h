@@ -42,6 +42,9 @@ struct Light {
   // the lines' (clipped) RGB times the luminance.
   std::vector<SpectralLine> lines;
   float line_fwhm = 1.0f;
+  // Cycles' Diffuse / Glossy / Transmission switches (kRay* bits, Material::visible_lobes):
+  // which BSDF lobes this light lights, by next-event estimation and by BSDF rays alike.
+  uint8_t visible_lobes = kAllLobes;
 
   bool is_delta() const { return type == LightType::Point || type == LightType::Spot || type == LightType::Directional; }
   bool is_infinite() const { return type == LightType::Directional || type == LightType::Environment; }

@@ -421,16 +421,18 @@ RGB plastic_base_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   return m.color * (k * kInvPi);
 }
 
-RGB plastic_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f) {
-  RGB f = plastic_base_eval(m, wo, wi) * g;
-  if (m.roughness >= kSmoothAlpha) f += conductor_eval(plastic_coat(m), wo, wi);
+RGB plastic_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f, uint8_t lobes = kAllLobes) {
+  RGB f(0.0f);
+  if (lobes & kRayDiffuse) f += plastic_base_eval(m, wo, wi) * g;
+  if ((lobes & kRayGlossy) && m.roughness >= kSmoothAlpha) f += conductor_eval(plastic_coat(m), wo, wi);
   return f;
 }
 
-float plastic_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+float plastic_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) {
   const float pc = coat_probability(m, wo);
-  float pdf = (1.0f - pc) * diffuse_pdf(wo, wi);
-  if (m.roughness >= kSmoothAlpha) pdf += pc * conductor_pdf(plastic_coat(m), wo, wi);
+  float pdf = 0;
+  if (lobes & kRayDiffuse) pdf += (1.0f - pc) * diffuse_pdf(wo, wi);
+  if ((lobes & kRayGlossy) && m.roughness >= kSmoothAlpha) pdf += pc * conductor_pdf(plastic_coat(m), wo, wi);
   return pdf;
 }
 
@@ -439,6 +441,7 @@ std::optional<BsdfSample> plastic_sample(const BsdfParams& m, const Vec3& wo, fl
   const float pc = coat_probability(m, wo);
   auto lobe = uc < pc ? conductor_sample(plastic_coat(m), wo, u) : diffuse_sample(m, wo, u);
   if (!lobe) return std::nullopt;
+  lobe->lobe = uc < pc ? kRayGlossy : kRayDiffuse;
   if (lobe->delta) {  // the smooth coat's Dirac weight, chosen with probability pc
     lobe->pdf *= pc;
     return lobe;
@@ -485,10 +488,12 @@ RGB principled_spec_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
              (4.0f * cos_i * cos_o));  // [Walter07] eq. 20
 }
 
-RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f) {
+RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f, uint8_t lobes = kAllLobes) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
-  const float r = std::sqrt(std::max(0.0f, m.roughness));
-  return m.color * (kInvPi * burley_diffuse(r, wo, wi) * g) + principled_spec_eval(m, wo, wi);
+  RGB f(0.0f);
+  if (lobes & kRayDiffuse) f += m.color * (kInvPi * burley_diffuse(std::sqrt(std::max(0.0f, m.roughness)), wo, wi) * g);
+  if (lobes & kRayGlossy) f += principled_spec_eval(m, wo, wi);
+  return f;
 }
 
 float principled_spec_probability(const BsdfParams& m, const Vec3& wo) {
@@ -496,10 +501,11 @@ float principled_spec_probability(const BsdfParams& m, const Vec3& wo) {
   return clamp(F / (F + std::max(0.0f, m.color.average()) + 1e-6f), 0.1f, 0.9f);
 }
 
-float principled_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+float principled_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) {
   const float ps = principled_spec_probability(m, wo);
-  float pdf = (1.0f - ps) * diffuse_pdf(wo, wi);
-  if (m.roughness >= kSmoothAlpha) pdf += ps * conductor_pdf(m, wo, wi);
+  float pdf = 0;
+  if (lobes & kRayDiffuse) pdf += (1.0f - ps) * diffuse_pdf(wo, wi);
+  if ((lobes & kRayGlossy) && m.roughness >= kSmoothAlpha) pdf += ps * conductor_pdf(m, wo, wi);
   return pdf;
 }
 
@@ -510,6 +516,7 @@ std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo,
   // plays no part in the direction); f is recomputed below.
   auto lobe = uc < ps ? conductor_sample(m, wo, u) : diffuse_sample(m, wo, u);
   if (!lobe) return std::nullopt;
+  lobe->lobe = uc < ps ? kRayGlossy : kRayDiffuse;
   if (lobe->delta) {  // a smooth specular lobe: its Dirac weight F / |cos|, chosen with probability ps
     lobe->f = RGB(fresnel_dielectric(abs_cos_theta(wo), m.ior) / abs_cos_theta(wo));
     lobe->pdf *= ps;
@@ -625,9 +632,14 @@ BsdfParams bsdf_params(const Material& m, Vec2 uv) {
   return p;
 }
 
-RGB Bsdf::eval(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
-  return wrong_side(wo, wi) ? RGB(0.0f) : eval_lobes(wo, wi, mode);
+RGB Bsdf::eval(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t lobes) const {
+  return wrong_side(wo, wi) ? RGB(0.0f) : eval_lobes(wo, wi, mode, lobes);
 }
+
+namespace {
+// The kind of a dielectric's lobe for the pair: reflection is glossy, refraction transmission.
+uint8_t dielectric_lobe(const Vec3& wo, const Vec3& wi) { return wo.z * wi.z > 0 ? kRayGlossy : kRayTransmission; }
+}  // namespace
 
 std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
   auto s = sample_lobes(wo, uc, u, mode);
@@ -635,40 +647,42 @@ std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, Transpo
   return s;
 }
 
-RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const {
+RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t lobes) const {
   switch (kind()) {
-    case MaterialType::Diffuse: return diffuse_eval(p_, wo, wi) * bump_shadowing(p_, wo, wi, mode);
+    case MaterialType::Diffuse:
+      return (lobes & kRayDiffuse) ? diffuse_eval(p_, wo, wi) * bump_shadowing(p_, wo, wi, mode) : RGB(0.0f);
     case MaterialType::Conductor:
-      return p_.roughness < kSmoothAlpha ? RGB(0.0f) : conductor_eval(p_, wo, wi);
-    case MaterialType::Dielectric: return dielectric_eval(p_, wo, wi, mode);
+      return p_.roughness < kSmoothAlpha || !(lobes & kRayGlossy) ? RGB(0.0f) : conductor_eval(p_, wo, wi);
+    case MaterialType::Dielectric:
+      return (lobes & dielectric_lobe(wo, wi)) ? dielectric_eval(p_, wo, wi, mode) : RGB(0.0f);
     case MaterialType::Emission: return RGB(0.0f);
-    case MaterialType::Plastic: return plastic_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode));
-    case MaterialType::Principled: return principled_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode));
+    case MaterialType::Plastic: return plastic_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
+    case MaterialType::Principled: return principled_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       RGB f(0.0f);
-      if (p.scale_a > 0) f += component(p_.mix_a).eval(wo, wi, mode) * p.scale_a;
-      if (p.scale_b > 0) f += component(p_.mix_b).eval(wo, wi, mode) * p.scale_b;
+      if (p.scale_a > 0) f += component(p_.mix_a).eval(wo, wi, mode, lobes) * p.scale_a;
+      if (p.scale_b > 0) f += component(p_.mix_b).eval(wo, wi, mode, lobes) * p.scale_b;
       return f;
     }
   }
   return RGB(0.0f);
 }
 
-float Bsdf::pdf(const Vec3& wo, const Vec3& wi) const {
+float Bsdf::pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
   switch (kind()) {
-    case MaterialType::Diffuse: return diffuse_pdf(wo, wi);
+    case MaterialType::Diffuse: return (lobes & kRayDiffuse) ? diffuse_pdf(wo, wi) : 0.0f;
     case MaterialType::Conductor:
-      return p_.roughness < kSmoothAlpha ? 0.0f : conductor_pdf(p_, wo, wi);
-    case MaterialType::Dielectric: return dielectric_pdf(p_, wo, wi);
+      return p_.roughness < kSmoothAlpha || !(lobes & kRayGlossy) ? 0.0f : conductor_pdf(p_, wo, wi);
+    case MaterialType::Dielectric: return (lobes & dielectric_lobe(wo, wi)) ? dielectric_pdf(p_, wo, wi) : 0.0f;
     case MaterialType::Emission: return 0.0f;
-    case MaterialType::Plastic: return plastic_pdf(p_, wo, wi);
-    case MaterialType::Principled: return principled_pdf(p_, wo, wi);
+    case MaterialType::Plastic: return plastic_pdf(p_, wo, wi, lobes);
+    case MaterialType::Principled: return principled_pdf(p_, wo, wi, lobes);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       float pdf = 0;
-      if (p.prob_b < 1) pdf += (1.0f - p.prob_b) * component(p_.mix_a).pdf(wo, wi);
-      if (p.prob_b > 0) pdf += p.prob_b * component(p_.mix_b).pdf(wo, wi);
+      if (p.prob_b < 1) pdf += (1.0f - p.prob_b) * component(p_.mix_a).pdf(wo, wi, lobes);
+      if (p.prob_b > 0) pdf += p.prob_b * component(p_.mix_b).pdf(wo, wi, lobes);
       return pdf;
     }
   }
@@ -680,10 +694,19 @@ std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, T
     case MaterialType::Diffuse: {
       auto s = diffuse_sample(p_, wo, u);
       if (s) s->f *= bump_shadowing(p_, wo, s->wi, mode);
+      if (s) s->lobe = kRayDiffuse;
       return s;
     }
-    case MaterialType::Conductor: return conductor_sample(p_, wo, u);
-    case MaterialType::Dielectric: return dielectric_sample(p_, wo, uc, u, mode);
+    case MaterialType::Conductor: {
+      auto s = conductor_sample(p_, wo, u);
+      if (s) s->lobe = kRayGlossy;
+      return s;
+    }
+    case MaterialType::Dielectric: {
+      auto s = dielectric_sample(p_, wo, uc, u, mode);
+      if (s) s->lobe = s->transmission ? kRayTransmission : kRayGlossy;
+      return s;
+    }
     case MaterialType::Emission: return std::nullopt;
     case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u, mode);
     case MaterialType::Principled: return principled_sample(p_, wo, uc, u, mode);

@@ -28,6 +28,9 @@ struct BsdfSample {
   bool delta = false;    // sampled a smooth (specular) lobe
   bool transmission = false;
   float eta = 1.0f;      // relative IOR crossed (1 for reflection)
+  // The lobe it came from (kRayDiffuse, kRayGlossy or kRayTransmission): the kind of the bounce
+  // ray it starts, for Cycles' per-kind ray visibility. Smooth reflections are glossy.
+  uint8_t lobe = 0;
 };
 
 // A material's BSDF parameters at one surface point: its constants, with the inputs an image
@@ -57,8 +60,12 @@ class Bsdf {
   // An untextured material's BSDF (tests, tables): its textures, if any, are read at uv (0, 0).
   explicit Bsdf(const Material& m) : Bsdf(m, Vec2()) {}
 
-  RGB eval(const Vec3& wo, const Vec3& wi, TransportMode mode = TransportMode::Radiance) const;
-  float pdf(const Vec3& wo, const Vec3& wi) const;
+  // `lobes` (kRay* bits) restricts both to the lobes of those kinds: what a light visible to
+  // only some kinds of bounce ray lights by next-event estimation, and the density with which
+  // BSDF sampling reaches it through those lobes (its MIS weight).
+  RGB eval(const Vec3& wo, const Vec3& wi, TransportMode mode = TransportMode::Radiance,
+           uint8_t lobes = kAllLobes) const;
+  float pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) const;
   // uc picks the lobe (reflection/transmission), u the direction.
   std::optional<BsdfSample> sample(const Vec3& wo, float uc, Vec2 u,
                                    TransportMode mode = TransportMode::Radiance) const;
@@ -98,7 +105,7 @@ class Bsdf {
     if (ng_.x == 0 && ng_.y == 0 && ng_.z == 0) return false;
     return (dot(wo, ng_) * dot(wi, ng_) > 0) != (wo.z * wi.z > 0);
   }
-  RGB eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode) const;
+  RGB eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t lobes) const;
   std::optional<BsdfSample> sample_lobes(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const;
 };
 

@@ -62,6 +62,10 @@ struct Material {
   bool mix_add = false;
   bool visible_to_camera = true;
   bool casts_shadow = true;
+  // Cycles' Diffuse / Glossy / Transmission switches: the kinds of bounce ray (kRay* bits of
+  // the lobe that sampled them) that see this surface, and whose lobes its emission lights by
+  // next-event estimation. Honoured by the path tracer (docs/blender.md).
+  uint8_t visible_lobes = kAllLobes;
 
   // ---- Textured inputs (an empty TextureRef: the constant above) ----
   // Looked up at the hit's uv by Bsdf (colour, roughness, mix factor; in a mix, each

@@ -30,7 +30,7 @@ void Accelerator::record_rays(RayRecorder* recorder) { g_recorder.store(recorder
 
 // Per-triangle ray visibility of one mesh, for its filter functions.
 struct TriangleVisibility {
-  std::vector<uint8_t> flags;  // kHiddenFromCamera | kNoShadow | kPartial per triangle
+  std::vector<uint8_t> flags;  // kHiddenFromCamera | kNoShadow | kPartial | kHiddenFrom<lobe> per triangle
   // kPartial triangles: their material's coverage (Material::alpha / alpha_tex) at the hit's
   // uv, with the mesh's uvs and indices (copies: the accelerator owns what its filters read).
   std::vector<uint32_t> material_ids, indices;
@@ -39,13 +39,20 @@ struct TriangleVisibility {
   std::vector<TextureRef> alpha_tex;  // per material id
 };
 constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2, kPartial = 4;
+// Hidden from bounce rays of a kind: the Ray::bounce bit shifted past the flags above.
+constexpr int kLobeShift = 2;  // kRayDiffuse (2) -> 8, kRayGlossy (4) -> 16, kRayTransmission (8) -> 32
+constexpr uint8_t kHiddenFromLobes = kAllLobes << kLobeShift;
 
-// An intersect context that says whether the ray is a camera ray (Embree passes the context
-// to filter functions; extending it is Embree's documented way to hand them per-ray data).
+// An intersect context that says which flag hides a triangle from the ray (camera rays:
+// kHiddenFromCamera; bounce rays of a kind: that kind's; else none). Embree passes the context
+// to filter functions; extending it is Embree's documented way to hand them per-ray data.
 struct VisibilityContext {
   RTCIntersectContext ctx;
-  bool camera;
+  uint8_t hidden;
 };
+uint8_t hidden_flag(const Ray& ray) {
+  return ray.camera ? kHiddenFromCamera : static_cast<uint8_t>((ray.bounce & kAllLobes) << kLobeShift);
+}
 
 struct Accelerator::Impl {
   RTCDevice device = nullptr;
@@ -94,9 +101,8 @@ void reject_where(const RTCFilterFunctionNArguments* args, uint8_t flag) {
     if ((f & flag) || ((f & kPartial) && !covered(*vis, args, i, prim))) args->valid[i] = 0;
   }
 }
-void camera_filter(const RTCFilterFunctionNArguments* args) {
-  const bool camera = reinterpret_cast<const VisibilityContext*>(args->context)->camera;
-  reject_where(args, camera ? kHiddenFromCamera : 0);
+void intersect_filter(const RTCFilterFunctionNArguments* args) {
+  reject_where(args, reinterpret_cast<const VisibilityContext*>(args->context)->hidden);
 }
 void shadow_filter(const RTCFilterFunctionNArguments* args) { reject_where(args, kNoShadow); }
 }  // namespace
@@ -131,7 +137,8 @@ RTCGeometry make_geometry(RTCDevice device, const Mesh& m, const std::vector<Mat
     for (size_t t = 0; t < m.triangle_count() && t < m.material_ids.size(); ++t) {
       const Material& mat = (*materials)[m.material_ids[t]];
       vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow) |
-                      (mat.has_coverage() ? kPartial : 0);
+                      (mat.has_coverage() ? kPartial : 0) |
+                      static_cast<uint8_t>((~mat.visible_lobes & kAllLobes) << kLobeShift);
       any |= vis->flags[t];
     }
     if (any & kPartial) {  // alpha cut-out: the filters look up the coverage at the hit's uv
@@ -145,7 +152,7 @@ RTCGeometry make_geometry(RTCDevice device, const Mesh& m, const std::vector<Mat
     }
     if (any) {
       rtcSetGeometryUserData(g, vis.get());
-      if (any & (kHiddenFromCamera | kPartial)) rtcSetGeometryIntersectFilterFunction(g, camera_filter);
+      if (any & (kHiddenFromCamera | kPartial | kHiddenFromLobes)) rtcSetGeometryIntersectFilterFunction(g, intersect_filter);
       if (any & (kNoShadow | kPartial)) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
       keep = std::move(vis);
     }
@@ -226,7 +233,7 @@ bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
   record(ray, false);
   VisibilityContext vctx;
   rtcInitIntersectContext(&vctx.ctx);
-  vctx.camera = ray.camera;
+  vctx.hidden = hidden_flag(ray);
   RTCRayHit rh;
   to_embree(ray, rh.ray);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -253,10 +260,10 @@ thread_local std::vector<RTCRay> t_rays;
 
 void Accelerator::intersect_stream(const Ray* rays, size_t n, RawHit* hits, bool* found, bool coherent) const {
   t_rayhits.resize(n);
-  // The camera flag lives in the context, one per call: split the stream where it changes.
+  // The hiding flag lives in the context, one per call: split the stream where it changes.
   for (size_t lo = 0; lo < n;) {
     size_t hi = lo + 1;
-    while (hi < n && rays[hi].camera == rays[lo].camera) ++hi;
+    while (hi < n && hidden_flag(rays[hi]) == hidden_flag(rays[lo])) ++hi;
     for (size_t i = lo; i < hi; ++i) {
       record(rays[i], false);
       RTCRayHit& rh = t_rayhits[i];
@@ -267,7 +274,7 @@ void Accelerator::intersect_stream(const Ray* rays, size_t n, RawHit* hits, bool
     VisibilityContext vctx;
     rtcInitIntersectContext(&vctx.ctx);
     if (coherent) vctx.ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    vctx.camera = rays[lo].camera;
+    vctx.hidden = hidden_flag(rays[lo]);
     rtcIntersect1M(impl_->scene, &vctx.ctx, t_rayhits.data() + lo, static_cast<unsigned>(hi - lo), sizeof(RTCRayHit));
     for (size_t i = lo; i < hi; ++i) found[i] = from_embree(t_rayhits[i], hits[i]);
     lo = hi;

@@ -28,7 +28,8 @@ struct RayRecorder {
 class Accelerator {
  public:
   // With materials, triangles whose material is not visible to the camera are skipped by
-  // camera rays and those that cast no shadow by occluded() (Embree filter functions,
+  // camera rays, those hidden from a kind of bounce ray (Material::visible_lobes) by rays of
+  // that Ray::bounce, and those that cast no shadow by occluded() (Embree filter functions,
   // installed only on the meshes that have such triangles).
   explicit Accelerator(const std::vector<Mesh>& meshes, const std::vector<Material>* materials = nullptr);
   ~Accelerator();

@@ -126,7 +126,8 @@ void update_description(Scene& scene, const std::string& json_text) {
     }
     const Material& n = next.materials[it->second];
     visibility_changed[i] = n.visible_to_camera != materials[i].visible_to_camera ||
-                            n.casts_shadow != materials[i].casts_shadow;
+                            n.casts_shadow != materials[i].casts_shadow ||
+                            n.visible_lobes != materials[i].visible_lobes;
     materials[i] = n;
     index.erase(it);
   }

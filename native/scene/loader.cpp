@@ -75,7 +75,9 @@ class Loader : private JsonReader {
       mat.name = it.key();
       const std::string type = get_string(need(m, "type", mpath), sub(mpath, "type"));
       std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum",
-                                            "visible_to_camera", "casts_shadow", "alpha", "normal_map", "bump"};
+                                            "visible_to_camera", "casts_shadow", "visible_to_diffuse",
+                                            "visible_to_glossy", "visible_to_transmission", "alpha", "normal_map",
+                                            "bump"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
         keys.push_back("color");
@@ -156,6 +158,7 @@ class Loader : private JsonReader {
       if (const json* t = find(m, "two_sided")) mat.two_sided = get_bool(*t, sub(mpath, "two_sided"));
       if (const json* v = find(m, "visible_to_camera")) mat.visible_to_camera = get_bool(*v, sub(mpath, "visible_to_camera"));
       if (const json* v = find(m, "casts_shadow")) mat.casts_shadow = get_bool(*v, sub(mpath, "casts_shadow"));
+      mat.visible_lobes = load_visible_lobes(m, mpath);
       if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
       if (const json* sp = find(m, "spectrum")) {
         if (find(m, "emission")) fail(mpath, "give either 'emission' (a colour) or 'spectrum', not both");
@@ -642,6 +645,18 @@ class Loader : private JsonReader {
     return color * (get_nonnegative(*power, sub(path, power_key)) * power_scale);
   }
 
+  // Cycles' Diffuse / Glossy / Transmission visibility switches of a material or light
+  // ("visible_to_diffuse" etc., true when absent) as kRay* bits.
+  uint8_t load_visible_lobes(const json& o, const std::string& path) {
+    uint8_t lobes = 0;
+    for (const auto& [key, bit] : {std::pair{"visible_to_diffuse", kRayDiffuse}, std::pair{"visible_to_glossy", kRayGlossy},
+                                   std::pair{"visible_to_transmission", kRayTransmission}}) {
+      const json* v = find(o, key);
+      if (!v || get_bool(*v, sub(path, key))) lobes |= bit;
+    }
+    return lobes;
+  }
+
   void load_light(const json& l, const std::string& path) {
     require_object(l, path);
     const std::string type = get_string(need(l, "type", path), sub(path, "type"));
@@ -649,13 +664,15 @@ class Loader : private JsonReader {
     light.name = path;
     if (const json* n = find(l, "name")) light.name = get_string(*n, sub(path, "name"));
     if (type == "point") {
-      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum", "radius"});
+      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum", "radius", "visible_to_diffuse",
+                           "visible_to_glossy", "visible_to_transmission"});
       light.type = LightType::Point;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "spot") {
       check_keys(l, path, {"type", "name", "position", "direction", "look_at", "spot_size", "spot_blend", "intensity",
-                           "power", "color", "spectrum", "radius"});
+                           "power", "color", "spectrum", "radius", "visible_to_diffuse",
+                           "visible_to_glossy", "visible_to_transmission"});
       light.type = LightType::Spot;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
       const json* d = find(l, "direction");
@@ -680,7 +697,8 @@ class Loader : private JsonReader {
       light.spot_smooth = (1.0f - light.spot_cos_half) * blend;
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "sun") {
-      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum", "angle"});
+      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum", "angle", "visible_to_diffuse",
+                           "visible_to_glossy", "visible_to_transmission"});
       light.type = LightType::Directional;
       light.direction = get_direction(need(l, "direction", path), sub(path, "direction"));
       if (const json* a = find(l, "angle"))  // full angle in degrees, as Blender's sun
@@ -690,6 +708,7 @@ class Loader : private JsonReader {
       fail(sub(path, "type"), fmt::format("unknown light type '{}' (known: point, spot, sun)", type));
     }
     if (const json* r = find(l, "radius")) light.radius = get_nonnegative(*r, sub(path, "radius"));
+    light.visible_lobes = load_visible_lobes(l, path);
     scene_.lights.push_back(std::move(light));
   }
 

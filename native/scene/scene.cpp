@@ -100,6 +100,7 @@ void Scene::build_lights() {
         l.n = nc / (2.0f * area);
         l.area = area;
         l.two_sided = mtl.two_sided;
+        l.visible_lobes = mtl.visible_lobes;
         l.lines = mtl.emission_lines;
         l.line_fwhm = mtl.emission_fwhm;
         l.mesh = static_cast<int>(mi);
@@ -112,6 +113,8 @@ void Scene::build_lights() {
   for (const Light& l : lights)
     if (!l.emit.is_finite())
       throw std::runtime_error(fmt::format("{}: light '{}' has a non-finite value", source, l.name));
+  lights_hidden_from_some_lobes_ = std::any_of(all_lights.begin(), all_lights.end(),
+                                               [](const Light& l) { return l.visible_lobes != kAllLobes; });
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);
 }

@@ -152,6 +152,9 @@ class Scene {
   bool occluded(const Vec3& p, const Vec3& ng, const LightSample& ls) const;
 
   const LightSet& light_set() const { return light_set_; }
+  // True when some light (or emissive surface) is hidden from some kind of bounce ray
+  // (Light::visible_lobes): the path tracer then weighs its hits by the lobes that see it.
+  bool lights_hidden_from_some_lobes() const { return lights_hidden_from_some_lobes_; }
   const Bounds3& bounds() const { return bounds_; }
   size_t triangle_count() const;
   const Material& material(int i) const { return materials[i]; }
@@ -176,6 +179,7 @@ class Scene {
   std::vector<std::vector<int32_t>> triangle_light_;  // per mesh, per triangle: light or -1
   std::vector<size_t> changed_meshes_;                 // for the accelerator at commit()
   uint64_t generation_ = 0;
+  bool lights_hidden_from_some_lobes_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 

@@ -143,7 +143,8 @@ def test_export_operator_writes_a_scene_the_cli_loads(empty_scene, out_dir):
 def test_ray_visibility_as_cycles(empty_scene):
     """Light objects are pass-through emitters that cast no shadow, shown to the camera only when
     their Visibility > Camera is on (off by default in Blender 3.4); a mesh object's Camera and
-    Shadow switches become flags of a variant of its material; other ray switches are warnings."""
+    Shadow switches become flags of a variant of its material, and so do its Diffuse, Glossy and
+    Transmission switches (on lights too), honoured by path tracing: a warning for other methods."""
     scenes.cornell_lit(empty_scene, "area")
     lamp = bpy.data.objects["area"]
     assert not lamp.visible_camera  # Blender 3.4's default for a new light object
@@ -151,15 +152,21 @@ def test_ray_visibility_as_cycles(empty_scene):
     floor.visible_camera = False
     back.visible_shadow = False
     back.visible_glossy = False
+    lamp.visible_diffuse = False
     ex = export_current()
     mats = ex.description["materials"]
     m = mats["__light_area"]
     assert (m["type"], m["ior"], m["visible_to_camera"], m["casts_shadow"]) == ("dielectric", 1.0, False, False)
+    assert m["visible_to_diffuse"] is False and "visible_to_glossy" not in m
     names = {r.name: r.materials for r in ex.meshes}
     assert mats[names["Floor"][0]] == dict(mats["White"], visible_to_camera=False)
-    assert mats[names["Back"][0]] == dict(mats["White"], casts_shadow=False)
+    assert mats[names["Back"][0]] == dict(mats["White"], casts_shadow=False, visible_to_glossy=False)
     assert names["Ceiling"] == ["White"]
-    assert any("ray visibility not honoured" in line and "Back: glossy" in line for line in ex.warnings.lines())
+    assert not any("ray visibility" in line for line in ex.warnings.lines()), ex.warnings.lines()  # pt honours them
+    empty_scene.gradphoton.method = 'sppm'
+    lines = export_current().warnings.lines()
+    assert any("honoured by path tracing only, not by sppm" in line and "glossy" in line for line in lines), lines
+    empty_scene.gradphoton.method = 'pt'
     lamp.visible_camera = True
     assert export_current().description["materials"]["__light_area"]["visible_to_camera"] is True
     ex.build(native.get())  # the flags are scene-format keys the core reads

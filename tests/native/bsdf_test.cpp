@@ -864,6 +864,45 @@ TEST(BumpShadowing, SampledWeightsIntegrateTheShadowedLobe) {
   }
 }
 
+TEST(BsdfLobes, KindsPartitionEvalAndPdfAndSamplesNameTheirLobe) {
+  // Per-kind ray visibility (path tracer) evaluates a BSDF over some lobe kinds: the diffuse,
+  // glossy and transmission parts must add up to the whole, and a sample must name the kind of
+  // the lobe it came from (a refraction: transmission; a reflection of glass: glossy).
+  const Material diffuse = make(MaterialType::Diffuse, 0, RGB(0.7f));
+  const Material metal = make(MaterialType::Conductor, 0.2f, RGB(0.9f));
+  const Material glass = make(MaterialType::Dielectric, 0.3f, RGB(1.0f), 1.5f);
+  const std::vector<std::pair<std::string, Material>> cases = {
+      {"diffuse", diffuse}, {"metal", metal}, {"glass", glass}, {"plastic", plastic(0.3f)},
+      {"principled", make(MaterialType::Principled, 0.3f, RGB(0.6f))}, {"mix", mix(diffuse, glass, 0.4f)}};
+  Rng rng(11, 0);
+  for (const auto& [name, m] : cases) {
+    const Bsdf bsdf(m);
+    int kinds_seen = 0;
+    for (int i = 0; i < 2000; ++i) {
+      const Vec3 wo = wo_at(rng.uniform() * 1.8f - 0.9f + 1e-3f, 6.28f * rng.uniform());
+      const auto s = bsdf.sample(wo, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+      if (!s) continue;
+      ASSERT_TRUE(s->lobe == kRayDiffuse || s->lobe == kRayGlossy || s->lobe == kRayTransmission) << name;
+      EXPECT_EQ(s->lobe == kRayTransmission, s->transmission) << name;
+      kinds_seen |= s->lobe;
+      RGB f_sum(0.0f);
+      float pdf_sum = 0;
+      for (uint8_t k : {kRayDiffuse, kRayGlossy, kRayTransmission}) {
+        f_sum += bsdf.eval(wo, s->wi, TransportMode::Radiance, k);
+        pdf_sum += bsdf.pdf(wo, s->wi, k);
+      }
+      const RGB f = bsdf.eval(wo, s->wi);
+      EXPECT_NEAR(f_sum.g, f.g, 1e-5f * (1 + f.g)) << name;
+      EXPECT_NEAR(pdf_sum, bsdf.pdf(wo, s->wi), 1e-5f * (1 + pdf_sum)) << name;
+      if (!s->delta) EXPECT_GT(bsdf.pdf(wo, s->wi, s->lobe), 0.0f) << name << " lobe " << int(s->lobe);
+    }
+    const int expected = name == "diffuse" ? kRayDiffuse : name == "metal" ? kRayGlossy
+                         : name == "glass" ? kRayGlossy | kRayTransmission
+                         : name == "mix" ? kAllLobes : kRayDiffuse | kRayGlossy;
+    EXPECT_EQ(kinds_seen, expected) << name;
+  }
+}
+
 TEST(BsdfFurnace, MixIsTheWeightedSumAndAddOfTwoHalvesIsOne) {
   // Mix of white diffuse and a white mirror reflects everything whatever the factor; Add of
   // two half-white diffuse BSDFs reflects as one white diffuse.

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from . import camera, light, material, mesh, skipped, world
+from . import camera, light, material, mesh, skipped, visibility, world
 from .warnings import Warnings
 
 __all__ = ["ExportedScene", "export_scene", "Warnings"]
@@ -59,9 +59,10 @@ class ExportedScene:
         return out
 
 
-def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None):
+def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
     """Exports the evaluated depsgraph (visible objects and instances, modifiers applied); mesh
-    arrays come from `mesh_cache` (mesh.MeshCache) where it holds them."""
+    arrays come from `mesh_cache` (mesh.MeshCache) where it holds them. `method` (default: the
+    scene's) is the one that will render it, for the warnings about what it ignores."""
     t0 = time.perf_counter()
     if mesh_cache is not None:
         mesh_cache.hits = mesh_cache.misses = 0
@@ -88,6 +89,8 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None):
     out.meshes = [m for m in meshes.values() if m.triangle_count > 0] + out.meshes  # area lights first added
     skipped.check_scene(scene, mats.used_materials(), w)
     out.description["camera"], out.width, out.height, out.border = camera.export_camera(scene, w)
+    settings = getattr(scene, "gradphoton", None)
+    visibility.check_method(out.description, method or (settings.method if settings else "pt"), w)
     env = world.export_world(scene.world, w)
     if env:
         out.description["environment"] = env

@@ -13,7 +13,9 @@ lit by these renders equally bright in both (tested against Cycles in tests/blen
 Cycles' lights are not geometry: rays pass through them (a hit adds the light's emission and
 the path goes on) and they cast no shadow. An area light is therefore an emissive dielectric
 of IOR 1 (a pass-through surface) with casts_shadow off, and shown to camera rays only when the
-object's Visibility > Camera is on (off by default for light objects in Blender 3.4). Point,
+object's Visibility > Camera is on (off by default for light objects in Blender 3.4); its
+Diffuse/Glossy/Transmission switches become keys of that surface or of a point/spot/sun light
+(export/visibility.py). Point,
 spot and sun lights are never hit by rays (next-event estimation only, as the core's delta
 lights): shown to the camera or in a mirror they are a counted warning. Area-light spread is
 not modelled (a counted warning).
@@ -43,9 +45,10 @@ def add_light(out, inst, mats, warnings):
     name = ob.name if not inst.is_instance else f"{ob.name} [{inst.random_id & 0xffff}]"
     color = [la.color[0], la.color[1], la.color[2]]
     visibility.check_light(ob, la, warnings)
+    flags = visibility.lobe_flags(ob, warnings)
     if la.type in {'POINT', 'SPOT'}:
         d = {"type": la.type.lower(), "name": name, "position": _pos(m), "power": max(0.0, la.energy), "color": color,
-             "radius": max(0.0, la.shadow_soft_size)}
+             "radius": max(0.0, la.shadow_soft_size), **flags}
         if la.type == 'SPOT':
             d.update({"direction": _dir(m), "spot_size": min(180.0, math.degrees(la.spot_size)),
                       "spot_blend": min(1.0, max(0.0, la.spot_blend))})
@@ -53,14 +56,14 @@ def add_light(out, inst, mats, warnings):
     elif la.type == 'SUN':
         out.description["lights"].append(
             {"type": "sun", "name": name, "direction": _dir(m), "strength": max(0.0, la.energy), "color": color,
-             "angle": min(179.0, math.degrees(la.angle))})
+             "angle": min(179.0, math.degrees(la.angle)), **flags})
     elif la.type == 'AREA':
-        _add_area(out, ob, la, m, name, color, warnings)
+        _add_area(out, ob, la, m, name, color, warnings, flags)
     else:
         warnings.add("unsupported light type", f"{ob.name} ({la.type})")
 
 
-def _add_area(out, ob, la, m, name, color, warnings):
+def _add_area(out, ob, la, m, name, color, warnings, flags):
     from .mesh import MeshRecord
     sx = la.size
     sy = la.size_y if la.shape in {'RECTANGLE', 'ELLIPSE'} else la.size
@@ -92,7 +95,7 @@ def _add_area(out, ob, la, m, name, color, warnings):
     out.description["materials"][mat_name] = {
         "type": "dielectric", "ior": 1.0, "color": 1.0,  # a pass-through surface, as Cycles' lights
         "emission": color, "strength": max(0.0, la.energy) / (4.0 * area), "two_sided": False,
-        "visible_to_camera": bool(ob.visible_camera), "casts_shadow": False}
+        "visible_to_camera": bool(ob.visible_camera), "casts_shadow": False, **flags}
     rec = MeshRecord(name)
     rec.positions, rec.indices, rec.triangle_count = pos, idx, len(idx)
     rec.materials = [mat_name]
