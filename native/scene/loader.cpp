@@ -664,15 +664,15 @@ class Loader : private JsonReader {
     light.name = path;
     if (const json* n = find(l, "name")) light.name = get_string(*n, sub(path, "name"));
     if (type == "point") {
-      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum", "radius", "visible_to_diffuse",
-                           "visible_to_glossy", "visible_to_transmission"});
+      check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum", "radius",
+                           "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission"});
       light.type = LightType::Point;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "spot") {
       check_keys(l, path, {"type", "name", "position", "direction", "look_at", "spot_size", "spot_blend", "intensity",
-                           "power", "color", "spectrum", "radius", "visible_to_diffuse",
-                           "visible_to_glossy", "visible_to_transmission"});
+                           "power", "color", "spectrum", "radius", "visible_to_diffuse", "visible_to_glossy",
+                           "visible_to_transmission"});
       light.type = LightType::Spot;
       light.position = get_vec3(need(l, "position", path), sub(path, "position"));
       const json* d = find(l, "direction");
@@ -697,8 +697,8 @@ class Loader : private JsonReader {
       light.spot_smooth = (1.0f - light.spot_cos_half) * blend;
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "sun") {
-      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum", "angle", "visible_to_diffuse",
-                           "visible_to_glossy", "visible_to_transmission"});
+      check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum", "angle",
+                           "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission"});
       light.type = LightType::Directional;
       light.direction = get_direction(need(l, "direction", path), sub(path, "direction"));
       if (const json* a = find(l, "angle"))  // full angle in degrees, as Blender's sun
