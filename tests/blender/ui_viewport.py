@@ -5,8 +5,9 @@
 Switches the factory scene's 3D view to Rendered shading (overlays, gizmos, header and side
 regions off, so the area shows only the drawn image), waits for the progressive image, takes
 screenshots of the area, then edits the cube's material colour, moves the cube, turns the view,
-and leaves Rendered shading; each change must reach the screen (the screenshot changes as the
-edit says) and leaving must stop the worker. Writes OUT_DIR/ui_viewport.json."""
+sets a render region (View > Render Region) and leaves Rendered shading; each change must reach
+the screen (the screenshot changes as the edit says: with a render region, the image only inside
+it) and leaving must stop the worker. Writes OUT_DIR/ui_viewport.json."""
 import faulthandler
 import json
 import os
@@ -121,6 +122,37 @@ def settled(min_passes=2):
     return v is not None and v.image is not None and v.divider == 1 and v.passes >= min_passes and v.request is None
 
 
+REGION = (0.3, 0.7, 0.25, 0.75)  # the view's render region: min x, max x, min y, max y (fractions)
+
+
+def pixels_of_image():
+    v = vp()
+    return int(v.image[1].shape[0] * v.image[1].shape[1])
+
+
+def region_checks(shot, full):
+    """The screenshot with a render region against the last one without: the image inside the
+    region (close to the full view's there: the same camera), the view's own background outside
+    (none of the red cube that the full view shows there), and only the region's pixels traced."""
+    h, w = shot.shape[:2]
+    x0, x1, y0, y1 = REGION
+    # (top row first; 3 pixels of margin for the region's rounding and the area's borders)
+    r0, r1 = int((1 - y1) * h) + 3, int((1 - y0) * h) - 3
+    c0, c1 = int(x0 * w) + 3, int(x1 * w) - 3
+    inside = np.zeros((h, w), bool)
+    inside[r0:r1, c0:c1] = True
+    outside = np.ones((h, w), bool)
+    outside[r0 - 6:r1 + 6, c0 - 6:c1 + 6] = False
+    result["region_inside_std"] = float(shot[inside].std())
+    result["region_inside_change"] = float(np.abs(shot[inside] - full[inside]).mean())
+    result["region_outside_change"] = float(np.abs(shot[outside] - full[outside]).mean())
+    # (Blender draws the region's dashed red outline: the margin above leaves it out.)
+    red = lambda a: float((a[outside][:, 0] - a[outside][:, 1] > 0.1).mean())  # noqa: E731
+    result["region_outside_red"], result["full_outside_red"] = red(shot), red(full)
+    result["region_pixels"] = pixels_of_image()
+    result["full_pixels"] = state["full_pixels"]
+
+
 def step():
     try:
         st = state["stage"]
@@ -183,6 +215,22 @@ def step():
             result["camera_move_s"] = [s for k, s in vp().events if k == "camera"][-1]
             turned = screenshot("viewport_after_view_turn.png")
             result["camera_move_change"] = float(np.abs(turned - state["moved"]).mean())
+            state["turned"] = turned
+            state["full_pixels"] = pixels_of_image()
+            win, area = view3d()
+            space = area.spaces.active
+            (space.render_border_min_x, space.render_border_max_x,
+             space.render_border_min_y, space.render_border_max_y) = REGION
+            space.use_render_border = True
+            area.tag_redraw()
+            log("render region set")
+            next_stage("render region")
+            return 0.05
+        if st == "render region":
+            if not wait_for(lambda: vp().image[2] is not None and settled(1), st):
+                return 0.05
+            shot = screenshot("viewport_render_region.png")
+            region_checks(shot, state["turned"])
             win, area = view3d()
             state["worker"] = vp().thread
             area.spaces.active.shading.type = 'SOLID'
