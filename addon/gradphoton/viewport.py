@@ -136,12 +136,13 @@ def render_region(context, scene, width, height):
 
 def scaled_crop(crop, width, height, divider):
     """A crop window [x, y, w, h] (pixels from the top-left) of a `width` x `height` image in
-    pixels of the image reduced by `divider` (whole reduced pixels covering it), and that image's
-    size."""
+    pixels of that image reduced by `divider` (the whole reduced pixels that cover it: a reduced
+    pixel spans width / rw of the view), and the reduced image's size (rw, rh)."""
     rw, rh = max(1, math.ceil(width / divider)), max(1, math.ceil(height / divider))
     x, y, w, h = crop
-    x0, y0 = min(x // divider, rw - 1), min(y // divider, rh - 1)
-    x1, y1 = min(rw, max(x0 + 1, math.ceil((x + w) / divider))), min(rh, max(y0 + 1, math.ceil((y + h) / divider)))
+    x0, y0 = min(x * rw // width, rw - 1), min(y * rh // height, rh - 1)
+    x1 = min(rw, max(x0 + 1, -(-(x + w) * rw // width)))  # (ceilings in integers)
+    y1 = min(rh, max(y0 + 1, -(-(y + h) * rh // height)))
     return [x0, y0, x1 - x0, y1 - y0], rw, rh
 
 
@@ -201,6 +202,7 @@ class ViewportSession:
         self._full = None         # the request whose full-resolution image is still to come
         self.freed_at = self.exited_at = None  # perf_counter() of free() and of the worker's end
         self.passes = 0           # passes of the current image
+        self.pass_seconds = None  # its render time per pass (tests: a render region's speed-up)
         self.divider = 1
         self.placement = None     # where the current session's image goes (see `image`)
         # UI thread only:
@@ -421,12 +423,14 @@ class ViewportSession:
         alpha = images.get("alpha") if self.config[1].get(FILM_TRANSPARENT) else None
         out[..., 3] = alpha[::-1, :, 0] if alpha is not None else 1.0
         np.nan_to_num(out, copy=False, nan=0.0, posinf=0.0, neginf=0.0)  # never drawn
-        n = session.stats["passes"]
+        stats = session.stats
+        n = stats["passes"]
         done = self.divider == 1 and max_passes > 0 and n >= max_passes
         with self.lock:
             self.serial += 1
             self.image = (self.serial, out, self.placement)
             self.passes = n
+            self.pass_seconds = stats.get("seconds", 0.0) / max(1, n)
             self.busy = not done
             if done:
                 self.native = None

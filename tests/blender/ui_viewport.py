@@ -175,6 +175,7 @@ def step():
             if not wait_for(lambda: vp().passes > state["passes"] + 2, st):
                 return 0.1
             result["passes_later"] = vp().passes
+            result["full_view_pass_s"] = vp().pass_seconds  # (docs/blender.md; not asserted)
             state["edit_serial"] = image_serial()
             base_color.default_value = (0.9, 0.05, 0.05, 1.0)  # a material edit: red
             log("material colour set to red")
@@ -227,8 +228,9 @@ def step():
             next_stage("render region")
             return 0.05
         if st == "render region":
-            if not wait_for(lambda: vp().image[2] is not None and settled(1), st):
+            if not wait_for(lambda: vp().image[2] is not None and settled(3), st):
                 return 0.05
+            result["region_pass_s"] = vp().pass_seconds
             shot = screenshot("viewport_render_region.png")
             region_checks(shot, state["turned"])
             win, area = view3d()
