@@ -132,4 +132,6 @@ def test_rendered_viewport_shows_the_progressive_image_and_follows_edits():
     assert res["region_outside_red"] < 0.002 and res["full_outside_red"] > 0.01, res
     assert res["region_outside_change"] > 0.01, res
     assert res["region_pixels"] < 0.25 * res["full_pixels"], res
+    # Through the camera: the scene's border, a quarter of the camera frame (whole pixels).
+    assert abs(res["camera_border_share"] - 0.25) < 0.02, res
     assert res["worker_stop_s"] is not None and res["worker_stop_s"] < 0.5

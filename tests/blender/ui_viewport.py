@@ -14,6 +14,7 @@ import os
 import sys
 import time
 import traceback
+import types
 
 import bpy
 import numpy as np
@@ -233,7 +234,28 @@ def step():
             result["region_pass_s"] = vp().pass_seconds
             shot = screenshot("viewport_render_region.png")
             region_checks(shot, state["turned"])
+            # Through the scene camera the scene's render border applies, not the view's region.
+            r = scene.render
+            r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.25, 0.75
+            r.use_border = True
             win, area = view3d()
+            area.spaces.active.region_3d.view_perspective = 'CAMERA'
+            area.tag_redraw()
+            state["view_region_placement"] = vp().image[2]
+            log("camera view with a render border")
+            next_stage("camera border")
+            return 0.05
+        if st == "camera border":
+            if not wait_for(lambda: vp().image[2] not in (None, state["view_region_placement"]) and settled(1), st):
+                return 0.05
+            win, area = view3d()
+            region = next(r for r in area.regions if r.type == 'WINDOW')
+            ctx = types.SimpleNamespace(region=region, region_data=area.spaces.active.region_3d)
+            fx0, fy0, fx1, fy1 = gp_viewport.camera_frame(ctx, scene)
+            _, _, pw, ph = vp().image[2]
+            # The border's share of the view: a quarter of the camera frame's.
+            result["camera_border_share"] = pw * ph / ((fx1 - fx0) * (fy1 - fy0) / (region.width * region.height))
+            screenshot("viewport_camera_border.png")
             state["worker"] = vp().thread
             area.spaces.active.shading.type = 'SOLID'
             log("left Rendered shading")
