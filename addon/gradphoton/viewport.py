@@ -14,6 +14,12 @@ view_update / view_draw delegate here; nothing here is a Blender class.
       pass, then passes at full resolution until the viewport's pass count. Each new image
       asks Blender to redraw (RenderEngine.tag_redraw).
 
+Render region (Cycles' viewport border: View > Render Region, Ctrl+B): in a view through the scene
+camera, the scene's render border (Output > Format > Render Region) within the camera frame;
+in any other view, the view's own region (SpaceView3D.use_render_border). Only its pixels are
+traced (the camera's crop window, as a border render's) and drawn where they are in the view; the
+rest of the view stays empty, as Cycles leaves it.
+
 Never blocks Blender's UI thread on native work: native calls run on the worker with the GIL
 released; the UI thread only cancels (Session.cancel: the pass stops between tiles). Work stops
 when the engine is freed (leaving Rendered shading, closing the view): engine.py's __del__ calls
@@ -81,7 +87,63 @@ def view_camera(context, scene, width, height):
         for key in ("aperture_radius", "focus_distance"):
             if key in cam:
                 d[key] = cam[key]
+    region = render_region(context, scene, width, height)
+    if region is not None:  # the core's crop window: rows from the top
+        x0, y0, x1, y1 = region
+        d["crop"] = [x0, int(height) - y1, x1 - x0, y1 - y0]
     return d
+
+
+def camera_frame(context, scene):
+    """The scene camera's frame in the 3D view's region: (x0, y0, x1, y1) in pixels from the
+    region's bottom-left corner (its corners projected as the view draws them), or None."""
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+    cam = scene.camera
+    corners = [cam.matrix_world @ v for v in cam.data.view_frame(scene=scene)]
+    pts = [location_3d_to_region_2d(context.region, context.region_data, c) for c in corners]
+    if any(p is None for p in pts):
+        return None
+    return (min(p.x for p in pts), min(p.y for p in pts), max(p.x for p in pts), max(p.y for p in pts))
+
+
+def render_region(context, scene, width, height):
+    """The part of the `width` x `height` view to render, as Cycles chooses it: the scene's render
+    border within the camera frame in a view through the scene camera (when the render settings
+    use one), else the view's own render region (when it has one). (x0, y0, x1, y1) in whole
+    pixels from the bottom-left corner, at least one pixel; None for the whole view."""
+    rv3d, space = context.region_data, context.space_data
+    if rv3d.view_perspective == 'CAMERA' and scene.camera is not None:
+        r = scene.render
+        frame = camera_frame(context, scene) if r.use_border else None
+        if frame is None:
+            return None
+        fx0, fy0, fx1, fy1 = frame
+        box = (fx0 + r.border_min_x * (fx1 - fx0), fy0 + r.border_min_y * (fy1 - fy0),
+               fx0 + r.border_max_x * (fx1 - fx0), fy0 + r.border_max_y * (fy1 - fy0))
+    elif getattr(space, "use_render_border", False):
+        box = (space.render_border_min_x * width, space.render_border_min_y * height,
+               space.render_border_max_x * width, space.render_border_max_y * height)
+    else:
+        return None
+    x0 = min(max(0, math.floor(box[0])), width - 1)
+    y0 = min(max(0, math.floor(box[1])), height - 1)
+    x1 = max(x0 + 1, min(width, math.ceil(box[2])))
+    y1 = max(y0 + 1, min(height, math.ceil(box[3])))
+    if (x0, y0, x1, y1) == (0, 0, width, height):
+        return None
+    return x0, y0, x1, y1
+
+
+def scaled_crop(crop, width, height, divider):
+    """A crop window [x, y, w, h] (pixels from the top-left) of a `width` x `height` image in
+    pixels of that image reduced by `divider` (the whole reduced pixels that cover it: a reduced
+    pixel spans width / rw of the view), and the reduced image's size (rw, rh)."""
+    rw, rh = max(1, math.ceil(width / divider)), max(1, math.ceil(height / divider))
+    x, y, w, h = crop
+    x0, y0 = min(x * rw // width, rw - 1), min(y * rh // height, rh - 1)
+    x1 = min(rw, max(x0 + 1, -(-(x + w) * rw // width)))  # (ceilings in integers)
+    y1 = min(rh, max(y0 + 1, -(-(y + h) * rh // height)))
+    return [x0, y0, x1 - x0, y1 - y0], rw, rh
 
 
 def dividers(width, height):
@@ -127,7 +189,9 @@ class ViewportSession:
         self.camera_changed = False
         self.max_passes = 0
         self.request = None       # (kind, perf_counter) of the latest change asked for
-        self.image = None         # (serial, float32 array (H, W, 4) bottom row first)
+        self.image = None         # (serial, float32 array (H, W, 4) bottom row first, placement)
+        #                           placement: (x, y, w, h) fractions of the view from its
+        #                           bottom-left corner (a render region), or None (all of it)
         self.serial = 0
         self.status = ""
         self.error = None
@@ -138,7 +202,9 @@ class ViewportSession:
         self._full = None         # the request whose full-resolution image is still to come
         self.freed_at = self.exited_at = None  # perf_counter() of free() and of the worker's end
         self.passes = 0           # passes of the current image
+        self.pass_seconds = None  # its render time per pass (tests: a render region's speed-up)
         self.divider = 1
+        self.placement = None     # where the current session's image goes (see `image`)
         # UI thread only:
         self._texture = None
         self._texture_serial = -1
@@ -211,7 +277,7 @@ class ViewportSession:
         image = self.image
         if image is None or self.stopped:
             return
-        serial, pixels = image
+        serial, pixels, placement = image
         if serial != self._texture_serial:
             ih, iw = pixels.shape[:2]
             buf = gpu.types.Buffer('FLOAT', iw * ih * 4, pixels.reshape(-1))
@@ -222,7 +288,11 @@ class ViewportSession:
             return
         gpu.state.blend_set('ALPHA_PREMULT')
         engine.bind_display_space_shader(scene)
-        draw_texture_2d(texture, (0, 0), w, h)
+        if placement is None:
+            draw_texture_2d(texture, (0, 0), w, h)
+        else:  # a render region: its pixels where they are, the rest of the view left empty
+            x, y, pw, ph = placement
+            draw_texture_2d(texture, (x * w, y * h), pw * w, ph * h)
         engine.unbind_display_space_shader()
         gpu.state.blend_set('NONE')
 
@@ -330,6 +400,12 @@ class ViewportSession:
     def _start(self, N, scene, camera, config, divider):
         cam = dict(camera, width=max(1, math.ceil(camera["width"] / divider)),
                    height=max(1, math.ceil(camera["height"] / divider)))
+        self.placement = None
+        if "crop" in camera:  # only the region's pixels are traced (the camera's crop window)
+            crop, rw, rh = scaled_crop(camera["crop"], camera["width"], camera["height"], divider)
+            cam["crop"] = crop
+            x, y, cw, ch = crop
+            self.placement = (x / rw, (rh - y - ch) / rh, cw / rw, ch / rh)
         import json
         scene.set_camera(json.dumps(cam))
         method, params = config
@@ -347,12 +423,14 @@ class ViewportSession:
         alpha = images.get("alpha") if self.config[1].get(FILM_TRANSPARENT) else None
         out[..., 3] = alpha[::-1, :, 0] if alpha is not None else 1.0
         np.nan_to_num(out, copy=False, nan=0.0, posinf=0.0, neginf=0.0)  # never drawn
-        n = session.stats["passes"]
+        stats = session.stats
+        n = stats["passes"]
         done = self.divider == 1 and max_passes > 0 and n >= max_passes
         with self.lock:
             self.serial += 1
-            self.image = (self.serial, out)
+            self.image = (self.serial, out, self.placement)
             self.passes = n
+            self.pass_seconds = stats.get("seconds", 0.0) / max(1, n)
             self.busy = not done
             if done:
                 self.native = None

@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstring>
 #include <mutex>
@@ -10,6 +11,7 @@
 
 #include "core/rng.h"
 #include "scene/scene.h"
+#include "scene/shapes.h"  // linear_determinant
 
 namespace gp {
 
@@ -54,10 +56,31 @@ uint8_t hidden_flag(const Ray& ray) {
   return ray.camera ? kHiddenFromCamera : static_cast<uint8_t>((ray.bounce & kAllLobes) << kLobeShift);
 }
 
+// Mesh i's triangles are geometry i of one of three Embree scenes: `scene` (the top level) while
+// nothing has moved; once something has, `object[i]` (its own BVH in object space, instanced as
+// instance i of the top level) when mesh i has moved, else `unmoved` (one BVH of the meshes never
+// moved, instanced unmoved as instance `unmoved_id`). The geometry ID is the mesh index in all
+// three, so a hit's geomID is the mesh index whichever level it came from (and the alpha
+// filters hash the same IDs as in the flat scene).
 struct Accelerator::Impl {
+  static constexpr uint8_t kNotBuilt = 2;
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  RTCScene unmoved = nullptr;
+  unsigned unmoved_id = 0;
+  std::vector<RTCScene> object;        // per mesh: its own BVH once it has moved, else null
+  std::vector<uint8_t> object_mirror;  // per moved mesh: the winding its triangles have (det < 0) or kNotBuilt
+  std::vector<unsigned> dirty;         // top-level instances whose lower BVH changed since commit()
   std::vector<std::unique_ptr<TriangleVisibility>> visibility;  // per mesh, null without filters
+
+  RTCScene new_scene() const {
+    RTCScene s = rtcNewScene(device);
+    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
+    return s;
+  }
+  RTCScene home(size_t i) const { return object[i] ? object[i] : unmoved ? unmoved : scene; }
+  void split_levels();
 };
 
 namespace {
@@ -115,18 +138,19 @@ static void check_device(RTCDevice device, const char* what) {
 }
 
 namespace {
-// One mesh as an Embree triangle geometry, with its ray-visibility filters; `keep` receives the
+// One mesh as an Embree triangle geometry with vertices `positions` (its world-space ones, or its
+// object-space ones for an instanced mesh), with its ray-visibility filters; `keep` receives the
 // filters' per-triangle flags (they must outlive the geometry's use in traversal).
-RTCGeometry make_geometry(RTCDevice device, const Mesh& m, const std::vector<Material>* materials,
-                          std::unique_ptr<TriangleVisibility>& keep) {
+RTCGeometry make_geometry(RTCDevice device, const std::vector<Vec3>& positions, const Mesh& m,
+                          const std::vector<Material>* materials, std::unique_ptr<TriangleVisibility>& keep) {
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
   // Embree-owned buffers (a copy): Embree may read up to 16 bytes past a shared vertex
   // buffer, and owning them keeps the accelerator valid if a Mesh vector reallocates.
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), m.positions.size()));
+      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), positions.size()));
   // (An empty mesh has no data pointer to take ->x of: found by fuzz_obj on an empty file.)
-  for (size_t v = 0; v < m.positions.size(); ++v)
-    for (int k = 0; k < 3; ++k) vb[3 * v + k] = m.positions[v][k];
+  for (size_t v = 0; v < positions.size(); ++v)
+    for (int k = 0; k < 3; ++k) vb[3 * v + k] = positions[v][k];
   auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
       g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangle_count()));
   std::copy(m.indices.begin(), m.indices.end(), ib);
@@ -172,37 +196,119 @@ Accelerator::Accelerator(const std::vector<Mesh>& meshes, const std::vector<Mate
   impl_->device = rtcNewDevice(nullptr);
 #endif
   if (!impl_->device) throw std::runtime_error("cannot create Embree device");
-  impl_->scene = rtcNewScene(impl_->device);
-  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
-  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+  impl_->scene = impl_->new_scene();
   impl_->visibility.resize(meshes.size());
+  impl_->object.assign(meshes.size(), nullptr);
+  impl_->object_mirror.assign(meshes.size(), 0);
   for (size_t i = 0; i < meshes.size(); ++i) {
-    RTCGeometry g = make_geometry(impl_->device, meshes[i], materials, impl_->visibility[i]);
+    RTCGeometry g = make_geometry(impl_->device, meshes[i].positions, meshes[i], materials, impl_->visibility[i]);
     rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(i));
     rtcReleaseGeometry(g);
   }
   commit();
 }
 
-void Accelerator::replace_mesh(size_t index, const Mesh& mesh, const std::vector<Material>* materials) {
+namespace {
+RTCGeometry new_instance(RTCDevice device, RTCScene of, const Transform& to_world) {
+  RTCGeometry inst = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+  rtcSetGeometryInstancedScene(inst, of);
+  // Transform::m is row-major: its first three rows are Embree's 3x4 row-major matrix.
+  rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &to_world.m[0][0]);
+  rtcCommitGeometry(inst);
+  return inst;
+}
+}  // namespace
+
+// The first move: every mesh's triangles leave the top level for the BVH of the unmoved meshes
+// (the same geometries, filters and all: nothing is copied), instanced unmoved. Embree's
+// identity instance maps rays exactly (x * 1 + 0), so their hits do not change.
+void Accelerator::Impl::split_levels() {
+  unmoved = new_scene();
+  unmoved_id = static_cast<unsigned>(object.size());
+  for (unsigned i = 0; i < unmoved_id; ++i) {
+    RTCGeometry g = rtcGetGeometry(scene, i);
+    rtcRetainGeometry(g);
+    rtcDetachGeometry(scene, i);
+    rtcAttachGeometryByID(unmoved, g, i);
+    rtcReleaseGeometry(g);
+  }
+  RTCGeometry inst = new_instance(device, unmoved, Transform());
+  rtcAttachGeometryByID(scene, inst, unmoved_id);
+  rtcReleaseGeometry(inst);
+  dirty.push_back(unmoved_id);
+}
+
+void Accelerator::move_mesh(size_t index, const Mesh& mesh, const std::vector<Material>* materials) {
   // No ray is traced between here and commit() (Scene's updates wait for renders to end), so
-  // the old geometry's visibility flags may go with it.
-  if (index >= impl_->visibility.size()) throw std::out_of_range("Accelerator::replace_mesh: no such mesh");
-  rtcDetachGeometry(impl_->scene, static_cast<unsigned>(index));
-  impl_->visibility[index].reset();
-  RTCGeometry g = make_geometry(impl_->device, mesh, materials, impl_->visibility[index]);
-  rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(index));
+  // geometries and their visibility flags may go at once.
+  if (index >= impl_->object.size()) throw std::out_of_range("Accelerator::move_mesh: no such mesh");
+  if (!mesh.source) throw std::invalid_argument("Accelerator::move_mesh: the mesh has no object-space arrays");
+  Impl& im = *impl_;
+  const unsigned id = static_cast<unsigned>(index);
+  if (!im.unmoved) im.split_levels();
+  const uint8_t mirror = linear_determinant(mesh.to_world) < 0;
+  if (!im.object[index]) {  // its first move: out of the unmoved meshes into a BVH of its own
+    rtcDetachGeometry(im.unmoved, id);
+    im.dirty.push_back(im.unmoved_id);
+    im.object[index] = im.new_scene();
+    RTCGeometry inst = new_instance(im.device, im.object[index], mesh.to_world);
+    rtcAttachGeometryByID(im.scene, inst, id);
+    rtcReleaseGeometry(inst);
+    im.object_mirror[index] = Impl::kNotBuilt;
+  }
+  if (im.object_mirror[index] != mirror) {
+    // Its triangles now, or again where a mirroring matrix came or went and transform_mesh
+    // reversed the mesh's winding: hit barycentrics must refer to mesh.indices' order.
+    replace_mesh(index, mesh, materials);
+  } else {
+    RTCGeometry inst = rtcGetGeometry(im.scene, id);
+    rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &mesh.to_world.m[0][0]);
+    rtcCommitGeometry(inst);
+  }
+  check_device(im.device, "moving a mesh");
+}
+
+void Accelerator::replace_mesh(size_t index, const Mesh& mesh, const std::vector<Material>* materials) {
+  if (index >= impl_->object.size()) throw std::out_of_range("Accelerator::replace_mesh: no such mesh");
+  Impl& im = *impl_;
+  const unsigned id = static_cast<unsigned>(index);
+  RTCScene home = im.home(index);
+  const bool moved = im.object[index] != nullptr;
+  if (!moved || im.object_mirror[index] != Impl::kNotBuilt) rtcDetachGeometry(home, id);
+  im.visibility[index].reset();
+  RTCGeometry g = make_geometry(im.device, moved ? mesh.source->positions : mesh.positions, mesh, materials,
+                                im.visibility[index]);
+  rtcAttachGeometryByID(home, g, id);
   rtcReleaseGeometry(g);
-  check_device(impl_->device, "replacing a mesh");
+  if (moved) {
+    im.object_mirror[index] = linear_determinant(mesh.to_world) < 0;
+    RTCGeometry inst = rtcGetGeometry(im.scene, id);
+    rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &mesh.to_world.m[0][0]);
+  }
+  if (home != im.scene) im.dirty.push_back(moved ? id : im.unmoved_id);
+  check_device(im.device, "replacing a mesh");
 }
 
 void Accelerator::commit() {
-  rtcCommitScene(impl_->scene);
-  check_device(impl_->device, "building the scene");
+  Impl& im = *impl_;
+  std::sort(im.dirty.begin(), im.dirty.end());
+  im.dirty.erase(std::unique(im.dirty.begin(), im.dirty.end()), im.dirty.end());
+  for (unsigned id : im.dirty) {  // lower levels first, then their instances (new bounds)
+    rtcCommitScene(id == im.unmoved_id ? im.unmoved : im.object[id]);
+    rtcCommitGeometry(rtcGetGeometry(im.scene, id));
+  }
+  im.dirty.clear();
+  rtcCommitScene(im.scene);
+  check_device(im.device, "building the scene");
 }
 
+bool Accelerator::instanced(size_t index) const { return index < impl_->object.size() && impl_->object[index]; }
+
 Accelerator::~Accelerator() {
-  if (impl_->scene) rtcReleaseScene(impl_->scene);
+  if (impl_->scene) rtcReleaseScene(impl_->scene);  // (its instances first: they use the others)
+  for (RTCScene s : impl_->object)
+    if (s) rtcReleaseScene(s);
+  if (impl_->unmoved) rtcReleaseScene(impl_->unmoved);
   if (impl_->device) rtcReleaseDevice(impl_->device);
 }
 

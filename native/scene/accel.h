@@ -14,8 +14,8 @@ struct Material;
 
 struct RawHit {
   float t = kInfinity, u = 0, v = 0;
-  Vec3 ng;  // unnormalised geometric normal as Embree reports it
-  int geom = -1, prim = -1;
+  Vec3 ng;  // unnormalised geometric normal as Embree reports it (object space for a moved mesh)
+  int geom = -1, prim = -1;  // mesh index (moved or not) and triangle
 };
 
 // Copies of the rays traced while it is installed, so a benchmark can replay an integrator's
@@ -36,10 +36,20 @@ class Accelerator {
   Accelerator(const Accelerator&) = delete;
   Accelerator& operator=(const Accelerator&) = delete;
 
-  // Replaces mesh `index`'s geometry (its vertices, winding or ray visibility changed); the
-  // scene's BVH is rebuilt at commit(), the other meshes' buffers are kept as they are.
+  // Two levels once something moves (Embree's instancing): until a mesh first moves, all meshes
+  // are triangles of one flat BVH (the fastest to trace). Its first move_mesh takes it out into a
+  // BVH of its own in object space (mesh.source), instanced into the top level under its
+  // to_world, and puts the meshes never moved into one more such BVH (instanced unmoved); a later
+  // move only sets the instance's matrix, so commit() rebuilds just the top level over a few
+  // instances. Hits report the mesh index as `geom` either way.
+  void move_mesh(size_t index, const Mesh& mesh, const std::vector<Material>* materials);
+  // Replaces mesh `index`'s geometry (its ray visibility changed) where it is now: in the flat
+  // BVH, among the unmoved meshes or in its own BVH; the other meshes' buffers are kept.
   void replace_mesh(size_t index, const Mesh& mesh, const std::vector<Material>* materials);
+  // Builds what changed since the last commit: the changed lower-level BVHs, then the top level.
   void commit();
+  // Whether mesh `index` is traced through an instance (it has moved), for tests.
+  bool instanced(size_t index) const;
 
   bool intersect(const Ray& ray, RawHit& hit) const;
   bool occluded(const Ray& ray) const;

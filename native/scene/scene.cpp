@@ -49,6 +49,7 @@ void Scene::finalize() {
   build_lights();
   accel_ = std::make_unique<Accelerator>(meshes, &materials);
   changed_meshes_.clear();
+  moved_meshes_.clear();
 }
 
 void Scene::build_lights() {
@@ -197,8 +198,9 @@ void Scene::set_mesh_transform(size_t index, const Transform& to_world) {
     throw std::invalid_argument(fmt::format("{}: mesh '{}' comes from a scene file and cannot be moved", source, m.name));
   if (const std::string bad = check_object_matrix(to_world); !bad.empty())
     throw std::invalid_argument(fmt::format("{}: object '{}': {}", source, m.name, bad));
-  transform_mesh(*m.source, to_world, m);
-  mark_mesh_changed(index);
+  if (std::memcmp(&to_world, &m.to_world, sizeof(Transform)) == 0) return;  // not moved: stays flat
+  transform_mesh(*m.source, to_world, m);  // world-space arrays: lights, photon chains, manifold walks
+  moved_meshes_.push_back(index);
 }
 
 void Scene::set_camera(const Camera& cam) {
@@ -219,11 +221,15 @@ void Scene::commit() {
   check_not_rendering("update the scene");
   if (!accel_) throw std::logic_error("Scene::commit before finalize");
   build_lights();
-  std::sort(changed_meshes_.begin(), changed_meshes_.end());
-  changed_meshes_.erase(std::unique(changed_meshes_.begin(), changed_meshes_.end()), changed_meshes_.end());
+  for (auto* list : {&changed_meshes_, &moved_meshes_}) {
+    std::sort(list->begin(), list->end());
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  }
   for (size_t i : changed_meshes_) accel_->replace_mesh(i, meshes[i], &materials);
-  if (!changed_meshes_.empty()) accel_->commit();
+  for (size_t i : moved_meshes_) accel_->move_mesh(i, meshes[i], &materials);
+  if (!changed_meshes_.empty() || !moved_meshes_.empty()) accel_->commit();
   changed_meshes_.clear();
+  moved_meshes_.clear();
   ++generation_;
 }
 

@@ -107,8 +107,10 @@ class Scene {
   // Marks mesh `index` changed in ways commit() must pass on (its materials' ray visibility).
   void mark_mesh_changed(size_t index);
   // Rebuilds what depends on meshes, materials and lights: the area lights, the light
-  // distribution and bounds, and the accelerator's changed meshes (their BVH is refit into
-  // the scene's, not the other meshes' arrays copied again). Advances generation().
+  // distribution and bounds, and the accelerator's changed meshes: a moved mesh is traced through
+  // an instance of its own object-space BVH from its first move on, so a later move rebuilds only
+  // the top level over a few instances (Accelerator::move_mesh); a scene never moved keeps one
+  // flat BVH. Advances generation().
   void commit();
   uint64_t generation() const { return generation_; }
 
@@ -177,7 +179,7 @@ class Scene {
   LightSet light_set_;
   Bounds3 bounds_;
   std::vector<std::vector<int32_t>> triangle_light_;  // per mesh, per triangle: light or -1
-  std::vector<size_t> changed_meshes_;                 // for the accelerator at commit()
+  std::vector<size_t> changed_meshes_, moved_meshes_;  // for the accelerator at commit()
   uint64_t generation_ = 0;
   bool lights_hidden_from_some_lobes_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).

@@ -50,10 +50,13 @@ def test_persistent_data_updates_the_kept_scene_and_renders_as_a_fresh_export(em
     s3, blue = render_combined()
     assert engine_state.plans[-1] == ["description"], engine_state.plans
     assert blue[..., 2].mean() > moved[..., 2].mean()
-    # The same frame without persistent data: the same image, bit for bit.
+    # The same frame without persistent data: the same image, but for the last bits of the moved
+    # cube's hits (an Embree instance traces it in object space; scene_update_test.cpp's
+    # expect_close): the same paths, values within 1e-4, at most 1 % sent elsewhere by a last bit.
     empty_scene.render.use_persistent_data = False
     s4, fresh = render_combined()
-    np.testing.assert_array_equal(fresh, blue)
+    off = ~(np.abs(blue - fresh) <= 1e-4 * np.abs(fresh) + 1e-7)
+    assert off.mean() <= 0.01, off.mean()
 
 
 def test_persistent_data_reexports_an_edited_mesh(empty_scene):
@@ -124,3 +127,24 @@ def test_sync_plans_a_rebuild_then_only_what_changed(empty_scene):
     cube.data.materials[0] = scenes.diffuse_material("Other")  # another material in the slot
     dg = bpy.context.evaluated_depsgraph_get()
     assert sc.sync(dg).kinds() == ["rebuild"]
+
+
+def test_viewport_render_region_at_reduced_resolution_covers_the_region():
+    """viewport.scaled_crop: the reduced passes of a render region trace whole reduced pixels that
+    cover the region, inside the reduced image; at full resolution the region itself."""
+    from gradphoton import viewport
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        W, H = int(rng.integers(1, 1500)), int(rng.integers(1, 900))
+        x, y = int(rng.integers(0, W)), int(rng.integers(0, H))
+        crop = [x, y, int(rng.integers(1, W - x + 1)), int(rng.integers(1, H - y + 1))]
+        assert viewport.scaled_crop(crop, W, H, 1) == (crop, W, H)
+        for d in viewport.dividers(W, H):
+            (cx, cy, cw, ch), rw, rh = viewport.scaled_crop(crop, W, H, d)
+            assert cw >= 1 and ch >= 1 and cx + cw <= rw and cy + ch <= rh, (crop, W, H, d)
+            # Scaled back (a reduced pixel is W / rw view pixels wide), it covers the region.
+            sx, sy = W / rw, H / rh
+            assert cx * sx <= crop[0] + 1e-9 and cy * sy <= crop[1] + 1e-9, (crop, W, H, d)
+            assert (cx + cw) * sx >= crop[0] + crop[2] - 1e-9 and (cy + ch) * sy >= crop[1] + crop[3] - 1e-9, \
+                (crop, W, H, d)
+            assert cw * sx <= crop[2] + 2 * sx and ch * sy <= crop[3] + 2 * sy  # and not much more

@@ -103,7 +103,8 @@ def test_rendered_viewport_shows_the_progressive_image_and_follows_edits():
     """The 3D view in Rendered shading (ui_viewport.py): the progressive image reaches the screen
     (reduced resolution first, passes growing), a material edit, an object move and a view turn
     each change the screenshot within half a second of engine time without exporting a mesh
-    again, and leaving Rendered shading stops the worker. Screenshots kept in
+    again, a render region shows the image only inside it, and leaving Rendered shading stops
+    the worker. Screenshots kept in
     build/test-artifacts/ui/viewport_*.png."""
     out = os.path.join(ROOT, "build", "test-artifacts", "ui")
     os.makedirs(out, exist_ok=True)
@@ -124,4 +125,13 @@ def test_rendered_viewport_shows_the_progressive_image_and_follows_edits():
     for key in ("material_update_s", "object_move_s", "camera_move_s"):
         assert res[key] < 0.5, (key, res[key])
     assert res["rebuilds"] == 0  # the move exported no mesh again
+    # A render region (0.4 x 0.5 of the view): the image inside it (as the full view's there, up
+    # to noise: measured 0.007), the view's background outside (none of the red cube the full
+    # view shows there: measured 0 % of the pixels against 5.5 %), only its pixels traced.
+    assert res["region_inside_std"] > 0.02 and res["region_inside_change"] < 0.05, res
+    assert res["region_outside_red"] < 0.002 and res["full_outside_red"] > 0.01, res
+    assert res["region_outside_change"] > 0.01, res
+    assert res["region_pixels"] < 0.25 * res["full_pixels"], res
+    # Through the camera: the scene's border, a quarter of the camera frame (whole pixels).
+    assert abs(res["camera_border_share"] - 0.25) < 0.02, res
     assert res["worker_stop_s"] is not None and res["worker_stop_s"] < 0.5

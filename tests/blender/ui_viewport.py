@@ -5,14 +5,16 @@
 Switches the factory scene's 3D view to Rendered shading (overlays, gizmos, header and side
 regions off, so the area shows only the drawn image), waits for the progressive image, takes
 screenshots of the area, then edits the cube's material colour, moves the cube, turns the view,
-and leaves Rendered shading; each change must reach the screen (the screenshot changes as the
-edit says) and leaving must stop the worker. Writes OUT_DIR/ui_viewport.json."""
+sets a render region (View > Render Region) and leaves Rendered shading; each change must reach
+the screen (the screenshot changes as the edit says: with a render region, the image only inside
+it) and leaving must stop the worker. Writes OUT_DIR/ui_viewport.json."""
 import faulthandler
 import json
 import os
 import sys
 import time
 import traceback
+import types
 
 import bpy
 import numpy as np
@@ -121,6 +123,37 @@ def settled(min_passes=2):
     return v is not None and v.image is not None and v.divider == 1 and v.passes >= min_passes and v.request is None
 
 
+REGION = (0.3, 0.7, 0.25, 0.75)  # the view's render region: min x, max x, min y, max y (fractions)
+
+
+def pixels_of_image():
+    v = vp()
+    return int(v.image[1].shape[0] * v.image[1].shape[1])
+
+
+def region_checks(shot, full):
+    """The screenshot with a render region against the last one without: the image inside the
+    region (close to the full view's there: the same camera), the view's own background outside
+    (none of the red cube that the full view shows there), and only the region's pixels traced."""
+    h, w = shot.shape[:2]
+    x0, x1, y0, y1 = REGION
+    # (top row first; 3 pixels of margin for the region's rounding and the area's borders)
+    r0, r1 = int((1 - y1) * h) + 3, int((1 - y0) * h) - 3
+    c0, c1 = int(x0 * w) + 3, int(x1 * w) - 3
+    inside = np.zeros((h, w), bool)
+    inside[r0:r1, c0:c1] = True
+    outside = np.ones((h, w), bool)
+    outside[r0 - 6:r1 + 6, c0 - 6:c1 + 6] = False
+    result["region_inside_std"] = float(shot[inside].std())
+    result["region_inside_change"] = float(np.abs(shot[inside] - full[inside]).mean())
+    result["region_outside_change"] = float(np.abs(shot[outside] - full[outside]).mean())
+    # (Blender draws the region's dashed red outline: the margin above leaves it out.)
+    red = lambda a: float((a[outside][:, 0] - a[outside][:, 1] > 0.1).mean())  # noqa: E731
+    result["region_outside_red"], result["full_outside_red"] = red(shot), red(full)
+    result["region_pixels"] = pixels_of_image()
+    result["full_pixels"] = state["full_pixels"]
+
+
 def step():
     try:
         st = state["stage"]
@@ -143,6 +176,7 @@ def step():
             if not wait_for(lambda: vp().passes > state["passes"] + 2, st):
                 return 0.1
             result["passes_later"] = vp().passes
+            result["full_view_pass_s"] = vp().pass_seconds  # (docs/blender.md; not asserted)
             state["edit_serial"] = image_serial()
             base_color.default_value = (0.9, 0.05, 0.05, 1.0)  # a material edit: red
             log("material colour set to red")
@@ -183,7 +217,45 @@ def step():
             result["camera_move_s"] = [s for k, s in vp().events if k == "camera"][-1]
             turned = screenshot("viewport_after_view_turn.png")
             result["camera_move_change"] = float(np.abs(turned - state["moved"]).mean())
+            state["turned"] = turned
+            state["full_pixels"] = pixels_of_image()
             win, area = view3d()
+            space = area.spaces.active
+            (space.render_border_min_x, space.render_border_max_x,
+             space.render_border_min_y, space.render_border_max_y) = REGION
+            space.use_render_border = True
+            area.tag_redraw()
+            log("render region set")
+            next_stage("render region")
+            return 0.05
+        if st == "render region":
+            if not wait_for(lambda: vp().image[2] is not None and settled(3), st):
+                return 0.05
+            result["region_pass_s"] = vp().pass_seconds
+            shot = screenshot("viewport_render_region.png")
+            region_checks(shot, state["turned"])
+            # Through the scene camera the scene's render border applies, not the view's region.
+            r = scene.render
+            r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.25, 0.75
+            r.use_border = True
+            win, area = view3d()
+            area.spaces.active.region_3d.view_perspective = 'CAMERA'
+            area.tag_redraw()
+            state["view_region_placement"] = vp().image[2]
+            log("camera view with a render border")
+            next_stage("camera border")
+            return 0.05
+        if st == "camera border":
+            if not wait_for(lambda: vp().image[2] not in (None, state["view_region_placement"]) and settled(1), st):
+                return 0.05
+            win, area = view3d()
+            region = next(r for r in area.regions if r.type == 'WINDOW')
+            ctx = types.SimpleNamespace(region=region, region_data=area.spaces.active.region_3d)
+            fx0, fy0, fx1, fy1 = gp_viewport.camera_frame(ctx, scene)
+            _, _, pw, ph = vp().image[2]
+            # The border's share of the view: a quarter of the camera frame's.
+            result["camera_border_share"] = pw * ph / ((fx1 - fx0) * (fy1 - fy0) / (region.width * region.height))
+            screenshot("viewport_camera_border.png")
             state["worker"] = vp().thread
             area.spaces.active.shading.type = 'SOLID'
             log("left Rendered shading")

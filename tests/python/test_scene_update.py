@@ -61,8 +61,13 @@ def test_set_transforms_renders_as_a_fresh_build():
     assert names == ["floor", "lamp", "box"]
     moved.set_transforms([names.index("box")], translate(0.4, 0.2, 0.5, 0.4)[None])
     after = image(moved)
-    np.testing.assert_array_equal(after, image(build(translate(0.4, 0.2, 0.5, 0.4))))
-    assert not np.array_equal(before, after)
+    # The moved box is traced through an Embree instance, in object space: its hits differ from a
+    # fresh build's in the last bits (tests/native/scene_update_test.cpp, expect_close), so the
+    # same paths give values within 1e-4, but for at most 1 % that a last bit sends elsewhere.
+    fresh = image(build(translate(0.4, 0.2, 0.5, 0.4)))
+    off = ~(np.abs(after - fresh) <= 1e-4 * np.abs(fresh) + 1e-7)
+    assert off.mean() <= 0.01, off.mean()
+    assert (~(np.abs(before - fresh) <= 1e-4 * np.abs(fresh) + 1e-7)).mean() > 0.01
 
 
 def test_set_camera_and_crop_render_as_a_fresh_build():
