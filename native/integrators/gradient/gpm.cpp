@@ -250,7 +250,7 @@ struct Step1 {
   ShiftFailure failure = ShiftFailure::None;
   Vec3 y_star, wi_prev;  // candidate, and the unit direction from y_{s-1} towards it
   float len_star = 0;
-  SurfaceHit hit;
+  SurfacePoint hit;
 };
 
 }  // namespace
@@ -268,9 +268,9 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   }
   s.wi_prev = dir / s.len_star;
   ++rays;
-  const auto h = scene.intersect(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
+  const auto h = scene.intersect_point(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
   if (!h) s.failure = ShiftFailure::Missed;
-  else if (!scene.bsdf(*h).is_diffuse_for_photons(threshold))
+  else if (!scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
   else s.hit = *h;
   return s;
@@ -286,7 +286,7 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
   const float lb = length(db);
   if (!(lb > 0)) return false;
   ++rays;
-  const auto bh = scene.intersect(Ray(offset_ray_origin(prev_off, ng_prev_off, db / lb), db / lb));
+  const auto bh = scene.intersect_point(Ray(offset_ray_origin(prev_off, ng_prev_off, db / lb), db / lb));
   return bh && length_squared(bh->p - y) <= tol * tol;
 }
 
@@ -298,7 +298,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     out.failure = s1.failure;
     return out;
   }
-  const SurfaceHit& yh = s1.hit;
+  const SurfacePoint& yh = s1.hit;
   const double jac = photon_shift_jacobian(org.p, s1.y_star, o.ng, yh.p, yh.ng);  // eq. 6
   const Vec3 wi_prev = s1.wi_prev;
   out.wi_gather = o.frame.to_local(-wi_prev);
