@@ -418,9 +418,9 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   if (!(length(s1.hit.p - o.p) <= R + walk_tol)) return out;
   ++walk_stats.walks;
   const ManifoldWalk walk = manifold_walk(scene_, base.prepared, chain.ng,  // chain.ng: zero for a point light
-                                          s1.hit.p, walk_tol, manifold_iterations_, s1.hit.mesh, s1.hit.prim);
+                                          s1.hit.p, walk_tol, manifold_iterations_);
   walk_stats.iterations += walk.iterations;
-  rays += walk.rays;
+  rays += static_cast<int64_t>(walk.iterations) * (chain.count + 1);
   if (!walk.ok()) return failed(walk.failure);
   const ManifoldChain& c = walk.chain;
   if (!scene_.bsdf(walk.end_hit.material, walk.end_hit.uv).is_diffuse_for_photons(threshold_))

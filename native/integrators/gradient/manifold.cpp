@@ -249,46 +249,8 @@ std::optional<double> chain_direction_per_area(const Scene& scene, const Manifol
 
 namespace {
 
-// Where `ray` meets triangle `prim` of `mesh` strictly inside its edges (Moller-Trumbore), as
-// Scene::surface_point reports a hit (interpolated vertices, winding normal); nullopt when it
-// misses the triangle, runs parallel to it, or meets it behind the origin.
-std::optional<SurfacePoint> hit_triangle(const Scene& scene, int mesh, int prim, const Ray& ray) {
-  const Mesh& m = scene.meshes[mesh];
-  const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
-  const Vec3d p0 = to_d(m.positions[i0]), e1 = to_d(m.positions[i1]) - p0, e2 = to_d(m.positions[i2]) - p0;
-  const Vec3d d = to_d(ray.d), q = d.cross(e2);
-  const double det = e1.dot(q);
-  if (!(std::abs(det) > 1e-300)) return std::nullopt;
-  const Vec3d s = to_d(ray.o) - p0;
-  const double b1 = s.dot(q) / det;
-  const Vec3d r = s.cross(e1);
-  const double b2 = d.dot(r) / det, t = e2.dot(r) / det;
-  if (!(b1 > 0 && b2 > 0 && b1 + b2 < 1 && t > ray.tmin && t < ray.tmax)) return std::nullopt;
-  std::optional<SurfacePoint> h(std::in_place);
-  const float u = static_cast<float>(b1), v = static_cast<float>(b2), w = 1.0f - u - v;
-  h->t = static_cast<float>(t);
-  h->p = m.positions[i0] * w + m.positions[i1] * u + m.positions[i2] * v;
-  h->ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
-  h->mesh = mesh;
-  h->prim = prim;
-  h->material = static_cast<int>(m.material_ids[prim]);
-  return h;
-}
-
-// Propagates the chain from x_0 towards `aim` (propagate_chain). With `own_triangles`, each
-// vertex is first intersected with the triangle the chain `c` has there (and the endpoint with
-// `end_prim` of `end_mesh`, when >= 0), and only a ray that leaves its triangle is traced through
-// the scene: the walk's trial projections (no occluder test, no uv: manifold_walk traces the
-// converged chain again). `traced` counts the rays traced through the scene.
 ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& start_ng, const Vec3& aim,
-                       ManifoldChain& out, SurfacePoint& end_hit, Surfaces& surf, bool own_triangles,
-                       int end_mesh, int end_prim, int& traced) {
-  auto intersect = [&](const Ray& ray, int mesh, int prim) {
-    if (own_triangles && mesh >= 0)
-      if (auto h = hit_triangle(scene, mesh, prim, ray)) return h;
-    ++traced;
-    return scene.intersect_point(ray);
-  };
+                       ManifoldChain& out, SurfacePoint& end_hit, Surfaces& surf) {
   out = c;
   // Aim from the ray's actual origin (pushed off x_0's surface), so that aiming at a chain's own
   // x_1 gives that chain back: near a caustic a 1e-5 origin shift moves the endpoint visibly.
@@ -302,7 +264,7 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
   if (!(length_squared(dir) > 0)) return ShiftFailure::ZeroLength;
   Ray ray(o, dir);
   for (int j = 0; j < c.count; ++j) {
-    const auto hit = intersect(ray, c.v[j].mesh, c.v[j].prim);
+    const auto hit = scene.intersect_point(ray);
     if (!hit) return ShiftFailure::Missed;
     if (hit->mesh != c.v[j].mesh) return ShiftFailure::Occluded;  // another surface in the way
     surf[j] = local_surface(scene, hit->mesh, hit->prim, hit->p);
@@ -337,7 +299,7 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
     const Vec3 d = to_f(wi_w);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, d), d);
   }
-  const auto hit = intersect(ray, end_mesh, end_prim);
+  const auto hit = scene.intersect_point(ray);
   if (!hit) return ShiftFailure::Missed;
   out.end = hit->p;
   out.end_ng = hit->ng;
@@ -351,8 +313,7 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
 ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& c, const Vec3& start_ng, const Vec3& aim,
                              ManifoldChain& out, SurfacePoint& end_hit) {
   Surfaces surf;
-  int traced = 0;
-  return propagate(scene, c, start_ng, aim, out, end_hit, surf, false, -1, -1, traced);
+  return propagate(scene, c, start_ng, aim, out, end_hit, surf);
 }
 
 PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain) {
@@ -394,7 +355,7 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
 constexpr double kStuckStep = 0.1;
 
 ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, const Vec3& start_ng,
-                           const Vec3& target, float tolerance, int max_iterations, int target_mesh, int target_prim) {
+                           const Vec3& target, float tolerance, int max_iterations) {
   ManifoldWalk w;
   const ManifoldChain& base = prepared.chain;
   w.chain = base;
@@ -413,8 +374,6 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
   SurfacePoint ends[2];
   int cur = 0;
   chains[0] = base;
-  ends[0].mesh = target_mesh;  // the base's own end triangle is not recorded: try the target's
-  ends[0].prim = target_prim;
   if (!chain_surfaces(scene, base, surfs[0])) {
     w.failure = ShiftFailure::SpecularChain;
     return w;
@@ -441,9 +400,9 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
     const Vec3d x1 = surf[0].p + d1[0] * surf[0].s + d1[1] * surf[0].t;
     ++w.iterations;
     const int nxt = 1 - cur;
-    const ShiftFailure f = x1.allFinite() ? propagate(scene, chains[cur], start_ng, to_f(x1), chains[nxt], ends[nxt],
-                                                      surfs[nxt], true, ends[cur].mesh, ends[cur].prim, w.rays)
-                                          : ShiftFailure::ZeroLength;
+    const ShiftFailure f = x1.allFinite()
+                               ? propagate(scene, chains[cur], start_ng, to_f(x1), chains[nxt], ends[nxt], surfs[nxt])
+                               : ShiftFailure::ZeroLength;
     const double next_dist = f == ShiftFailure::None ? (to_d(chains[nxt].end) - goal).norm() : kInfinity;
     if (f == ShiftFailure::None && (next_dist < dist || (!have_end && next_dist <= tolerance))) {
       cur = nxt;
@@ -451,13 +410,6 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
       dist = next_dist;
       need_map = true;
       if (dist <= tolerance) {
-        // The trial projections met the chain's own triangles without looking for anything in
-        // between: the converged chain is traced through the scene, and must arrive as close.
-        const int traced = 1 - cur;
-        const ShiftFailure ft = propagate(scene, chains[cur], start_ng, to_f(x1), chains[traced], ends[traced],
-                                          surfs[traced], false, -1, -1, w.rays);
-        if (ft != ShiftFailure::None || !((to_d(chains[traced].end) - goal).norm() <= tolerance)) break;
-        cur = traced;
         // Converged: the offset chain's eq. 8 term and throughput, from the surfaces at hand.
         w.chain = chains[cur];
         w.end_hit = ends[cur];
@@ -475,7 +427,7 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
     }
   }
   w.chain = chains[cur];
-  if (have_end) w.end_hit = ends[cur];
+  w.end_hit = ends[cur];
   w.failure = ShiftFailure::WalkNotConverged;
   return w;
 }

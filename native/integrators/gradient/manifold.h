@@ -31,12 +31,7 @@
 // endpoint closer is taken (and the step size doubled, up to 1); otherwise the step is halved.
 // It stops when the endpoint lies within `tolerance` of the target, or fails after
 // `max_iterations` projections (GPM §5 uses 5, Mitsuba 20) or once the step has been halved
-// below 1/10 (stuck). A trial projection first meets each vertex's own triangle (the one the
-// current chain has there; the endpoint: the previous end's, or the target's) and traces a ray
-// through the scene only where it leaves that triangle; the converged chain is then traced
-// through the scene from the same x_1 (so an occluder, or a neighbouring triangle, is seen) and
-// must end within `tolerance` too. The trial projections are only the root-finder's steps: the
-// chain a walk returns is always a traced one.
+// below 1/10 (stuck).
 #pragma once
 
 #include <array>
@@ -96,9 +91,7 @@ struct ManifoldWalk {
   ShiftFailure failure = ShiftFailure::None;
   ManifoldChain chain;       // the offset chain (its end within tolerance of the target)
   SurfacePoint end_hit;      // the surface point it ends on
-  int iterations = 0;        // projections
-  int rays = 0;              // rays traced through the scene (a projection that stays on the
-                             // chain's triangles traces none; the converged chain is traced)
+  int iterations = 0;        // projections traced
   double dir_per_area = 0;   // chain_direction_per_area of the offset chain
   ChainThroughput through;   // what the offset chain's vertices do to the photon
   bool ok() const { return failure == ShiftFailure::None; }
@@ -119,10 +112,8 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain);
 
 // Walks `base` so that its endpoint reaches `target` (a point on a surface), x_0 fixed.
 // start_ng: geometric normal at x_0 (zero for a point light) for the first ray's offset.
-// target_mesh / target_prim: the triangle `target` lies on, when known (the first projection
-// tries it for the endpoint before tracing through the scene).
 ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& base, const Vec3& start_ng, const Vec3& target,
-                           float tolerance, int max_iterations, int target_mesh = -1, int target_prim = -1);
+                           float tolerance, int max_iterations);
 // The same for prepare_chain(base): the walk holds base's own half-vectors at glossy vertices.
 ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
                            float tolerance, int max_iterations);
