@@ -255,11 +255,8 @@ struct Step1 {
 
 }  // namespace
 
-// `reach`: y'_s farther than this from z'_t adds nothing whatever it is (outside the kernel, or
-// not walked: the callers), so the ray is a segment that ends where it could no longer land
-// within reach of z'_t; nothing within it counts as a miss (offset 0, weight 1, as before).
 static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
-                          const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev, float reach,
+                          const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev,
                           int64_t& rays) {
   Step1 s;
   s.y_star = photon_offset_candidate(z, frame_z, z_off, frame_off, y);
@@ -271,10 +268,7 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   }
   s.wi_prev = dir / s.len_star;
   ++rays;
-  const Vec3 o = offset_ray_origin(y_prev, ng_prev, s.wi_prev);
-  // A hit at t has |hit - z'_t| >= t - |z'_t - o| (unit direction): beyond t_max it is out of reach.
-  const float t_max = (length(z_off - o) + reach) * 1.001f;
-  const auto h = scene.intersect_point(Ray(o, s.wi_prev, 0.0f, t_max));
+  const auto h = scene.intersect_point(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
   if (!h) s.failure = ShiftFailure::Missed;
   else if (!scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
@@ -299,7 +293,7 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
 Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                                       const PhotonOrigin& org, int64_t& rays) const {
   PhotonShift out;
-  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, R, rays);
+  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
   if (s1.failure != ShiftFailure::None) {
     out.failure = s1.failure;
     return out;
@@ -411,15 +405,14 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
     return out;
   };
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
-  // ---- Step 2 (below): manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
+  // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
+  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
+  if (s1.failure != ShiftFailure::None) return failed(s1.failure);
+  const double jac6 = photon_shift_jacobian(org.p, s1.y_star, o.ng, s1.hit.p, s1.hit.ng);
+  // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
   // walk's own residual never makes a shift look non-reversible.
   const float tol = kReversibleTolerance * R, walk_tol = 1e-3f * R;
-  // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
-  const Step1 s1 =
-      photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, R + walk_tol, rays);
-  if (s1.failure != ShiftFailure::None) return failed(s1.failure);
-  const double jac6 = photon_shift_jacobian(org.p, s1.y_star, o.ng, s1.hit.p, s1.hit.ng);
   // A target farther than R + walk_tol from z'_t ends the walk outside the kernel: offset 0 and
   // weight 1 whether or not it converges, so it is not walked.
   if (!(length(s1.hit.p - o.p) <= R + walk_tol)) return out;
