@@ -72,7 +72,7 @@ struct OffsetWalk : EyePathHooks {
     off[d].failure = f;
     ++fail_count[static_cast<int>(f)];
   }
-  // The offset camera rays and their closest hits, traced beforehand (OffsetCameraRays).
+  // The offset camera rays and their closest hits, traced beforehand (gpm_eye_pass, per tile).
   void start(const std::array<bool, 4>& exists, const Ray* rays_in, const std::optional<SurfaceHit>* hits_in) {
     for (int d = 0; d < 4; ++d) {
       off[d].exists = exists[d];
