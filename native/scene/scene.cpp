@@ -239,6 +239,14 @@ std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   return surface_hit(raw, ray.d);
 }
 
+std::optional<SurfacePoint> Scene::intersect_point(const Ray& ray) const {
+  RawHit raw;
+  if (!accel_->intersect(ray, raw)) return std::nullopt;
+  std::optional<SurfacePoint> out(std::in_place);
+  surface_point(raw, *out);
+  return out;
+}
+
 void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceHit>* hits) const {
   thread_local std::vector<RawHit> raw;
   thread_local std::unique_ptr<bool[]> found;  // (vector<bool> has no bool array to write into)
@@ -262,6 +270,21 @@ void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, R
   scene.intersect_coherent(rays, n, hits);
 }
 
+void Scene::surface_point(const RawHit& raw, SurfacePoint& h) const {
+  const Mesh& m = meshes[raw.geom];
+  const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
+  const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
+  h.t = raw.t;
+  // Interpolating the vertices is more precise than o + t d far from the ray origin.
+  h.p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
+  h.ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
+  if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
+  else h.uv = Vec2(b1, b2);
+  h.material = static_cast<int>(m.material_ids[raw.prim]);
+  h.mesh = raw.geom;
+  h.prim = raw.prim;
+}
+
 std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_dir) const {
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
@@ -269,10 +292,7 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
   // Built in place in the returned optional (no copy of the record on every ray).
   std::optional<SurfaceHit> out(std::in_place);
   SurfaceHit& h = *out;
-  h.t = raw.t;
-  // Interpolating the vertices is more precise than o + t d far from the ray origin.
-  h.p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
-  h.ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
+  surface_point(raw, h);
   h.ns = h.ng;
   if (!m.normals.empty()) {
     const Vec3 n = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
@@ -281,9 +301,6 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
     if (dot(h.ns, h.ng) < 0) h.ns = -h.ns;  // shading normal on the geometric side
   }
   h.n_smooth = h.ns;
-  if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
-  else h.uv = Vec2(b1, b2);
-  h.material = static_cast<int>(m.material_ids[raw.prim]);
   if (const Material& mat = materials[h.material]; mat.perturbs_normal()) {
     // ---- Normal and bump maps: the shading normal of every method ----
     Vec3 dpdu, dpdv;
@@ -298,8 +315,6 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
     }
   }
   h.frame = Frame(h.ns);
-  h.mesh = raw.geom;
-  h.prim = raw.prim;
   h.light = triangle_light_[raw.geom][raw.prim];
   return out;
 }

@@ -51,17 +51,24 @@ void transform_mesh(const MeshSource& source, const Transform& to_world, Mesh& m
 // Empty, or why `t` cannot place an object: not finite, not affine, singular.
 std::string check_object_matrix(const Transform& t);
 
-// A ray's closest hit with everything shading needs.
-struct SurfaceHit {
+// A ray's closest hit without what only shading needs (the interpolated shading normal, its
+// frame, the light): for rays whose hit is only a place on a surface (a manifold walk's
+// projections, GPM's photon-shift and reversibility rays). p, ng and uv are SurfaceHit's, bit
+// for bit.
+struct SurfacePoint {
   float t = kInfinity;
   Vec3 p;
-  Vec3 ng;        // unit geometric normal (triangle winding)
-  Vec3 ns;        // unit shading normal, on the same side as ng
-  Vec3 n_smooth;  // the interpolated normal before normal/bump maps (Cycles' sd->N)
+  Vec3 ng;  // unit geometric normal (triangle winding)
   Vec2 uv;
-  Frame frame;    // shading frame around ns
   int mesh = -1, prim = -1;
   int material = -1;
+};
+
+// A ray's closest hit with everything shading needs.
+struct SurfaceHit : SurfacePoint {
+  Vec3 ns;        // unit shading normal, on the same side as ng
+  Vec3 n_smooth;  // the interpolated normal before normal/bump maps (Cycles' sd->N)
+  Frame frame;    // shading frame around ns
   int light = -1; // area light index of this triangle, or -1
 };
 
@@ -142,6 +149,8 @@ class Scene {
   void check_not_rendering(const char* what) const;
 
   std::optional<SurfaceHit> intersect(const Ray& ray) const;
+  // The same closest hit as intersect(), as a SurfacePoint (cheaper: no shading frame).
+  std::optional<SurfacePoint> intersect_point(const Ray& ray) const;
   // hits[i] = intersect(rays[i]) for n rays that start close together in similar directions
   // (one tile's camera rays): Embree traces them as packets, several times faster than one by
   // one on this project's scenes, with the same answers (`gradphoton bench` checks that).
@@ -188,6 +197,7 @@ class Scene {
   void build_lights();  // validation, area lights, light set and bounds (finalize, commit)
   // What shading needs of a hit (ray_dir: the normal map keeps the view side valid).
   std::optional<SurfaceHit> surface_hit(const RawHit& raw, const Vec3& ray_dir) const;
+  void surface_point(const RawHit& raw, SurfacePoint& out) const;  // what both hits share
 };
 
 }  // namespace gp

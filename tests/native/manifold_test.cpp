@@ -44,7 +44,7 @@ ManifoldChain chain_through_ball(const Scene& scene, const Vec3& start, const Ve
     tmpl.target[j] = o;
   }
   ManifoldChain out;
-  SurfaceHit end;
+  SurfacePoint end;
   const ShiftFailure f = propagate_chain(scene, tmpl, Vec3(0, 0, 0), start + normalize(dir), out, end);
   if (failure) *failure = f;
   return out;

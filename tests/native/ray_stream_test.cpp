@@ -136,5 +136,30 @@ TEST(RayStreams, PathFromATracedFirstHitIsThePathItself) {
   EXPECT_GT(lit, 16);  // paths that carry light, so a wrong first hit would show
 }
 
+// Scene::intersect_point (GPM's shift and walk rays) is intersect() less the shading: the same
+// place, normal, uv and triangle, bit for bit, so a method may trace either.
+TEST(RayStreams, IntersectPointIsIntersectsHitWithoutShading) {
+  const Scene scene = filtered_scene();
+  int hits = 0;
+  for (const Ray& ray : random_rays(2000)) {
+    const auto full = scene.intersect(ray);
+    const auto point = scene.intersect_point(ray);
+    ASSERT_EQ(full.has_value(), point.has_value());
+    if (!full) continue;
+    ++hits;
+    EXPECT_EQ(point->t, full->t);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(point->p[k], full->p[k]);
+      EXPECT_EQ(point->ng[k], full->ng[k]);
+    }
+    EXPECT_EQ(point->uv.x, full->uv.x);
+    EXPECT_EQ(point->uv.y, full->uv.y);
+    EXPECT_EQ(point->mesh, full->mesh);
+    EXPECT_EQ(point->prim, full->prim);
+    EXPECT_EQ(point->material, full->material);
+  }
+  EXPECT_GT(hits, 500);
+}
+
 }  // namespace
 }  // namespace gp

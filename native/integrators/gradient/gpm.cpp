@@ -72,15 +72,15 @@ struct OffsetWalk : EyePathHooks {
     off[d].failure = f;
     ++fail_count[static_cast<int>(f)];
   }
-  void start(int x, int y, int width, int height, const Vec2& film, const Vec2& lens) {
+  // The offset camera rays and their closest hits, traced beforehand (gpm_eye_pass, per tile).
+  void start(const std::array<bool, 4>& exists, const Ray* rays_in, const std::optional<SurfaceHit>* hits_in) {
     for (int d = 0; d < 4; ++d) {
-      const int px = x + kOffsetX[d], py = y + kOffsetY[d];
-      off[d].exists = px >= 0 && px < width && py >= 0 && py < height;
+      off[d].exists = exists[d];
       off[d].beta = RGB(1.0f);
       if (!off[d].exists) continue;
-      oray[d] = scene.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]), lens);
+      oray[d] = rays_in[d];
       ++rays;
-      ohit[d] = scene.intersect(oray[d]);
+      ohit[d] = hits_in[d];
     }
   }
   // Offset vertices: same kind, or the shift is not invertible (§4.3).
@@ -165,13 +165,48 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         int64_t fail_count[kShiftFailureCount] = {};
+        // The tile's base camera rays and, offset by offset, its offset camera rays (same
+        // sub-pixel position and lens sample one pixel over) are traced together, as SPPM's:
+        // Embree packets, the same hits as one by one.
+        std::vector<PixelStart> starts;
         for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) {
+          for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(scene_.camera, seed_, pass, x, y));
+        const size_t n = starts.size();
+        std::vector<Ray> camera(5 * n);
+        std::vector<std::optional<SurfaceHit>> hits(5 * n);
+        trace_camera_rays(scene_, starts.data(), n, camera.data(), hits.data());
+        const Vec2 ext = scene_.camera.half_extent();
+        std::vector<std::array<bool, 4>> exists(n);
+        for (int d = 0; d < 4; ++d) {
+          // Offsets inside the image only, packed: slot[k] is pixel k's ray among them.
+          std::vector<Ray> rays_d;
+          std::vector<size_t> slot(n);
+          size_t k = 0;
+          for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x, ++k) {
+              const int px = x + kOffsetX[d], py = y + kOffsetY[d];
+              exists[k][d] = px >= 0 && px < width_ && py >= 0 && py < height_;
+              if (!exists[k][d]) continue;
+              slot[k] = rays_d.size();
+              const Vec2 film = starts[k].film;
+              rays_d.push_back(scene_.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]),
+                                                          starts[k].lens, ext));
+            }
+          std::vector<std::optional<SurfaceHit>> hits_d(rays_d.size());
+          scene_.intersect_coherent(rays_d.data(), rays_d.size(), hits_d.data());
+          for (k = 0; k < n; ++k) {
+            if (!exists[k][d]) continue;
+            camera[n + 4 * k + d] = rays_d[slot[k]];
+            hits[n + 4 * k + d] = std::move(hits_d[slot[k]]);
+          }
+        }
+        size_t k = 0;
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x, ++k) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
             OffsetWalk walk(scene_, threshold_, rays, fail_count);
-            walk.start(x, y, width_, height_, film, lens);
-            EyePath path = trace_eye_path(scene_.camera.generate_ray(film, lens), rng, rays, walk);
+            walk.start(exists[k], &camera[n + 4 * k], &hits[n + 4 * k]);
+            EyePath path = trace_eye_path(camera[k], starts[k].rng, rays, walk, &hits[k]);
             auto& off = walk.off;
             bool nee_finite = walk.nee_base.is_finite();
             for (const RGB& g : walk.nee_diff) nee_finite = nee_finite && g.is_finite();
@@ -196,7 +231,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
             vp_[pixel] = path.vp;
             off_[pixel] = off;
             // Initial radius: SPPM's footprint rule, one pixel wide by default (below).
-            first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length) : 0.0f;
+            first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length, ext) : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;
@@ -215,7 +250,7 @@ struct Step1 {
   ShiftFailure failure = ShiftFailure::None;
   Vec3 y_star, wi_prev;  // candidate, and the unit direction from y_{s-1} towards it
   float len_star = 0;
-  SurfaceHit hit;
+  SurfacePoint hit;
 };
 
 }  // namespace
@@ -233,9 +268,9 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   }
   s.wi_prev = dir / s.len_star;
   ++rays;
-  const auto h = scene.intersect(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
+  const auto h = scene.intersect_point(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
   if (!h) s.failure = ShiftFailure::Missed;
-  else if (!scene.bsdf(*h).is_diffuse_for_photons(threshold))
+  else if (!scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
   else s.hit = *h;
   return s;
@@ -251,7 +286,7 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
   const float lb = length(db);
   if (!(lb > 0)) return false;
   ++rays;
-  const auto bh = scene.intersect(Ray(offset_ray_origin(prev_off, ng_prev_off, db / lb), db / lb));
+  const auto bh = scene.intersect_point(Ray(offset_ray_origin(prev_off, ng_prev_off, db / lb), db / lb));
   return bh && length_squared(bh->p - y) <= tol * tol;
 }
 
@@ -263,7 +298,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     out.failure = s1.failure;
     return out;
   }
-  const SurfaceHit& yh = s1.hit;
+  const SurfacePoint& yh = s1.hit;
   const double jac = photon_shift_jacobian(org.p, s1.y_star, o.ng, yh.p, yh.ng);  // eq. 6
   const Vec3 wi_prev = s1.wi_prev;
   out.wi_gather = o.frame.to_local(-wi_prev);

@@ -250,7 +250,7 @@ std::optional<double> chain_direction_per_area(const Scene& scene, const Manifol
 namespace {
 
 ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& start_ng, const Vec3& aim,
-                       ManifoldChain& out, SurfaceHit& end_hit, Surfaces& surf) {
+                       ManifoldChain& out, SurfacePoint& end_hit, Surfaces& surf) {
   out = c;
   // Aim from the ray's actual origin (pushed off x_0's surface), so that aiming at a chain's own
   // x_1 gives that chain back: near a caustic a 1e-5 origin shift moves the endpoint visibly.
@@ -264,7 +264,7 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
   if (!(length_squared(dir) > 0)) return ShiftFailure::ZeroLength;
   Ray ray(o, dir);
   for (int j = 0; j < c.count; ++j) {
-    const auto hit = scene.intersect(ray);
+    const auto hit = scene.intersect_point(ray);
     if (!hit) return ShiftFailure::Missed;
     if (hit->mesh != c.v[j].mesh) return ShiftFailure::Occluded;  // another surface in the way
     surf[j] = local_surface(scene, hit->mesh, hit->prim, hit->p);
@@ -299,7 +299,7 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
     const Vec3 d = to_f(wi_w);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, d), d);
   }
-  const auto hit = scene.intersect(ray);
+  const auto hit = scene.intersect_point(ray);
   if (!hit) return ShiftFailure::Missed;
   out.end = hit->p;
   out.end_ng = hit->ng;
@@ -311,7 +311,7 @@ ShiftFailure propagate(const Scene& scene, const ManifoldChain& c, const Vec3& s
 }  // namespace
 
 ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& c, const Vec3& start_ng, const Vec3& aim,
-                             ManifoldChain& out, SurfaceHit& end_hit) {
+                             ManifoldChain& out, SurfacePoint& end_hit) {
   Surfaces surf;
   return propagate(scene, c, start_ng, aim, out, end_hit, surf);
 }
@@ -367,8 +367,14 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
   double dist = (to_d(base.end) - goal).norm();
   bool have_end = false;
   double beta = 1.0;  // step size (JM12 §5.2)
-  Surfaces surf, next_surf;
-  if (!chain_surfaces(scene, base, surf)) {
+  // The current chain and its surfaces, and the projection being tried: two buffers each,
+  // swapped by index when a step is taken (they are kilobytes; a copy per step showed in profiles).
+  ManifoldChain chains[2];
+  Surfaces surfs[2];
+  SurfacePoint ends[2];
+  int cur = 0;
+  chains[0] = base;
+  if (!chain_surfaces(scene, base, surfs[0])) {
     w.failure = ShiftFailure::SpecularChain;
     return w;
   }
@@ -380,36 +386,38 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
   (*T)(1, 1) = prepared.t1[3];
   bool need_map = false;
   for (int it = 0; it < max_iterations; ++it) {
+    const Surfaces& surf = surfs[cur];
     if (need_map) {
-      T = tangent_map(scene, w.chain, surf);
+      T = tangent_map(scene, chains[cur], surf);
       if (!T) break;
       need_map = false;
     }
     // Linear prediction of x_1 for the endpoint's motion in its tangent plane.
-    const Vec3d delta = goal - surf[w.chain.count].p;
-    const Eigen::Vector2d d_end(delta.dot(surf[w.chain.count].s), delta.dot(surf[w.chain.count].t));
+    const int k = base.count;
+    const Vec3d delta = goal - surf[k].p;
+    const Eigen::Vector2d d_end(delta.dot(surf[k].s), delta.dot(surf[k].t));
     const Eigen::Vector2d d1 = beta * (T->topRows(2) * d_end);
     const Vec3d x1 = surf[0].p + d1[0] * surf[0].s + d1[1] * surf[0].t;
     ++w.iterations;
-    ManifoldChain next;
-    SurfaceHit hit;
-    const ShiftFailure f = x1.allFinite() ? propagate(scene, w.chain, start_ng, to_f(x1), next, hit, next_surf)
-                                          : ShiftFailure::ZeroLength;
-    const double next_dist = f == ShiftFailure::None ? (to_d(next.end) - goal).norm() : kInfinity;
+    const int nxt = 1 - cur;
+    const ShiftFailure f = x1.allFinite()
+                               ? propagate(scene, chains[cur], start_ng, to_f(x1), chains[nxt], ends[nxt], surfs[nxt])
+                               : ShiftFailure::ZeroLength;
+    const double next_dist = f == ShiftFailure::None ? (to_d(chains[nxt].end) - goal).norm() : kInfinity;
     if (f == ShiftFailure::None && (next_dist < dist || (!have_end && next_dist <= tolerance))) {
-      w.chain = next;
-      w.end_hit = hit;
-      surf = next_surf;
+      cur = nxt;
       have_end = true;
       dist = next_dist;
       need_map = true;
       if (dist <= tolerance) {
         // Converged: the offset chain's eq. 8 term and throughput, from the surfaces at hand.
-        const auto T_end = tangent_map(scene, w.chain, surf);
-        const auto D = T_end ? direction_per_area(w.chain, surf, *T_end) : std::nullopt;
+        w.chain = chains[cur];
+        w.end_hit = ends[cur];
+        const auto T_end = tangent_map(scene, w.chain, surfs[cur]);
+        const auto D = T_end ? direction_per_area(w.chain, surfs[cur], *T_end) : std::nullopt;
         if (!D) break;
         w.dir_per_area = *D;
-        w.through = throughput(scene, w.chain, surf);
+        w.through = throughput(scene, w.chain, surfs[cur]);
         return w;
       }
       beta = std::min(1.0, 2.0 * beta);
@@ -418,6 +426,8 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
       if (beta < kStuckStep) break;  // stuck: more projections would not converge either
     }
   }
+  w.chain = chains[cur];
+  w.end_hit = ends[cur];
   w.failure = ShiftFailure::WalkNotConverged;
   return w;
 }

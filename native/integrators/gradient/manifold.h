@@ -72,7 +72,7 @@ std::optional<double> chain_direction_per_area(const Scene& scene, const Manifol
 // ray misses, meets another mesh than the chain's, or the lobe is impossible (total internal
 // reflection, wrong side).
 ShiftFailure propagate_chain(const Scene& scene, const ManifoldChain& chain, const Vec3& start_ng, const Vec3& aim,
-                             ManifoldChain& out, SurfaceHit& end_hit);
+                             ManifoldChain& out, SurfacePoint& end_hit);
 
 // What the chain's vertices do to a photon (importance transport), for the shift's throughput
 // and MIS ratios: the product over x_1..x_k of f |cos wi| with the adjoint shading-normal
@@ -90,7 +90,7 @@ struct ChainThroughput {
 struct ManifoldWalk {
   ShiftFailure failure = ShiftFailure::None;
   ManifoldChain chain;       // the offset chain (its end within tolerance of the target)
-  SurfaceHit end_hit;        // the surface point it ends on
+  SurfacePoint end_hit;      // the surface point it ends on
   int iterations = 0;        // projections traced
   double dir_per_area = 0;   // chain_direction_per_area of the offset chain
   ChainThroughput through;   // what the offset chain's vertices do to the photon
