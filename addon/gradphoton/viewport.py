@@ -12,7 +12,8 @@ view_update / view_draw delegate here; nothing here is a Blender class.
       the BVH changes), then refines: one pass at a reduced resolution (the longer side about
       START_RESOLUTION pixels, as Cycles' start resolution), halving the pixel size pass by
       pass, then passes at full resolution until the viewport's pass count. Each new image
-      asks Blender to redraw (RenderEngine.tag_redraw).
+      asks Blender to redraw: a flag the worker raises and a timer on Blender's main thread
+      passes on (RenderEngine.tag_redraw; the worker never calls Blender's API).
 
 Render region (Cycles' viewport border: View > Render Region, Ctrl+B): in a view through the scene
 camera, the scene's render border (Output > Format > Render Region) within the camera frame;
@@ -39,6 +40,7 @@ from .properties import FILM_TRANSPARENT, declared
 from .session import params_of
 
 START_RESOLUTION = 64      # pixels on the longer side of the first pass (Cycles' default)
+REDRAW_POLL = 0.02         # seconds between the main thread's checks for a new image
 IDLE_WAIT = 0.25           # seconds the worker sleeps between checks when it has nothing to do
 LAST = None                # the latest ViewportSession (tests and benchmarks inspect it)
 # GPU textures let go of on another thread (an engine freed while the worker held it): a GPU
@@ -208,6 +210,7 @@ class ViewportSession:
         # UI thread only:
         self._texture = None
         self._texture_serial = -1
+        self.redraw_wanted = False  # set by the worker, taken by _redraw_poller
 
     # ---- Blender's UI thread ----
 
@@ -245,6 +248,8 @@ class ViewportSession:
         if self.thread is None:
             self.thread = threading.Thread(target=self._run, name="gradphoton viewport", daemon=True)
             self.thread.start()
+            import bpy
+            bpy.app.timers.register(_redraw_poller(self), first_interval=REDRAW_POLL)
 
     def view_draw(self, engine, context, depsgraph):
         _RETIRED.clear()  # (Blender's main thread)
@@ -324,14 +329,10 @@ class ViewportSession:
     # ---- The worker thread ----
 
     def _tag_redraw(self):
-        engine = self._engine()
-        if engine is None:
-            return False
-        try:
-            engine.tag_redraw()
-            return True
-        except ReferenceError:  # Blender freed the engine
-            return False
+        """Asks for a redraw; False once Blender has freed the engine. Blender's API is called
+        on its main thread only (_redraw_poller): the worker only raises a flag."""
+        self.redraw_wanted = True
+        return self._engine() is not None
 
     def _run(self):
         N = native.get()
@@ -448,6 +449,29 @@ class ViewportSession:
         if not self._tag_redraw():
             with self.lock:
                 self.stopped = True
+
+
+def _redraw_poller(session):
+    """A timer (Blender's main thread) that passes the worker's redraw requests on to the engine
+    (RenderEngine.tag_redraw), until the session stops or the engine is gone. Calls into Blender
+    from the worker thread are what this avoids."""
+    ref = weakref.ref(session)
+
+    def poll():
+        vp = ref()
+        if vp is None or vp.stopped:
+            return None
+        if vp.redraw_wanted:
+            vp.redraw_wanted = False
+            engine = vp._engine()
+            if engine is None:
+                return None
+            try:
+                engine.tag_redraw()
+            except ReferenceError:  # Blender freed the engine
+                return None
+        return REDRAW_POLL
+    return poll
 
 
 # ---- engine.py's delegations ----

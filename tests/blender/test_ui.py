@@ -42,6 +42,9 @@ def run_ui(script, out, result, screen="1280x800x24", retry_crash=False):
             break
         report = crash_report(r, tmp)
         if attempt == 0 and retry_crash and r.returncode != 0 and "Segmentation fault" in r.stdout + r.stderr:
+            crash = os.path.join(tmp, "blender.crash.txt")
+            if os.path.exists(crash):  # kept beside the next run's
+                os.replace(crash, os.path.join(tmp, "blender.crash.first-run.txt"))
             warnings.warn(f"{script} crashed; running it again. {report}")
             continue
         pytest.fail(report)

@@ -101,7 +101,11 @@ def wait_for(pred, stage, timeout=30.0):
     if pred():
         return True
     if time.perf_counter() - state["t"] > timeout:
-        log(f"timed out waiting in stage {stage}")
+        v = vp()
+        log(f"timed out waiting in stage {stage}" + ("" if v is None else
+            f" (passes {v.passes}, divider {v.divider}, request {v.request}, image "
+            f"{None if v.image is None else v.image[0]}, drawn {v._texture_serial}, "
+            f"redraw wanted {v.redraw_wanted}, stopped {v.stopped}, error {v.error})"))
         result["timeout"] = stage
         finish()
         raise StopIteration
@@ -110,6 +114,7 @@ def wait_for(pred, stage, timeout=30.0):
 
 def next_stage(name):
     state["stage"], state["t"] = name, time.perf_counter()
+    state.pop("drawn", None)
     log(f"stage {name}")
 
 
@@ -120,7 +125,13 @@ def image_serial():
 
 def settled(min_passes=2):
     v = vp()
-    return v is not None and v.image is not None and v.divider == 1 and v.passes >= min_passes and v.request is None
+    if not (v is not None and v.image is not None and v.divider == 1 and v.passes >= min_passes and
+            v.request is None):
+        return False
+    # ... and drawn: the view's texture holds that image or a later one (the screenshot shows it;
+    # the worker keeps publishing meanwhile).
+    need = state.setdefault("drawn", v.image[0])
+    return v._texture_serial >= need
 
 
 REGION = (0.3, 0.7, 0.25, 0.75)  # the view's render region: min x, max x, min y, max y (fractions)
