@@ -168,18 +168,27 @@ RGB conductor_fresnel(const BsdfParams& m, float cos_i) {
   return m.conductor_fresnel ? fresnel_schlick(m.color, cos_i) : m.color;
 }
 
-RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
-  if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+// The Cook–Torrance microfacet BRDF without its Fresnel factor, D G / (4 |cos_i| |cos_o|)
+// ([Walter07] eq. 20), of a pair on one side; *cos_h gets |wo . wm| for the Fresnel factor.
+// 0 where the pair has no half vector.
+float microfacet_reflection(float roughness, const Vec3& wo, const Vec3& wi, float* cos_h) {
   const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
-  if (cos_o == 0 || cos_i == 0) return RGB(0.0f);
+  if (cos_o == 0 || cos_i == 0) return 0.0f;
   Vec3 wm = wi + wo;
-  if (length_squared(wm) == 0) return RGB(0.0f);
+  if (length_squared(wm) == 0) return 0.0f;
   wm = normalize(wm);
   if (wm.z < 0) wm = -wm;
-  const Ggx ggx{m.roughness};
-  // Cook–Torrance microfacet BRDF, [Walter07] eq. 20.
-  return conductor_fresnel(m, absdot(wo, wm)) *
-         (ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o));
+  const Ggx ggx{roughness};
+  *cos_h = absdot(wo, wm);
+  return ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o);
+}
+
+RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+  float cos_h = 0;
+  const float f = microfacet_reflection(m.roughness, wo, wi, &cos_h);
+  if (f == 0) return RGB(0.0f);
+  return conductor_fresnel(m, cos_h) * f;
 }
 
 float conductor_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
@@ -477,15 +486,9 @@ float burley_diffuse(float r, const Vec3& wo, const Vec3& wi) {
 
 RGB principled_spec_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (m.roughness < kSmoothAlpha || !same_hemisphere(wo, wi)) return RGB(0.0f);
-  const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
-  if (cos_o == 0 || cos_i == 0) return RGB(0.0f);
-  Vec3 wm = wi + wo;
-  if (length_squared(wm) == 0) return RGB(0.0f);
-  wm = normalize(wm);
-  if (wm.z < 0) wm = -wm;
-  const Ggx ggx{m.roughness};
-  return RGB(fresnel_dielectric(absdot(wi, wm), m.ior) * ggx.D(wm) * ggx.G(wo, wi) /
-             (4.0f * cos_i * cos_o));  // [Walter07] eq. 20
+  float cos_h = 0;
+  const float f = microfacet_reflection(m.roughness, wo, wi, &cos_h);
+  return RGB(fresnel_dielectric(cos_h, m.ior) * f);
 }
 
 RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f, uint8_t lobes = kAllLobes) {
