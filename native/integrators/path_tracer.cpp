@@ -193,9 +193,9 @@ void PathTracer::iterate(ProgressSink* sink) {
   // faster than one by one), then each path goes on alone from its first hit.
   estimate_.run_pass_tiles(seed_, tile_size_, threads_, sink, stats_,
                            [this](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
-                             std::vector<Ray> camera(n);
-                             std::vector<std::optional<SurfaceHit>> hits(n);
-                             trace_camera_rays(scene_, starts, n, camera.data(), hits.data());
+                             CameraRays first(scene_, starts, n);
+                             const std::vector<Ray>& camera = first.rays;
+                             std::vector<std::optional<SurfaceHit>>& hits = first.hits;
                              for (size_t i = 0; i < n; ++i) {
                                bool escaped = false;
                                const RGB L = Li(camera[i], starts[i].rng, rays, &escaped, &hits[i]);

@@ -285,6 +285,14 @@ void Scene::surface_point(const RawHit& raw, SurfacePoint& h) const {
   h.prim = raw.prim;
 }
 
+std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, uint64_t pass, const Tile& tile) {
+  std::vector<PixelStart> starts;
+  starts.reserve(static_cast<size_t>(tile.x1 - tile.x0) * (tile.y1 - tile.y0));
+  for (int y = tile.y0; y < tile.y1; ++y)
+    for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(camera, seed, pass, x, y));
+  return starts;
+}
+
 std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_dir) const {
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];

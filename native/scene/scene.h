@@ -12,6 +12,7 @@
 #include "core/frame.h"
 #include "core/log.h"
 #include "core/math.h"
+#include "core/parallel.h"
 #include "core/rng.h"
 #include "lights/light.h"
 #include "materials/bsdf.h"
@@ -77,6 +78,16 @@ struct SurfaceHit : SurfacePoint {
 class Scene;
 void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
                        std::optional<SurfaceHit>* hits);
+// The same, held: n pixels' camera rays and closest hits.
+struct CameraRays {
+  std::vector<Ray> rays;
+  std::vector<std::optional<SurfaceHit>> hits;
+  CameraRays(const Scene& scene, const PixelStart* starts, size_t n) : rays(n), hits(n) {
+    trace_camera_rays(scene, starts, n, rays.data(), hits.data());
+  }
+};
+// The pixels of `tile`, row by row, started for `pass` (start_pixel): what its camera rays need.
+std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, uint64_t pass, const Tile& tile);
 
 // Ray origin pushed off a surface so the next ray does not re-hit it ("A Fast and Robust
 // Method for Avoiding Self-Intersection", Wächter & Binder, Ray Tracing Gems ch. 6).

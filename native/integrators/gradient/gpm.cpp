@@ -168,9 +168,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
         // The tile's base camera rays and, offset by offset, its offset camera rays (same
         // sub-pixel position and lens sample one pixel over) are traced together, as SPPM's:
         // Embree packets, the same hits as one by one.
-        std::vector<PixelStart> starts;
-        for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(scene_.camera, seed_, pass, x, y));
+        std::vector<PixelStart> starts = tile_pixel_starts(scene_.camera, seed_, pass, tile);
         const size_t n = starts.size();
         std::vector<Ray> camera(5 * n);
         std::vector<std::optional<SurfaceHit>> hits(5 * n);

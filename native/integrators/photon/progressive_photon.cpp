@@ -94,12 +94,10 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
         EyePathHooks none;
         // The tile's camera rays are traced together (Embree packets: the same hits, several
         // times faster than one by one), then each path goes on alone from its first hit.
-        std::vector<PixelStart> starts;
-        for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(scene_.camera, seed_, pass, x, y));
-        std::vector<Ray> camera(starts.size());
-        std::vector<std::optional<SurfaceHit>> hits(starts.size());
-        trace_camera_rays(scene_, starts.data(), starts.size(), camera.data(), hits.data());
+        std::vector<PixelStart> starts = tile_pixel_starts(scene_.camera, seed_, pass, tile);
+        CameraRays first(scene_, starts.data(), starts.size());
+        const std::vector<Ray>& camera = first.rays;
+        std::vector<std::optional<SurfaceHit>>& hits = first.hits;
         const Vec2 ext = scene_.camera.half_extent();
         size_t k = 0;
         for (int y = tile.y0; y < tile.y1; ++y)

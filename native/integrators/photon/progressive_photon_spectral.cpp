@@ -98,12 +98,10 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
         int64_t rays = 0, invalid = 0;
         std::array<Material, kMaxWavelengths> mk;
         // The tile's camera rays are traced together (as in eye_pass).
-        std::vector<PixelStart> starts;
-        for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(scene_.camera, seed_, pass, x, y));
-        std::vector<Ray> camera(starts.size());
-        std::vector<std::optional<SurfaceHit>> hits(starts.size());
-        trace_camera_rays(scene_, starts.data(), starts.size(), camera.data(), hits.data());
+        std::vector<PixelStart> starts = tile_pixel_starts(scene_.camera, seed_, pass, tile);
+        CameraRays first(scene_, starts.data(), starts.size());
+        const std::vector<Ray>& camera = first.rays;
+        std::vector<std::optional<SurfaceHit>>& hits = first.hits;
         const Vec2 ext = scene_.camera.half_extent();
         size_t i = 0;
         for (int y = tile.y0; y < tile.y1; ++y)

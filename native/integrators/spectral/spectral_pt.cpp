@@ -232,9 +232,9 @@ void SpectralPathTracer::iterate(ProgressSink* sink) {
   // A tile's camera rays are traced together (as in PathTracer::iterate).
   estimate_.run_pass_tiles(seed_, tile_size_, threads_, sink, stats_,
                            [this](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
-                             std::vector<Ray> camera(n);
-                             std::vector<std::optional<SurfaceHit>> hits(n);
-                             trace_camera_rays(scene_, starts, n, camera.data(), hits.data());
+                             CameraRays first(scene_, starts, n);
+                             const std::vector<Ray>& camera = first.rays;
+                             std::vector<std::optional<SurfaceHit>>& hits = first.hits;
                              for (size_t i = 0; i < n; ++i) {
                                Rng& rng = starts[i].rng;
                                const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
