@@ -89,17 +89,15 @@ std::unique_ptr<Integrator> run(const std::string& method, const Scene& s, int p
 }
 
 TEST(Gpm, PrimalIsSppmsImageAndL2OfThePassesIsCombined) {
-  // Both with their defaults (alpha, photons per pass, the footprint rule of the initial radius)
-  // and the same seed, except the footprint's width (SPPM two pixels, GPM one: each wins at equal
-  // time with its own): GPM's eye paths and photons are SPPM's, so its primal pass is SPPM's
-  // image (up to float summation order).
+  // Both with their defaults (alpha, photons per pass, the initial radius) and the same seed:
+  // GPM's eye paths and photons are SPPM's and its primal keeps SPPM's radius and statistics
+  // (its gradients gather at their own radius), so its primal pass is SPPM's image (up to float
+  // summation order). Seen failing when the primal gathered at the gradients' radius.
   const Scene s = cornell_box(24, 20);
   Params p;
   p.set("seed", 7);
   Film sppm, gpm;
-  Params sppm_params = p;
-  sppm_params.set("footprint", 1.0);
-  run("sppm", s, 3, sppm_params)->develop(sppm);
+  run("sppm", s, 3, p)->develop(sppm);
   p.set("recon", "l2");  // for the check of the passes below
   run("gpm", s, 3, p)->develop(gpm);
   const DiffResult d = diff_images(gpm.pass(pass::kPrimal), sppm.pass(pass::kCombined), 24, 20);
@@ -240,6 +238,9 @@ TEST(Gpm, ManifoldWalkLowersTheCausticsGradientVariance) {
     for (uint64_t seed : {11, 12}) {
       Params p = photon_params(20000, seed);
       p.set("manifold_iterations", iterations);
+      // One radius for both domains, so that walked and primal-domain caustics are compared at
+      // the same kernel (with the default two-pixel primal the latter would be smoothed more).
+      p.set("footprint", 1.0);
       auto g = run("gpm", s, 4, p);
       Film f;
       g->develop(f);
