@@ -255,6 +255,17 @@ struct Step1 {
 
 }  // namespace
 
+// A ray from a surface point towards a target, aimed from its actual origin (pushed off the
+// surface by offset_ray_origin): aimed from the point itself, the ray's line is moved by that
+// push, which near the world origin is 1.5e-5 per axis and so misses the target by a few
+// hundredths of a one-pixel gather radius, enough to fail the reversibility test below (27 % of
+// sun-caustic's walked shifts) and to move offset photons off their candidates. As propagate()
+// in manifold.cpp does.
+static Ray aimed_ray(const Vec3& from, const Vec3& ng, const Vec3& target) {
+  const Vec3 o = offset_ray_origin(from, ng, target - from);
+  return Ray(o, normalize(target - o));
+}
+
 static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
                           const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev,
                           int64_t& rays) {
@@ -268,7 +279,7 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   }
   s.wi_prev = dir / s.len_star;
   ++rays;
-  const auto h = scene.intersect_point(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
+  const auto h = scene.intersect_point(aimed_ray(y_prev, ng_prev, s.y_star));
   if (!h) s.failure = ShiftFailure::Missed;
   else if (!scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
@@ -282,11 +293,9 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
                               const Frame& frame_off, const Vec3& y, const Vec3& y_off, const Vec3& prev_off,
                               const Vec3& ng_prev_off, float tol, int64_t& rays) {
   const Vec3 y_back = photon_offset_candidate(z_off, frame_off, z, frame_z, y_off);
-  const Vec3 db = y_back - prev_off;
-  const float lb = length(db);
-  if (!(lb > 0)) return false;
+  if (!(length_squared(y_back - prev_off) > 0)) return false;
   ++rays;
-  const auto bh = scene.intersect_point(Ray(offset_ray_origin(prev_off, ng_prev_off, db / lb), db / lb));
+  const auto bh = scene.intersect_point(aimed_ray(prev_off, ng_prev_off, y_back));
   return bh && length_squared(bh->p - y) <= tol * tol;
 }
 
