@@ -266,6 +266,15 @@ static Ray aimed_ray(const Vec3& from, const Vec3& ng, const Vec3& target) {
   return Ray(o, normalize(target - o));
 }
 
+// The normal of the surface element y*_s carries (eq. 5 moves y_s's element rigidly, by the map
+// from the base gather point's frame to the offset's): the base photon's normal, moved. On a flat
+// receiver that is the offset gather point's normal, which eq. 6 takes it to be; on a curved one
+// (a torus a few pixels across) the two differ by tenths of a radian between neighbouring pixels,
+// and using the gather point's biased the gradients (Gpm.ExpectedGradient...CurvedReceiver).
+static Vec3 candidate_normal(const Frame& frame_z, const Frame& frame_off, const PhotonOrigin& org) {
+  return frame_off.to_world(frame_z.to_local(org.n_photon));
+}
+
 static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
                           const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev,
                           int64_t& rays) {
@@ -308,7 +317,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     return out;
   }
   const SurfacePoint& yh = s1.hit;
-  const double jac = photon_shift_jacobian(org.p, s1.y_star, o.ng, yh.p, yh.ng);  // eq. 6
+  const double jac = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org), yh.p, yh.ng);  // eq. 6
   const Vec3 wi_prev = s1.wi_prev;
   out.wi_gather = o.frame.to_local(-wi_prev);
   // Outside the kernel the offset contributes 0 with weight 1, as a failed shift does: known
@@ -417,7 +426,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
   const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
   if (s1.failure != ShiftFailure::None) return failed(s1.failure);
-  const double jac6 = photon_shift_jacobian(org.p, s1.y_star, o.ng, s1.hit.p, s1.hit.ng);
+  const double jac6 = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org), s1.hit.p, s1.hit.ng);
   // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
   // walk's own residual never makes a shift look non-reversible.
