@@ -266,13 +266,40 @@ static Ray aimed_ray(const Vec3& from, const Vec3& ng, const Vec3& target) {
   return Ray(o, normalize(target - o));
 }
 
-// The normal of the surface element y*_s carries (eq. 5 moves y_s's element rigidly, by the map
-// from the base gather point's frame to the offset's): the base photon's normal, moved. On a flat
-// receiver that is the offset gather point's normal, which eq. 6 takes it to be; on a curved one
-// (a torus a few pixels across) the two differ by tenths of a radian between neighbouring pixels,
-// and using the gather point's biased the gradients (Gpm.ExpectedGradient...CurvedReceiver).
-static Vec3 candidate_normal(const Frame& frame_z, const Frame& frame_off, const PhotonOrigin& org) {
-  return frame_off.to_world(frame_z.to_local(org.n_photon));
+
+// Step 1 of a chain photon: the candidate y*_s (eq. 5) projected onto the receiver along the
+// offset gather point's normal, the first surface within R of it on that line that a photon could
+// be stored on. The paper traces y'_s from y_{s-1}, as the DD shift must (it reconnects
+// there); a chain's last vertex moves in the walk anyway, and a ray from the base chain's y_{s-1}
+// is not undone by the inverse shift's ray from the offset chain's: on a curved receiver (the
+// torus of torus-glass, a few pixels across) 20 % of the walked shifts failed the reversibility
+// test. The projection is its own inverse's mirror: eq. 5 maps the offset gather point's normal
+// to the base's, so projecting the inverse candidate along the base's normal lands on y_s.
+struct Projected {
+  ShiftFailure failure = ShiftFailure::None;
+  SurfacePoint hit;
+};
+static Projected project_candidate(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z,
+                                   const Vec3& z_off, const Frame& frame_off, const Vec3& y, float R, int64_t& rays) {
+  Projected out;
+  const Vec3 y_star = photon_offset_candidate(z, frame_z, z_off, frame_off, y);
+  // Specular surfaces on the line are passed (a glass cube's face just above the floor it stands
+  // on): they hold no photons, so they are not where a photon's offset lands.
+  Vec3 start = y_star + frame_off.n * R;
+  float left = 2.0f * R;
+  for (int k = 0; k < 4; ++k) {
+    ++rays;
+    const auto h = scene.intersect_point(Ray(start, -frame_off.n, 0.0f, left));
+    if (!h) break;
+    if (scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold)) {
+      out.hit = *h;
+      return out;
+    }
+    left -= length(h->p - start);
+    start = offset_ray_origin(h->p, h->ng, -frame_off.n);
+  }
+  out.failure = ShiftFailure::Missed;
+  return out;
 }
 
 static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
@@ -317,7 +344,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     return out;
   }
   const SurfacePoint& yh = s1.hit;
-  const double jac = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org), yh.p, yh.ng);  // eq. 6
+  const double jac = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org.n_photon), yh.p, yh.ng);  // eq. 6
   const Vec3 wi_prev = s1.wi_prev;
   out.wi_gather = o.frame.to_local(-wi_prev);
   // Outside the kernel the offset contributes 0 with weight 1, as a failed shift does: known
@@ -423,10 +450,10 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
     return out;
   };
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
-  // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
-  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
+  // ---- Step 1: the offset photon y'_s, the candidate of eq. 5 projected onto the receiver ----
+  const Projected s1 = project_candidate(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, R, rays);
   if (s1.failure != ShiftFailure::None) return failed(s1.failure);
-  const double jac6 = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org), s1.hit.p, s1.hit.ng);
+  const double jac6 = projection_jacobian(candidate_normal(vp.frame, o.frame, org.n_photon), o.frame.n, s1.hit.ng);
   // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
   // walk's own residual never makes a shift look non-reversible.
@@ -443,8 +470,10 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   const ManifoldChain& c = walk.chain;
   if (!scene_.bsdf(walk.end_hit.material, walk.end_hit.uv).is_diffuse_for_photons(threshold_))
     return failed(ShiftFailure::NotInvertible);
-  const ChainVertex& last = c.v[c.count - 1];
-  if (!photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, c.end, last.p, last.ng, tol, rays))
+  // The inverse shift's step 1 must land on the base photon (the walk from there gives the base
+  // chain back); with the projection it does unless another surface lies in between.
+  const Projected back = project_candidate(scene_, threshold_, o.p, o.frame, vp.p, vp.frame, c.end, R, rays);
+  if (back.failure != ShiftFailure::None || length_squared(back.hit.p - ph.p) > tol * tol)
     return failed(ShiftFailure::NotReversible);
   const ChainThroughput& through = walk.through;
   out.wi_gather = o.frame.to_local(through.wi_end);

@@ -12,12 +12,16 @@
 //   - DD endings (y_{s-1} diffuse): y'_s is reconnected to y_{s-1} directly (§4.2 step 2),
 //     whose BSDF is re-evaluated for the new outgoing direction; the Jacobian is eq. 6 alone;
 //   - specular and glossy chains (y_{b+1} .. y_{s-1} not diffuse, y_b the last diffuse vertex or
-//     the light vertex): a manifold walk (JM12 §5.2, manifold.h) from y_b to y'_s with every
+//     the light vertex): y'_s is y*_s projected onto the receiver along the offset gather point's
+//     normal (not traced from y_{s-1}: the walk moves that vertex, and only the projection is
+//     undone exactly by the inverse shift's; gpm.cpp project_candidate), then a manifold walk
+//     (JM12 §5.2, manifold.h) from y_b to y'_s with every
 //     half-vector held (delta vertices: the normal; glossy ones, roughness <= 0.05: the base's);
 //     the Jacobian is eq. 7-10 written in the directions the photon tracer sampled,
 //       |d omega'/d omega| = prod_glossy |d omega'_i/d o| / |d omega_i/d o|
-//                            * |d omega'_b/dA(y'_s)| / |d omega_b/dA(y_s)| * eq. 6,
-//     the middle factor being eq. 8's generalized geometry term over cos at y_b, with glossy
+//                            * |d omega'_b/dA(y'_s)| / |d omega_b/dA(y_s)| * |dA(y'_s)/dA(y_s)|,
+//     the last factor being the projection's (photon_shift.h projection_jacobian), the middle one eq. 8's
+//     generalized geometry term over cos at y_b, with glossy
 //     vertices held at their half-vectors (eq. 9's middle term) and their own direction
 //     Jacobians outside (its first and third terms); delta vertices drop out (eq. 10's discarded
 //     rows and columns); the offset photon's power is the base's times the ratio of y_b's
@@ -25,7 +29,7 @@
 //   - the offset path contributes with the base's kernel K = 1/(pi r^2) when y'_s lies within r
 //     of the offset gather point z'_t, else 0 (r: the gradients' radius, below);
 //   - reversibility (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t, traced from
-//     the offset's y'_{s-1}) must land on y_s; otherwise the pair is kept with MIS weight 1;
+//     y_{s-1}, or projected for a chain) must land on y_s; otherwise it is a failed shift;
 //   - MIS between the two pixels of each difference by the balance heuristic of eq. 11,
 //     w = 1 / (1 + p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z))); a failed shift gives offset 0, weight 1.
 // The four MIS-weighted flux differences of a pixel share one radius reduction (thesis eq.
