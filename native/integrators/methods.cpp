@@ -215,9 +215,13 @@ std::vector<Method> make_methods() {
                join({{recon("l2"), lambda(), max_depth(32), rr_depth()}, common()}),
                [](const Scene& s, const Params& p) { return std::make_unique<GradientPathTracer>(s, p); }});
   m.push_back({"gpm", "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
-               join({photon_common(0.7, "thesis eq. 7.2 (the paper: 0.9)", 1.0,
-                                   "gradient-domain photon density estimation §5"),
-                     {recon("l1"), lambda(),
+               join({photon_common(0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
+                                   "thesis §7.4, as sppm: the primal is SPPM's image"),
+                     {{.name = "gradient_footprint", .type = ParamType::Float, .default_value = 1.0, .min = 0,
+                       .min_open = true, .label = "Gradient Footprint",
+                       .description = "initial radius of the shifted photons' gathers, in pixels (radius 0)",
+                       .reference = "gradient-domain photon density estimation §5", .group = "Photons"},
+                      recon("l1"), lambda(),
                       {.name = "manifold_iterations", .type = ParamType::Int, .default_value = 20, .min = 0,
                        .label = "Manifold Steps",
                        .description = "steps of the manifold walk that shifts a caustic photon; 0 leaves caustics "

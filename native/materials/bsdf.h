@@ -59,6 +59,8 @@ class Bsdf {
   Bsdf(const Material& m, Vec2 uv) : p_(bsdf_params(m, uv)), uv_(uv) {}
   // An untextured material's BSDF (tests, tables): its textures, if any, are read at uv (0, 0).
   explicit Bsdf(const Material& m) : Bsdf(m, Vec2()) {}
+  // A BSDF of parameters already looked up (the spectral integrators' per-wavelength copies).
+  explicit Bsdf(const BsdfParams& p, Vec2 uv = Vec2()) : p_(p), uv_(uv) {}
 
   // `lobes` (kRay* bits) restricts both to the lobes of those kinds: what a light visible to
   // only some kinds of bounce ray lights by next-event estimation, and the density with which

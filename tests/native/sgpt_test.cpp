@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <tuple>
 
@@ -474,6 +475,39 @@ TEST(Sgpt, ParametersAreValidated) {
   EXPECT_THROW(make("tau", -1.0), ParamError);
   EXPECT_THROW(make("wavelengths", 9), ParamError);
   EXPECT_NO_THROW(make("bins", 30));
+}
+
+TEST(Sgpt, ConnectableFollowsTheMaterialsLobes) {
+  // Reconnection needs a lobe the offset can evaluate at a new direction pair: any diffuse lobe,
+  // or a glossy one at least as rough as the specular threshold, and no dispersion.
+  auto mat = [](MaterialType type, float roughness, float cauchy_b = 0) {
+    Material m;
+    m.type = type;
+    m.roughness = roughness;
+    m.cauchy_b = cauchy_b;
+    return m;
+  };
+  EXPECT_TRUE(connectable(mat(MaterialType::Diffuse, 0)));
+  EXPECT_TRUE(connectable(mat(MaterialType::Emission, 0)));
+  // A smooth coat or specular lobe beside a diffuse one: still connectable (its diffuse lobe).
+  for (float r : {0.0f, 0.01f, 0.3f}) {
+    EXPECT_TRUE(connectable(mat(MaterialType::Principled, r))) << r;
+    EXPECT_TRUE(connectable(mat(MaterialType::Plastic, r))) << r;
+  }
+  EXPECT_FALSE(connectable(mat(MaterialType::Conductor, 0)));
+  EXPECT_FALSE(connectable(mat(MaterialType::Conductor, 0.01f)));
+  EXPECT_TRUE(connectable(mat(MaterialType::Conductor, 0.3f)));
+  EXPECT_FALSE(connectable(mat(MaterialType::Dielectric, 0)));
+  EXPECT_TRUE(connectable(mat(MaterialType::Dielectric, 0.3f)));
+  EXPECT_FALSE(connectable(mat(MaterialType::Dielectric, 0.3f, 0.01f)));  // dispersive
+  // A mix: by its parts; without them (a monochromatic copy) it scatters as a diffuse surface.
+  Material mix = mat(MaterialType::Mix, 0);
+  EXPECT_TRUE(connectable(mix));
+  mix.mix_a = std::make_shared<Material>(mat(MaterialType::Conductor, 0));
+  mix.mix_b = std::make_shared<Material>(mat(MaterialType::Dielectric, 0));
+  EXPECT_FALSE(connectable(mix));
+  mix.mix_b = std::make_shared<Material>(mat(MaterialType::Principled, 0));
+  EXPECT_TRUE(connectable(mix));
 }
 
 }  // namespace

@@ -37,7 +37,9 @@ Gpm::Gpm(const Scene& scene, const Params& params)
   // 100 000 photons, manifold_iterations 20): methods.cpp, docs/gradient.md "Defaults".
   recon_ = gradient_recon_options(params, threads_);
   manifold_iterations_ = params.get<int>("manifold_iterations");
+  if (radius_ <= 0) gradient_radius_scale_ = params.get<double>("gradient_footprint") / footprint_pixels_;
   const size_t n = px_.size();
+  gather_mg_.assign(n, 0.0f);
   off_.assign(n, {});
   grad_.assign(n, GradState{});
   gather_fb_.assign(n, RGB(0.0f));
@@ -253,6 +255,53 @@ struct Step1 {
 
 }  // namespace
 
+// A ray from a surface point towards a target, aimed from its actual origin (pushed off the
+// surface by offset_ray_origin): aimed from the point itself, the ray's line is moved by that
+// push, which near the world origin is 1.5e-5 per axis and so misses the target by a few
+// hundredths of a one-pixel gather radius, enough to fail the reversibility test below (27 % of
+// sun-caustic's walked shifts) and to move offset photons off their candidates. As propagate()
+// in manifold.cpp does.
+static Ray aimed_ray(const Vec3& from, const Vec3& ng, const Vec3& target) {
+  const Vec3 o = offset_ray_origin(from, ng, target - from);
+  return Ray(o, normalize(target - o));
+}
+
+
+// Step 1 of a chain photon: the candidate y*_s (eq. 5) projected onto the receiver along the
+// offset gather point's normal, the first surface within R of it on that line that a photon could
+// be stored on. The paper traces y'_s from y_{s-1}, as the DD shift must (it reconnects
+// there); a chain's last vertex moves in the walk anyway, and a ray from the base chain's y_{s-1}
+// is not undone by the inverse shift's ray from the offset chain's: on a curved receiver (the
+// torus of torus-glass, a few pixels across) 20 % of the walked shifts failed the reversibility
+// test. The projection is its own inverse's mirror: eq. 5 maps the offset gather point's normal
+// to the base's, so projecting the inverse candidate along the base's normal lands on y_s.
+struct Projected {
+  ShiftFailure failure = ShiftFailure::None;
+  SurfacePoint hit;
+};
+static Projected project_candidate(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z,
+                                   const Vec3& z_off, const Frame& frame_off, const Vec3& y, float R, int64_t& rays) {
+  Projected out;
+  const Vec3 y_star = photon_offset_candidate(z, frame_z, z_off, frame_off, y);
+  // Specular surfaces on the line are passed (a glass cube's face just above the floor it stands
+  // on): they hold no photons, so they are not where a photon's offset lands.
+  Vec3 start = y_star + frame_off.n * R;
+  float left = 2.0f * R;
+  for (int k = 0; k < 4; ++k) {
+    ++rays;
+    const auto h = scene.intersect_point(Ray(start, -frame_off.n, 0.0f, left));
+    if (!h) break;
+    if (scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold)) {
+      out.hit = *h;
+      return out;
+    }
+    left -= length(h->p - start);
+    start = offset_ray_origin(h->p, h->ng, -frame_off.n);
+  }
+  out.failure = ShiftFailure::Missed;
+  return out;
+}
+
 static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
                           const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev,
                           int64_t& rays) {
@@ -266,7 +315,7 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   }
   s.wi_prev = dir / s.len_star;
   ++rays;
-  const auto h = scene.intersect_point(Ray(offset_ray_origin(y_prev, ng_prev, s.wi_prev), s.wi_prev));
+  const auto h = scene.intersect_point(aimed_ray(y_prev, ng_prev, s.y_star));
   if (!h) s.failure = ShiftFailure::Missed;
   else if (!scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
@@ -280,11 +329,9 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
                               const Frame& frame_off, const Vec3& y, const Vec3& y_off, const Vec3& prev_off,
                               const Vec3& ng_prev_off, float tol, int64_t& rays) {
   const Vec3 y_back = photon_offset_candidate(z_off, frame_off, z, frame_z, y_off);
-  const Vec3 db = y_back - prev_off;
-  const float lb = length(db);
-  if (!(lb > 0)) return false;
+  if (!(length_squared(y_back - prev_off) > 0)) return false;
   ++rays;
-  const auto bh = scene.intersect_point(Ray(offset_ray_origin(prev_off, ng_prev_off, db / lb), db / lb));
+  const auto bh = scene.intersect_point(aimed_ray(prev_off, ng_prev_off, y_back));
   return bh && length_squared(bh->p - y) <= tol * tol;
 }
 
@@ -297,7 +344,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     return out;
   }
   const SurfacePoint& yh = s1.hit;
-  const double jac = photon_shift_jacobian(org.p, s1.y_star, o.ng, yh.p, yh.ng);  // eq. 6
+  const double jac = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org.n_photon), yh.p, yh.ng);  // eq. 6
   const Vec3 wi_prev = s1.wi_prev;
   out.wi_gather = o.frame.to_local(-wi_prev);
   // Outside the kernel the offset contributes 0 with weight 1, as a failed shift does: known
@@ -403,10 +450,10 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
     return out;
   };
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
-  // ---- Step 1: the offset photon y'_s, traced from y_{s-1} (eq. 5-6) ----
-  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
+  // ---- Step 1: the offset photon y'_s, the candidate of eq. 5 projected onto the receiver ----
+  const Projected s1 = project_candidate(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, R, rays);
   if (s1.failure != ShiftFailure::None) return failed(s1.failure);
-  const double jac6 = photon_shift_jacobian(org.p, s1.y_star, o.ng, s1.hit.p, s1.hit.ng);
+  const double jac6 = projection_jacobian(candidate_normal(vp.frame, o.frame, org.n_photon), o.frame.n, s1.hit.ng);
   // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
   // walk's own residual never makes a shift look non-reversible.
@@ -423,8 +470,10 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   const ManifoldChain& c = walk.chain;
   if (!scene_.bsdf(walk.end_hit.material, walk.end_hit.uv).is_diffuse_for_photons(threshold_))
     return failed(ShiftFailure::NotInvertible);
-  const ChainVertex& last = c.v[c.count - 1];
-  if (!photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, c.end, last.p, last.ng, tol, rays))
+  // The inverse shift's step 1 must land on the base photon (the walk from there gives the base
+  // chain back); with the projection it does unless another surface lies in between.
+  const Projected back = project_candidate(scene_, threshold_, o.p, o.frame, vp.p, vp.frame, c.end, R, rays);
+  if (back.failure != ShiftFailure::None || length_squared(back.hit.p - ph.p) > tol * tol)
     return failed(ShiftFailure::NotReversible);
   const ChainThroughput& through = walk.through;
   out.wi_gather = o.frame.to_local(through.wi_end);
@@ -459,6 +508,9 @@ void Gpm::iterate(ProgressSink* sink) {
   gpm_eye_pass(pass, sink, rays, invalid, failures);
   if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
   set_initial_radii();
+  const double scale2 = gradient_radius_scale_ * gradient_radius_scale_;
+  for (size_t i = 0; i < n_pixels; ++i)
+    if (grad_[i].r2 == 0 && px_[i].r2 > 0) grad_[i].r2 = px_[i].r2 * scale2;  // set in the same pass
   stats_.extra["eye seconds"] += seconds_since(t_eye);
 
   // ---- Photon pass (SPPM's, with each photon's previous vertex) ----
@@ -471,7 +523,7 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto t_lookup = clock_type::now();
   double max_r2 = 0;
   for (size_t i = 0; i < n_pixels; ++i)
-    if (vp_[i].material >= 0) max_r2 = std::max(max_r2, px_[i].r2);
+    if (vp_[i].material >= 0) max_r2 = std::max({max_r2, px_[i].r2, grad_[i].r2});
   const float max_r = static_cast<float>(std::sqrt(max_r2));
   const bool have_photons = !photons_.empty() && max_r > 0;
   if (have_photons) grid_.build(photons_, 2.0f * max_r, hash_mode_, seed_, pass, threads_);
@@ -487,30 +539,37 @@ void Gpm::iterate(ProgressSink* sink) {
     WalkStats walk_stats;
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
+      gather_mg_[i] = 0;
       gather_lap_[i] = 0;
       gather_phi_[i] = RGB(0.0f);
       gather_fb_[i] = RGB(0.0f);
       for (RGB& g : gather_diff_[i]) g = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);
-      const float R = static_cast<float>(std::sqrt(px_[i].r2));
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);  // as Scene::bsdf(hit)
+      const float R_primal = static_cast<float>(std::sqrt(px_[i].r2));
+      const float R = static_cast<float>(std::sqrt(grad_[i].r2));  // the gradients' radius (gpm.h)
       const auto& off = off_[i];
-      double m = 0, lap = 0;
+      double m = 0, m_grad = 0, lap = 0;
       RGB phi(0.0f), phi_fb(0.0f);
       std::array<RGB, 4> diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
-      grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
+      grid_.query(vp.p, std::max(R_primal, R), [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
-        m += weight;
         const RGB c = vp.beta * bsdf.eval(vp.wo, wi) * ph.power * weight;  // thesis eq. 7.4
-        phi += c;
-        lap += c.luminance() * error_kernel::laplacian(d2, R);
         const PhotonOrigin& org = origins_[ph.index];
         const PhotonChain* chain =
             org.diffuse || org.chain < 0 || manifold_iterations_ == 0 ? nullptr : &chains_[org.chain];
-        if (!org.diffuse && !chain) {  // too long to be recorded: primal domain (gpm.h)
-          phi_fb += c;
+        const bool primal_domain = !org.diffuse && !chain;  // too long to be recorded (gpm.h)
+        if (d2 <= R_primal * R_primal) {  // the primal: SPPM's gather
+          m += weight;
+          phi += c;
+          lap += c.luminance() * error_kernel::laplacian(d2, R_primal);
+          if (primal_domain) phi_fb += c;
+        }
+        if (!(d2 <= R * R)) return;
+        m_grad += weight;
+        if (primal_domain) {
           ++fail_count[static_cast<int>(ShiftFailure::SpecularChain)];
           return;
         }
@@ -544,6 +603,7 @@ void Gpm::iterate(ProgressSink* sink) {
         }
       });
       gather_m_[i] = static_cast<float>(m);
+      gather_mg_[i] = static_cast<float>(m_grad);
       gather_lap_[i] = static_cast<float>(lap);
       gather_phi_[i] = phi;
       gather_fb_[i] = phi_fb;
@@ -581,11 +641,12 @@ void Gpm::iterate(ProgressSink* sink) {
       const RGB Ld = pass_direct_[i];
       const double r2_query = s.r2;
       const PhotonStatsUpdate u = progressive_update(s.n, s.r2, gather_m_[i], alpha_);
+      const PhotonStatsUpdate ug = progressive_update(g.n, g.r2, gather_mg_[i], alpha_);  // the gradients'
       for (int c = 0; c < 3; ++c) {
         s.tau[c] = (s.tau[c] + phi[c]) * u.ratio;          // thesis eq. 7.5
         g.tau_fb[c] = (g.tau_fb[c] + phi_fb[c]) * u.ratio;  // same reduction (GPM §4.3)
         for (int d = 0; d < 4; ++d) {
-          g.diff[d][c] = (g.diff[d][c] + diff[d][c]) * u.ratio;
+          g.diff[d][c] = (g.diff[d][c] + diff[d][c]) * ug.ratio;  // with their base flux (GPM §4.3)
           g.nee_diff[d][c] += pass_nee_diff_[i][d][c];  // per-pass averages, as the direct light
         }
         g.nee[c] += pass_nee_[i][c];
@@ -594,6 +655,8 @@ void Gpm::iterate(ProgressSink* sink) {
       s.lap = (s.lap + lap_j) * u.ratio;
       s.n = u.n_new;
       s.r2 = u.r2_new;
+      g.n = ug.n_new;
+      g.r2 = ug.r2_new;
       record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, r2_query, ne_pass);  // eq. 6.22
     }
     invalid_phi += bad;
@@ -634,9 +697,10 @@ void Gpm::develop(Film& film) const {
   // Per pixel: I_grad (photons shifted in the gradient domain), I_fb (primal-domain part:
   // specular-chain photons, NEE and emission) and the per-direction difference estimates.
   std::vector<double> grad_part(3 * n, 0.0), fb(3 * n, 0.0), gx(3 * n, 0.0), gy(3 * n, 0.0);
-  std::vector<double> k(n, 0.0);  // 1 / (N_e pi r^2): thesis eq. 7.1
+  std::vector<double> k(n, 0.0), kg(n, 0.0);  // 1 / (N_e pi r^2) of the primal and the gradients: eq. 7.1
   for (size_t i = 0; i < n; ++i) {
     if (px_[i].r2 > 0 && ne > 0) k[i] = 1.0 / (ne * M_PI * px_[i].r2);
+    if (grad_[i].r2 > 0 && ne > 0) kg[i] = 1.0 / (ne * M_PI * grad_[i].r2);
     for (int c = 0; c < 3; ++c) {
       const double photons = px_[i].tau[c] * k[i], photons_fb = grad_[i].tau_fb[c] * k[i];
       const double direct = passes > 0 ? px_[i].direct[c] / passes : 0.0;
@@ -652,11 +716,11 @@ void Gpm::develop(Film& film) const {
         // Each difference from both of its pixels; their MIS weights (eq. 11) sum to one.
         const double inv_passes = passes > 0 ? 1.0 / passes : 0.0;
         if (x + 1 < width_)
-          gx[3 * i + c] = grad_[i].diff[kRight][c] * k[i] + grad_[i + 1].diff[kLeft][c] * k[i + 1] +
+          gx[3 * i + c] = grad_[i].diff[kRight][c] * kg[i] + grad_[i + 1].diff[kLeft][c] * kg[i + 1] +
                           (grad_[i].nee_diff[kRight][c] + grad_[i + 1].nee_diff[kLeft][c]) * inv_passes;
         if (y + 1 < height_) {
           const size_t j = i + width_;
-          gy[3 * i + c] = grad_[i].diff[kDown][c] * k[i] + grad_[j].diff[kUp][c] * k[j] +
+          gy[3 * i + c] = grad_[i].diff[kDown][c] * kg[i] + grad_[j].diff[kUp][c] * kg[j] +
                           (grad_[i].nee_diff[kDown][c] + grad_[j].nee_diff[kUp][c]) * inv_passes;
         }
       }

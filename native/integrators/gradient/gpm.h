@@ -12,24 +12,33 @@
 //   - DD endings (y_{s-1} diffuse): y'_s is reconnected to y_{s-1} directly (§4.2 step 2),
 //     whose BSDF is re-evaluated for the new outgoing direction; the Jacobian is eq. 6 alone;
 //   - specular and glossy chains (y_{b+1} .. y_{s-1} not diffuse, y_b the last diffuse vertex or
-//     the light vertex): a manifold walk (JM12 §5.2, manifold.h) from y_b to y'_s with every
+//     the light vertex): y'_s is y*_s projected onto the receiver along the offset gather point's
+//     normal (not traced from y_{s-1}: the walk moves that vertex, and only the projection is
+//     undone exactly by the inverse shift's; gpm.cpp project_candidate), then a manifold walk
+//     (JM12 §5.2, manifold.h) from y_b to y'_s with every
 //     half-vector held (delta vertices: the normal; glossy ones, roughness <= 0.05: the base's);
 //     the Jacobian is eq. 7-10 written in the directions the photon tracer sampled,
 //       |d omega'/d omega| = prod_glossy |d omega'_i/d o| / |d omega_i/d o|
-//                            * |d omega'_b/dA(y'_s)| / |d omega_b/dA(y_s)| * eq. 6,
-//     the middle factor being eq. 8's generalized geometry term over cos at y_b, with glossy
+//                            * |d omega'_b/dA(y'_s)| / |d omega_b/dA(y_s)| * |dA(y'_s)/dA(y_s)|,
+//     the last factor being the projection's (photon_shift.h projection_jacobian), the middle one eq. 8's
+//     generalized geometry term over cos at y_b, with glossy
 //     vertices held at their half-vectors (eq. 9's middle term) and their own direction
 //     Jacobians outside (its first and third terms); delta vertices drop out (eq. 10's discarded
 //     rows and columns); the offset photon's power is the base's times the ratio of y_b's
 //     directional factor (BSDF, or the light's emission) and of the chain's BSDFs;
 //   - the offset path contributes with the base's kernel K = 1/(pi r^2) when y'_s lies within r
-//     of the offset gather point z'_t, else 0;
+//     of the offset gather point z'_t, else 0 (r: the gradients' radius, below);
 //   - reversibility (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t, traced from
-//     the offset's y'_{s-1}) must land on y_s; otherwise the pair is kept with MIS weight 1;
+//     y_{s-1}, or projected for a chain) must land on y_s; otherwise it is a failed shift;
 //   - MIS between the two pixels of each difference by the balance heuristic of eq. 11,
 //     w = 1 / (1 + p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z))); a failed shift gives offset 0, weight 1.
-// Base flux, the four MIS-weighted flux differences and the photon count of a pixel share one
-// radius reduction (thesis eq. 7.2-7.5; GPM §4.3).
+// The four MIS-weighted flux differences of a pixel share one radius reduction (thesis eq.
+// 7.2-7.5; GPM §4.3) with their base flux, at the paper's initial radius of one pixel footprint
+// (`gradient_footprint`). The primal is gathered at SPPM's radius (`footprint`, two pixels, its
+// own reduction): one pixel made every photon gathered, and shifted four times, by 4x fewer
+// pixels, but left the primal 1.5-1.7x noisier than SPPM's at equal time, and the screened
+// Poisson solve keeps the primal's low frequencies. Both radii shrink to 0, so the gradients and
+// the primal estimate the same image in the limit (docs/gradient.md "Two radii").
 //
 // What is not shifted, and stays in the primal domain (kept apart, added after the screened
 // Poisson reconstruction, so it is estimated exactly as SPPM estimates it and neither biases the
@@ -46,11 +55,11 @@
 //
 // Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
 // (`gradphoton methods gpm`, docs/methods.md#gpm).
-// alpha, photons and the initial radius are SPPM's, so that the primal pass is SPPM's image
-// with both methods' defaults (footprint=1 given to sppm); why each default: docs/methods.md#gpm.
+// alpha, photons and the primal's initial radius are SPPM's, so that the primal pass is SPPM's
+// image with both methods' defaults; why each default: docs/methods.md#gpm.
 //
 // Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image for the same
-// seed, alpha and radius), gradient_x,
+// seed and parameters), gradient_x,
 // gradient_y (forward differences describing the primal pass: L2 reconstruction of primal and
 // gradients gives combined back), error, radius, photon_count (as SPPM).
 // Statistics: Stats::extra counts sensor ("sensor shift failed: ...") and photon ("shift
@@ -97,9 +106,14 @@ class Gpm : public ProgressivePhotonMapping {
   };
 
  private:
+  // The gradients' own progressive statistics: they gather with their own radius (the paper's
+  // one pixel, §5), reduced by their own photon count (thesis eq. 7.2-7.3), while the primal
+  // keeps SPPM's (PixelState: two pixels), so that `primal` is SPPM's image with the defaults.
   struct GradState {
+    double r2 = 0;                 // the gradients' R_i^2 (0 until the primal's is set)
+    double n = 0;                  // their N_i
     double tau_fb[3] = {0, 0, 0};  // flux of photons kept in the primal domain (specular chains)
-    double diff[4][3] = {};        // MIS-weighted flux differences per direction
+    double diff[4][3] = {};        // MIS-weighted flux differences per direction, within r2
     double nee[3] = {0, 0, 0};     // sum over passes of the direct light by NEE
     double nee_diff[4][3] = {};    // sum over passes of its MIS-weighted differences
   };
@@ -149,8 +163,10 @@ class Gpm : public ProgressivePhotonMapping {
   mutable std::unique_ptr<std::atomic<uint8_t>[]> chain_state_;  // 0 empty, 1 evaluating, 2 ready
   size_t chain_state_size_ = 0;
   int manifold_iterations_ = 5;
+  double gradient_radius_scale_ = 1;  // gradient_footprint / footprint (or 1 for a radius in metres)
   std::vector<GradState> grad_;
   std::vector<RGB> gather_fb_;
+  std::vector<float> gather_mg_;                    // photons within the gradients' radius
   std::vector<std::array<RGB, 4>> gather_diff_;
   std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
   std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences

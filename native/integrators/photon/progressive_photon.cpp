@@ -136,6 +136,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const auto t_eye = clock_type::now();
   if (spectral_) {
     wl_ = pass_wavelengths(pass);
+    pass_spectra_.evaluate(scene_, *spectra_, wl_);
     for (int k = 0; k < wl_.count; ++k) {
       SpectralValues e{};
       e[k] = 1.0f;

@@ -177,6 +177,7 @@ class ProgressivePhotonMapping : public Integrator {
   std::unique_ptr<SceneSpectra> spectra_;
   SampledWavelengths wl_;
   std::array<RGB, kMaxWavelengths> wl_basis_;
+  SpectraAtWavelengths pass_spectra_;       // materials and lights at wl_
   std::vector<SpectralValues> vp_beta_;     // eye throughput per pixel at wl_ (hero-only: x C)
   std::vector<uint8_t> vp_hero_;            // eye path is hero-only
   std::vector<SpectralValues> photon_power_;  // by photon index

@@ -34,7 +34,7 @@ float grey_factor(const RGB& value, const RGB& emit) {
 
 // Per-wavelength factor f_k |cos| / pdf_hero of a hero-sampled BSDF direction. Returns false when
 // every wavelength is dead; sets hero_only on a smooth dispersive refraction.
-bool scatter_factors(const Material& base, const std::array<Material, kMaxWavelengths>& mk, int C,
+bool scatter_factors(const Material& base, const BsdfParams* mk, int C,
                      const Vec3& wo, const BsdfSample& bs, float uc, Vec2 u, TransportMode mode,
                      SpectralValues& factor, bool& hero_only) {
   const bool dispersive = is_dispersive(base);
@@ -96,7 +96,6 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
       width_, height_, tile_size_, threads_,
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
-        std::array<Material, kMaxWavelengths> mk;
         // The tile's camera rays are traced together (as in eye_pass).
         std::vector<PixelStart> starts = tile_pixel_starts(scene_.camera, seed_, pass, tile);
         CameraRays first(scene_, starts.data(), starts.size());
@@ -115,8 +114,8 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
             bool hero_only = false;
             VisiblePoint vp;
             float path_length = 0;
-            auto add_light = [&](const RgbSpectrum& spec, float grey) {
-              for (int k = 0; k < C; ++k) Ld[k] += beta[k] * grey * spec(wl_.lambda[k]);
+            auto add_light = [&](const float* spec, float grey) {
+              for (int k = 0; k < C; ++k) Ld[k] += beta[k] * grey * spec[k];
             };
             for (int depth = 0; depth < max_depth_; ++depth) {
               ++rays;
@@ -126,20 +125,20 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               if (!hit) {
                 const int env = lights.environment();
                 if (env >= 0 && (depth > 0 || lights.environment_visible_to_camera()))
-                  add_light(spectra_->light[env],
+                  add_light(pass_spectra_.light(env),
                             grey_factor(lights.environment_radiance(ray.d), lights.lights()[env].emit));
                 break;
               }
               path_length += hit->t;
               if (hit->light >= 0)
-                add_light(spectra_->light[hit->light],
+                add_light(pass_spectra_.light(hit->light),
                           grey_factor(lights.area_radiance(hit->light, -ray.d), lights.lights()[hit->light].emit));
               const Material& base = scene_.material(hit->material);
               const Bsdf bsdf = scene_.bsdf(*hit);
               if (bsdf.is_black()) break;
               const Vec3 wo = hit->frame.to_local(-ray.d);
               if (wo.z == 0) break;
-              for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_->albedo[hit->material], wl_.lambda[k]);
+              const BsdfParams* mk = pass_spectra_.material(hit->material);
               if (bsdf.is_diffuse_for_photons(threshold_)) {
                 if (nee_ && !lights.empty()) {
                   const float u_light = rng.uniform();
@@ -157,8 +156,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                       const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
                       if (!blocked) {
                         const float grey = grey_factor(ls->L, lights.lights()[ls->light].emit) / ls->pdf;
-                        const RgbSpectrum& spec = spectra_->light[ls->light];
-                        for (int k = 0; k < C; ++k) Ld[k] += beta[k] * f[k] * grey * spec(wl_.lambda[k]);
+                        for (int k = 0; k < C; ++k) Ld[k] += beta[k] * f[k] * grey * pass_spectra_.light(ls->light)[k];
                       }
                     }
                   }
@@ -225,7 +223,6 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
   if (!lights.empty() && count > 0) {
     parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
       int64_t rays = 0, invalid = 0;
-      std::array<Material, kMaxWavelengths> mk;
       for (size_t c = lo; c < hi; ++c) {
         std::vector<SpectralPhoton>& dst = spectral_chunks_[c];
         dst.clear();
@@ -239,7 +236,7 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
           if (!em || em->power.is_black()) continue;
           SpectralValues beta{};
           const float grey = grey_factor(em->power, lights.lights()[em->light].emit);
-          for (int k = 0; k < C; ++k) beta[k] = grey * spectra_->light[em->light](wl_.lambda[k]);
+          for (int k = 0; k < C; ++k) beta[k] = grey * pass_spectra_.light(em->light)[k];
           bool hero_only = false;
           Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0
                         ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
@@ -261,7 +258,7 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             const Vec3 wo_world = -ray.d;
             const Vec3 wo = hit->frame.to_local(wo_world);
             if (wo.z == 0) break;
-            for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_->albedo[hit->material], wl_.lambda[k]);
+            const BsdfParams* mk = pass_spectra_.material(hit->material);
             const float uc = rng.uniform();
             const Vec2 u(rng.uniform(), rng.uniform());
             const auto bs = Bsdf(mk[0]).sample(wo, uc, u, TransportMode::Importance);
@@ -323,7 +320,6 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
   const int C = wl_.count;
   const bool have_photons = !photons_.empty();
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    std::array<Material, kMaxWavelengths> mk;
     for (size_t i = lo; i < hi; ++i) {
       if (i % kCancelPollPixels == 0 && cancelled()) return;  // abandoned pass (iterate checks)
       gather_m_[i] = 0;
@@ -331,8 +327,7 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
       gather_phi_[i] = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0 || !(px_[i].r2 > 0)) continue;
-      const Material& base = scene_.material(vp.material);
-      for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_->albedo[vp.material], wl_.lambda[k]);
+      const BsdfParams* mk = pass_spectra_.material(vp.material);
       const SpectralValues& beta = vp_beta_[i];
       const bool eye_hero = vp_hero_[i] != 0;
       const float R = static_cast<float>(std::sqrt(px_[i].r2));

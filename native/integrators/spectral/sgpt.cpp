@@ -46,23 +46,13 @@ struct BasePath {
   Ray escape_ray;             // that ray (world space), from v.back() or the camera
 };
 
-bool connectable(const Material& m) {
-  switch (m.type) {
-    case MaterialType::Diffuse:
-    case MaterialType::Emission: return true;
-    case MaterialType::Conductor: return m.roughness >= kDefaultSpecularThreshold;
-    case MaterialType::Dielectric: return !is_dispersive(m) && m.roughness >= kDefaultSpecularThreshold;
-  }
-  return false;
-}
-
 // BSDF value (times |cos wi|) and sampling pdf of the pair (wo, wi) for material m, where `delta`
 // says the base sampled a Dirac lobe: then f and pdf are the lobe's Dirac weight and selection
 // probability, which only a dielectric or a smooth mirror has.
 struct Scatter {
   float f_cos = 0, pdf = 0;
 };
-Scatter delta_scatter(const Material& m, const Vec3& wo, const Vec3& wi, bool transmission, float uc, Vec2 u) {
+Scatter delta_scatter(const BsdfParams& m, const Vec3& wo, const Vec3& wi, bool transmission, float uc, Vec2 u) {
   Scatter s;
   if (m.type == MaterialType::Dielectric) {
     const float R = fresnel_dielectric(cos_theta(wo), m.ior);
@@ -83,16 +73,32 @@ Scatter delta_scatter(const Material& m, const Vec3& wo, const Vec3& wi, bool tr
   }
   return s;
 }
-Scatter smooth_scatter(const Material& m, const Vec3& wo, const Vec3& wi) {
+Scatter smooth_scatter(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   const Bsdf b(m);
   return {b.eval(wo, wi)[0] * std::abs(wi.z), b.pdf(wo, wi)};
 }
 
-Etas etas_of(const Material& m, const Vec3& wo, bool transmission) {
+Etas etas_of(const BsdfParams& m, const Vec3& wo, bool transmission) {
   return m.type == MaterialType::Dielectric ? dielectric_etas(m.ior, wo.z, transmission) : Etas{};
 }
 
 }  // namespace
+
+bool connectable(const Material& m) {
+  switch (m.type) {
+    case MaterialType::Diffuse:
+    case MaterialType::Emission:
+    case MaterialType::Plastic:
+    case MaterialType::Principled: return true;  // a diffuse lobe (the other lobe may be smooth)
+    case MaterialType::Conductor: return m.roughness >= kDefaultSpecularThreshold;
+    case MaterialType::Dielectric: return !is_dispersive(m) && m.roughness >= kDefaultSpecularThreshold;
+    case MaterialType::Mix:
+      // The spectral methods render a mix as a diffuse surface of its colour (monochromatic());
+      // by its parts' lobes otherwise.
+      return !m.mix_a || !m.mix_b || connectable(*m.mix_a) || connectable(*m.mix_b);
+  }
+  return false;
+}
 
 SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
@@ -175,7 +181,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     if (depth + 1 >= max_depth_) break;
     const Material& mat = scene_.material(hit->material);
     if (scene_.bsdf(*hit).is_black() || bv.wo.z == 0) break;
-    const Material m = monochromatic(mat, spectra_.albedo[hit->material], lambda);
+    const BsdfParams m = monochromatic(mat, spectra_.albedo[hit->material], lambda);
     BaseVertex& v = base.v.back();
     // ---- Emitter sampling (next-event estimation), shared by the offsets ----
     if (!Bsdf(m).is_delta() && !lights.empty()) {
@@ -234,7 +240,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
                         bool transmission, float uc, Vec2 u, bool hero) -> Scatter {
     const Material& mat = scene_.material(material);
     if (!hero && delta && transmission && is_dispersive(mat)) return {};
-    const Material m = monochromatic(mat, spectra_.albedo[material], l);
+    const BsdfParams m = monochromatic(mat, spectra_.albedo[material], l);
     return delta ? delta_scatter(m, wo, wi, transmission, uc, u) : smooth_scatter(m, wo, wi);
   };
 
@@ -426,7 +432,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       const BaseVertex& x = base.v[k];
       const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
       const Material& mat_y = scene_.material(yh.material);
-      const Material my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
+      const BsdfParams my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
       const bool y_nee = x.nee_eligible && !Bsdf(my).is_delta() && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
 
       // ---- NEE of the offset: the same light sample (point on an area light, direction of
@@ -472,7 +478,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
 
       // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry) ----
       const Material& mat_x = scene_.material(x.hit.material);
-      const Material mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], lambda);
+      const BsdfParams mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], lambda);
       Vec3 wi_y;  // local at the offset vertex
       bool ok = true, diverge_now = false, reconnect_now = false;
       bool delta_y = x.delta;  // the lobe the offset follows: the base's
@@ -497,8 +503,10 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           wi_y = x.wi;  // wavelength-independent direction: the offset follows the base
         }
       } else {  // Diverged
-        const bool next_connectable =
-            k + 1 < base.v.size() && connectable(scene_.material(base.v[k + 1].hit.material));
+        // The base's continuation from x_{k+1} must be a lobe the offset can evaluate from its
+        // new direction: not a Dirac one (a plastic's or principled's smooth coat).
+        const bool next_connectable = k + 1 < base.v.size() && !base.v[k + 1].delta &&
+                                      connectable(scene_.material(base.v[k + 1].hit.material));
         if (connectable(mat_x) && connectable(mat_y) && next_connectable && !x.delta) {
           // ---- Reconnection to x_{k+1} ----
           const BaseVertex& xn = base.v[k + 1];

@@ -59,6 +59,16 @@
 
 namespace gp {
 
+// Whether the shift may reconnect at a vertex of this material (the "connectable" vertices
+// above; [KMA*15] §5.2): one whose BSDF has a lobe the offset can evaluate at a new direction
+// pair and that does not depend on the wavelength through its direction. By its lobes: a
+// diffuse lobe (diffuse, plastic's base, principled's Burley diffuse) or a conductor's or
+// dielectric's glossy lobe at least as rough as the specular threshold, not dispersive; a mix
+// when either part is. Emission-only surfaces end the path there and count as connectable.
+// A mixed-lobe vertex whose base path went on through a Dirac lobe is not reconnected to
+// (sample_pixel checks the sampled lobe).
+bool connectable(const Material& m);
+
 class SpectralGradientPathTracer : public Integrator {
  public:
   SpectralGradientPathTracer(const Scene& scene, const Params& params);

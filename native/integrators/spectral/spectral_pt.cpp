@@ -44,16 +44,26 @@ SceneSpectra::SceneSpectra(const Scene& scene) {
   }
 }
 
-Material monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda) {
-  Material out;  // field by field: the name string is not needed per wavelength
+BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda) {
+  BsdfParams out;
   out.type = m.type;
   out.color = RGB(albedo(lambda));
   out.roughness = m.roughness;
   out.conductor_fresnel = m.conductor_fresnel;  // a Glossy BSDF has none
-  out.coat_albedo = m.coat_albedo;              // a plastic's coupling table
+  out.coat_albedo = m.coat_albedo.get();        // a plastic's coupling table
   out.ior = is_dispersive(m) ? cauchy_ior(m.ior, m.cauchy_b, lambda) : m.ior;
-  out.two_sided = m.two_sided;
   return out;
+}
+
+void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spectra, const SampledWavelengths& wl) {
+  count_ = wl.count;
+  bsdf_.resize(scene.materials.size() * count_);
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    for (int k = 0; k < count_; ++k)
+      bsdf_[m * count_ + k] = monochromatic(scene.materials[m], spectra.albedo[m], wl.lambda[k]);
+  light_.resize(spectra.light.size() * count_);
+  for (size_t l = 0; l < spectra.light.size(); ++l)
+    for (int k = 0; k < count_; ++k) light_[l * count_ + k] = spectra.light[l](wl.lambda[k]);
 }
 
 SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params, bool hero)
@@ -148,7 +158,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
   for (int k = 0; k < C; ++k) beta[k] = r_u[k] = 1.0f;
   bool specular_bounce = false;
   Vec3 prev_p;
-  std::array<Material, kMaxWavelengths> mk;
+  std::array<BsdfParams, kMaxWavelengths> mk;
   std::array<std::optional<Bsdf>, kMaxWavelengths> bk;  // mk's BSDFs at the hit
   SpectralLobeSplit prev;  // the previous vertex's lobes, where some light is hidden from some kinds
 

@@ -28,6 +28,7 @@
 #include "core/spectrum.h"
 #include "integrators/integrator.h"
 #include "integrators/pixel_estimate.h"
+#include "materials/bsdf.h"
 #include "materials/material.h"
 
 namespace gp {
@@ -54,9 +55,29 @@ struct SceneSpectra {
   std::vector<RgbSpectrum> light;   // Light::emit as an illuminant
 };
 
-// The material seen by one wavelength: Cauchy IOR at lambda and a grey colour equal to the
-// upsampled colour spectrum there, so the RGB Bsdf evaluates it unchanged.
-Material monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda);
+// The material seen by one wavelength, as BSDF parameters: Cauchy IOR at lambda and a grey
+// colour equal to the upsampled colour spectrum there, so the RGB Bsdf evaluates it unchanged.
+// Type, roughness and IOR are the material's; its textures, mix components, plastic coat table
+// and conductor Fresnel switch are not carried (the parameters' defaults), so a mix scatters as
+// a diffuse surface of its own colour (Bsdf::kind).
+BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda);
+
+// The scene's materials (monochromatic() per wavelength) and light spectra at one set of
+// wavelengths, evaluated once for the set. SPPM shares one set per pass between all its eye
+// paths, photons and gathers, so nothing spectral is evaluated per vertex.
+class SpectraAtWavelengths {
+ public:
+  void evaluate(const Scene& scene, const SceneSpectra& spectra, const SampledWavelengths& wl);
+  // The parameters of material m at each wavelength of the set (count of them).
+  const BsdfParams* material(int m) const { return &bsdf_[static_cast<size_t>(m) * count_]; }
+  // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
+  const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
+
+ private:
+  int count_ = 0;
+  std::vector<BsdfParams> bsdf_;
+  std::vector<float> light_;
+};
 
 // Spectral radiance of a light sample over its light's spectrum: lights scale their RGB
 // emission by grey factors only (distance, spot falloff), so the factor read off the brightest
