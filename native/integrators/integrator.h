@@ -26,6 +26,15 @@ class Integrator {
   virtual void develop(Film& film) const = 0;
   // Current average estimated relative error, or < 0 when the method has no estimate.
   virtual double estimated_error() const { return -1.0; }
+  // Which of Cycles' per-kind switches (Diffuse / Glossy / Transmission ray visibility) it
+  // honours: those of surfaces (Material::visible_lobes: bounce rays of a hidden kind pass
+  // through) and those of lights and the World (Light::visible_lobes: a light lights only the
+  // lobes that see it). Camera and Shadow switches, and the World's Camera switch, are honoured
+  // by every method. Front ends warn, naming the method, where a scene sets what it ignores.
+  struct LobeVisibility {
+    bool surfaces = false, lights = false;
+  };
+  virtual LobeVisibility lobe_visibility() const { return {}; }
   const Stats& stats() const { return stats_; }
 
  protected:

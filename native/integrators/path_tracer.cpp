@@ -109,8 +109,12 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
         if (escaped) *escaped = true;
         break;
       }
-      const RGB Le = lights.environment_radiance(ray.d);
-      if (!Le.is_black()) L += clamped(emitted(depth, Le, kAllLobes, lights.pdf_environment(ray.d)), depth <= 1);
+      // The World's Ray Visibility: Camera for camera rays, its lobes for bounce rays (as a light's).
+      const int env = lights.environment();
+      if (env >= 0 && (depth > 0 || lights.lights()[env].visible_to_camera)) {
+        const RGB Le = lights.environment_radiance(ray.d);
+        L += clamped(emitted(depth, Le, lights.lights()[env].visible_lobes, lights.pdf_environment(ray.d)), depth <= 1);
+      }
       break;
     }
     if (hit->light >= 0) {

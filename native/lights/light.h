@@ -45,7 +45,13 @@ struct Light {
   // Cycles' Diffuse / Glossy / Transmission switches (kRay* bits, Material::visible_lobes):
   // which BSDF lobes this light lights, by next-event estimation and by BSDF rays alike.
   uint8_t visible_lobes = kAllLobes;
+  // The environment's Camera switch (World > Settings > Ray Visibility > Camera): camera rays
+  // that leave the scene see it, or black. Other lights are never seen by camera rays (area
+  // lights: their surface's Material::visible_to_camera).
+  bool visible_to_camera = true;
 
+  // Whether a ray of kind `kind` (kRayCamera or one lobe bit) sees this light.
+  bool visible_to(uint8_t kind) const { return kind == kRayCamera ? visible_to_camera : (visible_lobes & kind) != 0; }
   bool is_delta() const { return type == LightType::Point || type == LightType::Spot || type == LightType::Directional; }
   bool is_infinite() const { return type == LightType::Directional || type == LightType::Environment; }
 };
@@ -102,6 +108,9 @@ class LightSet {
   float pdf_environment(const Vec3& wi) const;
   // Radiance seen along a ray that leaves the scene.
   RGB environment_radiance(const Vec3& dir) const;
+  // Whether camera rays that leave the scene see the environment (World > Ray Visibility >
+  // Camera; true without one: there is nothing to hide).
+  bool environment_visible_to_camera() const { return environment_ < 0 || lights_[environment_].visible_to_camera; }
   // The first point/spot light of radius > 0 whose disk (Cycles' sphere light: a disk facing
   // the ray's origin) the ray crosses before tmax: its index (else -1), the distance, the
   // radiance it sends back along the ray and the solid-angle pdf sample_li gives that point

@@ -227,6 +227,7 @@ py::dict method_info(const std::string& method, const py::dict& params) {
   Params p = params_from_dict(params);
   std::vector<std::string> passes;
   bool error_estimate = false;
+  Integrator::LobeVisibility lobes;
   {
     py::gil_scoped_release release;
     const Scene scene = load_scene_from_string(kProbeScene, ".", "<method_info>");
@@ -237,11 +238,13 @@ py::dict method_info(const std::string& method, const py::dict& params) {
     // A Session adds the auxiliary passes to every method's (aov.h).
     for (auto aux : {pass::kAlbedo, pass::kNormal, pass::kDepth}) passes.emplace_back(aux);
     error_estimate = integrator->estimated_error() >= 0;
+    lobes = integrator->lobe_visibility();
   }
   py::dict out;
   out["passes"] = passes;
   out["error_estimate"] = error_estimate;
   out["unused"] = p.unused();
+  out["lobe_visibility"] = py::dict(py::arg("surfaces") = lobes.surfaces, py::arg("lights") = lobes.lights);
   return out;
 }
 
@@ -267,7 +270,8 @@ PYBIND11_MODULE(_native, m) {
         "One line on what the method computes and its paper");
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
         "What a method declares by running: {'passes': names its develop() writes with these params, "
-        "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read}");
+        "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read, "
+        "'lobe_visibility': {'surfaces': bool, 'lights': bool}, the per-kind ray visibility switches it honours}");
   m.def("read_exr", [](const std::string& path) {
     Film film;
     {

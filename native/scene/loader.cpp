@@ -714,7 +714,8 @@ class Loader : private JsonReader {
 
   void load_environment(const json& e, const std::string& path) {
     require_object(e, path);
-    check_keys(e, path, {"color", "strength"});
+    check_keys(e, path, {"color", "strength", "visible_to_camera", "visible_to_diffuse", "visible_to_glossy",
+                         "visible_to_transmission"});
     RGB color(1.0f);
     float strength = 1.0f;
     if (const json* c = find(e, "color")) color = get_color(*c, sub(path, "color"));
@@ -725,6 +726,9 @@ class Loader : private JsonReader {
     env.type = LightType::Environment;
     env.name = "environment";
     env.emit = radiance;
+    // World > Settings > Ray Visibility (Cycles' camera / diffuse / glossy / transmission).
+    if (const json* v = find(e, "visible_to_camera")) env.visible_to_camera = get_bool(*v, sub(path, "visible_to_camera"));
+    env.visible_lobes = load_visible_lobes(e, path);
     scene_.lights.push_back(std::move(env));
   }
 

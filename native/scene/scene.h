@@ -182,13 +182,14 @@ class Scene {
   const Material& material(int i) const { return materials[i]; }
   // The BSDF at a surface point: its material with the textures looked up at its uv. Every
   // integrator shades through these, so the photon and gradient methods see the same textures.
-  Bsdf bsdf(const SurfaceHit& h) const {
-    Bsdf b(materials[h.material], h.uv);
-    if (materials[h.material].perturbs_normal())
-      b.set_surface_normals(h.frame.to_local(h.ng), h.frame.to_local(h.n_smooth));
+  Bsdf bsdf(const SurfaceHit& h) const { return bsdf(h.material, h.uv, h.frame, h.ng, h.n_smooth); }
+  Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
+  // The BSDF at a surface point kept from a hit (a measurement point): as bsdf(hit).
+  Bsdf bsdf(int material, Vec2 uv, const Frame& frame, const Vec3& ng, const Vec3& n_smooth) const {
+    Bsdf b(materials[material], uv);
+    if (materials[material].perturbs_normal()) b.set_surface_normals(frame.to_local(ng), frame.to_local(n_smooth));
     return b;
   }
-  Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
   // The texture coordinate at point p of a triangle (a vertex a manifold walk moved).
   Vec2 uv_at(int mesh, int prim, const Vec3& p) const;
   // The raw accelerator, for benchmarks that measure Embree without shading.

@@ -144,7 +144,9 @@ def test_ray_visibility_as_cycles(empty_scene):
     """Light objects are pass-through emitters that cast no shadow, shown to the camera only when
     their Visibility > Camera is on (off by default in Blender 3.4); a mesh object's Camera and
     Shadow switches become flags of a variant of its material, and so do its Diffuse, Glossy and
-    Transmission switches (on lights too), honoured by path tracing: a warning for other methods."""
+    Transmission switches (on lights too), honoured where the method says so (method_info): a
+    warning naming the method and what it ignores otherwise. The World's Ray Visibility becomes the
+    same keys on the environment."""
     scenes.cornell_lit(empty_scene, "area")
     lamp = bpy.data.objects["area"]
     assert not lamp.visible_camera  # Blender 3.4's default for a new light object
@@ -163,10 +165,22 @@ def test_ray_visibility_as_cycles(empty_scene):
     assert mats[names["Back"][0]] == dict(mats["White"], casts_shadow=False, visible_to_glossy=False)
     assert names["Ceiling"] == ["White"]
     assert not any("ray visibility" in line for line in ex.warnings.lines()), ex.warnings.lines()  # pt honours them
-    empty_scene.gradphoton.method = 'sppm'
+    empty_scene.gradphoton.method = 'sppm'  # lights' switches honoured, surfaces' not
     lines = export_current().warnings.lines()
-    assert any("honoured by path tracing only, not by sppm" in line and "glossy" in line for line in lines), lines
+    assert any("of surfaces not honoured by sppm" in line and "glossy" in line for line in lines), lines
+    assert not any("of lights" in line for line in lines), lines
+    empty_scene.gradphoton.method = 'gpm'  # neither
+    lines = export_current().warnings.lines()
+    assert any("of lights not honoured by gpm" in line and "__light_area: diffuse" in line for line in lines), lines
+    empty_scene.gradphoton.method = 'spt-hero'  # both
+    assert not any("ray visibility" in line for line in export_current().warnings.lines())
     empty_scene.gradphoton.method = 'pt'
+    world_vis = empty_scene.world.cycles_visibility
+    world_vis.camera = False
+    world_vis.glossy = False
+    env = export_current().description["environment"]  # the new world's grey colour
+    assert env["visible_to_camera"] is False and env["visible_to_glossy"] is False and "visible_to_diffuse" not in env
+    world_vis.camera = world_vis.glossy = True
     lamp.visible_camera = True
     assert export_current().description["materials"]["__light_area"]["visible_to_camera"] is True
     ex.build(native.get())  # the flags are scene-format keys the core reads

@@ -90,9 +90,9 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
     skipped.check_scene(scene, mats.used_materials(), w)
     out.description["camera"], out.width, out.height, out.border = camera.export_camera(scene, w)
     settings = getattr(scene, "gradphoton", None)
-    visibility.check_method(out.description, method or (settings.method if settings else "pt"), w)
     env = world.export_world(scene.world, w)
     if env:
         out.description["environment"] = env
+    visibility.check_method(out.description, method or (settings.method if settings else "pt"), w)
     out.seconds = time.perf_counter() - t0
     return out

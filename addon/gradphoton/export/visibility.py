@@ -8,9 +8,14 @@ and on lights:
   Glossy        `visible_to_glossy`   sampled them) pass through; a light or emissive surface
   Transmission  `visible_to_transmission`  lights only the lobes of the kinds it is visible to
 
-The core honours Camera and Shadow in every method, Diffuse/Glossy/Transmission in path
-tracing only (native/integrators/path_tracer.cpp): another method renders them as visible, a
-counted warning naming the method. Volume Scatter is a warning (volumes are not rendered).
+World > Settings > Ray Visibility becomes the same keys on the environment (Camera, Diffuse,
+Glossy, Transmission; the World is a light for the per-kind switches).
+
+The core honours Camera and Shadow in every method, the World's Camera too. Which methods honour
+Diffuse/Glossy/Transmission the method itself declares (`_native.method_info`'s
+'lobe_visibility': of surfaces, of lights and the World): another method renders them as
+visible, a counted warning naming the method and the object. Volume Scatter is a warning
+(volumes are not rendered).
 
 Light objects: Blender 3.4 creates them with Camera off, so Cycles does not show a light to
 the camera unless the user turns it on (area lights are pass-through surfaces: export/light.py).
@@ -20,10 +25,6 @@ LOBE_SWITCHES = (("visible_diffuse", "visible_to_diffuse", "diffuse"),
                  ("visible_glossy", "visible_to_glossy", "glossy"),
                  ("visible_transmission", "visible_to_transmission", "transmission"))
 LOBE_KEYS = tuple(key for _, key, _ in LOBE_SWITCHES)
-# Methods whose core integrator honours the per-kind keys (the rest see every surface).
-METHODS_WITH_LOBE_VISIBILITY = ("pt",)
-
-
 def lobe_flags(ob, warnings):
     """The object's Diffuse / Glossy / Transmission switches that are off, as scene-format keys."""
     if not getattr(ob, "visible_volume_scatter", True):
@@ -50,12 +51,47 @@ def check_light(ob, la, warnings):
         warnings.add("light without shadows renders with shadows", ob.name)
 
 
-def check_method(description, method, warnings):
-    """One warning per object whose Diffuse/Glossy/Transmission switches `method` ignores."""
-    if method in METHODS_WITH_LOBE_VISIBILITY:
-        return
-    for name, d in list(description["materials"].items()) + [(d.get("name", "?"), d) for d in description["lights"]]:
+def world_flags(world, warnings):
+    """World > Settings > Ray Visibility (Cycles' `world.cycles_visibility`) switches that are off,
+    as scene-format keys of the environment."""
+    vis = getattr(world, "cycles_visibility", None)
+    if vis is None:  # Cycles' add-on not registered: its defaults, all visible
+        return {}
+    if not getattr(vis, "scatter", True):
+        warnings.add("volume scatter visibility not honoured (volumes are not rendered)", f"world '{world.name}'")
+    flags = {key: False for attr, key, _ in LOBE_SWITCHES if not getattr(vis, attr[len("visible_"):], True)}
+    if not getattr(vis, "camera", True):
+        flags["visible_to_camera"] = False
+    return flags
+
+
+def _roles(name, d):
+    """What a description entry's per-kind switches act on: 'lights' for a light object (a light,
+    an area light's pass-through surface, the World), 'surfaces' for a mesh's material, both for
+    an emissive material (the surface lights the scene too)."""
+    if name.startswith("__light") or d.get("type") in ("point", "spot", "sun", "world"):
+        return ("lights",)
+    emissive = d.get("strength", 0) and any(c > 0 for c in _colour(d.get("emission", 0)))
+    return ("surfaces", "lights") if emissive else ("surfaces",)
+
+
+def _colour(c):
+    return c if isinstance(c, (list, tuple)) else (c,)
+
+
+def check_method(description, method, warnings, honoured=None):
+    """One warning per object (material, light, the World) whose Diffuse/Glossy/Transmission
+    switches `method` ignores. `honoured`: {'surfaces': bool, 'lights': bool} as the core's method
+    declares it (native.method_info), looked up when not given."""
+    if honoured is None:
+        from .. import native
+        honoured = (native.method_info(method) or {}).get("lobe_visibility") or {}
+    entries = list(description["materials"].items()) + [(d.get("name", "?"), d) for d in description["lights"]]
+    if description.get("environment"):
+        entries.append(("World", dict(description["environment"], type="world")))
+    for name, d in entries:
         off = [key[len("visible_to_"):] for key in LOBE_KEYS if d.get(key) is False]
-        if off:
-            warnings.add(f"diffuse/glossy/transmission ray visibility honoured by path tracing only, not by {method} "
+        ignored = [role for role in _roles(name, d) if not honoured.get(role, False)]
+        if off and ignored:
+            warnings.add(f"diffuse/glossy/transmission ray visibility of {' and '.join(ignored)} not honoured by {method} "
                          "(still visible to these rays)", f"{name}: {', '.join(off)}")

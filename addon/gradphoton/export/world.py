@@ -1,8 +1,18 @@
 """World: the Background node's colour x strength as constant environment radiance
-(W sr^-1 m^-2, as Cycles). Textures and other nodes are approximated by the socket values."""
+(W sr^-1 m^-2, as Cycles), with World > Settings > Ray Visibility (export/visibility.py).
+Textures and other nodes are approximated by the socket values."""
+
+from . import visibility
 
 
 def export_world(world, warnings):
+    env = _radiance(world, warnings)
+    if env:
+        env.update(visibility.world_flags(world, warnings))
+    return env
+
+
+def _radiance(world, warnings):
     if world is None:
         return None
     if not world.use_nodes or world.node_tree is None:

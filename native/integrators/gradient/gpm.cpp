@@ -113,7 +113,7 @@ struct OffsetWalk : EyePathHooks {
       float w = 1.0f;  // failed sensor shift: offset 0, weight 1
       if (off[d].ok()) {
         const SurfaceHit& ov = *ohit[d];
-        c_off = off[d].beta * direct_light(scene, ov, scene.bsdf(ov.material, ov.uv), ov.frame.to_local(-oray[d].d),
+        c_off = off[d].beta * direct_light(scene, ov, scene.bsdf(ov), ov.frame.to_local(-oray[d].d),
                                            u_light, u2, rays);
         w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
       }
@@ -546,7 +546,7 @@ void Gpm::iterate(ProgressSink* sink) {
       for (RGB& g : gather_diff_[i]) g = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv);
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);  // as Scene::bsdf(hit)
       const float R_primal = static_cast<float>(std::sqrt(px_[i].r2));
       const float R = static_cast<float>(std::sqrt(grad_[i].r2));  // the gradients' radius (gpm.h)
       const auto& off = off_[i];

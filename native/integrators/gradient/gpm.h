@@ -83,6 +83,8 @@ class Gpm : public ProgressivePhotonMapping {
  public:
   Gpm(const Scene& scene, const Params& params);
   std::string name() const override { return "gpm"; }
+  // Its shifts do not follow the per-kind switches the base paths would (warned).
+  LobeVisibility lobe_visibility() const override { return {}; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 

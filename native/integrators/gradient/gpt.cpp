@@ -114,7 +114,9 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       double ratio[4];
       float w_base = 1.0f;
       if (!hit) {
-        const RGB Le = lights.environment_radiance(ray.d);
+        // The World's Camera switch (its sky seen by camera rays; directly seen light has no
+        // gradient offsets here, direct_only below).
+        const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray.d);
         if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
         c = beta * Le * w_base;
       } else if (hit->light >= 0) {

@@ -94,7 +94,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               const auto hit = scene_.intersect(ray);
               if (!hit) {
                 // ---- Environment seen by the path (technique "hit") ----
-                if (lights.environment() >= 0) {
+                if (lights.environment() >= 0 && (depth > 1 || lights.environment_visible_to_camera())) {
                   PathVertex lv;
                   lv.light = lights.environment();
                   lv.distant = true;

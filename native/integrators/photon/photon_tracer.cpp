@@ -28,6 +28,18 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0 ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
                                                           : Ray(em->o, em->d);
   const bool distant = lights.lights()[em->light].is_infinite();
+  // The light's Diffuse / Glossy / Transmission switches (Light::visible_lobes), by Cycles' rule
+  // that a ray's kind is the kind of the bounce that spawned it on the camera side: the first
+  // segment, light to first hit y, is the ray y's bounce sends towards the light. So a photon
+  // deposited at y lights only the lobes of y that see the light (Photon::lobes, read by the
+  // gather), and one scattered on from y counts when the lobe it sampled there sees the light,
+  // weighted by that lobe set's f and density (as the path tracer's BSDF hits).
+  const uint8_t light_lobes = lights.lights()[em->light].visible_lobes;
+  // Surfaces the photon scattered at so far, light objects (pass-through surfaces, which Cycles'
+  // rays cross as if they were not there) not counted: the first hit above is the first
+  // surface that is not one, and min_deposit_bounce counts these (a photon that crossed a
+  // light object and landed is still direct light, which next-event estimation covers).
+  int scattered = 0;
   float pdf_dir_prev = em->pdf_dir;  // solid-angle density of the segment being traced
   PhotonOrigin last;                 // the previous scattering vertex (valid from bounce 1 on)
   // The light subpath since its last diffuse vertex (GPM's specular chains); a distant light's
@@ -73,9 +85,9 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       record->vertices.push_back(v);
     }
     // ---- Deposit (at diffuse vertices, or every non-delta one: DepositRule) ----
-    if (bounce >= min_deposit_bounce && deposits_at(bsdf)) {
+    if (scattered >= min_deposit_bounce && deposits_at(bsdf)) {
       if (beta.is_finite()) {
-        dst.push_back(Photon{hit->p, -ray.d, beta});
+        dst.push_back(Photon{hit->p, -ray.d, beta, 0, scattered == 0 ? light_lobes : kAllLobes});
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
         if (origins) {
           last.n_photon = hit->ng;
@@ -103,7 +115,17 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     const Vec3 wi_world = hit->frame.to_world(bs->wi);
     const float correction = adjoint_shading_correction(wo_world, wi_world, hit->ng, hit->ns);
     if (correction == 0) break;
-    const RGB beta_new = beta * bs->f * (std::abs(bs->wi.z) / bs->pdf * correction);
+    RGB beta_new = beta * bs->f * (std::abs(bs->wi.z) / bs->pdf * correction);
+    const bool pass_through = scene_.material(hit->material).is_pass_through();
+    if (scattered == 0 && !pass_through && light_lobes != kAllLobes) {  // the rule above, for the scattered photon
+      if (!(bs->lobe & light_lobes)) break;
+      if (!bs->delta) {
+        const float pdf_v = bsdf.pdf(wo, bs->wi, light_lobes);
+        if (!(pdf_v > 0)) break;
+        beta_new = beta * bsdf.eval(wo, bs->wi, TransportMode::Importance, light_lobes) *
+                   (std::abs(bs->wi.z) / pdf_v * correction);
+      }
+    }
     // ---- Russian roulette: keep the photon's power roughly constant ----
     const float m_old = beta.max_component(), m_new = beta_new.max_component();
     if (!(m_new > 0) || !(m_old > 0)) break;
@@ -140,6 +162,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     }
     beta = beta_new / p_continue;
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+    if (!pass_through) ++scattered;
   }
   return rays;
 }

@@ -38,6 +38,10 @@ struct Photon {
   Vec3 wi;      // unit world direction back towards where it came from
   RGB power;    // flux it carries (W), before division by the number of emitted photons
   uint32_t index = 0;  // position in the pass's photon list (links it to its PhotonOrigin)
+  // The lobes (kRay* bits) a gather may light with it: a photon deposited at its first hit from a
+  // light hidden from some kinds of bounce ray lights only the lobes that see that light
+  // (photon_tracer.cpp); every other photon, all.
+  uint8_t lobes = kAllLobes;
 };
 
 // Where a photon came from: its previous light-path vertex y_{s-1} (GPM §4.2 needs it to shift

@@ -78,7 +78,10 @@ RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, co
   const auto ls = scene.light_set().sample_li(hit.p, u_light, u2);
   if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
   const Vec3 wi = hit.frame.to_local(ls->wi);
-  const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
+  // A light hidden from some kinds of bounce ray lights only the lobes of the others (Cycles'
+  // closure exclusion, as the path tracer's next-event estimation).
+  const uint8_t vis = ls->light >= 0 ? scene.light_set().lights()[ls->light].visible_lobes : kAllLobes;
+  const RGB f = bsdf.eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
   if (f.is_black()) return RGB(0.0f);
   ++rays;
   return scene.occluded(hit.p, hit.ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;
@@ -197,7 +200,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       gather_phi_[i] = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv);
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);  // as Scene::bsdf(hit)
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       double m = 0, lap = 0;
       RGB phi(0.0f);
@@ -205,7 +208,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
         m += weight;
-        const RGB contrib = vp.beta * bsdf.eval(vp.wo, wi) * ph.power * weight;  // eq. 5.11 / 7.4
+        const RGB contrib = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power * weight;  // eq. 5.11 / 7.4
         phi += contrib;
         lap += contrib.luminance() * error_kernel::laplacian(d2, R);  // §6.4, eq. 6.31 (2nd order)
       });

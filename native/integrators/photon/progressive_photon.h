@@ -78,6 +78,11 @@ class ProgressivePhotonMapping : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   double estimated_error() const override { return estimated_error_; }
+  // Lights' and the World's per-kind switches: next-event estimation at the measurement point
+  // lights only the lobes that see the light (direct_light), the emission a specular chain finds
+  // counts when the chain's last lobe sees it, and the photon tracer applies Cycles' rule at the
+  // photon's first hit (photon_tracer.h). Not the spectral photons' own tracer.
+  LobeVisibility lobe_visibility() const override { return {.surfaces = false, .lights = !spectral_}; }
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
@@ -105,6 +110,7 @@ class ProgressivePhotonMapping : public Integrator {
     RGB beta;           // eye path throughput up to the point
     int material = -1;  // -1: no measurement point this pass
     Vec2 uv;  // texture coordinate there (Scene::bsdf)
+    Vec3 ng, n_smooth;  // its geometric and unmapped normals (a normal map's bump shadowing)
   };
   struct PixelState {
     double r2 = 0;                 // R_i^2 (0 until the pixel first sees a diffuse surface)
@@ -233,6 +239,9 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
   const LightSet& lights = scene_.light_set();
   EyePath out;
   RGB beta(1.0f);
+  // The kind of the ray being traced, for the lights' and the World's Ray Visibility: the camera,
+  // then the lobe of the last bounce (a light object crossed keeps it, as in the path tracer).
+  uint8_t kind = kRayCamera;
   for (int depth = 0; depth < max_depth_; ++depth) {
     ++rays;
     const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
@@ -241,12 +250,14 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     // Emission seen along the camera path: only at depth 0 or after specular/glossy bounces,
     // which no photon covers, so nothing is counted twice.
     if (!hit) {
+      const int env = lights.environment();
       if (depth == 0 && film_transparent_) out.escaped = true;
-      else out.Ld += beta * lights.environment_radiance(ray.d);
+      else if (env >= 0 && lights.lights()[env].visible_to(kind)) out.Ld += beta * lights.environment_radiance(ray.d);
       break;
     }
     out.path_length += hit->t;
-    if (hit->light >= 0) out.Ld += beta * lights.area_radiance(hit->light, -ray.d);
+    if (hit->light >= 0 && lights.lights()[hit->light].visible_to(kind))
+      out.Ld += beta * lights.area_radiance(hit->light, -ray.d);
     const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
@@ -267,6 +278,8 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
       out.vp.beta = beta;
       out.vp.material = hit->material;
       out.vp.uv = hit->uv;
+      out.vp.ng = hit->ng;
+      out.vp.n_smooth = hit->n_smooth;
       hooks.gather(*hit);
       break;
     }
@@ -278,7 +291,17 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     hooks.scatter(wo, *bs);
     beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
     const Vec3 wi = hit->frame.to_world(bs->wi);
-    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    const Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    if (scene_.material(hit->material).is_pass_through()) {  // a light object: the ray goes on as it was
+      const bool camera = ray.camera;
+      const uint8_t bounce = ray.bounce;
+      ray = next;
+      ray.camera = camera;
+      ray.bounce = bounce;
+    } else {
+      ray = next;
+      kind = bs->lobe;
+    }
     if (depth + 1 >= rr_depth_) {
       float survival = 1.0f;
       if (!russian_roulette(beta, rng.uniform(), &survival)) break;

@@ -124,7 +124,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               first = nullptr;
               if (!hit) {
                 const int env = lights.environment();
-                if (env >= 0)
+                if (env >= 0 && (depth > 0 || lights.environment_visible_to_camera()))
                   add_light(pass_spectra_.light(env),
                             grey_factor(lights.environment_radiance(ray.d), lights.lights()[env].emit));
                 break;

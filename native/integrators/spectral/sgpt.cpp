@@ -217,11 +217,12 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     beta /= v.rr;
   }
 
-  // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l.
-  auto emitted = [&](const SurfaceHit* h, const Vec3& dir_in, float l) -> float {
+  // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l; k = 0: the
+  // camera ray's (the World's Camera switch).
+  auto emitted = [&](const SurfaceHit* h, const Vec3& dir_in, float l, size_t k) -> float {
     if (!h) {
       const int env = lights.environment();
-      return env >= 0 ? spectra_.light[env](l) : 0.0f;
+      return env >= 0 && (k > 0 || lights.environment_visible_to_camera()) ? spectra_.light[env](l) : 0.0f;
     }
     if (h->light < 0 || lights.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
     return spectra_.light[h->light](l);
@@ -275,7 +276,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       e.valid = true;
       const float pl = (k > 0 && base.v[k - 1].nee_eligible) ? light_pdf(base.v[k - 1].hit.p, h, dir) : 0.0f;
       for (int j = 0; j < C; ++j) {
-        e.f[j] = F[j] * emitted(h, dir, wl.lambda[j]);
+        e.f[j] = F[j] * emitted(h, dir, wl.lambda[j], k);
         e.p_bsdf[j] = P[j];
         e.p_light[j] = P_prev[j] * pl;
       }
@@ -416,7 +417,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         Values fy{}, pb{}, pl{};
         const float l_pdf = (k > 0 && y_prev_nee) ? light_pdf(y_prev_p, yk, y_dir) : 0.0f;
         for (int j = 0; j < C; ++j) {
-          fy[j] = F2[j] * emitted(yk, y_dir, lambda2[j]);
+          fy[j] = F2[j] * emitted(yk, y_dir, lambda2[j], k);
           pb[j] = P2[j];
           pl[j] = P2_prev[j] * l_pdf;
         }

@@ -49,6 +49,8 @@ BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, float lam
   out.type = m.type;
   out.color = RGB(albedo(lambda));
   out.roughness = m.roughness;
+  out.conductor_fresnel = m.conductor_fresnel;  // a Glossy BSDF has none
+  out.coat_albedo = m.coat_albedo.get();        // a plastic's coupling table
   out.ior = is_dispersive(m) ? cauchy_ior(m.ior, m.cauchy_b, lambda) : m.ior;
   return out;
 }
@@ -88,6 +90,53 @@ float mean(const SpectralValues& v, int n) {
   return s / n;
 }
 
+// Cycles' per-kind ray visibility of lights, as the path tracer applies it (path_tracer.cpp,
+// LobeSplit), per wavelength: what a BSDF ray that meets a light visible only to some kinds of
+// bounce ray needs from the vertex that sampled it. The hit counts only when the sampled lobe
+// sees the light, weighted f_V cos / p_V (the restricted BSDF and its density), and the
+// balance heuristic over wavelengths and {BSDF, light} strategies uses p_V as the BSDF
+// strategy's density, as next-event estimation does (f and pdf restricted to the lobes V).
+struct SpectralLobeSplit {
+  std::array<std::array<float, 3>, kMaxWavelengths> f{}, pdf{};  // per wavelength, per lobe kind
+  SpectralValues beta{}, r_u{};  // throughput and pdf ratios before the vertex
+  float cos = 0;
+  uint8_t lobe = 0;
+
+  void fill(const std::array<std::optional<Bsdf>, kMaxWavelengths>& bk, int C, bool dispersive, const Vec3& wo,
+            const Vec3& wi) {
+    for (int k = 0; k < C; ++k) {
+      const Bsdf& b = *bk[k];
+      for (int l = 0; l < 3; ++l) {
+        const uint8_t bit = static_cast<uint8_t>(kRayDiffuse << l);
+        f[k][l] = b.eval(wo, wi, TransportMode::Radiance, bit)[0];
+        pdf[k][l] = (k == 0 || dispersive) ? b.pdf(wo, wi, bit) : pdf[0][l];
+      }
+    }
+    cos = std::abs(wi.z);
+  }
+  // The emission `spec` found by the BSDF ray from a light visible to `vis` (not all kinds),
+  // added to L; pdf_light is the light strategy's density of the point.
+  void add(const RgbSpectrum& spec, uint8_t vis, float pdf_light, const SampledWavelengths& wl,
+           SpectralValues& L) const {
+    if (!(vis & lobe)) return;
+    const int C = wl.count;
+    SpectralValues fv{};
+    float denom = 0;
+    for (int k = 0; k < C; ++k) {
+      float pv = 0;
+      for (int l = 0; l < 3; ++l)
+        if (vis & (kRayDiffuse << l)) {
+          fv[k] += f[k][l];
+          pv += pdf[k][l];
+        }
+      denom += r_u[k] * (pv + pdf_light);  // eq. 3-4 with the BSDF strategy restricted to V
+    }
+    denom /= C;
+    if (!(denom > 0)) return;
+    for (int j = 0; j < C; ++j) L[j] += beta[j] * fv[j] * cos * spec(wl.lambda[j]) / denom;
+  }
+};
+
 }  // namespace
 
 float light_scale(const LightSample& ls, const Light& l) {
@@ -101,6 +150,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
                                       const std::optional<SurfaceHit>* first) const {
   const LightSet& lights = scene_.light_set();
   const int C = wl.count;
+  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
   // beta: throughput divided by the hero's path pdf. r_u: p(x | lambda_k) / p(x | hero) of the
   // BSDF-sampled path (eq. 4's ratios). r_l: the same without the last BSDF pdf, divided by
   // the hero's last pdf, times which the light pdf gives the NEE strategy's ratio.
@@ -109,6 +159,8 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
   bool specular_bounce = false;
   Vec3 prev_p;
   std::array<BsdfParams, kMaxWavelengths> mk;
+  std::array<std::optional<Bsdf>, kMaxWavelengths> bk;  // mk's BSDFs at the hit
+  SpectralLobeSplit prev;  // the previous vertex's lobes, where some light is hidden from some kinds
 
   // Emission found by a ray: balance heuristic over C wavelengths x {BSDF, light} strategies.
   auto add_emission = [&](const RgbSpectrum& spec, float pdf_light, bool full) {
@@ -118,7 +170,17 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     if (denom <= 0) return;
     for (int j = 0; j < C; ++j) L[j] += beta[j] * spec(wl.lambda[j]) / denom;  // eq. 3-4
   };
+  // Emission of a light visible to the kinds `vis` found by a bounce ray (Cycles' per-kind
+  // visibility, as in the path tracer).
+  auto add_bounce_emission = [&](const RgbSpectrum& spec, uint8_t vis, float pdf_light) {
+    if (vis == kAllLobes) return add_emission(spec, pdf_light, specular_bounce);
+    if (!(vis & prev.lobe)) return;
+    if (specular_bounce) return add_emission(spec, 0.0f, true);
+    prev.add(spec, vis, pdf_light, wl, L);
+  };
 
+  constexpr int kMaxPassThrough = 8;  // as the path tracer (Cycles' Transparent bounces)
+  int pass_through = 0;
   for (int depth = 0;; ++depth) {
     ++rays.closest;
     const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
@@ -129,39 +191,65 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     if (!hit) {
       const int env = lights.environment();
       if (env >= 0) {
-        const bool full = depth == 0 || specular_bounce;
-        add_emission(spectra_.light[env], full ? 0.0f : lights.pdf_environment(ray.d), full);
+        const Light& e = lights.lights()[env];  // the World's Ray Visibility
+        if (depth == 0) {
+          if (e.visible_to_camera) add_emission(spectra_.light[env], 0.0f, true);
+        } else {
+          add_bounce_emission(spectra_.light[env], e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
+        }
       }
       break;
     }
     if (hit->light >= 0 && !lights.area_radiance(hit->light, -ray.d).is_black()) {
-      const bool full = depth == 0 || specular_bounce;
-      add_emission(spectra_.light[hit->light],
-                   full ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d), full);
+      if (depth == 0) {
+        add_emission(spectra_.light[hit->light], 0.0f, true);
+      } else {
+        add_bounce_emission(spectra_.light[hit->light], lights.lights()[hit->light].visible_lobes,
+                            specular_bounce ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
+      }
+    }
+    const Material& base = scene_.material(hit->material);
+    // ---- A pass-through surface (a light object): crossed as the path tracer crosses it,
+    // keeping the path's state and its kind of ray ----
+    if (base.is_pass_through() && pass_through < kMaxPassThrough) {
+      ++pass_through;
+      Ray on(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
+      on.camera = ray.camera;
+      on.bounce = ray.bounce;
+      ray = on;
+      --depth;
+      continue;
     }
     if (depth + 1 >= max_depth_) break;
 
-    const Material& base = scene_.material(hit->material);
     const bool dispersive = is_dispersive(base);
-    for (int k = 0; k < C; ++k) mk[k] = monochromatic(base, spectra_.albedo[hit->material], wl.lambda[k]);
-    const Bsdf hero_bsdf(mk[0]);
+    for (int k = 0; k < C; ++k) {
+      mk[k] = monochromatic(base, spectra_.albedo[hit->material], wl.lambda[k]);
+      bk[k].emplace(mk[k]);
+      if (base.perturbs_normal())  // the bump shadowing term and side test, as Scene::bsdf
+        bk[k]->set_surface_normals(hit->frame.to_local(hit->ng), hit->frame.to_local(hit->n_smooth));
+    }
+    const Bsdf& hero_bsdf = *bk[0];
     if (scene_.bsdf(*hit).is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
 
     // ---- Emitter sampling (next-event estimation) ----
+    // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
+    // visible to, with their density for MIS (as the path tracer).
     if (!hero_bsdf.is_delta() && !lights.empty()) {
       const float u_light = rng.uniform();
       const Vec2 u2(rng.uniform(), rng.uniform());
       if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+        const uint8_t vis = lights.lights()[ls->light].visible_lobes;
         const Vec3 wi = hit->frame.to_local(ls->wi);
         SpectralValues f{}, pdf{};
         bool any = false;
         for (int k = 0; k < C; ++k) {
-          const Bsdf b(mk[k]);
-          f[k] = b.eval(wo, wi)[0] * std::abs(wi.z);  // grey material: any channel
+          const Bsdf& b = *bk[k];
+          f[k] = b.eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);  // grey material: any channel
           // The pdf only depends on the wavelength through a dispersive IOR.
-          pdf[k] = (k == 0 || dispersive) ? b.pdf(wo, wi) : pdf[0];
+          pdf[k] = (k == 0 || dispersive) ? b.pdf(wo, wi, vis) : pdf[0];
           any |= f[k] > 0;
         }
         if (any) {
@@ -185,11 +273,17 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     const Vec2 u(rng.uniform(), rng.uniform());
     const auto bs = hero_bsdf.sample(wo, uc, u);
     if (!bs || bs->pdf <= 0) break;
+    if (split_lobes) {
+      prev.beta = beta;
+      prev.r_u = r_u;
+      prev.lobe = bs->lobe;
+      if (!bs->delta) prev.fill(bk, C, dispersive, wo, bs->wi);
+    }
     SpectralValues f{}, pdf{};
     f[0] = bs->f[0];
     pdf[0] = bs->pdf;
     for (int k = 1; k < C; ++k) {
-      const Bsdf b(mk[k]);
+      const Bsdf& b = *bk[k];
       if (!dispersive) {
         // Same direction and pdf for every wavelength; delta lobes are re-sampled with the
         // same random numbers (lobe choice and direction do not depend on the colour).
@@ -224,6 +318,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     prev_p = hit->p;
     const Vec3 wi = hit->frame.to_world(bs->wi);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    ray.bounce = bs->lobe;  // surfaces hidden from this kind of ray let it through
 
     // ---- Russian roulette (on the MIS-weighted throughput) ----
     if (depth + 1 >= rr_depth_) {
@@ -232,7 +327,10 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
       for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
       const float q = std::max(0.05f, 1.0f - (ru > 0 ? bmax / ru : 0.0f));
       if (rng.uniform() < q) break;
-      for (int k = 0; k < C; ++k) beta[k] /= 1.0f - q;
+      for (int k = 0; k < C; ++k) {
+        beta[k] /= 1.0f - q;
+        prev.beta[k] /= 1.0f - q;
+      }
     }
   }
   return L;
