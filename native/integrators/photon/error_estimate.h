@@ -25,6 +25,9 @@ namespace error_kernel {
 inline constexpr double kK1 = 2.0 * 3.14159265358979323846 / 7.0;  // integral of K over the unit disk
 // Disc-kernel bias constant: B' = kBiasDisc * R^2 * Lap L.
 inline constexpr double kBiasDisc = 1.0 / 8.0;
+// error_bound = calibrated: B' counts where |B'| > kBiasSignificance x its standard error (about
+// 95 % significance; see ProgressivePhotonMapping::error_terms).
+inline constexpr double kBiasSignificance = 2.0;
 inline double K(double t) { return t >= 1 ? 0.0 : 1 - t * t * t * (10 - 15 * t + 6 * t * t); }  // eq. 6.34
 inline double dK(double t) { return t >= 1 ? 0.0 : -30 * t * t * (t - 1) * (t - 1); }
 inline double d2K(double t) { return t >= 1 ? 0.0 : -60 * t * (2 * t * t - 3 * t + 1); }
@@ -50,6 +53,28 @@ struct ErrorStats {
   // Sample variance V_i (eq. 6.22); 0 with fewer than two samples.
   double variance() const {
     if (n < 2) return 0.0;
+    return std::max(0.0, (sum2 - sum * sum / n) / (n - 1));
+  }
+};
+
+// One measurement point's per-pass estimates y_j = L_p,j and query radii r_j = R_j^2, kept as
+// sums so that the bias-corrected samples x_j = y_j - B'_j of eq. 6.22, with B'_j = slope r_j
+// (slope = kBiasDisc Lap L), can be taken with the latest Laplacian for every pass. The thesis
+// takes B'_j from the Laplacian of pass j, which for the first passes is mostly noise (about
+// twice the image's own): that noise entered V_i and widened the interval (error_bound =
+// calibrated; docs/error-calibration.md).
+struct PassSamples {
+  double y = 0, yy = 0, r = 0, rr = 0, yr = 0;
+  uint32_t n = 0;
+  void add(double yj, double rj) {
+    y += yj; yy += yj * yj; r += rj; rr += rj * rj; yr += yj * rj; ++n;
+  }
+  // Mean of x_j = y_j - slope r_j.
+  double mean(double slope) const { return n > 0 ? (y - slope * r) / n : 0.0; }
+  // Sample variance of the x_j (eq. 6.22); 0 with fewer than two samples.
+  double variance(double slope) const {
+    if (n < 2) return 0.0;
+    const double sum = y - slope * r, sum2 = yy - 2 * slope * yr + slope * slope * rr;
     return std::max(0.0, (sum2 - sum * sum / n) / (n - 1));
   }
 };
