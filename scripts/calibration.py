@@ -112,7 +112,7 @@ def reference(native, scene_name, spec, seed, args):
 
 def asserted_sd(bias, bound, c):
     """Per pixel, s with P(|bias + s Z| <= bound) = c: the normal around the bound's bias it asserts."""
-    lo, hi = np.full_like(bound, 1e-12 * 0 + 1e-30), np.maximum(bound, 1e-30) * 10
+    lo, hi = np.full_like(bound, 1e-30), np.maximum(bound, 1e-30) * 10
     for _ in range(60):
         s = 0.5 * (lo + hi)
         p = Phi((bound - bias) / s) - Phi((-bound - bias) / s)
