@@ -254,9 +254,11 @@ TEST(ErrorEstimate, IntervalCoversTheTruthAtTheRequestedRate) {
 // Laplacian and the true bias are exactly 0, and B' is the noise of the Laplacian estimate alone
 // (about twice the image's own; docs/error-calibration.md). Where the bound keeps such a B', it
 // widens at random and over-covers: with B' shrunk by its signal-to-noise ratio alone (kept
-// where |B'| > 1 sd, a third of the pixels here), the bound covered 58 % at a requested 50 %
-// (measured; cornell-box showed the same, 59-60 %). 16 x 16 pixels 0.125 apart with radius 0.05,
-// so no two pixels share a photon: 4 seeds give 1024 independent pixels (sd of the share 1.6 points).
+// where |B'| > 1 sd, a third of the pixels here), the bound covered 60.8 % at a requested 50 %
+// (measured; cornell-box showed the same, 59-60 %), and with the variance of eq. 6.22 taken from
+// pass j's own B'_j 56.5 %. 16 x 16 pixels 0.125 apart with radius 0.05, so no two pixels share a
+// photon: 4 seeds give 1024 independent pixels (sd of the share 1.6 points). The quad (3 x 3)
+// reaches past the view (2 x 2), so no disc is cut by its edge.
 Scene sun_over_plane(int size) {
   const std::string json = R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0],
       "fov": 36.87, "width": )" + std::to_string(size) + R"(, "height": )" + std::to_string(size) + R"(},

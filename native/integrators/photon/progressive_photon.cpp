@@ -334,7 +334,7 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_
   // (ratio of the weights' rms over the disc), and in most pixels the true Laplacian bias is far
   // below that noise. Added to every bound (eq. 6.12), or shrunk by its own signal-to-noise ratio
   // (kept where |B'| > sd, a third of the pixels of a bias-free scene), it widened the bound at
-  // random: 65 % coverage at 50 % there, 59-60 % on cornell-box. So B' counts where it is
+  // random: 61-65 % coverage at 50 % there, 59-60 % on cornell-box. So B' counts where it is
   // significant, |B'| > kBiasSignificance sd (5 % of a bias-free scene's pixels), and then whole,
   // with its uncertainty: |L_i - L| ~ |B' + sigma T|, sigma^2 = Var L_i + sd^2, and the bound is
   // its quantile at the confidence, the t correction taken at m = 0 (exact there).
