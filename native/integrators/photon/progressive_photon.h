@@ -91,6 +91,8 @@ class ProgressivePhotonMapping : public Integrator {
     double half_width = 0;      // E_i of eq. 6.10 at the user's confidence
     double sigma = 0;           // sd of the noise the bound assumes around `bias` (noise_sd for eq. 6.12)
     double bound = 0;           // absolute error bound at the user's confidence (the error pass x L_i)
+    double mean_abs = 0;        // estimated E|L_i - L|: folded mean of bias + sigma T (the --target-error stop)
+    double photon_passes = 0;   // passes that gathered photons here
     double corrected_mean = 0;  // mean of the bias-corrected per-pass samples x_j (eq. 6.22)
     double radius = 0;          // R_i
   };
@@ -118,6 +120,7 @@ class ProgressivePhotonMapping : public Integrator {
     PassSamples pass;              // per-pass estimates and radii: x_j with the latest B' (calibrated)
     ErrorStats lap_err;            // per-pass Laplacian estimates (the bias estimate's own noise)
     double r2_sum = 0;             // sum of the query radii R_j^2 of the passes with a point (eq. 6.18)
+    uint32_t photon_passes = 0;    // passes whose gather found photons (phi > 0)
   };
   // After pass j's update of pixel s (radius, flux and Laplacian already reduced): its
   // bias-corrected sample x_j = L_p,j - B'_j (eq. 6.22) and its own Laplacian estimate, from the
