@@ -323,7 +323,7 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_
     e.bound = e.half_width + std::abs(e.bias);  // eq. 6.12
     e.sigma = e.noise_sd;
     e.corrected_mean = s.err.n > 0 ? s.err.sum / s.err.n : 0.0;
-    e.mean_abs = folded_t_mean(e.bias, e.noise_sd, s.err.n);
+    e.mean_abs = folded_normal_mean(e.bias, e.noise_sd, s.err.n);
     e.photon_passes = s.photon_passes;
     return e;
   }
@@ -348,7 +348,7 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_
   e.sigma = sigma;
   e.bound = sigma > 0 && std::isfinite(sigma) ? sigma * t_over_z_ * folded_(std::abs(e.bias) / sigma)
                                                : (std::isfinite(sigma) ? std::abs(e.bias) : INFINITY);
-  e.mean_abs = folded_t_mean(e.bias, sigma, s.pass.n - 1.0);
+  e.mean_abs = folded_normal_mean(e.bias, sigma, s.pass.n - 1.0);
   e.photon_passes = s.photon_passes;
   return e;
 }
