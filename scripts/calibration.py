@@ -267,7 +267,7 @@ def main():
         lines += ["\nRender until error (`--target-error E`, calibrated bound): the stop compares E with the "
                   "estimated error, the average over the pixels of eq. 6.33 of each one's estimated mean |e| / L_i; achieved = "
                   "mean |L_i - L| / L over the same pixels (L the true radiance), the reference's noise removed (beside it: against the noisy "
-                  "reference); `over L_i`: mean |L_i - L| / L_i, divided by the render's own radiance; `few photon passes` = share of those pixels whose gathers found photons in fewer than 8 "
+                  "reference); `over L_i`: mean |L_i - L| / L_i, divided by the render's own radiance; `few photon passes` = share of those pixels whose gathers found photons in fewer than half the "
                   "passes (the caustics' early stop); time is this machine's, shared, for scale only.\n\n",
                   "| scene | target E | seed | estimated at the stop | achieved | achieved / E | against the noisy reference "
                   "| over L_i / E | few photon passes | passes | seconds |\n",

@@ -306,7 +306,7 @@ TEST(ErrorEstimate, BoundCoversAtTheConfidenceWhereThereIsNoBias) {
 // confidence; a 50 % bound is the median of |e|, 1.19 times below the mean the achieved error
 // is measured by, and the stop overshot E by that much (docs/error-calibration.md). On the
 // bias-free plane the error is the noise alone, so mean_abs must match the measured mean |e| over
-// the pixels where B' is not kept. Where it is kept (|B'| > 2 sd: 5 % of these pixels, by chance
+// the pixels where B' is not kept. Where it is kept (|B'| > 2 sd: 3 % of these pixels, by chance
 // alone) it enters the estimate as a bias that is not there, so the stop is conservative here:
 // achieved / E = 0.78 (measured: 4 seeds), where the average 50 % bound stopped at 0.87 and a
 // 90 % bound at 0.43.
