@@ -44,6 +44,7 @@ import argparse
 import json
 import math
 import pathlib
+import shlex
 import sys
 import time
 
@@ -250,10 +251,11 @@ def main():
     if args.references_only:
         return
 
-    cmd = " ".join(sys.argv[1:])
+    cmd = shlex.join(sys.argv[1:])
     lines = [f"Made by `scripts/calibration.py {cmd}`: {args.photons} photons per pass, images at "
-             f"{args.scale:g} of each scene's size, seeds {args.seeds}; coverage with the reference's noise "
-             "removed (observed + c - predicted against the noisy reference; every pixel counts).\n\n",
+             f"{args.scale:g} of each scene's size, seeds {args.seeds}"
+             + ("; coverage with the reference's noise removed (observed + c - predicted against the noisy "
+                "reference; every pixel counts).\n\n" if cov_rows else ".\n\n"),
              "| scene | reference (seeds " f"{args.ref_seed}, {args.ref_seed + 1}) | its noise (rms sd / L) | its own bias (mean abs B' / L, subtracted) |\n",
              "| --- | --- | --- | --- |\n"]
     for scene_name, spec, noise, rbias in ref_rows:
