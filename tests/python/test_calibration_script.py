@@ -67,11 +67,15 @@ def test_error_terms_give_the_error_pass():
     s.set_aux_passes(False)
     s.run(passes=8)
     terms = s.error_terms()
-    assert set(terms) == {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "radius"}
+    assert set(terms) == {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "mean_abs", "photon_passes",
+                          "radius"}
     error = s.develop()["error"][..., 0]
     lit = terms["radiance"] > 0
     assert lit.mean() > 0.9
     np.testing.assert_allclose(error[lit], (terms["bound"] / terms["radiance"])[lit], rtol=1e-5)
     assert np.all(terms["sigma"][lit] >= terms["noise_sd"][lit])
+    # --target-error's estimate: the pixels' estimated mean |e| / L, averaged (eq. 6.33).
+    assert s.estimated_error == pytest.approx(np.mean((terms["mean_abs"] / terms["radiance"])[lit]), rel=1e-9)
+    assert np.all(terms["photon_passes"] <= 8)
     with pytest.raises(ValueError, match="has no photon error estimate"):
         _native.Session(scene, "pt", {"threads": 1}).error_terms()
