@@ -338,8 +338,8 @@ class _RenderSettings:
                         description="Passes to render: samples per pixel for path tracing, photon passes "
                                     "for photon methods (one costs as much as many samples)")
     target_error: FloatProperty(name="Target Error", default=0.05, min=1e-4, max=1.0,
-                                description="Relative error of the image to stop at, as the method "
-                                            "estimates it (0.05 = 5 %; thesis eq. 6.33)")
+                                description="Mean relative error of the image to stop at, as the method "
+                                            "estimates it (0.05 = 5 %; thesis eq. 6.33 over each pixel's mean error)")
     use_animated_seed: BoolProperty(name="Use Animated Seed", default=False,
                                     description="Another seed every frame (a hash of the frame and the seed), "
                                                 "as Cycles: the noise changes over an animation")

@@ -269,7 +269,8 @@ std::vector<Command> add_render_commands(CLI::App& app) {
       ->delimiter(',')->expected(2);
   render->add_option("--param", ra->params, "Method parameter name=value (repeatable; the same as --<name> value)");
   render->add_option("--target-error", ra->target_error,
-                     "Stop when the average estimated relative error falls below this (ppm/sppm)");
+                     "Stop when the estimated mean relative error, mean |L - L_true| / L over the pixels, falls to "
+                     "this (ppm/sppm/gpm; docs/error-calibration.md)");
   // One option per parameter any method declares (methods.cpp): --alpha, --photons, --lambda ...
   std::vector<const ParamDecl*> declared;
   for (const Method& m : methods())

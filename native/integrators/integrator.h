@@ -24,7 +24,8 @@ class Integrator {
   virtual void iterate(ProgressSink* sink) = 0;
   // Writes every pass of the current estimate into `film` (sized to the camera).
   virtual void develop(Film& film) const = 0;
-  // Current average estimated relative error, or < 0 when the method has no estimate.
+  // Current estimated mean relative error of the image (what --target-error stops on), or < 0
+  // when the method has no estimate.
   virtual double estimated_error() const { return -1.0; }
   // Which of Cycles' per-kind switches (Diffuse / Glossy / Transmission ray visibility) it
   // honours: those of surfaces (Material::visible_lobes: bounce rays of a hidden kind pass

@@ -100,7 +100,8 @@ ParamDecl footprint(double d, const char* reference) {
 ParamDecl confidence() {
   return {.name = "confidence", .type = ParamType::Float, .default_value = 0.5, .min = 0, .max = 1, .min_open = true,
           .max_open = true, .label = "Confidence",
-          .description = "confidence of the error estimate's bound: higher stops later at a target error",
+          .description = "confidence of the error pass's bound; a target error stops on the estimated mean "
+                         "error whatever it is (with error_bound thesis: on the average bound, later when higher)",
           .symbol = "1 - β", .reference = "thesis eq. 6.10", .group = "Photons"};
 }
 ParamDecl error_bound() {

@@ -15,6 +15,7 @@
 #include "integrators/aov.h"
 #include "integrators/integrator.h"
 #include "integrators/methods.h"
+#include "integrators/photon/progressive_photon.h"
 #include "io/exr.h"
 #include "reconstruction/poisson.h"
 #include "scene/builder.h"
@@ -191,6 +192,26 @@ class Session {
   const std::vector<std::string>& unused_report() const { return unused_report_; }
   std::string method() const { return integrator_->name(); }
   double estimated_error() const { return integrator_->estimated_error(); }
+  // The terms of every pixel's error bound (ProgressivePhotonMapping::ErrorTerms), as
+  // {name: float64 array (H, W)}: what scripts/calibration.py decomposes the coverage with.
+  py::dict error_terms() const {
+    const auto* ppm = dynamic_cast<const ProgressivePhotonMapping*>(integrator_.get());
+    if (!ppm) throw std::invalid_argument("error_terms: method '" + integrator_->name() + "' has no photon error estimate");
+    const int w = scene_->camera.film_width(), h = scene_->camera.film_height();
+    const char* names[] = {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "mean_abs", "photon_passes", "radius"};
+    constexpr int kTerms = std::size(names);
+    std::vector<py::array_t<double>> arrays;
+    for (int k = 0; k < kTerms; ++k) arrays.emplace_back(std::vector<py::ssize_t>{h, w});
+    for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
+      const auto e = ppm->error_terms(i);
+      const double v[] = {e.radiance, e.bias, e.bias_sd, e.noise_sd, e.sigma, e.bound, e.mean_abs, e.photon_passes, e.radius};
+      static_assert(std::size(v) == kTerms);
+      for (int k = 0; k < kTerms; ++k) arrays[k].mutable_data()[i] = v[k];
+    }
+    py::dict out;
+    for (int k = 0; k < kTerms; ++k) out[names[k]] = arrays[k];
+    return out;
+  }
 
  private:
   std::shared_ptr<Scene> scene_;
@@ -553,6 +574,9 @@ PYBIND11_MODULE(_native, m) {
                              "with these settings")
       .def_property_readonly("method", &Session::method,
                              "The method that runs (pt becomes spt-hero in spectral mode)")
+      .def("error_terms", &Session::error_terms,
+           "Photon methods: the terms of each pixel's error bound (radiance, bias, bias_sd, noise_sd, sigma, "
+           "bound, radius; luminance) as {name: float64 array (H, W)}")
       .def_property_readonly("estimated_error", &Session::estimated_error,
                              "Current estimated relative error, or < 0 when the method has none");
 }

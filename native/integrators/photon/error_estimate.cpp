@@ -1,6 +1,7 @@
 #include "integrators/photon/error_estimate.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace gp {
 
@@ -68,6 +69,17 @@ double FoldedNormalQuantile::operator()(double m) const {
   const size_t k = static_cast<size_t>(x);
   const double f = x - static_cast<double>(k);
   return table_[k] * (1 - f) + table_[std::min(k + 1, table_.size() - 1)] * f;
+}
+
+double folded_normal_mean(double m, double s, double dof) {
+  if (dof < 1 || !std::isfinite(s)) return INFINITY;
+  m = std::abs(m);
+  // s / c4: E[s] = c4 sigma for the sample sd of dof + 1 normal samples,
+  // c4 = sqrt(2 / v) Gamma((v + 1) / 2) / Gamma(v / 2).
+  s /= std::sqrt(2 / dof) * std::exp(std::lgamma((dof + 1) / 2) - std::lgamma(dof / 2));
+  if (s <= 0) return m;
+  // Mean of the folded normal |N(m, s^2)|.
+  return s * std::sqrt(2 / M_PI) * std::exp(-m * m / (2 * s * s)) + m * std::erf(m / (s * std::sqrt(2.0)));
 }
 
 }  // namespace gp

@@ -25,6 +25,9 @@ namespace error_kernel {
 inline constexpr double kK1 = 2.0 * 3.14159265358979323846 / 7.0;  // integral of K over the unit disk
 // Disc-kernel bias constant: B' = kBiasDisc * R^2 * Lap L.
 inline constexpr double kBiasDisc = 1.0 / 8.0;
+// error_bound = calibrated: B' counts where |B'| > kBiasSignificance x its standard error (about
+// 95 % significance; see ProgressivePhotonMapping::error_terms).
+inline constexpr double kBiasSignificance = 2.0;
 inline double K(double t) { return t >= 1 ? 0.0 : 1 - t * t * t * (10 - 15 * t + 6 * t * t); }  // eq. 6.34
 inline double dK(double t) { return t >= 1 ? 0.0 : -30 * t * t * (t - 1) * (t - 1); }
 inline double d2K(double t) { return t >= 1 ? 0.0 : -60 * t * (2 * t * t - 3 * t + 1); }
@@ -54,6 +57,28 @@ struct ErrorStats {
   }
 };
 
+// One measurement point's per-pass estimates y_j = L_p,j and query radii r_j = R_j^2, kept as
+// sums so that the bias-corrected samples x_j = y_j - B'_j of eq. 6.22, with B'_j = slope r_j
+// (slope = kBiasDisc Lap L), can be taken with the latest Laplacian for every pass. The thesis
+// takes B'_j from the Laplacian of pass j, which for the first passes is mostly noise (about
+// twice the image's own): that noise entered V_i and widened the interval (error_bound =
+// calibrated; docs/error-calibration.md).
+struct PassSamples {
+  double y = 0, yy = 0, r = 0, rr = 0, yr = 0;
+  uint32_t n = 0;
+  void add(double yj, double rj) {
+    y += yj; yy += yj * yj; r += rj; rr += rj * rj; yr += yj * rj; ++n;
+  }
+  // Mean of x_j = y_j - slope r_j.
+  double mean(double slope) const { return n > 0 ? (y - slope * r) / n : 0.0; }
+  // Sample variance of the x_j (eq. 6.22); 0 with fewer than two samples.
+  double variance(double slope) const {
+    if (n < 2) return 0.0;
+    const double sum = y - slope * r, sum2 = yy - 2 * slope * yr + slope * slope * rr;
+    return std::max(0.0, (sum2 - sum * sum / n) / (n - 1));
+  }
+};
+
 // Half-width E_i of the interval of eq. 6.10: t(i, 1 - beta/2) sqrt(V_i / i), with the
 // t-quantile computed once per pass by the caller.
 inline double interval_half_width(double t_quantile, const ErrorStats& s) {
@@ -74,6 +99,15 @@ class FoldedNormalQuantile {
   double one_tail_;            // z_c, for m beyond the table
   std::vector<double> table_;  // q at m = k * kStep
 };
+
+// Estimated E|m + sigma Z|, Z standard normal, from a sample sd s with `dof` degrees of freedom:
+// the folded normal's mean with s / c4 for sigma (unbiased for sigma). What --target-error
+// compares with E: a mean of |e| like the error it is measured by (a 50 % bound is the median
+// of |e|, 1 / 1.19 of the mean for a normal error). Not the t quantile's correction: that one
+// makes a bound cover at its confidence over the sd's noise; the mean of |e| needs sigma
+// itself (E|T_5| / E|Z| = 1.19 against 1 / c4 = 1.05 at 6 passes; with it the stop came 20-30 %
+// late at 5-8 passes, achieved 0.7-0.8 E). INFINITY below one degree of freedom or for an infinite s.
+double folded_normal_mean(double m, double s, double dof);
 
 // Relative stochastic bound of eq. 6.13: (E_i + |B'_i|) / L_i (infinite when L_i <= 0).
 inline double relative_bound(double half_width, double bias, double radiance) {

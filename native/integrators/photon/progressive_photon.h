@@ -94,7 +94,10 @@ class ProgressivePhotonMapping : public Integrator {
     double bias_sd = 0;         // standard error of B'_i, from the per-pass Laplacians
     double noise_sd = 0;        // sqrt(V_i / i) (eq. 6.10, 6.22; INFINITY below 2 passes)
     double half_width = 0;      // E_i of eq. 6.10 at the user's confidence
+    double sigma = 0;           // sd of the noise the bound assumes around `bias` (noise_sd for eq. 6.12)
     double bound = 0;           // absolute error bound at the user's confidence (the error pass x L_i)
+    double mean_abs = 0;        // estimated E|L_i - L|: folded mean of bias + sigma T (the --target-error stop)
+    double photon_passes = 0;   // passes that gathered photons here
     double corrected_mean = 0;  // mean of the bias-corrected per-pass samples x_j (eq. 6.22)
     double radius = 0;          // R_i
   };
@@ -119,9 +122,11 @@ class ProgressivePhotonMapping : public Integrator {
     double lap = 0;                // smooth-kernel Laplacian of the luminance flux (§6.4)
     double direct[3] = {0, 0, 0};  // sum over passes of the eye path's own light (Le, NEE)
     double coverage = 0;           // passes whose camera ray hit the scene (film_transparent)
-    ErrorStats err;                // bias-corrected per-pass samples (eq. 6.22)
+    ErrorStats err;                // bias-corrected per-pass samples, B'_j of pass j (eq. 6.22; error_bound = thesis)
+    PassSamples pass;              // per-pass estimates and radii: x_j with the latest B' (calibrated)
     ErrorStats lap_err;            // per-pass Laplacian estimates (the bias estimate's own noise)
     double r2_sum = 0;             // sum of the query radii R_j^2 of the passes with a point (eq. 6.18)
+    uint32_t photon_passes = 0;    // passes whose gather found photons (phi > 0)
   };
   // After pass j's update of pixel s (radius, flux and Laplacian already reduced): its
   // bias-corrected sample x_j = L_p,j - B'_j (eq. 6.22) and its own Laplacian estimate, from the
@@ -148,6 +153,8 @@ class ProgressivePhotonMapping : public Integrator {
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
+  // The Laplacian, B'_i and its standard error of pixel k (the rest of ErrorTerms left 0).
+  ErrorTerms bias_estimate(size_t k) const;
   // Reads parameter film_transparent (PPM, SPPM: their RGB eye pass writes the alpha pass);
   // spectral photons leave it unread, so it is reported as unused there.
   void read_film_transparent(const Params& params) {
