@@ -244,8 +244,8 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
 
 namespace {
 
-// Step 1 (eq. 5): the candidate y*_s, and y'_s = trace(y_{s-1} -> y*_s), which must be a surface
-// a photon could be stored on.
+// Step 1 of a DD ending (eq. 5): the candidate y*_s, and y'_s = trace(y_{s-1} -> y*_s), which
+// must be a surface a photon could be stored on (chains: project_candidate below).
 struct Step1 {
   ShiftFailure failure = ShiftFailure::None;
   Vec3 y_star, wi_prev;  // candidate, and the unit direction from y_{s-1} towards it
@@ -258,14 +258,13 @@ struct Step1 {
 // A ray from a surface point towards a target, aimed from its actual origin (pushed off the
 // surface by offset_ray_origin): aimed from the point itself, the ray's line is moved by that
 // push, which near the world origin is 1.5e-5 per axis and so misses the target by a few
-// hundredths of a one-pixel gather radius, enough to fail the reversibility test below (27 % of
-// sun-caustic's walked shifts) and to move offset photons off their candidates. As propagate()
-// in manifold.cpp does.
+// hundredths of a one-pixel gather radius: the offset photon leaves its candidate, and when
+// chains were traced this way 27 % of sun-caustic's walked shifts failed reversibility. As
+// propagate() in manifold.cpp does.
 static Ray aimed_ray(const Vec3& from, const Vec3& ng, const Vec3& target) {
   const Vec3 o = offset_ray_origin(from, ng, target - from);
   return Ray(o, normalize(target - o));
 }
-
 
 // Step 1 of a chain photon: the candidate y*_s (eq. 5) projected onto the receiver along the
 // offset gather point's normal, the first surface within R of it on that line that a photon could
@@ -323,15 +322,15 @@ static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, co
   return s;
 }
 
-// Reversibility (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t), traced from the
-// offset's y'_{s-1}, must give y_s back.
+// Reversibility of a DD ending (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t),
+// traced from y_{s-1} (the vertex both paths share), must give y_s back.
 static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
-                              const Frame& frame_off, const Vec3& y, const Vec3& y_off, const Vec3& prev_off,
-                              const Vec3& ng_prev_off, float tol, int64_t& rays) {
+                              const Frame& frame_off, const Vec3& y, const Vec3& y_off, const Vec3& y_prev,
+                              const Vec3& ng_prev, float tol, int64_t& rays) {
   const Vec3 y_back = photon_offset_candidate(z_off, frame_off, z, frame_z, y_off);
-  if (!(length_squared(y_back - prev_off) > 0)) return false;
+  if (!(length_squared(y_back - y_prev) > 0)) return false;
   ++rays;
-  const auto bh = scene.intersect_point(aimed_ray(prev_off, ng_prev_off, y_back));
+  const auto bh = scene.intersect_point(aimed_ray(y_prev, ng_prev, y_back));
   return bh && length_squared(bh->p - y) <= tol * tol;
 }
 
