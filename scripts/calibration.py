@@ -52,6 +52,8 @@ import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "build" / "python"))
+sys.path.insert(0, str(ROOT / "scripts"))
+from interleaved import parse_spec  # noqa: E402  ('sppm:photons=200000,footprint=0.25' -> name, params)
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 _erf = np.frompyfunc(math.erf, 1, 1)
@@ -72,22 +74,6 @@ def load_scene(native, scene_name, scale):
     return native.load_scene_json(json.dumps(j), str(ROOT / "scenes"))
 
 
-def parse_method(spec):
-    """'sppm:photons=200000,footprint=0.25' -> ('sppm', {'photons': 200000, 'footprint': 0.25})."""
-    name, _, rest = spec.partition(":")
-    params = {}
-    for kv in filter(None, rest.split(",")):
-        k, v = kv.split("=")
-        try:
-            params[k] = int(v)
-        except ValueError:
-            try:
-                params[k] = float(v)
-            except ValueError:
-                params[k] = v
-    return name, params
-
-
 def reference(native, scene_name, spec, seed, args):
     """Luminance of a long render (and its own |B'| where it is SPPM), cached by scene, size, spec, seed."""
     method_spec, _, passes = spec.partition("@")
@@ -98,7 +84,7 @@ def reference(native, scene_name, spec, seed, args):
         z = np.load(path)
         return z["L"], z["bias"]
     path.parent.mkdir(parents=True, exist_ok=True)
-    name, params = parse_method(method_spec)
+    name, params = parse_spec(method_spec)
     s = native.Session(load_scene(native, scene_name, args.scale), name, dict(params, seed=seed, threads=args.ref_threads))
     s.set_aux_passes(False)
     start = time.perf_counter()
@@ -187,7 +173,7 @@ def main():
     bounds = [b for b in args.bounds.split(",") if b]
     seeds = [int(s) for s in args.seeds.split(",")]
     targets = [float(t) for t in args.targets.split(",") if t]
-    extra = parse_method(":" + args.params)[1]
+    extra = parse_spec(":" + args.params)[1]
     ref_specs = dict(r.split("=", 1) for r in args.ref)
     cov_rows, stop_rows, ref_rows = [], [], []
     for scene_name in args.scenes:
