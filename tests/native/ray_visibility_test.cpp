@@ -13,19 +13,6 @@
 namespace gp {
 namespace {
 
-Scene scene_from(const std::string& json) { return load_scene_from_string(json, ".", "test.json"); }
-
-RGB image_mean(const Film& f) {
-  double s[3] = {0, 0, 0};
-  for (int y = 0; y < f.height(); ++y)
-    for (int x = 0; x < f.width(); ++x) {
-      const RGB c = f.rgb(pass::kCombined, x, y);
-      for (int k = 0; k < 3; ++k) s[k] += c[k];
-    }
-  const double n = double(f.width()) * f.height();
-  return RGB(float(s[0] / n), float(s[1] / n), float(s[2] / n));
-}
-
 // A grey scene (spectral upsampling of greys is exact, so spectral methods must match the RGB
 // path tracer) in which every switch changes the image: a floor half Principled (a diffuse and a
 // glossy lobe), half rough Glossy, seen at an angle with the sky above its far edge; a Blender
@@ -61,6 +48,19 @@ Params depth_params(uint64_t seed) {
 // The path tracer's mean with the switches (4096 samples: within 0.2 % of its limit).
 RGB pt_reference(const Scene& s) { return image_mean(render("pt", s, 4096, depth_params(7))); }
 
+// SPPM and adaptive SPPM (256 passes of 5000 photons, seed `seed`): image mean within `bound`
+// of the path tracer's.
+void expect_photon_methods_match_pt(const Scene& s, uint64_t seed, double bound) {
+  const RGB ref = pt_reference(s);
+  for (const char* method : {"sppm", "sppm-adaptive"}) {
+    Params p = photon_params(5000, seed);
+    p.set("max_depth", 5);
+    const RGB m = image_mean(render(method, s, 256, p));
+    EXPECT_NEAR(m.luminance() / ref.luminance(), 1.0, bound)
+        << method << ": " << m.luminance() << " against pt " << ref.luminance();
+  }
+}
+
 TEST(RayVisibility, SwitchesChangeTheReferenceImage) {
   // What the method tests below rely on: each switch alone moves the path tracer's mean by more
   // than their bounds (measured: lamp 20 %, panel 3.9 %, world (camera) 33 %).
@@ -93,15 +93,8 @@ TEST(RayVisibility, PhotonMethodsHonourTheLightsSwitches) {
   // camera paths are traced once, too few for a mean here: WorldSwitchesAgainstClosedForms
   // checks its photons deposited at their first hit.
   const Scene s = scene_from(switches_scene(kLampOff, "", R"(, "visible_to_camera": false, "visible_to_glossy": false)"));
-  const RGB ref = pt_reference(s);
-  for (const char* method : {"sppm", "sppm-adaptive"}) {
-    Params p = photon_params(5000, 4);
-    p.set("max_depth", 5);
-    const RGB m = image_mean(render(method, s, 256, p));
-    EXPECT_NEAR(m.luminance() / ref.luminance(), 1.0, 0.02) << method << ": " << m.luminance() << " against pt " << ref.luminance();
-  }
+  expect_photon_methods_match_pt(s, 4, 0.02);
 }
-
 
 TEST(RayVisibility, PhotonsFollowTheLobeSampledAtTheirFirstHit) {
   // A lamp hidden from diffuse rays faces a wall that is a Mix of diffuse and a rough Glossy; the
@@ -120,13 +113,7 @@ TEST(RayVisibility, PhotonsFollowTheLobeSampledAtTheirFirstHit) {
     "objects": [{"type": "quad", "center": [0, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"},
                 {"type": "quad", "center": [1, 0, 0.5], "u": [0, 1, 0], "v": [0, 0, 0.5], "material": "wall"},
                 {"type": "quad", "center": [0.3, 0, 0.6], "u": [0, 0.3, 0], "v": [0, 0, 0.3], "material": "lamp"}]})");
-  const RGB ref = pt_reference(s);
-  for (const char* method : {"sppm", "sppm-adaptive"}) {
-    Params p = photon_params(5000, 2);
-    p.set("max_depth", 5);
-    const RGB m = image_mean(render(method, s, 256, p));
-    EXPECT_NEAR(m.luminance() / ref.luminance(), 1.0, 0.04) << method << ": " << m.luminance() << " against pt " << ref.luminance();
-  }
+  expect_photon_methods_match_pt(s, 2, 0.04);
 }
 
 // ---- The World's Ray Visibility, against closed forms ----

@@ -1,6 +1,6 @@
-// What the integrator tests share: a scene of scenes/ at a test's size, a method run for a fixed
-// number of passes and developed (the CLI's progressive loop without a progress sink), and the
-// photon methods' parameters.
+// What the integrator tests share: a scene of scenes/ at a test's size or from a JSON string, a
+// method run for a fixed number of passes and developed (the CLI's progressive loop without a
+// progress sink), the mean of an image, and the photon methods' parameters.
 #pragma once
 
 #include <cstdint>
@@ -21,6 +21,24 @@ inline Scene test_scene(const std::string& name, int width, int height) {
 }
 
 inline Scene cornell_box(int width, int height) { return test_scene("cornell-box", width, height); }
+
+// A scene written in the test, as a scene file's JSON.
+inline Scene scene_from(const std::string& json) { return load_scene_from_string(json, ".", "test.json"); }
+
+// The mean of the combined pass; `finite` (if given) says whether every pixel was finite.
+inline RGB image_mean(const Film& f, bool* finite = nullptr) {
+  double s[3] = {0, 0, 0};
+  bool ok = true;
+  for (int y = 0; y < f.height(); ++y)
+    for (int x = 0; x < f.width(); ++x) {
+      const RGB c = f.rgb(pass::kCombined, x, y);
+      ok &= c.is_finite();
+      for (int k = 0; k < 3; ++k) s[k] += c[k];
+    }
+  if (finite) *finite = ok;
+  const double n = double(f.width()) * f.height();
+  return RGB(float(s[0] / n), float(s[1] / n), float(s[2] / n));
+}
 
 inline Film render(const std::string& method, const Scene& scene, int passes, const Params& params,
                    Stats* stats = nullptr) {

@@ -15,20 +15,6 @@
 namespace gp {
 namespace {
 
-RGB image_mean(const Film& f, bool* finite = nullptr) {
-  double s[3] = {0, 0, 0};
-  bool ok = true;
-  for (int y = 0; y < f.height(); ++y)
-    for (int x = 0; x < f.width(); ++x) {
-      const RGB c = f.rgb(pass::kCombined, x, y);
-      ok &= c.is_finite();
-      for (int k = 0; k < 3; ++k) s[k] += c[k];
-    }
-  if (finite) *finite = ok;
-  const double n = double(f.width()) * f.height();
-  return RGB(float(s[0] / n), float(s[1] / n), float(s[2] / n));
-}
-
 Scene load(const std::string& name, int w, int h) {
   Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/" + name);
   s.camera.width = w;

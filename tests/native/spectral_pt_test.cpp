@@ -14,19 +14,6 @@
 namespace gp {
 namespace {
 
-Scene scene_from(const std::string& json) { return load_scene_from_string(json, ".", "test.json"); }
-
-RGB image_mean(const Film& f) {
-  double s[3] = {0, 0, 0};
-  for (int y = 0; y < f.height(); ++y)
-    for (int x = 0; x < f.width(); ++x) {
-      const RGB c = f.rgb(pass::kCombined, x, y);
-      for (int k = 0; k < 3; ++k) s[k] += c[k];
-    }
-  const double n = double(f.width()) * f.height();
-  return RGB(float(s[0] / n), float(s[1] / n), float(s[2] / n));
-}
-
 Scene cornell_box(int size) {
   Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-box.json");
   s.camera.width = s.camera.height = size;
