@@ -31,30 +31,44 @@ Vec3 onto_plane(const Vec3& o, const Vec3& q, const Vec3& c, const Vec3& n) {
   return o + d * t;
 }
 
-TEST(GpmPhotonShift, Eq6JacobianMatchesFiniteDifferences) {
-  // Base gather point z on the floor, offset gather point z' on a tilted plane; the offset
-  // photon is traced from y_prev through y* onto a third plane (the "scene" where it lands).
-  const Vec3 z(0.1f, 0.2f, 0.0f);
-  const Frame fz(normalize(Vec3(0, 0, 1)));
-  const Vec3 z_off(0.35f, 0.15f, 0.05f);
-  const Frame fo(normalize(Vec3(0.2f, -0.1f, 1.0f)));
-  const Vec3 c_land(0.3f, 0.2f, -0.1f), n_land = normalize(Vec3(-0.3f, 0.25f, 1.0f));
-  const Vec3 y_prev(-0.4f, 0.6f, 1.3f);
-  auto shift = [&](const Vec3& y) {
-    return onto_plane(y_prev, photon_offset_candidate(z, fz, z_off, fo, y), c_land, n_land);
-  };
-  for (const Vec3 dy : {Vec3(0.01f, 0.02f, 0), Vec3(-0.03f, 0.01f, 0), Vec3(0.0f, -0.025f, 0)}) {
-    const Vec3 y = z + dy;  // base photon on the base gather point's plane
+// Base gather point z on the floor, offset gather point z' on a tilted plane; the offset photon
+// lands on a third plane (the "scene" where it lands), traced from y_prev through y* (eq. 6) or
+// projected along z''s normal (a chain photon's step 1).
+struct ShiftGeometry {
+  const Vec3 z{0.1f, 0.2f, 0.0f};
+  const Frame fz{normalize(Vec3(0, 0, 1))};
+  const Vec3 z_off{0.35f, 0.15f, 0.05f};
+  const Frame fo{normalize(Vec3(0.2f, -0.1f, 1.0f))};
+  const Vec3 c_land{0.3f, 0.2f, -0.1f}, n_land = normalize(Vec3(-0.3f, 0.25f, 1.0f));
+  const Vec3 y_prev{-0.4f, 0.6f, 1.3f};
+  Vec3 candidate(const Vec3& y) const { return photon_offset_candidate(z, fz, z_off, fo, y); }
+  Vec3 traced(const Vec3& y) const { return onto_plane(y_prev, candidate(y), c_land, n_land); }
+  Vec3 projected(const Vec3& y) const {
+    const Vec3 ys = candidate(y);
+    return onto_plane(ys + fo.n, ys, c_land, n_land);
+  }
+  // |d map(y) / dA(y)| by central differences over the element at y in the frame fy.
+  template <typename Map>
+  static double area_ratio(Map&& map, const Vec3& y, const Frame& fy) {
     const double h = 1e-3;
-    const Vec3 a0 = shift(y - fz.s * float(h)), a1 = shift(y + fz.s * float(h));
-    const Vec3 b0 = shift(y - fz.t * float(h)), b1 = shift(y + fz.t * float(h));
-    const double fd = length(cross(a1 - a0, b1 - b0)) / (4 * h * h);
-    const Vec3 y_star = photon_offset_candidate(z, fz, z_off, fo, y);
-    const double eq6 = photon_shift_jacobian(y_prev, y_star, fo.n, shift(y), n_land);
+    const Vec3 a0 = map(y - fy.s * float(h)), a1 = map(y + fy.s * float(h));
+    const Vec3 b0 = map(y - fy.t * float(h)), b1 = map(y + fy.t * float(h));
+    return length(cross(a1 - a0, b1 - b0)) / (4 * h * h);
+  }
+};
+
+TEST(GpmPhotonShift, Eq6JacobianMatchesFiniteDifferences) {
+  const ShiftGeometry g;
+  auto traced = [&](const Vec3& y) { return g.traced(y); };
+  for (const Vec3 dy : {Vec3(0.01f, 0.02f, 0), Vec3(-0.03f, 0.01f, 0), Vec3(0.0f, -0.025f, 0)}) {
+    const Vec3 y = g.z + dy;  // base photon on the base gather point's plane
+    const double fd = ShiftGeometry::area_ratio(traced, y, g.fz);
+    const Vec3 y_star = g.candidate(y);
+    const double eq6 = photon_shift_jacobian(g.y_prev, y_star, g.fo.n, g.traced(y), g.n_land);
     EXPECT_NEAR(eq6, fd, 2e-3 * fd) << "dy " << dy.x << " " << dy.y;
     EXPECT_GT(std::abs(eq6 - 1.0), 0.02);  // a configuration where the Jacobian matters
     // Eq. 5 keeps the photon's offset from its gather point (a rotation).
-    EXPECT_NEAR(length(y_star - z_off), length(y - z), 1e-5);
+    EXPECT_NEAR(length(y_star - g.z_off), length(y - g.z), 1e-5);
   }
 }
 
@@ -63,33 +77,20 @@ TEST(GpmPhotonShift, Eq6JacobianMatchesFiniteDifferences) {
 // chain photon's candidate along the offset gather point's normal, each against finite
 // differences of its map. Eq. 6 in the gather point's plane is 88-93 % off here.
 TEST(GpmPhotonShift, JacobiansOnATiltedReceiverMatchFiniteDifferences) {
-  const Vec3 z(0.1f, 0.2f, 0.0f);
-  const Frame fz(normalize(Vec3(0, 0, 1)));
-  const Vec3 z_off(0.35f, 0.15f, 0.05f);
-  const Frame fo(normalize(Vec3(0.2f, -0.1f, 1.0f)));
-  const Vec3 c_land(0.3f, 0.2f, -0.1f), n_land = normalize(Vec3(-0.3f, 0.25f, 1.0f));
-  const Vec3 y_prev(-0.4f, 0.6f, 1.3f);
+  const ShiftGeometry g;
   const Vec3 n_y = normalize(Vec3(0.35f, -0.2f, 1.0f));  // the receiver's normal at the base photon
   const Frame fy(n_y);
-  auto traced = [&](const Vec3& y) { return onto_plane(y_prev, photon_offset_candidate(z, fz, z_off, fo, y), c_land, n_land); };
-  auto projected = [&](const Vec3& y) {
-    const Vec3 ys = photon_offset_candidate(z, fz, z_off, fo, y);
-    return onto_plane(ys + fo.n, ys, c_land, n_land);  // along the offset gather point's normal
-  };
+  auto traced = [&](const Vec3& y) { return g.traced(y); };
+  auto projected = [&](const Vec3& y) { return g.projected(y); };
   for (const Vec3 dy : {Vec3(0.01f, 0.02f, 0.004f), Vec3(-0.03f, 0.01f, -0.006f)}) {
-    const Vec3 y = z + dy;
-    const double h = 1e-3;
-    auto fd = [&](auto&& map) {  // area ratio over the receiver's element at y
-      const Vec3 a0 = map(y - fy.s * float(h)), a1 = map(y + fy.s * float(h));
-      const Vec3 b0 = map(y - fy.t * float(h)), b1 = map(y + fy.t * float(h));
-      return length(cross(a1 - a0, b1 - b0)) / (4 * h * h);
-    };
-    const Vec3 y_star = photon_offset_candidate(z, fz, z_off, fo, y);
-    const Vec3 n_star = candidate_normal(fz, fo, n_y);
-    const double eq6 = photon_shift_jacobian(y_prev, y_star, n_star, traced(y), n_land), fd6 = fd(traced);
+    const Vec3 y = g.z + dy;
+    const Vec3 y_star = g.candidate(y);
+    const Vec3 n_star = candidate_normal(g.fz, g.fo, n_y);
+    const double fd6 = ShiftGeometry::area_ratio(traced, y, fy);
+    const double eq6 = photon_shift_jacobian(g.y_prev, y_star, n_star, g.traced(y), g.n_land);
     EXPECT_NEAR(eq6, fd6, 2e-3 * fd6);
-    EXPECT_GT(std::abs(photon_shift_jacobian(y_prev, y_star, fo.n, traced(y), n_land) / fd6 - 1.0), 0.01);
-    const double proj = projection_jacobian(n_star, fo.n, n_land), fdp = fd(projected);
+    EXPECT_GT(std::abs(photon_shift_jacobian(g.y_prev, y_star, g.fo.n, g.traced(y), g.n_land) / fd6 - 1.0), 0.01);
+    const double proj = projection_jacobian(n_star, g.fo.n, g.n_land), fdp = ShiftGeometry::area_ratio(projected, y, fy);
     EXPECT_NEAR(proj, fdp, 2e-3 * fdp);
     EXPECT_GT(std::abs(proj - 1.0), 0.02);  // a configuration where it matters
   }
