@@ -58,13 +58,9 @@ def test_f12_render_updates_progressively_and_esc_stops_it():
     os.makedirs(out, exist_ok=True)
     for f in os.listdir(out):
         os.remove(os.path.join(out, f))
-    cmd = ["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", "blender", "--factory-startup", "--python",
-           os.path.join(ROOT, "tests", "blender", "ui_test.py"), "--", out]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=180)
-    path = os.path.join(out, "ui_result.json")
-    assert os.path.exists(path), r.stdout[-3000:] + r.stderr[-3000:]
-    with open(path) as f:
-        res = json.load(f)
+    # A segfault inside Blender during the render (CI, once in 2026-11-24's last run; 1 of 4 runs
+    # here, 0 of 18 outside pytest; no native stack recorded) gets one more run, as the viewport's.
+    res, _ = run_ui("ui_test.py", out, "ui_result.json", retry_crash=True)
     print("UI result:", json.dumps(res))
     assert res["ok"], res
     passes = [p for _, p in res["updates_before_esc"]]

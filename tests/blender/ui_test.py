@@ -7,6 +7,7 @@ Render Result is updated progressively, presses Esc, checks the render stops qui
 its passes, saves a screenshot of the render window and the image, writes OUT_DIR/ui_result.json.
 Keys are real X key presses through xdotool (XTEST), as a user's: F12 in the main window, Esc
 in the render window (Esc must reach Blender as a window-system event to break a render job)."""
+import faulthandler
 import json
 import os
 import subprocess
@@ -15,6 +16,8 @@ import time
 import traceback
 
 import bpy
+
+faulthandler.enable(all_threads=True)  # a crash prints every thread's Python stack (test_ui.py)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "addon"))
