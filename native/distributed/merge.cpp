@@ -148,7 +148,11 @@ MergeResult merge_runs(const std::vector<MergeInput>& runs, int threads) {
   }
 
   if (is_gradient_method(method)) {
-    // Reconstruct once from the merged primal and gradients, as the method does.
+    // Reconstruct once from the merged primal and gradients, as the method does, plus what each
+    // run's `combined` holds beyond the reconstruction of its own passes, weighted as the passes:
+    // the part the method adds after its solve (emission kept out of the gradients, which an L1
+    // solve of the passes does not give back exactly; GPM's emission from its further camera
+    // paths, which `primal` leaves out). So a merge of one run is that run.
     const std::string* primal = find_pass(out.film, pass::kPrimal);
     const std::string* gx = find_pass(out.film, pass::kGradientX);
     const std::string* gy = find_pass(out.film, pass::kGradientY);
@@ -159,10 +163,24 @@ MergeResult merge_runs(const std::vector<MergeInput>& runs, int threads) {
     const ReconOptions recon = gradient_recon_options(Params(first.run.params).bound(m.name, m.params), threads);
     const Pass& P = out.film.pass(*primal);
     const int c = P.channels;
-    std::vector<float> rec = screened_poisson(P.data, out.film.pass(*gx).data, out.film.pass(*gy).data, W, H, c, recon);
     Pass& comb = out.film.pass(*combined_name);
+    const int cc = std::min(c, comb.channels);
+    auto reconstruct = [&](const Film& f) {
+      return screened_poisson(f.pass(*primal).data, f.pass(*gx).data, f.pass(*gy).data, W, H, c, recon);
+    };
+    std::vector<double> after_solve(n * c, 0.0);
+    for (const MergeInput& in : runs) {
+      const double w = static_cast<double>(in.run.paths) / total;
+      const std::vector<float> own = reconstruct(in.film);
+      const Pass& run_comb = in.film.pass(*combined_name);
+      for (size_t i = 0; i < n; ++i)
+        for (int k = 0; k < cc; ++k)
+          after_solve[i * c + k] += w * (double(run_comb.data[i * run_comb.channels + k]) - own[i * c + k]);
+    }
+    const std::vector<float> rec = reconstruct(out.film);
     for (size_t i = 0; i < n; ++i)
-      for (int k = 0; k < std::min(c, comb.channels); ++k) comb.data[i * comb.channels + k] = rec[i * c + k];
+      for (int k = 0; k < cc; ++k)
+        comb.data[i * comb.channels + k] = static_cast<float>(rec[i * c + k] + after_solve[i * c + k]);
   }
 
   if (const std::string* err = find_pass(first.film, pass::kError)) {

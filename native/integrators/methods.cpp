@@ -222,6 +222,11 @@ std::vector<Method> make_methods() {
                        .min_open = true, .label = "Gradient Footprint",
                        .description = "initial radius of the shifted photons' gathers, in pixels (radius 0)",
                        .reference = "gradient-domain photon density estimation §5", .group = "Photons"},
+                      {.name = "emission_samples", .type = ParamType::Int, .default_value = 4, .min = 0, .max = 64,
+                       .label = "Emission Samples",
+                       .description = "camera paths per pixel and pass, besides the gather path, for the light "
+                                      "seen along them (emitters, their images in mirrors and glass); combined only",
+                       .reference = "docs/gradient.md \"Emission\"", .group = "Photons"},
                       recon("l1"), lambda(),
                       {.name = "manifold_iterations", .type = ParamType::Int, .default_value = 20, .min = 0,
                        .label = "Manifold Steps",

@@ -137,17 +137,72 @@ TEST(Gpm, PrimalIsSppmsImageAndL2OfThePassesIsCombined) {
   p.set("seed", 7);
   Film sppm, gpm;
   run("sppm", s, 3, p)->develop(sppm);
-  p.set("recon", "l2");  // for the check of the passes below
   run("gpm", s, 3, p)->develop(gpm);
   const DiffResult d = diff_images(gpm.pass(pass::kPrimal), sppm.pass(pass::kCombined), 24, 20);
   EXPECT_NEAR(d.mean_ratio, 1.0, 1e-5);
   const auto& a = gpm.pass(pass::kPrimal).data;
   const auto& b = sppm.pass(pass::kCombined).data;
   for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a[i], b[i], 1e-4f * (1 + std::abs(b[i]))) << i;
-  // The gradient passes include the primal-domain part's differences: L2 of the passes is combined.
-  const auto rec = screened_poisson(a, gpm.pass(pass::kGradientX).data, gpm.pass(pass::kGradientY).data, 24, 20, 3);
-  const auto& comb = gpm.pass(pass::kCombined).data;
+  // The gradient passes include the primal-domain part's differences: L2 of the passes is
+  // combined, when combined takes its emission from the gather paths alone as primal does.
+  p.set("recon", "l2");
+  p.set("emission_samples", 0);
+  Film gpm2;
+  run("gpm", s, 3, p)->develop(gpm2);
+  const auto& a2 = gpm2.pass(pass::kPrimal).data;
+  for (size_t i = 0; i < a2.size(); ++i) ASSERT_NEAR(a2[i], b[i], 1e-4f * (1 + std::abs(b[i]))) << i;
+  const auto rec = screened_poisson(a2, gpm2.pass(pass::kGradientX).data, gpm2.pass(pass::kGradientY).data, 24, 20, 3);
+  const auto& comb = gpm2.pass(pass::kCombined).data;
   for (size_t i = 0; i < rec.size(); ++i) ASSERT_NEAR(rec[i], comb[i], 1e-4f * (1 + std::abs(comb[i])));
+}
+
+// The light seen along camera paths, here only in a mirror: a white mirror floor 2 m below the
+// camera and a light 1 m above it, facing the floor and hidden from camera rays, whose image
+// spans columns 2-5 of 8, 30 % of columns 2 and 5 (nothing holds photons: combined is that
+// emission alone). Each pixel's value is L_e times the share of its film positions that see the
+// light, a Bernoulli mean: its variance tells how many independent camera paths the pixel took.
+TEST(Gpm, FurtherCameraPathsEstimateTheLightSeenAlongThem) {
+  const double pw = 2.0 * std::tan(5.0 * M_PI / 180.0) * 3.0 / 8.0;  // a pixel at the image's depth, 3 m
+  const double e = 1.3 * pw;
+  const Scene s = scene_from(R"({
+    "camera": {"position": [0, 0, 2], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 10, "width": 8, "height": 8},
+    "materials": {"mirror": {"type": "conductor", "color": 1},
+                  "lamp": {"type": "emission", "emission": 1, "strength": 2, "two_sided": false,
+                           "visible_to_camera": false, "casts_shadow": false}},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "mirror"},
+                {"type": "quad", "center": [0, 0, 1], "u": [0, 1, 0], "v": [)" + std::to_string(e) + R"(, 0, 0],
+                 "material": "lamp"}]})");
+  const int passes = 8, k = 15;
+  Params p;
+  p.set("seed", 3);
+  p.set("photons", 1000);
+  p.set("emission_samples", k);
+  const Film f = render("gpm", s, passes, p);
+  // Per pass `primal` takes one camera path per pixel, `combined` 1 + k.
+  for (const auto& [name, paths] : {std::pair{pass::kPrimal, passes}, std::pair{pass::kCombined, passes * (1 + k)}}) {
+    double z2 = 0, L_in = 0, L_out = 0;
+    int edge = 0;
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x) {
+        const float v = f.rgb(name, x, y).g;
+        if (x == 3 || x == 4) L_in += v / 16.0;
+        else if (x == 2 || x == 5) {
+          const double L = 2.0, q = 0.3;
+          z2 += (v - L * q) * (v - L * q) / (L * L * q * (1 - q) / paths);
+          ++edge;
+        } else L_out = std::max(L_out, double(v));
+      }
+    z2 /= edge;
+    std::printf("%s: mean z^2 %.3f over %d edge pixels, inside %.4f, outside %.4f\n", std::string(name).c_str(), z2,
+                edge, L_in, L_out);
+    EXPECT_NEAR(L_in, 2.0, 1e-3) << name;
+    EXPECT_EQ(L_out, 0.0) << name;
+    // 16 pixels: mean z^2 has sd 0.35 about 1; [0.25, 2.5] is -2 to +4 sd. Seen failing:
+    // combined divided by the passes alone (z^2 ~ 12000), the further paths at the gather path's
+    // film position (z^2 ~ 14).
+    EXPECT_GT(z2, 0.25) << name;
+    EXPECT_LT(z2, 2.5) << name;
+  }
 }
 
 TEST(Gpm, ConvergesToThePathTracedCornellBox) {
@@ -312,6 +367,9 @@ TEST(Gpm, WalksThatCannotConvergeAreCountedAndFallBack) {
   Params p = photon_params(20000, 5);
   p.set("manifold_iterations", 1);
   p.set("recon", "l1");
+  // combined's light from the primal's camera paths alone: at 32x32 and 3 passes the light's
+  // few pixels hold much of the image mean, and further paths would move it by their noise.
+  p.set("emission_samples", 0);
   auto g = run("gpm", s, 3, p);
   Film f;
   g->develop(f);

@@ -75,16 +75,32 @@ def test_runs_are_weighted_by_their_work(tmp_path):
 
 def test_gradient_runs_are_reconstructed_once_from_merged_gradients(tmp_path):
     """L1 is not linear: the merged combined is the L1 reconstruction of the merged primal and
-    gradients, not the mean of the runs' reconstructions."""
+    gradients (plus what each run added after its own solve), not the mean of the runs'
+    reconstructions."""
     runs = [render(tmp_path / f"g{s}.exr", "--method", "gpt", "--recon", "l1", "--lambda", 0.3, "--passes", 2,
                    "--seed", s) for s in (1, 2, 3)]
     merged = tmp_path / "merged.exr"
     run("merge", *runs, "-o", merged)
     m = _native.read_exr(str(merged))
     rec = _native.reconstruct(m["primal"], m["gradient_x"], m["gradient_y"], 0.3, "l1")
-    np.testing.assert_allclose(m["combined"], rec, rtol=1e-3, atol=1e-4)
+    after_solve = np.mean([f["combined"] - _native.reconstruct(f["primal"], f["gradient_x"], f["gradient_y"], 0.3, "l1")
+                           for f in (_native.read_exr(str(r)) for r in runs)], axis=0)
+    np.testing.assert_allclose(m["combined"], rec + after_solve, rtol=1e-3, atol=1e-4)
     mean_of_recs = np.mean([_native.read_exr(str(r))["combined"] for r in runs], axis=0)
-    assert np.abs(m["combined"] - mean_of_recs).mean() > 10 * np.abs(m["combined"] - rec).mean()
+    assert np.abs(m["combined"] - mean_of_recs).mean() > 10 * np.abs(m["combined"] - rec - after_solve).mean()
+
+
+@pytest.mark.parametrize("method", [["gpt", "--recon", "l1"], ["gdmlt"], ["gpm", "--photons", 5000]])
+def test_a_merge_of_one_gradient_run_is_that_run(tmp_path, method):
+    """What the methods add after their solve (directly seen emission kept out of the gradients;
+    GPM's emission from further camera paths, which its primal leaves out) survives the merge.
+    Seen failing (gdmlt and gpm off by 1e-2 to 1e-1 in the light's pixels) when the merge took
+    the reconstruction of the merged passes alone."""
+    one = render(tmp_path / "one.exr", "--method", *method, "--passes", 2, "--seed", 4, scene=GLASS)
+    merged = tmp_path / "merged.exr"
+    run("merge", one, "-o", merged)
+    a, b = _native.read_exr(str(merged))["combined"], _native.read_exr(str(one))["combined"]
+    np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-5)
 
 
 def test_photon_merge_keeps_one_runs_bias_and_says_so(tmp_path):

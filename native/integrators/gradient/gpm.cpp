@@ -37,6 +37,7 @@ Gpm::Gpm(const Scene& scene, const Params& params)
   // 100 000 photons, manifold_iterations 20): methods.cpp, docs/gradient.md "Defaults".
   recon_ = gradient_recon_options(params, threads_);
   manifold_iterations_ = params.get<int>("manifold_iterations");
+  emission_samples_ = params.get<int>("emission_samples");
   if (radius_ <= 0) gradient_radius_scale_ = params.get<double>("gradient_footprint") / footprint_pixels_;
   const size_t n = px_.size();
   gather_mg_.assign(n, 0.0f);
@@ -46,6 +47,7 @@ Gpm::Gpm(const Scene& scene, const Params& params)
   gather_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
   pass_nee_.assign(n, RGB(0.0f));
   pass_nee_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
+  pass_emission_.assign(n, RGB(0.0f));
 }
 
 // ---- Eye pass: SPPM's camera paths (same random numbers) and their half-vector-copy offsets ----
@@ -228,6 +230,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
               else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) walk.fail(d, ShiftFailure::ZeroLength);
             }
             pass_direct_[pixel] = path.Ld;
+            pass_emission_[pixel] = further_emission(starts[k], ext, rays, invalid);
             vp_[pixel] = path.vp;
             off_[pixel] = off;
             // Initial radius: SPPM's footprint rule, one pixel wide by default (below).
@@ -238,6 +241,27 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
         for (int k = 0; k < kShiftFailureCount; ++k) failures[k] += fail_count[k];
       },
       [sink] { return sink && sink->cancelled(); });
+}
+
+// The emission seen along `emission_samples` further camera paths of the pixel of `start`
+// (summed): new film positions in the pixel and lens samples, from the pixel's own stream past
+// its gather path, so that path and `primal` are SPPM's whatever this draws.
+RGB Gpm::further_emission(PixelStart& start, const Vec2& ext, int64_t& rays, int64_t& invalid) const {
+  RGB sum(0.0f);
+  if (emission_samples_ == 0) return sum;
+  const Vec2 cell(std::floor(start.film.x), std::floor(start.film.y));
+  EyePathHooks none;
+  for (int j = 0; j < emission_samples_; ++j) {
+    Rng& rng = start.rng;
+    const Vec2 film(cell.x + rng.uniform(), cell.y + rng.uniform());
+    const Vec2 lens(rng.uniform(), rng.uniform());
+    sum += trace_eye_path(scene_.camera.generate_ray(film, lens, ext), rng, rays, none, nullptr, true).Ld;
+  }
+  if (!sum.is_finite()) {  // discarded and counted: NaN/Inf never reaches a pass
+    ++invalid;
+    sum = RGB(0.0f);
+  }
+  return sum;
 }
 
 // ---- Light-subpath shifts (§4.2) ----
@@ -649,6 +673,7 @@ void Gpm::iterate(ProgressSink* sink) {
           g.nee_diff[d][c] += pass_nee_diff_[i][d][c];  // per-pass averages, as the direct light
         }
         g.nee[c] += pass_nee_[i][c];
+        g.emission[c] += pass_emission_[i][c];
         s.direct[c] += Ld[c];
       }
       s.lap = (s.lap + lap_j) * u.ratio;
@@ -694,8 +719,10 @@ void Gpm::develop(Film& film) const {
   const double passes = static_cast<double>(stats_.passes);
   const double ne = static_cast<double>(emitted_total_);
   // Per pixel: I_grad (photons shifted in the gradient domain), I_fb (primal-domain part:
-  // specular-chain photons, NEE and emission) and the per-direction difference estimates.
-  std::vector<double> grad_part(3 * n, 0.0), fb(3 * n, 0.0), gx(3 * n, 0.0), gy(3 * n, 0.0);
+  // specular-chain photons and emission; `primal`'s from the gather paths alone, `combined`'s
+  // with the further camera paths' emission) and the per-direction difference estimates.
+  std::vector<double> grad_part(3 * n, 0.0), fb(3 * n, 0.0), fb_combined(3 * n, 0.0), gx(3 * n, 0.0),
+      gy(3 * n, 0.0);
   std::vector<double> k(n, 0.0), kg(n, 0.0);  // 1 / (N_e pi r^2) of the primal and the gradients: eq. 7.1
   for (size_t i = 0; i < n; ++i) {
     if (px_[i].r2 > 0 && ne > 0) k[i] = 1.0 / (ne * M_PI * px_[i].r2);
@@ -704,8 +731,13 @@ void Gpm::develop(Film& film) const {
       const double photons = px_[i].tau[c] * k[i], photons_fb = grad_[i].tau_fb[c] * k[i];
       const double direct = passes > 0 ? px_[i].direct[c] / passes : 0.0;
       const double nee = passes > 0 ? grad_[i].nee[c] / passes : 0.0;
+      const double emission = direct - nee;  // seen along the gather path
+      const double emission_all =
+          passes > 0 ? (px_[i].direct[c] - grad_[i].nee[c] + grad_[i].emission[c]) / (passes * (1 + emission_samples_))
+                     : 0.0;
       grad_part[3 * i + c] = photons - photons_fb + nee;
-      fb[3 * i + c] = photons_fb + (direct - nee);
+      fb[3 * i + c] = photons_fb + emission;
+      fb_combined[3 * i + c] = photons_fb + emission_all;
     }
   }
   for (int y = 0; y < height_; ++y)
@@ -724,7 +756,7 @@ void Gpm::develop(Film& film) const {
         }
       }
     }
-  develop_gradient_passes(film, grad_part, gx, gy, fb, width_, height_, recon_);
+  develop_gradient_passes(film, grad_part, gx, gy, fb, width_, height_, recon_, &fb_combined);
 }
 
 }  // namespace gp

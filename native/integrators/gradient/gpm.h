@@ -47,6 +47,12 @@
 //     failed: specular chain not walkable" (a distant light's chain walks across its parallel
 //     beam, its direction held: manifold.h);
 //   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
+//     `combined` estimates it with `emission_samples` further camera paths per pixel and pass
+//     besides the gather path (each stops at its first photon-diffuse vertex: no NEE, no gather),
+//     because a GPM pass costs several SPPM passes and this part gains nothing from gradients:
+//     with one path per pass, the light and its images in mirrors and glass were as noisy as
+//     SPPM's at a third to a fifth of its passes (cornell-glass; docs/gradient.md "Emission").
+//     `primal` keeps the gather path's alone, so it stays SPPM's image.
 // A walk that does not converge in `manifold_iterations` steps is a failed shift (offset 0,
 // weight 1, counted as "shift failed: manifold walk did not converge"), as in the paper.
 // Direct light at the gather point by next-event estimation (SPPM's) is in the gradient domain:
@@ -116,8 +122,10 @@ class Gpm : public ProgressivePhotonMapping {
     double diff[4][3] = {};        // MIS-weighted flux differences per direction, within r2
     double nee[3] = {0, 0, 0};     // sum over passes of the direct light by NEE
     double nee_diff[4][3] = {};    // sum over passes of its MIS-weighted differences
+    double emission[3] = {0, 0, 0};  // sum over passes of the further camera paths' emission
   };
 
+  RGB further_emission(PixelStart& start, const Vec2& ext, int64_t& rays, int64_t& invalid) const;
   void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
                     std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures);
 
@@ -170,6 +178,8 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<std::array<RGB, 4>> gather_diff_;
   std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
   std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
+  int emission_samples_ = 0;                        // further camera paths per pixel and pass
+  std::vector<RGB> pass_emission_;                  // this pass's sum of their emission per pixel
 };
 
 }  // namespace gp

@@ -14,7 +14,8 @@ ReconOptions gradient_recon_options(const Params& params, int threads) {
 
 void develop_gradient_passes(Film& film, const std::vector<double>& primal, const std::vector<double>& gx,
                              const std::vector<double>& gy, const std::vector<double>& kept_out, int width,
-                             int height, const ReconOptions& recon) {
+                             int height, const ReconOptions& recon, const std::vector<double>* kept_out_combined) {
+  const std::vector<double>& kept_comb = kept_out_combined ? *kept_out_combined : kept_out;
   const std::vector<double> rec = screened_poisson(primal, gx, gy, width, height, 3, recon);  // eq. 3
   std::vector<double> dx, dy;
   forward_differences(kept_out, width, height, 3, &dx, &dy);
@@ -23,7 +24,7 @@ void develop_gradient_passes(Film& film, const std::vector<double>& primal, cons
   Pass& px = film.add_pass(pass::kGradientX, 3);
   Pass& py = film.add_pass(pass::kGradientY, 3);
   for (size_t k = 0; k < primal.size(); ++k) {
-    comb.data[k] = static_cast<float>(rec[k] + kept_out[k]);
+    comb.data[k] = static_cast<float>(rec[k] + kept_comb[k]);
     prim.data[k] = static_cast<float>(primal[k] + kept_out[k]);
     px.data[k] = static_cast<float>(gx[k] + dx[k]);
     py.data[k] = static_cast<float>(gy[k] + dy[k]);

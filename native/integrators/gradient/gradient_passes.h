@@ -3,7 +3,9 @@
 // (emission seen directly or through delta vertices, photons of specular chains: exact in the
 // primal, huge and sparse in the gradients), and write combined, primal, gradient_x and
 // gradient_y. The gradient passes include the kept-out part's own forward differences, so the
-// written primal and gradients reconstruct to `combined` (exactly for L2, which is linear).
+// written primal and gradients reconstruct to `combined` (exactly for L2, which is linear), unless
+// `combined` takes a better estimate of the kept-out part (`kept_out_combined`: GPM's further
+// camera paths for emission), which `primal` and the gradient passes leave out.
 #pragma once
 
 #include <string_view>
@@ -23,6 +25,7 @@ ReconOptions gradient_recon_options(const Params& params, int threads);
 // All arrays are width * height * 3, row-major, row 0 at the top.
 void develop_gradient_passes(Film& film, const std::vector<double>& primal, const std::vector<double>& gx,
                              const std::vector<double>& gy, const std::vector<double>& kept_out, int width,
-                             int height, const ReconOptions& recon);
+                             int height, const ReconOptions& recon,
+                             const std::vector<double>* kept_out_combined = nullptr);
 
 }  // namespace gp

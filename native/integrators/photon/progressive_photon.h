@@ -147,9 +147,11 @@ class ProgressivePhotonMapping : public Integrator {
   // from rr_depth) to the first photon-diffuse vertex, where it takes NEE when photons skip
   // direct light, and stops there as the measurement point.
   // `first`, when given, is the closest hit of `ray` already traced (Scene::intersect_coherent).
+  // `emission_only`: the path stops at that vertex without NEE, so Ld is the emission it saw
+  // (GPM's further camera paths for the light seen along them: gpm.h).
   template <class Hooks>
   EyePath trace_eye_path(Ray ray, Rng& rng, int64_t& rays, Hooks& hooks,
-                         const std::optional<SurfaceHit>* first = nullptr) const;
+                         const std::optional<SurfaceHit>* first = nullptr, bool emission_only = false) const;
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
@@ -242,7 +244,8 @@ class ProgressivePhotonMapping : public Integrator {
 template <class Hooks>
 ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray ray, Rng& rng, int64_t& rays,
                                                                            Hooks& hooks,
-                                                                           const std::optional<SurfaceHit>* first) const {
+                                                                           const std::optional<SurfaceHit>* first,
+                                                                           bool emission_only) const {
   const LightSet& lights = scene_.light_set();
   EyePath out;
   RGB beta(1.0f);
@@ -271,6 +274,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     if (wo.z == 0) break;
     hooks.vertex(*hit, wo);
     if (bsdf.is_diffuse_for_photons(threshold_)) {
+      if (emission_only) break;
       // ---- Measurement point; direct light by NEE when photons skip it ----
       if (nee_ && !lights.empty()) {
         const float u_light = rng.uniform();
