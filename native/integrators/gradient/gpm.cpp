@@ -47,7 +47,7 @@ Gpm::Gpm(const Scene& scene, const Params& params)
   gather_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
   pass_nee_.assign(n, RGB(0.0f));
   pass_nee_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
-  pass_emission_.assign(n, RGB(0.0f));
+  pass_emission_.assign(n, EmissionSeen{});
 }
 
 // ---- Eye pass: SPPM's camera paths (same random numbers) and their half-vector-copy offsets ----
@@ -230,7 +230,8 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
               else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) walk.fail(d, ShiftFailure::ZeroLength);
             }
             pass_direct_[pixel] = path.Ld;
-            pass_emission_[pixel] = further_emission(starts[k], ext, rays, invalid);
+            const int further = pass == 0 || grad_[pixel].emission_varies() ? emission_samples_ : 0;
+            pass_emission_[pixel] = emission_seen(starts[k], ext, path.Ld - walk.nee_base, further, rays, invalid);
             vp_[pixel] = path.vp;
             off_[pixel] = off;
             // Initial radius: SPPM's footprint rule, one pixel wide by default (below).
@@ -243,25 +244,33 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
       [sink] { return sink && sink->cancelled(); });
 }
 
-// The emission seen along `emission_samples` further camera paths of the pixel of `start`
-// (summed): new film positions in the pixel and lens samples, from the pixel's own stream past
-// its gather path, so that path and `primal` are SPPM's whatever this draws.
-RGB Gpm::further_emission(PixelStart& start, const Vec2& ext, int64_t& rays, int64_t& invalid) const {
-  RGB sum(0.0f);
-  if (emission_samples_ == 0) return sum;
+// The light seen along the gather path of the pixel of `start` (`gather_path`: its Ld less NEE)
+// and along `further` more camera paths: new film positions in the pixel and lens samples, from
+// the pixel's own stream past its gather path, so that path and `primal` are SPPM's whatever
+// this draws. Choosing `further` from earlier passes keeps each pass's mean unbiased.
+Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, const Vec2& ext, const RGB& gather_path, int further,
+                                     int64_t& rays, int64_t& invalid) const {
+  EmissionSeen out;
+  auto add = [&out](const RGB& e) {
+    out.mean += e;
+    const float l = e.luminance();
+    out.lum += l;
+    out.lum2 += l * l;
+    ++out.paths;
+  };
+  add(gather_path);
   const Vec2 cell(std::floor(start.film.x), std::floor(start.film.y));
   EyePathHooks none;
-  for (int j = 0; j < emission_samples_; ++j) {
+  for (int j = 0; j < further; ++j) {
     Rng& rng = start.rng;
     const Vec2 film(cell.x + rng.uniform(), cell.y + rng.uniform());
     const Vec2 lens(rng.uniform(), rng.uniform());
-    sum += trace_eye_path(scene_.camera.generate_ray(film, lens, ext), rng, rays, none, nullptr, true).Ld;
+    const RGB e = trace_eye_path(scene_.camera.generate_ray(film, lens, ext), rng, rays, none, nullptr, true).Ld;
+    if (e.is_finite()) add(e);
+    else ++invalid;  // discarded and counted: NaN/Inf never reaches a pass
   }
-  if (!sum.is_finite()) {  // discarded and counted: NaN/Inf never reaches a pass
-    ++invalid;
-    sum = RGB(0.0f);
-  }
-  return sum;
+  out.mean = out.mean / static_cast<float>(out.paths);
+  return out;
 }
 
 // ---- Light-subpath shifts (§4.2) ----
@@ -673,9 +682,12 @@ void Gpm::iterate(ProgressSink* sink) {
           g.nee_diff[d][c] += pass_nee_diff_[i][d][c];  // per-pass averages, as the direct light
         }
         g.nee[c] += pass_nee_[i][c];
-        g.emission[c] += pass_emission_[i][c];
+        g.emission[c] += pass_emission_[i].mean[c];
         s.direct[c] += Ld[c];
       }
+      g.emission_lum += pass_emission_[i].lum;
+      g.emission_lum2 += double(pass_emission_[i].lum2);
+      g.emission_paths += pass_emission_[i].paths;
       s.lap = (s.lap + lap_j) * u.ratio;
       s.n = u.n_new;
       s.r2 = u.r2_new;
@@ -732,9 +744,7 @@ void Gpm::develop(Film& film) const {
       const double direct = passes > 0 ? px_[i].direct[c] / passes : 0.0;
       const double nee = passes > 0 ? grad_[i].nee[c] / passes : 0.0;
       const double emission = direct - nee;  // seen along the gather path
-      const double emission_all =
-          passes > 0 ? (px_[i].direct[c] - grad_[i].nee[c] + grad_[i].emission[c]) / (passes * (1 + emission_samples_))
-                     : 0.0;
+      const double emission_all = passes > 0 ? grad_[i].emission[c] / passes : 0.0;  // with the further paths
       grad_part[3 * i + c] = photons - photons_fb + nee;
       fb[3 * i + c] = photons_fb + emission;
       fb_combined[3 * i + c] = photons_fb + emission_all;

@@ -48,7 +48,8 @@
 //     beam, its direction held: manifold.h);
 //   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
 //     `combined` estimates it with `emission_samples` further camera paths per pixel and pass
-//     besides the gather path (each stops at its first photon-diffuse vertex: no NEE, no gather),
+//     besides the gather path (each stops at its first photon-diffuse vertex: no NEE, no gather)
+//     in every pixel in the first pass, then in the pixels where it has varied between paths,
 //     because a GPM pass costs several SPPM passes and this part gains nothing from gradients:
 //     with one path per pass, the light and its images in mirrors and glass were as noisy as
 //     SPPM's at a third to a fifth of its passes (cornell-glass; docs/gradient.md "Emission").
@@ -122,10 +123,25 @@ class Gpm : public ProgressivePhotonMapping {
     double diff[4][3] = {};        // MIS-weighted flux differences per direction, within r2
     double nee[3] = {0, 0, 0};     // sum over passes of the direct light by NEE
     double nee_diff[4][3] = {};    // sum over passes of its MIS-weighted differences
-    double emission[3] = {0, 0, 0};  // sum over passes of the further camera paths' emission
+    double emission[3] = {0, 0, 0};  // sum over passes of each pass's mean emission seen (all paths)
+    double emission_lum = 0, emission_lum2 = 0;  // luminance sums of every path's emission seen
+    double emission_paths = 0;                   // and how many paths
+    // Whether this pixel's light seen along camera paths has varied between paths so far: only
+    // there do further paths lower the variance (an emitter's edge or its image in glass, not
+    // the inside of an emitter or a pixel that never saw one).
+    bool emission_varies() const {
+      return emission_lum2 * emission_paths - emission_lum * emission_lum > 1e-9 * emission_lum2 * emission_paths;
+    }
+  };
+  // One pass's light seen along a pixel's camera paths: the gather path's and its further ones.
+  struct EmissionSeen {
+    RGB mean{0.0f};          // their mean
+    float lum = 0, lum2 = 0;  // luminance sum and sum of squares over the paths
+    int paths = 0;
   };
 
-  RGB further_emission(PixelStart& start, const Vec2& ext, int64_t& rays, int64_t& invalid) const;
+  EmissionSeen emission_seen(PixelStart& start, const Vec2& ext, const RGB& gather_path, int further, int64_t& rays,
+                             int64_t& invalid) const;
   void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
                     std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures);
 
@@ -179,7 +195,7 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
   std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
   int emission_samples_ = 0;                        // further camera paths per pixel and pass
-  std::vector<RGB> pass_emission_;                  // this pass's sum of their emission per pixel
+  std::vector<EmissionSeen> pass_emission_;         // this pass's per pixel
 };
 
 }  // namespace gp
