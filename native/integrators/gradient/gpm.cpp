@@ -68,6 +68,7 @@ struct OffsetWalk : EyePathHooks {
   std::optional<SurfaceHit> ohit[4];
   RGB nee_base{0.0f};
   std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
+  bool scattered = false;  // the base path went through a specular or glossy vertex
 
   OffsetWalk(const Scene& scene, float threshold, int64_t& rays, int64_t* fail_count)
       : scene(scene), threshold(threshold), rays(rays), fail_count(fail_count) {}
@@ -135,6 +136,7 @@ struct OffsetWalk : EyePathHooks {
   }
   // Specular or glossy vertex: the offsets follow by half-vector copy (§4.1).
   void scatter(const Vec3& wo, const BsdfSample& bs) {
+    scattered = true;
     for (int d = 0; d < 4; ++d) {
       OffsetPoint& o = off[d];
       if (!o.ok()) continue;
@@ -230,8 +232,10 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
               else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) walk.fail(d, ShiftFailure::ZeroLength);
             }
             pass_direct_[pixel] = path.Ld;
-            const int further = pass == 0 || grad_[pixel].emission_varies() ? emission_samples_ : 0;
+            const GradState& g = grad_[pixel];
+            const int further = pass == 0 || g.emission_varies() || g.scattered ? emission_samples_ : 0;
             pass_emission_[pixel] = emission_seen(starts[k], ext, path.Ld - walk.nee_base, further, rays, invalid);
+            pass_emission_[pixel].scattered = walk.scattered;
             vp_[pixel] = path.vp;
             off_[pixel] = off;
             // Initial radius: SPPM's footprint rule, one pixel wide by default (below).
@@ -688,6 +692,7 @@ void Gpm::iterate(ProgressSink* sink) {
       g.emission_lum += pass_emission_[i].lum;
       g.emission_lum2 += double(pass_emission_[i].lum2);
       g.emission_paths += pass_emission_[i].paths;
+      g.scattered = g.scattered || pass_emission_[i].scattered;
       s.lap = (s.lap + lap_j) * u.ratio;
       s.n = u.n_new;
       s.r2 = u.r2_new;

@@ -49,7 +49,8 @@
 //   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
 //     `combined` estimates it with `emission_samples` further camera paths per pixel and pass
 //     besides the gather path (each stops at its first photon-diffuse vertex: no NEE, no gather)
-//     in every pixel in the first pass, then in the pixels where it has varied between paths,
+//     in every pixel in the first pass, then in the pixels where it has varied between paths or
+//     whose gather paths went through specular or glossy surfaces,
 //     because a GPM pass costs several SPPM passes and this part gains nothing from gradients:
 //     with one path per pass, the light and its images in mirrors and glass were as noisy as
 //     SPPM's at a third to a fifth of its passes (cornell-glass; docs/gradient.md "Emission").
@@ -126,9 +127,12 @@ class Gpm : public ProgressivePhotonMapping {
     double emission[3] = {0, 0, 0};  // sum over passes of each pass's mean emission seen (all paths)
     double emission_lum = 0, emission_lum2 = 0;  // luminance sums of every path's emission seen
     double emission_paths = 0;                   // and how many paths
-    // Whether this pixel's light seen along camera paths has varied between paths so far: only
-    // there do further paths lower the variance (an emitter's edge or its image in glass, not
-    // the inside of an emitter or a pixel that never saw one).
+    bool scattered = false;  // a gather path went through a specular or glossy vertex
+    // Whether this pixel's light seen along camera paths has varied between paths so far: there
+    // further paths lower the variance (an emitter's edge or its image in glass, not the inside
+    // of an emitter or a pixel that never saw one). Pixels seen through specular or glossy
+    // surfaces take them too: there a light's image may be seen rarely (a small light through a
+    // glass ball), and a pass that first sees it should not give it one path's weight.
     bool emission_varies() const {
       return emission_lum2 * emission_paths - emission_lum * emission_lum > 1e-9 * emission_lum2 * emission_paths;
     }
@@ -138,6 +142,7 @@ class Gpm : public ProgressivePhotonMapping {
     RGB mean{0.0f};          // their mean
     float lum = 0, lum2 = 0;  // luminance sum and sum of squares over the paths
     int paths = 0;
+    bool scattered = false;  // the gather path went through a specular or glossy vertex
   };
 
   EmissionSeen emission_seen(PixelStart& start, const Vec2& ext, const RGB& gather_path, int further, int64_t& rays,
