@@ -38,9 +38,9 @@ struct Photon {
   Vec3 wi;      // unit world direction back towards where it came from
   RGB power;    // flux it carries (W), before division by the number of emitted photons
   uint32_t index = 0;  // position in the pass's photon list (links it to its PhotonOrigin)
-  // The lobes (kRay* bits) a gather may light with it: a photon deposited at its first hit from a
-  // light hidden from some kinds of bounce ray lights only the lobes that see that light
-  // (photon_tracer.cpp); every other photon, all.
+  // The lobes (kRay* bits) a gather may light with it: the kinds of bounce ray that see where
+  // it came from through the surfaces it crossed (photon_tracer.cpp: a light or a surface hidden
+  // from some kinds); all when nothing on its way hides anything.
   uint8_t lobes = kAllLobes;
 };
 
@@ -172,6 +172,8 @@ class PhotonTracer {
   uint64_t seed() const { return seed_; }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
+  // Surfaces hidden from some kinds of ray that one photon segment may cross (trace_path).
+  static constexpr int kMaxCrossed = 16;
 
  private:
   const Scene& scene_;

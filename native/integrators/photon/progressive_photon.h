@@ -78,11 +78,12 @@ class ProgressivePhotonMapping : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   double estimated_error() const override { return estimated_error_; }
-  // Lights' and the World's per-kind switches: next-event estimation at the measurement point
-  // lights only the lobes that see the light (direct_light), the emission a specular chain finds
-  // counts when the chain's last lobe sees it, and the photon tracer applies Cycles' rule at the
-  // photon's first hit (photon_tracer.h). Not the spectral photons' own tracer.
-  LobeVisibility lobe_visibility() const override { return {.surfaces = false, .lights = !spectral_}; }
+  // Lights', the World's and surfaces' per-kind switches: the camera path's bounce rays pass
+  // surfaces hidden from their kind, next-event estimation at the measurement point lights only
+  // the lobes that see the light (direct_light), the emission a specular chain finds counts when
+  // the chain's last lobe sees it, and the photon tracer applies Cycles' rule to every segment
+  // (photon_tracer.cpp). Not the spectral photons' own tracer.
+  LobeVisibility lobe_visibility() const override { return {.surfaces = !spectral_, .lights = !spectral_}; }
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
@@ -308,6 +309,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     } else {
       ray = next;
       kind = bs->lobe;
+      ray.bounce = kind;  // surfaces hidden from this kind of ray let it through
     }
     if (depth + 1 >= rr_depth_) {
       float survival = 1.0f;
