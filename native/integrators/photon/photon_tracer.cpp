@@ -108,6 +108,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         if (origins) {
           last.n_photon = hit->ng;
           last.chain = -1;
+          last.branched = crossed > 0 || (arrive & ~seen_by);
           if (chain_ok && !last.diffuse && bounce > 0 && chain->count > 0) {
             last.chain = static_cast<int32_t>(chains->size());
             chains->push_back(*chain);

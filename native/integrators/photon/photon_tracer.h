@@ -59,6 +59,9 @@ struct PhotonOrigin {
   bool diffuse = false;  // y_{s-1} is diffuse for photon methods (a DD ending, GPM §4.2 step 2)
   Vec3 n_photon;       // geometric normal at the photon y_s
   int32_t chain = -1;  // !diffuse: its PhotonChain in the pass's list (-1: none recorded)
+  // The segment y_{s-1} -> y_s crossed a surface hidden from some of its kinds, or y_s is one:
+  // the tracer chose there between crossing and scattering (per-kind switches; GPM shifts none).
+  bool branched = false;
 };
 
 // A specular or glossy vertex of a light subpath, enough to rebuild its local surface model.

@@ -47,7 +47,8 @@ struct EyePathHooks {
   // NEE at the measurement point with light sample (u_light, u2); c its weighted contribution.
   void nee(float /*u_light*/, const Vec2& /*u2*/, const RGB& /*c*/) {}
   void gather(const SurfaceHit&) {}                       // the measurement point
-  void scatter(const Vec3& /*wo*/, const BsdfSample&) {}  // a specular or glossy bounce
+  // A specular or glossy bounce; `next` the ray it sends on (its kind: Ray::camera, Ray::bounce).
+  void scatter(const Vec3& /*wo*/, const BsdfSample&, const Ray& /*next*/) {}
   void roulette(float /*survival*/) {}                    // Russian roulette survived
 };
 
@@ -296,21 +297,18 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     const Vec2 u(rng.uniform(), rng.uniform());
     const auto bs = bsdf.sample(wo, uc, u);
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-    hooks.scatter(wo, *bs);
     beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
     const Vec3 wi = hit->frame.to_world(bs->wi);
-    const Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
     if (scene_.material(hit->material).is_pass_through()) {  // a light object: the ray goes on as it was
-      const bool camera = ray.camera;
-      const uint8_t bounce = ray.bounce;
-      ray = next;
-      ray.camera = camera;
-      ray.bounce = bounce;
+      next.camera = ray.camera;
+      next.bounce = ray.bounce;
     } else {
-      ray = next;
       kind = bs->lobe;
-      ray.bounce = kind;  // surfaces hidden from this kind of ray let it through
+      next.bounce = kind;  // surfaces hidden from this kind of ray let it through
     }
+    hooks.scatter(wo, *bs, next);
+    ray = next;
     if (depth + 1 >= rr_depth_) {
       float survival = 1.0f;
       if (!russian_roulette(beta, rng.uniform(), &survival)) break;
