@@ -206,6 +206,39 @@ TEST(RayVisibility, GpmHonoursTheSurfacesSwitches) {
   }
 }
 
+// surfaces_scene with a single-lobe wall, `wall` (the spectral methods scatter a Mix as one
+// diffuse surface, which moves their image away from pt's whatever the switches).
+std::string with_wall(const std::string& json, const std::string& wall) {
+  const std::string mix = R"("wall": {"type": "mix", "a": "d", "b": "g", "factor": 0.5)";
+  std::string out = json;
+  out.replace(out.find(mix), mix.size(), R"("wall": )" + wall);
+  return out;
+}
+
+TEST(RayVisibility, SpectralPhotonsHonourEverySwitch) {
+  // SPPM with spectral photons (its own eye paths and photon tracer) against pt on grey scenes
+  // (spectral upsampling of greys is exact): the panel hidden from glossy rays; the lamp hidden
+  // from diffuse rays and the sky from the camera and glossy rays; a diffuse wall hidden from
+  // diffuse rays (-7 % in pt); a rough Glossy wall lit by a lamp hidden from diffuse rays, seen
+  // through a veil hidden from them (+11.5 %). Measured over seeds 2-4 (256 passes of 5000
+  // photons): 0.991-0.996, 0.992-1.006, 0.996-1.002, 0.990-1.003. Seen failing: camera paths'
+  // bounce rays untagged 0.957 (panel); photons neither crossing nor narrowing their kinds 1.072
+  // (wall) and 0.893 (veil); not crossing 0.892 (veil). Bound 2 %.
+  const std::string diffuse = R"({"type": "diffuse", "color": 0.8)";
+  const std::string glossy = R"({"type": "conductor", "color": 0.9, "roughness": 0.3, "fresnel": false)";
+  for (const std::string& json :
+       {switches_scene("", kPanelOff, ""), switches_scene(kLampOff, "", R"(, "visible_to_camera": false, "visible_to_glossy": false)"),
+        with_wall(surfaces_scene("", kDiffuseOff, ""), diffuse), with_wall(surfaces_scene(kDiffuseOff, "", kDiffuseOff), glossy)}) {
+    const Scene s = scene_from(json);
+    const RGB ref = pt_reference(s);
+    Params p = photon_params(5000, 2);
+    p.set("max_depth", 5);
+    p.set("spectral", "spectral");
+    const RGB m = image_mean(render("sppm", s, 256, p));
+    EXPECT_NEAR(m.luminance() / ref.luminance(), 1.0, 0.02) << m.luminance() << " against pt " << ref.luminance();
+  }
+}
+
 TEST(RayVisibility, PhotonsFollowTheLobeSampledAtTheirFirstHit) {
   // A lamp hidden from diffuse rays faces a wall that is a Mix of diffuse and a rough Glossy; the
   // floor the camera sees gets the lamp's light only through the wall's glossy lobe (photon_tracer.cpp's

@@ -83,8 +83,8 @@ class ProgressivePhotonMapping : public Integrator {
   // surfaces hidden from their kind, next-event estimation at the measurement point lights only
   // the lobes that see the light (direct_light), the emission a specular chain finds counts when
   // the chain's last lobe sees it, and the photon tracer applies Cycles' rule to every segment
-  // (photon_tracer.cpp). Not the spectral photons' own tracer.
-  LobeVisibility lobe_visibility() const override { return {.surfaces = !spectral_, .lights = !spectral_}; }
+  // (photon_tracer.cpp); spectral photons the same (progressive_photon_spectral.cpp).
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
