@@ -122,8 +122,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     // ---- A surface hidden from some of the segment's kinds: scatter here or cross it ----
     const bool pass_through = mat.is_pass_through();
     if (const uint8_t hidden = arrive & ~seen_by; hidden && !pass_through && crossed < kMaxCrossed) {
-      // Probability of crossing: 1 where nothing would leave y (the scatter branch is empty).
-      const float q = seen_by == 0 || bsdf.is_black() || bounce + 2 > max_depth_ ? 1.0f : 0.5f;
+      const float q = crossing_probability(seen_by, bsdf.is_black(), bounce + 2 > max_depth_);
       const bool cross = q == 1.0f || u.next() < q;
       if (cross) {
         beta = beta / q;

@@ -134,6 +134,14 @@ class RngSamples final : public PrimarySamples {
   Rng& rng_;
 };
 
+// Per-kind switches (photon_tracer.cpp): the probability that a photon whose segment reached a
+// surface hidden from some of its kinds crosses it rather than scattering there: 1 where nothing
+// would leave the surface (no kind of ray sees it, it is black, or the path is at its last
+// bounce), else 1/2. Shared by the RGB and the spectral photon tracers.
+inline float crossing_probability(uint8_t seen_by, bool black, bool last_bounce) {
+  return seen_by == 0 || black || last_bounce ? 1.0f : 0.5f;
+}
+
 // Where photons are deposited: at vertices diffuse for photon methods (roughness above the
 // specular threshold; (S)PPM, GPM), or at every non-delta vertex (MSPPM, whose weights decide
 // between density estimation and path tracing without a classification, thesis §9.6).

@@ -273,7 +273,7 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
               else ++invalid;
             }
             if (hidden && crossed < PhotonTracer::kMaxCrossed) {
-              const float q = seen_by == 0 || bsdf.is_black() || bounce + 2 > max_depth_ ? 1.0f : 0.5f;
+              const float q = crossing_probability(seen_by, bsdf.is_black(), bounce + 2 > max_depth_);
               const float w = q == 1.0f || rng.uniform() < q ? 1.0f / q : -1.0f / (1.0f - q);
               for (int k = 0; k < C; ++k) beta[k] *= std::abs(w);
               if (w > 0) {  // cross it
