@@ -118,8 +118,9 @@ struct Ray {
   // Every other ray (bounces, photons, shadow rays) is built fresh and is not a camera ray.
   bool camera = false;
   // A bounce ray's kind (kRayDiffuse, kRayGlossy or kRayTransmission), set by integrators that
-  // honour the per-kind switches (the path tracer): surfaces hidden from that kind let it
-  // through. 0: not a bounce ray of a known kind, every surface is there.
+  // honour surfaces' per-kind switches (Integrator::lobe_visibility; the gradient methods' offset
+  // rays take their base's): surfaces hidden from that kind let it through. 0: not a bounce ray
+  // of a known kind (photons: photon_tracer.cpp crosses hidden surfaces itself), every surface is there.
   uint8_t bounce = 0;
   Ray() = default;
   Ray(const Vec3& o_, const Vec3& d_, float tmin_ = 0.0f, float tmax_ = kInfinity)

@@ -116,6 +116,9 @@ void Scene::build_lights() {
       throw std::runtime_error(fmt::format("{}: light '{}' has a non-finite value", source, l.name));
   lights_hidden_from_some_lobes_ = std::any_of(all_lights.begin(), all_lights.end(),
                                                [](const Light& l) { return l.visible_lobes != kAllLobes; });
+  surfaces_hidden_from_some_lobes_ = std::any_of(materials.begin(), materials.end(), [](const Material& m) {
+    return m.visible_lobes != kAllLobes && !m.is_pass_through();
+  });
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);
 }
@@ -348,6 +351,16 @@ bool Scene::occluded_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, con
   const Vec3 d = e - o;
   // Unnormalised direction: the segment is t in (0, 1); stop just short of the end point.
   return accel_->occluded(Ray(o, d, 0.0f, 1.0f - 1e-4f));
+}
+
+bool Scene::hides_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1, uint8_t kind) const {
+  if (!surfaces_hidden_from_some_lobes_) return occluded_between(p0, n0, p1, n1);
+  const Vec3 o = offset_ray_origin(p0, n0, p1 - p0);
+  const Vec3 e = offset_ray_origin(p1, n1, p0 - p1);
+  Ray ray(o, e - o, 0.0f, 1.0f - 1e-4f);
+  ray.bounce = kind;
+  RawHit raw;
+  return accel_->intersect(ray, raw);
 }
 
 bool Scene::occluded(const Vec3& p, const Vec3& ng, const LightSample& ls) const {

@@ -169,6 +169,11 @@ class Scene {
   bool occluded(const Ray& ray) const;
   // Shadow ray between two surface points, both pushed off their surfaces.
   bool occluded_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;
+  // Whether a bounce ray of kind `kind` (Ray::bounce) from p0 towards p1 meets a surface before
+  // p1: the segments the gradient methods' shifts reconnect, which must see what the base's ray
+  // of that kind would (surfaces hidden from it let it through). As occluded_between where no
+  // surface is hidden from any kind.
+  bool hides_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1, uint8_t kind) const;
   // Shadow ray from surface point p (geometric normal ng) to a light sample: to its point for
   // area lights, else along wi up to just short of the light (or to infinity).
   bool occluded(const Vec3& p, const Vec3& ng, const LightSample& ls) const;
@@ -177,6 +182,8 @@ class Scene {
   // True when some light (or emissive surface) is hidden from some kind of bounce ray
   // (Light::visible_lobes): the path tracer then weighs its hits by the lobes that see it.
   bool lights_hidden_from_some_lobes() const { return lights_hidden_from_some_lobes_; }
+  // True when some surface is hidden from some kind of bounce ray (Material::visible_lobes).
+  bool surfaces_hidden_from_some_lobes() const { return surfaces_hidden_from_some_lobes_; }
   const Bounds3& bounds() const { return bounds_; }
   size_t triangle_count() const;
   const Material& material(int i) const { return materials[i]; }
@@ -203,6 +210,7 @@ class Scene {
   std::vector<size_t> changed_meshes_, moved_meshes_;  // for the accelerator at commit()
   uint64_t generation_ = 0;
   bool lights_hidden_from_some_lobes_ = false;
+  bool surfaces_hidden_from_some_lobes_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 

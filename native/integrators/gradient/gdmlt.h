@@ -119,6 +119,10 @@ class GradientDomainMlt : public Integrator {
   std::string name() const override { return "gdmlt"; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
+  // Every per-kind switch, as the path tracer: GradientPathTracer::trace, which it drives, tags
+  // base and offset rays with the base's lobes and weighs lights hidden from some kinds by the
+  // lobes that see them.
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
 
   // What one primary sample vector evaluates to.
   struct State {

@@ -135,7 +135,7 @@ struct OffsetWalk : EyePathHooks {
     }
   }
   // Specular or glossy vertex: the offsets follow by half-vector copy (§4.1).
-  void scatter(const Vec3& wo, const BsdfSample& bs) {
+  void scatter(const Vec3& wo, const BsdfSample& bs, const Ray& next) {
     scattered = true;
     for (int d = 0; d < 4; ++d) {
       OffsetPoint& o = off[d];
@@ -153,6 +153,8 @@ struct OffsetWalk : EyePathHooks {
       o.ratio *= ss.pdf * ss.jacobian / bs.pdf;
       const Vec3 wi_w = ov.frame.to_world(ss.wi);
       oray[d] = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
+      oray[d].camera = next.camera;  // the base's kind of ray: the offset sees what it sees
+      oray[d].bounce = next.bounce;
       ++rays;
       ohit[d] = scene.intersect(oray[d]);
     }
@@ -374,11 +376,22 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
 Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                                       const PhotonOrigin& org, int64_t& rays) const {
   PhotonShift out;
+  // Per-kind switches: a last segment where the photon tracer chose between crossing a surface
+  // and scattering there (a surface hidden from some of the segment's kinds) is not shifted, on
+  // either side (the base's branched, or the offset lands on such a surface), so that every
+  // pair is shifted both ways or neither and both sides count it alone.
+  if (org.branched) {
+    out.failure = ShiftFailure::NotInvertible;
+    return out;
+  }
   const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
+  if (s1.failure == ShiftFailure::None && (ph.lobes & ~scene_.material(s1.hit.material).visible_lobes & kAllLobes))
+    out.failure = ShiftFailure::NotInvertible;
   if (s1.failure != ShiftFailure::None) {
     out.failure = s1.failure;
     return out;
   }
+  if (out.failure != ShiftFailure::None) return out;
   const SurfacePoint& yh = s1.hit;
   const double jac = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org.n_photon), yh.p, yh.ng);  // eq. 6
   const Vec3 wi_prev = s1.wi_prev;
@@ -487,8 +500,10 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   };
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
   // ---- Step 1: the offset photon y'_s, the candidate of eq. 5 projected onto the receiver ----
+  if (org.branched) return failed(ShiftFailure::NotInvertible);  // as shift_dd_photon
   const Projected s1 = project_candidate(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, R, rays);
   if (s1.failure != ShiftFailure::None) return failed(s1.failure);
+  if (ph.lobes & ~scene_.material(s1.hit.material).visible_lobes & kAllLobes) return failed(ShiftFailure::NotInvertible);
   const double jac6 = projection_jacobian(candidate_normal(vp.frame, o.frame, org.n_photon), o.frame.n, s1.hit.ng);
   // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
@@ -592,7 +607,8 @@ void Gpm::iterate(ProgressSink* sink) {
       grid_.query(vp.p, std::max(R_primal, R), [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
-        const RGB c = vp.beta * bsdf.eval(vp.wo, wi) * ph.power * weight;  // thesis eq. 7.4
+        // Only the lobes that see where the photon came from (Photon::lobes, photon_tracer.cpp).
+        const RGB c = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power * weight;  // thesis eq. 7.4
         const PhotonOrigin& org = origins_[ph.index];
         const PhotonChain* chain =
             org.diffuse || org.chain < 0 || manifold_iterations_ == 0 ? nullptr : &chains_[org.chain];
@@ -625,7 +641,8 @@ void Gpm::iterate(ProgressSink* sink) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {
               // The base path's kernel (same radius) around the offset gather point.
-              c_off = o.beta * scene_.bsdf(o.material, o.uv).eval(o.wo, sh.wi_gather) * sh.power * weight;
+              c_off = o.beta * scene_.bsdf(o.material, o.uv).eval(o.wo, sh.wi_gather, TransportMode::Radiance, ph.lobes) *
+                      sh.power * weight;
               // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
               const double ratio = o.ratio * sh.ratio_y;
               if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));

@@ -91,8 +91,10 @@ class Gpm : public ProgressivePhotonMapping {
  public:
   Gpm(const Scene& scene, const Params& params);
   std::string name() const override { return "gpm"; }
-  // Its shifts do not follow the per-kind switches the base paths would (warned).
-  LobeVisibility lobe_visibility() const override { return {}; }
+  // Every per-kind switch: its base paths are SPPM's (and gather by the photons' lobes), the
+  // camera offsets' rays take the base's kind, and a photon whose last segment met a surface
+  // hidden from some of its kinds is not shifted (shift_dd_photon).
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 

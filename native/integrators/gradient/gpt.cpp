@@ -8,6 +8,7 @@
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "integrators/gradient/shift.h"
+#include "integrators/lobe_split.h"
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -34,6 +35,10 @@ struct Offset {
   double ratio = 1;            // p(T x) |T'| / p(x) of the prefix, for the gradient MIS
   float prev_pdf = 0;          // own solid-angle BSDF pdf of the last segment (its NEE/BSDF MIS)
   Vec3 prev_p;                 // own previous vertex
+  // Where a light is hidden from some kinds of ray: its lobes at the previous vertex, for the
+  // emission its BSDF ray finds (lobe_split.h, in the base's measure with the shift's Jacobian).
+  LobeSplit split;
+  float jacobian = 1;
   bool alive() const { return exists && failure == ShiftFailure::None; }
 };
 
@@ -60,6 +65,13 @@ GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
 GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampler& rng, RayCounts& rays,
                                                      std::map<std::string, double>* failures) const {
   const LightSet& lights = scene_.light_set();
+  // Cycles' per-kind switches: every bounce ray carries its lobe (Ray::bounce), the offsets'
+  // rays and reconnections the base's, so an offset sees the scene as the base's ray of that
+  // kind does (each segment of a pair is traced among the same surfaces, and the shift stays
+  // invertible: the inverse shift follows the same lobes). Lights hidden from some kinds weigh
+  // BSDF hits by the lobes that see them, as the path tracer (lobe_split.h).
+  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
+  LobeSplit prev;  // the base's lobes at its previous vertex (split_lobes)
   Sample out;
   out.primal = out.direct = RGB(0.0f);
   Offset off[4];
@@ -113,17 +125,24 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       RGB c(0.0f), c_off[4];
       double ratio[4];
       float w_base = 1.0f;
+      // A BSDF hit on a light hidden from some kinds (lobe_split.h); `o` an offset, else the base.
+      auto split_hit = [&](int light, const RGB& Le, float pdf_light, const Offset* o) -> std::optional<RGB> {
+        const uint8_t vis = light >= 0 ? lights.lights()[light].visible_lobes : kAllLobes;
+        if (depth == 0 || !split_lobes || vis == kAllLobes) return std::nullopt;
+        if (!o) return prev.weigh(Le, vis, specular_bounce, beta, pdf_light);
+        return o->split.weigh(Le, vis, specular_bounce, o->beta, pdf_light, o->jacobian, prev.pdf_of(vis));
+      };
       if (!hit) {
         // The World's Camera switch (its sky seen by camera rays; directly seen light has no
         // gradient offsets here, direct_only below).
         const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray.d);
         if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
-        c = beta * Le * w_base;
+        c = split_hit(lights.environment(), Le, lights.pdf_environment(ray.d), nullptr).value_or(beta * Le * w_base);
       } else if (hit->light >= 0) {
         const RGB Le = lights.area_radiance(hit->light, -ray.d);
-        if (!(depth == 0 || specular_bounce))
-          w_base = power_heuristic(prev_pdf, lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
-        c = beta * Le * w_base;
+        const float pdf_light = depth == 0 ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d);
+        if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, pdf_light);
+        c = split_hit(hit->light, Le, pdf_light, nullptr).value_or(beta * Le * w_base);
       }
       const bool direct_only = all_delta;  // emitters seen directly or through delta vertices only
       if (!direct_only) {
@@ -132,25 +151,22 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
           c_off[d] = RGB(0.0f);
           ratio[d] = o.ratio;
           if (!o.alive()) continue;
+          // Emission Le from `light` (-1: none) with the offset's own MIS density pdf_light.
+          auto found = [&](int light, const RGB& Le, float pdf_light) {
+            return split_hit(light, Le, pdf_light, &o)
+                .value_or(o.beta * Le * (specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, pdf_light)));
+          };
           if (o.link == Link::Connected) {  // same vertices and last segment, own MIS pdf
-            RGB Le(0.0f);
-            float pdf_light = 0;
-            if (!hit) {
-              Le = lights.environment_radiance(ray.d);
-              pdf_light = lights.pdf_environment(ray.d);
-            } else if (hit->light >= 0) {
-              Le = lights.area_radiance(hit->light, -ray.d);
-              pdf_light = lights.pdf_area(hit->light, prev_p, hit->p, ray.d);
-            }
-            c_off[d] = o.beta * Le * (specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, pdf_light));
+            if (!hit) c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d), lights.pdf_environment(ray.d));
+            else if (hit->light >= 0)
+              c_off[d] = found(hit->light, lights.area_radiance(hit->light, -ray.d),
+                               lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
           } else if (o.link == Link::RecentlyConnected) {  // reconnected onto this very vertex
             if (hit && hit->light >= 0) {
-              const float w = specular_bounce ? 1.0f
-                                              : power_heuristic(o.prev_pdf, lights.pdf_area(hit->light, o.prev_p, hit->p, -o.wo));
-              c_off[d] = o.beta * lights.area_radiance(hit->light, o.wo) * w;
+              c_off[d] = found(hit->light, lights.area_radiance(hit->light, o.wo),
+                               lights.pdf_area(hit->light, o.prev_p, hit->p, -o.wo));
             } else if (!hit) {  // reconnected at infinity: same direction
-              const float w = specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, lights.pdf_environment(ray.d));
-              c_off[d] = o.beta * lights.environment_radiance(ray.d) * w;
+              c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d), lights.pdf_environment(ray.d));
             }
           } else {  // own vertex
             if (!o.hit) {
@@ -158,16 +174,13 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
                 fail(o, ShiftFailure::Missed);
                 continue;
               }
-              const float w = specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, lights.pdf_environment(o.ray.d));
-              c_off[d] = o.beta * lights.environment_radiance(o.ray.d) * w;
+              c_off[d] = found(lights.environment(), lights.environment_radiance(o.ray.d), lights.pdf_environment(o.ray.d));
             } else if (!hit) {
               fail(o, ShiftFailure::Occluded);  // the base escaped, the offset did not
               continue;
             } else if (o.hit->light >= 0) {
-              const float w = specular_bounce
-                                  ? 1.0f
-                                  : power_heuristic(o.prev_pdf, lights.pdf_area(o.hit->light, o.prev_p, o.hit->p, o.ray.d));
-              c_off[d] = o.beta * lights.area_radiance(o.hit->light, -o.ray.d) * w;
+              c_off[d] = found(o.hit->light, lights.area_radiance(o.hit->light, -o.ray.d),
+                               lights.pdf_area(o.hit->light, o.prev_p, o.hit->p, o.ray.d));
             }
           }
         }
@@ -206,8 +219,10 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       auto nee = [&](const SurfaceHit& v, const Bsdf& b, const Vec3& wo_l, int* visible) -> RGB {
         auto ls = lights.sample_li(v.p, u_light, u2);
         if (!ls || ls->pdf <= 0 || ls->L.is_black()) return RGB(0.0f);
+        // A light hidden from some kinds lights only the lobes that see it (as the path tracer).
+        const uint8_t vis = ls->light >= 0 ? lights.lights()[ls->light].visible_lobes : kAllLobes;
         const Vec3 wi = v.frame.to_local(ls->wi);
-        const RGB f = b.eval(wo_l, wi) * std::abs(wi.z);
+        const RGB f = b.eval(wo_l, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
         if (f.is_black()) return RGB(0.0f);
         if (!visible || *visible < 0) {
           ++rays.shadow;
@@ -217,7 +232,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         } else if (*visible == 0) {
           return RGB(0.0f);
         }
-        const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, b.pdf(wo_l, wi));
+        const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, b.pdf(wo_l, wi, vis));
         return f * ls->L * (w / ls->pdf);
       };
       const RGB L_base = nee(*hit, bsdf, wo, &base_visible);
@@ -246,7 +261,22 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
     const RGB base_factor = bs->f * (std::abs(bs->wi.z) / bs->pdf);
     const Vec3 wi_world = hit->frame.to_world(bs->wi);
-    const Ray next_ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+    Ray next_ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+    // Its kind: the lobe sampled, or across a light object (a pass-through surface) the kind it had.
+    next_ray.bounce = scene_.material(hit->material).is_pass_through() ? ray.bounce : bs->lobe;
+    if (split_lobes) {
+      prev.beta = beta;
+      prev.lobe = bs->lobe;
+      if (!bs->delta) prev.fill(bsdf, wo, bs->wi);
+    }
+    // An offset's lobes where it scattered (after its shift), `f_wo`/`f_wi` local at its vertex.
+    auto split_at = [&](Offset& o, const Bsdf& b, const Vec3& f_wo, const Vec3& f_wi, float jacobian) {
+      if (!split_lobes) return;
+      o.split.beta = o.beta;
+      o.split.lobe = bs->lobe;
+      o.jacobian = jacobian;
+      if (!bs->delta) o.split.fill(b, f_wo, f_wi);
+    };
     ++rays.closest;
     const std::optional<SurfaceHit> next = scene_.intersect(next_ray);
     // Reconnection needs diffuse here and a diffuse (or emitting) vertex next, or no vertex at all.
@@ -258,6 +288,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       Offset& o = off[d];
       if (!o.alive()) continue;
       if (o.link == Link::Connected) {
+        split_at(o, bsdf, wo, bs->wi, 1.0f);
         o.beta *= base_factor;
         o.prev_pdf = bs->pdf;
         o.prev_p = hit->p;
@@ -266,6 +297,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       if (o.link == Link::RecentlyConnected) {  // shared vertex, own incoming direction
         const Vec3 owo = hit->frame.to_local(o.wo);
         const float pdf = bsdf.pdf(owo, bs->wi);
+        split_at(o, bsdf, owo, bs->wi, 1.0f);
         o.beta *= bsdf.eval(owo, bs->wi) * (std::abs(bs->wi.z) / bs->pdf);
         o.ratio *= pdf / bs->pdf;
         o.prev_pdf = pdf;
@@ -286,7 +318,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
             continue;
           }
           ++rays.shadow;
-          if (scene_.occluded_between(ov.p, ov.ng, next->p, next->ng)) {
+          if (scene_.hides_between(ov.p, ov.ng, next->p, next->ng, next_ray.bounce)) {
             fail(o, ShiftFailure::Occluded);
             continue;
           }
@@ -297,6 +329,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         } else {  // ---- reconnection at infinity: same direction, Jacobian 1 ----
           wi_o = wi_world;
           o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_o), wi_o);
+          o.ray.bounce = next_ray.bounce;
           ++rays.closest;
           const auto oh = scene_.intersect(o.ray);
           if (oh) {
@@ -307,6 +340,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         }
         const Vec3 wi_l = ov.frame.to_local(wi_o);
         const float pdf = ob.pdf(owo, wi_l);
+        split_at(o, ob, owo, wi_l, static_cast<float>(jac));
         o.beta *= ob.eval(owo, wi_l) * static_cast<float>(std::abs(wi_l.z) * jac / bs->pdf);
         o.ratio *= pdf * jac / bs->pdf;
         o.prev_pdf = pdf;
@@ -319,12 +353,14 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         fail(o, ss.failure);
         continue;
       }
+      split_at(o, ob, owo, ss.wi, static_cast<float>(ss.jacobian));
       o.beta *= ss.f_cos * static_cast<float>(ss.jacobian / bs->pdf);
       o.ratio *= ss.pdf * ss.jacobian / bs->pdf;
       o.prev_pdf = ss.pdf;
       o.prev_p = ov.p;
       const Vec3 wi_w = ov.frame.to_world(ss.wi);
       o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
+      o.ray.bounce = next_ray.bounce;
       ++rays.closest;
       o.hit = scene_.intersect(o.ray);
     }
@@ -342,7 +378,11 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       const float q = std::max(0.05f, 1.0f - beta.max_component());
       if (rng.uniform() < q) break;
       beta = beta / (1.0f - q);
-      for (Offset& o : off) o.beta = o.beta / (1.0f - q);
+      prev.beta = prev.beta / (1.0f - q);
+      for (Offset& o : off) {
+        o.beta = o.beta / (1.0f - q);
+        o.split.beta = o.split.beta / (1.0f - q);
+      }
     }
   }
   return out;

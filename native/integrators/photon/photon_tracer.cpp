@@ -34,7 +34,20 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   // deposited at y lights only the lobes of y that see the light (Photon::lobes, read by the
   // gather), and one scattered on from y counts when the lobe it sampled there sees the light,
   // weighted by that lobe set's f and density (as the path tracer's BSDF hits).
-  const uint8_t light_lobes = lights.lights()[em->light].visible_lobes;
+  //
+  // Surfaces' switches (Material::visible_lobes) follow from the same rule: every segment x -> y
+  // takes the kind of the bounce at y, so `arrive`, the kinds it may be, is those that see x
+  // (the light's, then the last surface's) and that every surface it crossed is hidden from. A
+  // surface y hidden from some of those kinds both receives the photon (for all of them: y's
+  // own switches are about rays towards y) and lets it through (for the kinds hidden): the
+  // photon is deposited at y, then either scatters there or goes on past y, chosen at random
+  // and weighted by the inverse probability, as the path tracer's rays of those kinds cross y.
+  // Multisampled PPM's path densities (its records) know no crossing: it leaves surfaces'
+  // switches to a warning (Msppm::lobe_visibility), and its photons ignore them.
+  const bool surface_switches = record == nullptr;
+  uint8_t arrive = lights.lights()[em->light].visible_lobes;
+  float t_crossed = 0;  // distance along the segment before the last surface crossed (records)
+  int crossed = 0;      // surfaces crossed on this segment (a bound, as Embree's filters have none)
   // Surfaces the photon scattered at so far, light objects (pass-through surfaces, which Cycles'
   // rays cross as if they were not there) not counted: the first hit above is the first
   // surface that is not one, and min_deposit_bounce counts these (a photon that crossed a
@@ -69,7 +82,9 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     const auto hit = scene_.intersect(ray);
     if (!hit) break;
     const Bsdf bsdf = scene_.bsdf(*hit);
-    if (bsdf.is_black()) break;
+    const Material& mat = scene_.material(hit->material);
+    const uint8_t seen_by = surface_switches ? mat.visible_lobes & kAllLobes : kAllLobes;  // the next segment's kinds
+    if (bsdf.is_black() && !(arrive & ~seen_by)) break;     // (one that hides some goes on below)
     const bool diffuse = bsdf.is_diffuse_for_photons(threshold_);
     if (record) {
       PhotonPathVertex v;
@@ -78,20 +93,22 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       v.frame = hit->frame;
       v.wi = -ray.d;
       const float cos_in = std::abs(dot(hit->ng, ray.d));
-      v.pdf_fwd = bounce == 0 && distant ? em->pdf_pos * cos_in : pdf_dir_prev * cos_in / (hit->t * hit->t);
+      const float t = t_crossed + hit->t;
+      v.pdf_fwd = bounce == 0 && distant ? em->pdf_pos * cos_in : pdf_dir_prev * cos_in / (t * t);
       v.material = hit->material;
       v.uv = hit->uv;
       v.delta = bsdf.is_delta();
       record->vertices.push_back(v);
     }
     // ---- Deposit (at diffuse vertices, or every non-delta one: DepositRule) ----
-    if (scattered >= min_deposit_bounce && deposits_at(bsdf)) {
+    if (scattered >= min_deposit_bounce && !bsdf.is_black() && deposits_at(bsdf)) {
       if (beta.is_finite()) {
-        dst.push_back(Photon{hit->p, -ray.d, beta, 0, scattered == 0 ? light_lobes : kAllLobes});
+        dst.push_back(Photon{hit->p, -ray.d, beta, 0, arrive});
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
         if (origins) {
           last.n_photon = hit->ng;
           last.chain = -1;
+          last.branched = crossed > 0 || (arrive & ~seen_by);
           if (chain_ok && !last.diffuse && bounce > 0 && chain->count > 0) {
             last.chain = static_cast<int32_t>(chains->size());
             chains->push_back(*chain);
@@ -102,6 +119,25 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         ++invalid;
       }
     }
+    // ---- A surface hidden from some of the segment's kinds: scatter here or cross it ----
+    const bool pass_through = mat.is_pass_through();
+    if (const uint8_t hidden = arrive & ~seen_by; hidden && !pass_through && crossed < kMaxCrossed) {
+      const float q = crossing_probability(seen_by, bsdf.is_black(), bounce + 2 > max_depth_);
+      const bool cross = q == 1.0f || u.next() < q;
+      if (cross) {
+        beta = beta / q;
+        arrive = hidden;
+        ++crossed;
+        t_crossed += hit->t;
+        chain_ok = false;  // the chain's segments no longer join its vertices (GPM shifts none)
+        ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
+        --bounce;  // not a bounce: the path tracer's ray of those kinds does not stop here
+        continue;
+      }
+      beta = beta / (1.0f - q);
+    }
+    // Nothing leaves a black surface, or one no kind of bounce ray sees.
+    if (bsdf.is_black() || (seen_by == 0 && !pass_through)) break;
     if (bounce + 2 > max_depth_) break;
     // ---- Scattering (adjoint BSDF) ----
     const Vec3 wo_world = -ray.d;
@@ -116,13 +152,12 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     const float correction = adjoint_shading_correction(wo_world, wi_world, hit->ng, hit->ns);
     if (correction == 0) break;
     RGB beta_new = beta * bs->f * (std::abs(bs->wi.z) / bs->pdf * correction);
-    const bool pass_through = scene_.material(hit->material).is_pass_through();
-    if (scattered == 0 && !pass_through && light_lobes != kAllLobes) {  // the rule above, for the scattered photon
-      if (!(bs->lobe & light_lobes)) break;
+    if (!pass_through && arrive != kAllLobes) {  // the rule above, for the scattered photon
+      if (!(bs->lobe & arrive)) break;
       if (!bs->delta) {
-        const float pdf_v = bsdf.pdf(wo, bs->wi, light_lobes);
+        const float pdf_v = bsdf.pdf(wo, bs->wi, arrive);
         if (!(pdf_v > 0)) break;
-        beta_new = beta * bsdf.eval(wo, bs->wi, TransportMode::Importance, light_lobes) *
+        beta_new = beta * bsdf.eval(wo, bs->wi, TransportMode::Importance, arrive) *
                    (std::abs(bs->wi.z) / pdf_v * correction);
       }
     }
@@ -162,7 +197,12 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     }
     beta = beta_new / p_continue;
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
-    if (!pass_through) ++scattered;
+    crossed = 0;
+    t_crossed = 0;
+    if (!pass_through) {
+      ++scattered;
+      arrive = seen_by;
+    }
   }
   return rays;
 }

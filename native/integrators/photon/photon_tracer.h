@@ -38,9 +38,9 @@ struct Photon {
   Vec3 wi;      // unit world direction back towards where it came from
   RGB power;    // flux it carries (W), before division by the number of emitted photons
   uint32_t index = 0;  // position in the pass's photon list (links it to its PhotonOrigin)
-  // The lobes (kRay* bits) a gather may light with it: a photon deposited at its first hit from a
-  // light hidden from some kinds of bounce ray lights only the lobes that see that light
-  // (photon_tracer.cpp); every other photon, all.
+  // The lobes (kRay* bits) a gather may light with it: the kinds of bounce ray that see where
+  // it came from through the surfaces it crossed (photon_tracer.cpp: a light or a surface hidden
+  // from some kinds); all when nothing on its way hides anything.
   uint8_t lobes = kAllLobes;
 };
 
@@ -59,6 +59,9 @@ struct PhotonOrigin {
   bool diffuse = false;  // y_{s-1} is diffuse for photon methods (a DD ending, GPM §4.2 step 2)
   Vec3 n_photon;       // geometric normal at the photon y_s
   int32_t chain = -1;  // !diffuse: its PhotonChain in the pass's list (-1: none recorded)
+  // The segment y_{s-1} -> y_s crossed a surface hidden from some of its kinds, or y_s is one:
+  // the tracer chose there between crossing and scattering (per-kind switches; GPM shifts none).
+  bool branched = false;
 };
 
 // A specular or glossy vertex of a light subpath, enough to rebuild its local surface model.
@@ -131,6 +134,14 @@ class RngSamples final : public PrimarySamples {
   Rng& rng_;
 };
 
+// Per-kind switches (photon_tracer.cpp): the probability that a photon whose segment reached a
+// surface hidden from some of its kinds crosses it rather than scattering there: 1 where nothing
+// would leave the surface (no kind of ray sees it, it is black, or the path is at its last
+// bounce), else 1/2. Shared by the RGB and the spectral photon tracers.
+inline float crossing_probability(uint8_t seen_by, bool black, bool last_bounce) {
+  return seen_by == 0 || black || last_bounce ? 1.0f : 0.5f;
+}
+
 // Where photons are deposited: at vertices diffuse for photon methods (roughness above the
 // specular threshold; (S)PPM, GPM), or at every non-delta vertex (MSPPM, whose weights decide
 // between density estimation and path tracing without a classification, thesis §9.6).
@@ -172,6 +183,8 @@ class PhotonTracer {
   uint64_t seed() const { return seed_; }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
+  // Surfaces hidden from some kinds of ray that one photon segment may cross (trace_path).
+  static constexpr int kMaxCrossed = 16;
 
  private:
   const Scene& scene_;

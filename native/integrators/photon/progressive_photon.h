@@ -47,7 +47,8 @@ struct EyePathHooks {
   // NEE at the measurement point with light sample (u_light, u2); c its weighted contribution.
   void nee(float /*u_light*/, const Vec2& /*u2*/, const RGB& /*c*/) {}
   void gather(const SurfaceHit&) {}                       // the measurement point
-  void scatter(const Vec3& /*wo*/, const BsdfSample&) {}  // a specular or glossy bounce
+  // A specular or glossy bounce; `next` the ray it sends on (its kind: Ray::camera, Ray::bounce).
+  void scatter(const Vec3& /*wo*/, const BsdfSample&, const Ray& /*next*/) {}
   void roulette(float /*survival*/) {}                    // Russian roulette survived
 };
 
@@ -78,11 +79,12 @@ class ProgressivePhotonMapping : public Integrator {
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   double estimated_error() const override { return estimated_error_; }
-  // Lights' and the World's per-kind switches: next-event estimation at the measurement point
-  // lights only the lobes that see the light (direct_light), the emission a specular chain finds
-  // counts when the chain's last lobe sees it, and the photon tracer applies Cycles' rule at the
-  // photon's first hit (photon_tracer.h). Not the spectral photons' own tracer.
-  LobeVisibility lobe_visibility() const override { return {.surfaces = false, .lights = !spectral_}; }
+  // Lights', the World's and surfaces' per-kind switches: the camera path's bounce rays pass
+  // surfaces hidden from their kind, next-event estimation at the measurement point lights only
+  // the lobes that see the light (direct_light), the emission a specular chain finds counts when
+  // the chain's last lobe sees it, and the photon tracer applies Cycles' rule to every segment
+  // (photon_tracer.cpp); spectral photons the same (progressive_photon_spectral.cpp).
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
@@ -299,20 +301,18 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     const Vec2 u(rng.uniform(), rng.uniform());
     const auto bs = bsdf.sample(wo, uc, u);
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-    hooks.scatter(wo, *bs);
     beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
     const Vec3 wi = hit->frame.to_world(bs->wi);
-    const Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
     if (scene_.material(hit->material).is_pass_through()) {  // a light object: the ray goes on as it was
-      const bool camera = ray.camera;
-      const uint8_t bounce = ray.bounce;
-      ray = next;
-      ray.camera = camera;
-      ray.bounce = bounce;
+      next.camera = ray.camera;
+      next.bounce = ray.bounce;
     } else {
-      ray = next;
       kind = bs->lobe;
+      next.bounce = kind;  // surfaces hidden from this kind of ray let it through
     }
+    hooks.scatter(wo, *bs, next);
+    ray = next;
     if (depth + 1 >= rr_depth_) {
       float survival = 1.0f;
       if (!russian_roulette(beta, rng.uniform(), &survival)) break;

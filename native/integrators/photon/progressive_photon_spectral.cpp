@@ -114,6 +114,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
             bool hero_only = false;
             VisiblePoint vp;
             float path_length = 0;
+            uint8_t kind = kRayCamera;  // the ray's kind, for lights' switches (trace_eye_path)
             auto add_light = [&](const float* spec, float grey) {
               for (int k = 0; k < C; ++k) Ld[k] += beta[k] * grey * spec[k];
             };
@@ -124,13 +125,13 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               first = nullptr;
               if (!hit) {
                 const int env = lights.environment();
-                if (env >= 0 && (depth > 0 || lights.environment_visible_to_camera()))
+                if (env >= 0 && lights.lights()[env].visible_to(kind))
                   add_light(pass_spectra_.light(env),
                             grey_factor(lights.environment_radiance(ray.d), lights.lights()[env].emit));
                 break;
               }
               path_length += hit->t;
-              if (hit->light >= 0)
+              if (hit->light >= 0 && lights.lights()[hit->light].visible_to(kind))
                 add_light(pass_spectra_.light(hit->light),
                           grey_factor(lights.area_radiance(hit->light, -ray.d), lights.lights()[hit->light].emit));
               const Material& base = scene_.material(hit->material);
@@ -145,10 +146,12 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                   const Vec2 u2(rng.uniform(), rng.uniform());
                   if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
                     const Vec3 wi = hit->frame.to_local(ls->wi);
+                    // Only the lobes that see the light (direct_light).
+                    const uint8_t vis = ls->light >= 0 ? lights.lights()[ls->light].visible_lobes : kAllLobes;
                     SpectralValues f{};
                     bool any = false;
                     for (int k = 0; k < C; ++k) {
-                      f[k] = Bsdf(mk[k]).eval(wo, wi)[0] * std::abs(wi.z);
+                      f[k] = Bsdf(mk[k]).eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);
                       any |= f[k] > 0;
                     }
                     if (any) {
@@ -177,7 +180,15 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               if (!scatter_factors(base, mk, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only)) break;
               for (int k = 0; k < C; ++k) beta[k] *= factor[k];
               const Vec3 wi = hit->frame.to_world(bs->wi);
-              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              if (base.is_pass_through()) {  // a light object: the ray goes on as it was
+                next.camera = ray.camera;
+                next.bounce = ray.bounce;
+              } else {
+                kind = bs->lobe;
+                next.bounce = kind;  // surfaces hidden from this kind of ray let it through
+              }
+              ray = next;
               if (depth + 1 >= rr_depth_) {
                 float bmax = 0;
                 for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
@@ -241,19 +252,39 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
           Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0
                         ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
                         : Ray(em->o, em->d);
+          // Per-kind switches and light objects as PhotonTracer::trace_path (photon_tracer.cpp):
+          // `arrive` the kinds the segment may be, a surface hidden from some of them crossed
+          // or scattered at by a coin, light objects not counted as scattering.
+          uint8_t arrive = lights.lights()[em->light].visible_lobes;
+          int scattered = 0, crossed = 0;
           for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
             ++rays;
             const auto hit = scene_.intersect(ray);
             if (!hit) break;
             const Material& base = scene_.material(hit->material);
             const Bsdf bsdf = scene_.bsdf(*hit);
-            if (bsdf.is_black()) break;
-            if (bounce >= min_deposit_bounce && bsdf.is_diffuse_for_photons(threshold_)) {
+            const uint8_t seen_by = base.visible_lobes & kAllLobes;
+            const uint8_t hidden = base.is_pass_through() ? 0 : arrive & ~seen_by;
+            if (bsdf.is_black() && !hidden) break;
+            if (scattered >= min_deposit_bounce && !bsdf.is_black() && bsdf.is_diffuse_for_photons(threshold_)) {
               bool ok = true;
               for (int k = 0; k < C; ++k) ok &= std::isfinite(beta[k]);
-              if (ok) dst.push_back(SpectralPhoton{Photon{hit->p, -ray.d, RGB(1.0f)}, beta, hero_only});
+              if (ok) dst.push_back(SpectralPhoton{Photon{hit->p, -ray.d, RGB(1.0f), 0, arrive}, beta, hero_only});
               else ++invalid;
             }
+            if (hidden && crossed < PhotonTracer::kMaxCrossed) {
+              const float q = crossing_probability(seen_by, bsdf.is_black(), bounce + 2 > max_depth_);
+              const float w = q == 1.0f || rng.uniform() < q ? 1.0f / q : -1.0f / (1.0f - q);
+              for (int k = 0; k < C; ++k) beta[k] *= std::abs(w);
+              if (w > 0) {  // cross it
+                arrive = hidden;
+                ++crossed;
+                ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
+                --bounce;
+                continue;
+              }
+            }
+            if (bsdf.is_black() || (seen_by == 0 && !base.is_pass_through())) break;
             if (bounce + 2 > max_depth_) break;
             const Vec3 wo_world = -ray.d;
             const Vec3 wo = hit->frame.to_local(wo_world);
@@ -272,6 +303,15 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             SpectralValues factor{};
             if (!scatter_factors(base, mk, C, wo, *bs, uc, u, TransportMode::Importance, factor, hero_only)) break;
             if (hero_only && !was_hero_only) factor[0] /= static_cast<float>(C);
+            if (!base.is_pass_through() && arrive != kAllLobes) {  // only the lobes of the segment's kinds
+              if (!(bs->lobe & arrive)) break;
+              if (!bs->delta) {  // f_V / p_V per wavelength, p_V the hero's restricted density
+                const float pdf_v = Bsdf(mk[0]).pdf(wo, bs->wi, arrive);
+                if (!(pdf_v > 0)) break;
+                for (int k = 0; k < C; ++k)
+                  factor[k] = Bsdf(mk[k]).eval(wo, bs->wi, TransportMode::Importance, arrive)[0] * std::abs(bs->wi.z) / pdf_v;
+              }
+            }
             float m_old = 0, m_new = 0;
             SpectralValues beta_new{};
             for (int k = 0; k < C; ++k) {
@@ -284,6 +324,11 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             if (rng.uniform() >= p_continue) break;
             for (int k = 0; k < C; ++k) beta[k] = beta_new[k] / p_continue;
             ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+            crossed = 0;
+            if (!base.is_pass_through()) {
+              ++scattered;
+              arrive = seen_by;
+            }
           }
         }
       }
@@ -339,7 +384,8 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
         m += weight;
         const SpectralValues& power = photon_power_[ph.index];
         SpectralValues c{};
-        for (int k = 0; k < C; ++k) c[k] = beta[k] * Bsdf(mk[k]).eval(vp.wo, wi)[0] * power[k] * weight;
+        for (int k = 0; k < C; ++k)
+          c[k] = beta[k] * Bsdf(mk[k]).eval(vp.wo, wi, TransportMode::Radiance, ph.lobes)[0] * power[k] * weight;
         if (photon_hero_[ph.index] && !eye_hero) c[0] *= static_cast<float>(C);  // C once per full path
         const RGB contrib = spectral_to_rgb(c);  // eq. 7.4 at this pass's wavelengths, as RGB
         phi += contrib;

@@ -24,6 +24,7 @@ struct BaseVertex {
   Vec3 wo;                    // local, towards x_{k-1}
   bool scattered = false;     // has a sampled continuation (wi below is set)
   Vec3 wi;                    // local sampled direction
+  uint8_t kind = 0;           // the kind of the ray it sends on (Ray::bounce: the lobe sampled)
   float uc = 0;               // the sampler's random numbers (delta lobes are re-sampled with them)
   Vec2 u;
   bool delta = false, transmission = false;
@@ -206,7 +207,13 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     v.transmission = bs->transmission;
     v.pdf = bs->pdf;
     const Vec3 wi = hit->frame.to_world(bs->wi);
+    // Surfaces hidden from a kind of ray let it through (the offsets' rays take the base's
+    // kind, so both paths of a pair see the same surfaces); a light object keeps the kind.
+    v.kind = mat.is_pass_through() ? ray.bounce : bs->lobe;
+    const bool camera = ray.camera && mat.is_pass_through();
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+    ray.bounce = v.kind;
+    ray.camera = camera;
     const Scatter s = v.delta ? delta_scatter(m, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(m, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;
     v.rr = survival(depth, beta);
@@ -511,7 +518,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           // ---- Reconnection to x_{k+1} ----
           const BaseVertex& xn = base.v[k + 1];
           ++rays.shadow;
-          if (scene_.occluded_between(yh.p, yh.ng, xn.hit.p, xn.hit.ng)) {
+          if (scene_.hides_between(yh.p, yh.ng, xn.hit.p, xn.hit.ng, x.kind)) {
             fail(ShiftFailure::Occluded);
           } else {
             const Vec3 d = normalize(xn.hit.p - yh.p);
@@ -571,7 +578,8 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         y_dir = x.hit.frame.to_world(x.wi);
       } else {  // diverged (now or before): trace the offset's own ray
         const Vec3 d = yh.frame.to_world(wi_y);
-        const Ray r(offset_ray_origin(yh.p, yh.ng, d), d);
+        Ray r(offset_ray_origin(yh.p, yh.ng, d), d);
+        r.bounce = x.kind;
         ++rays.closest;
         y = scene_.intersect(r);
         y_dir = d;

@@ -74,6 +74,9 @@ class SpectralGradientPathTracer : public Integrator {
   SpectralGradientPathTracer(const Scene& scene, const Params& params);
   std::string name() const override { return "sgpt"; }
   void iterate(ProgressSink* sink) override;
+  // Surfaces' per-kind switches (base and offset rays carry the base's lobes); lights' and the
+  // World's are not honoured (warned): its events' densities would need the visible lobes'.
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = false}; }
   void develop(Film& film) const override;
 
   int bins() const { return bins_; }
