@@ -39,7 +39,7 @@ struct BsdfParams {
   MaterialType type = MaterialType::Diffuse;
   RGB color{0.8f};
   float roughness = 0.0f;
-  bool conductor_fresnel = true;
+  ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   float ior = 1.5f;
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
   float mix_factor = 0.5f;
