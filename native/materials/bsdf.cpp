@@ -25,6 +25,7 @@
 
 #include "core/frame.h"
 #include "core/sampling.h"
+#include "materials/spectral_material.h"
 
 namespace gp {
 
@@ -629,12 +630,19 @@ float fresnel_dielectric(float cos_i, float eta) {
   return 0.5f * (r_parl * r_parl + r_perp * r_perp);
 }
 
-// A mix whose components are missing (a field-by-field copy of the material, as the spectral
-// integrators make per wavelength) scatters as a diffuse surface of its own colour, which the
-// loader sets to the components' weighted colour.
+// A mix whose components are missing (parameters made by hand) scatters as a diffuse surface
+// of its own colour, which the loader sets to the components' weighted colour.
 MaterialType Bsdf::kind() const {
   if (p_.type == MaterialType::Mix && (!p_.mix_a || !p_.mix_b)) return MaterialType::Diffuse;
   return p_.type;
+}
+
+Bsdf Bsdf::component(const Material* m) const {
+  // Seen at the mix's wavelength when spectral: its colour upsampled at this point.
+  Bsdf b(p_.lambda > 0 ? SpectralSurface(*m, uv_, nullptr).at(p_.lambda) : bsdf_params(*m, uv_), uv_);
+  b.ng_ = ng_;
+  b.p_.smooth_normal = p_.smooth_normal;
+  return b;
 }
 
 BsdfParams bsdf_params(const Material& m, Vec2 uv) {

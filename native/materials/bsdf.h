@@ -48,6 +48,9 @@ struct BsdfParams {
   // The surface's smooth normal (before a normal or bump map) in the shading frame, for the
   // bump shadowing term of diffuse lobes (bsdf.cpp); zero where no map bent the normal.
   Vec3 smooth_normal{0, 0, 0};
+  // > 0: the parameters one wavelength (nm) sees, `color` a grey (materials/spectral_material.h);
+  // a mix's components are then seen at the same wavelength. 0: RGB.
+  float lambda = 0.0f;
 };
 
 // The parameters of `m` at texture coordinate uv.
@@ -59,7 +62,8 @@ class Bsdf {
   Bsdf(const Material& m, Vec2 uv) : p_(bsdf_params(m, uv)), uv_(uv) {}
   // An untextured material's BSDF (tests, tables): its textures, if any, are read at uv (0, 0).
   explicit Bsdf(const Material& m) : Bsdf(m, Vec2()) {}
-  // A BSDF of parameters already looked up (the spectral integrators' per-wavelength copies).
+  // A BSDF of parameters already looked up (the spectral integrators' per-wavelength ones);
+  // uv is where a mix's components look up their textures.
   explicit Bsdf(const BsdfParams& p, Vec2 uv = Vec2()) : p_(p), uv_(uv) {}
 
   // `lobes` (kRay* bits) restricts both to the lobes of those kinds: what a light visible to
@@ -94,12 +98,7 @@ class Bsdf {
 
  private:
   MaterialType kind() const;
-  Bsdf component(const Material* m) const {  // a mix's part, with the surface's normals
-    Bsdf b(*m, uv_);
-    b.ng_ = ng_;
-    b.p_.smooth_normal = p_.smooth_normal;
-    return b;
-  }
+  Bsdf component(const Material* m) const;  // a mix's part, with the surface's normals
   BsdfParams p_;
   Vec2 uv_;
   Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)

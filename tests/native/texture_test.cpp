@@ -22,25 +22,12 @@
 namespace gp {
 namespace {
 
-namespace fs = std::filesystem;
-
 std::shared_ptr<TextureImage> image(int w, int h, std::vector<float> rgba) {
   auto img = std::make_shared<TextureImage>();
   img->width = w;
   img->height = h;
   img->rgba = std::move(rgba);
   return img;
-}
-
-// An 8-bit binary PPM (OpenImageIO reads it; 8-bit files default to sRGB), rows top first.
-std::string write_ppm(const std::string& name, int w, int h, const std::vector<uint8_t>& rgb_top_first) {
-  const fs::path dir = fs::temp_directory_path() / "gradphoton_texture_test";
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
-  std::ofstream f(p, std::ios::binary);
-  f << "P6\n" << w << " " << h << "\n255\n";
-  f.write(reinterpret_cast<const char*>(rgb_top_first.data()), static_cast<std::streamsize>(rgb_top_first.size()));
-  return p.string();
 }
 
 float srgb_to_linear(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
@@ -112,30 +99,6 @@ TEST(Texture, FilesAreReadOnceBottomRowFirstAndMissingOnesAreMagenta) {
 }
 
 // ---- Scenes ----
-
-// A unit quad (uv 0..1) facing +z seen from above, with material `mat`, under a constant white
-// environment: a diffuse surface there has radiance = its albedo.
-std::string furnace_scene(const std::string& material_json, const std::string& extra_objects = "") {
-  return R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 16, "height": 16},
-    "materials": {"m": )" + material_json + R"(},
-    "objects": [{"type": "mesh", "positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
-                 "indices": [[0, 1, 2], [0, 2, 3]], "uvs": [[0, 0], [1, 0], [1, 1], [0, 1]], "material": "m"})" +
-         extra_objects + R"(],
-    "environment": {"color": [1, 1, 1], "strength": 1}})";
-}
-
-RGB quadrant_mean(const Film& f, int qx, int qy) {
-  // Quadrant (qx, qy) of the image, qy = 0 at the top; a margin keeps clear of the texel edges.
-  double s[3] = {0, 0, 0};
-  int n = 0;
-  const int h = f.height() / 2, w = f.width() / 2;
-  for (int y = qy * h + 2; y < (qy + 1) * h - 2; ++y)
-    for (int x = qx * w + 2; x < (qx + 1) * w - 2; ++x, ++n) {
-      const RGB c = f.rgb(pass::kCombined, x, y);
-      for (int k = 0; k < 3; ++k) s[k] += c[k];
-    }
-  return RGB(float(s[0] / n), float(s[1] / n), float(s[2] / n));
-}
 
 TEST(TexturedScene, QuadUnderAConstantEnvironmentShowsItsTexels) {
   // 2 x 2 texture (closest): top-left red, top-right green, bottom-left blue, bottom-right grey,
