@@ -13,6 +13,7 @@
 // factor C once: the eye half carries it in its throughput, the photon half in a flag.
 #include <atomic>
 #include <cmath>
+#include <optional>
 
 #include "core/parallel.h"
 #include "core/sampling.h"
@@ -168,6 +169,8 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                 vp.beta = RGB(1.0f);  // unused: the spectral throughput is vp_beta_
                 vp.material = hit->material;
                 vp.uv = hit->uv;
+                vp.ng = hit->ng;
+                vp.n_smooth = hit->n_smooth;
                 break;
               }
               const float uc = rng.uniform();
@@ -333,6 +336,13 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
       if (!have_photons || vp.material < 0 || !(px_[i].r2 > 0)) continue;
       WavelengthParams local;
       const BsdfParams* mk = pass_spectra_.material(vp.material, vp.uv, local);
+      // The point's BSDFs, with the normals a normal or bump map needs (as Scene::bsdf).
+      std::array<std::optional<Bsdf>, kMaxWavelengths> bk;
+      const bool mapped = scene_.material(vp.material).perturbs_normal();
+      for (int k = 0; k < C; ++k) {
+        bk[k].emplace(mk[k], vp.uv);
+        if (mapped) bk[k]->set_surface_normals(vp.frame.to_local(vp.ng), vp.frame.to_local(vp.n_smooth));
+      }
       const SpectralValues& beta = vp_beta_[i];
       const bool eye_hero = vp_hero_[i] != 0;
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
@@ -344,7 +354,8 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
         m += weight;
         const SpectralValues& power = photon_power_[ph.index];
         SpectralValues c{};
-        for (int k = 0; k < C; ++k) c[k] = beta[k] * Bsdf(mk[k], vp.uv).eval(vp.wo, wi)[0] * power[k] * weight;
+        const float w = weight * gather_shading_correction(ph.wi, vp.n_smooth, vp.frame.n);  // as the RGB gather
+        for (int k = 0; k < C; ++k) c[k] = beta[k] * bk[k]->eval(vp.wo, wi)[0] * power[k] * w;
         if (photon_hero_[ph.index] && !eye_hero) c[0] *= static_cast<float>(C);  // C once per full path
         const RGB contrib = spectral_to_rgb(c);  // eq. 7.4 at this pass's wavelengths, as RGB
         phi += contrib;
