@@ -54,8 +54,10 @@ void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spec
   spectra_ = &spectra;
   wl_ = wl;
   bsdf_.resize(scene.materials.size() * count_);
+  per_point_.resize(scene.materials.size());
   for (size_t m = 0; m < scene.materials.size(); ++m) {
-    if (scene.materials[m].has_bsdf_textures()) continue;  // per point (material())
+    per_point_[m] = scene.materials[m].has_bsdf_textures();
+    if (per_point_[m]) continue;  // made per point (material())
     const SpectralSurface surface(scene.materials[m], Vec2(), &spectra.albedo[m]);
     for (int k = 0; k < count_; ++k) bsdf_[m * count_ + k] = surface.at(wl.lambda[k]);
   }
@@ -64,12 +66,11 @@ void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spec
     for (int k = 0; k < count_; ++k) light_[l * count_ + k] = spectra.light[l](wl.lambda[k]);
 }
 
-const BsdfParams* SpectraAtWavelengths::material(int m, Vec2 uv, WavelengthParams& local) const {
-  const Material& mat = scene_->materials[static_cast<size_t>(m)];
-  if (!mat.has_bsdf_textures()) return &bsdf_[static_cast<size_t>(m) * count_];
-  const SpectralSurface surface(mat, uv, &spectra_->albedo[static_cast<size_t>(m)]);
-  for (int k = 0; k < count_; ++k) local[k] = surface.at(wl_.lambda[k]);
-  return local.data();
+const BsdfParams* SpectraAtWavelengths::at_point(int m, Vec2 uv, WavelengthParams& local) const {
+  const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], uv, &spectra_->albedo[static_cast<size_t>(m)]);
+  local.emplace();
+  for (int k = 0; k < count_; ++k) (*local)[k] = surface.at(wl_.lambda[k]);
+  return local->data();
 }
 
 SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params, bool hero)

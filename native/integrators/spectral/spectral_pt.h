@@ -21,6 +21,7 @@
 // Passes: combined (RGB through CIE XYZ).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,8 +58,9 @@ struct SceneSpectra {
 // components and the rest as the RGB Bsdf has them.
 BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, Vec2 uv, float lambda);
 
-// Parameters of one material at each wavelength of a set.
-using WavelengthParams = std::array<BsdfParams, kMaxWavelengths>;
+// Parameters of one material at each wavelength of a set, made only where needed (an array of
+// eight BsdfParams is worth not initialising per vertex).
+using WavelengthParams = std::optional<std::array<BsdfParams, kMaxWavelengths>>;
 
 // The scene's materials (monochromatic() per wavelength) and light spectra at one set of
 // wavelengths, evaluated once for the set. SPPM shares one set per pass between all its eye
@@ -68,8 +70,11 @@ class SpectraAtWavelengths {
  public:
   void evaluate(const Scene& scene, const SceneSpectra& spectra, const SampledWavelengths& wl);
   // The parameters of material m at uv at each wavelength of the set (count of them): the
-  // shared ones, or for a textured material those at uv, written to `local`.
-  const BsdfParams* material(int m, Vec2 uv, WavelengthParams& local) const;
+  // shared ones, or for a textured material those at uv, made in `local`.
+  const BsdfParams* material(int m, Vec2 uv, WavelengthParams& local) const {
+    if (!per_point_[static_cast<size_t>(m)]) return &bsdf_[static_cast<size_t>(m) * count_];
+    return at_point(m, uv, local);
+  }
   // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
   const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
 
@@ -79,7 +84,9 @@ class SpectraAtWavelengths {
   const SceneSpectra* spectra_ = nullptr;
   SampledWavelengths wl_;
   std::vector<BsdfParams> bsdf_;
+  std::vector<uint8_t> per_point_;  // the material has textures: parameters per point
   std::vector<float> light_;
+  const BsdfParams* at_point(int m, Vec2 uv, WavelengthParams& local) const;
 };
 
 // Spectral radiance of a light sample over its light's spectrum: lights scale their RGB
