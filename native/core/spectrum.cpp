@@ -1,7 +1,9 @@
 #include "core/spectrum.h"
 
 #include <Eigen/Dense>
+#include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -79,50 +81,118 @@ Eigen::Vector3d fit_rgb(const Eigen::Vector3d& c) {
   return rgb;
 }
 
-// Gauss–Newton fit of the three coefficients to an RGB target, with continuation from grey
-// 0.5 (c = 0) towards the target in small steps, as Jakob & Hanika build their table (§4);
-// Levenberg–Marquardt damping keeps steps sane for saturated colours.
-Eigen::Vector3d fit_coefficients(const Eigen::Vector3d& target) {
+// Levenberg–Marquardt-damped Gauss–Newton steps of c toward the RGB `goal` (at most 40, until
+// the squared RGB residual is below `tolerance`).
+void refine_coefficients(Eigen::Vector3d& c, const Eigen::Vector3d& goal, double tolerance = 1e-14) {
   const Tables& tb = tables();
-  Eigen::Vector3d c(0, 0, 0);
-  constexpr int kContinuation = 16;
-  for (int k = 1; k <= kContinuation; ++k) {
-    const double a = double(k) / kContinuation;
-    const Eigen::Vector3d goal = Eigen::Vector3d::Constant(0.5) * (1 - a) + target * a;
-    double lm = 1e-6;
-    for (int it = 0; it < 40; ++it) {
-      Eigen::Vector3d rgb(0, 0, 0);
-      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-      for (int i = 0; i <= kSteps; ++i) {
-        const double t = grid_t(i);
-        const double x = c[0] * t * t + c[1] * t + c[2];
-        rgb += tb.rgb_bar[i] * sigmoid(x);
-        const double d = sigmoid_derivative(x);
-        J.col(0) += tb.rgb_bar[i] * (d * t * t);
-        J.col(1) += tb.rgb_bar[i] * (d * t);
-        J.col(2) += tb.rgb_bar[i] * d;
-      }
-      const Eigen::Vector3d r = rgb - goal;
-      const double err = r.squaredNorm();
-      if (err < 1e-14) break;
-      // Damped normal equations; accept the step if it reduces the residual.
-      bool improved = false;
-      for (int tries = 0; tries < 12 && !improved; ++tries) {
-        const Eigen::Matrix3d A = J.transpose() * J + lm * Eigen::Matrix3d::Identity();
-        const Eigen::Vector3d step = A.ldlt().solve(-J.transpose() * r);
-        const Eigen::Vector3d cn = c + step;
-        if ((fit_rgb(cn) - goal).squaredNorm() < err) {
-          c = cn;
-          lm = std::max(lm * 0.1, 1e-12);
-          improved = true;
-        } else {
-          lm *= 10;
-        }
-      }
-      if (!improved) break;
+  double lm = 1e-6;
+  for (int it = 0; it < 40; ++it) {
+    Eigen::Vector3d rgb(0, 0, 0);
+    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    for (int i = 0; i <= kSteps; ++i) {
+      const double t = grid_t(i);
+      const double x = c[0] * t * t + c[1] * t + c[2];
+      rgb += tb.rgb_bar[i] * sigmoid(x);
+      const double d = sigmoid_derivative(x);
+      J.col(0) += tb.rgb_bar[i] * (d * t * t);
+      J.col(1) += tb.rgb_bar[i] * (d * t);
+      J.col(2) += tb.rgb_bar[i] * d;
     }
+    const Eigen::Vector3d r = rgb - goal;
+    const double err = r.squaredNorm();
+    if (err < tolerance) break;
+    // Damped normal equations; accept the step if it reduces the residual.
+    bool improved = false;
+    for (int tries = 0; tries < 12 && !improved; ++tries) {
+      const Eigen::Matrix3d A = J.transpose() * J + lm * Eigen::Matrix3d::Identity();
+      const Eigen::Vector3d step = A.ldlt().solve(-J.transpose() * r);
+      const Eigen::Vector3d cn = c + step;
+      if ((fit_rgb(cn) - goal).squaredNorm() < err) {
+        c = cn;
+        lm = std::max(lm * 0.1, 1e-12);
+        improved = true;
+      } else {
+        lm *= 10;
+      }
+    }
+    if (!improved) break;
+  }
+}
+
+// The fit of the three coefficients to an RGB target, continued from `c` (whose own RGB is the
+// first goal) toward the target in `steps` equal steps, as Jakob & Hanika build their table
+// (§4); from c = 0 (grey 0.5) in 16 steps for a colour of its own.
+Eigen::Vector3d fit_coefficients(const Eigen::Vector3d& target, Eigen::Vector3d c = Eigen::Vector3d::Zero(),
+                                 int steps = 16, double tolerance = 1e-14) {
+  const Eigen::Vector3d start = c.isZero() ? Eigen::Vector3d::Constant(0.5) : fit_rgb(c);
+  for (int k = 1; k <= steps; ++k) {
+    const double a = double(k) / steps;
+    refine_coefficients(c, start * (1 - a) + target * a, tolerance);
   }
   return c;
+}
+
+// ---- Jakob & Hanika's coefficient table (their §4), for colours met per hit ----
+//
+// Three tables, one per largest RGB component l, over (x, y, z): z = that component on a grid
+// dense near 0 and 1 (smoothstep, as theirs), x and y the next two components (cyclically)
+// divided by z, uniform. Each entry is fitted by continuation from its neighbour (a row of x
+// cold from grey at z index kRes / 5, then along x, then up and down z), to 1e-6 in RGB. Below
+// the first non-zero z the spectrum is the one there scaled down (z = 0 is black, which no
+// sigmoid reaches): RGB is linear in the scale, so the colour stays exact. Built once, on
+// first use.
+constexpr int kTableRes = 24;
+constexpr double kTableTolerance = 1e-12;
+
+double smoothstep(double x) { return x * x * (3.0 - 2.0 * x); }
+
+struct CoefficientTable {
+  std::array<float, kTableRes> z;
+  std::vector<float> c;  // [l][k (z)][j (y)][i (x)][3]; k = 0 unused
+
+  static size_t at(int l, int k, int j, int i) {
+    return 3 * (((static_cast<size_t>(l) * kTableRes + k) * kTableRes + j) * kTableRes + i);
+  }
+  static Eigen::Vector3d rgb_of(int l, double x, double y, double z) {
+    Eigen::Vector3d rgb;
+    rgb[l] = z;
+    rgb[(l + 1) % 3] = x * z;
+    rgb[(l + 2) % 3] = y * z;
+    return rgb;
+  }
+
+  CoefficientTable() : c(3 * 3 * kTableRes * kTableRes * kTableRes) {
+    for (int k = 0; k < kTableRes; ++k) z[k] = static_cast<float>(smoothstep(double(k) / (kTableRes - 1)));
+    const int k0 = kTableRes / 5;
+    auto store = [this](int l, int k, int j, int i, const Eigen::Vector3d& v) {
+      for (int d = 0; d < 3; ++d) c[at(l, k, j, i) + d] = static_cast<float>(v[d]);
+    };
+    auto grid = [](int n) { return double(n) / (kTableRes - 1); };
+    // One task per (l, j): its row along x at k0, then each x's column along z.
+    tbb::parallel_for(0, 3 * kTableRes, [&](int task) {
+      const int l = task / kTableRes, j = task % kTableRes;
+      Eigen::Vector3d row(0, 0, 0);
+      for (int i = 0; i < kTableRes; ++i) {
+        row = fit_coefficients(rgb_of(l, grid(i), grid(j), z[k0]), row, i == 0 ? 16 : 2, kTableTolerance);
+        store(l, k0, j, i, row);
+        Eigen::Vector3d v = row;
+        for (int k = k0 + 1; k < kTableRes; ++k) {
+          v = fit_coefficients(rgb_of(l, grid(i), grid(j), z[k]), v, 1, kTableTolerance);
+          store(l, k, j, i, v);
+        }
+        v = row;
+        for (int k = k0 - 1; k >= 1; --k) {
+          v = fit_coefficients(rgb_of(l, grid(i), grid(j), z[k]), v, 1, kTableTolerance);
+          store(l, k, j, i, v);
+        }
+      }
+    });
+  }
+};
+
+const CoefficientTable& coefficient_table() {
+  static const CoefficientTable t;
+  return t;
 }
 
 }  // namespace
@@ -181,6 +251,38 @@ RgbSpectrum RgbSpectrum::reflectance(const RGB& in) {
   s.c0_ = static_cast<float>(c[0]);
   s.c1_ = static_cast<float>(c[1]);
   s.c2_ = static_cast<float>(c[2]);
+  return s;
+}
+
+RgbSpectrum RgbSpectrum::reflectance_interpolated(const RGB& in) {
+  RgbSpectrum s;
+  const float rgb[3] = {clamp(in.r, 0, 1), clamp(in.g, 0, 1), clamp(in.b, 0, 1)};
+  if (rgb[0] == rgb[1] && rgb[1] == rgb[2]) {  // greys are exact, as reflectance()
+    s.value_ = rgb[0];
+    return s;
+  }
+  const int l = rgb[0] >= rgb[1] ? (rgb[0] >= rgb[2] ? 0 : 2) : (rgb[1] >= rgb[2] ? 1 : 2);
+  const float z = rgb[l];  // > 0: not a grey
+  const CoefficientTable& tb = coefficient_table();
+  constexpr int n = kTableRes - 1;
+  const float fx = rgb[(l + 1) % 3] / z * n, fy = rgb[(l + 2) % 3] / z * n;
+  const int i = std::min(static_cast<int>(fx), n - 1), j = std::min(static_cast<int>(fy), n - 1);
+  // Below z[1]: the spectrum at z[1], scaled by z / z[1].
+  const int k = std::clamp(static_cast<int>(std::upper_bound(tb.z.begin(), tb.z.end(), z) - tb.z.begin()) - 1, 1, n - 1);
+  const float tx = fx - i, ty = fy - j, tz = std::max(0.0f, (z - tb.z[k]) / (tb.z[k + 1] - tb.z[k]));
+  if (z < tb.z[1]) s.scale_ = z / tb.z[1];
+  float c[3] = {0, 0, 0};
+  for (int dk = 0; dk < 2; ++dk)
+    for (int dj = 0; dj < 2; ++dj)
+      for (int di = 0; di < 2; ++di) {
+        const float w = (dk ? tz : 1 - tz) * (dj ? ty : 1 - ty) * (di ? tx : 1 - tx);
+        const float* e = &tb.c[CoefficientTable::at(l, k + dk, j + dj, i + di)];
+        for (int d = 0; d < 3; ++d) c[d] += w * e[d];
+      }
+  s.constant_ = false;
+  s.c0_ = c[0];
+  s.c1_ = c[1];
+  s.c2_ = c[2];
   return s;
 }
 

@@ -7,11 +7,11 @@
 //    Analytic Approximations to the CIE XYZ Color Matching Functions", JCGT 2(2)), instead of
 //    the tabulated CIE data: no large table, error well below the noise of a render.
 //  - Upsampling: Jakob & Hanika 2019 ("A Low-Dimensional Function Space for Efficient Spectral
-//    Upsampling"), s(lambda) = sigmoid(c0 t^2 + c1 t + c2). Their precomputed 3D coefficient
-//    table exists to make textures fast; our materials and lights carry constant colours, so the
-//    three coefficients are fitted here, once per colour, by the same Gauss–Newton
-//    optimisation with continuation from grey that produces their table. Greys (white
-//    included) are exact constants.
+//    Upsampling"), s(lambda) = sigmoid(c0 t^2 + c1 t + c2). Constant colours of materials and
+//    lights are fitted here, once per colour, by the same Gauss–Newton optimisation with
+//    continuation from grey that produces their table; colours met per hit (image textures,
+//    mix components) read the coefficients off their 3D table, built here on first use.
+//    Greys (white included) are exact constants.
 //  - White point: the spectral pipeline is normalised so that the constant spectrum 1 maps to
 //    RGB (1, 1, 1) (Bradford adaptation of the fit's equal-energy white to D65, then the
 //    Rec.709 matrix). Reflectances and illuminants are both fitted in that space, so a white
@@ -94,6 +94,10 @@ class RgbSpectrum {
   RgbSpectrum() = default;
   // Bounded spectrum in [0, 1] for a reflectance (components clamped to [0, 1]).
   static RgbSpectrum reflectance(const RGB& rgb);
+  // The same upsampling for colours met per hit (a texel, a mix component's colour): the fit's
+  // coefficients interpolated in Jakob & Hanika's table (§4) instead of a fit (~1 ms); greys
+  // exact. The table (24^3 x 3 entries) is fitted on first use, in well under a second.
+  static RgbSpectrum reflectance_interpolated(const RGB& rgb);
   // Unbounded spectrum for emission: scale * reflectance(rgb / scale) with scale = max(rgb).
   static RgbSpectrum illuminant(const RGB& rgb);
   // Gaussian lines of one FWHM (nm), scaled so that the spectrum has luminance Y = scale (Y of

@@ -25,6 +25,7 @@
 
 #include "core/frame.h"
 #include "core/sampling.h"
+#include "materials/spectral_material.h"
 
 namespace gp {
 
@@ -163,9 +164,26 @@ std::optional<BsdfSample> diffuse_sample(const BsdfParams& m, const Vec3& wo, Ve
 
 // ---- Conductor ----
 
-// Schlick's Fresnel with F0 = color, or the plain colour (Blender's Glossy BSDF has none).
+// Cycles 3.4's Principled metal (kernel/closure/bsdf_util.h, interpolate_fresnel_color, as
+// bsdf_microfacet.h's reflection_color calls it with cos_h = L.H): the colour blended toward
+// white by the dielectric Fresnel of the lobe's IOR, renormalised to 0 at normal incidence,
+//   FH = (F_d(cos_h) - F0) / (1 - F0),  F = color (1 - FH) + FH,  F0 = F_d(1).
+// Unclamped, as in Cycles. An IOR of 1 (Specular 0) has F_d = 0: the colour at every angle.
+RGB fresnel_principled_metal(const RGB& color, float ior, float cos_h) {
+  const float f0 = fresnel_dielectric(1.0f, ior);
+  if (!(f0 < 1.0f)) return RGB(1.0f);
+  const float fh = (fresnel_dielectric(cos_h, ior) - f0) / (1.0f - f0);
+  return color * (1.0f - fh) + RGB(fh);
+}
+
+// The conductor's Fresnel factor at |cos| to the microfacet normal (ConductorFresnel).
 RGB conductor_fresnel(const BsdfParams& m, float cos_i) {
-  return m.conductor_fresnel ? fresnel_schlick(m.color, cos_i) : m.color;
+  switch (m.conductor_fresnel) {
+    case ConductorFresnel::None: return m.color;  // Blender's Glossy BSDF
+    case ConductorFresnel::Schlick: return fresnel_schlick(m.color, cos_i);
+    case ConductorFresnel::Principled: return fresnel_principled_metal(m.color, m.ior, cos_i);
+  }
+  return m.color;
 }
 
 // The Cook–Torrance microfacet BRDF without its Fresnel factor, D G / (4 |cos_i| |cos_o|)
@@ -612,12 +630,19 @@ float fresnel_dielectric(float cos_i, float eta) {
   return 0.5f * (r_parl * r_parl + r_perp * r_perp);
 }
 
-// A mix whose components are missing (a field-by-field copy of the material, as the spectral
-// integrators make per wavelength) scatters as a diffuse surface of its own colour, which the
-// loader sets to the components' weighted colour.
+// A mix whose components are missing (parameters made by hand) scatters as a diffuse surface
+// of its own colour, which the loader sets to the components' weighted colour.
 MaterialType Bsdf::kind() const {
   if (p_.type == MaterialType::Mix && (!p_.mix_a || !p_.mix_b)) return MaterialType::Diffuse;
   return p_.type;
+}
+
+Bsdf Bsdf::component(const Material* m) const {
+  // Seen at the mix's wavelength when spectral: its colour upsampled at this point.
+  Bsdf b(p_.lambda > 0 ? SpectralSurface(*m, uv_, nullptr).at(p_.lambda) : bsdf_params(*m, uv_), uv_);
+  b.ng_ = ng_;
+  b.p_.smooth_normal = p_.smooth_normal;
+  return b;
 }
 
 BsdfParams bsdf_params(const Material& m, Vec2 uv) {

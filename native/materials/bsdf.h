@@ -39,7 +39,7 @@ struct BsdfParams {
   MaterialType type = MaterialType::Diffuse;
   RGB color{0.8f};
   float roughness = 0.0f;
-  bool conductor_fresnel = true;
+  ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   float ior = 1.5f;
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
   float mix_factor = 0.5f;
@@ -48,6 +48,9 @@ struct BsdfParams {
   // The surface's smooth normal (before a normal or bump map) in the shading frame, for the
   // bump shadowing term of diffuse lobes (bsdf.cpp); zero where no map bent the normal.
   Vec3 smooth_normal{0, 0, 0};
+  // > 0: the parameters one wavelength (nm) sees, `color` a grey (materials/spectral_material.h);
+  // a mix's components are then seen at the same wavelength. 0: RGB.
+  float lambda = 0.0f;
 };
 
 // The parameters of `m` at texture coordinate uv.
@@ -59,7 +62,8 @@ class Bsdf {
   Bsdf(const Material& m, Vec2 uv) : p_(bsdf_params(m, uv)), uv_(uv) {}
   // An untextured material's BSDF (tests, tables): its textures, if any, are read at uv (0, 0).
   explicit Bsdf(const Material& m) : Bsdf(m, Vec2()) {}
-  // A BSDF of parameters already looked up (the spectral integrators' per-wavelength copies).
+  // A BSDF of parameters already looked up (the spectral integrators' per-wavelength ones);
+  // uv is where a mix's components look up their textures.
   explicit Bsdf(const BsdfParams& p, Vec2 uv = Vec2()) : p_(p), uv_(uv) {}
 
   // `lobes` (kRay* bits) restricts both to the lobes of those kinds: what a light visible to
@@ -94,12 +98,7 @@ class Bsdf {
 
  private:
   MaterialType kind() const;
-  Bsdf component(const Material* m) const {  // a mix's part, with the surface's normals
-    Bsdf b(*m, uv_);
-    b.ng_ = ng_;
-    b.p_.smooth_normal = p_.smooth_normal;
-    return b;
-  }
+  Bsdf component(const Material* m) const;  // a mix's part, with the surface's normals
   BsdfParams p_;
   Vec2 uv_;
   Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)
@@ -118,6 +117,20 @@ class Bsdf {
 inline float adjoint_shading_correction(const Vec3& wo, const Vec3& wi, const Vec3& ng, const Vec3& ns) {
   const float denom = std::abs(dot(wo, ng)) * std::abs(dot(wi, ns));
   return denom > 0 ? std::abs(dot(wo, ns)) * std::abs(dot(wi, ng)) / denom : 0.0f;
+}
+
+// A normal or bump map's correction of a photon density estimate: photons land with a density
+// that carries the surface's cosine |wi.n_smooth| (flux through the surface; the interpolated
+// normal stands for the surface, as in every photon gather here), where reflected radiance, as
+// the path tracer computes it, weighs incident light by the mapped normal's |wi.ns|. Each
+// gathered photon takes the ratio (the gather's counterpart of eq. 5.20's correction, Veach
+// 1997 §5.3), exactly 1 where no map bent the normal. Not the full ratio to the geometric
+// normal: on a coarse smooth-shaded mesh, 1 / |wi.ng| of photons grazing a facet made a
+// sphere's PPM image 1.15 of pt with fireflies 40x its brightest pixel; under a map, a diffuse
+// lobe's bump shadowing term bounds G |wi.ns| / |wi.n_smooth| by 1 / (ns.n_smooth).
+inline float gather_shading_correction(const Vec3& wi, const Vec3& n_smooth, const Vec3& ns) {
+  const float cos_smooth = std::abs(dot(wi, n_smooth));
+  return cos_smooth > 0 ? std::abs(dot(wi, ns)) / cos_smooth : 0.0f;
 }
 
 // Fills the tables a material's BSDF needs (a plastic's coat albedo); the loader calls it for

@@ -17,6 +17,15 @@ namespace gp {
 
 enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Principled, Mix };
 
+// A conductor's Fresnel factor F(cos_h) at the microfacet:
+//   None:       the colour at every angle (Blender's Glossy BSDF);
+//   Schlick:    Schlick 1994 with F0 = colour (the scene format's default);
+//   Principled: Cycles 3.4's Principled BSDF metal (kernel/closure/bsdf_util.h,
+//               interpolate_fresnel_color): F = colour (1 - FH) + FH with
+//               FH = (F_d(cos_h, ior) - F_d(1, ior)) / (1 - F_d(1, ior)), F_d the dielectric
+//               Fresnel of the Principled lobe's IOR (from its Specular input).
+enum class ConductorFresnel : uint8_t { None, Schlick, Principled };
+
 // Default roughness below which a BSDF counts as specular for photon methods
 // (gradient-domain photon density estimation §4.3 / §6: "roughness threshold 0.05").
 inline constexpr float kDefaultSpecularThreshold = 0.05f;
@@ -30,13 +39,13 @@ struct Material {
   // GGX alpha (Mitsuba's convention; Blender's roughness r maps to alpha = r^2).
   // 0 = perfectly smooth (delta) conductor or dielectric.
   float roughness = 0.0f;
-  // Conductor: Schlick's Fresnel of F0 = color (Principled metal), or none: the colour at
-  // every angle (Blender's Glossy BSDF).
-  bool conductor_fresnel = true;
+  // Conductor: how its reflectance varies with the angle (ConductorFresnel; Principled uses `ior`).
+  ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
   // Principled (Cycles 3.4's Principled BSDF, non-metal): `color` the base colour, `roughness`
   // the specular lobe's GGX alpha (its square root drives the diffuse retro-reflection), `ior`
   // the specular lobe's (from Blender's Specular s: F0 = 0.08 s).
+  // Conductor with Principled Fresnel: the IOR of the dielectric Fresnel it interpolates with.
   float ior = 1.5f;       // dielectric: interior IOR (Cauchy A) over an outside of 1
   float cauchy_b = 0.0f;  // Cauchy B in um^2: n(lambda) = A + B / lambda^2 (spectral mode)
   // Emitted radiance (W sr^-1 m^-2) = emission * strength; any type may emit.

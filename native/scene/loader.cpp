@@ -83,8 +83,8 @@ class Loader : private JsonReader {
         keys.push_back("color");
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
-        keys.insert(keys.end(), {"color", "roughness", "fresnel"});
-        if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = get_bool(*f, sub(mpath, "fresnel"));
+        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior"});
+        if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = load_conductor_fresnel(*f, sub(mpath, "fresnel"));
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
@@ -173,6 +173,20 @@ class Loader : private JsonReader {
     // cycle is an error).
     std::vector<int> state(scene_.materials.size(), 0);  // 0 unresolved, 1 resolving, 2 done
     for (const MixRef& r : mix_refs_) resolve_mix(r, state);
+  }
+
+  // A conductor's "fresnel": true (Schlick, the default), false (none: Blender's Glossy BSDF) or
+  // "principled" (Cycles' Principled metal, interpolated with the dielectric Fresnel of "ior").
+  ConductorFresnel load_conductor_fresnel(const json& f, const std::string& path) const {
+    if (f.is_string()) {
+      const std::string v = get_string(f, path);
+      if (v == "principled") return ConductorFresnel::Principled;
+      if (v == "schlick") return ConductorFresnel::Schlick;
+      if (v == "none") return ConductorFresnel::None;
+      fail(path, fmt::format("unknown conductor Fresnel '{}' (known: true, false, \"schlick\", \"none\", "
+                             "\"principled\")", v));
+    }
+    return get_bool(f, path) ? ConductorFresnel::Schlick : ConductorFresnel::None;
   }
 
   // ---- Textured inputs ----

@@ -209,9 +209,11 @@ def cornell_lit(scene, case):
     return mats
 
 
-def principled_material(name, color=(0.7, 0.5, 0.3), roughness=0.5, metallic=0.0, transmission=0.0, ior=1.45):
+def principled_material(name, color=(0.7, 0.5, 0.3), roughness=0.5, metallic=0.0, transmission=0.0, ior=1.45,
+                        specular=0.5):
     m, nt, out = _node_material(name)
     p = nt.nodes.new("ShaderNodeBsdfPrincipled")
+    p.inputs["Specular"].default_value = specular
     p.inputs["Base Color"].default_value = (*color, 1)
     p.inputs["Roughness"].default_value = roughness
     p.inputs["Metallic"].default_value = metallic
@@ -249,6 +251,10 @@ CORNELL_MATERIALS = {
     "principled_glossy_plastic": lambda: principled_material("GlossyPlastic", roughness=0.15),
     "principled_metal": lambda: principled_material("Metal", color=(0.9, 0.6, 0.3), roughness=0.3, metallic=1.0),
     "principled_half_metal": lambda: principled_material("HalfMetal", roughness=0.4, metallic=0.5),
+    # A dark metal of Specular 1: almost all its light is the Fresnel term, where Cycles'
+    # interpolated Fresnel and Schlick's differ most.
+    "principled_dark_metal": lambda: principled_material("DarkMetal", color=(0.03, 0.03, 0.03), roughness=0.3,
+                                                         metallic=1.0, specular=1.0),
     "mix_shader": lambda: mix_material("Mix"),
     "add_shader": lambda: mix_material("Add", add=True),
 }

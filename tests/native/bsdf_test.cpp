@@ -202,6 +202,9 @@ std::vector<Chi2Case> conductor_cases() {
                        make(MaterialType::Conductor, alpha, RGB(0.9f, 0.6f, 0.3f)), wo_at(c)});
   cases.push_back({"conductor from below alpha=0.2 cos_o=-0.5",
                    make(MaterialType::Conductor, 0.2f, RGB(0.9f)), wo_at(-0.5f)});
+  Material metal = make(MaterialType::Conductor, 0.2f, RGB(0.9f, 0.6f, 0.3f), 1.5f);  // Principled's metal
+  metal.conductor_fresnel = ConductorFresnel::Principled;
+  cases.push_back({"principled metal alpha=0.2 cos_o=0.5", metal, wo_at(0.5f)});
   return cases;
 }
 
@@ -527,12 +530,22 @@ double dielectric(const D3& i, const D3& o, double a, double ior) {
          G2(i, o, h, a) * D(h, a) / sqr(eta_i * ih + eta_o * oh);
 }
 
-double conductor(const D3& i, const D3& o, double a, double f0) {
+// Eq. 20 with the Fresnel factor fresnel(|i.h|).
+template <typename Fresnel>
+double conductor_with(const D3& i, const D3& o, double a, Fresnel fresnel) {
   if (i[2] * o[2] <= 0) return 0;
   D3 h = normalized({i[0] + o[0], i[1] + o[1], i[2] + o[2]});
   if (h[2] < 0) h = {-h[0], -h[1], -h[2]};
-  const double schlick = f0 + (1 - f0) * std::pow(1 - std::abs(dot3(i, h)), 5);
-  return schlick * G2(i, o, h, a) * D(h, a) / (4 * std::abs(i[2] * o[2]));
+  return fresnel(std::abs(dot3(i, h))) * G2(i, o, h, a) * D(h, a) / (4 * std::abs(i[2] * o[2]));
+}
+double conductor(const D3& i, const D3& o, double a, double f0) {  // Schlick's Fresnel
+  return conductor_with(i, o, a, [f0](double c) { return f0 + (1 - f0) * std::pow(1 - c, 5); });
+}
+// Cycles 3.4's Principled metal (bsdf_util.h, interpolate_fresnel_color): the colour blended
+// toward white by FH = (F(c) - F(1)) / (1 - F(1)), F the dielectric Fresnel (eq. 22 form).
+double principled_metal_fresnel(double c, double color, double ior) {
+  const double f0 = F(1, ior), fh = (F(c, ior) - f0) / (1 - f0);
+  return color * (1 - fh) + fh;
 }
 
 }  // namespace walter
@@ -573,6 +586,41 @@ TEST(BsdfReference, RoughLobesMatchWalterFormulas) {
       EXPECT_GT(nonzero, 500);
     }
   }
+}
+
+TEST(BsdfReference, PrincipledMetalHasCyclesInterpolatedFresnel) {
+  // The metal of Cycles' Principled BSDF: rough lobes against eq. 20 with Cycles' Fresnel, for
+  // the IORs of Specular 0.5 (1.5), 0.1 (about 1.18) and 0 (1: the colour at every angle).
+  Rng rng(17, 0);
+  const RGB color(0.9f, 0.6f, 0.3f);
+  for (float ior : {1.5f, 1.18f, 1.0f})
+    for (float alpha : {0.1f, 0.4f}) {
+      SCOPED_TRACE(fmt::format("alpha {} ior {}", alpha, ior));
+      Material m = make(MaterialType::Conductor, alpha, color, ior);
+      m.conductor_fresnel = ConductorFresnel::Principled;
+      for (int k = 0; k < 2000; ++k) {
+        const Vec3 wo = random_direction(rng), wi = random_direction(rng);
+        const RGB f = Bsdf(m).eval(wo, wi);
+        for (int c = 0; c < 3; ++c) {
+          const double ref = walter::conductor_with(walter::to_d3(wi), walter::to_d3(wo), alpha, [&](double cos_h) {
+            return walter::principled_metal_fresnel(cos_h, color[c], ior);
+          });
+          ASSERT_LT(rel_diff(f[c], static_cast<float>(ref), 1e-5f), 1e-3f);
+        }
+      }
+      // The smooth metal's mirror weight: the colour at normal incidence, white at grazing.
+      m.roughness = 0;
+      for (float c : {1.0f, 0.5f, 0.1f, -0.5f}) {
+        const auto s = Bsdf(m).sample(wo_at(c), 0.3f, Vec2(0.2f, 0.8f));
+        ASSERT_TRUE(s.has_value());
+        const RGB weight = s->f * (abs_cos_theta(s->wi) / s->pdf);
+        for (int k = 0; k < 3; ++k)
+          EXPECT_NEAR(weight[k], walter::principled_metal_fresnel(std::abs(c), color[k], ior), 1e-5f);
+      }
+    }
+  // It is not Schlick's: at 60 degrees off the normal an IOR-1.5 metal of colour 0.3 reflects
+  // 0.3 (1 - FH) + FH with FH = 0.0512, Schlick 0.3 + 0.7 / 32 = 0.322.
+  EXPECT_NEAR(walter::principled_metal_fresnel(0.5, 0.3, 1.5), 0.3359, 2e-4);
 }
 
 // ---- Fresnel and smooth dielectric ----

@@ -1,10 +1,14 @@
 // What the integrator tests share: a scene of scenes/ at a test's size or from a JSON string, a
 // method run for a fixed number of passes and developed (the CLI's progressive loop without a
-// progress sink), the mean of an image, and the photon methods' parameters.
+// progress sink), the mean of an image (or of a quadrant), the photon methods' parameters, and
+// the textured-quad scene with its image files.
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <string>
+#include <vector>
 
 #include "core/film.h"
 #include "integrators/integrator.h"
@@ -62,6 +66,42 @@ inline Params photon_params(int64_t photons, uint64_t seed = 1, int threads = 0)
   p.set("seed", seed);
   p.set("threads", threads);
   return p;
+}
+
+// An 8-bit binary PPM (OpenImageIO reads it; 8-bit files default to sRGB), rows top first.
+inline std::string write_ppm(const std::string& name, int w, int h, const std::vector<uint8_t>& rgb_top_first) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "gradphoton_texture_test";
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  std::ofstream f(p, std::ios::binary);
+  f << "P6\n" << w << " " << h << "\n255\n";
+  f.write(reinterpret_cast<const char*>(rgb_top_first.data()), static_cast<std::streamsize>(rgb_top_first.size()));
+  return p.string();
+}
+
+// A unit quad (uv 0..1) facing +z seen from above, with material `mat`, under a constant white
+// environment: a diffuse surface there has radiance = its albedo.
+inline std::string furnace_scene(const std::string& material_json, const std::string& extra_objects = "") {
+  return R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 16, "height": 16},
+    "materials": {"m": )" + material_json + R"(},
+    "objects": [{"type": "mesh", "positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                 "indices": [[0, 1, 2], [0, 2, 3]], "uvs": [[0, 0], [1, 0], [1, 1], [0, 1]], "material": "m"})" +
+         extra_objects + R"(],
+    "environment": {"color": [1, 1, 1], "strength": 1}})";
+}
+
+inline RGB quadrant_mean(const Film& f, int qx, int qy) {
+  // Quadrant (qx, qy) of the image, qy = 0 at the top; a margin keeps clear of the texel edges.
+  double s[3] = {0, 0, 0};
+  int n = 0;
+  const int h = f.height() / 2, w = f.width() / 2;
+  for (int y = qy * h + 2; y < (qy + 1) * h - 2; ++y)
+    for (int x = qx * w + 2; x < (qx + 1) * w - 2; ++x, ++n) {
+      const RGB c = f.rgb(pass::kCombined, x, y);
+      for (int k = 0; k < 3; ++k) s[k] += c[k];
+    }
+  return RGB(float(s[0] / n), float(s[1] / n), float(s[2] / n));
 }
 
 }  // namespace gp

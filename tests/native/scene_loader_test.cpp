@@ -516,7 +516,7 @@ TEST(SceneLoader, MixMaterialsResolveTheirPartsInAnyOrderAndRejectCycles) {
   EXPECT_EQ(outer.mix_a->type, MaterialType::Mix);
   EXPECT_TRUE(outer.mix_a->mix_add);
   ASSERT_TRUE(outer.mix_a->mix_a && outer.mix_a->mix_b) << "the inner mix is resolved before it is copied";
-  EXPECT_FALSE(outer.mix_a->mix_b->conductor_fresnel);
+  EXPECT_EQ(outer.mix_a->mix_b->conductor_fresnel, ConductorFresnel::None);
   EXPECT_EQ(outer.mix_b->type, MaterialType::Plastic);
   EXPECT_TRUE(outer.mix_b->coat_albedo) << "plastics get their coat table when loaded";
   EXPECT_FLOAT_EQ(outer.mix_factor, 0.25f);

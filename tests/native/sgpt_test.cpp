@@ -500,7 +500,7 @@ TEST(Sgpt, ConnectableFollowsTheMaterialsLobes) {
   EXPECT_FALSE(connectable(mat(MaterialType::Dielectric, 0)));
   EXPECT_TRUE(connectable(mat(MaterialType::Dielectric, 0.3f)));
   EXPECT_FALSE(connectable(mat(MaterialType::Dielectric, 0.3f, 0.01f)));  // dispersive
-  // A mix: by its parts; without them (a monochromatic copy) it scatters as a diffuse surface.
+  // A mix: by its parts; without them (made by hand) it scatters as a diffuse surface.
   Material mix = mat(MaterialType::Mix, 0);
   EXPECT_TRUE(connectable(mix));
   mix.mix_a = std::make_shared<Material>(mat(MaterialType::Conductor, 0));

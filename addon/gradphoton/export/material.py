@@ -12,8 +12,9 @@ Principled BSDF, as layers of the core's materials:
   - Metallic m mixes it with a conductor of the base colour: mix(principled, metal, m), as
     Cycles' weights (diffuse 1 - m, its one specular closure linear in m);
   - Transmission t mixes that with glass: mix(..., glass, (1 - m) t).
-  Specular Tint is ignored (a counted warning); the metal's Fresnel is Schlick's of the base
-  colour (Cycles interpolates with the dielectric Fresnel: within 1 % in the tests).
+  Specular Tint is ignored (a counted warning); the metal's Fresnel is Cycles': the base colour
+  blended toward white by the dielectric Fresnel of the Specular IOR (the core's conductor with
+  "fresnel": "principled").
 
 Textures (export/texture.py): an Image Texture may drive Base Color / Color, Roughness,
 Metallic (the mix factor of the metal layer), Alpha (coverage: a stochastic cut-out), a Mix
@@ -254,7 +255,9 @@ class MaterialExporter:
         tint = node.inputs.get("Specular Tint")
         if tint is not None and (tint.is_linked or tint.default_value > 0):
             self.w.add("Principled BSDF Specular Tint ignored", f"'{mat.name}'")
-        metal = {"type": "conductor", "color": base, "roughness": alpha}
+        # Cycles' one specular closure of the metal: cspec0 = base colour, interpolated toward white
+        # by the dielectric Fresnel of the same Specular-derived IOR (bsdf_util.h).
+        metal = {"type": "conductor", "color": base, "roughness": alpha, "fresnel": "principled", "ior": d["ior"]}
         if isinstance(metallic, dict):  # a metallic map: the metal layer's weight per point
             d = {"type": "mix", "a": self._part(d, mat, node, "plastic"), "b": self._part(metal, mat, node, "metal"),
                  "factor": metallic}

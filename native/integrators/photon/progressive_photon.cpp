@@ -208,7 +208,9 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
         m += weight;
-        const RGB contrib = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power * weight;  // eq. 5.11 / 7.4
+        const float shading = gather_shading_correction(ph.wi, vp.n_smooth, vp.frame.n);  // a map's bent cosine, as pt
+        const RGB contrib = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power *
+                            (weight * shading);  // eq. 5.11 / 7.4
         phi += contrib;
         lap += contrib.luminance() * error_kernel::laplacian(d2, R);  // §6.4, eq. 6.31 (2nd order)
       });

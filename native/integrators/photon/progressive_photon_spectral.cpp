@@ -1,8 +1,8 @@
 // Spectral photons for SPPM (sppm.h "Spectral photons", docs/spectral.md): one set of sampled
 // wavelengths per pass (hero + C - 1 rotations), shared by the pass's eye paths and photons;
 // eye throughput and photon power are values at those wavelengths, the BSDFs are evaluated per
-// wavelength on monochromatic() material copies (Cauchy IOR, grey colour from the upsampled
-// spectrum) as in spectral_pt.cpp, and each pixel's gathered flux is converted to RGB before it
+// wavelength on monochromatic() parameters (Cauchy IOR, grey colour from the upsampled
+// spectrum, textures looked up per point) as in spectral_pt.cpp, and each pixel's gathered flux is converted to RGB before it
 // enters the RGB statistics (eq. 7.4-7.5 unchanged).
 //
 // Every direction is sampled with the hero wavelength and every wavelength divides by the hero's
@@ -13,6 +13,7 @@
 // factor C once: the eye half carries it in its throughput, the photon half in a flag.
 #include <atomic>
 #include <cmath>
+#include <optional>
 
 #include "core/parallel.h"
 #include "core/sampling.h"
@@ -34,7 +35,7 @@ float grey_factor(const RGB& value, const RGB& emit) {
 
 // Per-wavelength factor f_k |cos| / pdf_hero of a hero-sampled BSDF direction. Returns false when
 // every wavelength is dead; sets hero_only on a smooth dispersive refraction.
-bool scatter_factors(const Material& base, const BsdfParams* mk, int C,
+bool scatter_factors(const Material& base, const BsdfParams* mk, Vec2 uv, int C,
                      const Vec3& wo, const BsdfSample& bs, float uc, Vec2 u, TransportMode mode,
                      SpectralValues& factor, bool& hero_only) {
   const bool dispersive = is_dispersive(base);
@@ -42,7 +43,7 @@ bool scatter_factors(const Material& base, const BsdfParams* mk, int C,
   factor[0] = bs.f[0] * cos_pdf;
   bool refracted = false;
   for (int k = 1; k < C; ++k) {
-    const Bsdf b(mk[k]);
+    const Bsdf b(mk[k], uv);
     float f = 0;
     if (!dispersive || !bs.delta) {
       if (bs.delta) {  // same lobe and direction for every wavelength; only the colour differs
@@ -139,7 +140,8 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               if (bsdf.is_black()) break;
               const Vec3 wo = hit->frame.to_local(-ray.d);
               if (wo.z == 0) break;
-              const BsdfParams* mk = pass_spectra_.material(hit->material);
+              WavelengthParams local;
+              const BsdfParams* mk = pass_spectra_.material(hit->material, hit->uv, local);
               if (bsdf.is_diffuse_for_photons(threshold_)) {
                 if (nee_ && !lights.empty()) {
                   const float u_light = rng.uniform();
@@ -151,7 +153,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                     SpectralValues f{};
                     bool any = false;
                     for (int k = 0; k < C; ++k) {
-                      f[k] = Bsdf(mk[k]).eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);
+                      f[k] = Bsdf(mk[k], hit->uv).eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);
                       any |= f[k] > 0;
                     }
                     if (any) {
@@ -170,14 +172,17 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                 vp.beta = RGB(1.0f);  // unused: the spectral throughput is vp_beta_
                 vp.material = hit->material;
                 vp.uv = hit->uv;
+                vp.ng = hit->ng;
+                vp.n_smooth = hit->n_smooth;
                 break;
               }
               const float uc = rng.uniform();
               const Vec2 u(rng.uniform(), rng.uniform());
-              const auto bs = Bsdf(mk[0]).sample(wo, uc, u);
+              const auto bs = Bsdf(mk[0], hit->uv).sample(wo, uc, u);
               if (!bs || bs->pdf <= 0) break;
               SpectralValues factor{};
-              if (!scatter_factors(base, mk, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only)) break;
+              if (!scatter_factors(base, mk, hit->uv, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only))
+                break;
               for (int k = 0; k < C; ++k) beta[k] *= factor[k];
               const Vec3 wi = hit->frame.to_world(bs->wi);
               Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
@@ -289,10 +294,11 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             const Vec3 wo_world = -ray.d;
             const Vec3 wo = hit->frame.to_local(wo_world);
             if (wo.z == 0) break;
-            const BsdfParams* mk = pass_spectra_.material(hit->material);
+            WavelengthParams local;
+            const BsdfParams* mk = pass_spectra_.material(hit->material, hit->uv, local);
             const float uc = rng.uniform();
             const Vec2 u(rng.uniform(), rng.uniform());
-            const auto bs = Bsdf(mk[0]).sample(wo, uc, u, TransportMode::Importance);
+            const auto bs = Bsdf(mk[0], hit->uv).sample(wo, uc, u, TransportMode::Importance);
             if (!bs || bs->pdf <= 0) break;
             const Vec3 wi_world = hit->frame.to_world(bs->wi);
             const float correction = adjoint_shading_correction(wo_world, wi_world, hit->ng, hit->ns);
@@ -301,15 +307,16 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             // hero-only factor from scatter_factors is undone here.
             const bool was_hero_only = hero_only;
             SpectralValues factor{};
-            if (!scatter_factors(base, mk, C, wo, *bs, uc, u, TransportMode::Importance, factor, hero_only)) break;
+            if (!scatter_factors(base, mk, hit->uv, C, wo, *bs, uc, u, TransportMode::Importance, factor, hero_only))
+              break;
             if (hero_only && !was_hero_only) factor[0] /= static_cast<float>(C);
             if (!base.is_pass_through() && arrive != kAllLobes) {  // only the lobes of the segment's kinds
               if (!(bs->lobe & arrive)) break;
               if (!bs->delta) {  // f_V / p_V per wavelength, p_V the hero's restricted density
-                const float pdf_v = Bsdf(mk[0]).pdf(wo, bs->wi, arrive);
+                const float pdf_v = Bsdf(mk[0], hit->uv).pdf(wo, bs->wi, arrive);
                 if (!(pdf_v > 0)) break;
                 for (int k = 0; k < C; ++k)
-                  factor[k] = Bsdf(mk[k]).eval(wo, bs->wi, TransportMode::Importance, arrive)[0] * std::abs(bs->wi.z) / pdf_v;
+                  factor[k] = Bsdf(mk[k], hit->uv).eval(wo, bs->wi, TransportMode::Importance, arrive)[0] * std::abs(bs->wi.z) / pdf_v;
               }
             }
             float m_old = 0, m_new = 0;
@@ -372,7 +379,15 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
       gather_phi_[i] = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0 || !(px_[i].r2 > 0)) continue;
-      const BsdfParams* mk = pass_spectra_.material(vp.material);
+      WavelengthParams local;
+      const BsdfParams* mk = pass_spectra_.material(vp.material, vp.uv, local);
+      // The point's BSDFs, with the normals a normal or bump map needs (as Scene::bsdf).
+      std::array<std::optional<Bsdf>, kMaxWavelengths> bk;
+      const bool mapped = scene_.material(vp.material).perturbs_normal();
+      for (int k = 0; k < C; ++k) {
+        bk[k].emplace(mk[k], vp.uv);
+        if (mapped) bk[k]->set_surface_normals(vp.frame.to_local(vp.ng), vp.frame.to_local(vp.n_smooth));
+      }
       const SpectralValues& beta = vp_beta_[i];
       const bool eye_hero = vp_hero_[i] != 0;
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
@@ -384,8 +399,9 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
         m += weight;
         const SpectralValues& power = photon_power_[ph.index];
         SpectralValues c{};
+        const float w = weight * gather_shading_correction(ph.wi, vp.n_smooth, vp.frame.n);  // as the RGB gather
         for (int k = 0; k < C; ++k)
-          c[k] = beta[k] * Bsdf(mk[k]).eval(vp.wo, wi, TransportMode::Radiance, ph.lobes)[0] * power[k] * weight;
+          c[k] = beta[k] * bk[k]->eval(vp.wo, wi, TransportMode::Radiance, ph.lobes)[0] * power[k] * w;
         if (photon_hero_[ph.index] && !eye_hero) c[0] *= static_cast<float>(C);  // C once per full path
         const RGB contrib = spectral_to_rgb(c);  // eq. 7.4 at this pass's wavelengths, as RGB
         phi += contrib;

@@ -49,11 +49,12 @@ struct BasePath {
 
 // BSDF value (times |cos wi|) and sampling pdf of the pair (wo, wi) for material m, where `delta`
 // says the base sampled a Dirac lobe: then f and pdf are the lobe's Dirac weight and selection
-// probability, which only a dielectric or a smooth mirror has.
+// probability (a dielectric's, a smooth mirror's, or a Dirac lobe of a mix's part).
 struct Scatter {
   float f_cos = 0, pdf = 0;
 };
-Scatter delta_scatter(const BsdfParams& m, const Vec3& wo, const Vec3& wi, bool transmission, float uc, Vec2 u) {
+Scatter delta_scatter(const BsdfParams& m, Vec2 uv, const Vec3& wo, const Vec3& wi, bool transmission, float uc,
+                      Vec2 u) {
   Scatter s;
   if (m.type == MaterialType::Dielectric) {
     const float R = fresnel_dielectric(cos_theta(wo), m.ior);
@@ -67,15 +68,17 @@ Scatter delta_scatter(const BsdfParams& m, const Vec3& wo, const Vec3& wi, bool 
     }
     return s;
   }
-  // Smooth conductor: a single lobe; sample it with the base's numbers.
-  if (auto bs = Bsdf(m).sample(wo, uc, u); bs && !bs->transmission) {
+  // A smooth conductor, or a mix: the lobe the base's numbers pick, if it goes the same way (a
+  // mix's dispersive glass sends other wavelengths elsewhere).
+  if (auto bs = Bsdf(m, uv).sample(wo, uc, u);
+      bs && bs->delta && bs->transmission == transmission && dot(bs->wi, wi) > 1.0f - 1e-5f) {
     s.f_cos = bs->f[0] * std::abs(bs->wi.z);
     s.pdf = bs->pdf;
   }
   return s;
 }
-Scatter smooth_scatter(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
-  const Bsdf b(m);
+Scatter smooth_scatter(const BsdfParams& m, Vec2 uv, const Vec3& wo, const Vec3& wi) {
+  const Bsdf b(m, uv);
   return {b.eval(wo, wi)[0] * std::abs(wi.z), b.pdf(wo, wi)};
 }
 
@@ -94,8 +97,7 @@ bool connectable(const Material& m) {
     case MaterialType::Conductor: return m.roughness >= kDefaultSpecularThreshold;
     case MaterialType::Dielectric: return !is_dispersive(m) && m.roughness >= kDefaultSpecularThreshold;
     case MaterialType::Mix:
-      // The spectral methods render a mix as a diffuse surface of its colour (monochromatic());
-      // by its parts' lobes otherwise.
+      // By its parts' lobes (a mix made by hand, without parts, is diffuse: Bsdf::kind).
       return !m.mix_a || !m.mix_b || connectable(*m.mix_a) || connectable(*m.mix_b);
   }
   return false;
@@ -182,10 +184,10 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     if (depth + 1 >= max_depth_) break;
     const Material& mat = scene_.material(hit->material);
     if (scene_.bsdf(*hit).is_black() || bv.wo.z == 0) break;
-    const BsdfParams m = monochromatic(mat, spectra_.albedo[hit->material], lambda);
+    const BsdfParams m = monochromatic(mat, spectra_.albedo[hit->material], hit->uv, lambda);
     BaseVertex& v = base.v.back();
     // ---- Emitter sampling (next-event estimation), shared by the offsets ----
-    if (!Bsdf(m).is_delta() && !lights.empty()) {
+    if (!Bsdf(m, hit->uv).is_delta() && !lights.empty()) {
       v.nee_eligible = true;
       v.u_light = rng.uniform();
       v.u_light2 = Vec2(rng.uniform(), rng.uniform());
@@ -199,7 +201,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     // ---- BSDF sampling ----
     v.uc = rng.uniform();
     v.u = Vec2(rng.uniform(), rng.uniform());
-    const auto bs = Bsdf(m).sample(v.wo, v.uc, v.u);
+    const auto bs = Bsdf(m, hit->uv).sample(v.wo, v.uc, v.u);
     if (!bs || bs->pdf <= 0 || bs->f[0] <= 0) break;
     v.scattered = true;
     v.wi = bs->wi;
@@ -214,7 +216,8 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     ray.bounce = v.kind;
     ray.camera = camera;
-    const Scatter s = v.delta ? delta_scatter(m, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(m, v.wo, v.wi);
+    const Scatter s = v.delta ? delta_scatter(m, hit->uv, v.wo, v.wi, v.transmission, v.uc, v.u)
+                              : smooth_scatter(m, hit->uv, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;
     v.rr = survival(depth, beta);
     if (v.rr < 1.0f && rng.uniform() >= v.rr) {
@@ -243,12 +246,12 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
   // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l. The direction was
   // chosen for the hero (or the offset's hero): a smooth dispersive refraction has no density
   // for any other wavelength.
-  auto scatter_at = [&](int material, float l, const Vec3& wo, const Vec3& wi, bool delta,
+  auto scatter_at = [&](const SurfaceHit& h, float l, const Vec3& wo, const Vec3& wi, bool delta,
                         bool transmission, float uc, Vec2 u, bool hero) -> Scatter {
-    const Material& mat = scene_.material(material);
+    const Material& mat = scene_.material(h.material);
     if (!hero && delta && transmission && is_dispersive(mat)) return {};
-    const BsdfParams m = monochromatic(mat, spectra_.albedo[material], l);
-    return delta ? delta_scatter(m, wo, wi, transmission, uc, u) : smooth_scatter(m, wo, wi);
+    const BsdfParams m = monochromatic(mat, spectra_.albedo[h.material], h.uv, l);
+    return delta ? delta_scatter(m, h.uv, wo, wi, transmission, uc, u) : smooth_scatter(m, h.uv, wo, wi);
   };
 
   // ---- Base events: emission found at vertex k (BSDF strategy) and NEE at vertex k ----
@@ -281,7 +284,10 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       const SurfaceHit* h = is_escape ? nullptr : &base.v[k].hit;
       Event& e = hit_ev[k];
       e.valid = true;
-      const float pl = (k > 0 && base.v[k - 1].nee_eligible) ? light_pdf(base.v[k - 1].hit.p, h, dir) : 0.0f;
+      // NEE competes for this emission unless a Dirac lobe of the previous vertex found it (a
+      // mix's smooth part beside a rough one: NEE-eligible, yet no density to compare).
+      const bool nee_competes = k > 0 && base.v[k - 1].nee_eligible && !base.v[k - 1].delta;
+      const float pl = nee_competes ? light_pdf(base.v[k - 1].hit.p, h, dir) : 0.0f;
       for (int j = 0; j < C; ++j) {
         e.f[j] = F[j] * emitted(h, dir, wl.lambda[j], k);
         e.p_bsdf[j] = P[j];
@@ -296,14 +302,14 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         const Light& light = lights.lights()[v.ls.light];
         const float scale = light_scale(v.ls, light);
         for (int j = 0; j < C; ++j) {
-          const Scatter s = scatter_at(v.hit.material, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
+          const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
           n.f[j] = v.nee_visible ? F[j] * s.f_cos * scale * spectra_.light[v.ls.light](wl.lambda[j]) : 0.0f;
           n.p_light[j] = P[j] * v.ls.pdf;
           n.p_bsdf[j] = v.ls.delta ? 0.0f : P[j] * s.pdf;
         }
         // The BSDF strategy's density includes the roulette it would have applied there.
         if (!v.ls.delta) {
-          const Scatter s0 = scatter_at(v.hit.material, wl.lambda[0], v.wo, wi, false, false, 0, {}, true);
+          const Scatter s0 = scatter_at(v.hit, wl.lambda[0], v.wo, wi, false, false, 0, {}, true);
           const float rr = s0.pdf > 0 ? survival(k, beta_k * s0.f_cos / s0.pdf) : 1.0f;
           for (int j = 0; j < C; ++j) n.p_bsdf[j] *= rr;
         }
@@ -312,7 +318,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       P_prev = P;
       float f0 = 0, p0 = 0;
       for (int j = 0; j < C; ++j) {
-        const Scatter s = scatter_at(v.hit.material, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
+        const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
         F[j] *= s.f_cos;
         P[j] *= s.pdf * v.rr;
         if (j == 0) f0 = s.f_cos, p0 = s.pdf;
@@ -439,8 +445,8 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       const BaseVertex& x = base.v[k];
       const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
       const Material& mat_y = scene_.material(yh.material);
-      const BsdfParams my = monochromatic(mat_y, spectra_.albedo[yh.material], lambda2[0]);
-      const bool y_nee = x.nee_eligible && !Bsdf(my).is_delta() && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
+      const BsdfParams my = monochromatic(mat_y, spectra_.albedo[yh.material], yh.uv, lambda2[0]);
+      const bool y_nee = x.nee_eligible && !Bsdf(my, yh.uv).is_delta() && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
 
       // ---- NEE of the offset: the same light sample (point on an area light, direction of
       // a distant one), reconnected from y_k; Jacobian as a reconnection (KMA15 §5.2) ----
@@ -469,7 +475,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
             const float scale = light_scale(*ls, lights.lights()[ls->light]);
             Scatter s0{};
             for (int j = 0; j < C; ++j) {
-              const Scatter s = scatter_at(yh.material, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
+              const Scatter s = scatter_at(yh, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
               if (j == 0) s0 = s;
               fy[j] = F2[j] * s.f_cos * scale * spectra_.light[ls->light](lambda2[j]);
               pl[j] = P2[j] * ls->pdf;
@@ -485,7 +491,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
 
       // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry) ----
       const Material& mat_x = scene_.material(x.hit.material);
-      const BsdfParams mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], lambda);
+      const BsdfParams mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], x.hit.uv, lambda);
       Vec3 wi_y;  // local at the offset vertex
       bool ok = true, diverge_now = false, reconnect_now = false;
       bool delta_y = x.delta;  // the lobe the offset follows: the base's
@@ -529,7 +535,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           }
         } else {
           // ---- Half-vector copy at the offset's own vertex ----
-          if (Bsdf(my).is_delta() != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
+          if (Bsdf(my, yh.uv).is_delta() != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
             fail(ShiftFailure::NotInvertible);  // the vertex kinds differ
           } else {
             const Etas e = etas_of(mx, x.wo, x.transmission), e2 = etas_of(my, wo_y, x.transmission);
@@ -548,7 +554,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       std::array<Scatter, kMaxWavelengths> s2{};
       if (ok)
         for (int j = 0; j < C; ++j)
-          s2[j] = scatter_at(yh.material, lambda2[j], wo_y, wi_y, delta_y, x.transmission && !reconnect_now,
+          s2[j] = scatter_at(yh, lambda2[j], wo_y, wi_y, delta_y, x.transmission && !reconnect_now,
                              x.uc, x.u, j == 0);
       if (!ok || s2[0].pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
         if (ok) counts.fail(ShiftFailure::NotInvertible);  // no density for the base's lobe
@@ -565,7 +571,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         P2[j] *= s2[j].pdf * rr2;
       }
       y_prev_p = yh.p;
-      y_prev_nee = y_nee;
+      y_prev_nee = y_nee && !delta_y;  // as nee_competes above
       if (state == State::Reconnected) state = State::Same;
       // ---- Next offset vertex ----
       if (reconnect_now) {

@@ -44,26 +44,33 @@ SceneSpectra::SceneSpectra(const Scene& scene) {
   }
 }
 
-BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda) {
-  BsdfParams out;
-  out.type = m.type;
-  out.color = RGB(albedo(lambda));
-  out.roughness = m.roughness;
-  out.conductor_fresnel = m.conductor_fresnel;  // a Glossy BSDF has none
-  out.coat_albedo = m.coat_albedo.get();        // a plastic's coupling table
-  out.ior = is_dispersive(m) ? cauchy_ior(m.ior, m.cauchy_b, lambda) : m.ior;
-  return out;
+BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, Vec2 uv, float lambda) {
+  return SpectralSurface(m, uv, &albedo).at(lambda);
 }
 
 void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spectra, const SampledWavelengths& wl) {
   count_ = wl.count;
+  scene_ = &scene;
+  spectra_ = &spectra;
+  wl_ = wl;
   bsdf_.resize(scene.materials.size() * count_);
-  for (size_t m = 0; m < scene.materials.size(); ++m)
-    for (int k = 0; k < count_; ++k)
-      bsdf_[m * count_ + k] = monochromatic(scene.materials[m], spectra.albedo[m], wl.lambda[k]);
+  per_point_.resize(scene.materials.size());
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    per_point_[m] = scene.materials[m].has_bsdf_textures();
+    if (per_point_[m]) continue;  // made per point (material())
+    const SpectralSurface surface(scene.materials[m], Vec2(), &spectra.albedo[m]);
+    for (int k = 0; k < count_; ++k) bsdf_[m * count_ + k] = surface.at(wl.lambda[k]);
+  }
   light_.resize(spectra.light.size() * count_);
   for (size_t l = 0; l < spectra.light.size(); ++l)
     for (int k = 0; k < count_; ++k) light_[l * count_ + k] = spectra.light[l](wl.lambda[k]);
+}
+
+const BsdfParams* SpectraAtWavelengths::at_point(int m, Vec2 uv, WavelengthParams& local) const {
+  const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], uv, &spectra_->albedo[static_cast<size_t>(m)]);
+  local.emplace();
+  for (int k = 0; k < count_; ++k) (*local)[k] = surface.at(wl_.lambda[k]);
+  return local->data();
 }
 
 SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params, bool hero)
@@ -223,9 +230,10 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     if (depth + 1 >= max_depth_) break;
 
     const bool dispersive = is_dispersive(base);
+    const SpectralSurface surface(base, hit->uv, &spectra_.albedo[hit->material]);  // textures read once
     for (int k = 0; k < C; ++k) {
-      mk[k] = monochromatic(base, spectra_.albedo[hit->material], wl.lambda[k]);
-      bk[k].emplace(mk[k]);
+      mk[k] = surface.at(wl.lambda[k]);
+      bk[k].emplace(mk[k], hit->uv);
       if (base.perturbs_normal())  // the bump shadowing term and side test, as Scene::bsdf
         bk[k]->set_surface_normals(hit->frame.to_local(hit->ng), hit->frame.to_local(hit->n_smooth));
     }

@@ -21,6 +21,7 @@
 // Passes: combined (RGB through CIE XYZ).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,14 +31,10 @@
 #include "integrators/pixel_estimate.h"
 #include "materials/bsdf.h"
 #include "materials/material.h"
+#include "materials/spectral_material.h"
 
 namespace gp {
 
-// True when the material's scattering depends on the wavelength through its IOR (a dielectric
-// with a non-zero Cauchy B).
-inline bool is_dispersive(const Material& m) {
-  return m.type == MaterialType::Dielectric && m.cauchy_b != 0.0f;
-}
 // Name of the first dispersive material of the scene, or "" when there is none.
 std::string first_dispersive_material(const Scene& scene);
 
@@ -55,28 +52,41 @@ struct SceneSpectra {
   std::vector<RgbSpectrum> light;   // Light::emit as an illuminant
 };
 
-// The material seen by one wavelength, as BSDF parameters: Cauchy IOR at lambda and a grey
-// colour equal to the upsampled colour spectrum there, so the RGB Bsdf evaluates it unchanged.
-// Type, roughness and IOR are the material's; its textures, mix components, plastic coat table
-// and conductor Fresnel switch are not carried (the parameters' defaults), so a mix scatters as
-// a diffuse surface of its own colour (Bsdf::kind).
-BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, float lambda);
+// The material seen by one wavelength at texture coordinate uv, as BSDF parameters
+// (materials/spectral_material.h): a grey colour, the colour's spectrum at lambda (`albedo`,
+// the constant colour's, or the texel's upsampled), a Cauchy IOR at lambda; textures, mix
+// components and the rest as the RGB Bsdf has them.
+BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, Vec2 uv, float lambda);
+
+// Parameters of one material at each wavelength of a set, made only where needed (an array of
+// eight BsdfParams is worth not initialising per vertex).
+using WavelengthParams = std::optional<std::array<BsdfParams, kMaxWavelengths>>;
 
 // The scene's materials (monochromatic() per wavelength) and light spectra at one set of
 // wavelengths, evaluated once for the set. SPPM shares one set per pass between all its eye
-// paths, photons and gathers, so nothing spectral is evaluated per vertex.
+// paths, photons and gathers, so nothing spectral is evaluated per vertex, except for materials
+// an image texture drives, which are looked up per point.
 class SpectraAtWavelengths {
  public:
   void evaluate(const Scene& scene, const SceneSpectra& spectra, const SampledWavelengths& wl);
-  // The parameters of material m at each wavelength of the set (count of them).
-  const BsdfParams* material(int m) const { return &bsdf_[static_cast<size_t>(m) * count_]; }
+  // The parameters of material m at uv at each wavelength of the set (count of them): the
+  // shared ones, or for a textured material those at uv, made in `local`.
+  const BsdfParams* material(int m, Vec2 uv, WavelengthParams& local) const {
+    if (!per_point_[static_cast<size_t>(m)]) return &bsdf_[static_cast<size_t>(m) * count_];
+    return at_point(m, uv, local);
+  }
   // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
   const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
 
  private:
   int count_ = 0;
+  const Scene* scene_ = nullptr;
+  const SceneSpectra* spectra_ = nullptr;
+  SampledWavelengths wl_;
   std::vector<BsdfParams> bsdf_;
+  std::vector<uint8_t> per_point_;  // the material has textures: parameters per point
   std::vector<float> light_;
+  const BsdfParams* at_point(int m, Vec2 uv, WavelengthParams& local) const;
 };
 
 // Spectral radiance of a light sample over its light's spectrum: lights scale their RGB
