@@ -25,9 +25,9 @@ namespace error_kernel {
 inline constexpr double kK1 = 2.0 * 3.14159265358979323846 / 7.0;  // integral of K over the unit disk
 // Disc-kernel bias constant: B' = kBiasDisc * R^2 * Lap L.
 inline constexpr double kBiasDisc = 1.0 / 8.0;
-// error_bound = calibrated: B' counts where |B'| > kBiasSignificance x its standard error (about
-// 95 % significance; see ProgressivePhotonMapping::error_terms).
-inline constexpr double kBiasSignificance = 2.0;
+// error_bound = calibrated: B' counts where it is significant, a two-sided test at this false-alarm
+// rate (see ProgressivePhotonMapping::error_terms and bias_significance_cut).
+inline constexpr double kBiasFalseAlarm = 0.05;
 inline double K(double t) { return t >= 1 ? 0.0 : 1 - t * t * t * (10 - 15 * t + 6 * t * t); }  // eq. 6.34
 inline double dK(double t) { return t >= 1 ? 0.0 : -30 * t * t * (t - 1) * (t - 1); }
 inline double d2K(double t) { return t >= 1 ? 0.0 : -60 * t * (2 * t * t - 3 * t + 1); }
@@ -44,6 +44,17 @@ inline double laplacian(double d2, double R) {
 // (Cornish-Fisher expansion about the normal quantile; exact for 1 and 2 dof).
 double student_t_quantile(double dof, double p);
 double normal_quantile(double p);
+
+// Cut-off of the test "B' is not 0": |B'| / sd(B') above it in a share kBiasFalseAlarm of the
+// pixels of a bias-free scene. sd(B') comes from the n per-pass Laplacians, a sample sd with
+// n - 1 degrees of freedom, so the ratio is Student's t with n - 1 dof and the cut-off its
+// two-sided quantile (12.7 at 2 passes, 2.57 at 6, 1.96 in the limit). A fixed normal cut of 2
+// passed 10 % of a bias-free scene's pixels at 6 passes (12 % measured on cornell-box), and a
+// false B' enters the estimated error as a bias that is not there (docs/error-calibration.md).
+// INFINITY below 2 passes: B' is never significant from one Laplacian.
+inline double bias_significance_cut(uint32_t n_laplacians) {
+  return n_laplacians < 2 ? INFINITY : student_t_quantile(n_laplacians - 1.0, 1 - error_kernel::kBiasFalseAlarm / 2);
+}
 
 // Running per-measurement-point statistics for eq. 6.22 (bias-corrected samples x_j).
 struct ErrorStats {

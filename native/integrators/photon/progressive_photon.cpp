@@ -342,11 +342,14 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_
   // below that noise. Added to every bound (eq. 6.12), or shrunk by its own signal-to-noise ratio
   // (kept where |B'| > sd, a third of the pixels of a bias-free scene), it widened the bound at
   // random: 61-65 % coverage at 50 % there, 59-60 % on cornell-box. So B' counts where it is
-  // significant, |B'| > kBiasSignificance sd (5 % of a bias-free scene's pixels), and then whole,
-  // with its uncertainty: |L_i - L| ~ |B' + sigma T|, sigma^2 = Var L_i + sd^2, and the bound is
-  // its quantile at the confidence, the t correction taken at m = 0 (exact there).
+  // significant, |B'| > t sd with t Student's two-sided quantile (bias_significance_cut: 5 % of a
+  // bias-free scene's pixels at any pass count), and then whole, with its uncertainty: |L_i - L| ~
+  // |B' + sigma T|, sigma^2 = Var L_i + sd^2, and the bound is its quantile at the confidence, the
+  // t correction taken at m = 0 (exact there).
   const double sd2 = e.bias_sd * e.bias_sd;
-  const double w = e.bias * e.bias > error_kernel::kBiasSignificance * error_kernel::kBiasSignificance * sd2 ? 1.0 : 0.0;
+  const uint32_t n_lap = s.lap_err.n;
+  const double cut = n_lap < bias_cut_.size() ? bias_cut_[n_lap] : bias_significance_cut(n_lap);
+  const double w = e.bias * e.bias > cut * cut * sd2 ? 1.0 : 0.0;
   e.bias *= w;
   const double sigma = std::sqrt(e.noise_sd * e.noise_sd + w * sd2);
   e.sigma = sigma;
@@ -365,6 +368,9 @@ void ProgressivePhotonMapping::update_error_estimate() {
   const double p = 0.5 * (1.0 + confidence_);
   t_quantile_ = dof >= 1 ? student_t_quantile(dof, p) : INFINITY;
   t_over_z_ = t_quantile_ / normal_quantile(p);
+  // B''s significance cut-off for every count of per-pass Laplacians so far (one quantile per pass).
+  while (bias_cut_.size() <= static_cast<size_t>(stats_.passes))
+    bias_cut_.push_back(bias_significance_cut(static_cast<uint32_t>(bias_cut_.size())));
   double sum = 0;
   size_t count = 0;
   for (size_t k = 0; k < px_.size(); ++k) {

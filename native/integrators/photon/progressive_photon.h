@@ -235,6 +235,7 @@ class ProgressivePhotonMapping : public Integrator {
   bool thesis_bound_ = false;
   FoldedNormalQuantile folded_;
   double t_over_z_ = 1;               // t(dof, 1 - beta/2) / z(1 - beta/2)
+  std::vector<double> bias_cut_;       // bias_significance_cut(n) for n = 0 .. passes
   std::vector<float> error_;           // per-pixel relative bound (eq. 6.13)
   int64_t emitted_total_ = 0;
 };
