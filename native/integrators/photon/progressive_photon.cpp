@@ -48,7 +48,6 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   first_r_.assign(n, 0.0f);
   gather_m_.assign(n, 0.0f);
   gather_lap_.assign(n, 0.0f);
-  gather_foreign_.assign(n, 0.0f);
   gather_phi_.assign(n, RGB(0.0f));
   error_.assign(n, 0.0f);
   if (options.spectral_photons && !adaptive_ &&
@@ -199,14 +198,12 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       gather_m_[i] = 0;
       gather_lap_[i] = 0;
       gather_phi_[i] = RGB(0.0f);
-      gather_foreign_[i] = 0;
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
       const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);  // as Scene::bsdf(hit)
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
-      double m = 0, lap = 0, foreign = 0;
+      double m = 0, lap = 0;
       RGB phi(0.0f);
-      const float off_plane = kOffPlane * R;
       grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
@@ -214,11 +211,9 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         const RGB contrib = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power * weight;  // eq. 5.11 / 7.4
         phi += contrib;
         lap += contrib.luminance() * error_kernel::laplacian(d2, R);  // §6.4, eq. 6.31 (2nd order)
-        if (std::abs(dot(ph.p - vp.p, vp.ng)) > off_plane) foreign += contrib.luminance();  // another surface's photon
       });
       gather_m_[i] = static_cast<float>(m);
       gather_lap_[i] = static_cast<float>(lap);
-      gather_foreign_[i] = static_cast<float>(foreign);
       gather_phi_[i] = phi;
     }
   });
@@ -229,9 +224,9 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const auto t_update = clock_type::now();
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
-  std::atomic<int64_t> invalid_phi{0}, cut_rays{0};
+  std::atomic<int64_t> invalid_phi{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    int64_t bad = 0, probe_rays = 0;
+    int64_t bad = 0;
     for (size_t i = lo; i < hi; ++i) {
       PixelState& s = px_[i];
       RGB phi = gather_phi_[i];
@@ -252,19 +247,10 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       s.lap = (s.lap + lap_j) * u.ratio;  // thesis eq. 6.32: derivatives scale like the flux
       s.n = u.n_new;
       s.r2 = u.r2_new;
-      double cut = 0;
-      if (vp_[i].material >= 0 && r2_query > 0 && !thesis_bound_ && !spectral_) {
-        Rng rng = Rng::for_key(seed_, pass, i);
-        cut = disc_cut_fraction(vp_[i], std::sqrt(r2_query), rng, probe_rays);
-      }
-      const double foreign = std::isfinite(gather_foreign_[i]) ? gather_foreign_[i] : 0.0;
-      record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, vp_[i].material >= 0 ? r2_query : 0.0, ne_pass, cut,
-                          foreign);
+      record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, vp_[i].material >= 0 ? r2_query : 0.0, ne_pass);
     }
     invalid_phi += bad;
-    cut_rays += probe_rays;
   });
-  rays += cut_rays;
   stats_.passes += 1;
   update_error_estimate();
   stats_.extra["update seconds"] += seconds_since(t_update);
@@ -292,28 +278,8 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   stats_.seconds += seconds_since(start);
 }
 
-double ProgressivePhotonMapping::disc_cut_fraction(const VisiblePoint& vp, double R, Rng& rng, int64_t& rays) const {
-  // The disc lies in the plane of the geometric normal, on the side the point is seen from.
-  const Frame geo(dot(vp.ng, vp.frame.n) < 0 ? -vp.ng : vp.ng);
-  // Lifted off the surface by a small share of R; the downward probe reaches a quarter of R below
-  // the plane, which keeps a surface curved with a radius above 2 R at the rim (R^2 / 2 rho).
-  const float lift = static_cast<float>(0.02 * R), reach = static_cast<float>(kOffPlane * R);
-  const Vec3 above = vp.p + geo.n * lift;
-  int missing = 0;
-  for (int k = 0; k < kCutProbes; ++k) {
-    const double phi = 2 * M_PI * (k + rng.uniform()) / kCutProbes, rho = R * std::sqrt(rng.uniform());
-    const Vec3 offset = geo.s * static_cast<float>(rho * std::cos(phi)) + geo.t * static_cast<float>(rho * std::sin(phi));
-    const float len = length(offset);
-    ++rays;
-    if (len > 0 && scene_.occluded(Ray(above, offset / len, 0.0f, len))) { ++missing; continue; }
-    ++rays;
-    if (!scene_.intersect_point(Ray(above + offset, -geo.n, 0.0f, lift + reach))) ++missing;
-  }
-  return static_cast<double>(missing) / kCutProbes;
-}
-
 void ProgressivePhotonMapping::record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query,
-                                                   double ne_pass, double cut, double foreign) const {
+                                                   double ne_pass) const {
   const double ne_total = static_cast<double>(emitted_total_);
   const double scale = photon_scale();  // V_c (eq. 8.11) or 1
   // Bias-corrected sample of this pass, x_j = L_p,j - B'_j (eq. 6.22): the pass's own estimate
@@ -327,17 +293,6 @@ void ProgressivePhotonMapping::record_error_sample(PixelState& s, double Ld, dou
     x = y - error_kernel::kBiasDisc * r2_query * lap_L;
     s.lap_err.add(scale * lap_j / (ne_pass * error_kernel::kK1 * r2_query));  // this pass's Lap L (eq. 6.31)
     s.r2_sum += r2_query;
-    // This pass's boundary bias: the other surfaces' photons, less what the disc's missing share
-    // would have received at the radiance of its own surface's photons.
-    if (cut > 0 || foreign > 0) {
-      const double to_radiance = scale / (ne_pass * M_PI * r2_query);
-      const double own = std::max(0.0, phi - foreign) * to_radiance;
-      const double b = foreign * to_radiance - (cut < 1 ? own * cut / (1 - cut) : 0.0);
-      s.edge.add(b);
-    } else {
-      s.edge.add(0.0);
-    }
-    s.cut_sum += cut;
     if (phi > 0) ++s.photon_passes;
   }
   s.err.add(x);
@@ -360,17 +315,6 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::bias_estimate(siz
   // Lap L_i is about (1 / i) sum of the n passes' own Laplacians: standard error sqrt(n V) / i.
   e.bias_sd = n_lap > 1 && passes > 0 ? error_kernel::kBiasDisc * r2_bias * std::sqrt(n_lap * s.lap_err.variance()) / passes : 0.0;
   return e;
-}
-
-void ProgressivePhotonMapping::edge_bias(size_t k, ErrorTerms& e) const {
-  const PixelState& s = px_[k];
-  const double n = static_cast<double>(s.edge.n), passes = static_cast<double>(stats_.passes);
-  if (!(n > 0) || !(passes > 0)) return;
-  e.cut = s.cut_sum / n;
-  // L_i is the mean of every pass's estimate (eq. 6.14), so its bias is the passes' biases summed
-  // over all passes; their spread gives its standard error.
-  e.edge_bias = s.edge.sum / passes;
-  e.edge_bias_sd = std::sqrt(n * s.edge.variance()) / passes;
 }
 
 ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_t k) const {
@@ -402,13 +346,12 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_
   // bias-free scene's pixels at any pass count), and then whole, with its uncertainty: |L_i - L| ~
   // |B' + sigma T|, sigma^2 = Var L_i + sd^2, and the bound is its quantile at the confidence, the
   // t correction taken at m = 0 (exact there).
-  const uint32_t n_lap = s.lap_err.n;
-  edge_bias(k, e);
   const double sd2 = e.bias_sd * e.bias_sd;
+  const uint32_t n_lap = s.lap_err.n;
   const double cut = n_lap < bias_cut_.size() ? bias_cut_[n_lap] : bias_significance_cut(n_lap);
   const double w = e.bias * e.bias > cut * cut * sd2 ? 1.0 : 0.0;
-  e.bias = w * e.bias + e.edge_bias;
-  const double sigma = std::sqrt(e.noise_sd * e.noise_sd + w * sd2 + e.edge_bias_sd * e.edge_bias_sd);
+  e.bias *= w;
+  const double sigma = std::sqrt(e.noise_sd * e.noise_sd + w * sd2);
   e.sigma = sigma;
   e.bound = sigma > 0 && std::isfinite(sigma) ? sigma * t_over_z_ * folded_(std::abs(e.bias) / sigma)
                                                : (std::isfinite(sigma) ? std::abs(e.bias) : INFINITY);

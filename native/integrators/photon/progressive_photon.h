@@ -100,9 +100,6 @@ class ProgressivePhotonMapping : public Integrator {
     double photon_passes = 0;   // passes that gathered photons here
     double corrected_mean = 0;  // mean of the bias-corrected per-pass samples x_j (eq. 6.22)
     double radius = 0;          // R_i
-    double cut = 0;             // mean share of the query discs with no receiving surface (disc_cut_fraction)
-    double edge_bias = 0;       // the boundary bias that share gives: -cut / (1 - cut) x the photons' radiance
-    double edge_bias_sd = 0;    // its standard error, from the passes' cut fractions
   };
   ErrorTerms error_terms(size_t i) const;
   // True when the passes carry sampled wavelengths (spectral photons).
@@ -130,30 +127,12 @@ class ProgressivePhotonMapping : public Integrator {
     ErrorStats lap_err;            // per-pass Laplacian estimates (the bias estimate's own noise)
     double r2_sum = 0;             // sum of the query radii R_j^2 of the passes with a point (eq. 6.18)
     uint32_t photon_passes = 0;    // passes whose gather found photons (phi > 0)
-    double cut_sum = 0;            // the passes' cut fractions f_j (disc_cut_fraction)
-    ErrorStats edge;               // the passes' boundary biases (record_error_sample)
   };
-  // Share of the query disc (radius R in the tangent plane of the measurement point) with no
-  // receiving surface: beyond a surface's edge, behind a wall or under a box standing on it.
-  // Photons cannot land there, so a disc estimate of uniform radiance is low by that share (a
-  // first-order boundary bias the Laplacian model of eq. 6.17 does not describe). Estimated with
-  // kCutProbes stratified points of the disc: a ray along the tangent plane from the point to the
-  // probe (blocked: no surface there for photons to reach) and one down the normal from just
-  // above the probe (nothing within reach: the surface ended). `rays` counts them.
-  double disc_cut_fraction(const VisiblePoint& vp, double R, Rng& rng, int64_t& rays) const;
-  static constexpr int kCutProbes = 4;
-  // A photon farther than kOffPlane R from the tangent plane of the measurement point landed on
-  // another surface (the wall at a contact line, the far face of an edge): the disc kernel counts
-  // it as if it lit the point's own surface.
-  static constexpr float kOffPlane = 0.25f;
   // After pass j's update of pixel s (radius, flux and Laplacian already reduced): its
   // bias-corrected sample x_j = L_p,j - B'_j (eq. 6.22) and its own Laplacian estimate, from the
   // eye path's light Ld, the photon flux phi and Laplacian sum lap_j gathered with radius
   // sqrt(r2_query) (0: no point this pass) from ne_pass photons. Shared with GPM.
-  // cut: the disc's share with no receiving surface this pass (disc_cut_fraction).
-  // foreign: the luminance flux of phi from photons off the point's tangent plane (kOffPlane).
-  void record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query, double ne_pass,
-                           double cut = 0, double foreign = 0) const;
+  void record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query, double ne_pass) const;
 
   void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
 
@@ -176,8 +155,6 @@ class ProgressivePhotonMapping : public Integrator {
   void update_error_estimate();
   // The Laplacian, B'_i and its standard error of pixel k (the rest of ErrorTerms left 0).
   ErrorTerms bias_estimate(size_t k) const;
-  // cut, edge_bias and edge_bias_sd of pixel k into e (e.radiance set).
-  void edge_bias(size_t k, ErrorTerms& e) const;
   // Reads parameter film_transparent (PPM, SPPM: their RGB eye pass writes the alpha pass);
   // spectral photons leave it unread, so it is reported as unused there.
   void read_film_transparent(const Params& params) {
@@ -246,7 +223,7 @@ class ProgressivePhotonMapping : public Integrator {
   bool film_transparent_ = false;
   std::vector<float> first_r_;         // footprint radius proposed by the eye pass
   std::vector<PixelState> px_;
-  std::vector<float> gather_m_, gather_lap_, gather_foreign_;
+  std::vector<float> gather_m_, gather_lap_;
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
   double estimated_error_ = INFINITY;
