@@ -298,10 +298,12 @@ Scene sun_over_plane(int size) {
 }
 
 // PPM with 40 000 photons a pass on one of the plane scenes: one thread, a fixed initial radius.
-std::unique_ptr<Integrator> plane_ppm(const Scene& s, uint64_t seed, double radius, double confidence = 0.5) {
+std::unique_ptr<Integrator> plane_ppm(const Scene& s, uint64_t seed, double radius, double confidence = 0.5,
+                                      const std::string& bound = "calibrated") {
   Params p = photon_params(40000, seed, 1);
   p.set("radius", radius);
   p.set("confidence", confidence);
+  p.set("error_bound", bound);
   return make_integrator("ppm", s, p);
 }
 
@@ -386,7 +388,7 @@ TEST(ErrorEstimate, BoundaryBiasOfADiscCutByTheSurfacesEdge) {
     double err = 0, edge = 0, whole_edge = 0;
     int covered = 0, covered_without = 0, pixels = 0;
     for (int seed = 0; seed < seeds; ++seed) {
-      auto integ = plane_ppm(s, 500 + seed, 0.1, confidence);
+      auto integ = plane_ppm(s, 500 + seed, 0.1, confidence, "boundary");  // opt-in: its probe rays
       auto* ppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
       for (int i = 0; i < passes; ++i) integ->iterate(nullptr);
       double truth = 0;  // the constant radiance, from the whole discs of columns 0-3

@@ -35,6 +35,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
       tracer_(scene, max_depth_, threshold_, seed_, threads_) {
   // Values are checked against their declarations (methods.cpp) before a method is built.
   thesis_bound_ = params.get<std::string>("error_bound") == "thesis";
+  boundary_bound_ = params.get<std::string>("error_bound") == "boundary";
   folded_ = FoldedNormalQuantile(confidence_);
   hash_mode_ = params.get<std::string>("hash") == "stochastic" ? PhotonHashMode::Stochastic : PhotonHashMode::Exact;
   if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
@@ -264,7 +265,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       s.r2 = u.r2_new;
       // The boundary bias (calibrated bound, RGB photons): the disc's part with photons this pass.
       PassBoundary boundary;
-      const bool with_boundary = vp_[i].material >= 0 && r2_query > 0 && !thesis_bound_ && !spectral_;
+      const bool with_boundary = boundary_bound_ && vp_[i].material >= 0 && r2_query > 0 && !spectral_;
       if (with_boundary) {
         Rng rng = Rng::for_key(seed_, pass, i);
         boundary.shape = disc_shape(vp_[i], std::sqrt(r2_query), rng, probe_rays);

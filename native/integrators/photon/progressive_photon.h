@@ -271,6 +271,10 @@ class ProgressivePhotonMapping : public Integrator {
   // dof, and the bound at exactly the confidence for an error B' + noise, the noise of L_i and of
   // B' itself combined (FoldedNormalQuantile). docs/error-calibration.md measures both.
   bool thesis_bound_ = false;
+  // error_bound = "boundary": "calibrated" plus the bias of gather discs cut by a geometric edge
+  // (disc_shape's probe rays, record_error_sample's linear fit); opt-in for its cost (up to 1.5x
+  // an SPPM pass, docs/benchmarks.md), which the default must not put on every render.
+  bool boundary_bound_ = false;
   FoldedNormalQuantile folded_;
   double t_over_z_ = 1;               // t(dof, 1 - beta/2) / z(1 - beta/2)
   std::vector<double> bias_cut_;       // bias_significance_cut(n) for n = 0 .. passes
