@@ -106,9 +106,10 @@ ParamDecl confidence() {
 }
 ParamDecl error_bound() {
   return {.name = "error_bound", .type = ParamType::String, .default_value = "calibrated",
-          .choices = {"calibrated", "thesis"}, .label = "Error Bound",
-          .description = "the error pass's bound: calibrated to its confidence, or eq. 6.12 as written "
-                         "(docs/error-calibration.md)",
+          .choices = {"calibrated", "boundary", "thesis"}, .label = "Error Bound",
+          .description = "the error pass's bound: calibrated to its confidence; boundary: that, plus the bias "
+                         "where an edge cuts the gather disc (probe rays: up to 1.5x the pass time); or eq. 6.12 "
+                         "as written (docs/error-calibration.md)",
           .reference = "thesis eq. 6.12", .group = "Photons"};
 }
 ParamDecl hash() {

@@ -198,13 +198,13 @@ class Session {
     const auto* ppm = dynamic_cast<const ProgressivePhotonMapping*>(integrator_.get());
     if (!ppm) throw std::invalid_argument("error_terms: method '" + integrator_->name() + "' has no photon error estimate");
     const int w = scene_->camera.film_width(), h = scene_->camera.film_height();
-    const char* names[] = {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "mean_abs", "photon_passes", "radius"};
+    const char* names[] = {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "mean_abs", "photon_passes", "radius", "cut", "edge_bias", "edge_bias_sd"};
     constexpr int kTerms = std::size(names);
     std::vector<py::array_t<double>> arrays;
     for (int k = 0; k < kTerms; ++k) arrays.emplace_back(std::vector<py::ssize_t>{h, w});
     for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
       const auto e = ppm->error_terms(i);
-      const double v[] = {e.radiance, e.bias, e.bias_sd, e.noise_sd, e.sigma, e.bound, e.mean_abs, e.photon_passes, e.radius};
+      const double v[] = {e.radiance, e.bias, e.bias_sd, e.noise_sd, e.sigma, e.bound, e.mean_abs, e.photon_passes, e.radius, e.cut, e.edge_bias, e.edge_bias_sd};
       static_assert(std::size(v) == kTerms);
       for (int k = 0; k < kTerms; ++k) arrays[k].mutable_data()[i] = v[k];
     }

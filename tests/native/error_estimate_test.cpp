@@ -49,6 +49,34 @@ TEST(ErrorEstimate, KernelAndQuantiles) {
   EXPECT_NEAR(student_t_quantile(10, 0.75), 0.699812061, 1e-3);
 }
 
+// The local linear fit of the boundary bias (DiscShape) on a disc cut by a straight edge (no
+// surface beyond u > 0.3 R) under a linear radiance: exact, where the zeroth-order correction
+// own / a is off by the gradient times the part's centroid, and where the disc estimate itself is
+// low by the missing share. Moments by a fine grid over the disc.
+TEST(ErrorEstimate, LocalLinearFitRemovesTheBoundaryBiasOfACutDisc) {
+  const double R = 0.5, L0 = 2.0, gu = 1.5, gv = -0.8, edge = 0.3 * R;
+  DiscShape d{0, 0, 0, 0, 0, 0};
+  double own = 0, mu = 0, mv = 0;
+  const int n = 800;
+  const double cell = (2 * R / n) * (2 * R / n) / (M_PI * R * R);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double u = -R + (i + 0.5) * 2 * R / n, v = -R + (j + 0.5) * 2 * R / n;
+      if (u * u + v * v > R * R || u > edge) continue;
+      const double L = L0 + gu * u + gv * v;
+      d.a += cell; d.cu += cell * u; d.cv += cell * v;
+      d.suu += cell * u * u; d.suv += cell * u * v; d.svv += cell * v * v;
+      own += cell * L; mu += cell * L * u; mv += cell * L * v;
+    }
+  std::printf("cut disc: a %.3f, disc estimate %.4f, own / a %.4f, local linear %.4f (L %.4f)\n", d.a, own, own / d.a,
+              local_linear_radiance(d, own, mu, mv), L0);
+  EXPECT_LT(own, 0.9 * L0);                                // the disc estimate's boundary bias
+  EXPECT_GT(std::abs(own / d.a - L0), 0.05 * L0);          // zeroth order: the gradient's share
+  EXPECT_NEAR(local_linear_radiance(d, own, mu, mv), L0, 1e-3 * L0);
+  // A whole disc: the disc estimate itself.
+  EXPECT_DOUBLE_EQ(local_linear_radiance(DiscShape::whole(R), 1.7, 0.3, -0.2), 1.7);
+}
+
 // ---- Thesis Figure 6.3: a point light at height h over a Lambertian plane ----
 // Radiance at distance r from the foot of the light: L(r) = rho / pi * I h / (h^2 + r^2)^(3/2);
 // its surface Laplacian (L'' + L' / r) is rho / pi * I h (15 r^2 (h^2 + r^2)^(-7/2) - 6 (h^2 +
@@ -237,11 +265,12 @@ TEST(ErrorEstimate, IntervalCoversTheTruthAtTheRequestedRate) {
     // own relative noise with 20 runs is about 0.3).
     EXPECT_GT(est_var / var, 0.5);
     EXPECT_LT(est_var / var, 2.0);
-    // At 90 % the bound covers about half the runs only: B' is 2 standard errors here, so it is
-    // significant (error_bound = calibrated counts it) in about half the runs, and a run that
-    // drops it misses a bias of 3 sd (measured 20 / 40; 11 / 20 with the first 20 seeds).
-    // Without a bias term it covers none (measured).
-    const int lo = confidence == 0.5 ? static_cast<int>(confidence * runs) - 7 : runs / 2 - 5;
+    // The bound covers fewer runs than asked: B' is about 2 of its own standard errors here, so it passes
+    // its significance test (error_bound = calibrated counts it; Student's t with 9 dof, cut-off
+    // 2.26) in a minority of the runs, and a run that drops it misses a bias of 3 sd. Measured 14 /
+    // 40 at 50 % and 15 / 40 at 90 % (17 and 20 with a fixed cut of 2 sd, which passes 8 % of
+    // bias-free pixels at 10 passes). Without a bias term it covers none (measured).
+    const int lo = 8;
     EXPECT_GE(covered, lo) << confidence;
     EXPECT_LE(covered, static_cast<int>(confidence * runs) + 7) << confidence;
     EXPECT_GE(covered_noise, static_cast<int>(confidence * runs) - 8) << confidence;
@@ -268,16 +297,23 @@ Scene sun_over_plane(int size) {
   return load_scene_from_string(json, ".", "sun-over-plane.json");
 }
 
+// PPM with 40 000 photons a pass on one of the plane scenes: one thread, a fixed initial radius.
+std::unique_ptr<Integrator> plane_ppm(const Scene& s, uint64_t seed, double radius, double confidence = 0.5,
+                                      const std::string& bound = "calibrated") {
+  Params p = photon_params(40000, seed, 1);
+  p.set("radius", radius);
+  p.set("confidence", confidence);
+  p.set("error_bound", bound);
+  return make_integrator("ppm", s, p);
+}
+
 TEST(ErrorEstimate, BoundCoversAtTheConfidenceWhereThereIsNoBias) {
   const int size = 16, passes = 16, seeds = 4;
   const Scene s = sun_over_plane(size);
   for (double confidence : {0.5, 0.9}) {
     int covered = 0, pixels = 0, with_bias = 0;
     for (int seed = 0; seed < seeds; ++seed) {
-      Params p = photon_params(40000, 200 + seed, 1);
-      p.set("radius", 0.05);
-      p.set("confidence", confidence);
-      auto integ = make_integrator("ppm", s, p);
+      auto integ = plane_ppm(s, 200 + seed, 0.05, confidence);
       auto* ppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
       for (int i = 0; i < passes; ++i) integ->iterate(nullptr);
       // The truth: the flux of the pixels' own estimates over the whole run, i.e. the mean of L_i
@@ -301,12 +337,96 @@ TEST(ErrorEstimate, BoundCoversAtTheConfidenceWhereThereIsNoBias) {
   }
 }
 
+// B' is kept where it passes a test of "no bias" at a 5 % false-alarm rate. Its sd comes from the
+// passes' own Laplacians, few at the first passes, so |B'| / sd is Student's t with n - 1 degrees
+// of freedom there, not a normal: on the bias-free plane a fixed cut of 2 sd kept B' in 15.7, 10.5
+// and 6.3 % of the pixels at 4, 6 and 16 passes (measured, seen failing), the t cut-off in 5.4, 4.6
+// and 4.7 %. 4 seeds of 256 pixels that share no photons: sd of the share 0.7 points.
+TEST(ErrorEstimate, BiasIsKeptAtTheFalseAlarmRateWhereThereIsNone) {
+  const int size = 16, seeds = 4;
+  const Scene s = sun_over_plane(size);
+  for (int passes : {4, 6, 16}) {
+    int pixels = 0, kept = 0;
+    for (int seed = 0; seed < seeds; ++seed) {
+      auto integ = plane_ppm(s, 400 + seed, 0.05);
+      auto* ppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
+      for (int i = 0; i < passes; ++i) integ->iterate(nullptr);
+      for (int i = 0; i < size * size; ++i) {
+        const auto e = ppm->error_terms(i);
+        if (!(e.radiance > 0)) continue;
+        ++pixels;
+        kept += e.bias != 0;
+      }
+    }
+    const double share = static_cast<double>(kept) / pixels;
+    std::printf("%d passes: B' kept in %.3f of %d pixels\n", passes, share, pixels);
+    ASSERT_GT(pixels, 900);
+    EXPECT_NEAR(share, error_kernel::kBiasFalseAlarm, 0.025) << passes;
+  }
+}
+
+// ---- The boundary bias: a plane cut by its edge ----
+// The sun straight down on a quad that ends at x = 0.25, seen from above: pixel column 9 (x 0.125
+// to 0.25) is on the quad, but discs of radius 0.1 there reach past its edge, where no photon
+// lands, so its estimate is low by the missing share (-11 % of L measured, against the far pixels'
+// mean as the truth); columns 0-8 are whole discs. The boundary term (disc_shape's probes, the
+// local linear fit of BoundarySums) gives that bias, and with it the bound covers the cut column at
+// about the confidence, where the noise alone covers far fewer.
+Scene sun_over_cut_plane(int size) {
+  const std::string json = R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0],
+      "fov": 36.87, "width": )" + std::to_string(size) + R"(, "height": )" + std::to_string(size) + R"(},
+    "materials": {"white": {"type": "diffuse", "color": 0.5}},
+    "lights": [{"type": "sun", "direction": [0, 0, -1], "irradiance": 3}],
+    "objects": [{"type": "quad", "center": [-0.625, 0, 0], "u": [0.875, 0, 0], "v": [0, 1.5, 0], "material": "white"}]})";
+  return load_scene_from_string(json, ".", "sun-over-cut-plane.json");
+}
+
+TEST(ErrorEstimate, BoundaryBiasOfADiscCutByTheSurfacesEdge) {
+  const int size = 16, seeds = 4, passes = 32, cut_column = 9;
+  const Scene s = sun_over_cut_plane(size);
+  for (double confidence : {0.5, 0.9}) {
+    double err = 0, edge = 0, whole_edge = 0;
+    int covered = 0, covered_without = 0, pixels = 0;
+    for (int seed = 0; seed < seeds; ++seed) {
+      auto integ = plane_ppm(s, 500 + seed, 0.1, confidence, "boundary");  // opt-in: its probe rays
+      auto* ppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
+      for (int i = 0; i < passes; ++i) integ->iterate(nullptr);
+      double truth = 0;  // the constant radiance, from the whole discs of columns 0-3
+      for (int y = 0; y < size; ++y)
+        for (int x = 0; x < 4; ++x) truth += ppm->error_terms(y * size + x).radiance / (4 * size);
+      for (int y = 1; y < size - 1; ++y) {  // rows 0 and 15 reach past the quad's ends in y too
+        for (int x = 0; x < cut_column; ++x) whole_edge += std::abs(ppm->error_terms(y * size + x).edge_bias);
+        const auto e = ppm->error_terms(y * size + cut_column);
+        const double error = e.radiance - truth;
+        err += error / truth;
+        edge += e.edge_bias / truth;
+        covered += std::abs(error) <= e.bound;
+        // The same bound without the boundary term: B' and the noise alone.
+        covered_without += std::abs(error) <= e.noise_sd * normal_quantile(0.5 + confidence / 2);
+        ++pixels;
+      }
+    }
+    std::printf("confidence %.2f: cut column error %.4f L, boundary bias %.4f L; covered %d / %d (%d without the "
+                "term); sum of |boundary bias| over whole discs %g\n",
+                confidence, err / pixels, edge / pixels, covered, pixels, covered_without, whole_edge);
+    EXPECT_LT(err / pixels, -0.05);  // the bias is there
+    // Measured 1.21: the term is kept where it is significant, and of a noisy estimate that keeps
+    // the larger values.
+    EXPECT_NEAR(edge / err, 1.0, 0.3);
+    EXPECT_EQ(whole_edge, 0.0);  // a whole disc has none, exactly
+    // 56 pixels: sd of the share 0.04-0.07. Measured 36 / 56 at 50 %, 52 / 56 at 90 %; without the
+    // term 18 and 33.
+    EXPECT_NEAR(static_cast<double>(covered) / pixels, confidence, 0.15) << confidence;
+    EXPECT_LT(covered_without, 0.7 * covered);
+  }
+}
+
 // --target-error stops on the estimated mean relative error, not on a bound: the average (eq.
 // 6.33) of every pixel's estimated E|e| / L_i (ErrorTerms::mean_abs), whatever the bound's
 // confidence; a 50 % bound is the median of |e|, 1.19 times below the mean the achieved error
 // is measured by, and the stop overshot E by that much (docs/error-calibration.md). On the
 // bias-free plane the error is the noise alone, so mean_abs must match the measured mean |e| over
-// the pixels where B' is not kept. Where it is kept (|B'| > 2 sd: 3 % of these pixels, by chance
+// the pixels where B' is not kept. Where it is kept (significant at 5 %: 3 % of these pixels, by chance
 // alone) it enters the estimate as a bias that is not there, so the stop is conservative here:
 // achieved / E = 0.78 (measured: 4 seeds), where the average 50 % bound stopped at 0.87 and a
 // 90 % bound at 0.43.
@@ -320,10 +440,7 @@ TEST(ErrorEstimate, TargetErrorStopsOnTheEstimatedMeanRelativeError) {
     double achieved = 0, measured = 0, estimated = 0;
     int pixels = 0, unbiased = 0, passes = 0;
     for (int seed = 0; seed < seeds; ++seed) {
-      Params p = photon_params(40000, 300 + seed, 1);
-      p.set("radius", 0.05);
-      p.set("confidence", confidence);
-      auto integ = make_integrator("ppm", s, p);
+      auto integ = plane_ppm(s, 300 + seed, 0.05, confidence);
       auto* ppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
       run_progressive(*integ, StopRule{.target_error = target}, nullptr);
       passes += static_cast<int>(integ->stats().passes);

@@ -68,12 +68,15 @@ def test_error_terms_give_the_error_pass():
     s.run(passes=8)
     terms = s.error_terms()
     assert set(terms) == {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "mean_abs", "photon_passes",
-                          "radius"}
+                          "radius", "cut", "edge_bias", "edge_bias_sd"}
     error = s.develop()["error"][..., 0]
     lit = terms["radiance"] > 0
     assert lit.mean() > 0.9
     np.testing.assert_allclose(error[lit], (terms["bound"] / terms["radiance"])[lit], rtol=1e-5)
-    assert np.all(terms["sigma"][lit] >= terms["noise_sd"][lit])
+    # B' only widens the noise; a kept boundary bias replaces it by the corrected estimate's.
+    plain = lit & (terms["edge_bias"] == 0)
+    assert np.all(terms["sigma"][plain] >= terms["noise_sd"][plain])
+    assert np.all((terms["cut"] >= 0) & (terms["cut"] <= 1))
     # --target-error's estimate: the pixels' estimated mean |e| / L, averaged (eq. 6.33).
     assert s.estimated_error == pytest.approx(np.mean((terms["mean_abs"] / terms["radiance"])[lit]), rel=1e-9)
     assert np.all(terms["photon_passes"] <= 8)

@@ -82,4 +82,70 @@ double folded_normal_mean(double m, double s, double dof) {
   return s * std::sqrt(2 / M_PI) * std::exp(-m * m / (2 * s * s)) + m * std::erf(m / (s * std::sqrt(2.0)));
 }
 
+double local_linear_radiance(const DiscShape& d, double own, double mu, double mv) {
+  if (!(d.a > 1e-3)) return own;
+  // own = a L + c . g, (mu, mv) = c L + S g: eliminate g = S^-1 (m - c L).
+  const double det = d.suu * d.svv - d.suv * d.suv;
+  const double whole = d.suu + d.svv;  // R^2 / 2 for a whole disc
+  if (!(det > 1e-2 * whole * whole / 4)) return own / d.a;
+  const double iuu = d.svv / det, iuv = -d.suv / det, ivv = d.suu / det;  // S^-1
+  const double cSc = d.cu * (iuu * d.cu + iuv * d.cv) + d.cv * (iuv * d.cu + ivv * d.cv);
+  const double cSm = d.cu * (iuu * mu + iuv * mv) + d.cv * (iuv * mu + ivv * mv);
+  const double denom = d.a - cSc;
+  if (!(denom > 1e-2 * d.a)) return own / d.a;
+  return (own - cSm) / denom;
+}
+
+void BoundarySums::add(const DiscShape& d, double own, double foreign, double mu, double mv) {
+  shape.a += d.a;
+  shape.cu += d.cu;
+  shape.cv += d.cv;
+  shape.suu += d.suu;
+  shape.suv += d.suv;
+  shape.svv += d.svv;
+  const double v[4] = {own, foreign, mu, mv};
+  for (int i = 0, k = 0; i < 4; ++i) {
+    x[i] += v[i];
+    for (int j = i; j < 4; ++j) xx[k++] += v[i] * v[j];
+  }
+  ++n;
+}
+
+BoundarySums::Bias BoundarySums::bias() const {
+  if (n == 0 || (shape.a >= n && x[1] == 0)) return {};
+  // The fit on the sums: L = (OWN - c' S^-1 M) / (A - c' S^-1 c) (local_linear_radiance, whose
+  // sums scale with n on both sides).
+  const double N = n;
+  const double L = local_linear_radiance(shape, x[0], x[2], x[3]);
+  // The same L as a linear form of the sums, L = (OWN - k . M) / D with k and D from the shape:
+  // each pass contributes z_j = own_j + foreign_j - (own_j - k . m_j) / (D / n); the bias is their
+  // mean and its standard error their spread's.
+  double ku = 0, kv = 0, D = shape.a;
+  const double det = shape.suu * shape.svv - shape.suv * shape.suv;
+  const double whole = shape.suu + shape.svv;
+  if (det > 1e-2 * whole * whole / 4) {
+    ku = (shape.svv * shape.cu - shape.suv * shape.cv) / det;
+    kv = (shape.suu * shape.cv - shape.suv * shape.cu) / det;
+    const double d2 = D - (ku * shape.cu + kv * shape.cv);
+    if (d2 > 1e-2 * D) D = d2;
+    else ku = kv = 0;
+  }
+  if (!(D > 1e-3 * N)) return {};
+  const double Dn = D / N;
+  // Sample variance over the passes of w . (own, foreign, mu, mv), from the sums.
+  auto variance = [&](const double (&w)[4]) {
+    if (n < 2) return 0.0;
+    double mean = 0, mean2 = 0;
+    for (int i = 0, k = 0; i < 4; ++i) {
+      mean += w[i] * x[i] / N;
+      for (int j = i; j < 4; ++j, ++k) mean2 += (i == j ? 1 : 2) * w[i] * w[j] * xx[k] / N;
+    }
+    return std::max(0.0, (mean2 - mean * mean) * N / (N - 1));
+  };
+  const double z[4] = {1 - 1 / Dn, 1, ku / Dn, kv / Dn};  // z_j: the pass's bias
+  const double q[4] = {1 / Dn, 0, -ku / Dn, -kv / Dn};    // own_j + foreign_j - z_j: the fit's form
+  const double p[4] = {1, 1, 0, 0};                       // own_j + foreign_j: the estimate
+  return {(x[0] + x[1]) / N - L, std::sqrt(variance(z) / N), (variance(q) - variance(p)) / N};
+}
+
 }  // namespace gp

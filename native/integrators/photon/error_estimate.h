@@ -25,9 +25,9 @@ namespace error_kernel {
 inline constexpr double kK1 = 2.0 * 3.14159265358979323846 / 7.0;  // integral of K over the unit disk
 // Disc-kernel bias constant: B' = kBiasDisc * R^2 * Lap L.
 inline constexpr double kBiasDisc = 1.0 / 8.0;
-// error_bound = calibrated: B' counts where |B'| > kBiasSignificance x its standard error (about
-// 95 % significance; see ProgressivePhotonMapping::error_terms).
-inline constexpr double kBiasSignificance = 2.0;
+// error_bound = calibrated: B' counts where it is significant, a two-sided test at this false-alarm
+// rate (see ProgressivePhotonMapping::error_terms and bias_significance_cut).
+inline constexpr double kBiasFalseAlarm = 0.05;
 inline double K(double t) { return t >= 1 ? 0.0 : 1 - t * t * t * (10 - 15 * t + 6 * t * t); }  // eq. 6.34
 inline double dK(double t) { return t >= 1 ? 0.0 : -30 * t * t * (t - 1) * (t - 1); }
 inline double d2K(double t) { return t >= 1 ? 0.0 : -60 * t * (2 * t * t - 3 * t + 1); }
@@ -44,6 +44,61 @@ inline double laplacian(double d2, double R) {
 // (Cornish-Fisher expansion about the normal quantile; exact for 1 and 2 dof).
 double student_t_quantile(double dof, double p);
 double normal_quantile(double p);
+
+// Cut-off of the test "B' is not 0": |B'| / sd(B') above it in a share kBiasFalseAlarm of the
+// pixels of a bias-free scene. sd(B') comes from the n per-pass Laplacians, a sample sd with
+// n - 1 degrees of freedom, so the ratio is Student's t with n - 1 dof and the cut-off its
+// two-sided quantile (12.7 at 2 passes, 2.57 at 6, 1.96 in the limit). A fixed normal cut of 2
+// passed 10 % of a bias-free scene's pixels at 6 passes (12 % measured on cornell-box), and a
+// false B' enters the estimated error as a bias that is not there (docs/error-calibration.md).
+// INFINITY below 2 passes: B' is never significant from one Laplacian.
+inline double bias_significance_cut(uint32_t n_laplacians) {
+  return n_laplacians < 2 ? INFINITY : student_t_quantile(n_laplacians - 1.0, 1 - error_kernel::kBiasFalseAlarm / 2);
+}
+
+// ---- Boundary bias (first order) ----
+// Where the query disc reaches past its surface's edge, into a wall or under a box, photons land
+// on part of it only, and the disc estimate (flux / pi R^2) is low by the missing share; where
+// the radiance changes across the disc, the part that is left is off-centre and its mean is not
+// L at the centre. Both are first order in R, which the Laplacian term (eq. 6.17: second order,
+// for a whole disc) does not describe. The local linear fit over the part that receives photons
+// (the boundary correction of kernel estimation) removes both: with L(x) = L + g . (x - p) there,
+// own = a L + c . g and m = c L + S g, where a, c, S are that part's area, first and second
+// moments about p over pi R^2, own the radiance the disc estimate gives from this surface's
+// photons and m its first moment (photon flux times offset, over pi R^2 N_e). Solved for L.
+struct DiscShape {
+  double a = 1;                  // share of the disc that receives photons
+  double cu = 0, cv = 0;         // its first moment about the centre / pi R^2 (tangent axes)
+  double suu = 0, suv = 0, svv = 0;  // its second moments / pi R^2; a whole disc: R^2 / 4, 0, R^2 / 4
+  static DiscShape whole(double R) { return {1, 0, 0, R * R / 4, 0, R * R / 4}; }
+};
+// L at the centre from this surface's photons (radiance `own`, first moment mu, mv) over the
+// part `d` of the disc: `own` itself for a whole disc. Falls back to own / a where the part is
+// too thin to fit a gradient on (the system's determinant, relative to a whole disc's, below 1 %),
+// and returns own where nothing of the disc receives photons.
+double local_linear_radiance(const DiscShape& d, double own, double mu, double mv);
+
+// A measurement point's boundary data summed over the passes, offsets in units of each pass's
+// radius (whole disc: S = I / 4), and the bias of its progressive estimate from one local linear
+// fit of the sums. A fit per pass was biased: with 8 probes a pass sees the missing part as a
+// point or two, and the fit, not linear in the shape, extrapolated from that (-0.34 L against
+// -0.09 L on a plane cut by its edge, scratch measurement); the sums' shape is the mean shape.
+struct BoundarySums {
+  DiscShape shape{0, 0, 0, 0, 0, 0};
+  double x[4] = {0, 0, 0, 0};  // sums of own, foreign, mu / R, mv / R (radiance units)
+  double xx[10] = {};          // sums of their products (upper triangle), for the bias' standard error
+  uint32_t n = 0;
+  void add(const DiscShape& unit_shape, double own, double foreign, double mu, double mv);
+  // Bias of the mean of the n passes' estimates (own + foreign) against the fit's L and its
+  // standard error; and what the bias-corrected mean's variance differs by from the uncorrected
+  // one's (both variances of the mean): the bias comes from the same photons as the estimate, so
+  // the corrected estimate is the fit itself, not the estimate plus an independent noise. All 0
+  // where every disc was whole and no other surface's photon came.
+  struct Bias {
+    double bias = 0, sd = 0, variance_change = 0;
+  };
+  Bias bias() const;
+};
 
 // Running per-measurement-point statistics for eq. 6.22 (bias-corrected samples x_j).
 struct ErrorStats {

@@ -35,6 +35,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
       tracer_(scene, max_depth_, threshold_, seed_, threads_) {
   // Values are checked against their declarations (methods.cpp) before a method is built.
   thesis_bound_ = params.get<std::string>("error_bound") == "thesis";
+  boundary_bound_ = params.get<std::string>("error_bound") == "boundary";
   folded_ = FoldedNormalQuantile(confidence_);
   hash_mode_ = params.get<std::string>("hash") == "stochastic" ? PhotonHashMode::Stochastic : PhotonHashMode::Exact;
   if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
@@ -48,6 +49,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   first_r_.assign(n, 0.0f);
   gather_m_.assign(n, 0.0f);
   gather_lap_.assign(n, 0.0f);
+  gather_boundary_.assign(n, {0.0f, 0.0f, 0.0f});
   gather_phi_.assign(n, RGB(0.0f));
   error_.assign(n, 0.0f);
   if (options.spectral_photons && !adaptive_ &&
@@ -198,12 +200,15 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       gather_m_[i] = 0;
       gather_lap_[i] = 0;
       gather_phi_[i] = RGB(0.0f);
+      gather_boundary_[i] = {0.0f, 0.0f, 0.0f};
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
       const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);  // as Scene::bsdf(hit)
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
-      double m = 0, lap = 0;
+      double m = 0, lap = 0, foreign = 0, mu = 0, mv = 0;
       RGB phi(0.0f);
+      const float off_plane = kOffPlane * R;
+      const Frame geo = boundary_frame(vp);
       grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
@@ -213,9 +218,20 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
                             (weight * shading);  // eq. 5.11 / 7.4
         phi += contrib;
         lap += contrib.luminance() * error_kernel::laplacian(d2, R);  // §6.4, eq. 6.31 (2nd order)
+        // Boundary terms (record_error_sample): another surface's photon, or this one's first moment.
+        const Vec3 off = ph.p - vp.p;
+        const double y = contrib.luminance();
+        const float height = dot(off, geo.n);
+        if (height > kInFront * R || height < -off_plane) {
+          foreign += y;
+        } else {
+          mu += y * dot(off, geo.s);
+          mv += y * dot(off, geo.t);
+        }
       });
       gather_m_[i] = static_cast<float>(m);
       gather_lap_[i] = static_cast<float>(lap);
+      gather_boundary_[i] = {static_cast<float>(foreign), static_cast<float>(mu), static_cast<float>(mv)};
       gather_phi_[i] = phi;
     }
   });
@@ -226,9 +242,9 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const auto t_update = clock_type::now();
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
-  std::atomic<int64_t> invalid_phi{0};
+  std::atomic<int64_t> invalid_phi{0}, cut_rays{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    int64_t bad = 0;
+    int64_t bad = 0, probe_rays = 0;
     for (size_t i = lo; i < hi; ++i) {
       PixelState& s = px_[i];
       RGB phi = gather_phi_[i];
@@ -249,10 +265,22 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       s.lap = (s.lap + lap_j) * u.ratio;  // thesis eq. 6.32: derivatives scale like the flux
       s.n = u.n_new;
       s.r2 = u.r2_new;
-      record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, vp_[i].material >= 0 ? r2_query : 0.0, ne_pass);
+      // The boundary bias (calibrated bound, RGB photons): the disc's part with photons this pass.
+      PassBoundary boundary;
+      const bool with_boundary = boundary_bound_ && vp_[i].material >= 0 && r2_query > 0 && !spectral_;
+      if (with_boundary) {
+        Rng rng = Rng::for_key(seed_, pass, i);
+        boundary.shape = disc_shape(vp_[i], std::sqrt(r2_query), rng, probe_rays);
+        const auto& g = gather_boundary_[i];
+        if (std::isfinite(g[0]) && std::isfinite(g[1]) && std::isfinite(g[2])) boundary = {boundary.shape, g[0], g[1], g[2]};
+      }
+      record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, vp_[i].material >= 0 ? r2_query : 0.0, ne_pass,
+                          with_boundary ? &boundary : nullptr);
     }
     invalid_phi += bad;
+    cut_rays += probe_rays;
   });
+  rays += cut_rays;
   stats_.passes += 1;
   update_error_estimate();
   stats_.extra["update seconds"] += seconds_since(t_update);
@@ -280,8 +308,43 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   stats_.seconds += seconds_since(start);
 }
 
+DiscShape ProgressivePhotonMapping::disc_shape(const VisiblePoint& vp, double R, Rng& rng, int64_t& rays) const {
+  const Frame geo = boundary_frame(vp);
+  // Lifted off the surface by a small share of R; the downward probe reaches kOffPlane R below
+  // the plane, which keeps a surface curved with a radius above 2 R at the rim (R^2 / 2 rho).
+  const float lift = static_cast<float>(0.02 * R), reach = static_cast<float>(kOffPlane * R);
+  const Vec3 above = vp.p + geo.n * lift;
+  DiscShape d = DiscShape::whole(R);
+  for (int k = 0; k < kCutProbes; ++k) {
+    const double phi = 2 * M_PI * (k + rng.uniform()) / kCutProbes, rho = R * std::sqrt(rng.uniform());
+    const double u = rho * std::cos(phi), v = rho * std::sin(phi);
+    const Vec3 offset = geo.s * static_cast<float>(u) + geo.t * static_cast<float>(v);
+    const float len = length(offset);
+    ++rays;
+    // Glass in the way lets photons through (the floor under a glass block): not a blocker.
+    bool missing = false;
+    if (len > 0)
+      if (const auto hit = scene_.intersect_point(Ray(above, offset / len, 0.0f, len)))
+        missing = hit->material < 0 || scene_.material(hit->material).type != MaterialType::Dielectric;
+    if (!missing) {
+      ++rays;
+      missing = !scene_.intersect_point(Ray(above + offset, -geo.n, 0.0f, lift + reach));
+    }
+    if (!missing) continue;
+    // Each probe stands for 1 / kCutProbes of the disc (uniform in its sector).
+    const double w = 1.0 / kCutProbes;
+    d.a -= w;
+    d.cu -= w * u;
+    d.cv -= w * v;
+    d.suu -= w * u * u;
+    d.suv -= w * u * v;
+    d.svv -= w * v * v;
+  }
+  return d;
+}
+
 void ProgressivePhotonMapping::record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query,
-                                                   double ne_pass) const {
+                                                   double ne_pass, const PassBoundary* boundary) const {
   const double ne_total = static_cast<double>(emitted_total_);
   const double scale = photon_scale();  // V_c (eq. 8.11) or 1
   // Bias-corrected sample of this pass, x_j = L_p,j - B'_j (eq. 6.22): the pass's own estimate
@@ -295,6 +358,18 @@ void ProgressivePhotonMapping::record_error_sample(PixelState& s, double Ld, dou
     x = y - error_kernel::kBiasDisc * r2_query * lap_L;
     s.lap_err.add(scale * lap_j / (ne_pass * error_kernel::kK1 * r2_query));  // this pass's Lap L (eq. 6.31)
     s.r2_sum += r2_query;
+    // This pass's boundary data (BoundarySums), offsets in units of the radius; a whole disc
+    // where none was probed.
+    const double to_radiance = scale / (ne_pass * M_PI * r2_query), R = std::sqrt(r2_query);
+    if (boundary) {
+      DiscShape u = boundary->shape;
+      u.cu /= R; u.cv /= R;
+      u.suu /= r2_query; u.suv /= r2_query; u.svv /= r2_query;
+      s.boundary.add(u, (phi - boundary->foreign) * to_radiance, boundary->foreign * to_radiance,
+                     boundary->mu * to_radiance / R, boundary->mv * to_radiance / R);
+    } else {
+      s.boundary.add(DiscShape::whole(1), phi * to_radiance, 0, 0, 0);
+    }
     if (phi > 0) ++s.photon_passes;
   }
   s.err.add(x);
@@ -317,6 +392,18 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::bias_estimate(siz
   // Lap L_i is about (1 / i) sum of the n passes' own Laplacians: standard error sqrt(n V) / i.
   e.bias_sd = n_lap > 1 && passes > 0 ? error_kernel::kBiasDisc * r2_bias * std::sqrt(n_lap * s.lap_err.variance()) / passes : 0.0;
   return e;
+}
+
+void ProgressivePhotonMapping::edge_bias(size_t k, ErrorTerms& e) const {
+  const BoundarySums& b = px_[k].boundary;
+  const double passes = static_cast<double>(stats_.passes);
+  if (b.n == 0 || !(passes > 0)) return;
+  e.cut = 1 - b.shape.a / b.n;
+  // L_i is the mean of every pass's estimate (eq. 6.14): the n passes with a point carry the bias.
+  const BoundarySums::Bias bias = b.bias();
+  e.edge_bias = bias.bias * b.n / passes;
+  e.edge_bias_sd = bias.sd * b.n / passes;
+  e.edge_variance = bias.variance_change * (b.n / passes) * (b.n / passes);
 }
 
 ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_t k) const {
@@ -344,13 +431,27 @@ ProgressivePhotonMapping::ErrorTerms ProgressivePhotonMapping::error_terms(size_
   // below that noise. Added to every bound (eq. 6.12), or shrunk by its own signal-to-noise ratio
   // (kept where |B'| > sd, a third of the pixels of a bias-free scene), it widened the bound at
   // random: 61-65 % coverage at 50 % there, 59-60 % on cornell-box. So B' counts where it is
-  // significant, |B'| > kBiasSignificance sd (5 % of a bias-free scene's pixels), and then whole,
-  // with its uncertainty: |L_i - L| ~ |B' + sigma T|, sigma^2 = Var L_i + sd^2, and the bound is
-  // its quantile at the confidence, the t correction taken at m = 0 (exact there).
+  // significant, |B'| > t sd with t Student's two-sided quantile (bias_significance_cut: 5 % of a
+  // bias-free scene's pixels at any pass count), and then whole, with its uncertainty: |L_i - L| ~
+  // |B' + sigma T|, sigma^2 = Var L_i + sd^2, and the bound is its quantile at the confidence, the
+  // t correction taken at m = 0 (exact there).
+  const uint32_t n_lap = s.lap_err.n;
+  edge_bias(k, e);
   const double sd2 = e.bias_sd * e.bias_sd;
-  const double w = e.bias * e.bias > error_kernel::kBiasSignificance * error_kernel::kBiasSignificance * sd2 ? 1.0 : 0.0;
-  e.bias *= w;
-  const double sigma = std::sqrt(e.noise_sd * e.noise_sd + w * sd2);
+  const double cut = significance_cut(n_lap);
+  double w = e.bias * e.bias > cut * cut * sd2 ? 1.0 : 0.0;
+  // The boundary bias likewise: where it is not significant its noise would move the bound at
+  // random (cornell-box at 50 %: 54-57 % covered with it everywhere). Kept, it comes from the same
+  // photons as L_i, so the noise around it is that of the corrected estimate (edge_variance),
+  // not L_i's plus the bias' own.
+  const double edge_cut = significance_cut(px_[k].boundary.n);
+  const double we = e.edge_bias * e.edge_bias > edge_cut * edge_cut * e.edge_bias_sd * e.edge_bias_sd ? 1.0 : 0.0;
+  e.edge_bias *= we;
+  // A cut disc's Laplacian estimate sees the cut (the missing rim weighs like a negative
+  // curvature), so B' there counts the boundary bias a second time: the boundary term replaces it.
+  if (we > 0) w = 0;
+  e.bias = w * e.bias + e.edge_bias;
+  const double sigma = std::sqrt(std::max(0.0, e.noise_sd * e.noise_sd + w * sd2 + we * e.edge_variance));
   e.sigma = sigma;
   e.bound = sigma > 0 && std::isfinite(sigma) ? sigma * t_over_z_ * folded_(std::abs(e.bias) / sigma)
                                                : (std::isfinite(sigma) ? std::abs(e.bias) : INFINITY);
@@ -367,6 +468,9 @@ void ProgressivePhotonMapping::update_error_estimate() {
   const double p = 0.5 * (1.0 + confidence_);
   t_quantile_ = dof >= 1 ? student_t_quantile(dof, p) : INFINITY;
   t_over_z_ = t_quantile_ / normal_quantile(p);
+  // B''s significance cut-off for every count of per-pass Laplacians so far (one quantile per pass).
+  while (bias_cut_.size() <= static_cast<size_t>(stats_.passes))
+    bias_cut_.push_back(bias_significance_cut(static_cast<uint32_t>(bias_cut_.size())));
   double sum = 0;
   size_t count = 0;
   for (size_t k = 0; k < px_.size(); ++k) {

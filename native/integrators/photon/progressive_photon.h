@@ -10,6 +10,7 @@
 // point's radius is known.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -102,6 +103,10 @@ class ProgressivePhotonMapping : public Integrator {
     double photon_passes = 0;   // passes that gathered photons here
     double corrected_mean = 0;  // mean of the bias-corrected per-pass samples x_j (eq. 6.22)
     double radius = 0;          // R_i
+    double cut = 0;             // mean share of the query discs that receives no photons (disc_shape)
+    double edge_bias = 0;       // first-order boundary bias: L_i less the local linear fits (DiscShape)
+    double edge_bias_sd = 0;    // its standard error, from the spread of the passes' biases
+    double edge_variance = 0;   // Var(L_i - edge_bias) - Var L_i (BoundarySums::Bias::variance_change)
   };
   ErrorTerms error_terms(size_t i) const;
   // True when the passes carry sampled wavelengths (spectral photons).
@@ -129,12 +134,42 @@ class ProgressivePhotonMapping : public Integrator {
     ErrorStats lap_err;            // per-pass Laplacian estimates (the bias estimate's own noise)
     double r2_sum = 0;             // sum of the query radii R_j^2 of the passes with a point (eq. 6.18)
     uint32_t photon_passes = 0;    // passes whose gather found photons (phi > 0)
+    BoundarySums boundary;         // the passes' disc shapes and boundary photon sums (record_error_sample)
+  };
+  // The part of the query disc (radius R in the tangent plane of the measurement point, axes of
+  // boundary_frame) that receives photons, as DiscShape: beyond a surface's edge, behind a wall or
+  // under a box standing on it no photon lands. kCutProbes stratified points of the disc, each a
+  // ray along the tangent plane from the point (blocked by anything but glass, which photons pass:
+  // nothing there photons reach) and one down
+  // the normal from just above it (no surface within kOffPlane R: the surface ended). The whole
+  // disc's moments less the missing probes' (exact where nothing is missing). `rays` counts them.
+  DiscShape disc_shape(const VisiblePoint& vp, double R, Rng& rng, int64_t& rays) const;
+  static constexpr int kCutProbes = 8;
+  // A photon farther than kOffPlane R from the tangent plane of the measurement point landed on
+  // another surface (the wall at a contact line, the far face of an edge): the disc kernel counts
+  // it as if it lit the point's own surface.
+  static constexpr float kOffPlane = 0.25f;
+  // In front of the plane the point's own surface rises only where it is concave, little within R:
+  // a photon more than kInFront R in front landed on a surface that meets this one at a concave
+  // corner (a wall over a floor), and counted as this surface's it pulled the fit's gradient
+  // towards the corner (ceiling over the back wall of cornell-box: -0.07 L against an error of -0.01 L).
+  static constexpr float kInFront = 0.05f;
+  // Tangent axes of the boundary moments: the geometric normal's frame, on the side the point is seen from.
+  static Frame boundary_frame(const VisiblePoint& vp) { return Frame(dot(vp.ng, vp.frame.n) < 0 ? -vp.ng : vp.ng); }
+  // One pass's boundary data of a pixel: the disc's part with photons, the luminance flux of other
+  // surfaces' photons, and the first moment (tangent axes) of the point's own surface's photons.
+  struct PassBoundary {
+    DiscShape shape;
+    double foreign = 0, mu = 0, mv = 0;
   };
   // After pass j's update of pixel s (radius, flux and Laplacian already reduced): its
   // bias-corrected sample x_j = L_p,j - B'_j (eq. 6.22) and its own Laplacian estimate, from the
   // eye path's light Ld, the photon flux phi and Laplacian sum lap_j gathered with radius
   // sqrt(r2_query) (0: no point this pass) from ne_pass photons. Shared with GPM.
-  void record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query, double ne_pass) const;
+  // cut: the disc's share with no receiving surface this pass (disc_cut_fraction).
+  // boundary: this pass's PassBoundary (none: a whole disc, no other surface's photons).
+  void record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query, double ne_pass,
+                           const PassBoundary* boundary = nullptr) const;
 
   void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
 
@@ -159,6 +194,8 @@ class ProgressivePhotonMapping : public Integrator {
   void update_error_estimate();
   // The Laplacian, B'_i and its standard error of pixel k (the rest of ErrorTerms left 0).
   ErrorTerms bias_estimate(size_t k) const;
+  // cut, edge_bias and edge_bias_sd of pixel k into e (e.radiance set).
+  void edge_bias(size_t k, ErrorTerms& e) const;
   // Reads parameter film_transparent (PPM, SPPM: their RGB eye pass writes the alpha pass);
   // spectral photons leave it unread, so it is reported as unused there.
   void read_film_transparent(const Params& params) {
@@ -228,6 +265,7 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<float> first_r_;         // footprint radius proposed by the eye pass
   std::vector<PixelState> px_;
   std::vector<float> gather_m_, gather_lap_;
+  std::vector<std::array<float, 3>> gather_boundary_;  // other surfaces' flux, own flux's first moment (u, v)
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
   double estimated_error_ = INFINITY;
@@ -237,8 +275,14 @@ class ProgressivePhotonMapping : public Integrator {
   // dof, and the bound at exactly the confidence for an error B' + noise, the noise of L_i and of
   // B' itself combined (FoldedNormalQuantile). docs/error-calibration.md measures both.
   bool thesis_bound_ = false;
+  // error_bound = "boundary": "calibrated" plus the bias of gather discs cut by a geometric edge
+  // (disc_shape's probe rays, record_error_sample's linear fit); opt-in for its cost (up to 1.5x
+  // an SPPM pass, docs/benchmarks.md), which the default must not put on every render.
+  bool boundary_bound_ = false;
   FoldedNormalQuantile folded_;
   double t_over_z_ = 1;               // t(dof, 1 - beta/2) / z(1 - beta/2)
+  std::vector<double> bias_cut_;       // bias_significance_cut(n) for n = 0 .. passes
+  double significance_cut(uint32_t n) const { return n < bias_cut_.size() ? bias_cut_[n] : bias_significance_cut(n); }
   std::vector<float> error_;           // per-pixel relative bound (eq. 6.13)
   int64_t emitted_total_ = 0;
 };
