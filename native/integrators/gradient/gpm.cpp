@@ -257,9 +257,10 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
 Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, const Vec2& ext, const RGB& gather_path, int further,
                                      int64_t& rays, int64_t& invalid) const {
   EmissionSeen out;
-  auto add = [&out](const RGB& e) {
-    out.mean += e;
-    const float l = e.luminance();
+  double sum[3] = {0, 0, 0};
+  auto add = [&](const RGB& e) {
+    for (int c = 0; c < 3; ++c) sum[c] += e[c];
+    const double l = e.luminance();
     out.lum += l;
     out.lum2 += l * l;
     ++out.paths;
@@ -275,7 +276,7 @@ Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, const Vec2& ext, const R
     if (e.is_finite()) add(e);
     else ++invalid;  // discarded and counted: NaN/Inf never reaches a pass
   }
-  out.mean = out.mean / static_cast<float>(out.paths);
+  for (int c = 0; c < 3; ++c) out.mean[c] = static_cast<float>(sum[c] / out.paths);
   return out;
 }
 
@@ -707,7 +708,7 @@ void Gpm::iterate(ProgressSink* sink) {
         s.direct[c] += Ld[c];
       }
       g.emission_lum += pass_emission_[i].lum;
-      g.emission_lum2 += double(pass_emission_[i].lum2);
+      g.emission_lum2 += pass_emission_[i].lum2;
       g.emission_paths += pass_emission_[i].paths;
       g.scattered = g.scattered || pass_emission_[i].scattered;
       s.lap = (s.lap + lap_j) * u.ratio;

@@ -141,8 +141,8 @@ class Gpm : public ProgressivePhotonMapping {
   };
   // One pass's light seen along a pixel's camera paths: the gather path's and its further ones.
   struct EmissionSeen {
-    RGB mean{0.0f};          // their mean
-    float lum = 0, lum2 = 0;  // luminance sum and sum of squares over the paths
+    RGB mean{0.0f};             // their mean (summed in double: a few near FLT_MAX overflow a float)
+    double lum = 0, lum2 = 0;  // luminance sum and sum of squares over the paths
     int paths = 0;
     bool scattered = false;  // the gather path went through a specular or glossy vertex
   };
