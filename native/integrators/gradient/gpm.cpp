@@ -132,6 +132,7 @@ struct OffsetWalk : EyePathHooks {
       off[d].wo = ohit[d]->frame.to_local(-oray[d].d);
       off[d].material = ohit[d]->material;
       off[d].uv = ohit[d]->uv;
+      off[d].n_smooth = ohit[d]->n_smooth;
     }
   }
   // Specular or glossy vertex: the offsets follow by half-vector copy (§4.1).
@@ -608,8 +609,11 @@ void Gpm::iterate(ProgressSink* sink) {
       grid_.query(vp.p, std::max(R_primal, R), [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
-        // Only the lobes that see where the photon came from (Photon::lobes, photon_tracer.cpp).
-        const RGB c = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power * weight;  // thesis eq. 7.4
+        // Only the lobes that see where the photon came from (Photon::lobes, photon_tracer.cpp),
+        // with a normal map's bent cosine, as SPPM's gather (so the primal stays its image).
+        const float shading = gather_shading_correction(ph.wi, vp.n_smooth, vp.frame.n);
+        const RGB c = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power *
+                      (weight * shading);  // thesis eq. 7.4
         const PhotonOrigin& org = origins_[ph.index];
         const PhotonChain* chain =
             org.diffuse || org.chain < 0 || manifold_iterations_ == 0 ? nullptr : &chains_[org.chain];
@@ -641,9 +645,13 @@ void Gpm::iterate(ProgressSink* sink) {
             if (sh.failure != ShiftFailure::None) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {
-              // The base path's kernel (same radius) around the offset gather point.
-              c_off = o.beta * scene_.bsdf(o.material, o.uv).eval(o.wo, sh.wi_gather, TransportMode::Radiance, ph.lobes) *
-                      sh.power * weight;
+              // The base path's kernel (same radius) around the offset gather point, whose BSDF
+              // and bent cosine are the base's counterparts (its normals, bump shadowing).
+              const float o_shading = gather_shading_correction(o.frame.to_world(sh.wi_gather), o.n_smooth, o.frame.n);
+              c_off = o.beta *
+                      scene_.bsdf(o.material, o.uv, o.frame, o.ng, o.n_smooth)
+                          .eval(o.wo, sh.wi_gather, TransportMode::Radiance, ph.lobes) *
+                      sh.power * (weight * o_shading);
               // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
               const double ratio = o.ratio * sh.ratio_y;
               if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));

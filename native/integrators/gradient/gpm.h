@@ -112,6 +112,7 @@ class Gpm : public ProgressivePhotonMapping {
     double ratio = 1;     // p(T z) |T'(z)| / p(z), for eq. 11
     int material = -1;
     Vec2 uv;  // texture coordinate there (Scene::bsdf)
+    Vec3 n_smooth;  // the interpolated normal before a normal map (bump shadowing, bent cosine)
     bool ok() const { return exists && failure == ShiftFailure::None; }
   };
 
