@@ -269,8 +269,8 @@ Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, const Vec2& ext, const R
   add(gather_path);
   const Vec2 cell(std::floor(start.film.x), std::floor(start.film.y));
   EyePathHooks none;
+  Rng& rng = start.rng;
   for (int j = 0; j < further; ++j) {
-    Rng& rng = start.rng;
     const Vec2 film(cell.x + rng.uniform(), cell.y + rng.uniform());
     const Vec2 lens(rng.uniform(), rng.uniform());
     const RGB e = trace_eye_path(scene_.camera.generate_ray(film, lens, ext), rng, rays, none, nullptr, true).Ld;
@@ -342,6 +342,13 @@ static Projected project_candidate(const Scene& scene, float threshold, const Ve
   return out;
 }
 
+// An offset photon landing on a surface hidden from some of the kinds its segment carries: where
+// the photon tracer would have chosen between crossing it and scattering there (the base's
+// counterpart is PhotonOrigin::branched), so that pair is not shifted.
+static bool lands_partly_hidden(const Scene& scene, const Photon& ph, int material) {
+  return (ph.lobes & ~scene.material(material).visible_lobes & kAllLobes) != 0;
+}
+
 static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
                           const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev,
                           int64_t& rays) {
@@ -387,13 +394,14 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     return out;
   }
   const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
-  if (s1.failure == ShiftFailure::None && (ph.lobes & ~scene_.material(s1.hit.material).visible_lobes & kAllLobes))
-    out.failure = ShiftFailure::NotInvertible;
   if (s1.failure != ShiftFailure::None) {
     out.failure = s1.failure;
     return out;
   }
-  if (out.failure != ShiftFailure::None) return out;
+  if (lands_partly_hidden(scene_, ph, s1.hit.material)) {
+    out.failure = ShiftFailure::NotInvertible;
+    return out;
+  }
   const SurfacePoint& yh = s1.hit;
   const double jac = photon_shift_jacobian(org.p, s1.y_star, candidate_normal(vp.frame, o.frame, org.n_photon), yh.p, yh.ng);  // eq. 6
   const Vec3 wi_prev = s1.wi_prev;
@@ -505,7 +513,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   if (org.branched) return failed(ShiftFailure::NotInvertible);  // as shift_dd_photon
   const Projected s1 = project_candidate(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, R, rays);
   if (s1.failure != ShiftFailure::None) return failed(s1.failure);
-  if (ph.lobes & ~scene_.material(s1.hit.material).visible_lobes & kAllLobes) return failed(ShiftFailure::NotInvertible);
+  if (lands_partly_hidden(scene_, ph, s1.hit.material)) return failed(ShiftFailure::NotInvertible);
   const double jac6 = projection_jacobian(candidate_normal(vp.frame, o.frame, org.n_photon), o.frame.n, s1.hit.ng);
   // ---- Step 2: manifold walk from y_b to y'_s, half-vectors held (JM12 §5.2) ----
   // The walk ends within walk_tol of y'_s; the reversibility test below allows 10x that, so the
