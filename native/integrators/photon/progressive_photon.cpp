@@ -218,7 +218,9 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
                             (weight * shading);  // eq. 5.11 / 7.4
         phi += contrib;
         lap += contrib.luminance() * error_kernel::laplacian(d2, R);  // §6.4, eq. 6.31 (2nd order)
-        // Boundary terms (record_error_sample): another surface's photon, or this one's first moment.
+        // Boundary terms (record_error_sample, error_bound=boundary only: the default keeps this
+        // per-photon work out of the gather): another surface's photon, or this one's first moment.
+        if (!boundary_bound_) return;
         const Vec3 off = ph.p - vp.p;
         const double y = contrib.luminance();
         const float height = dot(off, geo.n);
