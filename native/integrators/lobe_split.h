@@ -1,6 +1,7 @@
 // Cycles' per-kind ray visibility of lights (Light::visible_lobes) for estimators that find
 // emission by BSDF sampling: shared by the path tracer and gradient-domain path tracing (whose
-// offset paths weigh their hits the same way, in the base path's measure).
+// offset paths weigh their hits the same way, in the base path's measure), and multisampled PPM's
+// camera paths (msppm.cpp, without the power heuristic).
 //
 // A BSDF ray's kind is the lobe that sampled it; a light hidden from some kinds is lit only
 // through the lobes that see it. For an unbiased estimate of that restricted integral, int f_V Le,
@@ -41,6 +42,23 @@ struct LobeSplit {
       if (vis & (kRayDiffuse << k)) pv += pdf[k];
     return pv;
   }
+  // f_V: the lobes in `vis` for the sampled direction.
+  RGB f_of(uint8_t vis) const {
+    RGB fv(0.0f);
+    for (int k = 0; k < 3; ++k)
+      if (vis & (kRayDiffuse << k)) fv += f[k];
+    return fv;
+  }
+  // The throughput after the vertex of a sample that reaches something visible to `vis`:
+  // beta f_V |cos| / p_V (beta_now after a delta vertex), 0 when its lobe is not in `vis`. The
+  // restricted integral's estimate before any MIS weight (multisampled PPM weighs it by its
+  // own balance heuristic over whole paths, in which the vertex's density is p_V).
+  RGB throughput(uint8_t vis, bool delta, const RGB& beta_now) const {
+    if (!(vis & lobe)) return RGB(0.0f);
+    if (delta) return beta_now;
+    const float pv = pdf_of(vis);
+    return pv > 0 ? beta * f_of(vis) * (cos / pv) : RGB(0.0f);
+  }
   // The contribution of emission Le found by the BSDF ray, from a light visible to `vis`
   // (a Dirac sample: full weight when its lobe sees the light). A shifted path (gradient
   // methods) passes the shift's Jacobian and the base's p_V, the density its sample has in
@@ -49,13 +67,10 @@ struct LobeSplit {
             float base_pdf_v = -1.0f) const {
     if (!(vis & lobe)) return RGB(0.0f);
     if (delta) return beta_now * Le;
-    RGB fv(0.0f);
-    for (int k = 0; k < 3; ++k)
-      if (vis & (kRayDiffuse << k)) fv += f[k];
     const float pv = pdf_of(vis);
     const float pb = base_pdf_v < 0 ? pv : base_pdf_v;
     if (!(pv > 0) || !(pb > 0)) return RGB(0.0f);
-    return beta * fv * (cos * jacobian / pb) * Le * power_heuristic(pv, pdf_light);
+    return beta * f_of(vis) * (cos * jacobian / pb) * Le * power_heuristic(pv, pdf_light);
   }
 };
 

@@ -1,5 +1,6 @@
 #include "integrators/photon/msppm.h"
 #include "integrators/photon/msppm_densities.h"
+#include "integrators/lobe_split.h"
 
 #include <algorithm>
 #include <atomic>
@@ -65,6 +66,7 @@ double Msppm::n_pm(size_t pixel) const {
 void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                      std::atomic<int64_t>& invalid_out) {
   const LightSet& lights = scene_.light_set();
+  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
       [&](const Tile& tile) {
@@ -84,6 +86,20 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
             first_r = 0;
             RGB beta(1.0f), Ld(0.0f);
             float path_length = 0;
+            // Cycles' per-kind switches: the kind of `ray` (the camera, then the lobe of the last
+            // bounce; a light object crossed keeps it) and the last scattering vertex's lobes.
+            // Emission found by the ray counts when the light is visible to that kind, and from a
+            // light hidden from some kinds as f_V / p_V of the vertex (lobe_split.h), whose
+            // density in the weights is p_V (msppm_detail::light_lobes).
+            uint8_t kind = kRayCamera;
+            LobeSplit prev;
+            bool prev_delta = false;
+            auto found = [&](const RGB& Le, int light) -> RGB {
+              const Light& l = lights.lights()[light];
+              if (!l.visible_to(kind)) return RGB(0.0f);
+              if (kind == kRayCamera || l.visible_lobes == kAllLobes) return beta * Le;
+              return prev.throughput(l.visible_lobes, prev_delta, beta) * Le;
+            };
             // The camera-side vertices so far, as PathVertex (y[0] = camera).
             y.clear();
             PathVertex cam;
@@ -94,13 +110,13 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               const auto hit = scene_.intersect(ray);
               if (!hit) {
                 // ---- Environment seen by the path (technique "hit") ----
-                if (lights.environment() >= 0 && (depth > 1 || lights.environment_visible_to_camera())) {
+                if (lights.environment() >= 0) {
                   PathVertex lv;
                   lv.light = lights.environment();
                   lv.distant = true;
                   lv.dir = -ray.d;
                   y.push_back(lv);
-                  Ld += beta * lights.environment_radiance(ray.d) *
+                  Ld += found(lights.environment_radiance(ray.d), lv.light) *
                         static_cast<float>(light_weight(y, 0, cy[y.size() - 2], ratio));
                   y.pop_back();
                 }
@@ -116,7 +132,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                   lv.ng = lights.lights()[hit->light].n;
                   lv.light = hit->light;
                   y.push_back(lv);
-                  Ld += beta * Le * static_cast<float>(light_weight(y, 0, cy[y.size() - 2], ratio));
+                  Ld += found(Le, hit->light) * static_cast<float>(light_weight(y, 0, cy[y.size() - 2], ratio));
                   y.pop_back();
                 }
               }
@@ -156,13 +172,14 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                   cy[j] = B / d.E(j);
                 }
               }
-              // ---- Next-event estimation (technique "nee") ----
+              // ---- Next-event estimation (technique "nee"): the lobes that see the light ----
               if (!e.delta && !lights.empty()) {
                 const float u_light = rng.uniform();
                 const Vec2 u2(rng.uniform(), rng.uniform());
                 if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
                   const Vec3 wi = hit->frame.to_local(ls->wi);
-                  const RGB f = bsdf.eval(wo, wi) * std::abs(wi.z);
+                  const uint8_t vis = msppm_detail::light_lobes(scene_, ls->light);
+                  const RGB f = bsdf.eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
                   if (!f.is_black()) {
                     ++rays;
                     const Light& l = lights.lights()[ls->light];
@@ -190,13 +207,28 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               const Vec2 u(rng.uniform(), rng.uniform());
               const auto bs = bsdf.sample(wo, uc, u);
               if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-              beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
               const Vec3 wi = hit->frame.to_world(bs->wi);
-              ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
+              if (scene_.material(hit->material).is_pass_through()) {  // a light object: the ray goes on as it was
+                next.camera = ray.camera;
+                next.bounce = ray.bounce;
+              } else {
+                kind = bs->lobe;
+                next.bounce = kind;  // surfaces hidden from this kind of ray let it through
+                prev_delta = bs->delta;
+                if (split_lobes) {
+                  prev.beta = beta;
+                  prev.lobe = bs->lobe;
+                  if (!bs->delta) prev.fill(bsdf, wo, bs->wi);
+                }
+              }
+              beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+              ray = next;
               if (depth >= rr_depth_) {
                 const float q = std::max(0.05f, 1.0f - beta.max_component());
                 if (rng.uniform() < q) break;
                 beta = beta / (1.0f - q);
+                if (split_lobes) prev.beta = prev.beta / (1.0f - q);
               }
             }
             if (!Ld.is_finite()) {
@@ -423,7 +455,9 @@ void Msppm::iterate(ProgressSink* sink) {
           hits.push_back(&ph);
         });
         for (const Photon* ph : hits) {
-          const RGB f = bsdf.eval(wo, e.frame.to_local(ph->wi));
+          // The photon's lobes (the kinds that see where it came from, photon_tracer.cpp), as
+          // SPPM's gather.
+          const RGB f = bsdf.eval(wo, e.frame.to_local(ph->wi), TransportMode::Radiance, ph->lobes);
           if (f.is_black()) continue;
           // Balance heuristic of density estimation at y_{j+1} for the full path the photon
           // closes (eq. 9.5), in O(1) from the camera prefix and the photon's tail.

@@ -14,7 +14,8 @@
 //      photon paths recorded
 //      (§9.5 step 1, PhotonPathRecord);
 //   3. every measurement point gathers the photons within its pixel's radius; each photon's
-//      flux is weighted by the balance heuristic for the full path it closes (§9.5 step 4);
+//      flux, through the BSDF's lobes it may light (Cycles' per-kind switches, lobe_visibility)
+//      as SPPM's gather, is weighted by the balance heuristic for the full path it closes (§9.5 step 4);
 //      radius, count and flux of the pixel follow SPPM (eq. 7.2-7.5, shared by all the
 //      measurement points of the pixel).
 //
@@ -95,6 +96,18 @@ class Msppm : public Integrator {
  public:
   Msppm(const Scene& scene, const Params& params);
   std::string name() const override { return "msppm"; }
+  // Lights', the World's and surfaces' per-kind switches, as SPPM: the camera paths' bounce rays
+  // pass surfaces hidden from their kind, emission they find counts when the light is visible
+  // to that kind (from a light hidden from some kinds, by the lobes that see it: f_V / p_V),
+  // next-event estimation lights only those lobes, photons follow photon_tracer.cpp's rule and
+  // the gather evaluates their lobes. The weights take the vertex before a light with the
+  // light's lobes (msppm_detail::light_lobes) and every other vertex with all of them: any
+  // weights that sum to one over the techniques that can make a path keep the combination
+  // unbiased, and a surface's switches leave every technique able to make the paths the others
+  // make, but one: next-event estimation does not see a light through a surface hidden from
+  // some kinds that casts shadows, whose light the other techniques then count only in part
+  // (docs/blender.md: the path tracer, as Cycles, counts only its BSDF rays' MIS share).
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   RGB pixel_radiance(size_t i) const;
@@ -137,6 +150,7 @@ class Msppm : public Integrator {
     double A_P = 0, A_H = 0, B_H = 0;
     int material = -1, light = -1;
     Vec2 uv;  // texture coordinate there (Scene::bsdf)
+    uint8_t lobes = kAllLobes;  // those its densities take (msppm_detail::light_lobes at depth 2)
     int depth = 0;    // segments from the light to the deposit (d = k - t)
     bool delta = false, mergeable = false, distant = false;
   };

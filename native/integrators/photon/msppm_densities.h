@@ -9,6 +9,16 @@
 
 namespace gp::msppm_detail {
 
+// The lobes through which the vertex before a light vertex of light `light` scatters, in both
+// directions: those of the kinds of bounce ray that see the light (Light::visible_lobes, Cycles'
+// switches), all for any other vertex. The techniques sample that vertex with them: the camera
+// path's hits count when the sampled lobe sees the light (weighted f_V / p_V, lobe_split.h),
+// next-event estimation and the gather evaluate f_V, and a photon scatters on from its first hit
+// only through them (photon_tracer.cpp); so its direction densities there are p_V.
+inline uint8_t light_lobes(const Scene& scene, int light) {
+  return light >= 0 ? scene.light_set().lights()[light].visible_lobes : kAllLobes;
+}
+
 // The per-vertex area densities E_i, L_i of eq. 9.6-9.8 for a path reached through an accessor
 // y(i) (i = 0 camera .. k light), with exactly the formulas of Msppm::mis_weight.
 template <class Y>
@@ -21,12 +31,15 @@ struct PathDensities {
     if (vb.distant) return -vb.dir;
     return normalize(vb.p - y(a).p);
   }
+  // The lobes of y_v (light_lobes for y_{k-1}; y(k) is read only then: callers whose k merely
+  // exceeds the indices they use never reach it).
+  uint8_t lobes_at(int v) const { return v == k - 1 ? light_lobes(scene, y(k).light) : kAllLobes; }
   double dir_pdf(int v, int from, int to) const {
     const Msppm::PathVertex& a = y(v);
     if (a.delta) return 1.0;
     if (a.material < 0 || !a.frame) return 0.0;
     const Bsdf bsdf = scene.bsdf(a.material, a.uv);
-    return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)));
+    return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)), lobes_at(v));
   }
   double to_area(int a, int b) const {
     const Msppm::PathVertex& vb = y(b);
@@ -43,6 +56,14 @@ struct PathDensities {
   // The end of the light-side recursion: R_{k-1} = P + H / n_pm with
   //   P = m_{k-1},  H = (E_k [hit possible] + p_nee(y_k) [y_{k-1} not delta]) / (L_{k-1} L_k).
   void terminal(double& P, double& H) const {  // (also sets hit, nee, denom, q_hit)
+    light_end();
+    q_hit = hit ? E(k) : 0.0;
+    P = y(k - 1).mergeable ? 1.0 : 0.0;
+    H = (q_hit + nee) / denom;
+  }
+  // The parts of terminal() that do not read y_{k-2} (a photon deposited on a surface it then
+  // crossed may have no such vertex of its own): hit, nee and denom.
+  void light_end() const {
     const LightSet& lights = scene.light_set();
     const Msppm::PathVertex& lv = y(k);
     const Msppm::PathVertex& prev = y(k - 1);
@@ -66,15 +87,11 @@ struct PathDensities {
       }
       hit_ok = l.type == LightType::Area || l.type == LightType::Environment;
     }
-    q_hit = hit_ok ? E(k) : 0.0;
-    const double q = q_hit + (prev.delta ? 0.0 : p_nee);
-    P = prev.mergeable ? 1.0 : 0.0;
-    H = q / (Lk1 * Lk);
     hit = hit_ok;
     nee = prev.delta ? 0.0 : p_nee;
     denom = Lk1 * Lk;
   }
-  // The parts of terminal() that do not depend on y_{k-2}: H = (E_k hit + nee) / denom.
+  // Set by light_end(): H = (E_k hit + nee) / denom.
   mutable bool hit = false;
   mutable double nee = 0, denom = 0, q_hit = 0;
 };

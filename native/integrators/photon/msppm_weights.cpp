@@ -10,6 +10,7 @@
 
 namespace gp {
 using msppm_detail::densities;
+using msppm_detail::light_lobes;
 
 // ---- Path densities and the balance heuristic (thesis eq. 9.5-9.8, 9.19 without bias) ----
 double Msppm::mis_weight(const std::vector<PathVertex>& y, int technique, double npm, double npt) const {
@@ -28,7 +29,8 @@ double Msppm::mis_weight(const std::vector<PathVertex>& y, int technique, double
     if (a.delta) return 1.0;  // specular: the same delta on both sides, left out
     if (a.material < 0 || !a.frame) return 0.0;
     const Bsdf bsdf = scene_.bsdf(a.material, a.uv);
-    return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)));
+    const uint8_t lobes = v == k - 1 ? light_lobes(scene_, lv.light) : kAllLobes;  // (msppm_densities.h)
+    return bsdf.pdf(a.frame->to_local(towards(v, from)), a.frame->to_local(towards(v, to)), lobes);
   };
   // Area density conversion at vertex b of a segment leaving a: |cos_b| / d^2.
   auto to_area = [&](int a, int b) -> double {
@@ -115,19 +117,25 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
   tails.assign(record.deposit_vertex.size(), PhotonTail{});
   thread_local std::vector<PathVertex> z;
   thread_local std::vector<double> RP, RH;
+  thread_local std::vector<int> before;
   size_t begin = 0, dep = 0;
   while (begin < nv) {
     size_t end = begin + 1;
     while (end < nv && !record.vertices[end].start) ++end;
-    // The path z_0 (light) .. z_n; as a path ending on the light, y_j = z_{k-j} with k = n + 1
-    // (y_0 is never reached: R_j needs y_{j-1} = z_{a+1}).
-    const int n = static_cast<int>(end - begin) - 1;
+    // The path z_0 (light) .. z_n: the record's vertices less the surfaces the photon crossed
+    // (the segment goes straight on through them); before[a]: how many of them precede record
+    // vertex begin + a, the depth of a deposit there (crossed or not). As a path ending on the
+    // light, y_j = z_{k-j} with k = n + 1 (y_0 is never reached: R_j needs y_{j-1} = z_{a+1}).
     z.clear();
-    for (int a = 0; a <= n; ++a) {
-      const PhotonPathVertex& pv = record.vertices[begin + a];
+    before.clear();
+    for (size_t a = begin; a < end; ++a) {
+      const PhotonPathVertex& pv = record.vertices[a];
+      before.push_back(static_cast<int>(z.size()));
+      if (pv.crossed) continue;
       const bool m = !pv.start && !pv.delta;  // mergeable: every non-delta vertex (§9.6)
       z.push_back(photon_path_vertex(pv, m));
     }
+    const int n = static_cast<int>(z.size()) - 1;
     const int k = n + 1;
     auto y = [&](int j) -> const PathVertex& { return z[k - j]; };
     const auto d = densities(scene_, y, k);
@@ -135,13 +143,17 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
     // light, over q(y_j)), and L_j, the light-side density of z_a.
     RP.assign(n + 1, 0.0);
     RH.assign(n + 1, 0.0);
-    double term_hit_over = 0, term_nee_over = 0;  // z_1's terminal parts, for depth-2 deposits
+    // z_1's terminal parts, for depth-2 deposits (those on a surface crossed after z_1 too).
+    double term_hit_over = 0, term_nee_over = 0;
+    if (n >= 1) {
+      d.light_end();
+      term_hit_over = d.hit ? 1.0 / d.denom : 0.0 / d.denom;
+      term_nee_over = d.nee / d.denom;
+    }
     for (int a = 1; a <= n - 1; ++a) {
       const int j = k - a;
       if (a == 1) {
         d.terminal(RP[1], RH[1]);  // R_{k-1}
-        term_hit_over = d.hit ? 1.0 / d.denom : 0.0 / d.denom;
-        term_nee_over = d.nee / d.denom;
       } else {
         // R_j = m_j + (E_{j+1} / L_j) R_{j+1}
         const double u = d.E(j + 1) / d.L_inner(j);
@@ -151,7 +163,7 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
     }
     // Deposits of this path (in order: their vertices increase).
     while (dep < record.deposit_vertex.size() && record.deposit_vertex[dep] < end) {
-      const int dd = static_cast<int>(record.deposit_vertex[dep] - begin);  // depth of the deposit
+      const int dd = before[record.deposit_vertex[dep] - begin];  // depth of the deposit
       PhotonTail& tl = tails[dep];
       const PathVertex& v = z[dd - 1];  // y_{t+1}
       tl.p = v.p;
@@ -169,6 +181,7 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
         tl.mergeable = v.mergeable;
         // In the photon's own indexing y_{t+1} = z_{dd-1} is y_{j1}, j1 = k - (dd - 1).
         const int j1 = k - (dd - 1);
+        tl.lobes = d.lobes_at(j1);
         tl.to_next = d.towards(j1, j1 + 1);
         const double g_next = d.to_area(j1, j1 + 1);  // area factor of y_{t+2} from y_{t+1}
         if (dd == 2) {
@@ -230,8 +243,8 @@ double Msppm::merge_weight(const PathVertex* yc, int t, const double* c, const P
     if (!tl.delta) {
       const Bsdf b = scene_.bsdf(tl.material, tl.uv);
       const Vec3 lc = tl.frame.to_local(to_cam), ln = tl.frame.to_local(tl.to_next);
-      p_fwd = b.pdf(ln, lc);
-      p_rev = b.pdf(lc, ln);
+      p_fwd = b.pdf(ln, lc, tl.lobes);
+      p_rev = b.pdf(lc, ln, tl.lobes);
     }
     const double L_t = p_fwd * (std::abs(dot(e.ng, dv)) / std::sqrt(d2) / d2);  // eq. 9.8
     const double P1 = (tl.mergeable ? 1.0 : 0.0) + p_rev * tl.A_P;            // R_{t+1}
@@ -248,7 +261,8 @@ double Msppm::merge_weight(const PathVertex* yc, int t, const double* c, const P
     const Vec3 dp = yc[t - 1].p - e.p;
     const double dp2 = length_squared(dp);
     const Vec3 from = tl.depth == 1 && tl.distant ? -tl.to_next : normalize(tl.p - e.p);
-    const double L_prev = dp2 > 0 ? (e.delta ? 1.0 : bsdf.pdf(e.frame->to_local(from), e.frame->to_local(to_prev))) *
+    const uint8_t lobes = tl.depth == 1 ? light_lobes(scene_, tl.light) : kAllLobes;  // y_t before the light
+    const double L_prev = dp2 > 0 ? (e.delta ? 1.0 : bsdf.pdf(e.frame->to_local(from), e.frame->to_local(to_prev), lobes)) *
                                         (std::abs(dot(yc[t - 1].ng, dp)) / std::sqrt(dp2) / dp2)
                                   : 0.0;
     left = L_prev * c[t];

@@ -42,9 +42,8 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   // own switches are about rays towards y) and lets it through (for the kinds hidden): the
   // photon is deposited at y, then either scatters there or goes on past y, chosen at random
   // and weighted by the inverse probability, as the path tracer's rays of those kinds cross y.
-  // Multisampled PPM's path densities (its records) know no crossing: it leaves surfaces'
-  // switches to a warning (Msppm::lobe_visibility), and its photons ignore them.
-  const bool surface_switches = record == nullptr;
+  // A recorded path (multisampled PPM's path densities) keeps a crossed surface as a vertex
+  // marked `crossed`, which its densities skip (the segment goes straight on through it).
   uint8_t arrive = lights.lights()[em->light].visible_lobes;
   float t_crossed = 0;  // distance along the segment before the last surface crossed (records)
   int crossed = 0;      // surfaces crossed on this segment (a bound, as Embree's filters have none)
@@ -83,7 +82,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     if (!hit) break;
     const Bsdf bsdf = scene_.bsdf(*hit);
     const Material& mat = scene_.material(hit->material);
-    const uint8_t seen_by = surface_switches ? mat.visible_lobes & kAllLobes : kAllLobes;  // the next segment's kinds
+    const uint8_t seen_by = mat.visible_lobes & kAllLobes;  // the next segment's kinds
     if (bsdf.is_black() && !(arrive & ~seen_by)) break;     // (one that hides some goes on below)
     const bool diffuse = bsdf.is_diffuse_for_photons(threshold_);
     if (record) {
@@ -125,6 +124,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       const float q = crossing_probability(seen_by, bsdf.is_black(), bounce + 2 > max_depth_);
       const bool cross = q == 1.0f || u.next() < q;
       if (cross) {
+        if (record) record->vertices.back().crossed = true;
         beta = beta / q;
         arrive = hidden;
         ++crossed;

@@ -91,7 +91,7 @@ struct PhotonChain {
 // Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to
 // the photon at the previous bounce"), for the path densities of multisampled PPM
 // (msppm.h). A path's vertices are consecutive: its light vertex (start = true), then
-// every surface hit in order, specular ones included.
+// every surface hit in order, specular and crossed ones included.
 struct PhotonPathVertex {
   Vec3 p, ng;       // light vertex: origin on the light (or on the emission disk) and its normal
   Frame frame;      // shading frame (surface vertices)
@@ -103,6 +103,10 @@ struct PhotonPathVertex {
   int light = -1;   // light vertex: the light
   bool delta = false;  // specular BSDF: its direction density counts as 1 on both sides
   bool start = false;
+  // A surface hidden from some of the segment's kinds that the photon went on through (per-kind
+  // switches, photon_tracer.cpp): not a vertex of the path, but a deposit may have been made
+  // there (it received the photon), so it stays in the record for deposit_vertex to point at.
+  bool crossed = false;
 };
 struct PhotonPathRecord {
   std::vector<PhotonPathVertex> vertices;
