@@ -143,6 +143,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               EyeVertex& e = ev[count++];
               e.p = hit->p;
               e.ng = hit->ng;
+              e.n_smooth = hit->n_smooth;
               e.wo = -ray.d;
               e.frame = hit->frame;
               e.beta = beta;
@@ -439,7 +440,7 @@ void Msppm::iterate(ProgressSink* sink) {
         const EyeVertex& e = ev[j];
         if (!e.mergeable) continue;
         ++local_points;
-        const Bsdf bsdf = scene_.bsdf(e.material, e.uv);
+        const Bsdf bsdf = scene_.bsdf(e.material, e.uv, e.frame, e.ng, e.n_smooth);  // as Scene::bsdf(hit)
         const Vec3 wo = e.frame.to_local(e.wo);
         // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the
         // tail, a cache miss each: found photons are collected and their tails prefetched
@@ -455,9 +456,10 @@ void Msppm::iterate(ProgressSink* sink) {
           hits.push_back(&ph);
         });
         for (const Photon* ph : hits) {
-          // The photon's lobes (the kinds that see where it came from, photon_tracer.cpp), as
-          // SPPM's gather.
-          const RGB f = bsdf.eval(wo, e.frame.to_local(ph->wi), TransportMode::Radiance, ph->lobes);
+          // The photon's lobes (the kinds that see where it came from, photon_tracer.cpp), and a
+          // normal map's bent cosine (gather_shading_correction), as SPPM's gather.
+          const RGB f = bsdf.eval(wo, e.frame.to_local(ph->wi), TransportMode::Radiance, ph->lobes) *
+                        gather_shading_correction(ph->wi, e.n_smooth, e.frame.n);
           if (f.is_black()) continue;
           // Balance heuristic of density estimation at y_{j+1} for the full path the photon
           // closes (eq. 9.5), in O(1) from the camera prefix and the photon's tail.

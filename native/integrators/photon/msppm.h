@@ -15,7 +15,8 @@
 //      (§9.5 step 1, PhotonPathRecord);
 //   3. every measurement point gathers the photons within its pixel's radius; each photon's
 //      flux, through the BSDF's lobes it may light (Cycles' per-kind switches, lobe_visibility)
-//      as SPPM's gather, is weighted by the balance heuristic for the full path it closes (§9.5 step 4);
+//      and with a normal map's bent cosine (gather_shading_correction), as SPPM's gather, is
+//      weighted by the balance heuristic for the full path it closes (§9.5 step 4);
 //      radius, count and flux of the pixel follow SPPM (eq. 7.2-7.5, shared by all the
 //      measurement points of the pixel).
 //
@@ -176,6 +177,7 @@ class Msppm : public Integrator {
  private:
   struct EyeVertex {
     Vec3 p, ng, wo;  // wo: unit world direction towards the previous vertex
+    Vec3 n_smooth;   // the unmapped normal: with ng, a normal map's bump shadowing (Scene::bsdf)
     Frame frame;
     RGB beta;        // camera-path throughput up to this vertex
     int material = -1;
