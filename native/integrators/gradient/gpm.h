@@ -148,6 +148,7 @@ class Gpm : public ProgressivePhotonMapping {
     bool scattered = false;  // the gather path went through a specular or glossy vertex
   };
 
+  bool takes_further_paths(size_t pixel, uint64_t pass) const;
   EmissionSeen emission_seen(PixelStart& start, const Vec2& ext, const RGB& gather_path, int further, int64_t& rays,
                              int64_t& invalid) const;
   void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
