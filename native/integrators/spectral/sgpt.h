@@ -74,9 +74,10 @@ class SpectralGradientPathTracer : public Integrator {
   SpectralGradientPathTracer(const Scene& scene, const Params& params);
   std::string name() const override { return "sgpt"; }
   void iterate(ProgressSink* sink) override;
-  // Surfaces' per-kind switches (base and offset rays carry the base's lobes); lights' and the
-  // World's are not honoured (warned): its events' densities would need the visible lobes'.
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = false}; }
+  // Every per-kind switch: base and offset rays carry the base's lobes (surfaces'), and lights
+  // and the World hidden from some kinds light only the lobes that see them, at the base's and
+  // at each offset's own vertices (sgpt.cpp, LobeScatter).
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void develop(Film& film) const override;
 
   int bins() const { return bins_; }
