@@ -123,12 +123,11 @@ struct LobeScatter {
   std::array<SpectralValues, 3> f{}, pdf{};  // f |cos| and pdf of each lobe kind (a Dirac lobe's weights)
   SpectralValues F{}, P{};                   // the path's f and density before the vertex
   float rr = 1;                              // roulette's survival after it (the BSDF strategy's)
-  uint8_t lobe = kAllLobes;                  // the lobe sampled (a BSDF ray's kind; 0: a camera ray)
+  uint8_t lobe = kAllLobes;                  // the lobe sampled (a BSDF ray's kind; next-event estimation: all)
 
   // Restricts event e, made with the whole BSDF and the emission Le (per wavelength) of a light
   // visible to `vis`, to the lobes that see it, and keeps its density per lobe kind.
   void restrict(Event& e, uint8_t vis, const SpectralValues& Le, int C) const {
-    if (lobe == 0) return;  // a camera ray (across a light object) sees every light whole
     e.vis = vis;
     for (int l = 0; l < 3; ++l)
       for (int j = 0; j < C; ++j) e.p_lobe[l][j] = P[j] * pdf[l][j] * rr;
@@ -283,7 +282,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     ray.camera = camera;
     const Scatter s = v.delta ? delta_scatter(b, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(b, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;
-    v.rr = survival(depth, beta);
+    v.rr = mat.is_pass_through() ? 1.0f : survival(depth, beta);  // a light object crossed: no roulette (as spt)
     if (v.rr < 1.0f && rng.uniform() >= v.rr) {
       v.scattered = false;  // roulette ended the path after NEE at this vertex
       break;
@@ -355,16 +354,20 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     }
     Vec3 dir = base.camera_ray.d;
     float beta_k = 1.0f;
-    LobeScatter last;  // the previous vertex's scattering by lobe kind (split_lobes)
+    // The last vertex that scattered the path, before the light objects (pass-through
+    // surfaces) it then crossed, if any: where its BSDF ray began, NEE competes for what the ray
+    // finds, and its lobes see it (NEE from there is not shadowed by light objects either).
+    const BaseVertex* from = nullptr;
+    LobeScatter last;  // its scattering by lobe kind (split_lobes)
     for (size_t k = 0; k < K; ++k) {
       const bool is_escape = k == base.v.size();
       const SurfaceHit* h = is_escape ? nullptr : &base.v[k].hit;
       Event& e = hit_ev[k];
       e.valid = true;
-      // NEE competes for this emission unless a Dirac lobe of the previous vertex found it (a
-      // mix's smooth part beside a rough one: NEE-eligible, yet no density to compare).
-      const bool nee_competes = k > 0 && base.v[k - 1].nee_eligible && !base.v[k - 1].delta;
-      const float pl = nee_competes ? light_pdf(base.v[k - 1].hit.p, h, dir) : 0.0f;
+      // NEE competes for this emission unless a Dirac lobe found it (a mix's smooth part beside
+      // a rough one: NEE-eligible, yet no density to compare).
+      const bool nee_competes = from && from->nee_eligible && !from->delta;
+      const float pl = nee_competes ? light_pdf(from->hit.p, h, dir) : 0.0f;
       Values Le{};
       for (int j = 0; j < C; ++j) {
         Le[j] = emitted(h, dir, wl.lambda[j], camera_ray_to(k));
@@ -372,7 +375,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         e.p_bsdf[j] = P[j];
         e.p_light[j] = P_prev[j] * pl;
       }
-      if (split_lobes && k > 0) last.restrict(e, light_vis(h), Le, C);
+      if (split_lobes && !camera_ray_to(k)) last.restrict(e, light_vis(h), Le, C);
       if (is_escape) break;
       const BaseVertex& v = base.v[k];
       if (v.nee) {
@@ -406,8 +409,12 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         }
       }
       if (!v.scattered) break;
-      P_prev = P;
-      if (split_lobes) {
+      const bool crossing = scene_.material(v.hit.material).is_pass_through();
+      if (!crossing) {
+        from = &v;
+        P_prev = P;
+      }
+      if (split_lobes && !crossing) {
         last = LobeScatter{};
         last.F = F;
         last.P = P;
@@ -554,7 +561,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           ey.p_light[j] = P2_prev[j] * l_pdf;
         }
         // The offset's light weighed by the lobes that see it at its own vertex (the base's lobe sampled).
-        if (split_lobes && k > 0) y_last.restrict(ey, light_vis(yk), Le, C);
+        if (split_lobes && !camera_ray_to(k)) y_last.restrict(ey, light_vis(yk), Le, C);
         pair(hit_ev[k], ey, J);
       }
       if (is_escape) break;
@@ -695,9 +702,10 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       }
       // The offset's own roulette survival (eq. 10-11 need its density as a base path).
       beta2 *= s2[0].f_cos / s2[0].pdf;
-      const float rr2 = survival(k, beta2);
+      const bool crossing = mat_y.is_pass_through();  // a light object: as the base, no roulette
+      const float rr2 = crossing ? 1.0f : survival(k, beta2);
       beta2 /= rr2;
-      if (split_lobes) {  // along the base's lobe, from the offset's own vertex
+      if (split_lobes && !crossing) {  // along the base's lobe, from the offset's own vertex
         y_last = LobeScatter{};
         y_last.F = F2;
         y_last.P = P2;
@@ -712,13 +720,15 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           }
         }
       }
-      P2_prev = P2;
+      if (!crossing) {  // the vertex whose BSDF ray the next events come from (as the base's `from`)
+        P2_prev = P2;
+        y_prev_p = yh.p;
+        y_prev_nee = y_nee && !delta_y;  // as nee_competes above
+      }
       for (int j = 0; j < C; ++j) {
         F2[j] *= s2[j].f_cos;
         P2[j] *= s2[j].pdf * rr2;
       }
-      y_prev_p = yh.p;
-      y_prev_nee = y_nee && !delta_y;  // as nee_competes above
       if (state == State::Reconnected) state = State::Same;
       // ---- Next offset vertex ----
       if (reconnect_now) {
