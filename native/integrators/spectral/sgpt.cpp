@@ -404,7 +404,8 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           ns.F = F;
           ns.P = P;
           ns.rr = rr;
-          if (!v.ls.delta) split_smooth(ns, v.hit, wl.lambda, v.wo, wi);
+          split_smooth(ns, v.hit, wl.lambda, v.wo, wi);
+          if (v.ls.delta) ns.pdf = {};  // a Dirac light: no BSDF strategy
           ns.restrict(n, light.visible_lobes, Ls, C);
         }
       }
@@ -619,7 +620,8 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
               ns.F = F2;
               ns.P = P2;
               ns.rr = rr;
-              if (!ls->delta) split_smooth(ns, yh, lambda2, wo_y, wi);
+              split_smooth(ns, yh, lambda2, wo_y, wi);
+              if (ls->delta) ns.pdf = {};
               ns.restrict(ey, lights.lights()[ls->light].visible_lobes, Ls, C);
             }
           }
