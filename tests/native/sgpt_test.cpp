@@ -490,9 +490,9 @@ TEST(Sgpt, HonoursTheLightsSwitchesAtTheBaseAndTheOffsets) {
   std::cout << "lights' switches: largest |z| of E[G] - dE[I] = "
             << check_gradients(s, p, 1024, 0.04, "lights' switches gradients") << "\n";
   // Delta lights, reached by next-event estimation only: a point light hidden from glossy rays
-  // and a sun hidden from diffuse rays light one lobe of the floor each. Measured: 0.993 of spt (z -0.6; against 4096 passes of
-  // spt, seeds 201-202: 0.98-1.00);
-  // with f_V left out for Dirac lights (the point and the sun lit nothing) 0.858, z -8.2 (512 passes).
+  // and a sun hidden from diffuse rays light one lobe of the floor each. Measured: 0.993 of spt
+  // (z -0.6; against 4096 passes of spt, seeds 201-202: 0.98-1.00); with f_V left out for Dirac
+  // lights (the point and the sun lit nothing) 0.858, z -8.2 (512 passes).
   const Scene delta = sphere_on_mixed_floor(12, "", "", R"(, "lights": [
       {"type": "point", "position": [0.3, -0.2, 1.5], "power": 30, "color": [1, 0.9, 0.7], "visible_to_glossy": false},
       {"type": "sun", "direction": [0.3, 0.4, -1], "strength": 1, "visible_to_diffuse": false}])");
