@@ -36,6 +36,11 @@
 // eq. 18 over the 2C techniques (times the two strategies); a smooth dispersive refraction
 // leaves only the hero's pair.
 //
+// Blender scenes as Cycles renders them (docs/blender.md): per-kind ray visibility of surfaces,
+// lights and the World, for the base and the offsets alike (sgpt.cpp, LobeScatter); light
+// objects crossed as spt crosses them; per-wavelength BSDFs with the hit's normals, so a normal
+// or bump map's shadowing term applies at every vertex (Scene::bsdf(params, hit)).
+//
 // Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
 // (`gradphoton methods sgpt`, docs/methods.md#sgpt).
 //
