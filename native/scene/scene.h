@@ -193,9 +193,19 @@ class Scene {
   Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
   // The BSDF at a surface point kept from a hit (a measurement point): as bsdf(hit).
   Bsdf bsdf(int material, Vec2 uv, const Frame& frame, const Vec3& ng, const Vec3& n_smooth) const {
-    Bsdf b(materials[material], uv);
+    return bsdf(bsdf_params(materials[material], uv), material, uv, frame, ng, n_smooth);
+  }
+  // A BSDF of parameters made for `material` at a surface point (one wavelength's, in the
+  // spectral methods: monochromatic()), with the point's normals where a normal or bump map
+  // bent them (the bump shadowing term and the geometric-side test), as bsdf(hit).
+  Bsdf bsdf(const BsdfParams& params, int material, Vec2 uv, const Frame& frame, const Vec3& ng,
+            const Vec3& n_smooth) const {
+    Bsdf b(params, uv);
     if (materials[material].perturbs_normal()) b.set_surface_normals(frame.to_local(ng), frame.to_local(n_smooth));
     return b;
+  }
+  Bsdf bsdf(const BsdfParams& params, const SurfaceHit& h) const {
+    return bsdf(params, h.material, h.uv, h.frame, h.ng, h.n_smooth);
   }
   // The texture coordinate at point p of a triangle (a vertex a manifold walk moved).
   Vec2 uv_at(int mesh, int prim, const Vec3& p) const;

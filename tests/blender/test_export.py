@@ -165,13 +165,9 @@ def test_ray_visibility_as_cycles(empty_scene):
     assert mats[names["Back"][0]] == dict(mats["White"], casts_shadow=False, visible_to_glossy=False)
     assert names["Ceiling"] == ["White"]
     assert not any("ray visibility" in line for line in ex.warnings.lines()), ex.warnings.lines()  # pt honours them
-    for method in ('sppm', 'msppm', 'gpt', 'gpm', 'spt-hero'):  # both kinds honoured, as pt
+    for method in ('sppm', 'msppm', 'gpt', 'gpm', 'spt-hero', 'sgpt'):  # both kinds honoured, as pt
         empty_scene.gradphoton.method = method
         assert not any("ray visibility" in line for line in export_current().warnings.lines()), method
-    empty_scene.gradphoton.method = 'sgpt'  # surfaces' switches honoured, lights' not
-    lines = export_current().warnings.lines()
-    assert any("of lights not honoured by sgpt" in line and "__light_area: diffuse" in line for line in lines), lines
-    assert not any("of surfaces not honoured" in line for line in lines), lines
     empty_scene.gradphoton.method = 'pt'
     world_vis = empty_scene.world.cycles_visibility
     world_vis.camera = False

@@ -306,7 +306,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         continue;
       }
       const SurfaceHit& ov = *o.hit;
-      const Bsdf ob = scene_.bsdf(ov.material, ov.uv);
+      const Bsdf ob = scene_.bsdf(ov);  // with its normals (a normal map's bump shadowing), as the base's
       const Vec3 owo = ov.frame.to_local(-o.ray.d);
       if (can_reconnect) {
         Vec3 wi_o;

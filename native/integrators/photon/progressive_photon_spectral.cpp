@@ -33,17 +33,19 @@ float grey_factor(const RGB& value, const RGB& emit) {
   return value[c] / emit[c];
 }
 
-// Per-wavelength factor f_k |cos| / pdf_hero of a hero-sampled BSDF direction. Returns false when
-// every wavelength is dead; sets hero_only on a smooth dispersive refraction.
-bool scatter_factors(const Material& base, const BsdfParams* mk, Vec2 uv, int C,
-                     const Vec3& wo, const BsdfSample& bs, float uc, Vec2 u, TransportMode mode,
-                     SpectralValues& factor, bool& hero_only) {
+// Per-wavelength factor f_k |cos| / pdf_hero of a hero-sampled BSDF direction at `hit` (each
+// wavelength's BSDF with the hit's normals, as Scene::bsdf). Returns false when every wavelength
+// is dead; sets hero_only on a smooth dispersive refraction.
+bool scatter_factors(const Scene& scene, const SurfaceHit& hit, const BsdfParams* mk, int C, const Vec3& wo,
+                     const BsdfSample& bs, float uc, Vec2 u, TransportMode mode, SpectralValues& factor,
+                     bool& hero_only) {
+  const Material& base = scene.material(hit.material);
   const bool dispersive = is_dispersive(base);
   const float cos_pdf = std::abs(bs.wi.z) / bs.pdf;
   factor[0] = bs.f[0] * cos_pdf;
   bool refracted = false;
   for (int k = 1; k < C; ++k) {
-    const Bsdf b(mk[k], uv);
+    const Bsdf b = scene.bsdf(mk[k], hit);
     float f = 0;
     if (!dispersive || !bs.delta) {
       if (bs.delta) {  // same lobe and direction for every wavelength; only the colour differs
@@ -153,7 +155,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                     SpectralValues f{};
                     bool any = false;
                     for (int k = 0; k < C; ++k) {
-                      f[k] = Bsdf(mk[k], hit->uv).eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);
+                      f[k] = scene_.bsdf(mk[k], *hit).eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);
                       any |= f[k] > 0;
                     }
                     if (any) {
@@ -178,10 +180,10 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               }
               const float uc = rng.uniform();
               const Vec2 u(rng.uniform(), rng.uniform());
-              const auto bs = Bsdf(mk[0], hit->uv).sample(wo, uc, u);
+              const auto bs = scene_.bsdf(mk[0], *hit).sample(wo, uc, u);
               if (!bs || bs->pdf <= 0) break;
               SpectralValues factor{};
-              if (!scatter_factors(base, mk, hit->uv, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only))
+              if (!scatter_factors(scene_, *hit, mk, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only))
                 break;
               for (int k = 0; k < C; ++k) beta[k] *= factor[k];
               const Vec3 wi = hit->frame.to_world(bs->wi);
@@ -298,7 +300,8 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             const BsdfParams* mk = pass_spectra_.material(hit->material, hit->uv, local);
             const float uc = rng.uniform();
             const Vec2 u(rng.uniform(), rng.uniform());
-            const auto bs = Bsdf(mk[0], hit->uv).sample(wo, uc, u, TransportMode::Importance);
+            const Bsdf hero = scene_.bsdf(mk[0], *hit);  // with the hit's normals, as Scene::bsdf(hit)
+            const auto bs = hero.sample(wo, uc, u, TransportMode::Importance);
             if (!bs || bs->pdf <= 0) break;
             const Vec3 wi_world = hit->frame.to_world(bs->wi);
             const float correction = adjoint_shading_correction(wo_world, wi_world, hit->ng, hit->ns);
@@ -307,16 +310,16 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             // hero-only factor from scatter_factors is undone here.
             const bool was_hero_only = hero_only;
             SpectralValues factor{};
-            if (!scatter_factors(base, mk, hit->uv, C, wo, *bs, uc, u, TransportMode::Importance, factor, hero_only))
+            if (!scatter_factors(scene_, *hit, mk, C, wo, *bs, uc, u, TransportMode::Importance, factor, hero_only))
               break;
             if (hero_only && !was_hero_only) factor[0] /= static_cast<float>(C);
             if (!base.is_pass_through() && arrive != kAllLobes) {  // only the lobes of the segment's kinds
               if (!(bs->lobe & arrive)) break;
               if (!bs->delta) {  // f_V / p_V per wavelength, p_V the hero's restricted density
-                const float pdf_v = Bsdf(mk[0], hit->uv).pdf(wo, bs->wi, arrive);
+                const float pdf_v = hero.pdf(wo, bs->wi, arrive);
                 if (!(pdf_v > 0)) break;
                 for (int k = 0; k < C; ++k)
-                  factor[k] = Bsdf(mk[k], hit->uv).eval(wo, bs->wi, TransportMode::Importance, arrive)[0] * std::abs(bs->wi.z) / pdf_v;
+                  factor[k] = scene_.bsdf(mk[k], *hit).eval(wo, bs->wi, TransportMode::Importance, arrive)[0] * std::abs(bs->wi.z) / pdf_v;
               }
             }
             float m_old = 0, m_new = 0;
@@ -383,11 +386,7 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
       const BsdfParams* mk = pass_spectra_.material(vp.material, vp.uv, local);
       // The point's BSDFs, with the normals a normal or bump map needs (as Scene::bsdf).
       std::array<std::optional<Bsdf>, kMaxWavelengths> bk;
-      const bool mapped = scene_.material(vp.material).perturbs_normal();
-      for (int k = 0; k < C; ++k) {
-        bk[k].emplace(mk[k], vp.uv);
-        if (mapped) bk[k]->set_surface_normals(vp.frame.to_local(vp.ng), vp.frame.to_local(vp.n_smooth));
-      }
+      for (int k = 0; k < C; ++k) bk[k] = scene_.bsdf(mk[k], vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);
       const SpectralValues& beta = vp_beta_[i];
       const bool eye_hero = vp_hero_[i] != 0;
       const float R = static_cast<float>(std::sqrt(px_[i].r2));

@@ -47,15 +47,16 @@ struct BasePath {
   Ray escape_ray;             // that ray (world space), from v.back() or the camera
 };
 
-// BSDF value (times |cos wi|) and sampling pdf of the pair (wo, wi) for material m, where `delta`
-// says the base sampled a Dirac lobe: then f and pdf are the lobe's Dirac weight and selection
-// probability (a dielectric's, a smooth mirror's, or a Dirac lobe of a mix's part).
+// BSDF value (times |cos wi|) and sampling pdf of the pair (wo, wi) for the BSDF b (one
+// wavelength's, with the hit's normals: Scene::bsdf), where `delta` says the base sampled a Dirac
+// lobe: then f and pdf are the lobe's Dirac weight and selection probability (a dielectric's, a
+// smooth mirror's, or a Dirac lobe of a mix's part).
 struct Scatter {
   float f_cos = 0, pdf = 0;
 };
-Scatter delta_scatter(const BsdfParams& m, Vec2 uv, const Vec3& wo, const Vec3& wi, bool transmission, float uc,
-                      Vec2 u) {
+Scatter delta_scatter(const Bsdf& b, const Vec3& wo, const Vec3& wi, bool transmission, float uc, Vec2 u) {
   Scatter s;
+  const BsdfParams& m = b.params();
   if (m.type == MaterialType::Dielectric) {
     const float R = fresnel_dielectric(cos_theta(wo), m.ior);
     if (!transmission) {
@@ -70,17 +71,80 @@ Scatter delta_scatter(const BsdfParams& m, Vec2 uv, const Vec3& wo, const Vec3& 
   }
   // A smooth conductor, or a mix: the lobe the base's numbers pick, if it goes the same way (a
   // mix's dispersive glass sends other wavelengths elsewhere).
-  if (auto bs = Bsdf(m, uv).sample(wo, uc, u);
+  if (auto bs = b.sample(wo, uc, u);
       bs && bs->delta && bs->transmission == transmission && dot(bs->wi, wi) > 1.0f - 1e-5f) {
     s.f_cos = bs->f[0] * std::abs(bs->wi.z);
     s.pdf = bs->pdf;
   }
   return s;
 }
-Scatter smooth_scatter(const BsdfParams& m, Vec2 uv, const Vec3& wo, const Vec3& wi) {
-  const Bsdf b(m, uv);
-  return {b.eval(wo, wi)[0] * std::abs(wi.z), b.pdf(wo, wi)};
+// `lobes`: only the lobes of those kinds (a light hidden from the others; LobeScatter).
+Scatter smooth_scatter(const Bsdf& b, const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) {
+  return {b.eval(wo, wi, TransportMode::Radiance, lobes)[0] * std::abs(wi.z), b.pdf(wo, wi, lobes)};
 }
+
+// ---- Lights hidden from some kinds of ray (Light::visible_lobes) ----
+// As spt and GPT do (lobe_split.h), per wavelength: emission found by a BSDF ray from a light
+// visible to the kinds V counts only when the lobe sampled there is one of V, with f and the
+// BSDF strategy's density restricted to V's lobes (f_V, p_V); next-event estimation evaluates
+// f_V and p_V. An offset follows its base's lobe, so the shift stays invertible, and weighs the
+// light it meets by the lobes that see it at its own vertex. Where the two paths of a pair meet
+// lights seen by different kinds, each path's term takes both paths' densities restricted to
+// its own light's kinds (eq. 10-11 per term: the other side's pair, base and offset swapped,
+// then gets the complementary weight), so every event keeps its density per lobe kind.
+
+// The index of a lobe kind bit (kRayDiffuse, kRayGlossy, kRayTransmission) among the three.
+int lobe_index(uint8_t lobe) { return lobe == kRayDiffuse ? 0 : lobe == kRayGlossy ? 1 : 2; }
+bool has_lobe(uint8_t kinds, int l) { return (kinds & (kRayDiffuse << l)) != 0; }
+
+// One event of a path (emission found by a BSDF ray, or a light sample) at C wavelengths: f (the
+// measurement contribution in the product solid-angle measure) and the path's density under each
+// strategy that can produce it, p_bsdf and p_light (the balance heuristic over strategies and
+// wavelengths: eq. 3-4 with NEE).
+struct Event {
+  bool valid = false;
+  uint8_t vis = kAllLobes;  // the kinds of ray that see its light: f and p_bsdf are restricted to them
+  SpectralValues f{}, p_bsdf{}, p_light{};
+  std::array<SpectralValues, 3> p_lobe{};  // p_bsdf per lobe kind (filled where some light is hidden)
+  // The BSDF strategy's density through the lobes of the kinds `kinds` only.
+  SpectralValues p_bsdf_in(uint8_t kinds, int C) const {
+    if (kinds == vis) return p_bsdf;
+    SpectralValues p{};
+    for (int l = 0; l < 3; ++l)
+      if (has_lobe(kinds, l))
+        for (int j = 0; j < C; ++j) p[j] += p_lobe[l][j];
+    return p;
+  }
+};
+
+// A vertex's scattering along one direction pair (the sampled one, or towards a light sample),
+// split by lobe kind, per wavelength, with the path's f and density before it.
+struct LobeScatter {
+  std::array<SpectralValues, 3> f{}, pdf{};  // f |cos| and pdf of each lobe kind (a Dirac lobe's weights)
+  SpectralValues F{}, P{};                   // the path's f and density before the vertex
+  float rr = 1;                              // roulette's survival after it (the BSDF strategy's)
+  uint8_t lobe = kAllLobes;                  // the lobe sampled (a BSDF ray's kind; next-event estimation: all)
+
+  // Restricts event e, made with the whole BSDF and the emission Le (per wavelength) of a light
+  // visible to `vis`, to the lobes that see it, and keeps its density per lobe kind.
+  void restrict(Event& e, uint8_t vis, const SpectralValues& Le, int C) const {
+    e.vis = vis;
+    for (int l = 0; l < 3; ++l)
+      for (int j = 0; j < C; ++j) e.p_lobe[l][j] = P[j] * pdf[l][j] * rr;
+    if (vis == kAllLobes) return;
+    const bool seen = (vis & lobe) != 0;  // the sampled lobe sees it (next-event estimation: always)
+    for (int j = 0; j < C; ++j) {
+      float fv = 0, pv = 0;
+      for (int l = 0; l < 3; ++l)
+        if (has_lobe(vis, l)) {
+          fv += f[l][j];
+          pv += e.p_lobe[l][j];
+        }
+      e.f[j] = seen ? F[j] * fv * Le[j] : 0.0f;
+      e.p_bsdf[j] = pv;
+    }
+  }
+};
 
 Etas etas_of(const BsdfParams& m, const Vec3& wo, bool transmission) {
   return m.type == MaterialType::Dielectric ? dielectric_etas(m.ior, wo.z, transmission) : Etas{};
@@ -184,10 +248,10 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     if (depth + 1 >= max_depth_) break;
     const Material& mat = scene_.material(hit->material);
     if (scene_.bsdf(*hit).is_black() || bv.wo.z == 0) break;
-    const BsdfParams m = monochromatic(mat, spectra_.albedo[hit->material], hit->uv, lambda);
+    const Bsdf b = scene_.bsdf(monochromatic(mat, spectra_.albedo[hit->material], hit->uv, lambda), *hit);
     BaseVertex& v = base.v.back();
     // ---- Emitter sampling (next-event estimation), shared by the offsets ----
-    if (!Bsdf(m, hit->uv).is_delta() && !lights.empty()) {
+    if (!b.is_delta() && !lights.empty()) {
       v.nee_eligible = true;
       v.u_light = rng.uniform();
       v.u_light2 = Vec2(rng.uniform(), rng.uniform());
@@ -201,7 +265,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     // ---- BSDF sampling ----
     v.uc = rng.uniform();
     v.u = Vec2(rng.uniform(), rng.uniform());
-    const auto bs = Bsdf(m, hit->uv).sample(v.wo, v.uc, v.u);
+    const auto bs = b.sample(v.wo, v.uc, v.u);
     if (!bs || bs->pdf <= 0 || bs->f[0] <= 0) break;
     v.scattered = true;
     v.wi = bs->wi;
@@ -216,10 +280,9 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     ray.bounce = v.kind;
     ray.camera = camera;
-    const Scatter s = v.delta ? delta_scatter(m, hit->uv, v.wo, v.wi, v.transmission, v.uc, v.u)
-                              : smooth_scatter(m, hit->uv, v.wo, v.wi);
+    const Scatter s = v.delta ? delta_scatter(b, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(b, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;
-    v.rr = survival(depth, beta);
+    v.rr = mat.is_pass_through() ? 1.0f : survival(depth, beta);  // a light object crossed: no roulette (as spt)
     if (v.rr < 1.0f && rng.uniform() >= v.rr) {
       v.scattered = false;  // roulette ended the path after NEE at this vertex
       break;
@@ -227,41 +290,53 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     beta /= v.rr;
   }
 
-  // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l; k = 0: the
-  // camera ray's (the World's Camera switch).
-  auto emitted = [&](const SurfaceHit* h, const Vec3& dir_in, float l, size_t k) -> float {
+  // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l; `camera`: the
+  // ray is a camera ray (the World's Camera switch).
+  auto emitted = [&](const SurfaceHit* h, const Vec3& dir_in, float l, bool camera) -> float {
     if (!h) {
       const int env = lights.environment();
-      return env >= 0 && (k > 0 || lights.environment_visible_to_camera()) ? spectra_.light[env](l) : 0.0f;
+      return env >= 0 && (!camera || lights.environment_visible_to_camera()) ? spectra_.light[env](l) : 0.0f;
     }
     if (h->light < 0 || lights.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
     return spectra_.light[h->light](l);
   };
+  // Whether the ray reaching vertex k of the base (and of an offset: it takes the base's kinds)
+  // is a camera ray: the first, or one that crossed light objects only (which keep its kind).
+  auto camera_ray_to = [&](size_t k) { return k == 0 || base.v[k - 1].kind == 0; };
   // Solid-angle pdf with which next-event estimation from p would pick the emission found
   // along dir (at h, or the environment when h is null): the light strategy of the MIS.
   auto light_pdf = [&](const Vec3& p, const SurfaceHit* h, const Vec3& dir) -> float {
     if (!h) return lights.pdf_environment(dir);
     return h->light >= 0 ? lights.pdf_area(h->light, p, h->p, dir) : 0.0f;
   };
-  // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l. The direction was
-  // chosen for the hero (or the offset's hero): a smooth dispersive refraction has no density
-  // for any other wavelength.
+  // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l (of its lobes of the
+  // kinds `lobes` only, for a smooth pair). The direction was chosen for the hero (or the
+  // offset's hero): a smooth dispersive refraction has no density for any other wavelength.
   auto scatter_at = [&](const SurfaceHit& h, float l, const Vec3& wo, const Vec3& wi, bool delta,
-                        bool transmission, float uc, Vec2 u, bool hero) -> Scatter {
+                        bool transmission, float uc, Vec2 u, bool hero, uint8_t lobes = kAllLobes) -> Scatter {
     const Material& mat = scene_.material(h.material);
     if (!hero && delta && transmission && is_dispersive(mat)) return {};
-    const BsdfParams m = monochromatic(mat, spectra_.albedo[h.material], h.uv, l);
-    return delta ? delta_scatter(m, h.uv, wo, wi, transmission, uc, u) : smooth_scatter(m, h.uv, wo, wi);
+    const Bsdf b = scene_.bsdf(monochromatic(mat, spectra_.albedo[h.material], h.uv, l), h);
+    return delta ? delta_scatter(b, wo, wi, transmission, uc, u) : smooth_scatter(b, wo, wi, lobes);
+  };
+  // ---- Lights hidden from some kinds of ray (LobeScatter above) ----
+  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
+  // The kinds of ray that see the emission at h (the environment's where h is null).
+  auto light_vis = [&](const SurfaceHit* h) -> uint8_t {
+    const int l = h ? h->light : lights.environment();
+    return l >= 0 ? lights.lights()[l].visible_lobes : kAllLobes;
+  };
+  // s's f and pdf per lobe kind for a smooth pair (wo, wi) at vertex h, at the wavelengths lw.
+  auto split_smooth = [&](LobeScatter& s, const SurfaceHit& h, const Values& lw, const Vec3& wo, const Vec3& wi) {
+    for (int l = 0; l < 3; ++l)
+      for (int j = 0; j < C; ++j) {
+        const Scatter sc = scatter_at(h, lw[j], wo, wi, false, false, 0, {}, j == 0, static_cast<uint8_t>(kRayDiffuse << l));
+        s.f[l][j] = sc.f_cos;
+        s.pdf[l][j] = sc.pdf;
+      }
   };
 
   // ---- Base events: emission found at vertex k (BSDF strategy) and NEE at vertex k ----
-  // Per event and wavelength: f (measurement contribution in the product solid-angle measure)
-  // and the path's density under each strategy that can produce it, p_bsdf and p_light (the
-  // balance heuristic over strategies and over the C wavelengths: eq. 3-4 with NEE).
-  struct Event {
-    bool valid = false;
-    Values f{}, p_bsdf{}, p_light{};
-  };
   auto sum_p = [&](const Values& a, const Values& b) {
     float s = 0;
     for (int i = 0; i < C; ++i) s += a[i] + b[i];
@@ -279,20 +354,28 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     }
     Vec3 dir = base.camera_ray.d;
     float beta_k = 1.0f;
+    // The last vertex that scattered the path, before the light objects (pass-through
+    // surfaces) it then crossed, if any: where its BSDF ray began, NEE competes for what the ray
+    // finds, and its lobes see it (NEE from there is not shadowed by light objects either).
+    const BaseVertex* from = nullptr;
+    LobeScatter last;  // its scattering by lobe kind (split_lobes)
     for (size_t k = 0; k < K; ++k) {
       const bool is_escape = k == base.v.size();
       const SurfaceHit* h = is_escape ? nullptr : &base.v[k].hit;
       Event& e = hit_ev[k];
       e.valid = true;
-      // NEE competes for this emission unless a Dirac lobe of the previous vertex found it (a
-      // mix's smooth part beside a rough one: NEE-eligible, yet no density to compare).
-      const bool nee_competes = k > 0 && base.v[k - 1].nee_eligible && !base.v[k - 1].delta;
-      const float pl = nee_competes ? light_pdf(base.v[k - 1].hit.p, h, dir) : 0.0f;
+      // NEE competes for this emission unless a Dirac lobe found it (a mix's smooth part beside
+      // a rough one: NEE-eligible, yet no density to compare).
+      const bool nee_competes = from && from->nee_eligible && !from->delta;
+      const float pl = nee_competes ? light_pdf(from->hit.p, h, dir) : 0.0f;
+      Values Le{};
       for (int j = 0; j < C; ++j) {
-        e.f[j] = F[j] * emitted(h, dir, wl.lambda[j], k);
+        Le[j] = emitted(h, dir, wl.lambda[j], camera_ray_to(k));
+        e.f[j] = F[j] * Le[j];
         e.p_bsdf[j] = P[j];
         e.p_light[j] = P_prev[j] * pl;
       }
+      if (split_lobes && !camera_ray_to(k)) last.restrict(e, light_vis(h), Le, C);
       if (is_escape) break;
       const BaseVertex& v = base.v[k];
       if (v.nee) {
@@ -301,27 +384,55 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         const Vec3 wi = v.hit.frame.to_local(v.ls.wi);
         const Light& light = lights.lights()[v.ls.light];
         const float scale = light_scale(v.ls, light);
+        Values Ls{};
         for (int j = 0; j < C; ++j) {
           const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
-          n.f[j] = v.nee_visible ? F[j] * s.f_cos * scale * spectra_.light[v.ls.light](wl.lambda[j]) : 0.0f;
+          Ls[j] = v.nee_visible ? scale * spectra_.light[v.ls.light](wl.lambda[j]) : 0.0f;
+          n.f[j] = F[j] * s.f_cos * Ls[j];
           n.p_light[j] = P[j] * v.ls.pdf;
           n.p_bsdf[j] = v.ls.delta ? 0.0f : P[j] * s.pdf;
         }
         // The BSDF strategy's density includes the roulette it would have applied there.
+        float rr = 1.0f;
         if (!v.ls.delta) {
           const Scatter s0 = scatter_at(v.hit, wl.lambda[0], v.wo, wi, false, false, 0, {}, true);
-          const float rr = s0.pdf > 0 ? survival(k, beta_k * s0.f_cos / s0.pdf) : 1.0f;
+          rr = s0.pdf > 0 ? survival(k, beta_k * s0.f_cos / s0.pdf) : 1.0f;
           for (int j = 0; j < C; ++j) n.p_bsdf[j] *= rr;
+        }
+        if (split_lobes) {  // f_V and p_V of the light's kinds (no sampled lobe to check)
+          LobeScatter ns;
+          ns.F = F;
+          ns.P = P;
+          ns.rr = rr;
+          split_smooth(ns, v.hit, wl.lambda, v.wo, wi);
+          if (v.ls.delta) ns.pdf = {};  // a Dirac light: no BSDF strategy
+          ns.restrict(n, light.visible_lobes, Ls, C);
         }
       }
       if (!v.scattered) break;
-      P_prev = P;
+      const bool crossing = scene_.material(v.hit.material).is_pass_through();
+      if (!crossing) {
+        from = &v;
+        P_prev = P;
+      }
+      if (split_lobes && !crossing) {
+        last = LobeScatter{};
+        last.F = F;
+        last.P = P;
+        last.rr = v.rr;
+        last.lobe = v.kind;
+        if (!v.delta) split_smooth(last, v.hit, wl.lambda, v.wo, v.wi);
+      }
       float f0 = 0, p0 = 0;
       for (int j = 0; j < C; ++j) {
         const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
         F[j] *= s.f_cos;
         P[j] *= s.pdf * v.rr;
         if (j == 0) f0 = s.f_cos, p0 = s.pdf;
+        if (split_lobes && v.delta && v.kind != 0) {  // a Dirac pair is all its lobe's
+          last.f[lobe_index(v.kind)][j] = s.f_cos;
+          last.pdf[lobe_index(v.kind)][j] = s.pdf;
+        }
       }
       beta_k *= p0 > 0 ? f0 / p0 / v.rr : 0.0f;
       dir = v.hit.frame.to_world(v.wi);
@@ -377,14 +488,27 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     // One pair of events (x, lambda_j), (y, lambda'_j): eq. 9-11 (C = 1) or eq. 17-18, with
     // both strategies (BSDF, light) of both paths in the balance heuristic's denominator and
     // the threshold of eq. 15-16 on the contributions f of the two paths.
-    auto pair = [&](const Event& x, const Values& fy, const Values& py_bsdf, const Values& py_light, float Jy) {
-      float denom = sum_p(x.p_bsdf, x.p_light);  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
-      const float dx = denom;
-      for (int i = 0; i < C; ++i) denom += (py_bsdf[i] + py_light[i]) * Jy;
+    // Where the two paths meet lights seen by different kinds, each path's term has its own
+    // denominator: both paths' densities through the lobes that see its light (LobeScatter).
+    auto pair = [&](const Event& x, const Event& y, float Jy) {
+      const float dx = sum_p(x.p_bsdf, x.p_light);
+      float denom = dx;  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
+      for (int i = 0; i < C; ++i) denom += (y.p_bsdf[i] + y.p_light[i]) * Jy;
+      float denom_x = denom, denom_y = denom;  // of x's term and of y's
+      if (x.vis != y.vis) {
+        const Values py = y.p_bsdf_in(x.vis, C), px = x.p_bsdf_in(y.vis, C);
+        denom_x = dx;
+        denom_y = sum_p(px, x.p_light);
+        for (int i = 0; i < C; ++i) {
+          denom_x += (py[i] + y.p_light[i]) * Jy;
+          denom_y += (y.p_bsdf[i] + y.p_light[i]) * Jy;
+        }
+      }
       for (int j = 0; j < C; ++j) {
-        if (!(x.f[j] > 0 || fy[j] > 0)) continue;
-        if (std::min(x.f[j], fy[j]) > tau_ && denom > 0) {  // w^s = 1, eq. 16 (f, not f / p)
-          const float g = (fy[j] * Jy - x.f[j]) / denom;    // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
+        if (!(x.f[j] > 0 || y.f[j] > 0)) continue;
+        if (std::min(x.f[j], y.f[j]) > tau_ && denom_x > 0 && denom_y > 0) {  // w^s = 1, eq. 16 (f, not f / p)
+          // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
+          const float g = denom_x == denom_y ? (y.f[j] * Jy - x.f[j]) / denom : y.f[j] * Jy / denom_y - x.f[j] / denom_x;
           G[gbin[j]] += sign > 0 ? g : -g;
           ++counts.shifted;
         } else if (dx > 0) {
@@ -400,6 +524,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       F2[j] = 1.0f;
       P2[j] = SampledWavelengths::pdf();
     }
+    LobeScatter y_last;  // the offset's previous vertex's scattering by lobe kind (split_lobes)
     float J = 1.0f, beta2 = 1.0f;
     std::optional<SurfaceHit> y;   // the offset's own vertex while diverged
     Vec3 wo_y;                     // offset's local wo at its current vertex
@@ -427,14 +552,18 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         yk = y_escaped ? nullptr : &*y;
       }
       {
-        Values fy{}, pb{}, pl{};
+        Event ey;
+        Values Le{};
         const float l_pdf = (k > 0 && y_prev_nee) ? light_pdf(y_prev_p, yk, y_dir) : 0.0f;
         for (int j = 0; j < C; ++j) {
-          fy[j] = F2[j] * emitted(yk, y_dir, lambda2[j], k);
-          pb[j] = P2[j];
-          pl[j] = P2_prev[j] * l_pdf;
+          Le[j] = emitted(yk, y_dir, lambda2[j], camera_ray_to(k));
+          ey.f[j] = F2[j] * Le[j];
+          ey.p_bsdf[j] = P2[j];
+          ey.p_light[j] = P2_prev[j] * l_pdf;
         }
-        pair(hit_ev[k], fy, pb, pl, J);
+        // The offset's light weighed by the lobes that see it at its own vertex (the base's lobe sampled).
+        if (split_lobes && !camera_ray_to(k)) y_last.restrict(ey, light_vis(yk), Le, C);
+        pair(hit_ev[k], ey, J);
       }
       if (is_escape) break;
       if (state == State::Diverged && y_escaped) {  // the offset left the scene, the base did not
@@ -446,12 +575,13 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
       const Material& mat_y = scene_.material(yh.material);
       const BsdfParams my = monochromatic(mat_y, spectra_.albedo[yh.material], yh.uv, lambda2[0]);
-      const bool y_nee = x.nee_eligible && !Bsdf(my, yh.uv).is_delta() && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
+      const bool y_delta = scene_.bsdf(my, yh).is_delta();  // the offset hero's BSDF there
+      const bool y_nee = x.nee_eligible && !y_delta && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
 
       // ---- NEE of the offset: the same light sample (point on an area light, direction of
       // a distant one), reconnected from y_k; Jacobian as a reconnection (KMA15 §5.2) ----
       if (x.nee) {
-        Values fy{}, pb{}, pl{};
+        Event ey;
         float Jz = 1.0f;
         // Where the base's light sample gives f(x) <= tau at every wavelength the pair is
         // standard whatever the offset gives (eq. 16): no shadow ray for the offset.
@@ -474,18 +604,29 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
             const Vec3 wi = yh.frame.to_local(ls->wi);
             const float scale = light_scale(*ls, lights.lights()[ls->light]);
             Scatter s0{};
+            Values Ls{};
             for (int j = 0; j < C; ++j) {
               const Scatter s = scatter_at(yh, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
               if (j == 0) s0 = s;
-              fy[j] = F2[j] * s.f_cos * scale * spectra_.light[ls->light](lambda2[j]);
-              pl[j] = P2[j] * ls->pdf;
-              pb[j] = ls->delta ? 0.0f : P2[j] * s.pdf;
+              Ls[j] = scale * spectra_.light[ls->light](lambda2[j]);
+              ey.f[j] = F2[j] * s.f_cos * Ls[j];
+              ey.p_light[j] = P2[j] * ls->pdf;
+              ey.p_bsdf[j] = ls->delta ? 0.0f : P2[j] * s.pdf;
             }
-            const float rr = s0.pdf > 0 ? survival(k, beta2 * s0.f_cos / s0.pdf) : 1.0f;
-            for (int j = 0; j < C; ++j) pb[j] *= rr;
+            const float rr = ls->delta || !(s0.pdf > 0) ? 1.0f : survival(k, beta2 * s0.f_cos / s0.pdf);
+            for (int j = 0; j < C; ++j) ey.p_bsdf[j] *= rr;
+            if (split_lobes) {  // f_V and p_V of its light's kinds, at the offset's own vertex
+              LobeScatter ns;
+              ns.F = F2;
+              ns.P = P2;
+              ns.rr = rr;
+              split_smooth(ns, yh, lambda2, wo_y, wi);
+              if (ls->delta) ns.pdf = {};
+              ns.restrict(ey, lights.lights()[ls->light].visible_lobes, Ls, C);
+            }
           }
         }
-        pair(nee_ev[k], fy, pb, pl, J * Jz);
+        pair(nee_ev[k], ey, J * Jz);
       }
       if (!x.scattered) break;
 
@@ -535,7 +676,7 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           }
         } else {
           // ---- Half-vector copy at the offset's own vertex ----
-          if (Bsdf(my, yh.uv).is_delta() != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
+          if (y_delta != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
             fail(ShiftFailure::NotInvertible);  // the vertex kinds differ
           } else {
             const Etas e = etas_of(mx, x.wo, x.transmission), e2 = etas_of(my, wo_y, x.transmission);
@@ -563,15 +704,33 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
       }
       // The offset's own roulette survival (eq. 10-11 need its density as a base path).
       beta2 *= s2[0].f_cos / s2[0].pdf;
-      const float rr2 = survival(k, beta2);
+      const bool crossing = mat_y.is_pass_through();  // a light object: as the base, no roulette
+      const float rr2 = crossing ? 1.0f : survival(k, beta2);
       beta2 /= rr2;
-      P2_prev = P2;
+      if (split_lobes && !crossing) {  // along the base's lobe, from the offset's own vertex
+        y_last = LobeScatter{};
+        y_last.F = F2;
+        y_last.P = P2;
+        y_last.rr = rr2;
+        y_last.lobe = x.kind;
+        if (!delta_y) {
+          split_smooth(y_last, yh, lambda2, wo_y, wi_y);
+        } else if (x.kind != 0) {  // a Dirac pair is all its lobe's
+          for (int j = 0; j < C; ++j) {
+            y_last.f[lobe_index(x.kind)][j] = s2[j].f_cos;
+            y_last.pdf[lobe_index(x.kind)][j] = s2[j].pdf;
+          }
+        }
+      }
+      if (!crossing) {  // the vertex whose BSDF ray the next events come from (as the base's `from`)
+        P2_prev = P2;
+        y_prev_p = yh.p;
+        y_prev_nee = y_nee && !delta_y;  // as nee_competes above
+      }
       for (int j = 0; j < C; ++j) {
         F2[j] *= s2[j].f_cos;
         P2[j] *= s2[j].pdf * rr2;
       }
-      y_prev_p = yh.p;
-      y_prev_nee = y_nee && !delta_y;  // as nee_competes above
       if (state == State::Reconnected) state = State::Same;
       // ---- Next offset vertex ----
       if (reconnect_now) {

@@ -36,6 +36,11 @@
 // eq. 18 over the 2C techniques (times the two strategies); a smooth dispersive refraction
 // leaves only the hero's pair.
 //
+// Blender scenes as Cycles renders them (docs/blender.md): per-kind ray visibility of surfaces,
+// lights and the World, for the base and the offsets alike (sgpt.cpp, LobeScatter); light
+// objects crossed as spt crosses them; per-wavelength BSDFs with the hit's normals, so a normal
+// or bump map's shadowing term applies at every vertex (Scene::bsdf(params, hit)).
+//
 // Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
 // (`gradphoton methods sgpt`, docs/methods.md#sgpt).
 //
@@ -74,9 +79,10 @@ class SpectralGradientPathTracer : public Integrator {
   SpectralGradientPathTracer(const Scene& scene, const Params& params);
   std::string name() const override { return "sgpt"; }
   void iterate(ProgressSink* sink) override;
-  // Surfaces' per-kind switches (base and offset rays carry the base's lobes); lights' and the
-  // World's are not honoured (warned): its events' densities would need the visible lobes'.
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = false}; }
+  // Every per-kind switch: base and offset rays carry the base's lobes (surfaces'), and lights
+  // and the World hidden from some kinds light only the lobes that see them, at the base's and
+  // at each offset's own vertices (sgpt.cpp, LobeScatter).
+  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void develop(Film& film) const override;
 
   int bins() const { return bins_; }

@@ -233,9 +233,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     const SpectralSurface surface(base, hit->uv, &spectra_.albedo[hit->material]);  // textures read once
     for (int k = 0; k < C; ++k) {
       mk[k] = surface.at(wl.lambda[k]);
-      bk[k].emplace(mk[k], hit->uv);
-      if (base.perturbs_normal())  // the bump shadowing term and side test, as Scene::bsdf
-        bk[k]->set_surface_normals(hit->frame.to_local(hit->ng), hit->frame.to_local(hit->n_smooth));
+      bk[k] = scene_.bsdf(mk[k], *hit);  // with the hit's normals (a normal map's bump shadowing)
     }
     const Bsdf& hero_bsdf = *bk[0];
     if (scene_.bsdf(*hit).is_black()) break;
