@@ -69,9 +69,9 @@ void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spec
 
 const BsdfParams* SpectraAtWavelengths::at_point(int m, Vec2 uv, WavelengthParams& local) const {
   const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], uv, &spectra_->albedo[static_cast<size_t>(m)]);
-  local.emplace();
-  for (int k = 0; k < count_; ++k) (*local)[k] = surface.at(wl_.lambda[k]);
-  return local->data();
+  BsdfParams* params = local.make();
+  for (int k = 0; k < count_; ++k) params[k] = surface.at(wl_.lambda[k]);
+  return params;
 }
 
 SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params, bool hero)
