@@ -30,7 +30,7 @@ class Integrator {
   // Which of Cycles' per-kind switches (Diffuse / Glossy / Transmission ray visibility) it
   // honours: those of surfaces (Material::visible_lobes: bounce rays of a hidden kind pass
   // through) and those of lights and the World (Light::visible_lobes: a light lights only the
-  // lobes that see it). Camera and Shadow switches, and the World's Camera switch, are honoured
+  // lobes that see it, the World by Cycles' own rule for it, lobe_split.h). Camera and Shadow switches, and the World's Camera switch, are honoured
   // by every method. Front ends warn, naming the method, where a scene sets what it ignores.
   struct LobeVisibility {
     bool surfaces = false, lights = false;

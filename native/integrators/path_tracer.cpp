@@ -69,11 +69,16 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
         if (escaped) *escaped = true;
         break;
       }
-      // The World's Ray Visibility: Camera for camera rays, its lobes for bounce rays (as a light's).
+      // The World's Ray Visibility: Camera for camera rays, its lobes for bounce rays, by
+      // Cycles' rule for the World (lobe_split.h), not a light's.
       const int env = lights.environment();
       if (env >= 0 && (depth > 0 || lights.lights()[env].visible_to_camera)) {
         const RGB Le = lights.environment_radiance(ray.d);
-        L += clamped(emitted(depth, Le, lights.lights()[env].visible_lobes, lights.pdf_environment(ray.d)), depth <= 1);
+        const Light& world = lights.lights()[env];
+        L += clamped(depth > 0 && world.lit_by_bsdf_rays_only()
+                         ? prev.weigh_world(Le, world.visible_lobes, specular_bounce, beta)
+                         : emitted(depth, Le, world.visible_lobes, lights.pdf_environment(ray.d)),
+                     depth <= 1);
       }
       break;
     }
@@ -109,7 +114,8 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
     if (!bsdf.is_delta() && !lights.empty()) {
       const float u_light = rng.uniform();
       const Vec2 u2(rng.uniform(), rng.uniform());
-      if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+      if (auto ls = lights.sample_li(hit->p, u_light, u2);
+          ls && ls->pdf > 0 && !ls->L.is_black() && !(ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only())) {
         const uint8_t vis = ls->light >= 0 ? lights.lights()[ls->light].visible_lobes : kAllLobes;
         const Vec3 wi = hit->frame.to_local(ls->wi);
         const RGB f = bsdf.eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);

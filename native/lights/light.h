@@ -50,6 +50,10 @@ struct Light {
   // lights: their surface's Material::visible_to_camera).
   bool visible_to_camera = true;
 
+  // Cycles 3.4 does not sample a constant World as a light; where that changes what it lights
+  // (a World hidden from some kinds, integrators/lobe_split.h), next-event estimation skips it
+  // and BSDF rays alone find it, each with full weight.
+  bool lit_by_bsdf_rays_only() const { return type == LightType::Environment && visible_lobes != kAllLobes; }
   // Whether a ray of kind `kind` (kRayCamera or one lobe bit) sees this light.
   bool visible_to(uint8_t kind) const { return kind == kRayCamera ? visible_to_camera : (visible_lobes & kind) != 0; }
   bool is_delta() const { return type == LightType::Point || type == LightType::Spot || type == LightType::Directional; }

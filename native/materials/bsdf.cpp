@@ -717,6 +717,31 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
   return 0.0f;
 }
 
+namespace {
+// Cycles' sample weight of a material's closures at uv: each closure's mean weight colour
+// (kernel/closure/alloc.h: sample_weight = |average(weight)|), a Mix's scaled by its factor
+// and summed. RGB at every wavelength, as Cycles'. Principled and plastic count their colour
+// once (Cycles splits them into closures weighted by Fresnel: not modelled).
+float closure_weight(const Material& m, Vec2 uv) {
+  const BsdfParams p = bsdf_params(m, uv);
+  if (p.type == MaterialType::Emission) return 0.0f;
+  if (p.type != MaterialType::Mix || !p.mix_a || !p.mix_b) return std::abs(p.color.average());
+  const MixParts s = mix_parts(p);
+  return s.scale_a * closure_weight(*p.mix_a, uv) + s.scale_b * closure_weight(*p.mix_b, uv);
+}
+}  // namespace
+
+float Bsdf::closure_pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
+  if (kind() != MaterialType::Mix) return pdf(wo, wi, lobes);
+  const MixParts p = mix_parts(p_);
+  const float wa = p.scale_a * closure_weight(*p_.mix_a, uv_), wb = p.scale_b * closure_weight(*p_.mix_b, uv_);
+  if (!(wa + wb > 0)) return pdf(wo, wi, lobes);
+  float sum = 0;
+  if (wa > 0) sum += wa * component(p_.mix_a).closure_pdf(wo, wi, lobes);
+  if (wb > 0) sum += wb * component(p_.mix_b).closure_pdf(wo, wi, lobes);
+  return sum / (wa + wb);
+}
+
 std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
   switch (kind()) {
     case MaterialType::Diffuse: {

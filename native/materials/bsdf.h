@@ -72,6 +72,11 @@ class Bsdf {
   RGB eval(const Vec3& wo, const Vec3& wi, TransportMode mode = TransportMode::Radiance,
            uint8_t lobes = kAllLobes) const;
   float pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) const;
+  // Cycles' density of reaching wi through the closures of kinds `lobes`: it picks a Mix's (or
+  // an Add's) components in proportion to their sample weights (closure_weight) where sample()
+  // picks them by the mix factor alone; other materials' lobes keep pdf()'s split. What a
+  // World hidden from some kinds lights depends on it (integrators/lobe_split.h).
+  float closure_pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) const;
   // uc picks the lobe (reflection/transmission), u the direction.
   std::optional<BsdfSample> sample(const Vec3& wo, float uc, Vec2 u,
                                    TransportMode mode = TransportMode::Radiance) const;

@@ -143,21 +143,26 @@ def test_light_ray_visibility_against_cycles(empty_scene, out_dir, case):
     check(ours, cycles, case, bound)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "Cycles 3.4 lets a BSDF-sampled ray of a visible kind carry the whole BSDF's f/pdf (the glossy "
-    "lobe's colour leaks into the diffuse-lit part); gradphoton estimates the integral over the lobes "
-    "that see the sky: mean 0.9926, gradphoton RGB (0.441, 0.367, 0.252) = 0.7 x diffuse colour x sky "
-    "exactly, Cycles (0.418, 0.367, 0.283). docs/blender.md"))
-def test_world_ray_visibility_against_cycles(empty_scene, out_dir):
-    """World > Settings > Ray Visibility: the floor scene's sky hidden from glossy rays over a floor
-    that is a Mix of Diffuse and Glossy: only the diffuse part shows the sky (before: the whole
-    floor lit, the switches unread: 1.7x)."""
+# World > Settings > Ray Visibility against Cycles 3.4: the floor scene's sky hidden from one kind
+# of bounce ray over a floor that is a Mix (0.3) of Diffuse (0.7, 0.5, 0.3) and Glossy 0.8. Cycles
+# does not sample a constant World as a light and lets a BSDF ray of a visible kind carry the
+# whole f/pdf, so the other lobe's colour leaks into what the sky lights; gradphoton follows
+# (native/integrators/lobe_split.h). Measured (256 samples, gradphoton seeds 1-3): hidden from
+# glossy 0.9989-0.9991 (relMSE 0.0017; RGB (0.4171, 0.3669, 0.2824), Cycles' (0.4176, 0.3673,
+# 0.2827)), from diffuse 1.0007-1.0017 (relMSE 0.0085: the glossy-only sky is noisy). The
+# lights' rule (only the lobes that see it, gradphoton's before) gave 0.9926 with another
+# colour, (0.441, 0.367, 0.252), and 1.0101. relMSE bounds about twice what was measured.
+WORLD_CASES = {"world_hidden_from_glossy": ("glossy", 0.004), "world_hidden_from_diffuse": ("diffuse", 0.017)}
+
+
+@pytest.mark.parametrize("case", list(WORLD_CASES))
+def test_world_ray_visibility_against_cycles(empty_scene, out_dir, case):
+    switch, bound = WORLD_CASES[case]
     scenes.brightness_scene(empty_scene, "world")
     floor = bpy.data.objects["Floor"].data
     floor.materials.clear()
     floor.materials.append(scenes.mix_material("Mix"))
-    empty_scene.world.cycles_visibility.glossy = False
+    setattr(empty_scene.world.cycles_visibility, switch, False)
     empty_scene.render.resolution_x, empty_scene.render.resolution_y = FLOOR_SIZE
-    ours, cycles = render_both(empty_scene, str(out_dir), "world_hidden_from_glossy", samples=256, bounces=4)
-    check(ours, cycles, "world_hidden_from_glossy", 0.01)
-
+    ours, cycles = render_both(empty_scene, str(out_dir), case, samples=256, bounces=4)
+    check(ours, cycles, case, bound)

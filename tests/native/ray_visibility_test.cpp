@@ -7,10 +7,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 #include <string>
 #include <tuple>
 #include <vector>
 
+#include "core/rng.h"
+#include "materials/bsdf.h"
 #include "render_for_tests.h"
 
 namespace gp {
@@ -249,7 +252,9 @@ TEST(RayVisibility, SpectralPhotonsHonourEverySwitch) {
 TEST(RayVisibility, SpectralGradientSamplingHonoursEverySwitch) {
   // sgpt against pt with the panel hidden from glossy rays, with a diffuse wall hidden from
   // diffuse rays (-7 % in pt), and with the lamp hidden from diffuse rays and the sky from the
-  // camera and glossy rays: the mean and the reconstructed image by 6x6 blocks. Measured over
+  // camera: the mean and the reconstructed image by 6x6 blocks. (The sky hidden from glossy rays
+  // too measured 0.993-1.012 before pt took Cycles' rule for the World, lobe_split.h; sgpt keeps
+  // the lights' rule for it, 1.026 of pt's mean now; docs/blender.md.) Measured over
   // seeds 2-4 (512 passes): means 1.002-1.006, 1.001-1.003 and 0.993-1.012, blocks 0.006-0.008,
   // 0.005-0.011 and 0.004-0.012. (A surface hidden from a kind of ray that casts shadows between a
   // light and what it lights is left out: pt and Cycles count the light its BSDF rays find
@@ -260,7 +265,7 @@ TEST(RayVisibility, SpectralGradientSamplingHonoursEverySwitch) {
   // (Sgpt.HonoursTheLightsSwitchesAtTheBaseAndTheOffsets checks them). Bounds: mean 2 %, blocks 0.02.
   for (const std::string& json : {switches_scene("", kPanelOff, ""),
                                   with_wall(surfaces_scene("", kDiffuseOff, ""), R"({"type": "diffuse", "color": 0.8)"),
-                                  switches_scene(kLampOff, "", R"(, "visible_to_camera": false, "visible_to_glossy": false)")}) {
+                                  switches_scene(kLampOff, "", R"(, "visible_to_camera": false)")}) {
     const Scene s = scene_from(json);
     const Film ref = render("pt", s, 4096, depth_params(7));
     const Film f = render("sgpt", s, 512, depth_params(2));
@@ -326,9 +331,11 @@ TEST(RayVisibility, WorldSwitchesAgainstClosedForms) {
                 1.0, 0.01)
         << method;
     // A Mix of that diffuse and a white Glossy (no Fresnel) by 0.5 under a sky hidden from
-    // diffuse rays: only the glossy half, 0.5 x 2 x the GGX lobe's albedo (measured 0.948 pt, 0.939
-    // ppm, 0.937 sppm, 0.947 msppm at alpha 0.2; 1.45 with the sky lighting the diffuse half too;
-    // msppm 0.867 with its camera paths' sky hits carrying the whole f / pdf, not the glossy lobe's).
+    // diffuse rays: about the glossy half, 0.5 x 2 x the GGX lobe's albedo (0.948 at alpha 0.2),
+    // plus the diffuse colour that Cycles' glossy rays carry (int f q_V Le cos = 0.954 by
+    // quadrature; WorldHiddenFromSomeKindsAsCyclesRendersIt pins it); 1.45 with the sky lighting
+    // the diffuse half too. msppm keeps the lights' rule for the World (the glossy lobe's f / pdf:
+    // 0.947 measured; 0.867 with its camera paths' sky hits carrying the whole f / pdf).
     if (std::string(method).find("spt") == std::string::npos) {  // the spectral methods scatter a mix as one diffuse surface
       const float glossy_half =
           image_mean(render(method, floor_under_sky(mix, R"(, "visible_to_diffuse": false)"), passes, p)).g;
@@ -344,6 +351,83 @@ TEST(RayVisibility, WorldSwitchesAgainstClosedForms) {
     }
     EXPECT_EQ(std::min(top, bottom), 0.0f) << method << ": the sky above the horizon";
     EXPECT_NEAR(std::max(top, bottom), 1.0f, 0.05f) << method << ": the floor below it";
+  }
+}
+
+// ---- The World hidden from some kinds over a Mix, as Cycles 3.4 renders it ----
+
+// A Mix by `t` of a coloured Diffuse and a white Glossy (GGX alpha 0.2, no Fresnel) under a sky
+// of radiance 2 with `world_keys`, the camera looking down (floor_under_sky).
+constexpr float kMixT = 0.3f;
+const RGB kMixDiffuse(0.8f, 0.5f, 0.2f);
+Scene mix_under_sky(const std::string& world_keys) {
+  return floor_under_sky(R"("d": {"type": "diffuse", "color": [0.8, 0.5, 0.2]},
+    "g": {"type": "conductor", "color": 1, "roughness": 0.2, "fresnel": false},
+    "floor": {"type": "mix", "a": "d", "b": "g", "factor": 0.3})",
+                         world_keys);
+}
+
+// Cycles' estimator, brute force, at each pixel's centre: pick a closure in proportion to its
+// sample weight (its mean weight colour: (1 - t) x the diffuse's, t x the glossy's 1), sample
+// it, and count the sky when that closure's kind sees it, with the whole Mix's f over the
+// closure-weighted pdf (shade_surface.h, shade_background.h; a constant World is no light to
+// Cycles, so no next-event estimation). Built from the components' own samplers, not from the
+// Mix's code or Bsdf::closure_pdf.
+RGB cycles_way_reference(const Scene& s, uint8_t visible, int samples_per_pixel) {
+  auto find = [&](const char* name) -> const Material& {
+    for (const Material& m : s.materials)
+      if (m.name == name) return m;
+    throw std::runtime_error(name);
+  };
+  const Bsdf diffuse(find("d")), glossy(find("g"));
+  const float w_d = (1 - kMixT) * kMixDiffuse.average(), w_g = kMixT * 1.0f;
+  Rng rng(12345, 0);
+  double sum[3] = {0, 0, 0};
+  const int w = s.camera.film_width(), h = s.camera.film_height();
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const auto hit = s.intersect(s.camera.generate_ray(Vec2(x + 0.5f, y + 0.5f), Vec2(0.5f, 0.5f)));
+      if (!hit) throw std::runtime_error("the floor fills the view");
+      const Vec3 wo = hit->frame.to_local(-s.camera.generate_ray(Vec2(x + 0.5f, y + 0.5f), Vec2(0.5f, 0.5f)).d);
+      for (int i = 0; i < samples_per_pixel; ++i) {
+        const bool pick_glossy = rng.uniform() * (w_d + w_g) < w_g;
+        const auto bs = (pick_glossy ? glossy : diffuse).sample(wo, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+        if (!bs || !(visible & (pick_glossy ? kRayGlossy : kRayDiffuse))) continue;
+        const RGB f = diffuse.eval(wo, bs->wi) * (1 - kMixT) + glossy.eval(wo, bs->wi) * kMixT;
+        const float pdf = (w_d * diffuse.pdf(wo, bs->wi) + w_g * glossy.pdf(wo, bs->wi)) / (w_d + w_g);
+        if (!(pdf > 0)) continue;
+        const RGB c = f * (std::abs(bs->wi.z) * 2.0f / pdf);
+        for (int k = 0; k < 3; ++k) sum[k] += c[k];
+      }
+    }
+  const double n = double(w) * h * samples_per_pixel;
+  return RGB(float(sum[0] / n), float(sum[1] / n), float(sum[2] / n));
+}
+
+TEST(RayVisibility, WorldHiddenFromSomeKindsAsCyclesRendersIt) {
+  // Cycles lets a visible kind's BSDF ray carry the whole f/pdf, so the other lobe's colour leaks
+  // into what the sky lights. Cycles' way (the reference above, 256 x 4096 samples): hidden from
+  // glossy rays (0.969, 0.694, 0.420), from diffuse rays (0.719, 0.573, 0.428), as a quadrature
+  // of int f q_V Le cos gives at normal incidence (0.966, 0.695, 0.423) and (0.723, 0.574, 0.426).
+  // The rule of lights (the lobes that see it, int f_V Le: gradphoton's before) gives exactly
+  // (1 - t) x the diffuse colour x 2 = (1.12, 0.70, 0.28) hidden from glossy rays (R +16 %,
+  // B -33 %; the test then fails in every method) and t x 2 x the GGX albedo = 0.57 grey hidden
+  // from diffuse rays (R -21 %). Measured over seeds 3-5, channel by channel: pt within 0.5 %,
+  // sppm (next-event estimation; photons add nothing on a lone floor) 0.6 %, spt 1.4 %,
+  // spt-hero 1.1 %, gpt 1.3 %: bounds of about twice that.
+  for (const auto& [keys, visible] : {std::pair{R"(, "visible_to_glossy": false)", uint8_t(kRayDiffuse | kRayTransmission)},
+                                      std::pair{R"(, "visible_to_diffuse": false)", uint8_t(kRayGlossy | kRayTransmission)}}) {
+    const Scene s = mix_under_sky(keys);
+    const RGB ref = cycles_way_reference(s, visible, 4096);
+    for (const auto& [method, passes, bound] :
+         {std::tuple{"pt", 256, 0.01}, std::tuple{"spt", 1024, 0.03}, std::tuple{"spt-hero", 256, 0.025},
+          std::tuple{"gpt", 128, 0.025}, std::tuple{"sppm", 1024, 0.012}}) {
+      Params p = depth_params(3);
+      if (std::string(method) == "sppm") p.set("photons", 1000);  // its glossy lobe needs many NEE samples
+      const RGB m = image_mean(render(method, s, passes, p));
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(m[k] / ref[k], 1.0, bound) << method << keys << " channel " << k << ": " << m[k] << " against " << ref[k];
+    }
   }
 }
 

@@ -9,7 +9,7 @@ and on lights:
   Transmission  `visible_to_transmission`  lights only the lobes of the kinds it is visible to
 
 World > Settings > Ray Visibility becomes the same keys on the environment (Camera, Diffuse,
-Glossy, Transmission; the World is a light for the per-kind switches).
+Glossy, Transmission; the core applies Cycles' rule for the World, docs/blender.md).
 
 The core honours Camera and Shadow in every method, the World's Camera too. Which methods honour
 Diffuse/Glossy/Transmission the method itself declares (`_native.method_info`'s

@@ -129,6 +129,10 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       auto split_hit = [&](int light, const RGB& Le, float pdf_light, const Offset* o) -> std::optional<RGB> {
         const uint8_t vis = light >= 0 ? lights.lights()[light].visible_lobes : kAllLobes;
         if (depth == 0 || !split_lobes || vis == kAllLobes) return std::nullopt;
+        if (lights.lights()[light].lit_by_bsdf_rays_only()) {  // the World (lobe_split.h), full weight
+          if (!o) return prev.weigh_world(Le, vis, specular_bounce, beta);
+          return o->split.weigh_world(Le, vis, specular_bounce, o->beta, prev.lobe_share(prev.lobe));
+        }
         if (!o) return prev.weigh(Le, vis, specular_bounce, beta, pdf_light);
         return o->split.weigh(Le, vis, specular_bounce, o->beta, pdf_light, o->jacobian, prev.pdf_of(vis));
       };
@@ -219,6 +223,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       auto nee = [&](const SurfaceHit& v, const Bsdf& b, const Vec3& wo_l, int* visible) -> RGB {
         auto ls = lights.sample_li(v.p, u_light, u2);
         if (!ls || ls->pdf <= 0 || ls->L.is_black()) return RGB(0.0f);
+        if (ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only()) return RGB(0.0f);  // BSDF rays find it
         // A light hidden from some kinds lights only the lobes that see it (as the path tracer).
         const uint8_t vis = ls->light >= 0 ? lights.lights()[ls->light].visible_lobes : kAllLobes;
         const Vec3 wi = v.frame.to_local(ls->wi);

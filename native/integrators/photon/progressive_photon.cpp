@@ -5,6 +5,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "integrators/lobe_split.h"
 #include "integrators/photon/photon_estimate.h"
 #include "materials/bsdf.h"
 
@@ -81,9 +82,9 @@ RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, co
   if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
   const Vec3 wi = hit.frame.to_local(ls->wi);
   // A light hidden from some kinds of bounce ray lights only the lobes of the others (Cycles'
-  // closure exclusion, as the path tracer's next-event estimation).
-  const uint8_t vis = ls->light >= 0 ? scene.light_set().lights()[ls->light].visible_lobes : kAllLobes;
-  const RGB f = bsdf.eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
+  // closure exclusion, as the path tracer's next-event estimation); the World by its own rule.
+  const RGB f = nee_only_f(bsdf, wo, wi, ls->light >= 0 ? &scene.light_set().lights()[ls->light] : nullptr) *
+                std::abs(wi.z);
   if (f.is_black()) return RGB(0.0f);
   ++rays;
   return scene.occluded(hit.p, hit.ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;

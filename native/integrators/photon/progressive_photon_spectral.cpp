@@ -17,6 +17,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "integrators/lobe_split.h"
 #include "integrators/photon/progressive_photon.h"
 #include "materials/bsdf.h"
 
@@ -150,12 +151,12 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                   const Vec2 u2(rng.uniform(), rng.uniform());
                   if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
                     const Vec3 wi = hit->frame.to_local(ls->wi);
-                    // Only the lobes that see the light (direct_light).
-                    const uint8_t vis = ls->light >= 0 ? lights.lights()[ls->light].visible_lobes : kAllLobes;
+                    // Only the lobes that see the light; the World by its own rule (direct_light).
+                    const Light* light = ls->light >= 0 ? &lights.lights()[ls->light] : nullptr;
                     SpectralValues f{};
                     bool any = false;
                     for (int k = 0; k < C; ++k) {
-                      f[k] = scene_.bsdf(mk[k], *hit).eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);
+                      f[k] = nee_only_f(scene_.bsdf(mk[k], *hit), wo, wi, light)[0] * std::abs(wi.z);
                       any |= f[k] > 0;
                     }
                     if (any) {

@@ -5,6 +5,7 @@
 #include "core/frame.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "integrators/lobe_split.h"
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -68,9 +69,9 @@ void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spec
 
 const BsdfParams* SpectraAtWavelengths::at_point(int m, Vec2 uv, WavelengthParams& local) const {
   const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], uv, &spectra_->albedo[static_cast<size_t>(m)]);
-  local.emplace();
-  for (int k = 0; k < count_; ++k) (*local)[k] = surface.at(wl_.lambda[k]);
-  return local->data();
+  BsdfParams* params = local.make();
+  for (int k = 0; k < count_; ++k) params[k] = surface.at(wl_.lambda[k]);
+  return params;
 }
 
 SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params, bool hero)
@@ -108,6 +109,10 @@ struct SpectralLobeSplit {
   SpectralValues beta{}, r_u{};  // throughput and pdf ratios before the vertex
   float cos = 0;
   uint8_t lobe = 0;
+  // The hero's P_C(lobe | wi) / P(lobe | wi), Cycles' probability that the direction came
+  // through the sampled lobe over the sampler's, for the World (LobeSplit::weigh_world; the
+  // hero's stands for every wavelength: only a dispersive part of a mix would differ).
+  float world_reweight = 1.0f;
 
   void fill(const std::array<std::optional<Bsdf>, kMaxWavelengths>& bk, int C, bool dispersive, const Vec3& wo,
             const Vec3& wi) {
@@ -120,6 +125,11 @@ struct SpectralLobeSplit {
       }
     }
     cos = std::abs(wi.z);
+    LobeSplit hero;
+    hero.lobe = lobe;
+    hero.fill(*bk[0], wo, wi);
+    const float p = hero.lobe_share(lobe);
+    world_reweight = p > 0 ? hero.cycles_lobe_share(lobe) / p : 0.0f;
   }
   // The emission `spec` found by the BSDF ray from a light visible to `vis` (not all kinds),
   // added to L; pdf_light is the light strategy's density of the point.
@@ -170,12 +180,12 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
   SpectralLobeSplit prev;  // the previous vertex's lobes, where some light is hidden from some kinds
 
   // Emission found by a ray: balance heuristic over C wavelengths x {BSDF, light} strategies.
-  auto add_emission = [&](const RgbSpectrum& spec, float pdf_light, bool full) {
+  auto add_emission = [&](const RgbSpectrum& spec, float pdf_light, bool full, float scale = 1.0f) {
     float denom = 0;
     for (int k = 0; k < C; ++k) denom += full ? r_u[k] : r_u[k] + r_l[k] * pdf_light;
     denom /= C;
     if (denom <= 0) return;
-    for (int j = 0; j < C; ++j) L[j] += beta[j] * spec(wl.lambda[j]) / denom;  // eq. 3-4
+    for (int j = 0; j < C; ++j) L[j] += beta[j] * spec(wl.lambda[j]) * scale / denom;  // eq. 3-4
   };
   // Emission of a light visible to the kinds `vis` found by a bounce ray (Cycles' per-kind
   // visibility, as in the path tracer).
@@ -201,6 +211,9 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
         const Light& e = lights.lights()[env];  // the World's Ray Visibility
         if (depth == 0) {
           if (e.visible_to_camera) add_emission(spectra_.light[env], 0.0f, true);
+        } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
+          if (e.visible_lobes & prev.lobe)
+            add_emission(spectra_.light[env], 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
         } else {
           add_bounce_emission(spectra_.light[env], e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
         }
@@ -246,7 +259,8 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
     if (!hero_bsdf.is_delta() && !lights.empty()) {
       const float u_light = rng.uniform();
       const Vec2 u2(rng.uniform(), rng.uniform());
-      if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+      if (auto ls = lights.sample_li(hit->p, u_light, u2);
+          ls && ls->pdf > 0 && !ls->L.is_black() && !lights.lights()[ls->light].lit_by_bsdf_rays_only()) {
         const uint8_t vis = lights.lights()[ls->light].visible_lobes;
         const Vec3 wi = hit->frame.to_local(ls->wi);
         SpectralValues f{}, pdf{};

@@ -21,6 +21,7 @@
 // Passes: combined (RGB through CIE XYZ).
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -58,9 +59,21 @@ struct SceneSpectra {
 // components and the rest as the RGB Bsdf has them.
 BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, Vec2 uv, float lambda);
 
-// Parameters of one material at each wavelength of a set, made only where needed (an array of
-// eight BsdfParams is worth not initialising per vertex).
-using WavelengthParams = std::optional<std::array<BsdfParams, kMaxWavelengths>>;
+// Room for the parameters of one material at each wavelength of a set, filled only for a
+// textured material (SpectraAtWavelengths::at_point): eight BsdfParams are worth not
+// initialising per vertex. Not a std::optional: GCC 12 zeroes a disengaged optional's whole
+// storage (648 bytes per vertex: 12 % of spectral SPPM's eye pass on pool, docs/benchmarks.md).
+class WavelengthParams {
+ public:
+  WavelengthParams() {}  // leaves params_ unconstructed: nothing is written unless make() is called
+  // The array, constructed (it is then written in full by the caller).
+  BsdfParams* make() { return std::construct_at(&params_)->data(); }
+
+ private:
+  union {
+    std::array<BsdfParams, kMaxWavelengths> params_;
+  };
+};
 
 // The scene's materials (monochromatic() per wavelength) and light spectra at one set of
 // wavelengths, evaluated once for the set. SPPM shares one set per pass between all its eye
