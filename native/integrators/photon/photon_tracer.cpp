@@ -50,6 +50,8 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   // carries the whole f / pdf, so a photon straight from it (until its first scattering
   // vertex) is deposited for the gather to weigh by f q_V (Photon::world_share): in the adjoint
   // view where it lands is where Cycles' BSDF ray from the measurement point meets the sky.
+  // Its scattering on still takes the lights' rule below (f_V / p_V), where Cycles' would be
+  // f q_V / p with q_V(wo = the sampled direction, wi = towards the sky): not done yet.
   uint8_t arrive = lights.lights()[em->light].visible_lobes;
   const bool world_rule = world_share_ && lights.lights()[em->light].lit_by_bsdf_rays_only();
   float t_crossed = 0;  // distance along the segment before the last surface crossed (records)
