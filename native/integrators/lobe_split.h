@@ -117,12 +117,30 @@ struct LobeSplit {
 // hits to share it with (photon methods' measurement points): the lobes that see a light, and
 // for a World hidden from some kinds f q_V of the rule above (the expectation of Cycles' BSDF
 // rays). wo, wi: unit directions in the shading frame.
+// q_V(wo, wi) of the rule above: the probability that Cycles' BSDF sample leaving towards wi
+// from wo (the camera side) came through a closure of a kind in `vis` (0 where Cycles' BSDF
+// reaches wi by no closure).
+inline float closure_share(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi, uint8_t vis) {
+  const float all = bsdf.closure_pdf(wo, wi);
+  return all > 0 ? bsdf.closure_pdf(wo, wi, vis) / all : 0.0f;
+}
+
 inline RGB nee_only_f(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi, const Light* light) {
   if (!light) return bsdf.eval(wo, wi);
   if (!light->lit_by_bsdf_rays_only()) return bsdf.eval(wo, wi, TransportMode::Radiance, light->visible_lobes);
-  const float all = bsdf.closure_pdf(wo, wi);
-  if (!(all > 0)) return RGB(0.0f);
-  return bsdf.eval(wo, wi) * (bsdf.closure_pdf(wo, wi, light->visible_lobes) / all);
+  const float q = closure_share(bsdf, wo, wi, light->visible_lobes);
+  return q > 0 ? bsdf.eval(wo, wi) * q : RGB(0.0f);
+}
+
+// The BSDF a gathered photon lights a measurement point with (wo: towards the camera, wi: the
+// photon's direction back where it came from, both local): the lobes in `lobes` (Photon::lobes,
+// the lights' rule), or for a photon straight from a World hidden from some kinds
+// (Photon::world_share) f q_V of the rule above: the measurement point's BSDF ray towards wi is
+// the one that would find the sky, so the closure choice is the one there.
+inline RGB gathered_f(const Bsdf& bsdf, const Vec3& wo, const Vec3& wi, uint8_t lobes, bool world_share) {
+  if (!world_share) return bsdf.eval(wo, wi, TransportMode::Radiance, lobes);
+  const float q = closure_share(bsdf, wo, wi, lobes);
+  return q > 0 ? bsdf.eval(wo, wi) * q : RGB(0.0f);
 }
 
 }  // namespace gp

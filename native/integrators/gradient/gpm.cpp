@@ -32,7 +32,7 @@ constexpr int kPhotonFailureBase = kShiftFailureCount;
 }  // namespace
 
 Gpm::Gpm(const Scene& scene, const Params& params)
-    : ProgressivePhotonMapping(scene, params, {.retrace = true, .nee = true}) {
+    : ProgressivePhotonMapping(scene, params, {.retrace = true, .nee = true, .world_by_closure_share = false}) {
   // The defaults, why they differ from the paper's and from SPPM's (footprint 1, alpha 0.7,
   // 100 000 photons, manifold_iterations 20): methods.cpp, docs/gradient.md "Defaults".
   recon_ = gradient_recon_options(params, threads_);

@@ -44,7 +44,16 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
   // and weighted by the inverse probability, as the path tracer's rays of those kinds cross y.
   // A recorded path (multisampled PPM's path densities) keeps a crossed surface as a vertex
   // marked `crossed`, which its densities skip (the segment goes straight on through it).
+  //
+  // A World hidden from some kinds follows Cycles' rule instead where asked
+  // (set_world_by_closure_share; lobe_split.h): Cycles' BSDF ray of a visible kind that finds it
+  // carries the whole f / pdf, so a photon straight from it (until its first scattering
+  // vertex) is deposited for the gather to weigh by f q_V (Photon::world_share): in the adjoint
+  // view where it lands is where Cycles' BSDF ray from the measurement point meets the sky.
+  // Its scattering on still takes the lights' rule below (f_V / p_V), where Cycles' would be
+  // f q_V / p with q_V(wo = the sampled direction, wi = towards the sky): not done yet.
   uint8_t arrive = lights.lights()[em->light].visible_lobes;
+  const bool world_rule = world_share_ && lights.lights()[em->light].lit_by_bsdf_rays_only();
   float t_crossed = 0;  // distance along the segment before the last surface crossed (records)
   int crossed = 0;      // surfaces crossed on this segment (a bound, as Embree's filters have none)
   // Surfaces the photon scattered at so far, light objects (pass-through surfaces, which Cycles'
@@ -102,7 +111,7 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
     // ---- Deposit (at diffuse vertices, or every non-delta one: DepositRule) ----
     if (scattered >= min_deposit_bounce && !bsdf.is_black() && deposits_at(bsdf)) {
       if (beta.is_finite()) {
-        dst.push_back(Photon{hit->p, -ray.d, beta, 0, arrive});
+        dst.push_back(Photon{hit->p, -ray.d, beta, 0, arrive, world_rule && scattered == 0});
         if (record) record->deposit_vertex.push_back(static_cast<uint32_t>(record->vertices.size() - 1));
         if (origins) {
           last.n_photon = hit->ng;

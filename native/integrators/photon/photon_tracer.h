@@ -42,6 +42,10 @@ struct Photon {
   // it came from through the surfaces it crossed (photon_tracer.cpp: a light or a surface hidden
   // from some kinds); all when nothing on its way hides anything.
   uint8_t lobes = kAllLobes;
+  // Straight from a World hidden from some kinds (Light::lit_by_bsdf_rays_only), traced with
+  // PhotonTracer::set_world_by_closure_share: a gather lights with f q_V, q_V the share of
+  // Cycles' closure choice in `lobes` (lobe_split.h, gathered_f), not with those lobes' f.
+  bool world_share = false;
 };
 
 // Where a photon came from: its previous light-path vertex y_{s-1} (GPM §4.2 needs it to shift
@@ -185,6 +189,11 @@ class PhotonTracer {
   }
   int threads() const { return threads_; }
   uint64_t seed() const { return seed_; }
+  // A World hidden from some kinds by Cycles' rule (lobe_split.h) rather than the lights' rule
+  // (photon_tracer.cpp): its photons are gathered with f q_V (Photon::world_share).
+  // Off by default: GPM's photon shifts (gpm.cpp) and MSPPM's path densities (msppm_weights.cpp)
+  // follow the lights' rule.
+  void set_world_by_closure_share(bool on) { world_share_ = on; }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
   // Surfaces hidden from some kinds of ray that one photon segment may cross (trace_path).
@@ -197,6 +206,7 @@ class PhotonTracer {
   uint64_t seed_;
   int threads_;
   DepositRule rule_;
+  bool world_share_ = false;  // set_world_by_closure_share
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
   std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
   std::vector<std::vector<PhotonChain>> chunk_chains_;    // and for `chains`

@@ -39,6 +39,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   boundary_bound_ = params.get<std::string>("error_bound") == "boundary";
   folded_ = FoldedNormalQuantile(confidence_);
   hash_mode_ = params.get<std::string>("hash") == "stochastic" ? PhotonHashMode::Stochastic : PhotonHashMode::Exact;
+  tracer_.set_world_by_closure_share(options.world_by_closure_share);
   if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
     adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
   check_image_size(width_, height_);
@@ -215,7 +216,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
         m += weight;
         const float shading = gather_shading_correction(ph.wi, vp.n_smooth, vp.frame.n);  // a map's bent cosine, as pt
-        const RGB contrib = vp.beta * bsdf.eval(vp.wo, wi, TransportMode::Radiance, ph.lobes) * ph.power *
+        const RGB contrib = vp.beta * gathered_f(bsdf, vp.wo, wi, ph.lobes, ph.world_share) * ph.power *
                             (weight * shading);  // eq. 5.11 / 7.4
         phi += contrib;
         lap += contrib.luminance() * error_kernel::laplacian(d2, R);  // §6.4, eq. 6.31 (2nd order)

@@ -72,6 +72,10 @@ struct PhotonMethodOptions {
   // Spectral photons (sppm.h "Spectral photons") when the parameter `spectral` asks for them
   // (use_spectral) and the photon sampler is uniform; reads spectral and wavelengths.
   bool spectral_photons = false;
+  // Photons straight from a World hidden from some kinds are gathered by Cycles' rule
+  // (PhotonTracer::set_world_by_closure_share, lobe_split.h); GPM, whose photon shifts follow
+  // the lights' rule, turns it off. Spectral photons keep the lights' rule.
+  bool world_by_closure_share = true;
 };
 
 class ProgressivePhotonMapping : public Integrator {
