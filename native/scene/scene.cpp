@@ -39,6 +39,17 @@ Vec3 offset_ray_origin(const Vec3& p, const Vec3& ng, const Vec3& w) {
   return out;
 }
 
+Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, uint8_t lobe) {
+  Ray next(offset_ray_origin(p, ng, wi), wi);
+  if (pass_through) {
+    next.camera = in.camera;
+    next.bounce = in.bounce;
+  } else {
+    next.bounce = lobe;
+  }
+  return next;
+}
+
 size_t Scene::triangle_count() const {
   size_t n = 0;
   for (const Mesh& m : meshes) n += m.triangle_count();

@@ -93,6 +93,12 @@ std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, u
 // Method for Avoiding Self-Intersection", Wächter & Binder, Ray Tracing Gems ch. 6).
 Vec3 offset_ray_origin(const Vec3& p, const Vec3& ng, const Vec3& w);
 
+// The ray a camera path sends on from a surface point p (geometric normal ng) along wi after a
+// BSDF sample of kind `lobe`, `in` the ray that arrived: a light object (`pass_through`) lets
+// `in` go on as it was (camera flag and kind kept); any other surface makes it a bounce ray of
+// the sampled kind, which surfaces hidden from that kind let through (Ray::bounce).
+Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, uint8_t lobe);
+
 class Scene {
  public:
   Scene();

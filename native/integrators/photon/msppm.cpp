@@ -208,14 +208,10 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               const Vec2 u(rng.uniform(), rng.uniform());
               const auto bs = bsdf.sample(wo, uc, u);
               if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-              const Vec3 wi = hit->frame.to_world(bs->wi);
-              Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
-              if (scene_.material(hit->material).is_pass_through()) {  // a light object: the ray goes on as it was
-                next.camera = ray.camera;
-                next.bounce = ray.bounce;
-              } else {
+              const bool crossed = scene_.material(hit->material).is_pass_through();  // a light object
+              ray = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
+              if (!crossed) {
                 kind = bs->lobe;
-                next.bounce = kind;  // surfaces hidden from this kind of ray let it through
                 prev_delta = bs->delta;
                 if (split_lobes) {
                   prev.beta = beta;
@@ -224,7 +220,6 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                 }
               }
               beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
-              ray = next;
               if (depth >= rr_depth_) {
                 const float q = std::max(0.05f, 1.0f - beta.max_component());
                 if (rng.uniform() < q) break;

@@ -350,15 +350,9 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     const auto bs = bsdf.sample(wo, uc, u);
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
     beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
-    const Vec3 wi = hit->frame.to_world(bs->wi);
-    Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
-    if (scene_.material(hit->material).is_pass_through()) {  // a light object: the ray goes on as it was
-      next.camera = ray.camera;
-      next.bounce = ray.bounce;
-    } else {
-      kind = bs->lobe;
-      next.bounce = kind;  // surfaces hidden from this kind of ray let it through
-    }
+    const bool crossed = scene_.material(hit->material).is_pass_through();  // a light object
+    const Ray next = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
+    if (!crossed) kind = bs->lobe;
     hooks.scatter(wo, *bs, next);
     ray = next;
     if (depth + 1 >= rr_depth_) {

@@ -187,16 +187,9 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               if (!scatter_factors(scene_, *hit, mk, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only))
                 break;
               for (int k = 0; k < C; ++k) beta[k] *= factor[k];
-              const Vec3 wi = hit->frame.to_world(bs->wi);
-              Ray next(offset_ray_origin(hit->p, hit->ng, wi), wi);
-              if (base.is_pass_through()) {  // a light object: the ray goes on as it was
-                next.camera = ray.camera;
-                next.bounce = ray.bounce;
-              } else {
-                kind = bs->lobe;
-                next.bounce = kind;  // surfaces hidden from this kind of ray let it through
-              }
-              ray = next;
+              const bool crossed = base.is_pass_through();  // a light object
+              ray = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
+              if (!crossed) kind = bs->lobe;
               if (depth + 1 >= rr_depth_) {
                 float bmax = 0;
                 for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
