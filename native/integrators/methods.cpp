@@ -71,16 +71,20 @@ ParamDecl clamp(const char* name, const char* label, const char* which) {
 }
 
 // ---- Photon density estimation (thesis ch. 5-10) ----
-ParamDecl photons(int64_t d) {
+// zero_means: what 0 (the default then) stands for.
+ParamDecl photons(int64_t d, const char* zero_means = "one per pixel (thesis §9.5)") {
   ParamDecl p{.name = "photons", .type = ParamType::Int, .default_value = d, .min = 1, .label = "Photons",
               .description = "photons emitted per pass", .group = "Photons"};
   if (d == 0) {
     p.min = 0;
-    p.zero_means = "one per pixel (thesis §9.5)";
+    p.zero_means = zero_means;
     p.manual_value = 100000;
   }
   return p;
 }
+// SPPM's and GPM's: two per pixel, 100 000 to 1 000 000 (auto_photons_per_pass, measured in
+// docs/gradient.md "Photons per pass").
+ParamDecl photons_per_pixel() { return photons(0, "two per pixel, 100 000 to 1 000 000"); }
 ParamDecl alpha(double d, const char* reference) {
   return {.name = "alpha", .type = ParamType::Float, .default_value = d, .min = 0, .max = 1, .min_open = true,
           .max_open = true, .label = "Alpha",
@@ -133,9 +137,9 @@ ParamDecl specular_threshold() {
           .description = "roughness at or below which a surface is specular for photons",
           .reference = "gradient-domain photon density estimation §5", .group = "Light Paths"};
 }
-ParamDecls photon_common(double alpha_default, const char* alpha_ref, double footprint_default,
+ParamDecls photon_common(ParamDecl photons, double alpha_default, const char* alpha_ref, double footprint_default,
                          const char* footprint_ref) {
-  return {photons(100000), alpha(alpha_default, alpha_ref), radius(), footprint(footprint_default, footprint_ref),
+  return {std::move(photons), alpha(alpha_default, alpha_ref), radius(), footprint(footprint_default, footprint_ref),
           confidence(), error_bound(), hash()};
 }
 
@@ -182,13 +186,16 @@ std::vector<Method> make_methods() {
                  return std::make_unique<PathTracer>(s, p);
                }});
   m.push_back({"ppm", "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
-               join({photon_common(0.7, "thesis eq. 5.7", 2.0, "thesis §7.4"),
+               join({photon_common(photons(100000), 0.7, "thesis eq. 5.7", 2.0, "thesis §7.4"),
                      {photon_sampler("uniform"), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
                       specular_threshold(), film_transparent()},
                      common()}),
                [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); }});
   auto sppm_params = [&](const char* sampler) {
-    return join({photon_common(0.7, "thesis eq. 7.2", 2.0, "thesis §7.4"),
+    // The adaptive sampler keeps the count it was measured with (its Markov chains' share).
+    const bool adaptive = std::string(sampler) == "adaptive";
+    return join({photon_common(adaptive ? photons(100000) : photons_per_pixel(), 0.7, "thesis eq. 7.2", 2.0,
+                               "thesis §7.4"),
                  {photon_sampler(sampler), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
                   specular_threshold(), spectral("photon_sampler=uniform"),
                   wavelengths(4, "spectral photons: spectral=spectral or a dispersive scene, photon_sampler=uniform"),
@@ -217,7 +224,7 @@ std::vector<Method> make_methods() {
                join({{recon("l2"), lambda(), max_depth(32), rr_depth()}, common()}),
                [](const Scene& s, const Params& p) { return std::make_unique<GradientPathTracer>(s, p); }});
   m.push_back({"gpm", "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
-               join({photon_common(0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
+               join({photon_common(photons_per_pixel(), 0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
                                    "thesis §7.4, as sppm: the primal is SPPM's image"),
                      {{.name = "gradient_footprint", .type = ParamType::Float, .default_value = 1.0, .min = 0,
                        .min_open = true, .label = "Gradient Footprint",

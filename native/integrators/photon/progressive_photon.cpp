@@ -1,5 +1,6 @@
 #include "integrators/photon/progressive_photon.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 
@@ -14,6 +15,10 @@ namespace gp {
 namespace {
 using clock_type = std::chrono::steady_clock;
 }  // namespace
+
+int64_t auto_photons_per_pass(int width, int height) {
+  return std::clamp<int64_t>(2 * static_cast<int64_t>(width) * height, 100000, 1000000);
+}
 
 ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params,
                                                    const PhotonMethodOptions& options)
@@ -43,6 +48,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
     adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
   check_image_size(width_, height_);
+  if (photons_per_pass_ == 0) photons_per_pass_ = auto_photons_per_pass(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});
