@@ -82,9 +82,11 @@ ParamDecl photons(int64_t d, const char* zero_means = "one per pixel (thesis §9
   }
   return p;
 }
-// SPPM's and GPM's: two per pixel, 100 000 to 1 000 000 (auto_photons_per_pass, measured in
-// docs/gradient.md "Photons per pass").
-ParamDecl photons_per_pixel() { return photons(0, "two per pixel, 100 000 to 1 000 000"); }
+// SPPM's and GPM's: 100 000, doubling every 8 passes up to two per pixel (auto_photons_per_pass,
+// measured in docs/gradient.md "Photons per pass").
+ParamDecl photons_per_pixel() {
+  return photons(0, "100 000, doubling every 8 passes up to two per pixel (at most 1 000 000)");
+}
 ParamDecl alpha(double d, const char* reference) {
   return {.name = "alpha", .type = ParamType::Float, .default_value = d, .min = 0, .max = 1, .min_open = true,
           .max_open = true, .label = "Alpha",

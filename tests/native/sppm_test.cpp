@@ -88,27 +88,32 @@ TEST(Sppm, RejectsBadParametersByName) {
   EXPECT_EQ(typo.unused(), std::vector<std::string>{"alhpa"});
 }
 
-// photons = 0, SPPM's and GPM's default, traces two photons per pixel and pass, at least
-// 100 000 and at most 1 000 000 (auto_photons_per_pass; measured in docs/gradient.md); an
-// explicit count is kept, and PPM and the adaptive sampler keep 100 000.
-TEST(Sppm, DefaultPhotonsPerPassAreTwoPerPixelWithinBounds) {
-  EXPECT_EQ(auto_photons_per_pass(128, 128), 100000);
-  EXPECT_EQ(auto_photons_per_pass(512, 384), 393216);
-  EXPECT_EQ(auto_photons_per_pass(3840, 2160), 1000000);
-  auto traced = [](const std::string& method, int w, int h, nlohmann::json params) {
+// photons = 0, SPPM's and GPM's default, traces 100 000 photons in the first pass, doubling
+// every 8 passes up to two per pixel, at most 1 000 000 (auto_photons_per_pass; measured in
+// docs/gradient.md); an explicit count is kept, and PPM and the adaptive sampler keep 100 000.
+TEST(Sppm, DefaultPhotonsPerPassRampUpToTwoPerPixel) {
+  EXPECT_EQ(auto_photons_per_pass(128, 128, 0), 100000);
+  EXPECT_EQ(auto_photons_per_pass(128, 128, 40), 100000);
+  EXPECT_EQ(auto_photons_per_pass(512, 384, 0), 100000);
+  EXPECT_EQ(auto_photons_per_pass(512, 384, 8), 200000);
+  EXPECT_EQ(auto_photons_per_pass(512, 384, 16), 393216);
+  EXPECT_EQ(auto_photons_per_pass(3840, 2160, 30), 1000000);
+  EXPECT_EQ(auto_photons_per_pass(3840, 2160, uint64_t(1) << 40), 1000000);
+  auto traced = [](const std::string& method, int w, int h, int passes, nlohmann::json params) {
     params["threads"] = 2;
     params["max_depth"] = 1;  // one bounce: the count traced is what matters, not the image
     Params p(params);
     const Scene scene = cornell_box(w, h);  // the integrator keeps a reference
     auto integ = make_integrator(method, scene, p);
-    run_progressive(*integ, StopRule{0, 1, 0}, nullptr);
+    run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
     return integ->stats().extra.at("photons traced");
   };
-  EXPECT_EQ(traced("sppm", 8, 8, nlohmann::json::object()), 100000);
-  EXPECT_EQ(traced("sppm", 300, 200, nlohmann::json::object()), 120000);
-  EXPECT_EQ(traced("gpm", 300, 200, nlohmann::json::object()), 120000);
-  EXPECT_EQ(traced("sppm", 300, 200, {{"photons", 5000}}), 5000);
-  EXPECT_EQ(traced("ppm", 300, 200, nlohmann::json::object()), 100000);
+  // 300 x 200: 100 000, 109 050 (x 2^(1/8)), 118 920, then capped at 120 000 (two per pixel).
+  EXPECT_EQ(traced("sppm", 300, 200, 3, nlohmann::json::object()), 100000 + 109050 + 118920);
+  EXPECT_EQ(traced("gpm", 300, 200, 3, nlohmann::json::object()), 100000 + 109050 + 118920);
+  EXPECT_EQ(traced("sppm", 8, 8, 2, nlohmann::json::object()), 200000);
+  EXPECT_EQ(traced("sppm", 300, 200, 2, {{"photons", 5000}}), 10000);
+  EXPECT_EQ(traced("ppm", 300, 200, 2, nlohmann::json::object()), 200000);
 }
 
 TEST(Sppm, RenderUntilErrorStopsAtTheTarget) {

@@ -600,7 +600,7 @@ void Gpm::iterate(ProgressSink* sink) {
 
   // ---- Photon pass (SPPM's, with each photon's previous vertex) ----
   const auto t_trace = clock_type::now();
-  const PhotonPassStats ps = tracer_.trace(photons_per_pass_, pass, 1, photons_, &origins_, &chains_);
+  const PhotonPassStats ps = tracer_.trace(photons_for_pass(pass), pass, 1, photons_, &origins_, &chains_);
   stats_.extra["trace seconds"] += seconds_since(t_trace);
   if (sink && sink->cancelled()) return;
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 
 #include "core/parallel.h"
 #include "core/sampling.h"
@@ -16,8 +17,10 @@ namespace {
 using clock_type = std::chrono::steady_clock;
 }  // namespace
 
-int64_t auto_photons_per_pass(int width, int height) {
-  return std::clamp<int64_t>(2 * static_cast<int64_t>(width) * height, 100000, 1000000);
+int64_t auto_photons_per_pass(int width, int height, uint64_t pass) {
+  const int64_t target = std::clamp<int64_t>(2 * static_cast<int64_t>(width) * height, 100000, 1000000);
+  const double ramp = 100000.0 * std::exp2(std::min(static_cast<double>(pass), 1000.0) / 8.0);
+  return static_cast<int64_t>(std::min(static_cast<double>(target), ramp));
 }
 
 ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Params& params,
@@ -48,7 +51,6 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
     adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
   check_image_size(width_, height_);
-  if (photons_per_pass_ == 0) photons_per_pass_ = auto_photons_per_pass(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});
@@ -174,11 +176,11 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
     visibility_.build(visibility_points_, threads_, cancelled);
     if (cancelled()) return;  // the grid of 2 M points at 1080p takes a few hundred ms
-    ps = adaptive_->trace(photons_per_pass_, pass, nee_ ? 1 : 0, visibility_, photons_, cancelled);
+    ps = adaptive_->trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, visibility_, photons_, cancelled);
   } else if (spectral_) {
     ps = spectral_trace(pass, cancelled);
   } else {
-    ps = tracer_.trace(photons_per_pass_, pass, nee_ ? 1 : 0, photons_, nullptr, nullptr, cancelled);
+    ps = tracer_.trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, photons_, nullptr, nullptr, cancelled);
   }
   stats_.extra["trace seconds"] += seconds_since(t_trace);
   if (sink && sink->cancelled()) return;

@@ -78,13 +78,15 @@ struct PhotonMethodOptions {
   bool world_by_closure_share = true;
 };
 
-// Photons per pass when `photons` is 0, SPPM's and GPM's default: two per pixel, from 100 000
-// (small images, where 100 000 was measured best) to 1 000 000 (GPM keeps ~400 bytes of origin
-// and chain per photon). Every pass traces a new camera path per pixel (GPM five), so at a fixed
-// count the eye pass grows with the image: at 512 x 384 it is 45 % of an SPPM pass and 70 % of
-// a GPM pass at 100 000, and two per pixel has 0.6x SPPM's and GPM's error at equal time
-// (docs/gradient.md "Photons per pass").
-int64_t auto_photons_per_pass(int width, int height);
+// Photons of pass `pass` when `photons` is 0, SPPM's and GPM's default: 100 000 at first (what
+// was measured best on small images and short runs), doubling every 8 passes up to two per pixel
+// (at most 1 000 000: GPM keeps ~400 bytes of origin and chain per photon). Every pass traces
+// new camera paths (GPM five per pixel), so at a fixed count the eye pass grows with the image:
+// at 512 x 384 it is 45 % of an SPPM pass and 70 % of a GPM pass at 100 000, and two per pixel
+// has 0.4-0.7x the error at equal time there; but a render's first seconds want passes, not
+// photons (cornell-glass at 512², 8-32 s: 1.2-3.4x worse with two per pixel from the start).
+// docs/gradient.md "Photons per pass".
+int64_t auto_photons_per_pass(int width, int height, uint64_t pass);
 
 class ProgressivePhotonMapping : public Integrator {
  public:
@@ -247,7 +249,10 @@ class ProgressivePhotonMapping : public Integrator {
   const Scene& scene_;
   bool retrace_, nee_;
   double alpha_, radius_, footprint_pixels_, confidence_;
-  int64_t photons_per_pass_;
+  int64_t photons_per_pass_;  // 0: auto_photons_per_pass
+  int64_t photons_for_pass(uint64_t pass) const {
+    return photons_per_pass_ > 0 ? photons_per_pass_ : auto_photons_per_pass(width_, height_, pass);
+  }
   PhotonHashMode hash_mode_;
   int max_depth_, rr_depth_, threads_, tile_size_;
   float threshold_;

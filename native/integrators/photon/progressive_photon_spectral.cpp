@@ -223,7 +223,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
 
 PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const std::function<bool()>& cancelled) {
   PhotonPassStats stats;
-  const int64_t count = photons_per_pass_;
+  const int64_t count = photons_for_pass(pass);
   stats.emitted = count;
   const LightSet& lights = scene_.light_set();
   const int C = wl_.count;
