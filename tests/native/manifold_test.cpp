@@ -128,42 +128,6 @@ TEST(Manifold, WalkReachesATargetOnTheFloor) {
   EXPECT_EQ(bad.failure, ShiftFailure::WalkNotConverged);
 }
 
-// A walk started from the seed of a converged walk to a nearby target (what a neighbouring
-// pixel's shift of the same photon leaves, gpm.h WalkSeeds) reaches the chain the walk from the
-// base reaches, in one projection; a seed far from the target costs one projection and changes
-// nothing else.
-TEST(Manifold, SeededWalkReachesTheSameChainInOneProjection) {
-  const Scene scene = sphere_scene(0.0f);
-  const Vec3 light(0.05f, -0.02f, 2.2f);
-  const PreparedChain base =
-      prepare_chain(scene, chain_through_ball(scene, light, normalize(Vec3(0.1f, 0.05f, 1.0f) - light), Vec2(0, 0)));
-  ASSERT_TRUE(base.ok);
-  const float tol = 1e-5f;
-  const int cap = 20;
-  for (const Vec3 step : {Vec3(0.01f, 0, 0), Vec3(0, -0.01f, 0), Vec3(0.02f, 0.015f, 0)}) {
-    const ManifoldWalk first = manifold_walk(scene, base, Vec3(0, 0, 0), base.chain.end + step, tol, cap);
-    ASSERT_TRUE(first.ok());
-    // The neighbour's offset differs from this one by a hundredth of it.
-    const Vec3 target = base.chain.end + step * 1.01f + Vec3(-step.y, step.x, 0) * 0.01f;
-    const ManifoldWalk cold = manifold_walk(scene, base, Vec3(0, 0, 0), target, tol, cap);
-    const ManifoldWalk warm = manifold_walk(scene, base, Vec3(0, 0, 0), target, tol, cap, &first.seed);
-    ASSERT_TRUE(cold.ok());
-    ASSERT_TRUE(warm.ok());
-    EXPECT_GT(cold.iterations, 1);
-    EXPECT_EQ(warm.iterations, 1) << "step " << step.x << " " << step.y;
-    EXPECT_LE(length(warm.chain.end - target), tol);
-    for (int j = 0; j < 2; ++j) EXPECT_LT(length(warm.chain.v[j].p - cold.chain.v[j].p), 1e-5f);
-    EXPECT_NEAR(warm.dir_per_area, cold.dir_per_area, 1e-4 * cold.dir_per_area);
-    // A seed whose prediction lands farther than the base: one projection more, the same chain.
-    const ManifoldWalk far = manifold_walk(scene, base, Vec3(0, 0, 0), base.chain.end - step * 2.0f, tol, cap);
-    ASSERT_TRUE(far.ok());
-    const ManifoldWalk misled = manifold_walk(scene, base, Vec3(0, 0, 0), target, tol, cap, &far.seed);
-    ASSERT_TRUE(misled.ok());
-    EXPECT_LE(misled.iterations, cold.iterations + 1);
-    for (int j = 0; j < 2; ++j) EXPECT_LT(length(misled.chain.v[j].p - cold.chain.v[j].p), 1e-5f);
-  }
-}
-
 // |d omega_i / d o| (eq. 9's reparameterisation) against finite differences of wi(o).
 TEST(Manifold, HalfVectorDirectionJacobianMatchesFiniteDifferences) {
   const Vec3 wo = normalize(Vec3(0.3f, -0.2f, 0.9f));

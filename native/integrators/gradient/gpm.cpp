@@ -521,8 +521,7 @@ const Gpm::ChainBase& Gpm::chain_base(const Photon& ph, const PhotonOrigin& org,
 
 Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                                          const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
-                                         int64_t& rays, WalkStats& walk_stats, WalkSeeds& seeds,
-                                         uint64_t key) const {
+                                         int64_t& rays, WalkStats& walk_stats) const {
   PhotonShift out;
   auto failed = [&out](ShiftFailure f) {
     out.failure = f;
@@ -543,12 +542,8 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // weight 1 whether or not it converges, so it is not walked.
   if (!(length(s1.hit.p - o.p) <= R + walk_tol)) return out;
   ++walk_stats.walks;
-  const auto seed = seeds.find(key);
-  const WalkSeed* warm = seed != seeds.end() ? &seed->second : nullptr;
-  walk_stats.seeded += warm != nullptr;
   const ManifoldWalk walk = manifold_walk(scene_, base.prepared, chain.ng,  // chain.ng: zero for a point light
-                                          s1.hit.p, walk_tol, manifold_iterations_, warm);
-  if (walk.ok()) seeds.insert_or_assign(key, walk.seed);
+                                          s1.hit.p, walk_tol, manifold_iterations_);
   walk_stats.iterations += walk.iterations;
   rays += static_cast<int64_t>(walk.iterations) * (chain.count + 1);
   if (!walk.ok()) return failed(walk.failure);
@@ -584,7 +579,7 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto start = clock_type::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
   const size_t n_pixels = px_.size();
-  std::atomic<int64_t> rays{0}, invalid{0}, shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0}, walks_seeded{0};
+  std::atomic<int64_t> rays{0}, invalid{0}, shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0};
   std::array<std::atomic<int64_t>, 2 * kShiftFailureCount> failures;
   for (auto& f : failures) f = 0;
 
@@ -618,14 +613,11 @@ void Gpm::iterate(ProgressSink* sink) {
   }
   for (size_t c = 0; c < chains_.size(); ++c) chain_state_[c].store(0, std::memory_order_relaxed);
   chain_bases_.resize(chains_.size());
-  parallel_for_tiles(width_, height_, tile_size_, threads_, [&](const Tile& tile) {
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
     int64_t local_rays = 0, local_shifts = 0;
     int64_t fail_count[kShiftFailureCount] = {};
     WalkStats walk_stats;
-    WalkSeeds seeds;
-    for (int ty = tile.y0; ty < tile.y1; ++ty)
-    for (int tx = tile.x0; tx < tile.x1; ++tx) {
-      const size_t i = static_cast<size_t>(ty) * width_ + tx;
+    for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
       gather_mg_[i] = 0;
       gather_lap_[i] = 0;
@@ -675,10 +667,8 @@ void Gpm::iterate(ProgressSink* sink) {
           if (o.ok()) {
             ++local_shifts;
             if (chain && !base) base = &chain_base(ph, org, local_base);
-            const PhotonShift sh =
-                chain ? shift_chain_photon(vp, o, R, ph, org, *chain, *base, local_rays, walk_stats, seeds,
-                                           4 * static_cast<uint64_t>(ph.index) + d)
-                      : shift_dd_photon(vp, o, R, ph, org, local_rays);
+            const PhotonShift sh = chain ? shift_chain_photon(vp, o, R, ph, org, *chain, *base, local_rays, walk_stats)
+                                         : shift_dd_photon(vp, o, R, ph, org, local_rays);
             if (sh.failure != ShiftFailure::None) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {
@@ -713,7 +703,6 @@ void Gpm::iterate(ProgressSink* sink) {
     for (int k = 0; k < kShiftFailureCount; ++k) failures[kPhotonFailureBase + k] += fail_count[k];
     walks += walk_stats.walks;
     walk_iterations += walk_stats.iterations;
-    walks_seeded += walk_stats.seeded;
   });
   stats_.extra["lookup seconds"] += seconds_since(t_lookup);
 
@@ -784,7 +773,6 @@ void Gpm::iterate(ProgressSink* sink) {
   stats_.extra["photon shift rays"] += static_cast<double>(shift_rays);
   stats_.extra["manifold walks"] += static_cast<double>(walks);
   stats_.extra["manifold walk iterations"] += static_cast<double>(walk_iterations);
-  stats_.extra["manifold walks seeded"] += static_cast<double>(walks_seeded);
   for (int k = 1; k < kShiftFailureCount; ++k) {
     const std::string reason(failure_stat_name(static_cast<ShiftFailure>(k)));
     if (failures[k] > 0) stats_.extra["sensor " + reason] += static_cast<double>(failures[k]);

@@ -78,7 +78,6 @@
 #include <array>
 #include <atomic>
 #include <memory>
-#include <unordered_map>
 #include <vector>
 
 #include "integrators/gradient/manifold.h"
@@ -173,20 +172,15 @@ class Gpm : public ProgressivePhotonMapping {
     double pdf = 0;         // y_b's solid-angle pdf of that direction
   };
   struct WalkStats {
-    int64_t walks = 0, iterations = 0, seeded = 0;
+    int64_t walks = 0, iterations = 0;
   };
-  // Seeds of a tile's converged walks, by photon and direction (key 4 * photon + direction):
-  // neighbouring pixels shift the photons they share by almost the same offset, so a walk starts
-  // from the last converged walk of its photon and direction in the tile (manifold.h,
-  // WalkSeed). Per tile, so that the images do not depend on the thread count.
-  using WalkSeeds = std::unordered_map<uint64_t, WalkSeed>;
   // Step 1 (eq. 5-6) and the DD reconnection of step 2.
   PhotonShift shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                               const PhotonOrigin& org, int64_t& rays) const;
   // Step 1 and the manifold walk of step 2 for specular and glossy chains (eq. 7-10).
   PhotonShift shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                                  const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
-                                 int64_t& rays, WalkStats& walk_stats, WalkSeeds& seeds, uint64_t key) const;
+                                 int64_t& rays, WalkStats& walk_stats) const;
   // The chain's ChainBase, from this pass's cache (evaluated by the first thread that needs it;
   // a thread that finds it being evaluated elsewhere evaluates its own copy into `local`).
   const ChainBase& chain_base(const Photon& ph, const PhotonOrigin& org, ChainBase& local) const;

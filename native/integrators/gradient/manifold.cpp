@@ -355,7 +355,7 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
 constexpr double kStuckStep = 0.1;
 
 ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, const Vec3& start_ng,
-                           const Vec3& target, float tolerance, int max_iterations, const WalkSeed* warm) {
+                           const Vec3& target, float tolerance, int max_iterations) {
   ManifoldWalk w;
   const ManifoldChain& base = prepared.chain;
   w.chain = base;
@@ -385,61 +385,7 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
   (*T)(1, 0) = prepared.t1[2];
   (*T)(1, 1) = prepared.t1[3];
   bool need_map = false;
-  const int k = base.count;
-  // Takes the projection in buffer nxt as the current chain when it brings the endpoint closer
-  // (or, before any step, lands within tolerance); true once it is within tolerance.
-  auto take = [&](int nxt, ShiftFailure f) {
-    const double next_dist = f == ShiftFailure::None ? (to_d(chains[nxt].end) - goal).norm() : kInfinity;
-    if (!(f == ShiftFailure::None && (next_dist < dist || (!have_end && next_dist <= tolerance)))) return false;
-    cur = nxt;
-    have_end = true;
-    dist = next_dist;
-    need_map = true;
-    return true;
-  };
-  // Converged: the offset chain's eq. 8 term, throughput and seed, from the surfaces at hand.
-  auto converged = [&]() {
-    w.chain = chains[cur];
-    w.end_hit = ends[cur];
-    const auto T_end = tangent_map(scene, w.chain, surfs[cur]);
-    const auto D = T_end ? direction_per_area(w.chain, surfs[cur], *T_end) : std::nullopt;
-    if (!D) return false;
-    w.dir_per_area = *D;
-    w.through = throughput(scene, w.chain, surfs[cur]);
-    const LocalSurface& a = surfs[cur][0];
-    const LocalSurface& e = surfs[cur][k];
-    w.seed.x1 = w.chain.v[0].p;
-    w.seed.end = w.chain.end;
-    for (int q = 0; q < 3; ++q) {
-      w.seed.s1[q] = a.s[q];
-      w.seed.t1[q] = a.t[q];
-      w.seed.s_end[q] = e.s[q];
-      w.seed.t_end[q] = e.t[q];
-    }
-    w.seed.map[0] = (*T_end)(0, 0);
-    w.seed.map[1] = (*T_end)(0, 1);
-    w.seed.map[2] = (*T_end)(1, 0);
-    w.seed.map[3] = (*T_end)(1, 1);
-    return true;
-  };
-  if (warm && max_iterations > 0) {
-    // The seed's prediction: x_1 moved along the seed's tangent map for the endpoint's motion
-    // from the seed's endpoint to the target. Not taken, it costs the walk one projection.
-    const Vec3d delta = goal - to_d(warm->end);
-    const double da = delta.dot(Vec3d(warm->s_end[0], warm->s_end[1], warm->s_end[2]));
-    const double db = delta.dot(Vec3d(warm->t_end[0], warm->t_end[1], warm->t_end[2]));
-    const Vec3d x1 = to_d(warm->x1) + (warm->map[0] * da + warm->map[1] * db) * Vec3d(warm->s1[0], warm->s1[1], warm->s1[2]) +
-                     (warm->map[2] * da + warm->map[3] * db) * Vec3d(warm->t1[0], warm->t1[1], warm->t1[2]);
-    ++w.iterations;
-    const ShiftFailure f =
-        x1.allFinite() ? propagate(scene, base, start_ng, to_f(x1), chains[1], ends[1], surfs[1]) : ShiftFailure::ZeroLength;
-    if (take(1, f) && dist <= tolerance) {
-      if (converged()) return w;
-      w.failure = ShiftFailure::WalkNotConverged;
-      return w;
-    }
-  }
-  for (int it = w.iterations; it < max_iterations; ++it) {
+  for (int it = 0; it < max_iterations; ++it) {
     const Surfaces& surf = surfs[cur];
     if (need_map) {
       T = tangent_map(scene, chains[cur], surf);
@@ -447,6 +393,7 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
       need_map = false;
     }
     // Linear prediction of x_1 for the endpoint's motion in its tangent plane.
+    const int k = base.count;
     const Vec3d delta = goal - surf[k].p;
     const Eigen::Vector2d d_end(delta.dot(surf[k].s), delta.dot(surf[k].t));
     const Eigen::Vector2d d1 = beta * (T->topRows(2) * d_end);
@@ -456,10 +403,22 @@ ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& prepared, co
     const ShiftFailure f = x1.allFinite()
                                ? propagate(scene, chains[cur], start_ng, to_f(x1), chains[nxt], ends[nxt], surfs[nxt])
                                : ShiftFailure::ZeroLength;
-    if (take(nxt, f)) {
+    const double next_dist = f == ShiftFailure::None ? (to_d(chains[nxt].end) - goal).norm() : kInfinity;
+    if (f == ShiftFailure::None && (next_dist < dist || (!have_end && next_dist <= tolerance))) {
+      cur = nxt;
+      have_end = true;
+      dist = next_dist;
+      need_map = true;
       if (dist <= tolerance) {
-        if (converged()) return w;
-        break;
+        // Converged: the offset chain's eq. 8 term and throughput, from the surfaces at hand.
+        w.chain = chains[cur];
+        w.end_hit = ends[cur];
+        const auto T_end = tangent_map(scene, w.chain, surfs[cur]);
+        const auto D = T_end ? direction_per_area(w.chain, surfs[cur], *T_end) : std::nullopt;
+        if (!D) break;
+        w.dir_per_area = *D;
+        w.through = throughput(scene, w.chain, surfs[cur]);
+        return w;
       }
       beta = std::min(1.0, 2.0 * beta);
     } else {

@@ -87,15 +87,6 @@ struct ChainThroughput {
   Vec3 wi_end;
   bool ok = false;
 };
-// Where a converged walk ended, kept so that a later walk of the same base chain to a nearby
-// target can start there: x_1, the endpoint, the tangent frames of both (x_1's triangle plane,
-// the endpoint's tangent plane) and the first block of the tangent map between them.
-struct WalkSeed {
-  Vec3 x1, end;
-  double s1[3], t1[3], s_end[3], t_end[3];
-  double map[4];  // row-major 2x2: d x_1 / d endpoint, in those frames
-};
-
 struct ManifoldWalk {
   ShiftFailure failure = ShiftFailure::None;
   ManifoldChain chain;       // the offset chain (its end within tolerance of the target)
@@ -103,7 +94,6 @@ struct ManifoldWalk {
   int iterations = 0;        // projections traced
   double dir_per_area = 0;   // chain_direction_per_area of the offset chain
   ChainThroughput through;   // what the offset chain's vertices do to the photon
-  WalkSeed seed;             // set when converged: where a nearby walk of the same chain may start
   bool ok() const { return failure == ShiftFailure::None; }
 };
 
@@ -122,13 +112,8 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain);
 
 // Walks `base` so that its endpoint reaches `target` (a point on a surface), x_0 fixed.
 // start_ng: geometric normal at x_0 (zero for a point light) for the first ray's offset.
-// warm: the seed of a converged walk of the same base chain to a nearby target, or null. Its
-// linear prediction is tried first and taken when it lands closer to the target than the base
-// endpoint is (it counts as one of the projections); the walk then goes on from there as from
-// the base. A pixel's neighbours shift the photons they share by almost the same offset, so the
-// prediction from a neighbour's converged walk usually lands within tolerance at once.
 ManifoldWalk manifold_walk(const Scene& scene, const PreparedChain& base, const Vec3& start_ng, const Vec3& target,
-                           float tolerance, int max_iterations, const WalkSeed* warm = nullptr);
+                           float tolerance, int max_iterations);
 // The same for prepare_chain(base): the walk holds base's own half-vectors at glossy vertices.
 ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const Vec3& start_ng, const Vec3& target,
                            float tolerance, int max_iterations);
