@@ -83,7 +83,7 @@ ParamDecl photons(int64_t d, const char* zero_means = "one per pixel (thesis §9
   return p;
 }
 // SPPM's and GPM's: 100 000, doubling every 8 passes up to two per pixel (auto_photons_per_pass,
-// measured in docs/gradient.md "Photons per pass").
+// measured in docs/gradient.md "Photons per pass that follow the image").
 ParamDecl photons_per_pixel() {
   return photons(0, "100 000, doubling every 8 passes up to two per pixel (at most 1 000 000)");
 }

@@ -82,10 +82,10 @@ struct PhotonMethodOptions {
 // was measured best on small images and short runs), doubling every 8 passes up to two per pixel
 // (at most 1 000 000: GPM keeps ~400 bytes of origin and chain per photon). Every pass traces
 // new camera paths (GPM five per pixel), so at a fixed count the eye pass grows with the image:
-// at 512 x 384 it is 45 % of an SPPM pass and 70 % of a GPM pass at 100 000, and two per pixel
-// has 0.4-0.7x the error at equal time there; but a render's first seconds want passes, not
-// photons (cornell-glass at 512², 8-32 s: 1.2-3.4x worse with two per pixel from the start).
-// docs/gradient.md "Photons per pass".
+// at 512 x 384 it is 45 % of an SPPM pass and 70 % of a GPM pass at 100 000. The ramp has
+// 0.55-0.86x the error of 100 000 at equal time on the SDS scenes at full size; two per pixel
+// from the first pass cost GPM 1.4-3.4x its error in cornell-glass's first 32 s (a render's
+// first seconds want passes). docs/gradient.md "Photons per pass that follow the image".
 int64_t auto_photons_per_pass(int width, int height, uint64_t pass);
 
 class ProgressivePhotonMapping : public Integrator {
