@@ -259,6 +259,11 @@ OLD_PROPERTIES = {
 }
 
 
+# Parameters that became automatic (0) after files were saved with explicit values: a value a
+# file holds without its Auto toggle was set before the toggle existed, and stays in force.
+NEWLY_AUTO = {"sppm": ("photons",), "gpm": ("photons",)}
+
+
 def migrate_settings(scene):
     """Moves values saved under the old shared property names into the methods' groups; returns
     the old names it moved. A value the new property refuses is left as it was (and reported)."""
@@ -276,6 +281,13 @@ def migrate_settings(scene):
                 setattr(group, new, value)
         del s[old]
         moved.append(old)
+    for method, names in NEWLY_AUTO.items():
+        group = getattr(s, method_group(method), None)
+        for name in names:
+            toggle = "use_auto_" + name
+            if group is not None and name in group.keys() and toggle not in group.keys():
+                setattr(group, toggle, False)
+                moved.append(f"{method}.{name}")
     return moved
 
 

@@ -184,6 +184,31 @@ def _compositor_file_output(scene, out_dir, names):
     return str(out_dir / f"comp_{scene.frame_current:04d}.exr")
 
 
+def test_photon_counts_saved_before_the_auto_default_stay_in_force(empty_scene):
+    """sppm's and gpm's photons per pass became automatic (0: a ramp to two per pixel); a file
+    that saved an explicit count, in the group or under the old shared name, keeps rendering
+    with it, while a scene that never set one sends 0."""
+    s = empty_scene.gradphoton
+    assert session.params_of(s, "sppm")["photons"] == 0 and session.params_of(s, "gpm")["photons"] == 0
+    s.sppm["photons"] = 250000  # how a file from before the toggle holds it
+    s["photons_per_pass"] = 30000
+    try:
+        moved = properties.migrate_settings(empty_scene)
+        assert "photons_per_pass" in moved and "sppm.photons" in moved and "gpm.photons" in moved
+        # The old shared name wins over the group's value, as for every moved setting.
+        assert session.params_of(s, "sppm")["photons"] == 30000
+        assert session.params_of(s, "gpm")["photons"] == 30000
+        assert s.sppm.use_auto_photons is False and s.gpm.use_auto_photons is False
+        s.sppm.use_auto_photons = True  # the toggle, once stored, is the user's again
+        assert "sppm.photons" not in properties.migrate_settings(empty_scene)
+        assert session.params_of(s, "sppm")["photons"] == 0
+    finally:
+        for g in (s.ppm, s.sppm, s.sppm_adaptive, s.gpm):
+            for key in ("photons", "use_auto_photons"):
+                if key in g.keys():
+                    del g[key]
+
+
 @pytest.mark.parametrize("method", ["sppm-adaptive", "msppm", "gdmlt"])
 def test_every_pass_of_the_method_reaches_the_compositor(empty_scene, out_dir, method):
     """Every pass the core develops for the method (gdmlt: primal, gradients, sample density;
