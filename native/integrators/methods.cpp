@@ -71,20 +71,20 @@ ParamDecl clamp(const char* name, const char* label, const char* which) {
 }
 
 // ---- Photon density estimation (thesis ch. 5-10) ----
-// zero_means: what 0 (the default then) stands for.
-ParamDecl photons(int64_t d, const char* zero_means = "one per pixel (thesis §9.5)") {
+// zero_means: what a default of 0 stands for (required then).
+ParamDecl photons(int64_t d, std::string zero_means = {}) {
   ParamDecl p{.name = "photons", .type = ParamType::Int, .default_value = d, .min = 1, .label = "Photons",
               .description = "photons emitted per pass", .group = "Photons"};
   if (d == 0) {
     p.min = 0;
-    p.zero_means = zero_means;
+    p.zero_means = std::move(zero_means);
     p.manual_value = 100000;
   }
   return p;
 }
 // SPPM's and GPM's: 100 000, doubling every 8 passes up to two per pixel (auto_photons_per_pass,
 // measured in docs/gradient.md "Photons per pass that follow the image").
-ParamDecl photons_per_pixel() {
+ParamDecl photons_ramp() {
   return photons(0, "100 000, doubling every 8 passes up to two per pixel (at most 1 000 000)");
 }
 ParamDecl alpha(double d, const char* reference) {
@@ -193,11 +193,8 @@ std::vector<Method> make_methods() {
                       specular_threshold(), film_transparent()},
                      common()}),
                [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); }});
-  auto sppm_params = [&](const char* sampler) {
-    // The adaptive sampler keeps the count it was measured with (its Markov chains' share).
-    const bool adaptive = std::string(sampler) == "adaptive";
-    return join({photon_common(adaptive ? photons(100000) : photons_per_pixel(), 0.7, "thesis eq. 7.2", 2.0,
-                               "thesis §7.4"),
+  auto sppm_params = [&](const char* sampler, ParamDecl photons) {
+    return join({photon_common(std::move(photons), 0.7, "thesis eq. 7.2", 2.0, "thesis §7.4"),
                  {photon_sampler(sampler), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
                   specular_threshold(), spectral("photon_sampler=uniform"),
                   wavelengths(4, "spectral photons: spectral=spectral or a dispersive scene, photon_sampler=uniform"),
@@ -205,13 +202,14 @@ std::vector<Method> make_methods() {
                  common()});
   };
   m.push_back({"sppm", "stochastic progressive photon mapping: new camera paths every pass (thesis ch. 7)",
-               sppm_params("uniform"),
+               sppm_params("uniform", photons_ramp()),
                [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); }});
   m.push_back({"sppm-adaptive", "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
-               sppm_params("adaptive"),
+               // The adaptive sampler keeps the count it was measured with (its chains' share).
+               sppm_params("adaptive", photons(100000)),
                [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm-adaptive"); }});
   m.push_back({"msppm", "multisampled PPM: path tracing and SPPM combined per path by MIS (thesis ch. 9)",
-               join({{photons(0), alpha(0.6, "thesis eq. 7.2; below 2/3 for eq. 9.25"), radius(),
+               join({{photons(0, "one per pixel (thesis §9.5)"), alpha(0.6, "thesis eq. 7.2; below 2/3 for eq. 9.25"), radius(),
                       {.name = "path_samples", .type = ParamType::Int, .default_value = 0, .min = 0,
                        .label = "Path Samples", .description = "path-tracing samples per pixel and pass",
                        .zero_means = "as many as the pixel expects photons (thesis §9.5)", .manual_value = 1,
@@ -226,7 +224,7 @@ std::vector<Method> make_methods() {
                join({{recon("l2"), lambda(), max_depth(32), rr_depth()}, common()}),
                [](const Scene& s, const Params& p) { return std::make_unique<GradientPathTracer>(s, p); }});
   m.push_back({"gpm", "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
-               join({photon_common(photons_per_pixel(), 0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
+               join({photon_common(photons_ramp(), 0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
                                    "thesis §7.4, as sppm: the primal is SPPM's image"),
                      {{.name = "gradient_footprint", .type = ParamType::Float, .default_value = 1.0, .min = 0,
                        .min_open = true, .label = "Gradient Footprint",
