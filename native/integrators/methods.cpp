@@ -230,6 +230,12 @@ std::vector<Method> make_methods() {
                        .min_open = true, .label = "Gradient Footprint",
                        .description = "initial radius of the shifted photons' gathers, in pixels (radius 0)",
                        .reference = "gradient-domain photon density estimation §5", .group = "Photons"},
+                      {.name = "gradient_photons", .type = ParamType::Float, .default_value = 1.0, .min = 0,
+                       .label = "Gradient Photons",
+                       .description = "photons per pass a gradient gather aims at: after a pixel's first pass its "
+                                      "gradients' radius is widened, up to the primal's, where fewer were found; "
+                                      "0 keeps gradient_footprint",
+                       .reference = "docs/gradient.md \"Sparse photons\"", .group = "Photons"},
                       {.name = "emission_samples", .type = ParamType::Int, .default_value = 4, .min = 0, .max = 64,
                        .label = "Emission Samples",
                        .description = "camera paths per pixel and pass, besides the gather path, for the light "

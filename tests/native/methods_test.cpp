@@ -46,7 +46,7 @@ TEST(Methods, DefaultsAreTheMeasuredOnes) {
       {"msppm", "path_samples", 0},    {"msppm", "path_samples_max", 64}, {"gpt", "recon", "l2"},
       {"gpt", "lambda", 0.2},          {"gpm", "photons", 0},           {"gpm", "alpha", 0.7},
       {"gpm", "footprint", 2.0},       {"gpm", "recon", "l1"},          {"gpm", "lambda", 0.2},
-      {"gpm", "gradient_footprint", 1.0}, {"gpm", "manifold_iterations", 20}, {"gdmlt", "recon", "l1"},     {"gdmlt", "mutations", 1},
+      {"gpm", "gradient_footprint", 1.0}, {"gpm", "gradient_photons", 1.0}, {"gpm", "manifold_iterations", 20}, {"gdmlt", "recon", "l1"},     {"gdmlt", "mutations", 1},
       {"gdmlt", "chains", 64},         {"gdmlt", "large_step", 0.3},    {"gdmlt", "sigma", 0.01},
       {"gdmlt", "primal_share", 0.05}, {"gdmlt", "bootstrap", 1},       {"gdmlt", "large_step_mis", true},
       {"gdmlt", "direct", "chain"},    {"spt", "wavelengths", 1},       {"spt-hero", "wavelengths", 4},

@@ -39,6 +39,7 @@ Gpm::Gpm(const Scene& scene, const Params& params)
   manifold_iterations_ = params.get<int>("manifold_iterations");
   emission_samples_ = params.get<int>("emission_samples");
   if (radius_ <= 0) gradient_radius_scale_ = params.get<double>("gradient_footprint") / footprint_pixels_;
+  gradient_photons_ = params.get<double>("gradient_photons");
   const size_t n = px_.size();
   gather_mg_.assign(n, 0.0f);
   off_.assign(n, {});
@@ -575,6 +576,29 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   return out;
 }
 
+// The gradients' radius where photons are sparse. At one pixel a gradient gather holds a quarter
+// of the primal's photons, each with four times its weight: where a pixel sees a photon only every
+// few passes (sun-caustic's shadow at full size), a failed or unmatched shift leaves a gradient
+// four times the primal's step, and the reconstruction inherits the primal's noise. Shifting costs
+// per photon, so a wider gather is cheap exactly there. After a pixel's first gather, its
+// gradients' radius is widened so that it would have held `gradient_photons` of that pass's
+// primal photons, between its own radius and the primal's. Its statistics are scaled with the
+// area (N and the flux differences, as a radius reduction scales them, thesis eq. 7.2-7.5), so the
+// density estimate of that pass is kept; later passes gather at the wider radius and shrink it by
+// their own counts. Decided on a pass that is already in the estimate: no later pass depends on
+// its own photons.
+void Gpm::widen_gradient_radius(GradState& g, double r2_primal, double m_primal) const {
+  g.sized = true;
+  if (!(gradient_photons_ > 0) || !(r2_primal > g.r2)) return;
+  const double aim = m_primal > 0 ? r2_primal * gradient_photons_ / m_primal : r2_primal;
+  const double r2 = std::clamp(aim, g.r2, r2_primal);
+  const double f = r2 / g.r2;
+  g.r2 = r2;
+  g.n *= f;
+  for (auto& d : g.diff)
+    for (double& c : d) c *= f;
+}
+
 void Gpm::iterate(ProgressSink* sink) {
   const auto start = clock_type::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
@@ -751,6 +775,7 @@ void Gpm::iterate(ProgressSink* sink) {
       s.r2 = u.r2_new;
       g.n = ug.n_new;
       g.r2 = ug.r2_new;
+      if (!g.sized && g.r2 > 0) widen_gradient_radius(g, s.r2, gather_m_[i]);
       record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, r2_query, ne_pass);  // eq. 6.22
     }
     invalid_phi += bad;

@@ -34,7 +34,8 @@
 //     w = 1 / (1 + p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z))); a failed shift gives offset 0, weight 1.
 // The four MIS-weighted flux differences of a pixel share one radius reduction (thesis eq.
 // 7.2-7.5; GPM §4.3) with their base flux, at the paper's initial radius of one pixel footprint
-// (`gradient_footprint`). The primal is gathered at SPPM's radius (`footprint`, two pixels, its
+// (`gradient_footprint`), widened after a pixel's first pass where photons are sparse
+// (`gradient_photons`, Gpm::widen_gradient_radius). The primal is gathered at SPPM's radius (`footprint`, two pixels, its
 // own reduction): one pixel made every photon gathered, and shifted four times, by 4x fewer
 // pixels, but left the primal 1.5-1.7x noisier than SPPM's at equal time, and the screened
 // Poisson solve keeps the primal's low frequencies. Both radii shrink to 0, so the gradients and
@@ -122,6 +123,7 @@ class Gpm : public ProgressivePhotonMapping {
   // keeps SPPM's (PixelState: two pixels), so that `primal` is SPPM's image with the defaults.
   struct GradState {
     double r2 = 0;                 // the gradients' R_i^2 (0 until the primal's is set)
+    bool sized = false;            // widened (or not) after the pixel's first gather (gpm.cpp)
     double n = 0;                  // their N_i
     double tau_fb[3] = {0, 0, 0};  // flux of photons kept in the primal domain (specular chains)
     double diff[4][3] = {};        // MIS-weighted flux differences per direction, within r2
@@ -140,6 +142,7 @@ class Gpm : public ProgressivePhotonMapping {
       return emission_lum2 * emission_paths - emission_lum * emission_lum > 1e-9 * emission_lum2 * emission_paths;
     }
   };
+  void widen_gradient_radius(GradState& g, double r2_primal, double m_primal) const;
   // One pass's light seen along a pixel's camera paths: the gather path's and its further ones.
   struct EmissionSeen {
     RGB mean{0.0f};             // their mean (summed in double: a few near FLT_MAX overflow a float)
@@ -197,6 +200,7 @@ class Gpm : public ProgressivePhotonMapping {
   size_t chain_state_size_ = 0;
   int manifold_iterations_ = 5;
   double gradient_radius_scale_ = 1;  // gradient_footprint / footprint (or 1 for a radius in metres)
+  double gradient_photons_ = 0;       // photons per pass a gradient gather aims at (0: fixed radius)
   std::vector<GradState> grad_;
   std::vector<RGB> gather_fb_;
   std::vector<float> gather_mg_;                    // photons within the gradients' radius
