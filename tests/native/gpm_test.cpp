@@ -297,8 +297,8 @@ TEST(Gpm, SameImageWhateverTheThreadCount) {
 // `gradient_photons` per gradient gather. sun-caustic's photons (a sun over a 3 m floor, a 16 cm
 // ball seen close up) are sparse in the ball's shadow; cornell-box at 24x24 with 100 000 photons
 // has hundreds in every gather. Checked to fail: the flux differences left unscaled (the one-pass
-// images differ by the area ratio, up to 4x), no widening (shifts and variance as without), and
-// widening everywhere (cornell-box's shifts grow).
+// images differ by the area ratio, up to 4x), the radius kept while the statistics are scaled
+// (the one-pass images differ; variance 2x), and widening everywhere (cornell-box's shifts grow).
 TEST(Gpm, SparsePixelsWidenTheGradientsRadius) {
   const Scene sun = test_scene("sun-caustic", 48, 36);
   const auto render = [](const Scene& s, int passes, double aim, uint64_t seed, int64_t photons) {
