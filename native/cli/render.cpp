@@ -108,22 +108,29 @@ nlohmann::json param_value(const std::string& name, const std::string& text) {
 // method's default ("0.7: ppm, sppm, sppm-adaptive, gpm; 0.6: msppm").
 std::string param_help(const std::string& name) {
   const ParamDecl* first = nullptr;
-  std::vector<std::pair<std::string, std::string>> defaults;  // (default, its methods)
+  using Groups = std::vector<std::pair<std::string, std::string>>;  // (value, its methods)
+  Groups defaults, ranges;
+  const auto add = [](Groups& g, const std::string& v, const std::string& method) {
+    auto it = std::find_if(g.begin(), g.end(), [&](const auto& e) { return e.first == v; });
+    if (it == g.end()) g.emplace_back(v, method);
+    else it->second += ", " + method;
+  };
   std::string all_methods;
   for (const Method& m : methods()) {
     all_methods += (all_methods.empty() ? "" : ", ") + m.name;
     const ParamDecl* d = m.find(name);
     if (!d) continue;
     if (!first) first = d;
-    const std::string v = d->default_text();
-    auto it = std::find_if(defaults.begin(), defaults.end(), [&](const auto& e) { return e.first == v; });
-    if (it == defaults.end()) defaults.emplace_back(v, m.name);
-    else it->second += ", " + m.name;
+    add(defaults, d->default_text(), m.name);
+    add(ranges, d->range_text(), m.name);
   }
   std::string h = first->description;
   if (!first->symbol.empty() || !first->reference.empty())
     h += " (" + first->symbol + (first->symbol.empty() || first->reference.empty() ? "" : ", ") + first->reference + ")";
-  if (const std::string r = first->range_text(); !r.empty()) h += "; " + r;
+  // One range, or each with its methods where they differ (photons: 0 is automatic in some).
+  if (ranges.size() == 1 && !ranges[0].first.empty()) h += "; " + ranges[0].first;
+  for (size_t i = 0; ranges.size() > 1 && i < ranges.size(); ++i)
+    if (!ranges[i].first.empty()) h += (i ? ", " : "; ") + ranges[i].first + " (" + ranges[i].second + ")";
   h += ". Default";
   for (size_t i = 0; i < defaults.size(); ++i)
     h += (i ? "; " : " ") + defaults[i].first + " (" +

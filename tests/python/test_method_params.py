@@ -40,6 +40,8 @@ def test_render_help_lists_every_parameter_with_each_methods_default():
             text = options.get(flag(d["name"]))
             assert text is not None, f"render --help has no {flag(d['name'])}"
             assert d["description"] in text, (d["name"], text)
+            # this method's range (photons: >= 1 in ppm, >= 0 where 0 is automatic)
+            assert not d["range"] or re.search(re.escape(d["range"]) + r"(\.| \(|;)", text), (method, d["name"], text)
             # this method's default, in the group of methods that share it
             groups = re.search(r"Default (.*)$", text).group(1)
             ok = any(g.startswith(default_text(d) + " (") and (method in re.split(r"[(), ]+", g) or "every method" in g)
