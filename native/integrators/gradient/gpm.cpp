@@ -26,6 +26,10 @@ constexpr float kSign[4] = {1, -1, 1, -1};
 // inverse's landing error, measured 3e-5..9e-5 at r ~ 0.05), which failed 3% of good shifts.
 constexpr float kReversibleTolerance = 1e-2f;
 
+// A chain vertex's adjoint shading-normal correction beyond this factor (or below its inverse)
+// fails the walked shift (shift_chain_photon).
+constexpr double kMaxShadingCorrection = 10;
+
 // Failure counters: [0, kShiftFailureCount) sensor shifts, then as many for photon shifts.
 constexpr int kPhotonFailureBase = kShiftFailureCount;
 
@@ -557,6 +561,15 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   if (back.failure != ShiftFailure::None || length_squared(back.hit.p - ph.p) > tol * tol)
     return failed(ShiftFailure::NotReversible);
   const ChainThroughput& through = walk.through;
+  // A chain that grazes a facet (its adjoint shading-normal correction far from 1, either side):
+  // re-evaluated there the correction swings by orders of magnitude with round-off, and it is in
+  // the offset power's f ratio but not in eq. 11's pdf ratio, so the MIS weight cannot bound it.
+  // Measured: a base re-evaluated at 1e-4 of the photon tracer's throughput gave an offset 8600x
+  // its base's at weight 0.5, a pixel of cornell-glass at -1.26 after 128 s (docs/gradient.md
+  // "Sparse photons"). Such pairs fail, as a non-invertible shift does: offset 0, weight 1 on
+  // this side, and the other side's base (the grazing chain) fails its shifts alike.
+  const auto grazing = [](double corr) { return !(corr < kMaxShadingCorrection && corr > 1 / kMaxShadingCorrection); };
+  if (grazing(through.correction) || grazing(base.prepared.through.correction)) return failed(ShiftFailure::NotInvertible);
   out.wi_gather = o.frame.to_local(through.wi_end);
   if (!(length_squared(c.end - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac6 > 0)) return out;
   double pdf = 0;

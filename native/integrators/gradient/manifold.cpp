@@ -200,6 +200,7 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
     const Bsdf bsdf = scene.bsdf(scene.meshes[x.mesh].material_ids[x.prim], scene.uv_at(x.mesh, x.prim, x.p));
     const float corr = adjoint_shading_correction(wo_w, wi_w, ng, ns);
     if (corr == 0 || wo.z == 0) return out;
+    out.correction *= corr;
     if (bsdf.is_delta()) {
       // The base's lobe at this configuration (the walk put wi on its specular direction).
       const float uc = x.transmission ? 1.0f - 0x1p-24f : 0.0f;

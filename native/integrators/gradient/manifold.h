@@ -84,6 +84,10 @@ struct ChainThroughput {
   RGB f{1.0f};
   double pdf = 1;
   double jacobian = 1;
+  // Product of the vertices' adjoint shading-normal corrections (included in f). Far from 1 only
+  // where a direction grazes a facet; there it swings by orders of magnitude with round-off
+  // (gpm.cpp kMaxShadingCorrection).
+  double correction = 1;
   Vec3 wi_end;
   bool ok = false;
 };
