@@ -128,9 +128,9 @@ std::string param_help(const std::string& name) {
   if (!first->symbol.empty() || !first->reference.empty())
     h += " (" + first->symbol + (first->symbol.empty() || first->reference.empty() ? "" : ", ") + first->reference + ")";
   // One range, or each with its methods where they differ (photons: 0 is automatic in some).
-  if (ranges.size() == 1 && !ranges[0].first.empty()) h += "; " + ranges[0].first;
-  for (size_t i = 0; ranges.size() > 1 && i < ranges.size(); ++i)
-    if (!ranges[i].first.empty()) h += (i ? ", " : "; ") + ranges[i].first + " (" + ranges[i].second + ")";
+  for (size_t i = 0; i < ranges.size(); ++i)
+    if (!ranges[i].first.empty())
+      h += (i ? ", " : "; ") + ranges[i].first + (ranges.size() > 1 ? " (" + ranges[i].second + ")" : "");
   h += ". Default";
   for (size_t i = 0; i < defaults.size(); ++i)
     h += (i ? "; " : " ") + defaults[i].first + " (" +

@@ -533,6 +533,16 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
     return out;
   };
   if (!base.ok) return failed(ShiftFailure::SpecularChain);
+  // A chain that grazes a facet (its adjoint shading-normal correction far from 1, either side):
+  // re-evaluated there the correction swings by orders of magnitude with round-off, and it is in
+  // the offset power's f ratio but not in eq. 11's pdf ratio, so the MIS weight cannot bound it.
+  // Measured: a base re-evaluated at 1e-4 of the photon tracer's throughput gave an offset 8600x
+  // its base's at weight 0.5, a pixel of cornell-glass at -1.26 after 128 s (docs/gradient.md
+  // "Sparse photons"). Such pairs fail, as a non-invertible shift does: offset 0, weight 1 on
+  // this side, and the other side's base (the grazing chain) fails its shifts alike. The base's
+  // is known before any ray; the offset's as soon as the walk has converged.
+  const auto grazing = [](double corr) { return !(corr < kMaxShadingCorrection && corr > 1 / kMaxShadingCorrection); };
+  if (grazing(base.prepared.through.correction)) return failed(ShiftFailure::NotInvertible);
   // ---- Step 1: the offset photon y'_s, the candidate of eq. 5 projected onto the receiver ----
   if (org.branched) return failed(ShiftFailure::NotInvertible);  // as shift_dd_photon
   const Projected s1 = project_candidate(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, R, rays);
@@ -552,6 +562,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   walk_stats.iterations += walk.iterations;
   rays += static_cast<int64_t>(walk.iterations) * (chain.count + 1);
   if (!walk.ok()) return failed(walk.failure);
+  if (grazing(walk.through.correction)) return failed(ShiftFailure::NotInvertible);
   const ManifoldChain& c = walk.chain;
   if (!scene_.bsdf(walk.end_hit.material, walk.end_hit.uv).is_diffuse_for_photons(threshold_))
     return failed(ShiftFailure::NotInvertible);
@@ -561,15 +572,6 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   if (back.failure != ShiftFailure::None || length_squared(back.hit.p - ph.p) > tol * tol)
     return failed(ShiftFailure::NotReversible);
   const ChainThroughput& through = walk.through;
-  // A chain that grazes a facet (its adjoint shading-normal correction far from 1, either side):
-  // re-evaluated there the correction swings by orders of magnitude with round-off, and it is in
-  // the offset power's f ratio but not in eq. 11's pdf ratio, so the MIS weight cannot bound it.
-  // Measured: a base re-evaluated at 1e-4 of the photon tracer's throughput gave an offset 8600x
-  // its base's at weight 0.5, a pixel of cornell-glass at -1.26 after 128 s (docs/gradient.md
-  // "Sparse photons"). Such pairs fail, as a non-invertible shift does: offset 0, weight 1 on
-  // this side, and the other side's base (the grazing chain) fails its shifts alike.
-  const auto grazing = [](double corr) { return !(corr < kMaxShadingCorrection && corr > 1 / kMaxShadingCorrection); };
-  if (grazing(through.correction) || grazing(base.prepared.through.correction)) return failed(ShiftFailure::NotInvertible);
   out.wi_gather = o.frame.to_local(through.wi_end);
   if (!(length_squared(c.end - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac6 > 0)) return out;
   double pdf = 0;
