@@ -126,7 +126,7 @@ void check_header_sizes(const std::string& path, uintmax_t file_size) {
   };
   auto check = [&](const std::string& name, int64_t bytes) {
     const int64_t at = static_cast<int64_t>(in.tellg());
-    if (bytes < 0 || at < 0 || at + bytes > static_cast<int64_t>(file_size))
+    if (bytes < 0 || at < 0 || bytes > static_cast<int64_t>(file_size) - at)  // no at + bytes: it may overflow
       fail("cannot read EXR", path,
            fmt::format("header attribute '{}' needs {} bytes but the file ends {} bytes later (truncated or corrupt)",
                        name, bytes, static_cast<int64_t>(file_size) - at));
@@ -168,7 +168,8 @@ void check_header_sizes(const std::string& path, uintmax_t file_size) {
     } else if (type == "preview") {
       int64_t w = 0, h = 0;
       if (!read_int(w) || !read_int(h)) return;
-      check(name, w < 0 || h < 0 ? -1 : 4 * (uint32_t(w) * int64_t(uint32_t(h))));
+      // 4 bytes per pixel; w * h < 2^62 (both int32), but 4 w h may not fit an int64 (fuzz_exr).
+      check(name, w < 0 || h < 0 ? -1 : w * h > INT64_MAX / 4 ? INT64_MAX : 4 * w * h);
     } else {
       check(name, size);  // string, stringvector, floatvector and unknown (opaque) types
     }
