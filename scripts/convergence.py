@@ -20,7 +20,7 @@ do not overwrite each other:
         --checkpoints 2,4,8,16,32 --ref-passes 8192 --csv adaptive.csv
 
 A reference rendered by `sppm` with its own radius rule shares SPPM's blur of edges, which
-favours SPPM at long budgets; `--ref-method sppm:photons=200000,footprint=0.15,alpha=0.99999`
+can favour SPPM at long budgets; `--ref-method sppm:photons=200000,footprint=0.15,alpha=0.99999`
 (a fixed radius of 0.15 pixel) has almost none, at more noise that --ref-split removes in
 expectation (docs/gradient.md, "A reference that shares SPPM's bias"; scripts/rescore.py scores
 saved snapshots against several references).
