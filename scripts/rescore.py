@@ -4,7 +4,7 @@ depends on the reference.
 
 A reference rendered by a method shares that method's bias: an SPPM reference with SPPM's own
 radius rule (two pixels, alpha 0.7) blurs every edge the way SPPM at a long budget does, so
-SPPM's error against it is too low and a sharper method's too high (docs/gradient.md, "A
+SPPM's blur is not counted as error and a sharper method's sharpness is (docs/gradient.md, "A
 reference that shares SPPM's bias"). A fixed radius a fraction of a pixel wide,
 `sppm:photons=200000,footprint=0.15,alpha=0.99999`, has almost no blur and much more noise; the
 split references' noise term (convergence.py, SplitReference) removes the noise in expectation.
