@@ -40,27 +40,25 @@ def main():
     ap.add_argument("--chart", type=pathlib.Path)
     args = ap.parse_args()
 
+    checkpoints = [float(s) for s in args.checkpoints.split(",")]
     rows = []
+    excess = {}  # (reference label, method, seconds) -> relMSE less the references' noise
     for label, pattern in args.reference:
         paths = sorted(glob.glob(pattern))
         if len(paths) != 2:
             sys.exit(f"--reference {label}: {pattern} matches {len(paths)} files, not 2")
         split = SplitReference.from_files(*paths)
         for method in args.methods:
-            for t in (float(s) for s in args.checkpoints.split(",")):
+            for t in checkpoints:
                 snap = args.snapshots / f"{args.scene}-{file_tag(method)}.{t:g}s.exr"
                 if not snap.exists():
                     sys.exit(f"missing snapshot {snap}")
-                relmse, excess = split.errors(read_combined(snap))
+                relmse, excess[label, method, t] = split.errors(read_combined(snap))
                 rows.append({"scene": args.scene, "reference": label, "method": method, "seconds": t,
-                             "relmse": relmse, "relmse_excess": excess})
+                             "relmse": relmse, "relmse_excess": excess[label, method, t]})
         base = args.methods[0]
         for method in args.methods[1:]:
-            ratios = [next(r["relmse_excess"] for r in rows if r["reference"] == label and r["method"] == method
-                           and r["seconds"] == t) /
-                      next(r["relmse_excess"] for r in rows if r["reference"] == label and r["method"] == base
-                           and r["seconds"] == t)
-                      for t in sorted({r["seconds"] for r in rows})]
+            ratios = [excess[label, method, t] / excess[label, base, t] for t in checkpoints]
             print(f"{label:16s} {method} / {base}: " + " / ".join(f"{x:.2f}" for x in ratios))
 
     if args.csv:
@@ -76,8 +74,7 @@ def main():
                                  squeeze=False)
         for ax, (label, _) in zip(axes[0], args.reference):
             for method in args.methods:
-                pts = [(r["seconds"], r["relmse_excess"]) for r in rows
-                       if r["reference"] == label and r["method"] == method and r["relmse_excess"] > 0]
+                pts = [(t, excess[label, method, t]) for t in checkpoints if excess[label, method, t] > 0]
                 ax.loglog(*zip(*pts), marker="o", label=method)
             ax.set_title(f"{args.scene} x{args.scale:g}, reference: {label}")
             ax.set_xlabel("render time (s)")
