@@ -108,6 +108,30 @@ def method_params(method):
     return _params[method]
 
 
+_descriptions = {}  # method -> its description, asked once per session of Blender
+
+
+def method_description(method):
+    """The method as the core declares it (_native.method_description: label, tooltip, passes,
+    error estimate, merge rule, statistics, supported features), or None without the module
+    or for an unknown method."""
+    m = load()
+    if m is None:
+        return None
+    if method not in _descriptions:
+        try:
+            _descriptions[method] = dict(m.method_description(method))
+        except (ValueError, RuntimeError):
+            _descriptions[method] = None
+    return _descriptions[method]
+
+
+def method_label(method):
+    """The method's readable name for menus (its own name without the module)."""
+    d = method_description(method)
+    return d["label"] if d else method
+
+
 _info = {}  # (method, params) -> method_info, asked once per session of Blender
 
 

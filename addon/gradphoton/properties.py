@@ -15,32 +15,6 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, Po
 
 from . import native
 
-# Readable labels for the core's method names (_native.methods()); an unknown name shows as itself.
-METHOD_LABELS = {
-    "pt": ("Path Tracing", "Unbiased reference, as Cycles renders: good for most scenes, noisy caustics "
-                           "(next-event estimation and MIS, Veach 1997)"),
-    "ppm": ("Photon Mapping", "Caustics and light through glass, sharpening as it renders; camera paths "
-                              "traced once (progressive photon mapping, Hachisuka et al. 2008; thesis ch. 5)"),
-    "sppm": ("Stochastic PPM", "Caustics and light through glass, with depth of field and glossy "
-                               "surfaces; stops at a target error (thesis ch. 7)"),
-    "sppm-adaptive": ("SPPM Adaptive", "Stochastic PPM that sends photons where the camera sees them: "
-                                       "for light hidden behind openings (adaptive MCMC photons, thesis ch. 8)"),
-    "msppm": ("Multisampled PPM", "Path tracing and photons combined per pixel, each where it is better "
-                                  "(MIS of path tracing and SPPM, thesis ch. 9)"),
-    "gpt": ("Gradient PT", "Path tracing of image gradients, then a smooth reconstruction: less noise "
-                           "on flat areas (gradient-domain path tracing, Kettunen et al. 2015)"),
-    "gpm": ("Gradient Photons", "Photon mapping of image gradients: smooth caustics in fewer passes "
-                                "(gradient-domain photon density estimation, Hua et al. 2017)"),
-    "spt": ("Spectral PT", "Path tracing by wavelength, for rainbows through dispersive glass "
-                           "(one wavelength per path, Cauchy dispersion)"),
-    "spt-hero": ("Spectral PT Hero", "Spectral path tracing with four wavelengths per path: less colour "
-                                     "noise (hero wavelengths, Wilkie et al. 2014)"),
-    "sgpt": ("Spectral Gradient", "Spectral path tracing with a smooth reconstruction across wavelengths "
-                                  "(spectral gradient sampling, Petitjean et al. 2018)"),
-    "gdmlt": ("Gradient MLT", "Explores bright, hard-to-find light paths by mutating them (gradient-domain "
-                              "Metropolis light transport, Lehtinen et al. 2013)"),
-}
-
 _method_items = []  # Blender needs dynamic enum strings kept alive
 
 
@@ -52,7 +26,8 @@ def method_info(method):
 def method_items(self, context):
     _method_items.clear()
     for i, name in enumerate(native.methods() or ["pt"]):
-        label, desc = METHOD_LABELS.get(name, (name, name))
+        d = native.method_description(name) or {}
+        label, desc = d.get("label", name), d.get("tooltip", name)
         _method_items.append((name, label, desc, i))
     return _method_items
 

@@ -87,29 +87,11 @@ def params_of(settings, method=None, frame=None):
     return params
 
 
-# Key statistics of a method on the status line: (Stats key, short label, format). A key with
-# '*' sums every statistic it matches (fnmatch). A missing statistic is left out.
-# Paths whose neighbour could not be built by a shift: normal, counted as information.
-_SHIFT_FAILURES = ("*shift failed*", "unshifted paths", "{:,.0f}")
-_ADAPTIVE_STATS = [("acceptance rate", "accept", "{:.3f}"), ("mutation size", "theta", "{:.3g}"),
-                   ("V_c", "V_c", "{:.3g}")]  # 0.0004 under a distant light
-METHOD_STATS = {
-    "sppm-adaptive": _ADAPTIVE_STATS,
-    "sppm": _ADAPTIVE_STATS,  # with the adaptive photon sampler
-    "ppm": _ADAPTIVE_STATS,
-    "msppm": [("path tracing share", "PT share", "{:.3f}"),
-              ("measurement points per pixel", "points/px", "{:.2f}")],
-    "gdmlt": [("acceptance rate", "accept", "{:.3f}"), ("large-step share", "large", "{:.3f}"),
-              ("chains", "chains", "{:.0f}"), _SHIFT_FAILURES],
-    "gpt": [_SHIFT_FAILURES],
-    "gpm": [_SHIFT_FAILURES, ("manifold walks", "walks", "{:,.0f}")],
-}
-
-
 def method_stats(method, stats):
-    """["label value", ...] for the method's key statistics present in `stats`."""
+    """["label value", ...] for the method's key statistics (its declaration's, Method::stats)
+    present in `stats`. A key with '*' sums every statistic it matches (fnmatch)."""
     out = []
-    for key, label, form in METHOD_STATS.get(method, ()):
+    for key, label, form in (native.method_description(method) or {}).get("stats", ()):
         try:
             if "*" in key:
                 values = [float(v) for k, v in stats.items() if fnmatch.fnmatchcase(k, key)]

@@ -10,7 +10,7 @@ import textwrap
 import bpy
 
 from . import native, session
-from .properties import (FILM_TRANSPARENT, METHOD_LABELS, NOT_A_PASS_TOGGLE, auto_toggle, declared, holder,
+from .properties import (FILM_TRANSPARENT, NOT_A_PASS_TOGGLE, auto_toggle, declared, holder,
                          prop_name, read_when)
 
 ENGINE = "GRADPHOTON"
@@ -77,7 +77,7 @@ class MethodParamsPanel(GradphotonPanel):
 
 
 def method_label(method):
-    return METHOD_LABELS.get(method, (method,))[0]
+    return native.method_label(method)
 
 
 class GRADPHOTON_PT_render(GradphotonPanel, bpy.types.Panel):

@@ -12,6 +12,7 @@
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/photon/photon_tracer.h"
 #include "reconstruction/poisson.h"
 #include "scene/accel.h"

@@ -19,6 +19,7 @@
 #include "io/display.h"
 #include "io/exr.h"
 #include "scene/loader.h"
+#include "session/render_session.h"
 
 namespace fs = std::filesystem;
 
@@ -36,18 +37,14 @@ void on_sigint(int) {
 // run's record so far (`attributes`).
 class CliProgress : public ProgressSink {
  public:
-  CliProgress(const Integrator& integ, std::vector<double> checkpoints, std::string out,
-              std::function<Attributes()> attributes)
-      : integ_(integ), checkpoints_(std::move(checkpoints)), out_(std::move(out)),
-        attributes_(std::move(attributes)), tty_(isatty(2)) {
+  CliProgress(const RenderSession& session, std::vector<double> checkpoints, std::string out)
+      : session_(session), checkpoints_(std::move(checkpoints)), out_(std::move(out)), tty_(isatty(2)) {
     std::sort(checkpoints_.begin(), checkpoints_.end());
   }
   void on_pass(const Stats& s, double fraction) override {
     while (next_ < checkpoints_.size() && s.seconds >= checkpoints_[next_]) {
-      Film film;
-      integ_.develop(film);
       const std::string path = checkpoint_path(checkpoints_[next_]);
-      write_exr(path, film, attributes_());
+      session_.write_exr(path);
       written.push_back(path);
       ++next_;
     }
@@ -70,11 +67,10 @@ class CliProgress : public ProgressSink {
   std::vector<std::string> written;
 
  private:
-  const Integrator& integ_;
+  const RenderSession& session_;
   std::vector<double> checkpoints_;
   size_t next_ = 0;
   std::string out_;
-  std::function<Attributes()> attributes_;
   bool tty_;
   std::chrono::steady_clock::time_point last_{};
 };
@@ -141,7 +137,8 @@ std::string param_help(const std::string& name) {
 int run_render(const RenderArgs& a) {
   make_parent_dirs(a.out);
   if (!a.png.empty()) make_parent_dirs(a.png);
-  Scene scene = load_scene(a.scene);
+  auto loaded = std::make_shared<Scene>(load_scene(a.scene));
+  Scene& scene = *loaded;
   print_warnings(scene);
   if (a.width > 0) scene.camera.width = a.width;
   if (a.height > 0) scene.camera.height = a.height;
@@ -165,25 +162,24 @@ int run_render(const RenderArgs& a) {
     params.set("threads", 1);
     window.emplace(x, y);
   }
-  auto integrator = make_integrator(a.method, scene, params);
-  for (const auto& line : unused_parameter_report(a.method, params)) fmt::print(stderr, "warning: {}\n", line);
+  RenderSession session(loaded, a.method, params);
+  for (const auto& line : session.unused_report()) fmt::print(stderr, "warning: {}\n", line);
+  const Integrator* integrator = &session.integrator();
 
   StopRule stop;
   stop.seconds = a.seconds;
   stop.passes = a.passes;
   stop.target_error = a.target_error;
   if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0) stop.passes = 16;
-  auto record = [&] { return to_attributes(make_run_info(integrator->name(), params, integrator->stats(), scene)); };
-  CliProgress progress(*integrator, a.checkpoints, a.out, record);
+  CliProgress progress(session, a.checkpoints, a.out);
   g_sink = &progress;
   std::signal(SIGINT, on_sigint);
-  run_progressive(*integrator, stop, &progress);
+  session.run(stop, &progress);
   progress.finish();
   g_sink = nullptr;
 
-  Film film;
-  integrator->develop(film);
-  write_exr(a.out, film, record());
+  const Film film = session.develop();
+  write_exr(a.out, film, session.run_record());
   const Stats& s = integrator->stats();
   fmt::print("method     {}\n", integrator->name());
   if (a.method == "pt" && integrator->name() != "pt") {
@@ -232,12 +228,12 @@ int run_render(const RenderArgs& a) {
 // The methods, or one method's parameters, as declared (methods.cpp).
 int run_methods(const std::string& name) {
   if (name.empty()) {
-    for (const Method& m : methods()) fmt::print("{:<14} {}\n", m.name, m.summary);
+    for (const Method& m : methods()) fmt::print("{:<14} {:<18} {}\n", m.name, m.label, m.summary);
     fmt::print("\n`gradphoton methods NAME` lists a method's parameters; give them to render as --<name> VALUE.\n");
     return 0;
   }
   const Method& m = find_method(name);
-  fmt::print("{}: {}\n\n", m.name, m.summary);
+  fmt::print("{} ({}): {}\n\n", m.name, m.label, m.summary);
   for (const ParamDecl& d : m.params) {
     fmt::print("  {:<22} {:<6} default {:<8} {}\n", d.flag(), to_string(d.type),
                d.zero_means.empty() ? d.default_text() : std::string("0"), d.range_text());

@@ -118,7 +118,7 @@ struct Ray {
   // Every other ray (bounces, photons, shadow rays) is built fresh and is not a camera ray.
   bool camera = false;
   // A bounce ray's kind (kRayDiffuse, kRayGlossy or kRayTransmission), set by integrators that
-  // honour surfaces' per-kind switches (Integrator::lobe_visibility; the gradient methods' offset
+  // honour surfaces' per-kind switches (Method::lobe_visibility; the gradient methods' offset
   // rays take their base's): surfaces hidden from that kind let it through. 0: not a bounce ray
   // of a known kind (photons: photon_tracer.cpp crosses hidden surfaces itself), every surface is there.
   uint8_t bounce = 0;

@@ -19,12 +19,11 @@ namespace {
   throw std::runtime_error(fmt::format("cannot merge '{}': {}", path, why));
 }
 
-bool is_gradient_method(const std::string& m) { return m == "gpt" || m == "gpm" || m == "gdmlt"; }
-
-bool is_known_method(const std::string& m) {
-  for (const char* k : {"pt", "spt", "spt-hero", "sgpt", "gpt", "gpm", "gdmlt", "ppm", "sppm", "sppm-adaptive", "msppm"})
-    if (m == k) return true;
-  return false;
+// The method's own merge rule (Method::merge); null for a name the core does not register.
+const Method* known_method(const std::string& m) {
+  for (const Method& k : methods())
+    if (k.name == m) return &k;
+  return nullptr;
 }
 
 // The core's pass a film pass is: its own name, or Blender's "<view layer>.<label>".
@@ -75,7 +74,8 @@ void check_compatible(const MergeInput& first, const MergeInput& in) {
 }  // namespace
 
 bool merge_keeps_bias(const std::string& method) {
-  return method == "ppm" || method == "sppm" || method == "sppm-adaptive" || method == "msppm" || method == "gpm";
+  const Method* m = known_method(method);
+  return m && m->merge.keeps_bias;
 }
 
 MergeResult merge_files(const std::vector<std::string>& paths, int threads) {
@@ -94,7 +94,8 @@ MergeResult merge_runs(const std::vector<MergeInput>& runs, int threads) {
   if (runs.empty()) throw std::runtime_error("nothing to merge: no input files");
   const MergeInput& first = runs.front();
   const std::string& method = first.run.method;
-  if (!is_known_method(method)) refuse(first.path, fmt::format("unknown method '{}'", method));
+  const Method* rule = known_method(method);
+  if (!rule) refuse(first.path, fmt::format("unknown method '{}'", method));
   std::map<uint64_t, std::string> seen;  // seed -> file
   double total = 0;
   for (const MergeInput& in : runs) {
@@ -127,7 +128,7 @@ MergeResult merge_runs(const std::vector<MergeInput>& runs, int threads) {
   const size_t n = first.film.pixel_count();
   out.film = Film(W, H);
   const std::string* combined_name = find_pass(first.film, pass::kCombined);
-  const bool biased = merge_keeps_bias(method);
+  const bool biased = rule->merge.keeps_bias;
   for (const auto& [name, proto] : first.film.passes()) {
     const std::string_view kind = canonical(name);
     if (kind == pass::kError) continue;  // after `combined`, below
@@ -147,7 +148,7 @@ MergeResult merge_runs(const std::vector<MergeInput>& runs, int threads) {
       p.data[k] = static_cast<float>(kind == pass::kSpectralGradient ? std::sqrt(acc[k]) : acc[k]);
   }
 
-  if (is_gradient_method(method)) {
+  if (rule->merge.reconstructs) {
     // Reconstruct once from the merged primal and gradients, as the method does, plus what each
     // run's `combined` holds beyond the reconstruction of its own passes, weighted as the passes:
     // the part the method adds after its solve (emission kept out of the gradients, which an L1

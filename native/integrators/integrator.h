@@ -10,7 +10,6 @@
 #include "core/film.h"
 #include "core/params.h"
 #include "core/progress.h"
-#include "integrators/methods.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -27,15 +26,6 @@ class Integrator {
   // Current estimated mean relative error of the image (what --target-error stops on), or < 0
   // when the method has no estimate.
   virtual double estimated_error() const { return -1.0; }
-  // Which of Cycles' per-kind switches (Diffuse / Glossy / Transmission ray visibility) it
-  // honours: those of surfaces (Material::visible_lobes: bounce rays of a hidden kind pass
-  // through) and those of lights and the World (Light::visible_lobes: a light lights only the
-  // lobes that see it, the World by Cycles' own rule for it, lobe_split.h). Camera and Shadow switches, and the World's Camera switch, are honoured
-  // by every method. Front ends warn, naming the method, where a scene sets what it ignores.
-  struct LobeVisibility {
-    bool surfaces = false, lights = false;
-  };
-  virtual LobeVisibility lobe_visibility() const { return {}; }
   const Stats& stats() const { return stats_; }
 
  protected:
@@ -59,12 +49,5 @@ void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink*
 // declarations, methods.h, before an integrator is built).
 void check_image_size(int width, int height);
 
-// Builds a method by name ("pt", ...) from its registration (methods.h). Unknown names and
-// values outside their declaration (type, range, choices) throw ParamError; unread parameters
-// are left in `params.unused()` for the caller to report (unused_parameter_report).
-std::unique_ptr<Integrator> make_integrator(const std::string& method, const Scene& scene,
-                                            const Params& params);
-// Names make_integrator accepts, in the order of methods(), for --help texts and the Blender enum.
-std::vector<std::string> integrator_names();
 
 }  // namespace gp

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 
+#include "core/film.h"
+
 #include "core/spectrum.h"
 #include "integrators/gradient/gdmlt.h"
 #include "integrators/gradient/gpm.h"
@@ -173,26 +175,57 @@ void require_spectral(const std::string& method, const Params& p) {
     throw ParamError("method '" + method + "' is spectral; spectral mode 'rgb' needs method 'pt'");
 }
 
+// ---- What the methods write and report (Method::passes, ::stats) ----
+PassDecl always(std::string_view name) { return {name, ""}; }
+PassDecl alpha_pass() { return {pass::kAlpha, "film_transparent"}; }
+std::vector<PassDecl> photon_passes() {
+  return {always(pass::kCombined), always(pass::kError), always(pass::kRadius), always(pass::kPhotonCount)};
+}
+std::vector<PassDecl> gradient_passes() {
+  return {always(pass::kCombined), always(pass::kPrimal), always(pass::kGradientX), always(pass::kGradientY)};
+}
+// The adaptive photon sampler's (thesis ch. 8): with the uniform sampler they are absent.
+std::vector<StatDecl> adaptive_stats() {
+  return {{"acceptance rate", "accept", "{:.3f}"}, {"mutation size", "theta", "{:.3g}"},
+          {"V_c", "V_c", "{:.3g}"}};  // 0.0004 under a distant light
+}
+// Paths whose neighbour a shift could not build: normal, shown as information.
+StatDecl shift_failures() { return {"*shift failed*", "unshifted paths", "{:,.0f}"}; }
+template <typename T>
+std::vector<T> concat(std::vector<T> a, const std::vector<T>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
 std::vector<Method> make_methods() {
   const std::string adaptive_only = "photon_sampler=adaptive";
   std::vector<Method> m;
-  m.push_back({"pt", "path tracing with next-event estimation and MIS (Veach 1997); spectral on dispersive scenes",
-               join({{max_depth(32), rr_depth(), clamp("clamp_direct", "Direct Light", "direct"),
+  m.push_back({.name = "pt", .label = "Path Tracing",
+               .summary = "path tracing with next-event estimation and MIS (Veach 1997); spectral on dispersive scenes",
+               .tooltip = "Unbiased reference, as Cycles renders: good for most scenes, noisy caustics "
+                          "(next-event estimation and MIS, Veach 1997)",
+               .params = join({{max_depth(32), rr_depth(), clamp("clamp_direct", "Direct Light", "direct"),
                       clamp("clamp_indirect", "Indirect Light", "indirect"), spectral(),
                       wavelengths(4, "spectral=spectral, or auto on a dispersive scene"), film_transparent()},
                      common()}),
-               [](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
+               .make = [](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
                  // `pt` turns into the hero-wavelength spectral path tracer when the mode asks
                  // for it; in "auto" only dispersive scenes do.
                  if (use_spectral(spectral_mode(p), s)) return std::make_unique<SpectralPathTracer>(s, p, true);
                  return std::make_unique<PathTracer>(s, p);
-               }});
-  m.push_back({"ppm", "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
-               join({photon_common(photons(100000), 0.7, "thesis eq. 5.7", 2.0, "thesis §7.4"),
+               },
+               .passes = {always(pass::kCombined), alpha_pass()}});
+  m.push_back({.name = "ppm", .label = "Photon Mapping",
+               .summary = "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
+               .tooltip = "Caustics and light through glass, sharpening as it renders; camera paths traced once "
+                          "(progressive photon mapping, Hachisuka et al. 2008; thesis ch. 5)",
+               .params = join({photon_common(photons(100000), 0.7, "thesis eq. 5.7", 2.0, "thesis §7.4"),
                      {photon_sampler("uniform"), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
                       specular_threshold(), film_transparent()},
                      common()}),
-               [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); }});
+               .make = [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); },
+               .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats()});
   auto sppm_params = [&](const char* sampler, ParamDecl photons) {
     return join({photon_common(std::move(photons), 0.7, "thesis eq. 7.2", 2.0, "thesis §7.4"),
                  {photon_sampler(sampler), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
@@ -201,15 +234,28 @@ std::vector<Method> make_methods() {
                   film_transparent()},
                  common()});
   };
-  m.push_back({"sppm", "stochastic progressive photon mapping: new camera paths every pass (thesis ch. 7)",
-               sppm_params("uniform", photons_ramp()),
-               [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); }});
-  m.push_back({"sppm-adaptive", "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
+  m.push_back({.name = "sppm", .label = "Stochastic PPM",
+               .summary = "stochastic progressive photon mapping: new camera paths every pass (thesis ch. 7)",
+               .tooltip = "Caustics and light through glass, with depth of field and glossy surfaces; stops at a "
+                          "target error (thesis ch. 7)",
+               .params = sppm_params("uniform", photons_ramp()),
+               .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); },
+               .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats()});  // with photon_sampler adaptive
+  m.push_back({.name = "sppm-adaptive", .label = "SPPM Adaptive",
+               .summary = "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
+               .tooltip = "Stochastic PPM that sends photons where the camera sees them: for light hidden behind "
+                          "openings (adaptive MCMC photons, thesis ch. 8)",
                // The adaptive sampler keeps the count it was measured with (its chains' share).
-               sppm_params("adaptive", photons(100000)),
-               [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm-adaptive"); }});
-  m.push_back({"msppm", "multisampled PPM: path tracing and SPPM combined per path by MIS (thesis ch. 9)",
-               join({{photons(0, "one per pixel (thesis §9.5)"), alpha(0.6, "thesis eq. 7.2; below 2/3 for eq. 9.25"), radius(),
+               .params = sppm_params("adaptive", photons(100000)),
+               .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm-adaptive"); },
+               .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats()});
+  m.push_back({.name = "msppm", .label = "Multisampled PPM",
+               .summary = "multisampled PPM: path tracing and SPPM combined per path by MIS (thesis ch. 9)",
+               .tooltip = "Path tracing and photons combined per pixel, each where it is better (MIS of path "
+                          "tracing and SPPM, thesis ch. 9)",
+               .params = join({{photons(0, "one per pixel (thesis §9.5)"), alpha(0.6, "thesis eq. 7.2; below 2/3 for eq. 9.25"), radius(),
                       {.name = "path_samples", .type = ParamType::Int, .default_value = 0, .min = 0,
                        .label = "Path Samples", .description = "path-tracing samples per pixel and pass",
                        .zero_means = "as many as the pixel expects photons (thesis §9.5)", .manual_value = 1,
@@ -219,12 +265,24 @@ std::vector<Method> make_methods() {
                        .read_when = "path_samples=0", .group = "Photons"},
                       max_depth(16), rr_depth()},
                      common()}),
-               [](const Scene& s, const Params& p) { return std::make_unique<Msppm>(s, p); }});
-  m.push_back({"gpt", "gradient-domain path tracing: gradients by shifted paths, screened Poisson (KMA15)",
-               join({{recon("l2"), lambda(), max_depth(32), rr_depth()}, common()}),
-               [](const Scene& s, const Params& p) { return std::make_unique<GradientPathTracer>(s, p); }});
-  m.push_back({"gpm", "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
-               join({photon_common(photons_ramp(), 0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
+               .make = [](const Scene& s, const Params& p) { return std::make_unique<Msppm>(s, p); },
+               .passes = {always(pass::kCombined), always(pass::kRadius), always(pass::kPhotonCount),
+                          always(pass::kPathTracing)},
+               .merge = {.keeps_bias = true},
+               .stats = {{"path tracing share", "PT share", "{:.3f}"},
+                         {"measurement points per pixel", "points/px", "{:.2f}"}}});
+  m.push_back({.name = "gpt", .label = "Gradient PT",
+               .summary = "gradient-domain path tracing: gradients by shifted paths, screened Poisson (KMA15)",
+               .tooltip = "Path tracing of image gradients, then a smooth reconstruction: less noise on flat areas "
+                          "(gradient-domain path tracing, Kettunen et al. 2015)",
+               .params = join({{recon("l2"), lambda(), max_depth(32), rr_depth()}, common()}),
+               .make = [](const Scene& s, const Params& p) { return std::make_unique<GradientPathTracer>(s, p); },
+               .passes = gradient_passes(), .merge = {.reconstructs = true}, .stats = {shift_failures()}});
+  m.push_back({.name = "gpm", .label = "Gradient Photons",
+               .summary = "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
+               .tooltip = "Photon mapping of image gradients: smooth caustics in fewer passes (gradient-domain "
+                          "photon density estimation, Hua et al. 2017)",
+               .params = join({photon_common(photons_ramp(), 0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
                                    "thesis §7.4, as sppm: the primal is SPPM's image"),
                      {{.name = "gradient_footprint", .type = ParamType::Float, .default_value = 1.0, .min = 0,
                        .min_open = true, .label = "Gradient Footprint",
@@ -250,9 +308,16 @@ std::vector<Method> make_methods() {
                        .group = "Reconstruction"},
                       max_depth(32), rr_depth(), specular_threshold()},
                      common()}),
-               [](const Scene& s, const Params& p) { return std::make_unique<Gpm>(s, p); }});
-  m.push_back({"gdmlt", "gradient-domain Metropolis light transport in primary sample space (Lehtinen et al. 2013)",
-               join({{{.name = "mutations", .type = ParamType::Int, .default_value = 1, .min = 1, .label = "Mutations",
+               .make = [](const Scene& s, const Params& p) { return std::make_unique<Gpm>(s, p); },
+               .passes = concat(photon_passes(), {always(pass::kPrimal), always(pass::kGradientX), always(pass::kGradientY)}),
+               .error_estimate = true,
+               .merge = {.keeps_bias = true, .reconstructs = true},
+               .stats = {shift_failures(), {"manifold walks", "walks", "{:,.0f}"}}});
+  m.push_back({.name = "gdmlt", .label = "Gradient MLT",
+               .summary = "gradient-domain Metropolis light transport in primary sample space (Lehtinen et al. 2013)",
+               .tooltip = "Explores bright, hard-to-find light paths by mutating them (gradient-domain Metropolis "
+                          "light transport, Lehtinen et al. 2013)",
+               .params = join({{{.name = "mutations", .type = ParamType::Int, .default_value = 1, .min = 1, .label = "Mutations",
                        .description = "mutations per pixel and pass", .group = "Metropolis"},
                       chains(64, "Metropolis"),
                       {.name = "large_step", .type = ParamType::Float, .default_value = 0.3, .min = 0, .max = 1,
@@ -279,20 +344,35 @@ std::vector<Method> make_methods() {
                        .group = "Metropolis"},
                       recon("l1"), lambda(), max_depth(32), rr_depth()},
                      common()}),
-               [](const Scene& s, const Params& p) { return std::make_unique<GradientDomainMlt>(s, p); },
-               /*per_pixel=*/false});
+               .make = [](const Scene& s, const Params& p) { return std::make_unique<GradientDomainMlt>(s, p); },
+               .passes = concat(gradient_passes(), {always(pass::kSampleDensity)}),
+               .merge = {.reconstructs = true},
+               .stats = {{"acceptance rate", "accept", "{:.3f}"}, {"large-step share", "large", "{:.3f}"},
+                         {"chains", "chains", "{:.0f}"}, shift_failures()},
+               .per_pixel = false});
   auto spt = [](bool hero) {
     return [hero](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
       require_spectral(hero ? "spt-hero" : "spt", p);
       return std::make_unique<SpectralPathTracer>(s, p, hero);
     };
   };
-  m.push_back({"spt", "spectral path tracing, one wavelength per path, Cauchy dispersion",
-               join({{max_depth(32), rr_depth(), spectral(), wavelengths(1)}, common()}), spt(false)});
-  m.push_back({"spt-hero", "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
-               join({{max_depth(32), rr_depth(), spectral(), wavelengths(4)}, common()}), spt(true)});
-  m.push_back({"sgpt", "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
-               join({{{.name = "bins", .type = ParamType::Int, .default_value = 15, .min = 3, .max = 256,
+  m.push_back({.name = "spt", .label = "Spectral PT",
+               .summary = "spectral path tracing, one wavelength per path, Cauchy dispersion",
+               .tooltip = "Path tracing by wavelength, for rainbows through dispersive glass (one wavelength per "
+                          "path, Cauchy dispersion)",
+               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1)}, common()}),
+               .make = spt(false), .passes = {always(pass::kCombined)}});
+  m.push_back({.name = "spt-hero", .label = "Spectral PT Hero",
+               .summary = "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
+               .tooltip = "Spectral path tracing with four wavelengths per path: less colour noise (hero "
+                          "wavelengths, Wilkie et al. 2014)",
+               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4)}, common()}),
+               .make = spt(true), .passes = {always(pass::kCombined)}});
+  m.push_back({.name = "sgpt", .label = "Spectral Gradient",
+               .summary = "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
+               .tooltip = "Spectral path tracing with a smooth reconstruction across wavelengths (spectral "
+                          "gradient sampling, Petitjean et al. 2018)",
+               .params = join({{{.name = "bins", .type = ParamType::Int, .default_value = 15, .min = 3, .max = 256,
                        .label = "Bins", .description = "spectral bins per pixel", .reference = "Petitjean et al. §3.2",
                        .group = "Spectral"},
                       {.name = "delta", .type = ParamType::Float, .default_value = 0.15, .min = 0, .max = 1,
@@ -304,10 +384,12 @@ std::vector<Method> make_methods() {
                        .reference = "Petitjean et al. eq. 16", .group = "Spectral"},
                       lambda("α", "Petitjean et al. eq. 14"), spectral(), wavelengths(1), max_depth(32), rr_depth()},
                      common()}),
-               [](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
+               .make = [](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
                  require_spectral("sgpt", p);
                  return std::make_unique<SpectralGradientPathTracer>(s, p);
-               }});
+               },
+               .passes = {always(pass::kCombined), always(pass::kSpectralPrimal), always(pass::kSpectralGradient)},
+               .stats = {{"shifted pairs", "shifted", "{:,.0f}"}, shift_failures()}});
   return m;
 }
 
@@ -332,6 +414,13 @@ const ParamDecl* Method::find(const std::string& param) const {
   for (const ParamDecl& d : params)
     if (d.name == param) return &d;
   return nullptr;
+}
+
+std::vector<std::string> Method::passes_with(const Params& bound) const {
+  std::vector<std::string> out;
+  for (const PassDecl& p : passes)
+    if (p.when_param.empty() || bound.get<bool>(p.when_param)) out.emplace_back(p.name);
+  return out;
 }
 
 const std::vector<Method>& methods() {

@@ -24,7 +24,6 @@ class PathTracer : public Integrator {
  public:
   PathTracer(const Scene& scene, const Params& params);
   std::string name() const override { return "pt"; }
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 

@@ -20,6 +20,7 @@
 #include "reconstruction/poisson.h"
 #include "scene/builder.h"
 #include "scene/loader.h"
+#include "session/render_session.h"
 
 namespace py = pybind11;
 using namespace gp;
@@ -109,37 +110,22 @@ py::array_t<T> exact_array(const py::object& obj, const std::string& object, con
   return a;
 }
 
-// One progressive render: owns the scene and the integrator.
+// One progressive render (session/render_session.h), with the GIL released while it works.
 class Session {
  public:
   Session(std::shared_ptr<Scene> scene, const std::string& method, const py::dict& params)
-      : scene_(std::move(scene)) {
-    params_ = params_from_dict(params);
-    Scene::RenderGuard guard(*scene_);
-    generation_ = scene_->generation();
-    integrator_ = make_integrator(method, *scene_, params_);
-    unused_ = params_.unused();
-    unused_report_ = unused_parameter_report(method, params_);
-    aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
-  }
+      : scene_(scene), session_(scene, method, params_from_dict(params)) {}
   // One pass of the method, and while they are few, one of the auxiliary passes (aov.h).
   void iterate() {
-    check_fresh();
     py::gil_scoped_release release;
-    Scene::RenderGuard guard(*scene_);
-    integrator_->iterate(&sink_);
-    if (aux_ && aov_->passes() < AovEstimator::kMaxPasses) aov_->add_pass([this] { return sink_.cancelled(); });
+    session_.iterate(&sink_);
   }
   void run(double seconds, int64_t passes) {
-    check_fresh();
     py::gil_scoped_release release;
-    Scene::RenderGuard guard(*scene_);
-    run_progressive(*integrator_, StopRule{seconds, passes, 0}, &sink_);
-    const int64_t aux = std::min<int64_t>(AovEstimator::kMaxPasses, integrator_->stats().passes);
-    while (aux_ && aov_->passes() < aux && !sink_.cancelled()) aov_->add_pass([this] { return sink_.cancelled(); });
+    session_.run(StopRule{seconds, passes, 0}, &sink_);
   }
   // The auxiliary passes (aov.h) are made unless switched off (Blender: when none is enabled).
-  void set_aux_passes(bool on) { aux_ = on; }
+  void set_aux_passes(bool on) { session_.set_aux_passes(on); }
   void cancel() { sink_.cancel_flag = true; }
   bool cancelled() { return sink_.cancel_flag; }
   // Every pass as a float32 array of shape (height, width, channels), row 0 at the top.
@@ -147,11 +133,7 @@ class Session {
     Film film;
     {
       py::gil_scoped_release release;
-      Scene::RenderGuard guard(*scene_);
-      integrator_->develop(film);
-      // Before a whole auxiliary pass there is nothing to show (Blender keeps them zero): this
-      // keeps the image sent after an early Esc as cheap as before.
-      if (aux_ && aov_->passes() > 0) aov_->develop(film);
+      film = session_.develop();
     }
     py::dict out;
     for (const auto& [name, p] : film.passes()) {
@@ -162,17 +144,13 @@ class Session {
     return out;
   }
   void write_exr_file(const std::string& path) {
-    Film film;
-    integrator_->develop(film);
-    if (aux_ && aov_->passes() > 0) aov_->develop(film);
-    write_exr(path, film, run_info());
+    py::gil_scoped_release release;
+    session_.write_exr(path);
   }
   // The run's record for EXR headers (distributed/run_info.h): {"gradphoton.method": ..., ...}.
-  std::map<std::string, std::string> run_info() const {
-    return to_attributes(make_run_info(integrator_->name(), params_, integrator_->stats(), *scene_));
-  }
+  std::map<std::string, std::string> run_info() const { return session_.run_record(); }
   py::dict stats() const {
-    const Stats& s = integrator_->stats();
+    const Stats& s = session_.stats();
     py::dict d;
     d["passes"] = s.passes;
     d["paths"] = s.paths;
@@ -182,21 +160,16 @@ class Session {
     for (const auto& [k, v] : s.extra) d[py::str(k)] = v;
     return d;
   }
-  const std::vector<std::string>& unused() const { return unused_; }
-  // A scene update (Scene.set_camera, ...) since this session was made leaves the integrator
-  // with what it derived from the old scene: it renders no more (make a new Session).
-  bool stale() const { return scene_->generation() != generation_; }
-  void check_fresh() const {
-    if (stale()) throw std::logic_error("the scene changed since this Session was made; make a new Session");
-  }
-  const std::vector<std::string>& unused_report() const { return unused_report_; }
-  std::string method() const { return integrator_->name(); }
-  double estimated_error() const { return integrator_->estimated_error(); }
+  const std::vector<std::string>& unused() const { return session_.unused(); }
+  bool stale() const { return session_.stale(); }
+  const std::vector<std::string>& unused_report() const { return session_.unused_report(); }
+  std::string method() const { return session_.integrator().name(); }
+  double estimated_error() const { return session_.integrator().estimated_error(); }
   // The terms of every pixel's error bound (ProgressivePhotonMapping::ErrorTerms), as
   // {name: float64 array (H, W)}: what scripts/calibration.py decomposes the coverage with.
   py::dict error_terms() const {
-    const auto* ppm = dynamic_cast<const ProgressivePhotonMapping*>(integrator_.get());
-    if (!ppm) throw std::invalid_argument("error_terms: method '" + integrator_->name() + "' has no photon error estimate");
+    const auto* ppm = dynamic_cast<const ProgressivePhotonMapping*>(&session_.integrator());
+    if (!ppm) throw std::invalid_argument("error_terms: method '" + method() + "' has no photon error estimate");
     const int w = scene_->camera.film_width(), h = scene_->camera.film_height();
     const char* names[] = {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "mean_abs", "photon_passes", "radius", "cut", "edge_bias", "edge_bias_sd"};
     constexpr int kTerms = std::size(names);
@@ -214,20 +187,11 @@ class Session {
   }
 
  private:
-  std::shared_ptr<Scene> scene_;
-  std::unique_ptr<Integrator> integrator_;
-  std::unique_ptr<AovEstimator> aov_;
-  bool aux_ = true;
-  Params params_;
+  std::shared_ptr<const Scene> scene_;
+  RenderSession session_;
   ProgressSink sink_;
-  std::vector<std::string> unused_, unused_report_;
-  uint64_t generation_ = 0;
 };
 
-// What a method produces and reads, asked of the method itself: it is built on a one-pixel
-// scene (a quad under an emissive quad) with `params` and developed before any pass. The passes its develop()
-// writes, whether it has an error estimate (estimated_error() >= 0) and which of `params` it
-// left unread. Cheap: no pass runs.
 // Scene.width / .height: a new image size drops any crop window (it was in pixels of the old size).
 void resize_image(Scene& s, int width, int height) {
   Scene::UpdateGuard guard(s);
@@ -238,34 +202,49 @@ void resize_image(Scene& s, int width, int height) {
   s.set_camera(c);
 }
 
+// What a method is, as it declares itself (integrators/methods.h): label, passes, error
+// estimate, merge rule, statistics, supported scene features.
+py::dict method_description(const std::string& name) {
+  const Method& m = find_method(name);
+  py::dict d;
+  d["name"] = m.name;
+  d["label"] = m.label;
+  d["summary"] = m.summary;
+  d["tooltip"] = m.tooltip;
+  py::list passes;
+  for (const PassDecl& p : m.passes) passes.append(py::make_tuple(std::string(p.name), p.when_param));
+  d["passes"] = passes;
+  d["error_estimate"] = m.error_estimate;
+  d["merge"] = py::dict(py::arg("keeps_bias") = m.merge.keeps_bias, py::arg("reconstructs") = m.merge.reconstructs);
+  py::list stats;
+  for (const StatDecl& st : m.stats) stats.append(py::make_tuple(st.key, st.label, st.format));
+  d["stats"] = stats;
+  d["supports"] = py::dict(py::arg("media") = m.supports.media, py::arg("motion_blur") = m.supports.motion_blur,
+                           py::arg("environment_map") = m.supports.environment_map);
+  d["lobe_visibility"] = py::dict(py::arg("surfaces") = m.lobe_visibility.surfaces,
+                                  py::arg("lights") = m.lobe_visibility.lights);
+  d["per_pixel"] = m.per_pixel;
+  return d;
+}
+
+// What a method writes with `params`, from its declaration (no probe render): the passes its
+// develop() writes, plus the auxiliary ones every session adds; whether it estimates its error;
+// which of `params` it does not declare.
 py::dict method_info(const std::string& method, const py::dict& params) {
-  static const char* kProbeScene = R"({
-    "camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30, "width": 1, "height": 1},
-    "materials": {"grey": {"type": "diffuse", "color": 0.5},
-                  "lamp": {"type": "diffuse", "color": 0, "emission": 1, "strength": 1, "two_sided": true}},
-    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "grey"},
-                {"type": "quad", "center": [0, 0, 2], "u": [1, 0, 0], "v": [0, 1, 0], "material": "lamp"}]})";
-  Params p = params_from_dict(params);
-  std::vector<std::string> passes;
-  bool error_estimate = false;
-  Integrator::LobeVisibility lobes;
-  {
-    py::gil_scoped_release release;
-    const Scene scene = load_scene_from_string(kProbeScene, ".", "<method_info>");
-    auto integrator = make_integrator(method, scene, p);
-    Film film;
-    integrator->develop(film);
-    for (const auto& [name, pass] : film.passes()) passes.push_back(name);
-    // A Session adds the auxiliary passes to every method's (aov.h).
-    for (auto aux : {pass::kAlbedo, pass::kNormal, pass::kDepth}) passes.emplace_back(aux);
-    error_estimate = integrator->estimated_error() >= 0;
-    lobes = integrator->lobe_visibility();
-  }
+  const Method& m = find_method(method);
+  const Params given = params_from_dict(params);
+  const Params bound = given.bound(m.name, m.params);
+  std::vector<std::string> passes = m.passes_with(bound);
+  for (auto aux : {pass::kAlbedo, pass::kNormal, pass::kDepth}) passes.emplace_back(aux);
+  std::vector<std::string> unused;
+  for (const auto& [k, v] : given.json().items())
+    if (!m.find(k)) unused.push_back(k);
   py::dict out;
   out["passes"] = passes;
-  out["error_estimate"] = error_estimate;
-  out["unused"] = p.unused();
-  out["lobe_visibility"] = py::dict(py::arg("surfaces") = lobes.surfaces, py::arg("lights") = lobes.lights);
+  out["error_estimate"] = m.error_estimate;
+  out["unused"] = unused;
+  out["lobe_visibility"] = py::dict(py::arg("surfaces") = m.lobe_visibility.surfaces,
+                                    py::arg("lights") = m.lobe_visibility.lights);
   return out;
 }
 
@@ -289,8 +268,13 @@ PYBIND11_MODULE(_native, m) {
         "does), 'manual_value', 'read_when', 'shared' (one value for every method), 'group' (panel)}]");
   m.def("method_summary", [](const std::string& method) { return find_method(method).summary; }, py::arg("method"),
         "One line on what the method computes and its paper");
+  m.def("method_description", &method_description, py::arg("method"),
+        "The method as it declares itself: {'name', 'label', 'summary', 'tooltip', 'passes': [(name, "
+        "when_param)], 'error_estimate', 'merge': {'keeps_bias', 'reconstructs'}, 'stats': [(key, label, "
+        "format)] (a key with '*' sums the keys it matches), 'supports': {'media', 'motion_blur', "
+        "'environment_map'}, 'lobe_visibility', 'per_pixel'}");
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
-        "What a method declares by running: {'passes': names its develop() writes with these params, "
+        "What a method writes with these params, from its declaration: {'passes': names its develop() writes, "
         "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read, "
         "'lobe_visibility': {'surfaces': bool, 'lights': bool}, the per-kind ray visibility switches it honours}");
   m.def("read_exr", [](const std::string& path) {

@@ -187,10 +187,12 @@ def test_cancel_returns_fast_and_keeps_the_image(empty_scene, out_dir):
 
 
 def test_every_core_method_has_a_label():
-    """The method menu reads the core's list; each name gets a readable label (no stale ones)."""
+    """The method menu reads the core's list and each method's own label and tooltip."""
     from gradphoton import properties
-    core = set(native.get().methods())
-    assert set(properties.METHOD_LABELS) == core
+    items = properties.method_items(None, bpy.context)
+    assert [i[0] for i in items] == list(native.get().methods())
+    for name, label, tooltip, _ in items:
+        assert label and label != name and tooltip and tooltip != name, (name, label, tooltip)
 
 
 def test_render_border_crops_the_same_pixels(empty_scene, out_dir):

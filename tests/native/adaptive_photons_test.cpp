@@ -13,6 +13,7 @@
 
 #include "integrators/photon/adaptive_photons.h"
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/photon/photon_tracer.h"
 #include "io/metrics.h"
 #include "scene/loader.h"

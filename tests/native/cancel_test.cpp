@@ -6,6 +6,7 @@
 
 #include <atomic>
 
+#include "integrators/methods.h"
 #include "core/progress.h"
 #include "integrators/photon/photon_tracer.h"
 #include "render_for_tests.h"

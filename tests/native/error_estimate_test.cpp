@@ -11,6 +11,7 @@
 #include <string>
 
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/photon/error_estimate.h"
 #include "integrators/photon/progressive_photon.h"
 #include "render_for_tests.h"

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "integrators/methods.h"
 #include "integrators/gradient/gdmlt.h"
 #include "io/metrics.h"
 #include "scene/loader.h"

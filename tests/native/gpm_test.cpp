@@ -12,6 +12,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "integrators/methods.h"
 #include "core/frame.h"
 #include "integrators/gradient/gpm.h"
 #include "integrators/gradient/photon_shift.h"

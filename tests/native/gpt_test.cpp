@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "integrators/methods.h"
 #include "core/frame.h"
 #include "integrators/gradient/gpt.h"
 #include "integrators/gradient/shift.h"

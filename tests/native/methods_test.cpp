@@ -2,6 +2,7 @@
 // measured ones, one wording for every bad value, and the unused-parameter report.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <set>
 
@@ -147,6 +148,64 @@ TEST(Methods, SgptLambdaReachesTheReconstruction) {
   const double low = distance(0.01), high = distance(100.0);
   EXPECT_GT(low, 0.0);
   EXPECT_GT(low, 10 * high) << low << " " << high;
+}
+
+}  // namespace
+}  // namespace gp
+
+namespace gp {
+namespace {
+
+// What a method declares of itself is what it does: the passes develop() writes (with and
+// without a transparent film, on a dispersive scene too: pt turns spectral there), whether it
+// estimates its error, and the merge rule's two facts as the integrators' own structure shows
+// them (a gradient method writes gradients; a photon method writes a radius).
+TEST(Methods, DeclarationIsWhatTheMethodRenders) {
+  const Scene plain = test_scene("cornell-glass", 6, 4), dispersive = test_scene("prism", 6, 4);
+  for (const Method& m : methods())
+    for (const Scene* s : {&plain, &dispersive})
+      for (bool transparent : {false, true}) {
+        nlohmann::json p = {{"threads", 1}, {"seed", 3}};
+        if (m.find("photons")) p["photons"] = 2000;
+        if (transparent && !m.find("film_transparent")) continue;
+        if (transparent) p["film_transparent"] = true;
+        if (s == &dispersive && m.name == "sgpt") p["bins"] = 3;
+        const Params given(p);
+        auto integ = make_integrator(m.name, *s, given);
+        integ->iterate(nullptr);
+        Film film;
+        integ->develop(film);
+        std::vector<std::string> written;
+        for (const auto& [name, pass] : film.passes()) written.push_back(name);
+        std::vector<std::string> declared = find_method(integ->name()).passes_with(m.bind(given));
+        std::sort(written.begin(), written.end());
+        std::sort(declared.begin(), declared.end());
+        const std::string what = m.name + " as " + integ->name() + (transparent ? ", transparent" : "") + " on " +
+                                 s->source;
+        EXPECT_EQ(written, declared) << what;
+        EXPECT_EQ(integ->estimated_error() >= 0, find_method(integ->name()).error_estimate) << what;
+        EXPECT_EQ(film.has_pass(pass::kGradientX), m.merge.reconstructs) << what;
+        EXPECT_EQ(film.has_pass(pass::kRadius), m.merge.keeps_bias) << what;
+      }
+}
+
+// Statistics keys are one style (lower-case words) and every declared one is reported by a run
+// that uses what it measures.
+TEST(Methods, DeclaredStatisticsAreReported) {
+  const Scene s = test_scene("cornell-glass", 8, 6);
+  for (const Method& m : methods()) {
+    for (const StatDecl& d : m.stats)
+      for (char c : d.key) EXPECT_FALSE(c == '_' && d.key != "V_c") << m.name << ": " << d.key;
+    nlohmann::json p = {{"threads", 1}};
+    if (m.find("photons")) p["photons"] = 5000;
+    if (m.find("photon_sampler")) p["photon_sampler"] = "adaptive";
+    auto integ = make_integrator(m.name, s, Params(p));
+    for (int i = 0; i < 2; ++i) integ->iterate(nullptr);
+    for (const StatDecl& d : m.stats) {
+      if (d.key.find('*') != std::string::npos) continue;  // counted by reason: may be none
+      EXPECT_TRUE(integ->stats().extra.count(d.key)) << m.name << " does not report '" << d.key << "'";
+    }
+  }
 }
 
 }  // namespace

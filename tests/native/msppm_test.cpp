@@ -16,6 +16,7 @@
 #include "integrators/photon/msppm_densities.h"
 #include "integrators/photon/msppm.h"
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/photon/photon_tracer.h"
 #include "materials/bsdf.h"
 #include "io/metrics.h"
@@ -377,7 +378,7 @@ TEST(Msppm, FastMergeWeightEqualsTheFullPathWalk) {
 }
 
 TEST(Msppm, FastMergeWeightEqualsTheFullPathWalkWithPerKindSwitches) {
-  // Cycles' switches (Msppm::lobe_visibility): a lamp hidden from diffuse rays (the vertex before
+  // Cycles' switches (Method::lobe_visibility): a lamp hidden from diffuse rays (the vertex before
   // it takes only its glossy lobes' densities, msppm_detail::light_lobes) lights a Mix wall, and
   // a veil hidden from diffuse rays, which photons cross (recorded vertices marked `crossed`, not
   // vertices of the paths, though deposits are made on them). The O(1) weights against the full

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "scene/loader.h"
 
 namespace gp {

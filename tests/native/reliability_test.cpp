@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "integrators/methods.h"
 #include "render_for_tests.h"
 
 namespace gp {

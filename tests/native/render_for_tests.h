@@ -12,6 +12,7 @@
 
 #include "core/film.h"
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "scene/loader.h"
 
 namespace gp {

@@ -14,6 +14,7 @@
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/spectral/sgpt.h"
 #include "integrators/spectral/spectral_shift.h"
 #include "reconstruction/spectral_poisson.h"
@@ -210,7 +211,7 @@ double check_gradients(const Scene& s, Params p, int passes, double tol, const s
                                   << " (max I " << scale << ")";
     EXPECT_LT(std::abs(mean), tol * scale) << what << " bin " << j;
   }
-  EXPECT_GT(sg.stats().extra.at("shifted_pairs"), 0) << what;
+  EXPECT_GT(sg.stats().extra.at("shifted pairs"), 0) << what;
   return worst_z;
 }
 
@@ -319,7 +320,7 @@ TEST(Sgpt, ColouredFurnaceAndPasses) {
     EXPECT_NEAR(m[0], 0.5, 0.015);
     EXPECT_NEAR(m[1], 1.0, 0.03);
     EXPECT_NEAR(m[2], 2.0, 0.06);
-    EXPECT_GT(integ->stats().extra.at("shifted_pairs"), 0);
+    EXPECT_GT(integ->stats().extra.at("shifted pairs"), 0);
   }
 }
 
@@ -360,11 +361,11 @@ TEST(Sgpt, TauComparesPathContributions) {
       EXPECT_NEAR(mean, radiance, 0.02 * radiance) << "tau " << tau;
     }
     const auto& extra = integ->stats().extra;
-    if (tau > 4) EXPECT_EQ(extra.at("shifted_pairs"), 0);
-    if (tau < 1) EXPECT_EQ(extra.at("standard_pairs"), 0);
+    if (tau > 4) EXPECT_EQ(extra.at("shifted pairs"), 0);
+    if (tau < 1) EXPECT_EQ(extra.at("standard pairs"), 0);
     if (tau == 2.0) {
-      EXPECT_GT(extra.at("shifted_pairs"), 0);
-      EXPECT_GT(extra.at("standard_pairs"), 0);
+      EXPECT_GT(extra.at("shifted pairs"), 0);
+      EXPECT_GT(extra.at("standard pairs"), 0);
     }
   }
 }

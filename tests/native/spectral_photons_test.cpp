@@ -8,6 +8,7 @@
 #include <string>
 
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/photon/sppm.h"
 #include "scene/loader.h"
 #include "render_for_tests.h"

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/spectral/spectral_pt.h"
 #include "scene/loader.h"
 #include "render_for_tests.h"

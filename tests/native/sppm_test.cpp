@@ -8,6 +8,7 @@
 
 #include "integrators/photon/error_estimate.h"
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "integrators/photon/progressive_photon.h"
 #include "io/metrics.h"
 #include "scene/loader.h"

@@ -13,6 +13,7 @@
 #include <tuple>
 
 #include "integrators/integrator.h"
+#include "integrators/methods.h"
 #include "render_for_tests.h"
 #include "scene/loader.h"
 #include "scene/shapes.h"

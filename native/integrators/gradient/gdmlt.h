@@ -122,7 +122,6 @@ class GradientDomainMlt : public Integrator {
   // Every per-kind switch, as the path tracer: GradientPathTracer::trace, which it drives, tags
   // base and offset rays with the base's lobes and weighs lights hidden from some kinds by the
   // lobes that see them.
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
 
   // What one primary sample vector evaluates to.
   struct State {

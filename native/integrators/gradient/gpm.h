@@ -95,7 +95,6 @@ class Gpm : public ProgressivePhotonMapping {
   // Every per-kind switch: its base paths are SPPM's (and gather by the photons' lobes), the
   // camera offsets' rays take the base's kind, and a photon whose last segment met a surface
   // hidden from some of its kinds is not shifted (shift_dd_photon).
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 

@@ -43,7 +43,6 @@ class GradientPathTracer : public Integrator {
   void develop(Film& film) const override;
   // Every per-kind switch, as the path tracer: trace() tags base and offset rays with the
   // base's lobes and weighs lights hidden from some kinds by the lobes that see them.
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
 
   // Offsets, in the order the per-pixel gradient sums are kept.
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };

@@ -14,7 +14,7 @@
 //      photon paths recorded
 //      (§9.5 step 1, PhotonPathRecord);
 //   3. every measurement point gathers the photons within its pixel's radius; each photon's
-//      flux, through the BSDF's lobes it may light (Cycles' per-kind switches, lobe_visibility)
+//      flux, through the BSDF's lobes it may light (Cycles' per-kind switches, Method::lobe_visibility)
 //      and with a normal map's bent cosine (gather_shading_correction), as SPPM's gather, is
 //      weighted by the balance heuristic for the full path it closes (§9.5 step 4);
 //      radius, count and flux of the pixel follow SPPM (eq. 7.2-7.5, shared by all the
@@ -108,7 +108,6 @@ class Msppm : public Integrator {
   // make, but one: next-event estimation does not see a light through a surface hidden from
   // some kinds that casts shadows, whose light the other techniques then count only in part
   // (docs/blender.md: the path tracer, as Cycles, counts only its BSDF rays' MIS share).
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
   RGB pixel_radiance(size_t i) const;

@@ -99,7 +99,6 @@ class ProgressivePhotonMapping : public Integrator {
   // the lobes that see the light (direct_light), the emission a specular chain finds counts when
   // the chain's last lobe sees it, and the photon tracer applies Cycles' rule to every segment
   // (photon_tracer.cpp); spectral photons the same (progressive_photon_spectral.cpp).
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
 
   // Radiance (RGB) of pixel i as the image shows it, for tests.
   RGB pixel_radiance(size_t i) const;
@@ -210,11 +209,9 @@ class ProgressivePhotonMapping : public Integrator {
   ErrorTerms bias_estimate(size_t k) const;
   // cut, edge_bias and edge_bias_sd of pixel k into e (e.radiance set).
   void edge_bias(size_t k, ErrorTerms& e) const;
-  // Reads parameter film_transparent (PPM, SPPM: their RGB eye pass writes the alpha pass);
-  // spectral photons leave it unread, so it is reported as unused there.
-  void read_film_transparent(const Params& params) {
-    if (!spectral_) film_transparent_ = params.get<bool>("film_transparent");
-  }
+  // Reads parameter film_transparent (PPM, SPPM: their eye passes, RGB and spectral, write
+  // the alpha pass).
+  void read_film_transparent(const Params& params) { film_transparent_ = params.get<bool>("film_transparent"); }
 
   // ---- Spectral photons (progressive_photon_spectral.cpp) ----
   // One set of wavelengths per pass, shared by its eye paths and photons.

@@ -119,6 +119,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
             VisiblePoint vp;
             float path_length = 0;
             uint8_t kind = kRayCamera;  // the ray's kind, for lights' switches (trace_eye_path)
+            bool escaped = false;       // the camera ray left the scene with film_transparent
             auto add_light = [&](const float* spec, float grey) {
               for (int k = 0; k < C; ++k) Ld[k] += beta[k] * grey * spec[k];
             };
@@ -128,6 +129,10 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               const std::optional<SurfaceHit>& hit = first ? *first : traced;
               first = nullptr;
               if (!hit) {
+                if (depth == 0 && film_transparent_) {  // no background: pass alpha (as trace_eye_path)
+                  escaped = true;
+                  break;
+                }
                 const int env = lights.environment();
                 if (env >= 0 && lights.lights()[env].visible_to(kind))
                   add_light(pass_spectra_.light(env),
@@ -210,6 +215,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               vp.material = -1;
             }
             pass_direct_[pixel] = Lrgb;
+            pass_covered_[pixel] = escaped ? 0 : 1;
             vp_[pixel] = vp;
             vp_beta_[pixel] = beta;
             vp_hero_[pixel] = hero_only ? 1 : 0;

@@ -809,9 +809,9 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
   stats_.rays += closest + shadow;
   stats_.shadow_rays += shadow;
   stats_.paths += paths;
-  stats_.extra["shift_attempts"] = static_cast<double>(counts_.attempts);
-  stats_.extra["shifted_pairs"] = static_cast<double>(counts_.shifted);
-  stats_.extra["standard_pairs"] = static_cast<double>(counts_.below_tau);
+  stats_.extra["shift attempts"] = static_cast<double>(counts_.attempts);
+  stats_.extra["shifted pairs"] = static_cast<double>(counts_.shifted);
+  stats_.extra["standard pairs"] = static_cast<double>(counts_.below_tau);
   for (int k = 1; k < kShiftFailureCount; ++k)
     if (counts_.failed[k] > 0)
       stats_.extra[std::string(failure_stat_name(static_cast<ShiftFailure>(k)))] = static_cast<double>(counts_.failed[k]);

@@ -82,7 +82,6 @@ class SpectralGradientPathTracer : public Integrator {
   // Every per-kind switch: base and offset rays carry the base's lobes (surfaces'), and lights
   // and the World hidden from some kinds light only the lobes that see them, at the base's and
   // at each offset's own vertices (sgpt.cpp, LobeScatter).
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void develop(Film& film) const override;
 
   int bins() const { return bins_; }

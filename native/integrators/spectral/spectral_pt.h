@@ -112,7 +112,6 @@ class SpectralPathTracer : public Integrator {
   // `hero` selects the default C (4, else 1) and the method name.
   SpectralPathTracer(const Scene& scene, const Params& params, bool hero);
   std::string name() const override { return hero_ ? "spt-hero" : "spt"; }
-  LobeVisibility lobe_visibility() const override { return {.surfaces = true, .lights = true}; }
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
 

@@ -1,0 +1,78 @@
+#include "session/render_session.h"
+
+#include <stdexcept>
+
+#include "distributed/run_info.h"
+#include "io/exr.h"
+
+namespace gp {
+
+RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::string& method, Params params)
+    : scene_(std::move(scene)), params_(std::move(params)) {
+  if (!scene_) throw std::invalid_argument("RenderSession: no scene");
+  Scene::RenderGuard guard(*scene_);
+  generation_ = scene_->generation();
+  integrator_ = make_integrator(method, *scene_, params_);
+  unused_ = params_.unused();
+  unused_report_ = unused_parameter_report(method, params_);
+  aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
+}
+
+void RenderSession::check_fresh() const {
+  if (stale()) throw std::logic_error("the scene changed since this session was made; make a new Session");
+}
+
+void RenderSession::aux_pass(ProgressSink* sink) {
+  if (!aux_ || aov_->passes() >= AovEstimator::kMaxPasses || aov_->passes() >= integrator_->stats().passes) return;
+  if (sink && sink->cancelled()) return;
+  aov_->add_pass([sink] { return sink && sink->cancelled(); });
+}
+
+void RenderSession::iterate(ProgressSink* sink) {
+  check_fresh();
+  Scene::RenderGuard guard(*scene_);
+  integrator_->iterate(sink);
+  aux_pass(sink);
+}
+
+namespace {
+// Puts the auxiliary pass between a pass and the caller's sink (which may develop checkpoints).
+class AuxThenSink : public ProgressSink {
+ public:
+  AuxThenSink(ProgressSink* outer, std::function<void()> aux) : outer_(outer), aux_(std::move(aux)) {}
+  void on_pass(const Stats& stats, double fraction) override {
+    aux_();
+    if (outer_) outer_->on_pass(stats, fraction);
+  }
+  bool cancelled() override { return (outer_ && outer_->cancelled()) || cancel_flag.load(); }
+
+ private:
+  ProgressSink* outer_;
+  std::function<void()> aux_;
+};
+}  // namespace
+
+void RenderSession::run(const StopRule& stop, ProgressSink* sink) {
+  check_fresh();
+  Scene::RenderGuard guard(*scene_);
+  AuxThenSink both(sink, [&] { aux_pass(sink); });
+  run_progressive(*integrator_, stop, &both);
+}
+
+Film RenderSession::develop() const {
+  Scene::RenderGuard guard(*scene_);
+  Film film;
+  integrator_->develop(film);
+  // Before a whole auxiliary pass there is nothing to show (Blender keeps them zero): this keeps
+  // the image sent after an early Esc as cheap as before.
+  if (aux_ && aov_->passes() > 0) aov_->develop(film);
+  return film;
+}
+
+std::map<std::string, std::string> RenderSession::run_record() const {
+  return to_attributes(make_run_info(integrator_->name(), params_, integrator_->stats(), *scene_));
+}
+
+void RenderSession::write_exr(const std::string& path) const { gp::write_exr(path, develop(), run_record()); }
+
+}  // namespace gp
