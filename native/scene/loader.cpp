@@ -314,7 +314,7 @@ class Loader : private JsonReader {
   void load_camera(const json& c, const std::string& path) {
     require_object(c, path);
     check_keys(c, path, {"position", "look_at", "up", "matrix", "type", "fov", "ortho_scale", "sensor_fit", "width",
-                         "height", "shift", "crop", "aperture_radius", "focus_distance"});
+                         "height", "shift", "crop", "aperture_radius", "focus_distance", "pixel_filter"});
     Camera cam;
     if (const json* m = find(c, "matrix")) {
       if (find(c, "position") || find(c, "look_at") || find(c, "up"))
@@ -370,8 +370,27 @@ class Loader : private JsonReader {
       cam.crop_width = static_cast<int>(get_int((*w)[2], sub(wpath, 2), 1, cam.width - cam.crop_x));
       cam.crop_height = static_cast<int>(get_int((*w)[3], sub(wpath, 3), 1, cam.height - cam.crop_y));
     }
+    if (const json* f = find(c, "pixel_filter")) cam.filter = load_pixel_filter(*f, sub(path, "pixel_filter"));
     if (const std::string bad = cam.check(); !bad.empty()) fail(path, bad);
     scene_.camera = cam;
+  }
+
+  // Film > Pixel Filter: {"type": "box" | "gaussian" | "blackman-harris", "width": px}; the
+  // width defaults to Blender's 1.5 (1 for box).
+  PixelFilter load_pixel_filter(const json& f, const std::string& path) {
+    require_object(f, path);
+    check_keys(f, path, {"type", "width"});
+    PixelFilterType type = PixelFilterType::Box;
+    if (const json* t = find(f, "type")) {
+      try {
+        type = PixelFilter::parse_type(get_string(*t, sub(path, "type")));
+      } catch (const std::invalid_argument& e) {
+        fail(sub(path, "type"), e.what());
+      }
+    }
+    float width = type == PixelFilterType::Box ? 1.0f : 1.5f;
+    if (const json* w = find(f, "width")) width = get_in_range(*w, sub(path, "width"), 1e-3f, 64.0f);
+    return PixelFilter(type, width);
   }
 
   // ---- Transforms ----
