@@ -80,7 +80,7 @@ class Loader : private JsonReader {
                                             "bump"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
-        keys.push_back("color");
+        keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
         keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior"});
@@ -89,6 +89,27 @@ class Loader : private JsonReader {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
         keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe"});
+      } else if (type == "transparent") {
+        // Blender's Transparent BSDF: straight through, tinted: a smooth dielectric of IOR 1.
+        mat.type = MaterialType::Dielectric;
+        mat.color = RGB(1.0f);
+        mat.ior = 1.0f;
+        keys.push_back("color");
+      } else if (type == "refraction") {
+        // Blender's Refraction BSDF: the refraction lobe of glass alone, without Fresnel.
+        mat.type = MaterialType::Dielectric;
+        mat.color = RGB(1.0f);
+        mat.refraction_only = true;
+        keys.insert(keys.end(), {"color", "ior", "roughness"});
+      } else if (type == "translucent") {
+        mat.type = MaterialType::Translucent;
+        keys.push_back("color");
+      } else if (type == "velvet") {
+        // Blender's Velvet BSDF: "sigma" (its Sigma input, default 1) is kept in roughness.
+        mat.type = MaterialType::Velvet;
+        mat.roughness = 1.0f;
+        keys.insert(keys.end(), {"color", "sigma"});
+        if (const json* g = find(m, "sigma")) mat.roughness = get_in_range(*g, sub(mpath, "sigma"), 0.0f, 1.0f);
       } else if (type == "emission") {
         mat.type = MaterialType::Emission;
         mat.emission = RGB(1.0f);
@@ -110,7 +131,7 @@ class Loader : private JsonReader {
       } else {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
-                         "principled, mix, add)", type));
+                         "principled, mix, add, transparent, refraction, translucent, velvet)", type));
       }
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
@@ -151,6 +172,12 @@ class Loader : private JsonReader {
         const double denom = 1.0 / (kLambdaF * kLambdaF) - 1.0 / (kLambdaC * kLambdaC);
         mat.cauchy_b = static_cast<float>((mat.ior - 1.0) / abbe / denom);
         if (mat.cauchy_b < 0) fail(sub(mpath, "abbe"), "needs ior >= 1 (dispersion from an Abbe number)");
+      }
+      if (type == "transparent") {  // its ior / roughness / dispersion keys are unknown (warned) and ignored
+        mat.ior = 1.0f;
+        mat.roughness = 0.0f;
+        mat.roughness_tex = TextureRef();
+        mat.cauchy_b = 0.0f;
       }
       if (const json* e = find(m, "emission")) mat.emission = get_color(*e, sub(mpath, "emission"));
       mat.emission_strength = 1.0f;
