@@ -81,6 +81,7 @@ struct RenderArgs {
   double seconds = 0;
   int64_t passes = 0;
   int width = 0, height = 0;
+  std::string pixel_filter;  // --pixel-filter TYPE[:WIDTH] (empty: the scene's)
   double target_error = 0;
   std::vector<double> checkpoints;
   std::vector<std::string> params;
@@ -142,6 +143,13 @@ int run_render(const RenderArgs& a) {
   print_warnings(scene);
   if (a.width > 0) scene.camera.width = a.width;
   if (a.height > 0) scene.camera.height = a.height;
+  if (!a.pixel_filter.empty()) {
+    try {
+      scene.camera.filter = PixelFilter::parse(a.pixel_filter);
+    } catch (const std::invalid_argument& e) {
+      throw ParamError(fmt::format("--pixel-filter {}: {}", a.pixel_filter, e.what()));
+    }
+  }
   Params params;
   for (const auto& [name, value] : a.method_params) params.set(name, param_value(name, value));
   for (const std::string& kv : a.params) {  // --param name=value
@@ -260,6 +268,9 @@ std::vector<Command> add_render_commands(CLI::App& app) {
   render->add_option("--passes", ra->passes, "Stop after this many passes (default 16 if no --time)");
   render->add_option("--width", ra->width, "Image width (overrides the scene)");
   render->add_option("--height", ra->height, "Image height (overrides the scene)");
+  render->add_option("--pixel-filter", ra->pixel_filter,
+                     "Pixel filter TYPE[:WIDTH] (box, gaussian, blackman-harris; width in pixels, default 1.5, "
+                     "box 1), overriding the scene's camera pixel_filter");
   render->add_option("-o,--output", ra->out, "Output EXR (one layer per pass)")->required();
   render->add_option("--png", ra->png, "Also write a display PNG through OpenColorIO");
   render->add_option("--checkpoints", ra->checkpoints, "Write OUT.<T>s.exr snapshots at these render times (seconds)")

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "core/math.h"
+#include "core/pixel_filter.h"
 
 namespace gp {
 
@@ -49,14 +50,27 @@ class Rng {
 
 // The start of pixel (x, y)'s camera path in a pass, drawn alike by every method (so GPM's
 // camera paths are SPPM's): the pixel's own stream Rng::for_key(seed, pixel, pass), which makes
-// the image independent of the thread count, then a box-filtered film position and a lens sample.
+// the image independent of the thread count, then a film position drawn from the pixel filter
+// (core/pixel_filter.h; none: a box of one pixel) and a lens sample. With a filter wider than a
+// pixel `film` may lie in a neighbouring pixel: the sample still counts in pixel (x, y), so
+// whoever needs the pixel's cell uses (x, y), never floor(film).
 struct PixelStart {
   Rng rng;
   Vec2 film, lens;
 };
-inline PixelStart start_pixel(uint64_t seed, size_t pixel, uint64_t pass, int x, int y) {
+inline PixelStart start_pixel(uint64_t seed, size_t pixel, uint64_t pass, int x, int y,
+                              const PixelFilter* filter = nullptr) {
   Rng rng = Rng::for_key(seed, pixel, pass);
-  const Vec2 film(x + rng.uniform(), y + rng.uniform());
+  Vec2 film;
+  if (!filter || filter->is_default_box()) {
+    // Exactly the expression (and so the draw order) of the box-filtered start before filters
+    // existed: a box of one pixel renders today's images bit for bit.
+    film = Vec2(x + rng.uniform(), y + rng.uniform());
+  } else {
+    const float ux = rng.uniform();
+    const float uy = rng.uniform();
+    film = Vec2(filter->sample(static_cast<float>(x), ux), filter->sample(static_cast<float>(y), uy));
+  }
   const Vec2 lens(rng.uniform(), rng.uniform());
   return {rng, film, lens};
 }

@@ -20,6 +20,7 @@
 //              course), energy compensation: (1 - E(mu_i)) (1 - E(mu_o)) / (pi (1 - E_avg)).
 #include "materials/bsdf.h"
 
+#include <limits>
 #include <map>
 #include <mutex>
 
@@ -141,8 +142,25 @@ float bump_shadowing(const BsdfParams& m, const Vec3& wo, const Vec3& wi, Transp
 
 // ---- Diffuse ----
 
+// Oren-Nayar as Cycles 3.4's Diffuse BSDF computes it for Roughness sigma > 0
+// (kernel/closure/bsdf_oren_nayar.h, the "qualitative" model in Fujii's improved form):
+//   f = A + B s / t,  s = wi.wo - cos_i cos_o,  t = max(cos_i, cos_o) where s > 0, else 1,
+//   A = 1 / (pi + (3 pi - 4) / 6 sigma),  B = sigma A,
+// sigma = Blender's Roughness clamped to [0, 1] (0: Lambert's 1 / pi exactly). Two-sided: the
+// cosines are taken on wo's side. Sampled by the cosine (Cycles samples the hemisphere uniformly:
+// the same estimate, less noise here).
+float oren_nayar(float sigma, const Vec3& wo, const Vec3& wi) {
+  sigma = clamp(sigma, 0.0f, 1.0f);
+  const float a = 1.0f / (kPi + (3.0f * kPi - 4.0f) / 6.0f * sigma), b = sigma * a;
+  const float nl = abs_cos_theta(wi), nv = abs_cos_theta(wo);
+  float t = dot(wi, wo) - nl * nv;
+  if (t > 0.0f) t /= std::max(nl, nv) + std::numeric_limits<float>::min();
+  return a + b * t;
+}
+
 RGB diffuse_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
-  return same_hemisphere(wo, wi) ? m.color * kInvPi : RGB(0.0f);
+  if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+  return m.roughness > 0.0f ? m.color * oren_nayar(m.roughness, wo, wi) : m.color * kInvPi;
 }
 
 float diffuse_pdf(const Vec3& wo, const Vec3& wi) {
@@ -156,9 +174,82 @@ std::optional<BsdfSample> diffuse_sample(const BsdfParams& m, const Vec3& wo, Ve
   const float pdf = cosine_hemisphere_pdf(abs_cos_theta(wi));
   if (pdf <= 0) return std::nullopt;  // wi in the tangent plane
   BsdfSample s;
+  s.f = m.roughness > 0.0f ? m.color * oren_nayar(m.roughness, wo, wi) : m.color * kInvPi;
+  s.wi = wi;
+  s.pdf = pdf;
+  return s;
+}
+
+// ---- Translucent: Cycles 3.4's Translucent BSDF (kernel/closure/bsdf_diffuse.h) ----
+//
+// Lambertian transmission: f = color / pi for wi on the side opposite wo, cosine-sampled there.
+
+RGB translucent_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  return wo.z * wi.z < 0 ? m.color * kInvPi : RGB(0.0f);
+}
+
+float translucent_pdf(const Vec3& wo, const Vec3& wi) {
+  return wo.z * wi.z < 0 ? cosine_hemisphere_pdf(abs_cos_theta(wi)) : 0.0f;
+}
+
+std::optional<BsdfSample> translucent_sample(const BsdfParams& m, const Vec3& wo, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  Vec3 wi = sample_cosine_hemisphere(u);
+  if (wo.z > 0) wi.z = -wi.z;
+  const float pdf = cosine_hemisphere_pdf(abs_cos_theta(wi));
+  if (pdf <= 0) return std::nullopt;
+  BsdfSample s;
   s.f = m.color * kInvPi;
   s.wi = wi;
   s.pdf = pdf;
+  s.transmission = true;
+  return s;
+}
+
+// ---- Velvet: Cycles 3.4's Velvet BSDF (kernel/closure/bsdf_ashikhmin_velvet.h) ----
+//
+// Ashikhmin, Premoze, Shirley 2000's velvet distribution with Cycles' shadowing term:
+//   f = D G / (4 cos_o cos_i),  h = normalize(wo + wi),
+//   D = exp(-cot^2(theta_h) / sigma^2) / (pi sigma^2 sin^4(theta_h)),
+//   G = min(1, 2 (cos_h / |wo.h|) cos_o, 2 (cos_h / |wo.h|) cos_i),
+// sigma = Blender's Sigma clamped to [0.01, 1]; zero where cos_h or |wo.h| degenerate (as
+// Cycles). Sampled uniformly over wo's hemisphere, as Cycles.
+
+float velvet(float sigma, const Vec3& wo, const Vec3& wi) {
+  const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
+  if (cos_o == 0 || cos_i == 0) return 0.0f;
+  Vec3 h = wi + wo;
+  if (length_squared(h) == 0) return 0.0f;
+  h = normalize(h);
+  const float cos_h = abs_cos_theta(h), cos_ho = absdot(wo, h);
+  if (!(cos_h < 1.0f - 1e-5f && cos_ho > 1e-5f)) return 0.0f;
+  sigma = clamp(sigma, 0.01f, 1.0f);
+  const float inv_sigma2 = 1.0f / (sigma * sigma);
+  const float ratio = std::max(cos_h / cos_ho, 1e-5f);
+  const float G = std::min(1.0f, std::min(2.0f * ratio * cos_o, 2.0f * ratio * cos_i));
+  const float sin2_h = 1.0f - cos_h * cos_h;
+  const float cot2_h = cos_h * cos_h / sin2_h;
+  const float D = std::exp(-cot2_h * inv_sigma2) * inv_sigma2 * kInvPi / (sin2_h * sin2_h);
+  return 0.25f * D * G / (cos_o * cos_i);
+}
+
+RGB velvet_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  return same_hemisphere(wo, wi) ? m.color * velvet(m.roughness, wo, wi) : RGB(0.0f);
+}
+
+float velvet_pdf(const Vec3& wo, const Vec3& wi) {
+  return same_hemisphere(wo, wi) && wi.z != 0 ? uniform_hemisphere_pdf() : 0.0f;
+}
+
+std::optional<BsdfSample> velvet_sample(const BsdfParams& m, const Vec3& wo, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  Vec3 wi = sample_uniform_hemisphere(u);
+  if (wo.z < 0) wi.z = -wi.z;
+  if (wi.z == 0) return std::nullopt;
+  BsdfSample s;
+  s.wi = wi;
+  s.pdf = uniform_hemisphere_pdf();
+  s.f = m.color * velvet(m.roughness, wo, wi);
   return s;
 }
 
@@ -253,6 +344,17 @@ std::optional<BsdfSample> conductor_sample(const BsdfParams& m, const Vec3& wo, 
 
 bool dielectric_is_smooth(const BsdfParams& m) { return m.roughness < kSmoothAlpha || m.ior == 1.0f; }
 
+// The reflection and refraction lobes' weights (and selection probabilities) for the Fresnel
+// reflectance F: R = F, T = 1 - F for glass; Cycles 3.4's Refraction BSDF (svm/closure.h,
+// CLOSURE_BSDF_REFRACTION_ID and the microfacet refraction closures, weighted by the closure
+// weight alone) has no reflection and a refraction lobe without Fresnel, T = 1, except that
+// total internal reflection (F = 1) absorbs.
+float lobe_R(const BsdfParams& m, float F) { return m.refraction_only ? 0.0f : F; }
+float lobe_T(const BsdfParams& m, float F) {
+  if (m.refraction_only) return F < 1.0f ? 1.0f : 0.0f;
+  return 1.0f - F;
+}
+
 // Generalized half vector of a reflection or refraction pair, [Walter07] eq. 16 in pbrt-v4's
 // form wm = wo + etap wi, faced to +z. Returns false for degenerate pairs (grazing directions,
 // zero-length half vector) and for pairs whose microfacet is back-facing to wo or wi, which no
@@ -293,13 +395,13 @@ RGB dielectric_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, Transpo
   const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
   if (reflect_pair) {
     // [Walter07] eq. 20.
-    return m.color * (ggx.D(wm) * ggx.G(wo, wi) * F / std::abs(4.0f * cos_i * cos_o));
+    return m.color * (ggx.D(wm) * ggx.G(wo, wi) * lobe_R(m, F) / std::abs(4.0f * cos_i * cos_o));
   }
   // [Walter07] eq. 21 divided through by eta_o^2 (pbrt-v4's form). This is the importance
   // (adjoint) BTDF; radiance reaching wo's medium scales by 1/etap^2 ([Veach97] §5.2).
   const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * cos_i * cos_o;
   if (denom == 0) return RGB(0.0f);
-  float ft = ggx.D(wm) * (1.0f - F) * ggx.G(wo, wi) * std::abs(dot(wi, wm) * dot(wo, wm) / denom);
+  float ft = ggx.D(wm) * lobe_T(m, F) * ggx.G(wo, wi) * std::abs(dot(wi, wm) * dot(wo, wm) / denom);
   if (mode == TransportMode::Radiance) ft /= sqr(etap);
   return m.color * ft;
 }
@@ -311,8 +413,8 @@ float dielectric_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   bool reflect_pair;
   if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return 0.0f;
   // Lobe selection probability: Fresnel at the microfacet.
-  const float R = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
-  const float T = 1.0f - R;
+  const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
+  const float R = lobe_R(m, F), T = lobe_T(m, F);
   const Ggx ggx{m.roughness};
   if (reflect_pair) {
     const float wo_dot_wm = absdot(wo, wm);
@@ -329,8 +431,8 @@ float dielectric_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
 std::optional<BsdfSample> dielectric_sample_smooth(const BsdfParams& m, const Vec3& wo, float uc,
                                                    TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
-  const float R = fresnel_dielectric(cos_theta(wo), m.ior);
-  const float T = 1.0f - R;
+  const float F = fresnel_dielectric(cos_theta(wo), m.ior);
+  const float R = lobe_R(m, F), T = lobe_T(m, F);
   BsdfSample s;
   s.delta = true;
   if (uc < R / (R + T)) {
@@ -362,8 +464,8 @@ std::optional<BsdfSample> dielectric_sample(const BsdfParams& m, const Vec3& wo,
   const Vec3 wm = ggx.sample_visible(wo, u);
   const float wo_dot_wm = dot(wo, wm);
   if (wo_dot_wm == 0) return std::nullopt;
-  const float R = fresnel_dielectric(wo_dot_wm, m.ior);
-  const float T = 1.0f - R;
+  const float F = fresnel_dielectric(wo_dot_wm, m.ior);
+  const float R = lobe_R(m, F), T = lobe_T(m, F);
   const float cos_o = cos_theta(wo);
   BsdfSample s;
   if (uc < R / (R + T)) {
@@ -380,7 +482,7 @@ std::optional<BsdfSample> dielectric_sample(const BsdfParams& m, const Vec3& wo,
     if (same_hemisphere(wo, wi) || wi.z == 0) return std::nullopt;
     // T as eval() computes it (from the outside direction); it differs from the selection
     // probability above only by round-off near the critical angle, and cancels in f / pdf.
-    const float T_pair = 1.0f - dielectric_fresnel(m, wo, wi, wm, false);
+    const float T_pair = lobe_T(m, dielectric_fresnel(m, wo, wi, wm, false));
     const float cos_i = cos_theta(wi);
     const float wi_dot_wm = dot(wi, wm);
     const float denom = sqr(wi_dot_wm + wo_dot_wm / etap);
@@ -652,6 +754,7 @@ BsdfParams bsdf_params(const Material& m, Vec2 uv) {
   p.roughness = m.roughness_tex ? clamp(m.roughness_tex.value(uv), 0.0f, 1.0f) : m.roughness;
   p.conductor_fresnel = m.conductor_fresnel;
   p.ior = m.ior;
+  p.refraction_only = m.refraction_only;
   p.coat_albedo = m.coat_albedo.get();
   p.mix_factor = m.factor_tex ? m.factor_tex.value(uv) : m.mix_factor;
   p.mix_add = m.mix_add;
@@ -684,6 +787,13 @@ RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t
     case MaterialType::Dielectric:
       return (lobes & dielectric_lobe(wo, wi)) ? dielectric_eval(p_, wo, wi, mode) : RGB(0.0f);
     case MaterialType::Emission: return RGB(0.0f);
+    // Translucent is among Cycles' diffuse closures (svm/types.h CLOSURE_IS_BSDF_DIFFUSE) and
+    // takes the bump shadowing term; velvet is not, though it samples with a diffuse label.
+    // (Velvet's kind here is its sampling label, diffuse; Cycles' light-exclusion counts it
+    // glossy: a light hidden from only one of the two kinds treats it differently.)
+    case MaterialType::Translucent:
+      return (lobes & kRayDiffuse) ? translucent_eval(p_, wo, wi) * bump_shadowing(p_, wo, wi, mode) : RGB(0.0f);
+    case MaterialType::Velvet: return (lobes & kRayDiffuse) ? velvet_eval(p_, wo, wi) : RGB(0.0f);
     case MaterialType::Plastic: return plastic_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
     case MaterialType::Principled: return principled_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
     case MaterialType::Mix: {
@@ -704,6 +814,8 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
       return p_.roughness < kSmoothAlpha || !(lobes & kRayGlossy) ? 0.0f : conductor_pdf(p_, wo, wi);
     case MaterialType::Dielectric: return (lobes & dielectric_lobe(wo, wi)) ? dielectric_pdf(p_, wo, wi) : 0.0f;
     case MaterialType::Emission: return 0.0f;
+    case MaterialType::Translucent: return (lobes & kRayDiffuse) ? translucent_pdf(wo, wi) : 0.0f;
+    case MaterialType::Velvet: return (lobes & kRayDiffuse) ? velvet_pdf(wo, wi) : 0.0f;
     case MaterialType::Plastic: return plastic_pdf(p_, wo, wi, lobes);
     case MaterialType::Principled: return principled_pdf(p_, wo, wi, lobes);
     case MaterialType::Mix: {
@@ -761,6 +873,14 @@ std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, T
       return s;
     }
     case MaterialType::Emission: return std::nullopt;
+    case MaterialType::Translucent:
+    case MaterialType::Velvet: {
+      const bool translucent = kind() == MaterialType::Translucent;
+      auto s = translucent ? translucent_sample(p_, wo, u) : velvet_sample(p_, wo, u);
+      if (s && translucent) s->f *= bump_shadowing(p_, wo, s->wi, mode);
+      if (s) s->lobe = kRayDiffuse;  // Cycles labels both diffuse (LABEL_DIFFUSE)
+      return s;
+    }
     case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u, mode);
     case MaterialType::Principled: return principled_sample(p_, wo, uc, u, mode);
     case MaterialType::Mix: {
@@ -799,6 +919,8 @@ bool Bsdf::is_black() const {
     case MaterialType::Emission: return true;
     // A black conductor still reflects at grazing angles (Schlick), so only these two qualify.
     case MaterialType::Diffuse:
+    case MaterialType::Translucent:
+    case MaterialType::Velvet:
     case MaterialType::Dielectric: return p_.color.is_black();
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
@@ -810,7 +932,9 @@ bool Bsdf::is_black() const {
 
 bool Bsdf::is_diffuse_for_photons(float threshold) const {
   switch (kind()) {
-    case MaterialType::Diffuse: return true;
+    case MaterialType::Diffuse:
+    case MaterialType::Translucent:
+    case MaterialType::Velvet: return true;
     case MaterialType::Conductor:
     case MaterialType::Dielectric: return p_.roughness > threshold;
     case MaterialType::Emission: return false;

@@ -41,6 +41,7 @@ struct BsdfParams {
   float roughness = 0.0f;
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   float ior = 1.5f;
+  bool refraction_only = false;  // Material::refraction_only
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
   float mix_factor = 0.5f;
   bool mix_add = false;

@@ -15,7 +15,11 @@
 
 namespace gp {
 
-enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Principled, Mix };
+// Translucent: Cycles' Translucent BSDF (Lambertian transmission); Velvet: Cycles' Velvet BSDF
+// (Ashikhmin's velvet, sigma in `roughness`). Blender's Transparent BSDF is a Dielectric of IOR 1
+// (a tinted pass-through: the loader's "transparent"), its Refraction BSDF a Dielectric with
+// `refraction_only`.
+enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Principled, Mix, Translucent, Velvet };
 
 // A conductor's Fresnel factor F(cos_h) at the microfacet:
 //   None:       the colour at every angle (Blender's Glossy BSDF);
@@ -38,6 +42,7 @@ struct Material {
   RGB color{0.8f};
   // GGX alpha (Mitsuba's convention; Blender's roughness r maps to alpha = r^2).
   // 0 = perfectly smooth (delta) conductor or dielectric.
+  // Diffuse: Blender's Roughness itself, the Oren-Nayar sigma (0: Lambertian).
   float roughness = 0.0f;
   // Conductor: how its reflectance varies with the angle (ConductorFresnel; Principled uses `ior`).
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
@@ -48,6 +53,9 @@ struct Material {
   // Conductor with Principled Fresnel: the IOR of the dielectric Fresnel it interpolates with.
   float ior = 1.5f;       // dielectric: interior IOR (Cauchy A) over an outside of 1
   float cauchy_b = 0.0f;  // Cauchy B in um^2: n(lambda) = A + B / lambda^2 (spectral mode)
+  // Dielectric: only the refraction lobe, without Fresnel weighting (Cycles 3.4's Refraction
+  // BSDF: all light refracts, none reflects; total internal reflection absorbs).
+  bool refraction_only = false;
   // Emitted radiance (W sr^-1 m^-2) = emission * strength; any type may emit.
   RGB emission{0.0f};
   float emission_strength = 0.0f;
@@ -119,6 +127,8 @@ inline const char* to_string(MaterialType t) {
     case MaterialType::Plastic: return "plastic";
     case MaterialType::Principled: return "principled";
     case MaterialType::Mix: return "mix";
+    case MaterialType::Translucent: return "translucent";
+    case MaterialType::Velvet: return "velvet";
   }
   return "?";
 }

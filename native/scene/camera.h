@@ -25,6 +25,8 @@ struct Camera {
   Vec2 shift{0.0f, 0.0f};
   float aperture_radius = 0.0f;  // metres; 0 = pinhole (perspective only)
   float focus_distance = 1.0f;   // metres along the view axis
+  // Film > Pixel Filter (core/pixel_filter.h): each camera ray's film offset is drawn from it.
+  PixelFilter filter;
   // Crop window in pixels of the whole image (0,0 = top-left corner); crop_width 0 = none.
   int crop_x = 0, crop_y = 0, crop_width = 0, crop_height = 0;
 
@@ -59,7 +61,7 @@ struct Camera {
 // the whole image and a film position in the whole image's pixels, for generate_ray (so a crop
 // window's pixel takes exactly the ray it takes in the whole image).
 inline PixelStart start_pixel(const Camera& camera, uint64_t seed, uint64_t pass, int x, int y) {
-  return start_pixel(seed, camera.pixel_key(x, y), pass, x + camera.crop_x, y + camera.crop_y);
+  return start_pixel(seed, camera.pixel_key(x, y), pass, x + camera.crop_x, y + camera.crop_y, &camera.filter);
 }
 
 }  // namespace gp

@@ -80,7 +80,7 @@ class Loader : private JsonReader {
                                             "bump"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
-        keys.push_back("color");
+        keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
         keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior"});
@@ -89,6 +89,27 @@ class Loader : private JsonReader {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
         keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe"});
+      } else if (type == "transparent") {
+        // Blender's Transparent BSDF: straight through, tinted: a smooth dielectric of IOR 1.
+        mat.type = MaterialType::Dielectric;
+        mat.color = RGB(1.0f);
+        mat.ior = 1.0f;
+        keys.push_back("color");
+      } else if (type == "refraction") {
+        // Blender's Refraction BSDF: the refraction lobe of glass alone, without Fresnel.
+        mat.type = MaterialType::Dielectric;
+        mat.color = RGB(1.0f);
+        mat.refraction_only = true;
+        keys.insert(keys.end(), {"color", "ior", "roughness"});
+      } else if (type == "translucent") {
+        mat.type = MaterialType::Translucent;
+        keys.push_back("color");
+      } else if (type == "velvet") {
+        // Blender's Velvet BSDF: "sigma" (its Sigma input, default 1) is kept in roughness.
+        mat.type = MaterialType::Velvet;
+        mat.roughness = 1.0f;
+        keys.insert(keys.end(), {"color", "sigma"});
+        if (const json* g = find(m, "sigma")) mat.roughness = get_in_range(*g, sub(mpath, "sigma"), 0.0f, 1.0f);
       } else if (type == "emission") {
         mat.type = MaterialType::Emission;
         mat.emission = RGB(1.0f);
@@ -110,7 +131,7 @@ class Loader : private JsonReader {
       } else {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
-                         "principled, mix, add)", type));
+                         "principled, mix, add, transparent, refraction, translucent, velvet)", type));
       }
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
@@ -151,6 +172,12 @@ class Loader : private JsonReader {
         const double denom = 1.0 / (kLambdaF * kLambdaF) - 1.0 / (kLambdaC * kLambdaC);
         mat.cauchy_b = static_cast<float>((mat.ior - 1.0) / abbe / denom);
         if (mat.cauchy_b < 0) fail(sub(mpath, "abbe"), "needs ior >= 1 (dispersion from an Abbe number)");
+      }
+      if (type == "transparent") {  // its ior / roughness / dispersion keys are unknown (warned) and ignored
+        mat.ior = 1.0f;
+        mat.roughness = 0.0f;
+        mat.roughness_tex = TextureRef();
+        mat.cauchy_b = 0.0f;
       }
       if (const json* e = find(m, "emission")) mat.emission = get_color(*e, sub(mpath, "emission"));
       mat.emission_strength = 1.0f;
@@ -314,7 +341,7 @@ class Loader : private JsonReader {
   void load_camera(const json& c, const std::string& path) {
     require_object(c, path);
     check_keys(c, path, {"position", "look_at", "up", "matrix", "type", "fov", "ortho_scale", "sensor_fit", "width",
-                         "height", "shift", "crop", "aperture_radius", "focus_distance"});
+                         "height", "shift", "crop", "aperture_radius", "focus_distance", "pixel_filter"});
     Camera cam;
     if (const json* m = find(c, "matrix")) {
       if (find(c, "position") || find(c, "look_at") || find(c, "up"))
@@ -370,8 +397,27 @@ class Loader : private JsonReader {
       cam.crop_width = static_cast<int>(get_int((*w)[2], sub(wpath, 2), 1, cam.width - cam.crop_x));
       cam.crop_height = static_cast<int>(get_int((*w)[3], sub(wpath, 3), 1, cam.height - cam.crop_y));
     }
+    if (const json* f = find(c, "pixel_filter")) cam.filter = load_pixel_filter(*f, sub(path, "pixel_filter"));
     if (const std::string bad = cam.check(); !bad.empty()) fail(path, bad);
     scene_.camera = cam;
+  }
+
+  // Film > Pixel Filter: {"type": "box" | "gaussian" | "blackman-harris", "width": px}; the
+  // width defaults to Blender's 1.5 (1 for box).
+  PixelFilter load_pixel_filter(const json& f, const std::string& path) {
+    require_object(f, path);
+    check_keys(f, path, {"type", "width"});
+    PixelFilterType type = PixelFilterType::Box;
+    if (const json* t = find(f, "type")) {
+      try {
+        type = PixelFilter::parse_type(get_string(*t, sub(path, "type")));
+      } catch (const std::invalid_argument& e) {
+        fail(sub(path, "type"), e.what());
+      }
+    }
+    float width = type == PixelFilterType::Box ? 1.0f : 1.5f;
+    if (const json* w = find(f, "width")) width = get_in_range(*w, sub(path, "width"), 1e-3f, 64.0f);
+    return PixelFilter(type, width);
   }
 
   // ---- Transforms ----

@@ -276,9 +276,47 @@ std::vector<Chi2Case> mix_cases() {
   return cases;
 }
 
+// Cycles 3.4's further closures: Oren-Nayar (Diffuse BSDF with Roughness), Translucent, Velvet,
+// Refraction (smooth and rough, from both sides: the inside at grazing angles meets total
+// internal reflection), and a Transparent BSDF (a delta lobe) mixed with diffuse parts.
+Material refraction(float alpha, float ior = 1.5f) {
+  Material m = make(MaterialType::Dielectric, alpha, RGB(0.9f, 0.8f, 0.7f), ior);
+  m.refraction_only = true;
+  return m;
+}
+Material transparent(RGB color) { return make(MaterialType::Dielectric, 0.0f, color, 1.0f); }
+
+std::vector<Chi2Case> closure_cases() {
+  std::vector<Chi2Case> cases;
+  for (float sigma : {0.5f, 1.0f})
+    for (float c : {0.9f, 0.3f, -0.5f})
+      cases.push_back({fmt::format("oren-nayar sigma={} cos_o={}", sigma, c),
+                       make(MaterialType::Diffuse, sigma, RGB(0.7f)), wo_at(c)});
+  for (float c : {0.8f, -0.4f})
+    cases.push_back({fmt::format("translucent cos_o={}", c), make(MaterialType::Translucent, 0, RGB(0.6f)), wo_at(c)});
+  for (float sigma : {0.3f, 1.0f})
+    for (float c : {0.9f, 0.4f, -0.6f})
+      cases.push_back({fmt::format("velvet sigma={} cos_o={}", sigma, c), make(MaterialType::Velvet, sigma, RGB(0.8f)),
+                       wo_at(c)});
+  for (float alpha : {0.1f, 0.3f})
+    for (float c : {0.9f, 0.4f, -0.9f, -0.75f})  // -0.75: near the critical angle (0.745), half TIR
+      cases.push_back({fmt::format("refraction alpha={} cos_o={}", alpha, c), refraction(alpha), wo_at(c)});
+  const Material diffuse = make(MaterialType::Diffuse, 0.8f, RGB(0.7f));
+  for (float c : {0.7f, -0.4f}) {
+    cases.push_back({fmt::format("mix transparent+oren-nayar cos_o={}", c),
+                     mix(transparent(RGB(1, 0.2f, 0.2f)), diffuse, 0.6f), wo_at(c)});
+    cases.push_back({fmt::format("add translucent+velvet cos_o={}", c),
+                     mix(make(MaterialType::Translucent, 0, RGB(0.3f)), make(MaterialType::Velvet, 0.5f, RGB(0.4f)), 0,
+                         true),
+                     wo_at(c)});
+  }
+  return cases;
+}
+
 // Number of chi-square tests in this file, for the Sidak correction of the significance level.
 const size_t kNumChi2Tests = diffuse_cases().size() + conductor_cases().size() + dielectric_cases().size() +
-                             plastic_cases().size() + principled_cases().size() + mix_cases().size();
+                             plastic_cases().size() + principled_cases().size() + mix_cases().size() +
+                             closure_cases().size();
 
 double sidak_alpha() {
   return 1 - std::pow(1 - kSignificance, 1.0 / static_cast<double>(kNumChi2Tests));
@@ -403,6 +441,11 @@ TEST(BsdfChi2, Principled) {
 TEST(BsdfChi2, MixAndAdd) {
   uint64_t seed = 500;
   for (const auto& c : mix_cases()) check_case(c, seed++);
+}
+
+TEST(BsdfChi2, CyclesClosures) {
+  uint64_t seed = 600;
+  for (const auto& c : closure_cases()) check_case(c, seed++);
 }
 
 // ---- Reciprocity ----
@@ -1049,6 +1092,204 @@ TEST(Bsdf, DegenerateInputGivesZeroNotNaN) {
     // Grazing wo never yields a sample.
     EXPECT_FALSE(bsdf.sample(Vec3(1, 0, 0), 0.5f, Vec2(0.5f, 0.5f)).has_value());
   }
+}
+
+// ---- Cycles 3.4's further closures: values against Cycles' formulas, energy, classification ----
+
+// Cycles' bsdf_oren_nayar.h, written out here in double for wo, wi on the upper side: its
+// eval (f cos_i) for sigma = roughness.
+double cycles_oren_nayar_cos(double sigma, const Vec3& wo, const Vec3& wi) {
+  const double a = 1.0 / (M_PI + (3.0 * M_PI - 4.0) / 6.0 * sigma), b = sigma * a;
+  const double nl = std::max(0.0f, wi.z), nv = std::max(0.0f, wo.z);
+  double t = double(dot(wi, wo)) - nl * nv;
+  if (t > 0) t /= std::max(nl, nv);
+  return nl * (a + b * t);
+}
+
+TEST(BsdfReference, OrenNayarIsCyclesFormula) {
+  Rng rng(17, 0);
+  for (float sigma : {0.25f, 0.6f, 1.0f}) {
+    const Bsdf bsdf(make(MaterialType::Diffuse, sigma, RGB(1.0f)));
+    for (int i = 0; i < 2000; ++i) {
+      Vec3 wo = random_direction(rng), wi = random_direction(rng);
+      wo.z = std::abs(wo.z);
+      wi.z = std::abs(wi.z);
+      const double expected = cycles_oren_nayar_cos(sigma, wo, wi);
+      EXPECT_NEAR(bsdf.eval(wo, wi).g * wi.z, expected, 1e-5 * std::max(1.0, expected));
+      // Two-sided: the mirrored pair below the surface reflects alike.
+      EXPECT_NEAR(bsdf.eval(-wo, -wi).g * wi.z, expected, 1e-5 * std::max(1.0, expected));
+    }
+  }
+  // Roughness 0 is Lambert's exactly.
+  const Vec3 wo = wo_at(0.4f), wi = wo_at(0.8f, 2.5f);
+  EXPECT_EQ(Bsdf(make(MaterialType::Diffuse, 0, RGB(1.0f))).eval(wo, wi).g, kInvPi);
+  // Roughness 1 seen and lit along the normal: A = 1 / (pi + (3 pi - 4) / 6), 0.777 / pi: the
+  // issue's Lambertian centre was 1 / 0.777 = 1.29 times too bright.
+  EXPECT_NEAR(Bsdf(make(MaterialType::Diffuse, 1.0f, RGB(1.0f))).eval(Vec3(0, 0, 1), Vec3(0, 0, 1)).g,
+              1.0 / (M_PI + (3 * M_PI - 4) / 6), 1e-6);
+}
+
+TEST(BsdfFurnace, OrenNayarAlbedoIsItsIntegral) {
+  // Along the normal f is the constant A, so the albedo is pi A exactly (0.7765 at sigma 1); at
+  // other angles the sampled albedo matches the quadrature of f |cos| and stays below one.
+  const Bsdf on(make(MaterialType::Diffuse, 1.0f, RGB(1.0f)));
+  const auto [mean0, max0] = albedo(on, Vec3(0, 0, 1), TransportMode::Radiance, 20000, 31);
+  EXPECT_NEAR(mean0, M_PI / (M_PI + (3 * M_PI - 4) / 6), 1e-5);
+  for (float sigma : {0.5f, 1.0f})
+    for (float c : {0.8f, 0.4f, 0.1f}) {
+      SCOPED_TRACE(fmt::format("sigma {} cos_o {}", sigma, c));
+      const Bsdf bsdf(make(MaterialType::Diffuse, sigma, RGB(1.0f)));
+      const Vec3 wo = wo_at(c);
+      const double quad = integrate_2d(
+          [&](double phi, double ct) {
+            const Vec3 wi = direction(ct, phi);
+            return double(bsdf.eval(wo, wi).g) * ct;
+          },
+          0, 2 * M_PI, 0, 1, 1e-6);
+      const auto [mean, max_weight] = albedo(bsdf, wo, TransportMode::Radiance, 400000, 32);
+      EXPECT_NEAR(mean, quad, 3e-3);
+      EXPECT_LT(quad, 1.0);
+      EXPECT_GT(quad, 0.7);  // Oren-Nayar keeps most of the light
+    }
+}
+
+TEST(BsdfReference, VelvetIsCyclesFormula) {
+  // Cycles' bsdf_ashikhmin_velvet.h eval (f cos_i), in double, at a few pairs.
+  auto cycles = [](double sigma, const Vec3& wo, const Vec3& wi) {
+    const double inv_s2 = 1.0 / (std::max(sigma, 0.01) * std::max(sigma, 0.01));
+    Vec3 h = normalize(wo + wi);
+    const double cos_nh = h.z, cos_ho = std::abs(dot(wo, h));
+    const double r = std::max(cos_nh / cos_ho, 1e-5);
+    const double G = std::min(1.0, std::min(2 * r * wo.z, 2 * r * wi.z));
+    const double sin2 = 1 - cos_nh * cos_nh;
+    const double D = std::exp(-(cos_nh * cos_nh / sin2) * inv_s2) * inv_s2 / M_PI / (sin2 * sin2);
+    return 0.25 * D * G / wo.z;
+  };
+  for (float sigma : {0.2f, 0.5f, 1.0f})
+    for (float co : {0.9f, 0.5f, 0.2f})
+      for (float ci : {0.95f, 0.6f, 0.1f}) {
+        const Vec3 wo = wo_at(co), wi = wo_at(ci, 2.9f);
+        const double expected = cycles(sigma, wo, wi);
+        const Bsdf bsdf(make(MaterialType::Velvet, sigma, RGB(1.0f)));
+        EXPECT_NEAR(bsdf.eval(wo, wi).g * wi.z, expected, 1e-4 * std::max(1.0, expected))
+            << "sigma " << sigma << " " << co << " " << ci;
+        EXPECT_EQ(bsdf.eval(wo, -wi).g, 0.0f);  // reflection only
+      }
+}
+
+TEST(BsdfFurnace, TranslucentTransmitsItsColourAndVelvetMatchesItsIntegral) {
+  const Bsdf tr(make(MaterialType::Translucent, 0, RGB(1.0f)));
+  for (float c : {0.9f, -0.3f}) {
+    const auto [mean, max_weight] = albedo(tr, wo_at(c), TransportMode::Radiance, 20000, 41);
+    EXPECT_NEAR(mean, 1.0, 1e-5);
+    EXPECT_EQ(tr.eval(wo_at(c), wo_at(c, 2.0f)).g, 0.0f);       // nothing reflected
+    EXPECT_NEAR(tr.eval(wo_at(c), -wo_at(c, 2.0f)).g, kInvPi, 1e-7);  // all transmitted
+  }
+  for (float sigma : {0.3f, 1.0f})
+    for (float c : {0.9f, 0.3f}) {
+      SCOPED_TRACE(fmt::format("velvet sigma {} cos_o {}", sigma, c));
+      const Bsdf v(make(MaterialType::Velvet, sigma, RGB(1.0f)));
+      const Vec3 wo = wo_at(c);
+      const double quad = integrate_2d(
+          [&](double phi, double ct) { return double(v.eval(wo, direction(ct, phi)).g) * ct; }, 0, 2 * M_PI, 0, 1,
+          1e-6);
+      const auto [mean, max_weight] = albedo(v, wo, TransportMode::Radiance, 400000, 42);
+      EXPECT_NEAR(mean, quad, 0.01 * quad + 1e-3);
+      EXPECT_LT(quad, 1.0);
+    }
+}
+
+TEST(BsdfReference, RefractionIsGlassWithoutFresnel) {
+  // Smooth: every sample refracts, weight colour / etap^2 (radiance) or colour (importance);
+  // from inside beyond the critical angle nothing comes back (Cycles absorbs it).
+  const Material smooth = refraction(0.0f);
+  for (float c : {0.95f, 0.5f, 0.1f, -0.95f, -0.8f}) {
+    SCOPED_TRACE(fmt::format("cos_o {}", c));
+    const Bsdf bsdf(smooth);
+    for (float uc : {0.0f, 0.5f, 0.999f}) {
+      const auto s = bsdf.sample(wo_at(c), uc, Vec2(0.5f, 0.5f), TransportMode::Importance);
+      ASSERT_TRUE(s.has_value());
+      EXPECT_TRUE(s->delta && s->transmission);
+      EXPECT_LT(s->wi.z * c, 0.0f);
+      const RGB w = s->f * (abs_cos_theta(s->wi) / s->pdf);
+      EXPECT_NEAR(w.g, 0.8f, 1e-5f);
+      const auto sr = bsdf.sample(wo_at(c), uc, Vec2(0.5f, 0.5f), TransportMode::Radiance);
+      EXPECT_NEAR((sr->f * (abs_cos_theta(sr->wi) / sr->pdf)).g, 0.8f / sqr(s->eta), 1e-5f);
+    }
+  }
+  EXPECT_FALSE(Bsdf(smooth).sample(wo_at(-0.3f), 0.5f, Vec2(0.5f, 0.5f)).has_value());  // TIR
+  // Rough: the glass's transmission divided by its (1 - F), and no reflection.
+  const Material rough = refraction(0.2f);
+  Material glass = rough;
+  glass.refraction_only = false;
+  Rng rng(23, 0);
+  int checked = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 wo = random_direction(rng), wi = random_direction(rng);
+    const RGB fr = Bsdf(rough).eval(wo, wi), fg = Bsdf(glass).eval(wo, wi);
+    if (wo.z * wi.z > 0) {
+      EXPECT_EQ(fr.g, 0.0f);
+      continue;
+    }
+    if (fg.g <= 1e-6f) continue;
+    // 1 - F at the pair's microfacet, from the outside direction (as bsdf.cpp).
+    const float etap = wo.z > 0 ? 1.5f : 1 / 1.5f;
+    Vec3 wm = normalize(wo + wi * etap);
+    if (wm.z < 0) wm = -wm;
+    const Vec3& w_out = wo.z > 0 ? wo : wi;
+    const float T = 1 - fresnel_dielectric(dot(w_out, wm), 1.5f);
+    EXPECT_NEAR(fg.g / fr.g, T, 2e-3f * T);
+    ++checked;
+  }
+  EXPECT_GT(checked, 300);
+  // Importance albedo (red: 0.9) from outside along the normal: all but the microfacet
+  // shadowing (glass would keep only 1 - F = 0.96 of it in its transmission).
+  const auto [mean, max_weight] = albedo(Bsdf(refraction(0.1f)), Vec3(0, 0, 1), TransportMode::Importance, 100000, 24);
+  EXPECT_GT(mean / 0.9, 0.99);
+  EXPECT_LE(mean / 0.9, 1.0 + 1e-4);
+}
+
+TEST(Bsdf, TransparentIsATintedDeltaPassThrough) {
+  const Bsdf red(transparent(RGB(1.0f, 0.1f, 0.1f)));
+  EXPECT_TRUE(red.is_delta());
+  EXPECT_FALSE(red.is_diffuse_for_photons());
+  const Vec3 wo = wo_at(0.6f);
+  const auto s = red.sample(wo, 0.3f, Vec2(0.2f, 0.7f));
+  ASSERT_TRUE(s.has_value());
+  EXPECT_TRUE(s->delta && s->transmission);
+  EXPECT_FLOAT_EQ(s->wi.x, -wo.x);
+  EXPECT_FLOAT_EQ(s->wi.z, -wo.z);
+  const RGB w = s->f * (abs_cos_theta(s->wi) / s->pdf);
+  EXPECT_NEAR(w.r, 1.0f, 1e-6f);
+  EXPECT_NEAR(w.g, 0.1f, 1e-6f);
+  // The Mix of a red and a blue Transparent BSDF: purple on average, still delta.
+  const Bsdf purple(mix(transparent(RGB(1, 0, 0)), transparent(RGB(0, 0, 1)), 0.5f));
+  EXPECT_TRUE(purple.is_delta());
+  Rng rng(3, 0);
+  RGB sum(0.0f);
+  constexpr int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    const auto t = purple.sample(wo, rng.uniform(), Vec2(rng.uniform(), rng.uniform()));
+    ASSERT_TRUE(t.has_value());
+    sum += t->f * (abs_cos_theta(t->wi) / t->pdf);
+  }
+  EXPECT_NEAR(sum.r / n, 0.5, 0.02);
+  EXPECT_NEAR(sum.b / n, 0.5, 0.02);
+  EXPECT_NEAR(sum.g / n, 0.0, 1e-6);
+}
+
+TEST(Bsdf, ClassificationOfCyclesClosures) {
+  EXPECT_TRUE(Bsdf(refraction(0.0f)).is_delta());
+  EXPECT_FALSE(Bsdf(refraction(0.3f)).is_delta());
+  EXPECT_TRUE(Bsdf(refraction(0.3f)).is_diffuse_for_photons());
+  for (MaterialType t : {MaterialType::Translucent, MaterialType::Velvet}) {
+    EXPECT_FALSE(Bsdf(make(t, 0.5f)).is_delta()) << to_string(t);
+    EXPECT_TRUE(Bsdf(make(t, 0.5f)).is_diffuse_for_photons()) << to_string(t);
+    EXPECT_TRUE(Bsdf(make(t, 0.5f, RGB(0.0f))).is_black()) << to_string(t);
+  }
+  const Material m = mix(transparent(RGB(1.0f)), make(MaterialType::Translucent, 0), 0.5f);
+  EXPECT_FALSE(Bsdf(m).is_delta());
+  EXPECT_TRUE(Bsdf(m).is_diffuse_for_photons());
 }
 
 }  // namespace

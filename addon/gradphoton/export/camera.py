@@ -2,7 +2,8 @@
 of view on the fitted axis). Resolution with percentage; border as the core's crop window (only
 its pixels are traced); depth of field as Cycles: aperture radius = focal length / (2 f-stop),
 focus distance from the focus object (along the view axis) or the distance field; lens shift and
-orthographic cameras as Blender's. Panoramic cameras are approximated (a counted warning)."""
+orthographic cameras as Blender's; Film > Pixel Filter (box, Gaussian, Blackman-Harris and its width)
+as Cycles' settings say. Panoramic cameras are approximated (a counted warning)."""
 import math
 
 import numpy as np
@@ -11,6 +12,19 @@ import numpy as np
 def resolution(render):
     s = render.resolution_percentage / 100.0
     return max(1, int(render.resolution_x * s)), max(1, int(render.resolution_y * s))
+
+
+# Film > Pixel Filter (Cycles' settings, scene.cycles) -> the core's camera "pixel_filter".
+PIXEL_FILTERS = {'BOX': "box", 'GAUSSIAN': "gaussian", 'BLACKMAN_HARRIS': "blackman-harris"}
+
+
+def pixel_filter(scene):
+    """The scene's Film > Pixel Filter as Cycles renders it; Blender's default (Blackman-Harris,
+    1.5 px) where Cycles' settings are absent."""
+    c = getattr(scene, "cycles", None)
+    kind = PIXEL_FILTERS.get(getattr(c, "pixel_filter_type", 'BLACKMAN_HARRIS'), "blackman-harris")
+    width = float(getattr(c, "filter_width", 1.5))
+    return {"type": kind, "width": min(64.0, max(0.01, width))}
 
 
 def export_camera(scene, warnings):
@@ -23,7 +37,7 @@ def export_camera(scene, warnings):
         if x1 > x0 and y1 > y0 and (x1 - x0, y1 - y0) != (width, height):
             border = (x0, y0, x1 - x0, y1 - y0)
     ob = scene.camera
-    d = {"width": width, "height": height}
+    d = {"width": width, "height": height, "pixel_filter": pixel_filter(scene)}
     if border is not None:  # the core traces only these pixels (its rows run from the top)
         x0, y0, w, h = border
         d["crop"] = [x0, height - (y0 + h), w, h]

@@ -1,9 +1,11 @@
 """Materials: Blender shader nodes -> the core's material set (docs/scene-format.md).
 
 Mapped: Principled BSDF (base colour, metallic, roughness, specular, transmission, IOR,
-emission), Diffuse, Glossy (conductor), Glass and Emission BSDFs, Mix Shader and Add Shader of
+emission), Diffuse (its Roughness: Oren-Nayar), Glossy (conductor), Glass, Refraction,
+Transparent (any colour), Translucent, Velvet and Emission BSDFs, Mix Shader and Add Shader of
 any of these (nested too), a material without nodes (its viewport diffuse colour). Blender
-roughness r becomes the GGX alpha r^2.
+roughness r becomes the GGX alpha r^2; the Beckmann, Ashikhmin-Shirley and Multiscatter GGX
+distributions render as GGX (a counted warning).
 
 Principled BSDF, as layers of the core's materials:
   - the non-metal part is the core's `principled`: Cycles 3.4's two closures added, Burley's
@@ -152,16 +154,28 @@ class MaterialExporter:
             return {"type": "diffuse", "color": 0.8}
         if kind == 'ShaderNodeBsdfPrincipled':
             return self._principled(node, mat)
-        if kind == 'ShaderNodeBsdfDiffuse':
-            if self._value(node, "Roughness", mat).default_value > 0:
-                self.w.add("Oren-Nayar roughness ignored (Lambertian)", f"'{mat.name}'")
-            return self._with_normal({"type": "diffuse", "color": self._input(node, "Color", mat)}, node, mat)
+        if kind == 'ShaderNodeBsdfDiffuse':  # Roughness: Cycles' Oren-Nayar sigma, as it is (not squared)
+            return self._with_normal({"type": "diffuse", "color": self._input(node, "Color", mat),
+                                      "roughness": self._input(node, "Roughness", mat, scalar=True)}, node, mat)
+        if kind == 'ShaderNodeBsdfTransparent':  # straight through, tinted (a delta closure)
+            return {"type": "transparent", "color": self._input(node, "Color", mat)}
+        if kind == 'ShaderNodeBsdfTranslucent':
+            return self._with_normal({"type": "translucent", "color": self._input(node, "Color", mat)}, node, mat)
+        if kind == 'ShaderNodeBsdfVelvet':
+            return self._with_normal({"type": "velvet", "color": self._input(node, "Color", mat),
+                                      "sigma": min(1.0, max(0.0, self._value(node, "Sigma", mat).default_value))},
+                                     node, mat)
+        if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic', 'ShaderNodeBsdfGlass',
+                    'ShaderNodeBsdfRefraction') and node.distribution not in ('GGX', 'SHARP'):
+            self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {node.name} ({node.distribution})")
         if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic'):
             return self._with_normal({"type": "conductor", "color": self._input(node, "Color", mat),
                                       "roughness": self._input(node, "Roughness", mat, scalar=True, square=True),
                                       "fresnel": False}, node, mat)  # Cycles' Glossy BSDF: the colour at every angle
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
-            return self._with_normal({"type": "dielectric", "color": self._input(node, "Color", mat),
+            # Refraction BSDF: glass's refraction lobe alone, without Fresnel (the core's "refraction").
+            t = "dielectric" if kind == 'ShaderNodeBsdfGlass' else "refraction"
+            return self._with_normal({"type": t, "color": self._input(node, "Color", mat),
                                       "roughness": self._input(node, "Roughness", mat, scalar=True, square=True),
                                       "ior": max(1e-3, self._value(node, "IOR", mat).default_value)}, node, mat)
         if kind == 'ShaderNodeEmission':

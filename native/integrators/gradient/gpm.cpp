@@ -241,7 +241,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
             }
             pass_direct_[pixel] = path.Ld;
             const int further = takes_further_paths(pixel, pass) ? emission_samples_ : 0;
-            pass_emission_[pixel] = emission_seen(starts[k], ext, path.Ld - walk.nee_base, further, rays, invalid);
+            pass_emission_[pixel] = emission_seen(starts[k], x, y, ext, path.Ld - walk.nee_base, further, rays, invalid);
             pass_emission_[pixel].scattered = walk.scattered;
             vp_[pixel] = path.vp;
             off_[pixel] = off;
@@ -279,8 +279,8 @@ bool Gpm::takes_further_paths(size_t pixel, uint64_t pass) const {
 // and along `further` more camera paths: new film positions in the pixel and lens samples, from
 // the pixel's own stream past its gather path, so that path and `primal` are SPPM's whatever
 // this draws. Choosing `further` from earlier passes keeps each pass's mean unbiased.
-Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, const Vec2& ext, const RGB& gather_path, int further,
-                                     int64_t& rays, int64_t& invalid) const {
+Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, int x, int y, const Vec2& ext, const RGB& gather_path,
+                                     int further, int64_t& rays, int64_t& invalid) const {
   EmissionSeen out;
   double sum[3] = {0, 0, 0};
   auto add = [&](const RGB& e) {
@@ -291,11 +291,21 @@ Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, const Vec2& ext, const R
     ++out.paths;
   };
   add(gather_path);
-  const Vec2 cell(std::floor(start.film.x), std::floor(start.film.y));
+  // The pixel's cell in the whole image: its own index, not floor(start.film), which a pixel
+  // filter wider than a pixel moves into a neighbour.
+  const Vec2 cell(static_cast<float>(x + scene_.camera.crop_x), static_cast<float>(y + scene_.camera.crop_y));
+  const PixelFilter& filter = scene_.camera.filter;
   EyePathHooks none;
   Rng& rng = start.rng;
   for (int j = 0; j < further; ++j) {
-    const Vec2 film(cell.x + rng.uniform(), cell.y + rng.uniform());
+    Vec2 film;
+    if (filter.is_default_box()) {
+      film = Vec2(cell.x + rng.uniform(), cell.y + rng.uniform());  // as before pixel filters
+    } else {  // the same filter as the gather path's start
+      const float ux = rng.uniform();
+      const float uy = rng.uniform();
+      film = Vec2(filter.sample(cell.x, ux), filter.sample(cell.y, uy));
+    }
     const Vec2 lens(rng.uniform(), rng.uniform());
     const RGB e = trace_eye_path(scene_.camera.generate_ray(film, lens, ext), rng, rays, none, nullptr, true).Ld;
     if (e.is_finite()) add(e);

@@ -151,8 +151,10 @@ class Gpm : public ProgressivePhotonMapping {
   };
 
   bool takes_further_paths(size_t pixel, uint64_t pass) const;
-  EmissionSeen emission_seen(PixelStart& start, const Vec2& ext, const RGB& gather_path, int further, int64_t& rays,
-                             int64_t& invalid) const;
+  // (x, y): the film pixel the start belongs to (with a wide pixel filter start.film may lie
+  // outside it).
+  EmissionSeen emission_seen(PixelStart& start, int x, int y, const Vec2& ext, const RGB& gather_path, int further,
+                             int64_t& rays, int64_t& invalid) const;
   void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
                     std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures);
 

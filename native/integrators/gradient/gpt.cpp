@@ -63,7 +63,8 @@ GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
 }
 
 GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampler& rng, RayCounts& rays,
-                                                     std::map<std::string, double>* failures) const {
+                                                     std::map<std::string, double>* failures, int pixel_x,
+                                                     int pixel_y) const {
   const LightSet& lights = scene_.light_set();
   // Cycles' per-kind switches: every bounce ray carries its lobe (Ray::bounce), the offsets'
   // rays and reconnections the base's, so an offset sees the scene as the base's ray of that
@@ -78,8 +79,8 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
   for (int d = 0; d < 4; ++d) {
     out.diff[d] = RGB(0.0f);
     // `film` is in the whole image's pixels (camera.h start_pixel); the film is the crop window.
-    const int px = static_cast<int>(film.x) - scene_.camera.crop_x + kOffsetX[d],
-              py = static_cast<int>(film.y) - scene_.camera.crop_y + kOffsetY[d];
+    const int px = (pixel_x >= 0 ? pixel_x : static_cast<int>(film.x)) - scene_.camera.crop_x + kOffsetX[d],
+              py = (pixel_y >= 0 ? pixel_y : static_cast<int>(film.y)) - scene_.camera.crop_y + kOffsetY[d];
     out.has[d] = off[d].exists = px >= 0 && px < width_ && py >= 0 && py < height_;
     if (!off[d].exists) continue;
     // Same sub-pixel position and lens sample one pixel over: the camera's Jacobian is 1.
@@ -410,7 +411,8 @@ void GradientPathTracer::iterate(ProgressSink* sink) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
             auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
             RngSampler sampler(rng);
-            const Sample s = trace(film, lens, sampler, tile_rays, &tile_failures);
+            const Sample s = trace(film, lens, sampler, tile_rays, &tile_failures, x + scene_.camera.crop_x,
+                                   y + scene_.camera.crop_y);
             ++tile_paths;
             ++samples_[pixel];
             bool finite = s.primal.is_finite() && s.direct.is_finite();

@@ -56,7 +56,11 @@ class GradientPathTracer : public Integrator {
     RGB diff[4];     // MIS-weighted (offset - base) for right/down, (base - offset) for left/up
     bool has[4];     // offset inside the image
   };
-  Sample trace(Vec2 film, Vec2 lens, Sampler& sampler, RayCounts& rays, std::map<std::string, double>* failures) const;
+  // `pixel_x`, `pixel_y` (whole-image pixels): the pixel the sample counts in, whose neighbours
+  // the offsets are; -1: the pixel `film` lies in (gdmlt's splats). A pixel filter wider than a
+  // pixel puts `film` outside its own pixel (core/rng.h start_pixel), so iterate() passes them.
+  Sample trace(Vec2 film, Vec2 lens, Sampler& sampler, RayCounts& rays, std::map<std::string, double>* failures,
+               int pixel_x = -1, int pixel_y = -1) const;
 
   int width() const { return width_; }
   int height() const { return height_; }

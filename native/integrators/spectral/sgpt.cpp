@@ -157,7 +157,9 @@ bool connectable(const Material& m) {
     case MaterialType::Diffuse:
     case MaterialType::Emission:
     case MaterialType::Plastic:
-    case MaterialType::Principled: return true;  // a diffuse lobe (the other lobe may be smooth)
+    case MaterialType::Principled:
+    case MaterialType::Translucent:
+    case MaterialType::Velvet: return true;  // a diffuse lobe (the other lobe may be smooth)
     case MaterialType::Conductor: return m.roughness >= kDefaultSpecularThreshold;
     case MaterialType::Dielectric: return !is_dispersive(m) && m.roughness >= kDefaultSpecularThreshold;
     case MaterialType::Mix:
