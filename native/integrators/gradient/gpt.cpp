@@ -7,7 +7,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
-#include "integrators/gradient/shift.h"
+#include "integrators/shift/shift.h"
 #include "integrators/lobe_split.h"
 #include "materials/bsdf.h"
 

@@ -22,7 +22,7 @@
 #include "integrators/photon/error_estimate.h"
 #include "integrators/integrator.h"
 #include "integrators/photon/photon_tracer.h"
-#include "integrators/spectral/spectral_pt.h"
+#include "integrators/paths/spectral_scene.h"
 #include "core/sampling.h"
 #include "materials/bsdf.h"
 

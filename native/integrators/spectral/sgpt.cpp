@@ -10,7 +10,7 @@
 #include "core/frame.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
-#include "integrators/spectral/spectral_shift.h"
+#include "integrators/shift/spectral_shift.h"
 #include "materials/bsdf.h"
 
 namespace gp {
