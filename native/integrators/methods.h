@@ -86,6 +86,10 @@ struct Method {
 
 // Every method, in the order front ends list them.
 const std::vector<Method>& methods();
+// Adds a method after the built-in ones (a method of a test or an extension: everything that
+// reads methods() then offers it). std::invalid_argument for a name already taken. Not
+// thread-safe: register before rendering.
+void register_method(Method m);
 // The method called `name`; ParamError naming the known ones when there is none.
 const Method& find_method(const std::string& name);
 

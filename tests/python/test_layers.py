@@ -10,6 +10,7 @@ INTEGRATORS = ROOT / "native" / "integrators"
 INCLUDE = re.compile(r'#include "integrators/([^"]+)"')
 # Each room and the rooms it may include (besides itself and the top-level shared headers).
 LAYERS = {
+    "top": {"paths"},  # the interface and shared headers; path_tracer (pt) on the toolkit
     "paths": set(),
     "shift": {"paths"},
     "photon": {"paths"},

@@ -66,11 +66,13 @@ const BsdfParams* SpectraAtWavelengths::at_point(int m, Vec2 uv, WavelengthParam
   return params;
 }
 
-float light_scale(const LightSample& ls, const Light& l) {
-  const float m = l.emit.max_component();
+float grey_factor(const RGB& value, const RGB& emit) {
+  const float m = emit.max_component();
   if (m <= 0) return 0.0f;
-  const int c = l.emit.r == m ? 0 : (l.emit.g == m ? 1 : 2);
-  return ls.L[c] / l.emit[c];
+  const int c = emit.r == m ? 0 : (emit.g == m ? 1 : 2);
+  return value[c] / emit[c];
 }
+
+float light_scale(const LightSample& ls, const Light& l) { return grey_factor(ls.L, l.emit); }
 
 }  // namespace gp

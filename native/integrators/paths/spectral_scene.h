@@ -88,5 +88,8 @@ class SpectraAtWavelengths {
 // emission by grey factors only (distance, spot falloff), so the factor read off the brightest
 // channel applies to the spectrum.
 float light_scale(const LightSample& ls, const Light& l);
+// Factor turning a light's RGB emission (times grey factors: distance, falloff, pdfs) into its
+// spectrum: the grey factor read off the brightest channel of the emission colour `emit`.
+float grey_factor(const RGB& value, const RGB& emit);
 
 }  // namespace gp

@@ -25,15 +25,6 @@ namespace gp {
 
 namespace {
 
-// Factor turning a light's RGB emission (times grey factors: distance, falloff, pdfs) into its
-// spectrum: the grey factor read off the brightest channel of the emission colour.
-float grey_factor(const RGB& value, const RGB& emit) {
-  const float m = emit.max_component();
-  if (m <= 0) return 0.0f;
-  const int c = emit.r == m ? 0 : (emit.g == m ? 1 : 2);
-  return value[c] / emit[c];
-}
-
 // Per-wavelength factor f_k |cos| / pdf_hero of a hero-sampled BSDF direction at `hit` (each
 // wavelength's BSDF with the hit's normals, as Scene::bsdf). Returns false when every wavelength
 // is dead; sets hero_only on a smooth dispersive refraction.

@@ -30,6 +30,7 @@
 #include "core/spectrum.h"
 #include "integrators/integrator.h"
 #include "integrators/paths/spectral_scene.h"
+#include "integrators/paths/camera_path.h"
 #include "integrators/pixel_estimate.h"
 #include "materials/bsdf.h"
 #include "materials/material.h"
@@ -48,14 +49,16 @@ class SpectralPathTracer : public Integrator {
   int wavelengths() const { return count_; }
   // Spectral radiance at the wavelengths `wl` along one camera ray (exposed for tests).
   // `first`, when given, is the closest hit of `ray` already traced (trace_camera_rays).
+  // With film_transparent, a camera ray that escapes gives 0 and sets *escaped.
   SpectralValues Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
-                    const std::optional<SurfaceHit>* first = nullptr) const;
+                    const std::optional<SurfaceHit>* first = nullptr, bool* escaped = nullptr) const;
 
  private:
   const Scene& scene_;
   SceneSpectra spectra_;
   bool hero_;
-  int max_depth_, rr_depth_, count_, threads_, tile_size_;
+  CameraPathSettings settings_;
+  int count_, threads_, tile_size_;
   uint64_t seed_;
   int width_, height_;
   PixelEstimate estimate_;
