@@ -73,7 +73,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
       // Cycles' rule for the World (lobe_split.h), not a light's.
       const int env = lights.environment();
       if (env >= 0 && (depth > 0 || lights.lights()[env].visible_to_camera)) {
-        const RGB Le = lights.environment_radiance(ray.d);
+        const RGB Le = lights.environment_radiance(ray.d, ray.camera);
         const Light& world = lights.lights()[env];
         L += clamped(depth > 0 && world.lit_by_bsdf_rays_only()
                          ? prev.weigh_world(Le, world.visible_lobes, specular_bounce, beta)

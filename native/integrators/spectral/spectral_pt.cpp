@@ -156,6 +156,29 @@ struct SpectralLobeSplit {
 
 }  // namespace
 
+RgbSpectrum light_spectrum(const SceneSpectra& spectra, const LightSet& lights, int l, const RGB& value) {
+  if (l == lights.environment() && lights.environment_textured()) return RgbSpectrum::illuminant_interpolated(value);
+  const RGB& emit = lights.lights()[l].emit;
+  const float m = emit.max_component();
+  if (m <= 0) return spectra.light[l].scaled(0.0f);
+  const int c = emit.r == m ? 0 : (emit.g == m ? 1 : 2);
+  return spectra.light[l].scaled(std::max(0.0f, value[c] / emit[c]));
+}
+
+void SpectraAtWavelengths::emitted(int l, const RGB& value, float* out) const {
+  const LightSet& lights = scene_->light_set();
+  if (l == lights.environment() && lights.environment_textured()) {
+    const RgbSpectrum s = RgbSpectrum::illuminant_interpolated(value);
+    for (int k = 0; k < count_; ++k) out[k] = s(wl_.lambda[k]);
+    return;
+  }
+  const RGB& emit = lights.lights()[l].emit;
+  const float m = emit.max_component();
+  const int c = emit.r == m ? 0 : (emit.g == m ? 1 : 2);
+  const float grey = m > 0 ? value[c] / emit[c] : 0.0f;
+  for (int k = 0; k < count_; ++k) out[k] = grey * light(l)[k];
+}
+
 float light_scale(const LightSample& ls, const Light& l) {
   const float m = l.emit.max_component();
   if (m <= 0) return 0.0f;
@@ -209,13 +232,14 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
       const int env = lights.environment();
       if (env >= 0) {
         const Light& e = lights.lights()[env];  // the World's Ray Visibility
+        const RgbSpectrum spec = light_spectrum(spectra_, lights, env, lights.environment_radiance(ray.d, ray.camera));
         if (depth == 0) {
-          if (e.visible_to_camera) add_emission(spectra_.light[env], 0.0f, true);
+          if (e.visible_to_camera) add_emission(spec, 0.0f, true);
         } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
           if (e.visible_lobes & prev.lobe)
-            add_emission(spectra_.light[env], 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
+            add_emission(spec, 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
         } else {
-          add_bounce_emission(spectra_.light[env], e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
+          add_bounce_emission(spec, e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
         }
       }
       break;
@@ -279,10 +303,9 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
             float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
             for (int k = 0; k < C; ++k) denom += r_u[k] * (ls->pdf + (ls->delta ? 0.0f : pdf[k]));
             denom /= C;
-            const float scale = light_scale(*ls, lights.lights()[ls->light]);
-            const RgbSpectrum& spec = spectra_.light[ls->light];
+            const RgbSpectrum spec = light_spectrum(spectra_, lights, ls->light, ls->L);
             if (denom > 0)
-              for (int j = 0; j < C; ++j) L[j] += beta[j] * f[j] * scale * spec(wl.lambda[j]) / denom;
+              for (int j = 0; j < C; ++j) L[j] += beta[j] * f[j] * spec(wl.lambda[j]) / denom;
           }
         }
       }

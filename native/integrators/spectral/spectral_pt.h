@@ -90,6 +90,9 @@ class SpectraAtWavelengths {
   }
   // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
   const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
+  // The spectral radiance at each wavelength of the set of the RGB `value` light l sends
+  // (light_spectrum): out[k] for k < count.
+  void emitted(int l, const RGB& value, float* out) const;
 
  private:
   int count_ = 0;
@@ -106,6 +109,13 @@ class SpectraAtWavelengths {
 // emission by grey factors only (distance, spot falloff), so the factor read off the brightest
 // channel applies to the spectrum.
 float light_scale(const LightSample& ls, const Light& l);
+
+// The spectrum of radiance `value` (RGB: the light's emission times grey factors, or what an
+// environment sends along one direction) that light l sends: for a light of one colour, its
+// spectrum (SceneSpectra::light) times the grey factor read off its brightest channel; for an
+// environment whose colour varies with direction (an image, Light Path: Is Camera Ray), `value`
+// itself upsampled as an illuminant, per hit, as textured emission is.
+RgbSpectrum light_spectrum(const SceneSpectra& spectra, const LightSet& lights, int l, const RGB& value);
 
 class SpectralPathTracer : public Integrator {
  public:
