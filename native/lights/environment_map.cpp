@@ -40,38 +40,55 @@ std::vector<float> cell_kernel(TextureFilter filter) {
 }
 
 // Texel luminance (negative components clipped) convolved by the kernel in x and y, wrapping
-// as Cycles' environment textures do (Repeat).
-std::vector<float> filtered_luminance(const TextureImage& img, TextureFilter filter) {
+// as Cycles' environment textures do (Repeat). Also the per-row sums of the texels' RGB, for
+// the integral.
+std::vector<float> filtered_luminance(const TextureImage& img, TextureFilter filter, std::vector<RGB>* row_sums) {
   const int w = img.width, h = img.height;
   const size_t n = static_cast<size_t>(w) * h;
-  std::vector<float> lum(n), tmp(n);
+  std::vector<float> lum(n);
+  row_sums->assign(h, RGB(0.0f));
   parallel_for(static_cast<size_t>(h), 0, [&](size_t y0, size_t y1) {
-    for (size_t y = y0; y != y1; ++y)
-      for (int x = 0; x < w; ++x) {
-        RGB c = img.decoded(img.texel(x, static_cast<int>(y))).rgb;
-        for (int k = 0; k < 3; ++k) c[k] = std::max(0.0f, c[k]);
+    for (size_t y = y0; y != y1; ++y) {
+      double sum[3] = {0, 0, 0};
+      const float* p = &img.rgba[4 * y * w];
+      for (int x = 0; x < w; ++x, p += 4) {
+        RGB c(std::max(0.0f, p[0]), std::max(0.0f, p[1]), std::max(0.0f, p[2]));
+        if (img.srgb_encoded) c = img.decoded({c, 1.0f}).rgb;
         lum[y * w + x] = c.luminance();
+        for (int k = 0; k < 3; ++k) sum[k] += c[k];
       }
+      (*row_sums)[y] = RGB(float(sum[0]), float(sum[1]), float(sum[2]));
+    }
   });
   const std::vector<float> k = cell_kernel(filter);
   const int r = static_cast<int>(k.size()) / 2;
   if (r == 0) return lum;
-  auto wrap = [](int i, int m) { return ((i % m) + m) % m; };
+  std::vector<float> tmp(n);
+  // Horizontal, then vertical; indices wrapped once per axis, not per tap.
+  std::vector<int> xi(w + 2 * r), yi(h + 2 * r);
+  for (int i = 0; i < w + 2 * r; ++i) xi[i] = ((i - r) % w + w) % w;
+  for (int i = 0; i < h + 2 * r; ++i) yi[i] = ((i - r) % h + h) % h;
   parallel_for(static_cast<size_t>(h), 0, [&](size_t y0, size_t y1) {
-    for (size_t y = y0; y != y1; ++y)
+    for (size_t y = y0; y != y1; ++y) {
+      const float* row = &lum[y * w];
+      float* out = &tmp[y * w];
       for (int x = 0; x < w; ++x) {
         float s = 0;
-        for (int j = -r; j <= r; ++j) s += k[j + r] * lum[y * w + wrap(x + j, w)];
-        tmp[y * w + x] = s;
+        for (int j = 0; j <= 2 * r; ++j) s += k[j] * row[xi[x + j]];
+        out[x] = s;
       }
+    }
   });
   parallel_for(static_cast<size_t>(h), 0, [&](size_t y0, size_t y1) {
-    for (size_t y = y0; y != y1; ++y)
-      for (int x = 0; x < w; ++x) {
-        float s = 0;
-        for (int j = -r; j <= r; ++j) s += k[j + r] * tmp[static_cast<size_t>(wrap(static_cast<int>(y) + j, h)) * w + x];
-        lum[y * w + x] = s;
+    for (size_t y = y0; y != y1; ++y) {
+      float* out = &lum[y * w];
+      for (int x = 0; x < w; ++x) out[x] = 0;
+      for (int j = 0; j <= 2 * r; ++j) {
+        const float* row = &tmp[static_cast<size_t>(yi[y + j]) * w];
+        const float kj = k[j];
+        for (int x = 0; x < w; ++x) out[x] += kj * row[x];
       }
+    }
   });
   return lum;
 }
@@ -97,44 +114,55 @@ std::shared_ptr<const EnvironmentSampling> build_sampling(std::shared_ptr<const 
   const int w = img.width, h = img.height;
   s->width = W;
   s->height = H;
-  const std::vector<float> lum = filtered_luminance(img, filter);
-  // Cell (i, j) of the sampling grid takes the mean of the texels it overlaps (whole texels:
-  // a cell between two texels sees both, so no radiance falls outside the support).
-  std::vector<float> f(static_cast<size_t>(W) * H);
+  std::vector<RGB> row_sums;
+  std::vector<float> f = filtered_luminance(img, filter, &row_sums);
+  if (W != w || H != h) {
+    // Cell (i, j) of the sampling grid takes the mean of the texels it overlaps (whole texels:
+    // a cell between two texels sees both, so no radiance falls outside the support).
+    std::vector<float> g(static_cast<size_t>(W) * H);
+    parallel_for(static_cast<size_t>(H), 0, [&](size_t j0, size_t j1) {
+      for (size_t j = j0; j != j1; ++j) {
+        const int ty0 = static_cast<int>(std::floor(double(j) * h / H));
+        const int ty1 = std::min(h, std::max(ty0 + 1, static_cast<int>(std::ceil(double(j + 1) * h / H))));
+        for (int i = 0; i < W; ++i) {
+          const int tx0 = static_cast<int>(std::floor(double(i) * w / W));
+          const int tx1 = std::min(w, std::max(tx0 + 1, static_cast<int>(std::ceil(double(i + 1) * w / W))));
+          double sum = 0;
+          for (int ty = ty0; ty < ty1; ++ty)
+            for (int tx = tx0; tx < tx1; ++tx) sum += f[static_cast<size_t>(ty) * w + tx];
+          g[j * W + i] = static_cast<float>(sum / ((ty1 - ty0) * (tx1 - tx0)));
+        }
+      }
+    });
+    f = std::move(g);
+  }
+  // Equirectangular: a row's cells span sin(theta) of solid angle per unit uv area, theta =
+  // pi (1 - v) at the row's centre (PBR 3rd ed. eq. 14.9's Jacobian); mirror ball: the part of
+  // each cell inside the ball (its uv area maps to solid angle at a constant rate).
   parallel_for(static_cast<size_t>(H), 0, [&](size_t j0, size_t j1) {
     for (size_t j = j0; j != j1; ++j) {
-      const int ty0 = static_cast<int>(std::floor(double(j) * h / H));
-      const int ty1 = std::max(ty0 + 1, static_cast<int>(std::ceil(double(j + 1) * h / H)));
-      // Equirectangular: a row's cells span sin(theta) of solid angle per unit uv area,
-      // theta = pi (1 - v) at the row's centre (PBR 3rd ed. eq. 14.9's Jacobian).
       const float sin_theta = std::sin(kPi * (j + 0.5f) / H);
-      for (int i = 0; i < W; ++i) {
-        const int tx0 = static_cast<int>(std::floor(double(i) * w / W));
-        const int tx1 = std::max(tx0 + 1, static_cast<int>(std::ceil(double(i + 1) * w / W)));
-        double sum = 0;
-        for (int ty = ty0; ty < std::min(ty1, h); ++ty)
-          for (int tx = tx0; tx < std::min(tx1, w); ++tx) sum += lum[static_cast<size_t>(ty) * w + tx];
-        const float mean = static_cast<float>(sum / ((std::min(ty1, h) - ty0) * (std::min(tx1, w) - tx0)));
-        const float factor = proj == EnvProjection::Equirectangular
-                                 ? sin_theta
-                                 : mirror_ball_coverage(float(i) / W, float(i + 1) / W, float(j) / H, float(j + 1) / H);
-        f[j * W + i] = mean * factor;
-      }
+      for (int i = 0; i < W; ++i)
+        f[j * W + i] *= proj == EnvProjection::Equirectangular
+                            ? sin_theta
+                            : mirror_ball_coverage(float(i) / W, float(i + 1) / W, float(j) / H, float(j + 1) / H);
     }
   });
   s->distribution = PiecewiseConstant2D(f.data(), W, H);
-  // The map's integral over the sphere from its texels (the light's power), each texel's row
-  // weighted by its band's exact solid angle.
+  // The map's integral over the sphere from its texels (the light's power): each row's sum
+  // times its band's exact solid angle per texel.
   double sum[3] = {0, 0, 0};
   for (int y = 0; y < h; ++y) {
-    const double band = std::abs(std::cos(M_PI * y / h) - std::cos(M_PI * (y + 1) / h));
-    for (int x = 0; x < w; ++x) {
-      const float dw = proj == EnvProjection::Equirectangular
-                           ? static_cast<float>(2.0 * M_PI * band / w)
-                           : 16.0f * mirror_ball_coverage(float(x) / w, float(x + 1) / w, float(y) / h, float(y + 1) / h) /
-                                 (float(w) * h);
-      const RGB c = img.decoded(img.texel(x, y)).rgb;
-      for (int k = 0; k < 3; ++k) sum[k] += std::max(0.0f, c[k]) * double(dw);
+    if (proj == EnvProjection::Equirectangular) {
+      const double band = std::abs(std::cos(M_PI * y / h) - std::cos(M_PI * (y + 1) / h));
+      for (int k = 0; k < 3; ++k) sum[k] += row_sums[y][k] * 2.0 * M_PI * band / w;
+    } else {
+      for (int x = 0; x < w; ++x) {
+        const RGB c = img.decoded(img.texel(x, y)).rgb;
+        const double dw =
+            16.0 * mirror_ball_coverage(float(x) / w, float(x + 1) / w, float(y) / h, float(y + 1) / h) / (double(w) * h);
+        for (int k = 0; k < 3; ++k) sum[k] += std::max(0.0f, c[k]) * dw;
+      }
     }
   }
   s->integral = RGB(float(sum[0]), float(sum[1]), float(sum[2]));

@@ -4,7 +4,9 @@
 // pt), rotation by Mapping, the shared cache, and a missing HDRI.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -225,13 +227,18 @@ TEST(EnvironmentMap, SampledDensityIsPdfAndCoversTheMap) {
   // filtered map is (so MIS and photons see every radiance): a one-texel sun in bilinear filtering.
   auto img = map_image(64, 32, [](const Vec3&, int x, int y) { return x == 40 && y == 20 ? RGB(1000.0f) : RGB(0.0f); });
   const EnvironmentMap map(img, rotated(10, 20, 30));
+  EnvironmentMapOptions shear = rotated(10, 20, 30);  // a Mapping with scale: |det A| / |A d|^3
+  shear.to_map[0][1] += 0.6f;
+  shear.to_map[2][2] *= 0.5f;
+  const EnvironmentMap sheared(img, shear);
   Rng rng(3, 0);
-  for (int i = 0; i < 20000; ++i) {
-    Vec3 d;
-    float pdf;
-    ASSERT_TRUE(map.sample(Vec2(rng.uniform(), rng.uniform()), &d, &pdf));
-    EXPECT_NEAR(map.pdf(d) / pdf, 1.0f, 2e-3f);
-  }
+  for (const EnvironmentMap* m : {&map, &sheared})
+    for (int i = 0; i < 20000; ++i) {
+      Vec3 d;
+      float pdf;
+      ASSERT_TRUE(m->sample(Vec2(rng.uniform(), rng.uniform()), &d, &pdf));
+      ASSERT_NEAR(m->pdf(d) / pdf, 1.0f, 2e-3f) << (m == &map ? "rotated" : "sheared");
+    }
   int missed = 0;
   for (int i = 0; i < 200000; ++i) {
     const Vec3 d = sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform()));
@@ -416,6 +423,33 @@ TEST(EnvironmentMap, WorldEditsReuseTheImageAndItsDistribution) {
   EXPECT_EQ(texture_store_size(), images);
   EXPECT_EQ(environment_sampling_cache_size(), samplings);
   EXPECT_FLOAT_EQ(l.map->options().scale.g, 2.0f);
+}
+
+}  // namespace
+}  // namespace gp
+
+namespace gp {
+namespace {
+
+// Not a test: the build time of a 4096 x 2048 map's sampling structure and the memory of an
+// 8192 x 4096 one (docs/benchmarks.md, "Environment maps"). Run with
+// --gtest_also_run_disabled_tests --gtest_filter='*EnvironmentMapCost*'.
+TEST(EnvironmentMap, DISABLED_EnvironmentMapCost) {
+  for (auto [w, h] : {std::pair{4096, 2048}, std::pair{8192, 4096}}) {
+    auto img = sky_image(w, h);
+    for (TextureFilter f : {TextureFilter::Linear, TextureFilter::Closest}) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const EnvironmentMap map(img, [&] {
+        EnvironmentMapOptions o;
+        o.filter = f;
+        return o;
+      }());
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::printf("%d x %d %s: build %.3f s, image %.0f MiB, sampling %.0f MiB\n", w, h,
+                  f == TextureFilter::Linear ? "linear" : "closest", s, img->bytes() / 1048576.0,
+                  map.sampling_bytes() / 1048576.0);
+    }
+  }
 }
 
 }  // namespace
