@@ -45,7 +45,8 @@ struct StatDecl {
 
 // Scene features beyond surfaces and lights, for "method X does not render Y" messages.
 struct SceneFeatures {
-  bool media = false, motion_blur = false, environment_map = false;
+  bool media = false, motion_blur = false;
+  bool environment_map = true;  // an image World: every method samples it (lights/environment_map.h)
 };
 
 // What a method is, in one place: front ends (CLI help, Python, Blender's method menu, panels,

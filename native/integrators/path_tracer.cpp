@@ -68,7 +68,7 @@ struct RgbPath {
   void environment(int depth, const Ray& ray) {
     const int env = lights.environment();
     if (env < 0 || !(depth > 0 || lights.lights()[env].visible_to_camera)) return;
-    const RGB Le = lights.environment_radiance(ray.d);
+    const RGB Le = lights.environment_radiance(ray.d, ray.camera);
     const Light& world = lights.lights()[env];
     L += clamped(depth > 0 && world.lit_by_bsdf_rays_only()
                      ? prev.weigh_world(Le, world.visible_lobes, specular_bounce, beta)

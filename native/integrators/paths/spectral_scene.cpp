@@ -75,4 +75,24 @@ float grey_factor(const RGB& value, const RGB& emit) {
 
 float light_scale(const LightSample& ls, const Light& l) { return grey_factor(ls.L, l.emit); }
 
+RgbSpectrum light_spectrum(const SceneSpectra& spectra, const LightSet& lights, int l, const RGB& value) {
+  if (varies_with_direction(lights, l)) return RgbSpectrum::illuminant_interpolated(value);
+  const RGB& emit = lights.lights()[l].emit;
+  const float m = emit.max_component();
+  if (m <= 0) return spectra.light[l].scaled(0.0f);
+  const int c = emit.r == m ? 0 : (emit.g == m ? 1 : 2);
+  return spectra.light[l].scaled(std::max(0.0f, value[c] / emit[c]));
+}
+
+void SpectraAtWavelengths::emitted(int l, const RGB& value, float* out) const {
+  const LightSet& lights = scene_->light_set();
+  if (varies_with_direction(lights, l)) {
+    const RgbSpectrum s = RgbSpectrum::illuminant_interpolated(value);
+    for (int k = 0; k < count_; ++k) out[k] = s(wl_.lambda[k]);
+    return;
+  }
+  const float grey = grey_factor(value, lights.lights()[l].emit);
+  for (int k = 0; k < count_; ++k) out[k] = grey * light(l)[k];
+}
+
 }  // namespace gp

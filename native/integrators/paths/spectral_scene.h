@@ -72,6 +72,9 @@ class SpectraAtWavelengths {
   }
   // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
   const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
+  // The spectral radiance at each wavelength of the set of the RGB `value` light l sends
+  // (light_spectrum): out[k] for k < count.
+  void emitted(int l, const RGB& value, float* out) const;
 
  private:
   int count_ = 0;
@@ -91,5 +94,16 @@ float light_scale(const LightSample& ls, const Light& l);
 // Factor turning a light's RGB emission (times grey factors: distance, falloff, pdfs) into its
 // spectrum: the grey factor read off the brightest channel of the emission colour `emit`.
 float grey_factor(const RGB& value, const RGB& emit);
+
+// The spectrum of radiance `value` (RGB: the light's emission times grey factors, or what an
+// environment sends along one direction) that light l sends: for a light of one colour, its
+// spectrum (SceneSpectra::light) times the grey factor read off its brightest channel; for an
+// environment whose colour varies with direction (an image, Light Path: Is Camera Ray), `value`
+// itself upsampled as an illuminant, per hit, as textured emission is.
+RgbSpectrum light_spectrum(const SceneSpectra& spectra, const LightSet& lights, int l, const RGB& value);
+// Whether light l is an environment whose colour varies with direction (light_spectrum's case 2).
+inline bool varies_with_direction(const LightSet& lights, int l) {
+  return l == lights.environment() && lights.environment_textured();
+}
 
 }  // namespace gp

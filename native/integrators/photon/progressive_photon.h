@@ -322,7 +322,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     if (!hit) {
       const int env = lights.environment();
       if (depth == 0 && film_transparent_) out.escaped = true;
-      else if (env >= 0 && lights.lights()[env].visible_to(kind)) out.Ld += beta * lights.environment_radiance(ray.d);
+      else if (env >= 0 && lights.lights()[env].visible_to(kind)) out.Ld += beta * lights.environment_radiance(ray.d, ray.camera);
       break;
     }
     out.path_length += hit->t;

@@ -139,17 +139,21 @@ struct SpectralPath {
     add_bounce_emission(spectra.light[l], lights.lights()[l].visible_lobes, specular_bounce ? 0.0f : pdf,
                         grey_factor(Le, lights.lights()[l].emit));
   }
+  // An environment whose colour varies with direction is upsampled per hit (light_spectrum).
   void environment(int depth, const Ray& ray) {
     const int env = lights.environment();
     if (env < 0) return;
     const Light& e = lights.lights()[env];  // the World's Ray Visibility
+    std::optional<RgbSpectrum> varying;
+    if (varies_with_direction(lights, env))
+      varying = light_spectrum(spectra, lights, env, lights.environment_radiance(ray.d, ray.camera));
+    const RgbSpectrum& spec = varying ? *varying : spectra.light[env];
     if (depth == 0) {
-      if (e.visible_to_camera) add_emission(spectra.light[env], 0.0f, true);
+      if (e.visible_to_camera) add_emission(spec, 0.0f, true);
     } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
-      if (e.visible_lobes & prev.lobe)
-        add_emission(spectra.light[env], 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
+      if (e.visible_lobes & prev.lobe) add_emission(spec, 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
     } else {
-      add_bounce_emission(spectra.light[env], e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
+      add_bounce_emission(spec, e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
     }
   }
   void area_light(int depth, const SurfaceHit& hit, const Ray& ray) {
@@ -189,8 +193,10 @@ struct SpectralPath {
     float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
     for (int k = 0; k < C; ++k) denom += r_u[k] * (ls.pdf + (ls.delta ? 0.0f : pdf[k]));
     denom /= C;
-    const float scale = light_scale(ls, lights.lights()[ls.light]);
-    const RgbSpectrum& spec = spectra.light[ls.light];
+    std::optional<RgbSpectrum> varying;
+    if (varies_with_direction(lights, ls.light)) varying = light_spectrum(spectra, lights, ls.light, ls.L);
+    const float scale = varying ? 1.0f : light_scale(ls, lights.lights()[ls.light]);
+    const RgbSpectrum& spec = varying ? *varying : spectra.light[ls.light];
     if (denom > 0)
       for (int j = 0; j < C; ++j) L[j] += beta[j] * f[j] * scale * spec(wl.lambda[j]) / denom;
   }
