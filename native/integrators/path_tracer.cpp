@@ -83,7 +83,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
       break;
     }
     if (hit->light >= 0) {
-      const RGB Le = lights.area_radiance(hit->light, -ray.d);
+      const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p);
       if (!Le.is_black())
         L += clamped(emitted(depth, Le, lights.lights()[hit->light].visible_lobes,
                              depth == 0 ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d)),

@@ -61,6 +61,7 @@ struct SurfacePoint {
   Vec3 p;
   Vec3 ng;  // unit geometric normal (triangle winding)
   Vec2 uv;
+  Vec2 bary;  // barycentric (u, v) in the triangle
   int mesh = -1, prim = -1;
   int material = -1;
 };
@@ -71,6 +72,7 @@ struct SurfaceHit : SurfacePoint {
   Vec3 n_smooth;  // the interpolated normal before normal/bump maps (Cycles' sd->N)
   Frame frame;    // shading frame around ns
   int light = -1; // area light index of this triangle, or -1
+  Vec3 wo;        // unit direction back along the ray that found it (node graphs' Incoming)
 };
 
 // The camera rays of n pixels (their PixelStart: film position and lens sample) and their
@@ -195,7 +197,20 @@ class Scene {
   const Material& material(int i) const { return materials[i]; }
   // The BSDF at a surface point: its material with the textures looked up at its uv. Every
   // integrator shades through these, so the photon and gradient methods see the same textures.
-  Bsdf bsdf(const SurfaceHit& h) const { return bsdf(h.material, h.uv, h.frame, h.ng, h.n_smooth); }
+  Bsdf bsdf(const SurfaceHit& h) const {
+    const Material& m = materials[h.material];
+    if (!m.graph) return bsdf(h.material, h.uv, h.frame, h.ng, h.n_smooth);
+    const shading::ShadingContext ctx = shading_context(h);
+    Bsdf b(m, ctx);
+    if (m.perturbs_normal()) b.set_surface_normals(h.frame.to_local(h.ng), h.frame.to_local(h.n_smooth));
+    return b;
+  }
+  // What a material's node graph sees at a hit (Cycles' ShaderData): position, normals facing
+  // the viewer, uv, tangents, its object (Texture Coordinate's Generated and Object, Object Info).
+  shading::ShadingContext shading_context(const SurfacePoint& h, const Vec3& wo, const Vec3& n_smooth) const;
+  shading::ShadingContext shading_context(const SurfaceHit& h) const { return shading_context(h, h.wo, h.n_smooth); }
+  // Per mesh: its transform, object-space bounds and random number (finalize/commit).
+  const std::vector<shading::ShadingObject>& shading_objects() const { return shading_objects_; }
   Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
   // The BSDF at a surface point kept from a hit (a measurement point): as bsdf(hit).
   Bsdf bsdf(int material, Vec2 uv, const Frame& frame, const Vec3& ng, const Vec3& n_smooth) const {
@@ -220,6 +235,8 @@ class Scene {
 
  private:
   std::unique_ptr<Accelerator> accel_;
+  std::vector<shading::ShadingObject> shading_objects_;
+  void build_shading_objects();
   LightSet light_set_;
   Bounds3 bounds_;
   std::vector<std::vector<int32_t>> triangle_light_;  // per mesh, per triangle: light or -1
