@@ -156,7 +156,8 @@ class ShaderProgram {
 // Reads a register as the type a consumer wants.
 inline float as_float(const Vec3& v, Conversion c) {
   switch (c) {
-    case Conversion::ColorToFloat: return 0.2126f * v.x + 0.7152f * v.y + 0.0722f * v.z;
+    // Cycles 3.4 with Blender's config: the Y row of sRGB/Rec.709 to XYZ (rgb_to_luminance).
+    case Conversion::ColorToFloat: return 0.2126729f * v.x + 0.7151522f * v.y + 0.0721750f * v.z;
     case Conversion::VectorToFloat: return (v.x + v.y + v.z) * (1.0f / 3.0f);
     case Conversion::None: return v.x;
   }

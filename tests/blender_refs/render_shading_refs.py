@@ -71,16 +71,34 @@ def render_case(sc, mats, case):
         em.inputs["Strength"].default_value = 1.0
         tex = nt.nodes.new(case["type"])
         for k, v in case["props"].items():
+            if k == "color_ramp":
+                ramp = tex.color_ramp
+                ramp.interpolation = v["interpolation"]
+                ramp.color_mode = v["color_mode"]
+                ramp.hue_interpolation = v["hue_interpolation"]
+                els = v["elements"]
+                while len(ramp.elements) < len(els):
+                    ramp.elements.new(0.5)
+                for e, d in zip(ramp.elements, els):
+                    e.position = d["position"]
+                for e, d in zip(sorted(ramp.elements, key=lambda e: e.position), els):
+                    e.color = d["color"]
+                continue
             setattr(tex, k, v)
         for k, v in case["inputs"].items():
             sock = next(s for s in tex.inputs if s.identifier == k)
+            if sock.type == 'RGBA' and len(v) == 3:
+                v = list(v) + [1.0]
             sock.default_value = v
         # A texture's unlinked Vector reads the texture coordinates, never its hidden value:
-        # the point comes through a Combine XYZ (which Cycles folds into the constant).
-        xyz = nt.nodes.new("ShaderNodeCombineXYZ")
-        for k in range(3):
-            xyz.inputs[k].default_value = point[k]
-        nt.links.new(xyz.outputs[0], next(s for s in tex.inputs if s.identifier == "Vector"))
+        # the point comes through a Combine XYZ (which Cycles folds into the constant), into
+        # the input named by "vary" (default Vector; converted to a float input as Cycles does).
+        vary = case.get("vary", "Vector")
+        if vary is not None:
+            xyz = nt.nodes.new("ShaderNodeCombineXYZ")
+            for k in range(3):
+                xyz.inputs[k].default_value = point[k]
+            nt.links.new(xyz.outputs[0], next(s for s in tex.inputs if s.identifier == vary))
         src = next(s for s in tex.outputs if s.identifier == case["output"])
         nt.links.new(src, em.inputs["Color"])
         nt.links.new(em.outputs[0], out.inputs["Surface"])

@@ -116,12 +116,13 @@ TEST(ShadingGraph, OnlyNeededNodesAndConstantFolding) {
 }
 
 TEST(ShadingGraph, SocketConversions) {
-  // Colour -> float: Rec.709 luminance; vector -> float: average; float -> colour: grey.
+  // Colour -> float: Rec.709 luminance (Cycles: 0.2126729, 0.7151522, 0.0721750); vector ->
+  // float: average; float -> colour: grey.
   auto lum = compile_output(R"({
     "rgb": {"type": "ShaderNodeCombineRGB", "inputs": {"R": 1.0, "G": 0.5, "B": 0.25}},
     "m": {"type": "ShaderNodeMath", "props": {"operation": "ADD"}, "inputs": {"Value": {"link": "rgb", "output": "Image"}, "Value_001": 0.0}}})",
                             "m", "Value", SocketType::Float);
-  EXPECT_NEAR(lum.f(ShadingContext()), 0.2126f + 0.7152f * 0.5f + 0.0722f * 0.25f, 1e-6);
+  EXPECT_NEAR(lum.f(ShadingContext()), 0.2126729f + 0.7151522f * 0.5f + 0.0721750f * 0.25f, 1e-6);
   auto avg = compile_output(R"({
     "v": {"type": "ShaderNodeCombineXYZ", "inputs": {"X": 1.0, "Y": 0.5, "Z": 0.0}},
     "m": {"type": "ShaderNodeMath", "props": {"operation": "ADD"}, "inputs": {"Value": {"link": "v", "output": "Vector"}, "Value_001": 0.0}}})",
@@ -130,7 +131,7 @@ TEST(ShadingGraph, SocketConversions) {
   // A colour output read by a float consumer (the material input) converts too.
   auto root = compile_output(R"({"rgb": {"type": "ShaderNodeCombineRGB", "inputs": {"R": 1.0, "G": 0.0, "B": 0.0}}})", "rgb",
                              "Image", SocketType::Float);
-  EXPECT_NEAR(root.f(ShadingContext()), 0.2126f, 1e-6);
+  EXPECT_NEAR(root.f(ShadingContext()), 0.2126729f, 1e-6);
 }
 
 TEST(ShadingGraph, WorldContextWithOnlyADirection) {
