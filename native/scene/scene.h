@@ -75,6 +75,18 @@ struct SurfaceHit : SurfacePoint {
   Vec3 wo;        // unit direction back along the ray that found it (node graphs' Incoming)
 };
 
+// Where a measurement point lies, for its material's node graph: the hit's texture coordinate
+// and triangle (position and normals are kept beside it). Integrators that shade a point after
+// its ray is gone keep one (Scene::bsdf); a bare uv converts to one without a triangle.
+struct ShadePoint {
+  Vec2 uv, bary;
+  int mesh = -1, prim = -1;
+  ShadePoint() = default;
+  ShadePoint(Vec2 uv_) : uv(uv_) {}  // NOLINT: uv-only callers
+  explicit ShadePoint(const SurfacePoint& h) : uv(h.uv), bary(h.bary), mesh(h.mesh), prim(h.prim) {}
+  operator Vec2() const { return uv; }  // NOLINT: where only the texture coordinate is read
+};
+
 // The camera rays of n pixels (their PixelStart: film position and lens sample) and their
 // closest hits, traced together (Scene::intersect_coherent): what a tile's paths start from.
 class Scene;
@@ -215,6 +227,24 @@ class Scene {
   // The BSDF at a surface point kept from a hit (a measurement point): as bsdf(hit).
   Bsdf bsdf(int material, Vec2 uv, const Frame& frame, const Vec3& ng, const Vec3& n_smooth) const {
     return bsdf(bsdf_params(materials[material], uv), material, uv, frame, ng, n_smooth);
+  }
+  // The BSDF at a measurement point kept as (material, ShadePoint, p, wo (world, unit), frame,
+  // ng, n_smooth): as bsdf(hit), node graphs seeing the point's position and object.
+  Bsdf bsdf(int material, const ShadePoint& at, const Vec3& p, const Vec3& wo, const Frame& frame, const Vec3& ng,
+            const Vec3& n_smooth) const {
+    const Material& m = materials[material];
+    if (!m.graph) return bsdf(material, at.uv, frame, ng, n_smooth);
+    SurfacePoint sp;
+    sp.p = p;
+    sp.ng = ng;
+    sp.uv = at.uv;
+    sp.bary = at.bary;
+    sp.mesh = at.mesh;
+    sp.prim = at.prim;
+    sp.material = material;
+    Bsdf b(m, shading_context(sp, wo, n_smooth));
+    if (m.perturbs_normal()) b.set_surface_normals(frame.to_local(ng), frame.to_local(n_smooth));
+    return b;
   }
   // A BSDF of parameters made for `material` at a surface point (one wavelength's, in the
   // spectral methods: monochromatic()), with the point's normals where a normal or bump map

@@ -35,6 +35,28 @@ TEST(ShadingScene, CheckerOnAQuadUnderPathTracing) {
   EXPECT_NEAR(image_mean(f).g, 0.5f, 0.02f);
 }
 
+TEST(ShadingScene, PhotonMeasurementPointsSeeThePositionOfTheirHit) {
+  // A checker on Object coordinates (x, y in [-1, 1], scale 0.5: the quadrants are its cells):
+  // a measurement point shaded from its uv alone would see one cell everywhere.
+  const std::string mat = R"({"type": "diffuse", "color": {"link": "c", "output": "Color"},
+    "nodes": {"tc": {"type": "ShaderNodeTexCoord"},
+              "c": {"type": "ShaderNodeTexChecker", "inputs": {"Vector": {"link": "tc", "output": "Object"},
+                    "Color1": [0.8, 0.8, 0.8], "Color2": [0.2, 0.2, 0.2], "Scale": 0.5}}}})";
+  const Scene scene = load_scene_from_string(furnace_scene(mat), ".", "object-checker.json");
+  Params p;
+  p.set("seed", 3);
+  p.set("photons", int64_t(40000));
+  // x < 0 is cell -1 (odd), x > 0 cell 0; likewise y: odd-even pairs are Color1.
+  const float expect[2][2] = {{0.8f, 0.2f}, {0.2f, 0.8f}};  // [qy from the top][qx]
+  // Tolerances as TexturedScene's (pt 0.04, photon windows 0.12); a uniform colour is off by 0.3.
+  for (const auto& [method, tol] : {std::pair{"pt", 0.04f}, {"ppm", 0.12f}, {"sppm", 0.12f}}) {
+    const Film f = render(method, scene, std::string(method) == "pt" ? 16 : 24, p);
+    for (int qy = 0; qy < 2; ++qy)
+      for (int qx = 0; qx < 2; ++qx)
+        EXPECT_NEAR(quadrant_mean(f, qx, qy).g, expect[qy][qx], tol) << method << " quadrant " << qx << "," << qy;
+  }
+}
+
 TEST(ShadingScene, EmissionFromAGraphIsSeenPerPointAndLights) {
   // An emission-only quad whose colour is a checker: the camera sees the squares (radiance per
   // point, not the triangle's average), in black surroundings.
