@@ -66,7 +66,7 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
       const float cos_l = -dot(l.n, s.wi);
       if (!l.two_sided && cos_l <= 0) return std::nullopt;
       if (cos_l == 0) return std::nullopt;
-      s.L = l.emit;
+      s.L = l.emission_graph ? l.emission_graph->at(l, q, -s.wi) : l.emit;
       s.p = q;
       s.n = l.n;
       s.pdf = pmf * d2 / (std::abs(cos_l) * l.area);  // area pdf 1/A to solid angle
@@ -182,6 +182,42 @@ RGB LightSet::area_radiance(int i, const Vec3& w) const {
   return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
 }
 
+RGB LightSet::area_radiance(int i, const Vec3& w, const Vec3& p) const {
+  const Light& l = lights_[i];
+  const float c = dot(l.n, w);
+  if (!(c > 0 || (l.two_sided && c < 0))) return RGB(0.0f);
+  return l.emission_graph ? l.emission_graph->at(l, p, w) : l.emit;
+}
+
+RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo) const {
+  // Barycentrics of p in the light's triangle, for its uv.
+  const Vec3 e1 = l.p1 - l.p0, e2 = l.p2 - l.p0, d = p - l.p0;
+  const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), dp1 = dot(d, e1), dp2 = dot(d, e2);
+  const float det = d11 * d22 - d12 * d12;
+  const float b1 = det != 0 ? (d22 * dp1 - d12 * dp2) / det : 0.0f, b2 = det != 0 ? (d11 * dp2 - d12 * dp1) / det : 0.0f;
+  shading::ShadingContext ctx;
+  ctx.P = p;
+  ctx.uv = uv0 * (1 - b1 - b2) + uv1 * b1 + uv2 * b2;
+  ctx.bary = Vec2(b1, b2);
+  ctx.backfacing = dot(l.n, wo) < 0;
+  ctx.N = ctx.Ng = ctx.backfacing ? -l.n : l.n;
+  ctx.I = wo;
+  ctx.object = object;
+  thread_local std::vector<Vec3> regs;
+  regs.resize(program->num_registers());
+  program->run(ctx, regs.data());
+  RGB e = emission_constant;
+  if (emission_linked) {
+    const Vec3& v = regs[emission.reg];
+    e = RGB(v.x, v.y, v.z);
+  }
+  float s = strength_constant;
+  if (strength_linked) s = shading::as_float(regs[strength.reg], strength.conv);
+  RGB r = e * s;
+  for (int k = 0; k < 3; ++k) r[k] = std::isfinite(r[k]) ? std::max(r[k], 0.0f) : 0.0f;  // NaN/Inf never reach a pass
+  return r;
+}
+
 RGB LightSet::emitted(int i, const Vec3& d) const {
   const Light& l = lights_[i];
   switch (l.type) {
@@ -253,7 +289,7 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
       if (local.z <= 0) return std::nullopt;
       e.d = normalize(Frame(n).to_world(local));
       e.n = n;
-      e.power = l.emit * (kPi * l.area * side_scale / pmf);
+      e.power = (l.emission_graph ? l.emission_graph->at(l, e.o, e.d) : l.emit) * (kPi * l.area * side_scale / pmf);
       emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
       return e;
     }

@@ -12,8 +12,25 @@
 #include "core/math.h"
 #include "core/sampling.h"
 #include "lights/environment_map.h"
+#include "shading/graph.h"
 
 namespace gp {
+
+struct Light;
+// An area light whose radiance its material's node graph gives (an Emission colour or strength
+// linked into `nodes`): evaluated at each point where the light is hit or sampled. Light::emit
+// holds its average over the triangle, which the light's selection and photons use.
+struct EmissionGraph {
+  std::shared_ptr<const shading::ShaderProgram> program;
+  bool emission_linked = false, strength_linked = false;
+  shading::InputSource emission, strength;
+  RGB emission_constant{1.0f};
+  float strength_constant = 1.0f;
+  const shading::ShadingObject* object = nullptr;
+  Vec2 uv0, uv1, uv2;  // the triangle's texture coordinates (barycentrics without a UV map)
+  // Radiance at point p of light l seen along wo (unit, away from the surface).
+  RGB at(const Light& l, const Vec3& p, const Vec3& wo) const;
+};
 
 enum class LightType { Area, Point, Spot, Directional, Environment };
 
@@ -40,6 +57,7 @@ struct Light {
   float area = 0.0f;
   bool two_sided = false;
   int mesh = -1, prim = -1;      // the emissive triangle this light is
+  std::shared_ptr<const EmissionGraph> emission_graph;  // area lights of graph-driven emission
   // Line emission spectrum (spectral modes); empty = the smooth spectrum of emit. emit is then
   // the lines' (clipped) RGB times the luminance.
   std::vector<SpectralLine> lines;
@@ -136,6 +154,8 @@ class LightSet {
   int intersect_disk(const Ray& ray, float tmax, float* t, RGB* L, float* pdf) const;
   // Radiance leaving area light `light` towards direction w (away from the light).
   RGB area_radiance(int light, const Vec3& w) const;
+  // The same at point p of the light (a graph-driven emission varies over the surface).
+  RGB area_radiance(int light, const Vec3& w, const Vec3& p) const;
   // Directional emission of a finite light along unit d, the factor sample_le's photon power is
   // proportional to: area lights radiance |cos| (per unit area), point and spot lights their
   // intensity (spot falloff included); 0 for distant lights. GPM's light-subpath shift

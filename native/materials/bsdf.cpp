@@ -741,13 +741,18 @@ MaterialType Bsdf::kind() const {
 
 Bsdf Bsdf::component(const Material* m) const {
   // Seen at the mix's wavelength when spectral: its colour upsampled at this point.
-  Bsdf b(p_.lambda > 0 ? SpectralSurface(*m, uv_, nullptr).at(p_.lambda) : bsdf_params(*m, uv_), uv_);
+  Bsdf b(p_.lambda > 0 ? SpectralSurface(*m, ctx_, nullptr).at(p_.lambda) : bsdf_params(*m, ctx_), ctx_);
   b.ng_ = ng_;
   b.p_.smooth_normal = p_.smooth_normal;
   return b;
 }
 
-BsdfParams bsdf_params(const Material& m, Vec2 uv) {
+namespace {
+float finite_or(float v, float fallback) { return std::isfinite(v) ? v : fallback; }
+}  // namespace
+
+BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
+  const Vec2 uv = ctx.uv;
   BsdfParams p;
   p.type = m.type;
   p.color = m.color_tex ? m.color_tex.rgb(uv) : m.color;
@@ -760,6 +765,21 @@ BsdfParams bsdf_params(const Material& m, Vec2 uv) {
   p.mix_add = m.mix_add;
   p.mix_a = m.mix_a.get();
   p.mix_b = m.mix_b.get();
+  if (m.graph) {
+    // One run of the material's node graph gives every linked input (Cycles' SVM per shader).
+    thread_local std::vector<Vec3> regs;
+    regs.resize(m.graph->num_registers());
+    m.graph->run(ctx, regs.data());
+    auto value = [&](const GraphInput& g) { return shading::as_float(regs[g.source.reg], g.source.conv); };
+    if (m.color_in) {
+      const Vec3& c = regs[m.color_in.source.reg];
+      p.color = RGB(std::max(finite_or(c.x, 0.0f), 0.0f), std::max(finite_or(c.y, 0.0f), 0.0f),
+                    std::max(finite_or(c.z, 0.0f), 0.0f));
+    }
+    if (m.roughness_in) p.roughness = clamp(finite_or(value(m.roughness_in), 0.0f), 0.0f, 1.0f);
+    if (m.factor_in) p.mix_factor = clamp(finite_or(value(m.factor_in), 0.0f), 0.0f, 1.0f);
+    if (m.ior_in) p.ior = std::max(finite_or(value(m.ior_in), 1.0f), 1e-3f);
+  }
   return p;
 }
 
@@ -834,7 +854,7 @@ namespace {
 // (kernel/closure/alloc.h: sample_weight = |average(weight)|), a Mix's scaled by its factor
 // and summed. RGB at every wavelength, as Cycles'. Principled and plastic count their colour
 // once (Cycles splits them into closures weighted by Fresnel: not modelled).
-float closure_weight(const Material& m, Vec2 uv) {
+float closure_weight(const Material& m, const shading::ShadingContext& uv) {
   const BsdfParams p = bsdf_params(m, uv);
   if (p.type == MaterialType::Emission) return 0.0f;
   if (p.type != MaterialType::Mix || !p.mix_a || !p.mix_b) return std::abs(p.color.average());
@@ -846,7 +866,7 @@ float closure_weight(const Material& m, Vec2 uv) {
 float Bsdf::closure_pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
   if (kind() != MaterialType::Mix) return pdf(wo, wi, lobes);
   const MixParts p = mix_parts(p_);
-  const float wa = p.scale_a * closure_weight(*p_.mix_a, uv_), wb = p.scale_b * closure_weight(*p_.mix_b, uv_);
+  const float wa = p.scale_a * closure_weight(*p_.mix_a, ctx_), wb = p.scale_b * closure_weight(*p_.mix_b, ctx_);
   if (!(wa + wb > 0)) return pdf(wo, wi, lobes);
   float sum = 0;
   if (wa > 0) sum += wa * component(p_.mix_a).closure_pdf(wo, wi, lobes);

@@ -54,18 +54,24 @@ struct BsdfParams {
   float lambda = 0.0f;
 };
 
-// The parameters of `m` at texture coordinate uv.
-BsdfParams bsdf_params(const Material& m, Vec2 uv);
+// The parameters of `m` at a shading point: its constants, the legacy image textures at the
+// point's uv, and the inputs linked into its node graph evaluated there (one run of the graph).
+BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx);
+// The same where only a texture coordinate is known (graphs see no position: tables, tests).
+inline BsdfParams bsdf_params(const Material& m, Vec2 uv) { return bsdf_params(m, shading::ShadingContext::at_uv(uv)); }
 
 class Bsdf {
  public:
   // The BSDF of material m at surface texture coordinate uv (SurfaceHit::uv).
-  Bsdf(const Material& m, Vec2 uv) : p_(bsdf_params(m, uv)), uv_(uv) {}
+  Bsdf(const Material& m, Vec2 uv) : Bsdf(m, shading::ShadingContext::at_uv(uv)) {}
+  // The BSDF of material m at a shading point (Scene::bsdf builds it from a hit).
+  Bsdf(const Material& m, const shading::ShadingContext& ctx) : p_(bsdf_params(m, ctx)), ctx_(ctx) {}
   // An untextured material's BSDF (tests, tables): its textures, if any, are read at uv (0, 0).
   explicit Bsdf(const Material& m) : Bsdf(m, Vec2()) {}
   // A BSDF of parameters already looked up (the spectral integrators' per-wavelength ones);
   // uv is where a mix's components look up their textures.
-  explicit Bsdf(const BsdfParams& p, Vec2 uv = Vec2()) : p_(p), uv_(uv) {}
+  explicit Bsdf(const BsdfParams& p, Vec2 uv = Vec2()) : p_(p), ctx_(shading::ShadingContext::at_uv(uv)) {}
+  Bsdf(const BsdfParams& p, const shading::ShadingContext& ctx) : p_(p), ctx_(ctx) {}
 
   // `lobes` (kRay* bits) restricts both to the lobes of those kinds: what a light visible to
   // only some kinds of bounce ray lights by next-event estimation, and the density with which
@@ -106,7 +112,7 @@ class Bsdf {
   MaterialType kind() const;
   Bsdf component(const Material* m) const;  // a mix's part, with the surface's normals
   BsdfParams p_;
-  Vec2 uv_;
+  shading::ShadingContext ctx_;  // where a mix's components read their inputs
   Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)
   bool wrong_side(const Vec3& wo, const Vec3& wi) const {
     if (ng_.x == 0 && ng_.y == 0 && ng_.z == 0) return false;

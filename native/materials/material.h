@@ -11,9 +11,19 @@
 
 #include "core/color.h"
 #include "core/spectrum.h"
+#include "shading/graph.h"
 #include "textures/texture.h"
 
 namespace gp {
+
+// A material input driven by the material's node graph (docs/scene-format.md "Node graphs"):
+// where its compiled program leaves the value, read as the input's type. Unlinked: the
+// constant (or the legacy TextureRef) holds.
+struct GraphInput {
+  bool linked = false;
+  shading::InputSource source;
+  explicit operator bool() const { return linked; }
+};
 
 // Translucent: Cycles' Translucent BSDF (Lambertian transmission); Velvet: Cycles' Velvet BSDF
 // (Ashikhmin's velvet, sigma in `roughness`). Blender's Transparent BSDF is a Dielectric of IOR 1
@@ -104,10 +114,20 @@ struct Material {
   TextureRef bump_tex;
   float bump_strength = 1.0f, bump_distance = 1.0f;
 
-  bool has_bsdf_textures() const { return color_tex || roughness_tex || factor_tex || (mix_a && mix_a->has_bsdf_textures()) || (mix_b && mix_b->has_bsdf_textures()); }
-  bool perturbs_normal() const { return normal_tex || bump_tex; }
-  bool has_coverage() const { return alpha < 1.0f || alpha_tex; }
+  // ---- Node graph (shading/graph.h): the program compiled from the material's `nodes`, and
+  // the inputs linked into it (read per shading point by bsdf_params and the scene) ----
+  std::shared_ptr<const shading::ShaderProgram> graph;
+  GraphInput color_in, roughness_in, factor_in, ior_in, alpha_in, normal_in, emission_in, strength_in;
 
+  bool has_bsdf_textures() const {
+    return color_tex || roughness_tex || factor_tex || color_in || roughness_in || factor_in || ior_in ||
+           (mix_a && mix_a->has_bsdf_textures()) || (mix_b && mix_b->has_bsdf_textures());
+  }
+  bool perturbs_normal() const { return normal_tex || bump_tex || normal_in; }
+  bool has_coverage() const { return alpha < 1.0f || alpha_tex || alpha_in; }
+  bool emission_from_graph() const { return emission_in || strength_in; }
+
+  // The constant emission (a graph-driven one: its average over the surface, set by the scene).
   RGB radiance() const { return emission * emission_strength; }
   // A surface light passes straight through unchanged: a clear dielectric of IOR 1 (how a
   // Blender light object is exported, as Cycles' lights are not geometry).

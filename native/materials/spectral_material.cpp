@@ -2,9 +2,9 @@
 
 namespace gp {
 
-SpectralSurface::SpectralSurface(const Material& m, Vec2 uv, const RgbSpectrum* constant)
-    : m_(m), rgb_(bsdf_params(m, uv)) {
-  if (constant && !m.color_tex) color_ = constant;
+SpectralSurface::SpectralSurface(const Material& m, const shading::ShadingContext& ctx, const RgbSpectrum* constant)
+    : m_(m), rgb_(bsdf_params(m, ctx)) {
+  if (constant && !m.color_tex && !m.color_in) color_ = constant;
   else upsampled_ = RgbSpectrum::reflectance_interpolated(rgb_.color);
 }
 

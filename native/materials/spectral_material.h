@@ -28,7 +28,9 @@ class SpectralSurface {
  public:
   // `constant`: the spectrum of m's constant colour (used unless a texture drives the colour);
   // null: upsample that colour here too (a mix's component).
-  SpectralSurface(const Material& m, Vec2 uv, const RgbSpectrum* constant);
+  SpectralSurface(const Material& m, Vec2 uv, const RgbSpectrum* constant)
+      : SpectralSurface(m, shading::ShadingContext::at_uv(uv), constant) {}
+  SpectralSurface(const Material& m, const shading::ShadingContext& ctx, const RgbSpectrum* constant);
   SpectralSurface(const SpectralSurface&) = delete;  // color_ may point into itself
   SpectralSurface& operator=(const SpectralSurface&) = delete;
   // m's parameters at wavelength lambda (nm).

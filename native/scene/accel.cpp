@@ -39,6 +39,9 @@ struct TriangleVisibility {
   std::vector<Vec2> uvs;
   std::vector<float> alpha;          // per material id
   std::vector<TextureRef> alpha_tex;  // per material id
+  // An Alpha linked into the material's node graph: evaluated at the hit (uv and position).
+  std::vector<std::shared_ptr<const shading::ShaderProgram>> alpha_graph;
+  std::vector<shading::InputSource> alpha_source;
 };
 constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2, kPartial = 4;
 // Hidden from bounce rays of a kind: the Ray::bounce bit shifted past the flags above.
@@ -102,6 +105,18 @@ bool covered(const TriangleVisibility& vis, const RTCFilterFunctionNArguments* a
     const uint32_t* t = &vis.indices[3 * prim];
     const Vec2 uv = vis.uvs.empty() ? Vec2(b1, b2) : vis.uvs[t[0]] * (1 - b1 - b2) + vis.uvs[t[1]] * b1 + vis.uvs[t[2]] * b2;
     alpha = tex.value(uv);
+  } else if (const auto& graph = vis.alpha_graph[mat]) {
+    const float b1 = RTCHitN_u(args->hit, args->N, i), b2 = RTCHitN_v(args->hit, args->N, i);
+    const uint32_t* t = &vis.indices[3 * prim];
+    RTCRayN* r = args->ray;
+    shading::ShadingContext ctx = shading::ShadingContext::at_uv(
+        vis.uvs.empty() ? Vec2(b1, b2) : vis.uvs[t[0]] * (1 - b1 - b2) + vis.uvs[t[1]] * b1 + vis.uvs[t[2]] * b2);
+    const float tf = RTCRayN_tfar(r, args->N, i);
+    ctx.P = Vec3(RTCRayN_org_x(r, args->N, i), RTCRayN_org_y(r, args->N, i), RTCRayN_org_z(r, args->N, i)) +
+            Vec3(RTCRayN_dir_x(r, args->N, i), RTCRayN_dir_y(r, args->N, i), RTCRayN_dir_z(r, args->N, i)) * tf;
+    ctx.bary = Vec2(b1, b2);
+    alpha = graph->evaluate(ctx, vis.alpha_source[mat]).x;
+    if (!std::isfinite(alpha)) alpha = 1.0f;
   }
   if (alpha >= 1.0f) return true;
   if (!(alpha > 0.0f)) return false;
@@ -172,6 +187,8 @@ RTCGeometry make_geometry(RTCDevice device, const std::vector<Vec3>& positions, 
       for (const Material& mat : *materials) {
         vis->alpha.push_back(mat.alpha);
         vis->alpha_tex.push_back(mat.alpha_tex);
+        vis->alpha_graph.push_back(mat.alpha_in ? mat.graph : nullptr);
+        vis->alpha_source.push_back(mat.alpha_in.source);
       }
     }
     if (any) {

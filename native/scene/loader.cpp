@@ -26,6 +26,7 @@
 #include <unordered_map>
 
 #include "core/memory.h"
+#include "shading/graph.h"
 #include "scene/json_reader.h"
 #include "scene/obj_mesh.h"
 #include "scene/shapes.h"
@@ -77,7 +78,7 @@ class Loader : private JsonReader {
       std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum",
                                             "visible_to_camera", "casts_shadow", "visible_to_diffuse",
                                             "visible_to_glossy", "visible_to_transmission", "alpha", "normal_map",
-                                            "bump"};
+                                            "bump", "nodes", "normal"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
         keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
@@ -124,7 +125,7 @@ class Loader : private JsonReader {
         // Components are names of other materials, resolved once all are read.
         mix_refs_.push_back({scene_.materials.size(), get_string(need(m, "a", mpath), sub(mpath, "a")),
                              get_string(need(m, "b", mpath), sub(mpath, "b")), mpath});
-        if (const json* f = find(m, "factor")) {
+        if (const json* f = find(m, "factor"); f && !shading::is_link(*f)) {
           if (is_texture(*f)) mat.factor_tex = load_texture_ref(*f, sub(mpath, "factor"), false, {}, &mat.mix_factor);
           else mat.mix_factor = get_in_range(*f, sub(mpath, "factor"), 0.0f, 1.0f);
         }
@@ -137,16 +138,18 @@ class Loader : private JsonReader {
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
           scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(mpath, k.key())));
       // Textured inputs keep their texture's mean in the constant (spectral modes, mix fallbacks).
-      if (const json* c = find(m, "color")) {
+      // ---- Inputs linked into the material's node graph (docs/scene-format.md "Node graphs") ----
+      load_graph_inputs(m, mpath, mat);
+      if (const json* c = find(m, "color"); c && !shading::is_link(*c)) {
         if (is_texture(*c)) mat.color_tex = load_texture_ref(*c, sub(mpath, "color"), true, {}, nullptr, &mat.color);
         else mat.color = get_color(*c, sub(mpath, "color"));
       }
-      if (const json* r = find(m, "roughness")) {
+      if (const json* r = find(m, "roughness"); r && !shading::is_link(*r)) {
         if (is_texture(*r)) mat.roughness_tex = load_texture_ref(*r, sub(mpath, "roughness"), false, {}, &mat.roughness);
         else mat.roughness = get_in_range(*r, sub(mpath, "roughness"), 0.0f, 1.0f);
         mat.roughness = std::min(mat.roughness, 1.0f);
       }
-      if (const json* a = find(m, "alpha")) {
+      if (const json* a = find(m, "alpha"); a && !shading::is_link(*a)) {
         if (is_texture(*a)) mat.alpha_tex = load_texture_ref(*a, sub(mpath, "alpha"), false, {});
         else mat.alpha = get_in_range(*a, sub(mpath, "alpha"), 0.0f, 1.0f);
       }
@@ -161,7 +164,7 @@ class Loader : private JsonReader {
         if (const json* s = find(*b, "strength")) mat.bump_strength = get_nonnegative(*s, sub(bpath, "strength"));
         if (const json* d = find(*b, "distance")) mat.bump_distance = get_float(*d, sub(bpath, "distance"));
       }
-      if (const json* n = find(m, "ior")) mat.ior = get_positive(*n, sub(mpath, "ior"));
+      if (const json* n = find(m, "ior"); n && !shading::is_link(*n)) mat.ior = get_positive(*n, sub(mpath, "ior"));
       if (find(m, "cauchy_b") && find(m, "abbe")) fail(mpath, "give either 'cauchy_b' or 'abbe', not both");
       if (const json* b = find(m, "cauchy_b")) mat.cauchy_b = get_nonnegative(*b, sub(mpath, "cauchy_b"));
       if (const json* v = find(m, "abbe")) {
@@ -179,14 +182,15 @@ class Loader : private JsonReader {
         mat.roughness_tex = TextureRef();
         mat.cauchy_b = 0.0f;
       }
-      if (const json* e = find(m, "emission")) mat.emission = get_color(*e, sub(mpath, "emission"));
+      if (const json* e = find(m, "emission"); e && !shading::is_link(*e)) mat.emission = get_color(*e, sub(mpath, "emission"));
       mat.emission_strength = 1.0f;
-      if (const json* s = find(m, "strength")) mat.emission_strength = get_nonnegative(*s, sub(mpath, "strength"));
+      if (const json* s = find(m, "strength"); s && !shading::is_link(*s)) mat.emission_strength = get_nonnegative(*s, sub(mpath, "strength"));
       if (const json* t = find(m, "two_sided")) mat.two_sided = get_bool(*t, sub(mpath, "two_sided"));
       if (const json* v = find(m, "visible_to_camera")) mat.visible_to_camera = get_bool(*v, sub(mpath, "visible_to_camera"));
       if (const json* v = find(m, "casts_shadow")) mat.casts_shadow = get_bool(*v, sub(mpath, "casts_shadow"));
       mat.visible_lobes = load_visible_lobes(m, mpath);
       if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
+      if (mat.emission_in && !find(m, "strength")) mat.emission_strength = 1.0f;
       if (const json* sp = find(m, "spectrum")) {
         if (find(m, "emission")) fail(mpath, "give either 'emission' (a colour) or 'spectrum', not both");
         load_spectrum(*sp, sub(mpath, "spectrum"), mat.emission_lines, mat.emission_fwhm);
@@ -200,6 +204,59 @@ class Loader : private JsonReader {
     // cycle is an error).
     std::vector<int> state(scene_.materials.size(), 0);  // 0 unresolved, 1 resolving, 2 done
     for (const MixRef& r : mix_refs_) resolve_mix(r, state);
+  }
+
+  // The material's `nodes` table compiled for the inputs that link into it. A link without a
+  // table, or a malformed table, fails naming the file, the material and the node.
+  void load_graph_inputs(const json& m, const std::string& mpath, Material& mat) {
+    using shading::SocketType;
+    struct Want {
+      const char* key;
+      SocketType type;
+      GraphInput* input;
+    };
+    const Want wants[] = {{"color", SocketType::Color, &mat.color_in},       {"roughness", SocketType::Float, &mat.roughness_in},
+                          {"factor", SocketType::Float, &mat.factor_in},     {"ior", SocketType::Float, &mat.ior_in},
+                          {"alpha", SocketType::Float, &mat.alpha_in},       {"normal", SocketType::Vector, &mat.normal_in},
+                          {"emission", SocketType::Color, &mat.emission_in}, {"strength", SocketType::Float, &mat.strength_in}};
+    const json* nodes = find(m, "nodes");
+    bool any = false;
+    for (const Want& w : wants)
+      if (const json* j = find(m, w.key); j && shading::is_link(*j)) any = true;
+    if (const json* n = find(m, "normal"); n && !shading::is_link(*n))
+      fail(sub(mpath, "normal"), "expected a link into 'nodes' (a Normal Map or Bump output)");
+    if (!any) {
+      if (nodes) require_object(*nodes, sub(mpath, "nodes"));
+      return;
+    }
+    if (!nodes) fail(mpath, "an input links into the node graph but the material has no 'nodes'");
+    try {
+      shading::GraphCompiler g(mat.name, *nodes, [this](const std::string& file, const std::string& colorspace,
+                                                         std::string* warning) {
+        std::filesystem::path f = file;
+        if (f.is_relative() && !base_dir_.empty()) f = std::filesystem::path(base_dir_) / f;
+        TextureLoad loaded = load_texture(f.string(), colorspace);
+        *warning = loaded.warning;
+        return loaded.image;
+      });
+      std::vector<std::pair<int, GraphInput*>> roots;
+      for (const Want& w : wants)
+        if (const json* j = find(m, w.key); j && shading::is_link(*j)) {
+          try {
+            roots.push_back({g.link(*j, w.type), w.input});
+          } catch (const shading::GraphError& e) {
+            fail(sub(mpath, w.key), e.what());
+          }
+        }
+      mat.graph = g.compile();
+      for (auto& [root, input] : roots) {
+        input->linked = true;
+        input->source = g.source(root);
+      }
+      for (const std::string& w : g.warnings()) scene_.warnings.add("node graph approximated", fmt::format("{}: {}", file_, w));
+    } catch (const shading::GraphError& e) {
+      fail(sub(mpath, "nodes"), e.what());
+    }
   }
 
   // A conductor's "fresnel": true (Schlick, the default), false (none: Blender's Glossy BSDF) or

@@ -11,6 +11,7 @@
 
 #include "scene/accel.h"
 #include "scene/shapes.h"
+#include "shading/hash.h"
 #include "textures/normal_mapping.h"
 
 namespace gp {
@@ -63,7 +64,71 @@ void Scene::finalize() {
   moved_meshes_.clear();
 }
 
+namespace {
+// The inverse of an affine transform (3x3 part by its adjugate; identity where singular).
+Transform invert_affine(const Transform& t) {
+  const auto& m = t.m;
+  const float det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                    m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  Transform r;
+  if (!(std::abs(det) > 0) || !std::isfinite(det)) return r;
+  const float id = 1.0f / det;
+  r.m[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) * id;
+  r.m[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) * id;
+  r.m[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) * id;
+  r.m[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) * id;
+  r.m[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) * id;
+  r.m[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * id;
+  r.m[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) * id;
+  r.m[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) * id;
+  r.m[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * id;
+  for (int i = 0; i < 3; ++i) r.m[i][3] = -(r.m[i][0] * m[0][3] + r.m[i][1] * m[1][3] + r.m[i][2] * m[2][3]);
+  return r;
+}
+}  // namespace
+
+void Scene::build_shading_objects() {
+  shading_objects_.assign(meshes.size(), {});
+  for (size_t mi = 0; mi < meshes.size(); ++mi) {
+    const Mesh& m = meshes[mi];
+    shading::ShadingObject& o = shading_objects_[mi];
+    o.to_world = m.to_world;
+    o.to_object = invert_affine(m.to_world);
+    // Object-space bounds (Blender's auto texture space of Generated coordinates).
+    if (m.source) {
+      for (const Vec3& p : m.source->positions) o.bounds.extend(p);
+    } else {
+      for (const Vec3& p : m.positions) o.bounds.extend(o.to_object.point(p));
+    }
+    // Object Info's Random: Cycles hashes the object's name (hash_uint2(BLI_hash_string(name), 0)).
+    o.random = shading::uint_to_float_incl(shading::hash_uint2(shading::hash_string_x31(m.name.c_str()), 0u));
+  }
+}
+
+shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3& wo, const Vec3& n_smooth) const {
+  shading::ShadingContext c;
+  c.P = h.p;
+  c.I = wo;
+  c.uv = h.uv;
+  c.bary = h.bary;
+  // Cycles' ShaderData: normals face the incoming ray, `backfacing` says whether they were flipped.
+  c.backfacing = dot(h.ng, wo) < 0;
+  c.Ng = c.backfacing ? -h.ng : h.ng;
+  c.N = dot(n_smooth, c.Ng) < 0 ? -n_smooth : n_smooth;
+  if (h.mesh >= 0) {
+    const Mesh& m = meshes[h.mesh];
+    const uint32_t i0 = m.indices[3 * h.prim], i1 = m.indices[3 * h.prim + 1], i2 = m.indices[3 * h.prim + 2];
+    const bool has_uvs = !m.uvs.empty();
+    if (!triangle_dpduv(m.positions[i0], m.positions[i1], m.positions[i2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
+                        has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &c.dPdu, &c.dPdv))
+      c.dPdu = c.dPdv = Vec3(0.0f);
+    if (static_cast<size_t>(h.mesh) < shading_objects_.size()) c.object = &shading_objects_[h.mesh];
+  }
+  return c;
+}
+
 void Scene::build_lights() {
+  build_shading_objects();
   bounds_ = Bounds3();
   std::vector<Light> all_lights = lights;
   triangle_light_.assign(meshes.size(), {});
@@ -103,11 +168,38 @@ void Scene::build_lights() {
         continue;
       }
       const Material& mtl = materials[mat];
-      if (mtl.is_emissive()) {
+      if (mtl.is_emissive() || mtl.emission_from_graph()) {
         Light l;
         l.type = LightType::Area;
         l.name = fmt::format("{}#{}", m.name, t);
         l.emit = mtl.radiance();
+        if (mtl.emission_from_graph()) {
+          // Radiance from the node graph per point (EmissionGraph); emit: its average over the
+          // triangle at 7 points, for light selection and as the light's power.
+          auto g = std::make_shared<EmissionGraph>();
+          g->program = mtl.graph;
+          g->emission_linked = static_cast<bool>(mtl.emission_in);
+          g->strength_linked = static_cast<bool>(mtl.strength_in);
+          g->emission = mtl.emission_in.source;
+          g->strength = mtl.strength_in.source;
+          g->emission_constant = mtl.emission;
+          g->strength_constant = mtl.emission_strength;
+          g->object = &shading_objects_[mi];
+          const uint32_t* tri = &m.indices[3 * t];
+          const bool has_uvs = !m.uvs.empty();
+          g->uv0 = has_uvs ? m.uvs[tri[0]] : Vec2(0, 0);
+          g->uv1 = has_uvs ? m.uvs[tri[1]] : Vec2(1, 0);
+          g->uv2 = has_uvs ? m.uvs[tri[2]] : Vec2(0, 1);
+          l.p0 = a; l.p1 = b; l.p2 = c;
+          l.n = nc / (2.0f * area);
+          static const float kB[7][2] = {{1 / 3.f, 1 / 3.f}, {2 / 3.f, 1 / 6.f}, {1 / 6.f, 2 / 3.f}, {1 / 6.f, 1 / 6.f},
+                                         {0.5f, 0.5f}, {0.5f, 0.0f}, {0.0f, 0.5f}};
+          RGB sum(0.0f);
+          for (const auto& bb : kB) sum += g->at(l, a * (1 - bb[0] - bb[1]) + b * bb[0] + c * bb[1], l.n);
+          l.emit = sum / 7.0f;
+          l.emission_graph = std::move(g);
+          if (l.emit.is_black()) l.emit = RGB(1e-6f);  // still sampled: the average can miss a pattern
+        }
         l.p0 = a; l.p1 = b; l.p2 = c;
         l.n = nc / (2.0f * area);
         l.area = area;
@@ -294,6 +386,7 @@ void Scene::surface_point(const RawHit& raw, SurfacePoint& h) const {
   h.ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
   if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
   else h.uv = Vec2(b1, b2);
+  h.bary = Vec2(b1, b2);
   h.material = static_cast<int>(m.material_ids[raw.prim]);
   h.mesh = raw.geom;
   h.prim = raw.prim;
@@ -323,6 +416,7 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
     if (dot(h.ns, h.ng) < 0) h.ns = -h.ns;  // shading normal on the geometric side
   }
   h.n_smooth = h.ns;
+  h.wo = -ray_dir;
   if (const Material& mat = materials[h.material]; mat.perturbs_normal()) {
     // ---- Normal and bump maps: the shading normal of every method ----
     Vec3 dpdu, dpdv;
@@ -332,6 +426,12 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
       Vec3 n = h.ns;
       if (mat.normal_tex) n = normal_mapped(mat.normal_tex, mat.normal_strength, h.uv, n, dpdu, dpdv);
       if (mat.bump_tex) n = bump_mapped(mat.bump_tex, mat.bump_strength, mat.bump_distance, h.uv, n, dpdu, dpdv);
+      if (mat.normal_in) {
+        // A Normal Map or Bump node's output from the material's graph (world space, facing
+        // the viewer as Cycles' normals do; back on the geometric side below).
+        const Vec3 g = mat.graph->evaluate(shading_context(h, h.wo, h.n_smooth), mat.normal_in.source);
+        if (is_finite(g) && length_squared(g) > 0) n = normalize(g);
+      }
       if (dot(n, h.ng) < 0) n = -n;  // stays on the geometric side
       h.ns = valid_reflection_normal(h.ng, -ray_dir, n);
     }

@@ -61,6 +61,7 @@ struct SurfacePoint {
   Vec3 p;
   Vec3 ng;  // unit geometric normal (triangle winding)
   Vec2 uv;
+  Vec2 bary;  // barycentric (u, v) in the triangle
   int mesh = -1, prim = -1;
   int material = -1;
 };
@@ -71,6 +72,19 @@ struct SurfaceHit : SurfacePoint {
   Vec3 n_smooth;  // the interpolated normal before normal/bump maps (Cycles' sd->N)
   Frame frame;    // shading frame around ns
   int light = -1; // area light index of this triangle, or -1
+  Vec3 wo;        // unit direction back along the ray that found it (node graphs' Incoming)
+};
+
+// Where a measurement point lies, for its material's node graph: the hit's texture coordinate
+// and triangle (position and normals are kept beside it). Integrators that shade a point after
+// its ray is gone keep one (Scene::bsdf); a bare uv converts to one without a triangle.
+struct ShadePoint {
+  Vec2 uv, bary;
+  int mesh = -1, prim = -1;
+  ShadePoint() = default;
+  ShadePoint(Vec2 uv_) : uv(uv_) {}  // NOLINT: uv-only callers
+  explicit ShadePoint(const SurfacePoint& h) : uv(h.uv), bary(h.bary), mesh(h.mesh), prim(h.prim) {}
+  operator Vec2() const { return uv; }  // NOLINT: where only the texture coordinate is read
 };
 
 // The camera rays of n pixels (their PixelStart: film position and lens sample) and their
@@ -195,11 +209,42 @@ class Scene {
   const Material& material(int i) const { return materials[i]; }
   // The BSDF at a surface point: its material with the textures looked up at its uv. Every
   // integrator shades through these, so the photon and gradient methods see the same textures.
-  Bsdf bsdf(const SurfaceHit& h) const { return bsdf(h.material, h.uv, h.frame, h.ng, h.n_smooth); }
+  Bsdf bsdf(const SurfaceHit& h) const {
+    const Material& m = materials[h.material];
+    if (!m.graph) return bsdf(h.material, h.uv, h.frame, h.ng, h.n_smooth);
+    const shading::ShadingContext ctx = shading_context(h);
+    Bsdf b(m, ctx);
+    if (m.perturbs_normal()) b.set_surface_normals(h.frame.to_local(h.ng), h.frame.to_local(h.n_smooth));
+    return b;
+  }
+  // What a material's node graph sees at a hit (Cycles' ShaderData): position, normals facing
+  // the viewer, uv, tangents, its object (Texture Coordinate's Generated and Object, Object Info).
+  shading::ShadingContext shading_context(const SurfacePoint& h, const Vec3& wo, const Vec3& n_smooth) const;
+  shading::ShadingContext shading_context(const SurfaceHit& h) const { return shading_context(h, h.wo, h.n_smooth); }
+  // Per mesh: its transform, object-space bounds and random number (finalize/commit).
+  const std::vector<shading::ShadingObject>& shading_objects() const { return shading_objects_; }
   Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
   // The BSDF at a surface point kept from a hit (a measurement point): as bsdf(hit).
   Bsdf bsdf(int material, Vec2 uv, const Frame& frame, const Vec3& ng, const Vec3& n_smooth) const {
     return bsdf(bsdf_params(materials[material], uv), material, uv, frame, ng, n_smooth);
+  }
+  // The BSDF at a measurement point kept as (material, ShadePoint, p, wo (world, unit), frame,
+  // ng, n_smooth): as bsdf(hit), node graphs seeing the point's position and object.
+  Bsdf bsdf(int material, const ShadePoint& at, const Vec3& p, const Vec3& wo, const Frame& frame, const Vec3& ng,
+            const Vec3& n_smooth) const {
+    const Material& m = materials[material];
+    if (!m.graph) return bsdf(material, at.uv, frame, ng, n_smooth);
+    SurfacePoint sp;
+    sp.p = p;
+    sp.ng = ng;
+    sp.uv = at.uv;
+    sp.bary = at.bary;
+    sp.mesh = at.mesh;
+    sp.prim = at.prim;
+    sp.material = material;
+    Bsdf b(m, shading_context(sp, wo, n_smooth));
+    if (m.perturbs_normal()) b.set_surface_normals(frame.to_local(ng), frame.to_local(n_smooth));
+    return b;
   }
   // A BSDF of parameters made for `material` at a surface point (one wavelength's, in the
   // spectral methods: monochromatic()), with the point's normals where a normal or bump map
@@ -220,6 +265,8 @@ class Scene {
 
  private:
   std::unique_ptr<Accelerator> accel_;
+  std::vector<shading::ShadingObject> shading_objects_;
+  void build_shading_objects();
   LightSet light_set_;
   Bounds3 bounds_;
   std::vector<std::vector<int32_t>> triangle_light_;  // per mesh, per triangle: light or -1

@@ -675,7 +675,8 @@ void Gpm::iterate(ProgressSink* sink) {
       for (RGB& g : gather_diff_[i]) g = RGB(0.0f);
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);  // as Scene::bsdf(hit)
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.p, vp.frame.to_world(vp.wo), vp.frame, vp.ng,
+                                    vp.n_smooth);  // as Scene::bsdf(hit)
       const float R_primal = static_cast<float>(std::sqrt(px_[i].r2));
       const float R = static_cast<float>(std::sqrt(grad_[i].r2));  // the gradients' radius (gpm.h)
       const auto& off = off_[i];

@@ -144,7 +144,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
         if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
         c = split_hit(lights.environment(), Le, lights.pdf_environment(ray.d), nullptr).value_or(beta * Le * w_base);
       } else if (hit->light >= 0) {
-        const RGB Le = lights.area_radiance(hit->light, -ray.d);
+        const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p);
         const float pdf_light = depth == 0 ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d);
         if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, pdf_light);
         c = split_hit(hit->light, Le, pdf_light, nullptr).value_or(beta * Le * w_base);

@@ -125,7 +125,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               path_length += hit->t;
               if (hit->light >= 0) {
                 // ---- Emission hit by the path (technique "hit") ----
-                const RGB Le = lights.area_radiance(hit->light, -ray.d);
+                const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p);
                 if (!Le.is_black()) {
                   PathVertex lv;
                   lv.p = hit->p;

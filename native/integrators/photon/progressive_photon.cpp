@@ -213,7 +213,8 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       gather_boundary_[i] = {0.0f, 0.0f, 0.0f};
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
-      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.frame, vp.ng, vp.n_smooth);  // as Scene::bsdf(hit)
+      const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.p, vp.frame.to_world(vp.wo), vp.frame, vp.ng,
+                                    vp.n_smooth);  // as Scene::bsdf(hit)
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       double m = 0, lap = 0, foreign = 0, mu = 0, mv = 0;
       RGB phi(0.0f);

@@ -132,7 +132,7 @@ class ProgressivePhotonMapping : public Integrator {
     Vec3 wo;            // local
     RGB beta;           // eye path throughput up to the point
     int material = -1;  // -1: no measurement point this pass
-    Vec2 uv;  // texture coordinate there (Scene::bsdf)
+    ShadePoint uv;      // texture coordinate and triangle there (Scene::bsdf)
     Vec3 ng, n_smooth;  // its geometric and unmapped normals (a normal map's bump shadowing)
   };
   struct PixelState {
@@ -348,7 +348,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
       out.vp.wo = wo;
       out.vp.beta = beta;
       out.vp.material = hit->material;
-      out.vp.uv = hit->uv;
+      out.vp.uv = ShadePoint(*hit);
       out.vp.ng = hit->ng;
       out.vp.n_smooth = hit->n_smooth;
       hooks.gather(*hit);

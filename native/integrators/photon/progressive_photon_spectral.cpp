@@ -173,7 +173,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                 vp.wo = wo;
                 vp.beta = RGB(1.0f);  // unused: the spectral throughput is vp_beta_
                 vp.material = hit->material;
-                vp.uv = hit->uv;
+                vp.uv = ShadePoint(*hit);
                 vp.ng = hit->ng;
                 vp.n_smooth = hit->n_smooth;
                 break;

@@ -1,0 +1,115 @@
+// Cycles' hashes (intern/cycles/util/hash.h): Bob Jenkins' lookup3 "final" mix over one to four
+// 32-bit keys, and the float hashes the procedural textures seed with. Pixel-exact agreement
+// with Cycles' Noise, Voronoi and White Noise textures depends on these bit for bit.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+
+#include "core/math.h"
+
+namespace gp::shading {
+
+namespace detail {
+inline uint32_t rot(uint32_t x, int k) { return (x << k) | (x >> (32 - k)); }
+// lookup3's mix(a, b, c).
+inline void jenkins_mix(uint32_t& a, uint32_t& b, uint32_t& c) {
+  a -= c; a ^= rot(c, 4); c += b;
+  b -= a; b ^= rot(a, 6); a += c;
+  c -= b; c ^= rot(b, 8); b += a;
+  a -= c; a ^= rot(c, 16); c += b;
+  b -= a; b ^= rot(a, 19); a += c;
+  c -= b; c ^= rot(b, 4); b += a;
+}
+// lookup3's final(a, b, c).
+inline void jenkins_final(uint32_t& a, uint32_t& b, uint32_t& c) {
+  c ^= b; c -= rot(b, 14);
+  a ^= c; a -= rot(c, 11);
+  b ^= a; b -= rot(a, 25);
+  c ^= b; c -= rot(b, 16);
+  a ^= c; a -= rot(c, 4);
+  b ^= a; b -= rot(a, 14);
+  c ^= b; c -= rot(b, 24);
+}
+inline uint32_t float_bits(float f) {
+  uint32_t u;
+  std::memcpy(&u, &f, sizeof u);
+  return u;
+}
+}  // namespace detail
+
+// hash_uint .. hash_uint4 of util/hash.h: seeds 0xdeadbeef + (n << 2) + 13 for n keys.
+inline uint32_t hash_uint(uint32_t kx) {
+  uint32_t a, b, c;
+  a = b = c = 0xdeadbeefu + (1u << 2) + 13u;
+  a += kx;
+  detail::jenkins_final(a, b, c);
+  return c;
+}
+inline uint32_t hash_uint2(uint32_t kx, uint32_t ky) {
+  uint32_t a, b, c;
+  a = b = c = 0xdeadbeefu + (2u << 2) + 13u;
+  b += ky;
+  a += kx;
+  detail::jenkins_final(a, b, c);
+  return c;
+}
+inline uint32_t hash_uint3(uint32_t kx, uint32_t ky, uint32_t kz) {
+  uint32_t a, b, c;
+  a = b = c = 0xdeadbeefu + (3u << 2) + 13u;
+  c += kz;
+  b += ky;
+  a += kx;
+  detail::jenkins_final(a, b, c);
+  return c;
+}
+inline uint32_t hash_uint4(uint32_t kx, uint32_t ky, uint32_t kz, uint32_t kw) {
+  uint32_t a, b, c;
+  a = b = c = 0xdeadbeefu + (4u << 2) + 13u;
+  a += kx;
+  b += ky;
+  c += kz;
+  detail::jenkins_mix(a, b, c);
+  a += kw;
+  detail::jenkins_final(a, b, c);
+  return c;
+}
+
+// [0, 2^32 - 1] -> [0, 1] (uint_to_float_incl).
+inline float uint_to_float_incl(uint32_t n) { return static_cast<float>(n) * (1.0f / static_cast<float>(0xFFFFFFFFu)); }
+
+inline float hash_float_to_float(float k) { return uint_to_float_incl(hash_uint(detail::float_bits(k))); }
+inline float hash_float2_to_float(float x, float y) {
+  return uint_to_float_incl(hash_uint2(detail::float_bits(x), detail::float_bits(y)));
+}
+inline float hash_float3_to_float(float x, float y, float z) {
+  return uint_to_float_incl(hash_uint3(detail::float_bits(x), detail::float_bits(y), detail::float_bits(z)));
+}
+inline float hash_float4_to_float(float x, float y, float z, float w) {
+  return uint_to_float_incl(
+      hash_uint4(detail::float_bits(x), detail::float_bits(y), detail::float_bits(z), detail::float_bits(w)));
+}
+
+// The vector-valued hashes (util/hash.h: hash_float*_to_float2/3/4), component orders as there.
+inline Vec3 hash_float_to_float3(float k) {
+  return {hash_float_to_float(k), hash_float2_to_float(k, 1.0f), hash_float2_to_float(k, 2.0f)};
+}
+inline Vec3 hash_float2_to_float3(float x, float y) {
+  return {hash_float2_to_float(x, y), hash_float3_to_float(x, y, 1.0f), hash_float3_to_float(x, y, 2.0f)};
+}
+inline Vec3 hash_float3_to_float3(const Vec3& k) {
+  return {hash_float3_to_float(k.x, k.y, k.z), hash_float4_to_float(k.x, k.y, k.z, 1.0f),
+          hash_float4_to_float(k.x, k.y, k.z, 2.0f)};
+}
+inline Vec3 hash_float4_to_float3(float x, float y, float z, float w) {
+  return {hash_float4_to_float(x, y, z, w), hash_float4_to_float(z, x, w, y), hash_float4_to_float(w, z, y, x)};
+}
+
+// Blender's BLI_hash_string (x31: h = h * 31 + c), which names an object's random number.
+inline uint32_t hash_string_x31(const char* s) {
+  uint32_t h = 0;
+  for (; *s; ++s) h = (h << 5) - h + static_cast<uint8_t>(*s);
+  return h;
+}
+
+}  // namespace gp::shading

@@ -1,0 +1,154 @@
+// Node graphs: malformed tables refused with the material and node named; compilation keeps
+// only what the outputs need and folds constants; conversions between socket types.
+#include <gtest/gtest.h>
+
+#include "shading/graph.h"
+#include "shading_test_util.h"
+
+namespace gp::shading {
+namespace {
+
+using test::compile_output;
+using test::one_node;
+
+std::string error_of(const std::string& nodes, const std::string& node = "a", const std::string& output = "Color") {
+  try {
+    compile_output(nodes, node, output);
+  } catch (const GraphError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ShadingGraph, UnknownNodeTypeNamesMaterialAndNode) {
+  const std::string e = error_of(R"({"a": {"type": "ShaderNodeTexBogus"}})");
+  EXPECT_NE(e.find("material 'M'"), std::string::npos) << e;
+  EXPECT_NE(e.find("node 'a'"), std::string::npos) << e;
+  EXPECT_NE(e.find("unknown node type 'ShaderNodeTexBogus'"), std::string::npos) << e;
+}
+
+TEST(ShadingGraph, UnknownInputSocket) {
+  const std::string e = error_of(R"({"a": {"type": "ShaderNodeTexChecker", "inputs": {"Colour1": [1, 0, 0]}}})");
+  EXPECT_NE(e.find("node 'a'"), std::string::npos) << e;
+  EXPECT_NE(e.find("no input 'Colour1'"), std::string::npos) << e;
+}
+
+TEST(ShadingGraph, UnknownOutputSocket) {
+  const std::string e = error_of(R"({"a": {"type": "ShaderNodeTexChecker"}})", "a", "Colour");
+  EXPECT_NE(e.find("no output 'Colour'"), std::string::npos) << e;
+}
+
+TEST(ShadingGraph, WrongValueShapes) {
+  EXPECT_NE(error_of(R"({"a": {"type": "ShaderNodeTexChecker", "inputs": {"Scale": [1, 2, 3]}}})").find("input 'Scale' must be a number"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"a": {"type": "ShaderNodeTexChecker", "inputs": {"Color1": 0.5}}})").find("input 'Color1' must be [x, y, z]"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"a": {"type": "ShaderNodeTexChecker", "inputs": {"Color1": [1, 2]}}})").find("Color1"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"a": {"type": "ShaderNodeMath", "props": {"operation": "FROBNICATE"}}})", "a", "Value")
+                .find("unknown value 'FROBNICATE'"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"a": 3})").find("node 'a': a node must be an object"), std::string::npos);
+}
+
+TEST(ShadingGraph, LinkToMissingNode) {
+  const std::string e = error_of(R"({"a": {"type": "ShaderNodeTexChecker", "inputs": {"Vector": {"link": "nowhere", "output": "UV"}}}})");
+  EXPECT_NE(e.find("node 'a'"), std::string::npos) << e;
+  EXPECT_NE(e.find("missing node 'nowhere'"), std::string::npos) << e;
+}
+
+TEST(ShadingGraph, CyclesAreRefused) {
+  const std::string e = error_of(R"({
+    "a": {"type": "ShaderNodeMath", "inputs": {"Value": {"link": "b", "output": "Value"}}},
+    "b": {"type": "ShaderNodeMath", "inputs": {"Value": {"link": "a", "output": "Value"}}}})", "a", "Value");
+  EXPECT_NE(e.find("cycle"), std::string::npos) << e;
+  // A node feeding itself.
+  EXPECT_NE(error_of(R"({"a": {"type": "ShaderNodeMath", "inputs": {"Value": {"link": "a", "output": "Value"}}}})", "a", "Value")
+                .find("cycle"),
+            std::string::npos);
+}
+
+TEST(ShadingGraph, SizeLimit) {
+  nlohmann::json nodes = nlohmann::json::object();
+  for (size_t i = 0; i <= kMaxGraphNodes; ++i) nodes["n" + std::to_string(i)] = {{"type", "ShaderNodeMath"}};
+  try {
+    GraphCompiler g("Big", nodes, nullptr);
+    FAIL() << "a graph over the limit was accepted";
+  } catch (const GraphError& e) {
+    EXPECT_NE(std::string(e.what()).find("over the limit of 4096"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ShadingGraph, LongChainCompilesWithoutRecursion) {
+  // 4000 Math nodes in a chain: add 1 each, folded to one constant.
+  nlohmann::json nodes = nlohmann::json::object();
+  nodes["n0"] = {{"type", "ShaderNodeMath"}, {"inputs", {{"Value", 0.0}, {"Value_001", 1.0}}}};
+  for (int i = 1; i < 4000; ++i)
+    nodes["n" + std::to_string(i)] = {{"type", "ShaderNodeMath"},
+                                      {"inputs", {{"Value", {{"link", "n" + std::to_string(i - 1)}, {"output", "Value"}}},
+                                                  {"Value_001", 1.0}}}};
+  GraphCompiler g("Chain", nodes, nullptr);
+  const int r = g.link({{"link", "n3999"}, {"output", "Value"}}, SocketType::Float);
+  auto p = g.compile();
+  EXPECT_EQ(p->op_count(), 0u);  // all constant: folded
+  EXPECT_FLOAT_EQ(p->evaluate(ShadingContext(), g.source(r)).x, 4000.0f);
+}
+
+TEST(ShadingGraph, OnlyNeededNodesAndConstantFolding) {
+  // The checker reads a constant vector: folded; the noise is not linked: not compiled; the
+  // texture coordinate feeds a math node: kept.
+  auto c = compile_output(R"({
+    "chk": {"type": "ShaderNodeTexChecker", "inputs": {"Vector": [0.1, 0.1, 0.1], "Scale": 1.0}},
+    "unused": {"type": "ShaderNodeTexNoise"},
+    "tc": {"type": "ShaderNodeTexCoord"},
+    "sep": {"type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": "tc", "output": "UV"}}},
+    "mix": {"type": "ShaderNodeMixRGB", "inputs": {"Fac": {"link": "sep", "output": "X"},
+                                                     "Color1": {"link": "chk", "output": "Color"},
+                                                     "Color2": [0, 0, 1]}}})",
+                          "mix", "Color");
+  EXPECT_EQ(c.program->op_count(), 3u);  // tc, sep, mix
+  ShadingContext ctx;
+  ctx.uv = Vec2(0.25f, 0.0f);
+  const Vec3 v = c.at(ctx);
+  // Checker at (0.1, 0.1, 0.1) scale 1: cell (0, 0, 0) is Color2 (checker.h: (x == y) == odd z); 1/4 to blue.
+  EXPECT_NEAR(v.x, 0.75f * 0.2f, 1e-6);
+  EXPECT_NEAR(v.z, 0.75f * 0.2f + 0.25f, 1e-6);
+}
+
+TEST(ShadingGraph, SocketConversions) {
+  // Colour -> float: Rec.709 luminance (Cycles: 0.2126729, 0.7151522, 0.0721750); vector ->
+  // float: average; float -> colour: grey.
+  auto lum = compile_output(R"({
+    "rgb": {"type": "ShaderNodeCombineRGB", "inputs": {"R": 1.0, "G": 0.5, "B": 0.25}},
+    "m": {"type": "ShaderNodeMath", "props": {"operation": "ADD"}, "inputs": {"Value": {"link": "rgb", "output": "Image"}, "Value_001": 0.0}}})",
+                            "m", "Value", SocketType::Float);
+  EXPECT_NEAR(lum.f(ShadingContext()), 0.2126729f + 0.7151522f * 0.5f + 0.0721750f * 0.25f, 1e-6);
+  auto avg = compile_output(R"({
+    "v": {"type": "ShaderNodeCombineXYZ", "inputs": {"X": 1.0, "Y": 0.5, "Z": 0.0}},
+    "m": {"type": "ShaderNodeMath", "props": {"operation": "ADD"}, "inputs": {"Value": {"link": "v", "output": "Vector"}, "Value_001": 0.0}}})",
+                            "m", "Value", SocketType::Float);
+  EXPECT_NEAR(avg.f(ShadingContext()), 0.5f, 1e-6);
+  // A colour output read by a float consumer (the material input) converts too.
+  auto root = compile_output(R"({"rgb": {"type": "ShaderNodeCombineRGB", "inputs": {"R": 1.0, "G": 0.0, "B": 0.0}}})", "rgb",
+                             "Image", SocketType::Float);
+  EXPECT_NEAR(root.f(ShadingContext()), 0.2126729f, 1e-6);
+}
+
+TEST(ShadingGraph, WorldContextWithOnlyADirection) {
+  auto c = compile_output(R"({"tc": {"type": "ShaderNodeTexCoord"},
+    "g": {"type": "ShaderNodeTexGradient", "inputs": {"Vector": {"link": "tc", "output": "Generated"}}}})",
+                          "g", "Fac", SocketType::Float);
+  const ShadingContext w = ShadingContext::direction(normalize(Vec3(0.6f, 0.8f, 0.0f)));
+  EXPECT_NEAR(c.f(w), 0.6f, 1e-6);  // Generated of the World is the direction
+}
+
+TEST(ShadingGraph, SupportedTypesListed) {
+  const auto t = supported_node_types();
+  EXPECT_TRUE(std::is_sorted(t.begin(), t.end()));
+  for (const char* n : {"ShaderNodeTexImage", "ShaderNodeTexChecker", "ShaderNodeMix", "ShaderNodeValToRGB",
+                        "ShaderNodeBump", "ShaderNodeNormalMap", "ShaderNodeTexVoronoi"})
+    EXPECT_TRUE(std::binary_search(t.begin(), t.end(), std::string(n))) << n;
+}
+
+}  // namespace
+}  // namespace gp::shading
