@@ -407,3 +407,16 @@ def test_the_addons_node_list_is_the_cores(empty_scene):
     if not hasattr(mod, "shader_node_types"):
         pytest.skip("this core does not list its node types (_native.shader_node_types)")
     assert export_nodes.SUPPORTED == set(mod.shader_node_types()) - export_nodes.CONSTANT_NODES
+
+
+def test_a_long_chain_exports(empty_scene):
+    """1100 Math nodes in a row (deeper than Python's default recursion allows) export."""
+    m, nt, out = node_material("Chain")
+    prev = nt.nodes.new("ShaderNodeTexChecker").outputs["Fac"]
+    for _ in range(1100):
+        a = nt.nodes.new("ShaderNodeMath")
+        nt.links.new(prev, a.inputs[0])
+        prev = a.outputs[0]
+    diffuse_from(nt, out, prev)
+    d, _, warnings, _ = export_material(m)
+    assert len(d["nodes"]) == 1101 and not warnings

@@ -42,6 +42,8 @@ Approximations, each one counted warning naming the material and the node:
 Dispersion comes from the material's gradphoton panel.
 """
 
+import sys
+
 from .nodes import NodeGraph, SHADER
 
 DEFAULT = "__gradphoton_default"
@@ -119,6 +121,22 @@ class MaterialExporter:
         self.g = NodeGraph(mat.name, self.w)
         self.mat = mat
         self.parts = []
+        # Links are followed recursively: a chain of a few thousand nodes (the core's limit is
+        # 4096) needs more than Python's default depth; deeper still is a warning, not a crash.
+        limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(limit, 40000))
+        try:
+            return self._convert_tree(mat)
+        except RecursionError:
+            self.w.add("node graph too deep (rendered as 0.8 grey diffuse)", f"'{mat.name}'")
+            for part in self.parts:
+                part.clear()
+                part.update(GREY)
+            return dict(GREY)
+        finally:
+            sys.setrecursionlimit(limit)
+
+    def _convert_tree(self, mat):
         out = surface_output(mat.node_tree)
         src = self.g.resolve(out.inputs["Surface"], ()) if out is not None else None
         if src is None or getattr(src, "kind", None) != SHADER or src.node is None:

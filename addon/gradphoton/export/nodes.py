@@ -171,16 +171,24 @@ class NodeGraph:
         self.nodes = {}                # id -> scene-format node
         self._busy = set()             # ids being written (a cycle guard; Blender marks cycles invalid)
         self._synthetic = 0
+        self._link_index = {}          # node tree -> {input socket -> links Cycles follows}
 
     # ---- following links ----
 
-    @staticmethod
-    def _links_into(socket):
-        """Links into an input that Cycles follows: valid, not muted, both sockets available."""
+    def _links_into(self, socket):
+        """Links into an input that Cycles follows: valid, not muted, both sockets available.
+        (socket.links walks the whole tree each time: the tree's links are indexed once.)"""
         if not socket.is_linked:
             return []
-        return [link for link in socket.links
-                if link.is_valid and not link.is_muted and link.from_socket.enabled and link.to_socket.enabled]
+        tree = socket.id_data
+        index = self._link_index.get(tree.as_pointer())
+        if index is None:
+            index = {}
+            for link in tree.links:
+                if link.is_valid and not link.is_muted and link.from_socket.enabled and link.to_socket.enabled:
+                    index.setdefault(link.to_socket.as_pointer(), []).append(link)
+            self._link_index[tree.as_pointer()] = index
+        return index.get(socket.as_pointer(), [])
 
     def resolve(self, socket, path):
         """What arrives at input `socket` of a node in the tree at group path `path`: a Const,
