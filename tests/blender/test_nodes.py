@@ -420,3 +420,27 @@ def test_a_long_chain_exports(empty_scene):
     diffuse_from(nt, out, prev)
     d, _, warnings, _ = export_material(m)
     assert len(d["nodes"]) == 1101 and not warnings
+
+
+def test_every_supported_node_exports_and_the_core_accepts_it(empty_scene):
+    """Each node type of SUPPORTED, with Blender's defaults, its first output into a Diffuse
+    colour: written with its type, properties and every available input that has a value; the
+    core then loads the material (once it lists its node types: it refuses unknown ones)."""
+    scenes.add_camera(empty_scene)
+    for kind in sorted(export_nodes.SUPPORTED):
+        m, nt, out = node_material(kind)
+        n = nt.nodes.new(kind)
+        if kind == "ShaderNodeTexImage":
+            n.image = bpy.data.images.new("generated", 4, 4)
+        diffuse_from(nt, out, next(s for s in n.outputs if s.enabled))
+        scenes.add_plane(empty_scene, kind, 1.0, m)
+        mat, _, warnings, _ = export_material(m)
+        assert not warnings, (kind, warnings)
+        entry = mat["nodes"][n.name]
+        assert entry["type"] == kind and mat["color"]["link"] == n.name
+        valued = {s.identifier for s in n.inputs if s.enabled and hasattr(s, "default_value") and not s.hide_value}
+        assert set(entry.get("inputs", {})) == valued, kind
+    mod = native.get()
+    if hasattr(mod, "shader_node_types"):
+        scene = export.export_scene(bpy.context.evaluated_depsgraph_get()).build(mod)
+        assert len(scene.material_names) >= len(export_nodes.SUPPORTED)
