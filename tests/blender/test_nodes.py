@@ -444,3 +444,19 @@ def test_every_supported_node_exports_and_the_core_accepts_it(empty_scene):
     if hasattr(mod, "shader_node_types"):
         scene = export.export_scene(bpy.context.evaluated_depsgraph_get()).build(mod)
         assert len(scene.material_names) >= len(export_nodes.SUPPORTED)
+
+
+def test_a_scene_with_linked_emission_exports(empty_scene):
+    """Whole-scene export with node-driven emission (the visibility checks read emission
+    colours and strengths that may now be links)."""
+    m, nt, out = node_material("Glowing checker")
+    ch = nt.nodes.new("ShaderNodeTexChecker")
+    e = nt.nodes.new("ShaderNodeEmission")
+    nt.links.new(ch.outputs["Color"], e.inputs["Color"])
+    nt.links.new(ch.outputs["Fac"], e.inputs["Strength"])
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    scenes.add_plane(empty_scene, "Panel", 1.0, m)
+    scenes.add_camera(empty_scene)
+    d = export.export_scene(bpy.context.evaluated_depsgraph_get()).description["materials"]["Glowing checker"]
+    assert d["emission"] == link("Checker Texture", "Color")
+    assert d["nodes"][d["strength"]["link"]]["props"] == {"operation": "MAXIMUM", "use_clamp": False}
