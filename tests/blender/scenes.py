@@ -402,3 +402,48 @@ def textured_floor(scene, case, folder):
     sun = add_light(scene, "Sun", 'SUN', None, 3.0, {"angle": 0.0}, (3, 0, 3))
     sun.rotation_euler = (math.radians(50), 0.0, math.radians(30))
     return scene
+
+
+# ---- Node-graph scenes (export/nodes.py) ----
+
+def snapped_uv(nt, cells):
+    """A Vector output constant over each of cells x cells squares of the UV square: the UV of
+    the square's centre (Vector Math Snap, then half a cell added). On a plane that fills the
+    frame with one square per pixel, every sample of a pixel reads its centre's value, so a
+    texture's value per pixel does not depend on where in the pixel a renderer samples."""
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    snap = nt.nodes.new("ShaderNodeVectorMath")
+    snap.operation = 'SNAP'
+    snap.inputs[1].default_value = (1.0 / cells, 1.0 / cells, 1.0)
+    nt.links.new(tc.outputs["UV"], snap.inputs[0])
+    half = nt.nodes.new("ShaderNodeVectorMath")
+    half.operation = 'ADD'
+    half.inputs[1].default_value = (0.5 / cells, 0.5 / cells, 0.0)
+    nt.links.new(snap.outputs[0], half.inputs[0])
+    return half.outputs[0]
+
+
+def emission_plane(scene, name, build, size=64):
+    """A camera-facing emission plane filling a size x size orthographic frame (one UV cell per
+    pixel), its Emission colour (strength 1) from build(node_tree, vector_socket) -> a socket;
+    the World black, no lights."""
+    set_world(scene)
+    m, nt, out = _node_material(name)
+    e = nt.nodes.new("ShaderNodeEmission")
+    nt.links.new(build(nt, snapped_uv(nt, size)), e.inputs["Color"])
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    uv_plane(scene, "Plane", 2.0, m)
+    cam = add_camera(scene, (0, 0, 5), (0, 0, 0))
+    cam.data.type = 'ORTHO'
+    cam.data.ortho_scale = 2.0
+    cam.rotation_euler = (0.0, 0.0, 0.0)
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    return m
+
+
+def configure_cycles_centres(scene):
+    """Cycles with one sample at each pixel's centre (a box filter 0.01 pixels wide): the exact
+    value of an emission plane's colour there, no noise."""
+    configure_cycles(scene, 1, 0)
+    scene.cycles.filter_width = 0.01

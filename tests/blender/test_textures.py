@@ -73,8 +73,10 @@ def test_packed_image_renders_as_its_file(empty_scene, out_dir):
     img.pack()
     os.remove(os.path.join(str(out_dir), "pattern.png"))
     ex = _export()
-    tex = ex.description["materials"]["Textured"]["color"]
-    assert isinstance(tex, dict) and os.path.isfile(tex["texture"]) and "gradphoton-images" in tex["texture"]
+    mat = ex.description["materials"]["Textured"]
+    assert mat["color"] == {"link": "Image Texture", "output": "Color"}
+    tex = mat["nodes"]["Image Texture"]["props"]["image"]
+    assert os.path.isfile(tex) and "gradphoton-images" in tex
     assert not ex.warnings, ex.warnings.lines()
     packed = read_rgb(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "packed.exr")))
     np.testing.assert_allclose(packed, from_file, rtol=1e-5, atol=1e-6)

@@ -1,47 +1,86 @@
-"""Materials: Blender shader nodes -> the core's material set (docs/scene-format.md).
+"""Materials: Blender shader trees -> the core's closures with node-graph inputs
+(docs/scene-format.md, "Materials" and "Node graphs").
 
-Mapped: Principled BSDF (base colour, metallic, roughness, specular, transmission, IOR,
-emission), Diffuse (its Roughness: Oren-Nayar), Glossy (conductor), Glass, Refraction,
-Transparent (any colour), Translucent, Velvet and Emission BSDFs, Mix Shader and Add Shader of
-any of these (nested too), a material without nodes (its viewport diffuse colour). Blender
-roughness r becomes the GGX alpha r^2; the Beckmann, Ashikhmin-Shirley and Multiscatter GGX
-distributions render as GGX (a counted warning).
+The closure tree (what reaches the active Cycles Material Output's Surface) maps onto the core's
+closure types; every non-closure input of a closure is a constant or a link into the
+material's node table (export/nodes.py writes the table: groups flattened, reroutes and muted
+nodes resolved, as Cycles reads the tree). Closures:
 
-Principled BSDF, as layers of the core's materials:
-  - the non-metal part is the core's `principled`: Cycles 3.4's two closures added, Burley's
-    diffuse with its retro-reflection (roughness r) and a GGX specular lobe (alpha r^2) with the
-    dielectric Fresnel of IOR (1 + sqrt F0) / (1 - sqrt F0), F0 = 0.08 Specular, as Cycles;
-  - Metallic m mixes it with a conductor of the base colour: mix(principled, metal, m), as
-    Cycles' weights (diffuse 1 - m, its one specular closure linear in m);
-  - Transmission t mixes that with glass: mix(..., glass, (1 - m) t).
-  Specular Tint is ignored (a counted warning); the metal's Fresnel is Cycles': the base colour
-  blended toward white by the dielectric Fresnel of the Specular IOR (the core's conductor with
-  "fresnel": "principled").
+  - Diffuse BSDF (its Roughness: Cycles' Oren-Nayar sigma), Glossy / Anisotropic BSDF (the core's
+    conductor without Fresnel, as Cycles' Glossy), Glass BSDF (dielectric), Refraction BSDF (its
+    refraction lobe alone), Transparent (any colour), Translucent, Velvet, Emission (two-sided, as
+    in Cycles), Mix Shader and Add Shader of any of these, nested; Beckmann, Ashikhmin-Shirley and
+    Multiscatter GGX distributions render as GGX (a counted warning);
+  - Principled BSDF, as layers of the core's materials:
+      the non-metal part is the core's `principled`: Cycles 3.4's two closures added, Burley's
+      diffuse with its retro-reflection (roughness r) and a GGX specular lobe (alpha r^2) with the
+      dielectric Fresnel of IOR (1 + sqrt F0) / (1 - sqrt F0), F0 = 0.08 Specular, as Cycles;
+      Metallic m mixes it with a conductor of the base colour: mix(principled, metal, m), as
+      Cycles' weights (diffuse 1 - m, its one specular closure linear in m);
+      Transmission t mixes that with glass: mix(..., glass, (1 - m) t).
+    The metal's Fresnel is Cycles': the base colour blended toward white by the dielectric
+    Fresnel of the Specular IOR (the core's conductor with "fresnel": "principled").
+    Specular Tint, sheen, clearcoat and subsurface are dropped (a counted warning each).
 
-Textures (export/texture.py): an Image Texture may drive Base Color / Color, Roughness,
-Metallic (the mix factor of the metal layer), Alpha (coverage: a stochastic cut-out), a Mix
-Shader's Fac; Normal inputs take a Normal Map or Bump node. Normal maps, bump and alpha belong
-to the whole material (lifted out of Mix/Add parts; the first found wins). A Mix Shader with a
-Transparent BSDF on one side is the other side with that coverage (alpha).
+Where a closure input needs arithmetic on linked values (roughness r -> GGX alpha r^2, the glass
+layer's (1 - m) t, the Specular IOR, a Mix's clamped factor and its emission weights) the exporter
+adds synthetic Math / Vector Math nodes to the table ("~..." ids); constants are folded here.
+The core's Mix takes its emission from the mix itself, not from its parts: emission inside a
+Mix or Add is lifted into the mix, weighted like the BSDFs (colour x strength x weight).
+A mix's components are other materials of the table ("<material>/<node>/<a|b>"); each
+material object carries the part of the node table its own inputs reach (scene-format:
+links resolve against the table of the material object they appear in).
 
-Approximations, each a counted warning (Warnings) rather than silence:
-  - a linked input fed by anything but the image chains above uses the socket's own value;
-  - sheen, clearcoat and subsurface of a Principled BSDF are dropped;
-  - any other shader node (Toon, Hair, Holdout, ...) renders as 0.8 grey diffuse.
-Emission is two-sided, as in Cycles; inside a Mix or Add it is weighted like the BSDFs.
+A Mix Shader with a white Transparent BSDF on one side is the other side with coverage `alpha` =
+the mix's factor (Transparent first) or 1 - factor: the core's stochastic cut-out, which shadow
+rays see too (a tinted Transparent BSDF is the `transparent` closure, whose shadows are not
+tinted yet).
+Coverage (alpha) belongs to the whole material (lifted out of mix parts; the first found wins).
+Normals are per closure, as Cycles' closures each have their own (the `normal` key: a link to a
+Normal Map or Bump node, or any vector output).
+
+Approximations, each one counted warning naming the material and the node:
+  - a node the core does not evaluate (export/nodes.py SUPPORTED): the input it feeds keeps its
+    own value;
+  - a closure the core lacks (Toon, Hair, Holdout, Subsurface Scattering, ...): 0.8 grey diffuse.
 Dispersion comes from the material's gradphoton panel.
 """
 
-from .texture import TextureReader
+import sys
+
+from .nodes import NodeGraph, SHADER
 
 DEFAULT = "__gradphoton_default"
 # Keys that belong to the whole material, not to one layer of it (lifted out of mix parts).
-SURFACE_KEYS = ("normal_map", "bump", "alpha")
+SURFACE_KEYS = ("alpha",)
+GREY = {"type": "diffuse", "color": 0.8}
 
 
-def _rgb(socket):
-    v = socket.default_value
-    return [float(v[0]), float(v[1]), float(v[2])]
+def _is_link(v):
+    return isinstance(v, dict)
+
+
+def _positive(v):
+    """False when a constant colour/number is surely zero (links may be anything)."""
+    if _is_link(v):
+        return True
+    if isinstance(v, list):
+        return any(c > 0 for c in v)
+    return v > 0
+
+
+def surface_output(tree):
+    """The Material Output Cycles renders (Blender's ntreeShaderOutputNode for SHD_OUTPUT_CYCLES:
+    a Cycles-only output wins over an All one, the active one among equals)."""
+    best = None
+    for n in tree.nodes:
+        if n.bl_idname != 'ShaderNodeOutputMaterial' or n.target not in {'ALL', 'CYCLES'}:
+            continue
+        if best is None or (best.target == 'ALL' and n.target == 'CYCLES'):
+            best = n
+        elif best.target == n.target and n.is_active_output and not best.is_active_output:
+            best = n
+    return best
 
 
 class MaterialExporter:
@@ -49,14 +88,13 @@ class MaterialExporter:
         self.table = table  # name -> scene-format material dict
         self.w = warnings
         self._used = {}     # Blender materials exported, by name
-        self.tex = TextureReader(warnings)
-        self._textured = set()  # exported materials that read textures (their meshes need UVs)
+        self._textured = set()  # exported materials that read UVs (their meshes need them)
 
     def used_materials(self):
         return list(self._used.values())
 
     def needs_uvs(self, mat):
-        """True when Blender material `mat` reads a texture (its meshes must export UVs)."""
+        """True when Blender material `mat` reads the UV map (its meshes must export UVs)."""
         return mat is not None and mat.name in self._textured
 
     def name_for(self, mat, flags=None):
@@ -70,10 +108,7 @@ class MaterialExporter:
             name = mat.name
             self._used[name] = mat
             if name not in self.table:
-                self.tex.used = False
                 self.table[name] = self.convert(mat)
-                if self.tex.used:
-                    self._textured.add(name)
         if not flags:
             return name
         variant = name + " [" + ", ".join(f"{k}={v}" for k, v in sorted(flags.items())) + "]"
@@ -81,171 +116,204 @@ class MaterialExporter:
             self.table[variant] = dict(self.table[name], **flags)
         return variant
 
-    # ---- helpers ----
-
-    def _value(self, node, name, mat):
-        s = node.inputs[name]
-        if s.is_linked:
-            self.w.add("linked input uses its own value (node unsupported)",
-                       f"'{mat.name}': {node.name}.{name}")
-        return s
-
-    def _input(self, node, name, mat, scalar=False, square=False):
-        """An input's value: a texture dict when an image drives it, else its constant (a float
-        when scalar, squared when asked: Blender roughness r -> GGX alpha r^2; else [r, g, b])."""
-        s = node.inputs[name]
-        if s.is_linked:
-            ref = self.tex.value(s, mat, scalar, square)
-            if ref is not None:
-                return ref
-            self.w.add("linked input uses its own value (node unsupported)", f"'{mat.name}': {node.name}.{name}")
-        v = s.default_value
-        if scalar:
-            return float(v) * float(v) if square else float(v)
-        return [float(v[0]), float(v[1]), float(v[2])]
-
-    def _with_normal(self, d, node, mat):
-        if "Normal" in node.inputs:
-            d.update(self.tex.normal(node.inputs["Normal"], mat))
-        return d
-
-    def _surface_node(self, mat):
-        tree = mat.node_tree
-        outputs = [n for n in tree.nodes if n.bl_idname == 'ShaderNodeOutputMaterial']
-        out = next((n for n in outputs if n.is_active_output and n.target in {'ALL', 'CYCLES'}), None)
-        out = out or next((n for n in outputs if n.target in {'ALL', 'CYCLES'}), None)
-        if out is None or not out.inputs["Surface"].is_linked:
-            return None
-        link = out.inputs["Surface"].links[0]
-        node = link.from_node
-        while node.bl_idname == 'NodeReroute' and node.inputs[0].is_linked:
-            node = node.inputs[0].links[0].from_node
-        return node
-
     # ---- conversion ----
 
     def convert(self, mat):
         if not mat.use_nodes or mat.node_tree is None:
             c = mat.diffuse_color
             return self._dispersion({"type": "diffuse", "color": [c[0], c[1], c[2]]}, mat)
-        node = self._surface_node(mat)
-        if node is None:
+        self.g = NodeGraph(mat.name, self.w)
+        self.mat = mat
+        self.parts = []
+        # Links are followed recursively: a chain of a few thousand nodes (the core's limit is
+        # 4096) needs more than Python's default depth; deeper still is a warning, not a crash.
+        limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(limit, 40000))
+        try:
+            return self._convert_tree(mat)
+        except RecursionError:
+            self.w.add("node graph too deep (rendered as 0.8 grey diffuse)", f"'{mat.name}'")
+            for part in self.parts:
+                part.clear()
+                part.update(GREY)
+            return dict(GREY)
+        finally:
+            sys.setrecursionlimit(limit)
+
+    def _convert_tree(self, mat):
+        out = surface_output(mat.node_tree)
+        src = self.g.resolve(out.inputs["Surface"], ()) if out is not None else None
+        if src is None or getattr(src, "kind", None) != SHADER or src.node is None:
             return {"type": "diffuse", "color": 0.0}  # Cycles renders an unconnected output black
-        return self._one_sided(self._dispersion(self._node(node, mat, 0), mat), mat)
+        d = self._one_sided(self._dispersion(self._closure(src.node, src.path, 0), mat), mat)
+        # Each material object carries the nodes its own inputs reach.
+        uv = False
+        for part in [d] + self.parts:
+            nodes = self.g.table_for(part)
+            if nodes:
+                part["nodes"] = nodes
+                uv = uv or self.g.reads_uv(nodes)
+        if uv:
+            self._textured.add(mat.name)
+        return d
 
-    @staticmethod
-    def _linked_node(socket):
-        node = socket.links[0].from_node if socket.is_linked else None
-        while node is not None and node.bl_idname == 'NodeReroute':
-            node = node.inputs[0].links[0].from_node if node.inputs[0].is_linked else None
-        return node
+    def _in(self, node, path, name):
+        """A closure input: a constant or a link into the table (None: nothing, e.g. a Normal)."""
+        return self.g.value(node.inputs[name], path, label=f"{node.name} {name}")
 
-    def _part(self, d, mat, node, label):
-        """Registers `d`, a component of material `mat`, in the table; returns its name."""
-        name = f"{mat.name}/{node.name}/{label}"
+    def _num(self, node, path, name):
+        v = self._in(node, path, name)
+        return 0.0 if v is None else v
+
+    def _clamp01(self, v, hint):
+        return self.g.math("ADD", v, 0.0, clamp=True, hint=hint)
+
+    def _square(self, r, hint):
+        """Blender roughness r -> GGX alpha r^2 (r clamped to [0, 1] first, as Cycles)."""
+        c = self._clamp01(r, hint)
+        return self.g.math("MULTIPLY", c, c, hint=hint)
+
+    def _with_normal(self, d, node, path):
+        if "Normal" in node.inputs:
+            n = self._in(node, path, "Normal")
+            if _is_link(n):
+                d["normal"] = n
+        return d
+
+    def _nid(self, node, path):
+        return self.g.node_id(node, path)
+
+    def _part(self, d, node, path, label):
+        """Registers `d`, a component of the material, in the table; returns its name."""
+        name = f"{self.mat.name}/{self._nid(node, path)}/{label}"
         self.table[name] = d
+        self.parts.append(d)
         return name
 
-    def _node(self, node, mat, depth):
-        """The scene-format material of one shader node (recursing into Mix/Add Shader)."""
+    def _closure(self, node, path, depth):
+        """The scene-format material of one closure node (recursing into Mix/Add Shader)."""
         kind = node.bl_idname
+        mat = self.mat
         if depth > 16:
-            self.w.add("shader nodes nested too deep rendered as grey diffuse", f"'{mat.name}'")
-            return {"type": "diffuse", "color": 0.8}
+            self.w.add("shader nodes nested too deep rendered as grey diffuse", f"'{mat.name}': {node.name}")
+            return dict(GREY)
         if kind == 'ShaderNodeBsdfPrincipled':
-            return self._principled(node, mat)
+            return self._principled(node, path)
         if kind == 'ShaderNodeBsdfDiffuse':  # Roughness: Cycles' Oren-Nayar sigma, as it is (not squared)
-            return self._with_normal({"type": "diffuse", "color": self._input(node, "Color", mat),
-                                      "roughness": self._input(node, "Roughness", mat, scalar=True)}, node, mat)
+            return self._with_normal({"type": "diffuse", "color": self._in(node, path, "Color"),
+                                      "roughness": self._clamp01(self._num(node, path, "Roughness"), "sigma")},
+                                     node, path)
         if kind == 'ShaderNodeBsdfTransparent':  # straight through, tinted (a delta closure)
-            return {"type": "transparent", "color": self._input(node, "Color", mat)}
+            return {"type": "transparent", "color": self._in(node, path, "Color")}
         if kind == 'ShaderNodeBsdfTranslucent':
-            return self._with_normal({"type": "translucent", "color": self._input(node, "Color", mat)}, node, mat)
+            return self._with_normal({"type": "translucent", "color": self._in(node, path, "Color")}, node, path)
         if kind == 'ShaderNodeBsdfVelvet':
-            return self._with_normal({"type": "velvet", "color": self._input(node, "Color", mat),
-                                      "sigma": min(1.0, max(0.0, self._value(node, "Sigma", mat).default_value))},
-                                     node, mat)
+            sigma = self._num(node, path, "Sigma")
+            if _is_link(sigma):  # the core reads a constant sigma
+                self.w.add("linked Velvet Sigma uses its own value", f"'{mat.name}': {self._nid(node, path)}")
+                sigma = node.inputs["Sigma"].default_value
+            return self._with_normal({"type": "velvet", "color": self._in(node, path, "Color"),
+                                      "sigma": min(1.0, max(0.0, sigma))}, node, path)
         if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic', 'ShaderNodeBsdfGlass',
                     'ShaderNodeBsdfRefraction') and node.distribution not in ('GGX', 'SHARP'):
-            self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {node.name} ({node.distribution})")
+            self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {self._nid(node, path)} ({node.distribution})")
         if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic'):
-            return self._with_normal({"type": "conductor", "color": self._input(node, "Color", mat),
-                                      "roughness": self._input(node, "Roughness", mat, scalar=True, square=True),
-                                      "fresnel": False}, node, mat)  # Cycles' Glossy BSDF: the colour at every angle
+            # Cycles' Glossy BSDF: the colour at every angle (no Fresnel).
+            return self._with_normal({"type": "conductor", "color": self._in(node, path, "Color"),
+                                      "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
+                                      "fresnel": False}, node, path)
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
             # Refraction BSDF: glass's refraction lobe alone, without Fresnel (the core's "refraction").
-            t = "dielectric" if kind == 'ShaderNodeBsdfGlass' else "refraction"
-            return self._with_normal({"type": t, "color": self._input(node, "Color", mat),
-                                      "roughness": self._input(node, "Roughness", mat, scalar=True, square=True),
-                                      "ior": max(1e-3, self._value(node, "IOR", mat).default_value)}, node, mat)
+            return self._with_normal({"type": "dielectric" if kind == 'ShaderNodeBsdfGlass' else "refraction",
+                                      "color": self._in(node, path, "Color"),
+                                      "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
+                                      "ior": self.g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")},
+                                     node, path)
         if kind == 'ShaderNodeEmission':
-            return {"type": "emission", "emission": _rgb(self._value(node, "Color", mat)),
-                    "strength": max(0.0, self._value(node, "Strength", mat).default_value), "two_sided": True}
+            return {"type": "emission", "emission": self._in(node, path, "Color"),
+                    "strength": self.g.math("MAXIMUM", self._num(node, path, "Strength"), 0.0, hint="strength"),
+                    "two_sided": True}
         if kind in ('ShaderNodeMixShader', 'ShaderNodeAddShader'):
-            return self._mix(node, mat, depth)
-        self.w.add("unsupported shader node rendered as grey diffuse", f"'{mat.name}': {node.name}")
-        return {"type": "diffuse", "color": 0.8}
+            return self._mix(node, path, depth)
+        self.w.add("closure not supported (rendered as 0.8 grey diffuse)", f"'{mat.name}': {self._nid(node, path)}")
+        return dict(GREY)
 
-    def _mix(self, node, mat, depth):
+    def _shader_in(self, socket, path):
+        """The closure node feeding a shader socket, as (node, path), or None."""
+        src = self.g.resolve(socket, path)
+        if src is None or getattr(src, "kind", None) != SHADER or src.node is None:
+            return None
+        return src.node, src.path
+
+    def _sub(self, pair, depth):
+        # An unconnected shader socket is no closure: black, as in Cycles.
+        return self._closure(pair[0], pair[1], depth + 1) if pair is not None else {"type": "emission", "strength": 0.0}
+
+    def _emission_term(self, d):
+        """colour x strength of a part's emission ([r, g, b] or a link), or None when surely zero."""
+        if "emission" not in d or "strength" not in d:
+            return None
+        e, s = d["emission"], d["strength"]
+        if e is None or not _positive(e) or not _positive(s):
+            return None
+        return self.g.vector_math("SCALE", e, scale=s, hint="emission")
+
+    def _mix(self, node, path, depth):
         add = node.bl_idname == 'ShaderNodeAddShader'
         if add:
-            t, sockets = 0.5, (node.inputs[0], node.inputs[1])
+            sockets = (node.inputs[0], node.inputs[1])
+            weights = (1.0, 1.0)
+            t = None
         else:
-            t = self._input(node, "Fac", mat, scalar=True)
-            if not isinstance(t, dict):
-                t = min(1.0, max(0.0, t))
+            # Cycles clamps a Mix Shader's factor to [0, 1] (svm_node_mix_closure).
+            t = self._clamp01(self._num(node, path, "Fac"), "fac")
             sockets = (node.inputs[1], node.inputs[2])
-            cut_out = self._transparent_mix(sockets, t, mat, depth)
+            weights = (self.g.math("SUBTRACT", 1.0, t, clamp=True, hint="fac"), t)
+        pairs = [self._shader_in(s, path) for s in sockets]
+        if not add:
+            cut_out = self._transparent_mix(pairs, t, depth)
             if cut_out is not None:
                 return cut_out
-        if isinstance(t, dict) and any(self._linked_node(s) is not None and
-                                       self._linked_node(s).bl_idname == 'ShaderNodeEmission' for s in sockets):
-            self.w.add("emission in a texture-weighted Mix Shader weighted by one half", f"'{mat.name}': {node.name}")
-        parts = []
-        for s in sockets:
-            src = self._linked_node(s)
-            # An unconnected shader socket is no closure: black, as in Cycles.
-            parts.append(self._node(src, mat, depth + 1) if src is not None else {"type": "emission", "strength": 0.0})
-        # Emission inside a mix, weighted like the BSDFs, is carried by the mix itself (the
-        # core takes a mix's emission from the mix, not from its parts).
-        emission = [0.0, 0.0, 0.0]
-        tw = 0.5 if isinstance(t, dict) else t
+        parts = [self._sub(p, depth) for p in pairs]
         lifted = {}
         for d in parts:
             for key in SURFACE_KEYS:
                 if key in d:
                     lifted.setdefault(key, d.pop(key))
-        for d, w in zip(parts, (1.0, 1.0) if add else (1.0 - tw, tw)):
-            if d.get("strength", 0) > 0 and "emission" in d:
-                emission = [acc + w * d["strength"] * c for acc, c in zip(emission, d["emission"])]
+        # Emission inside a mix, weighted like the BSDFs, is carried by the mix itself (the
+        # core takes a mix's emission from the mix, not from its parts).
+        emission = None
+        for d, w in zip(parts, weights):
+            term = self._emission_term(d)
+            if term is not None and _positive(w):
+                term = term if w == 1.0 else self.g.vector_math("SCALE", term, scale=w, hint="emission")
+                emission = term if emission is None else self.g.vector_math("ADD", emission, term, hint="emission")
             for key in ("emission", "strength", "two_sided"):
                 d.pop(key, None)
         out = {"type": "add" if add else "mix",
-               "a": self._part(parts[0], mat, node, "a"), "b": self._part(parts[1], mat, node, "b")}
+               "a": self._part(parts[0], node, path, "a"), "b": self._part(parts[1], node, path, "b")}
         if not add:
             out["factor"] = t
-        if any(c > 0 for c in emission):
+        if emission is not None and _positive(emission):
             out.update({"emission": emission, "strength": 1.0, "two_sided": True})
         out.update(lifted)
         return out
 
-    def _transparent_mix(self, sockets, t, mat, depth):
+    def _transparent_mix(self, pairs, t, depth):
         """Mix Shader of a Transparent BSDF (white) and one other shader: that shader with
-        coverage alpha = Fac (transparent first) or 1 - Fac (transparent second); None otherwise."""
-        nodes = [self._linked_node(s) for s in sockets]
-        kinds = [n.bl_idname if n is not None else None for n in nodes]
+        coverage alpha = Fac (transparent first) or 1 - Fac (transparent second); None otherwise.
+        (The core has no transparent closure yet: coverage is its stochastic cut-out.)"""
+        kinds = [p[0].bl_idname if p is not None else None for p in pairs]
         if kinds.count('ShaderNodeBsdfTransparent') != 1:
             return None
         k = kinds.index('ShaderNodeBsdfTransparent')
-        other = nodes[1 - k]
-        if any(c < 0.999 for c in nodes[k].inputs["Color"].default_value[:3]) or nodes[k].inputs["Color"].is_linked:
+        tnode, tpath = pairs[k]
+        color = self._in(tnode, tpath, "Color")
+        if _is_link(color) or any(c < 0.999 for c in color):
             return None  # a tinted transparency is no cut-out
-        if k == 1 and isinstance(t, dict):
-            self.w.add("texture-driven coverage with Transparent second read as opaque", f"'{mat.name}'")
-            return None
-        alpha = t if k == 0 else 1.0 - t
-        d = self._node(other, mat, depth + 1) if other is not None else {"type": "emission", "strength": 0.0}
-        if isinstance(alpha, dict) or alpha < 1.0:
+        alpha = t if k == 0 else self.g.math("SUBTRACT", 1.0, t, clamp=True, hint="coverage")
+        d = self._sub(pairs[1 - k], depth)
+        if _is_link(alpha) or alpha < 1.0:
             d["alpha"] = alpha
         return d
 
@@ -256,55 +324,51 @@ class MaterialExporter:
             d["two_sided"] = False
         return d
 
-    def _principled(self, node, mat):
-        base = self._input(node, "Base Color", mat)
-        metallic = self._input(node, "Metallic", mat, scalar=True)
-        alpha = self._input(node, "Roughness", mat, scalar=True, square=True)  # GGX alpha = r^2
-        trans = min(1.0, max(0.0, self._value(node, "Transmission", mat).default_value))
-        spec = max(0.0, self._value(node, "Specular", mat).default_value)
+    def _principled(self, node, path):
+        g, mat = self.g, self.mat
+        nid = self._nid(node, path)
+        base = self._in(node, path, "Base Color")
+        alpha = self._square(self._num(node, path, "Roughness"), "alpha")  # GGX alpha = r^2
+        metallic = self._clamp01(self._num(node, path, "Metallic"), "metallic")
+        trans = self._clamp01(self._num(node, path, "Transmission"), "transmission")
         # Cycles: F0 = 0.08 Specular for the specular lobe: IOR (1 + sqrt F0) / (1 - sqrt F0)
         # (Specular 0: IOR 1, no specular reflection, the Burley diffuse alone).
-        sf0 = min(0.99, (0.08 * spec) ** 0.5)
-        d = {"type": "principled", "color": base, "roughness": alpha, "ior": (1 + sf0) / (1 - sf0)}
-        tint = node.inputs.get("Specular Tint")
-        if tint is not None and (tint.is_linked or tint.default_value > 0):
-            self.w.add("Principled BSDF Specular Tint ignored", f"'{mat.name}'")
+        spec = g.math("MAXIMUM", self._num(node, path, "Specular"), 0.0, hint="specular")
+        sf0 = g.math("MINIMUM", g.math("SQRT", g.math("MULTIPLY", spec, 0.08, hint="specular"), hint="specular"),
+                     0.99, hint="specular")
+        ior = g.math("DIVIDE", g.math("ADD", 1.0, sf0, hint="specular"), g.math("SUBTRACT", 1.0, sf0, hint="specular"),
+                     hint="specular")
+        d = self._with_normal({"type": "principled", "color": base, "roughness": alpha, "ior": ior}, node, path)
+        for name in ("Specular Tint", "Subsurface", "Sheen", "Clearcoat"):
+            s = node.inputs.get(name)
+            if s is not None and _positive(self._num(node, path, name)):
+                self.w.add(f"Principled BSDF {name} dropped", f"'{mat.name}': {nid}")
         # Cycles' one specular closure of the metal: cspec0 = base colour, interpolated toward white
         # by the dielectric Fresnel of the same Specular-derived IOR (bsdf_util.h).
-        metal = {"type": "conductor", "color": base, "roughness": alpha, "fresnel": "principled", "ior": d["ior"]}
-        if isinstance(metallic, dict):  # a metallic map: the metal layer's weight per point
-            d = {"type": "mix", "a": self._part(d, mat, node, "plastic"), "b": self._part(metal, mat, node, "metal"),
+        metal = self._with_normal({"type": "conductor", "color": base, "roughness": alpha, "fresnel": "principled",
+                                   "ior": ior}, node, path)
+        if not _is_link(metallic) and metallic >= 1.0:
+            d = metal
+        elif _positive(metallic):
+            d = {"type": "mix", "a": self._part(d, node, path, "plastic"), "b": self._part(metal, node, path, "metal"),
                  "factor": metallic}
-            if trans > 0:
-                self.w.add("Transmission with a Metallic texture weighted as if metallic were 0", f"'{mat.name}'")
-            metallic = 0.0
-        else:
-            metallic = min(1.0, max(0.0, metallic))
-            if metallic >= 1.0:
-                d = metal
-            elif metallic > 0:
-                d = {"type": "mix", "a": self._part(d, mat, node, "plastic"),
-                     "b": self._part(metal, mat, node, "metal"), "factor": metallic}
-        t_glass = (1.0 - metallic) * trans
-        glass = {"type": "dielectric", "color": base, "roughness": alpha,
-                 "ior": max(1e-3, self._value(node, "IOR", mat).default_value)}
-        if t_glass >= 1.0:
+        t_glass = g.math("MULTIPLY", g.math("SUBTRACT", 1.0, metallic, hint="glass"), trans, hint="glass")
+        glass = self._with_normal({"type": "dielectric", "color": base, "roughness": alpha,
+                                   "ior": g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")},
+                                  node, path)
+        if not _is_link(t_glass) and t_glass >= 1.0:
             d = glass
-        elif t_glass > 0:
-            d = {"type": "mix", "a": self._part(d, mat, node, "opaque"), "b": self._part(glass, mat, node, "glass"),
+        elif _positive(t_glass):
+            d = {"type": "mix", "a": self._part(d, node, path, "opaque"), "b": self._part(glass, node, path, "glass"),
                  "factor": t_glass}
-        for name in ("Subsurface", "Sheen", "Clearcoat"):
-            s = node.inputs.get(name)
-            if s is not None and (s.is_linked or s.default_value > 0):
-                self.w.add("Principled BSDF layer dropped", f"'{mat.name}': {name}")
-        emission = _rgb(self._value(node, "Emission", mat))
-        strength = self._value(node, "Emission Strength", mat).default_value
-        if strength > 0 and any(c > 0 for c in emission):
-            d = dict(d, emission=emission, strength=strength, two_sided=True)
-        coverage = self._input(node, "Alpha", mat, scalar=True)
-        if isinstance(coverage, dict) or coverage < 1.0:
-            d["alpha"] = coverage if isinstance(coverage, dict) else max(0.0, coverage)
-        return self._with_normal(d, node, mat)
+        emission = self._in(node, path, "Emission")
+        strength = self._num(node, path, "Emission Strength")
+        if _positive(strength) and _positive(emission):
+            d = dict(d, emission=emission, strength=g.math("MAXIMUM", strength, 0.0, hint="strength"), two_sided=True)
+        coverage = self._clamp01(self._num(node, path, "Alpha"), "coverage")
+        if _is_link(coverage) or coverage < 1.0:
+            d["alpha"] = coverage
+        return d
 
     def _dispersion(self, d, mat):
         gp = getattr(mat, "gradphoton", None)

@@ -71,12 +71,17 @@ def _roles(name, d):
     an emissive material (the surface lights the scene too)."""
     if name.startswith("__light") or d.get("type") in ("point", "spot", "sun", "world"):
         return ("lights",)
-    emissive = d.get("strength", 0) and any(c > 0 for c in _colour(d.get("emission", 0)))
+    emissive = _maybe_positive(d.get("strength", 0)) and any(_maybe_positive(c) for c in _colour(d.get("emission", 0)))
     return ("surfaces", "lights") if emissive else ("surfaces",)
 
 
 def _colour(c):
     return c if isinstance(c, (list, tuple)) else (c,)
+
+
+def _maybe_positive(v):
+    """A constant above zero, or a link into the material's node graph (it may be)."""
+    return isinstance(v, dict) or v > 0
 
 
 def check_method(description, method, warnings, honoured=None):
