@@ -17,6 +17,21 @@ import math
 
 from . import texture, visibility
 
+
+def _from(socket):
+    """(node, output socket) feeding an input socket, through reroutes; (None, None) if unlinked.
+    (The World is read here node by node until its graph goes through the core's evaluator.)"""
+    if not socket.is_linked:
+        return None, None
+    link = socket.links[0]
+    node, out = link.from_node, link.from_socket
+    while node.bl_idname == 'NodeReroute':
+        if not node.inputs[0].is_linked:
+            return None, None
+        link = node.inputs[0].links[0]
+        node, out = link.from_node, link.from_socket
+    return node, out
+
 _INTERPOLATION = {'Linear': "linear", 'Closest': "closest", 'Cubic': "cubic", 'Smart': "smart"}
 _PROJECTION = {'EQUIRECTANGULAR': "equirectangular", 'MIRROR_BALL': "mirror_ball"}
 
@@ -38,12 +53,12 @@ def _environment(world, warnings):
                 if n.bl_idname == 'ShaderNodeOutputWorld' and n.is_active_output), None)
     if out is None or not out.inputs["Surface"].is_linked:
         return None
-    node, _ = texture._from(out.inputs["Surface"])
+    node, _ = _from(out.inputs["Surface"])
     if node is None:
         return None
     if node.bl_idname == 'ShaderNodeMixShader' and _is_camera_ray(node.inputs["Fac"]):
-        lit = _background(world, texture._from(node.inputs[1])[0], warnings)
-        seen = _background(world, texture._from(node.inputs[2])[0], warnings)
+        lit = _background(world, _from(node.inputs[1])[0], warnings)
+        seen = _background(world, _from(node.inputs[2])[0], warnings)
         env = lit or {"color": [0.0, 0.0, 0.0]}
         env["camera"] = seen or {"color": [0.0, 0.0, 0.0]}
         return env
@@ -51,7 +66,7 @@ def _environment(world, warnings):
 
 
 def _is_camera_ray(socket):
-    node, out = texture._from(socket)
+    node, out = _from(socket)
     return node is not None and node.bl_idname == 'ShaderNodeLightPath' and out.name == "Is Camera Ray"
 
 
@@ -64,11 +79,11 @@ def _background(world, node, warnings):
         return None
     color, strength = node.inputs["Color"], node.inputs["Strength"]
     if strength.is_linked:
-        src, _ = texture._from(strength)
+        src, _ = _from(strength)
         warnings.add("unsupported world node (socket value used)",
                      f"world '{world.name}': node '{src.name if src else '?'}' into {node.name}: Strength")
     s = max(0.0, strength.default_value)
-    src, out = texture._from(color)
+    src, out = _from(color)
     if src is not None and src.bl_idname == 'ShaderNodeTexEnvironment' and out.name == "Color":
         env = _environment_texture(world, src, warnings)
         env["strength"] = s
@@ -159,7 +174,7 @@ def _vector_transform(world, socket, warnings):
     a 3x3 matrix (None: identity)."""
     where = f"world '{world.name}'"
     m = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-    node, out = texture._from(socket)
+    node, out = _from(socket)
     while node is not None:
         if node.bl_idname == 'ShaderNodeMapping':
             mm = _mapping(node, warnings, where)
@@ -167,7 +182,7 @@ def _vector_transform(world, socket, warnings):
                 warnings.add("unsupported world node (identity used)", f"{where}: {node.name}: zero scale")
             else:
                 m = _matmul(m, mm)  # the Mapping nearer the texture applies last: M = M_near M_far
-            node, out = texture._from(node.inputs["Vector"])
+            node, out = _from(node.inputs["Vector"])
             continue
         if node.bl_idname == 'ShaderNodeTexCoord' and out.name in ("Generated", "Object"):
             if out.name == "Object" and node.object is not None:
