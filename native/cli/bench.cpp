@@ -17,6 +17,7 @@
 #include "reconstruction/poisson.h"
 #include "scene/accel.h"
 #include "scene/loader.h"
+#include "session/render_session.h"
 
 namespace gp::cli {
 
@@ -96,8 +97,18 @@ double median_of(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// The render session every front end runs (session/render_session.h), without its auxiliary
+// passes: what is timed here is the method's own passes.
+std::unique_ptr<RenderSession> bench_session(const std::shared_ptr<const Scene>& scene, const std::string& method,
+                                             const Params& params) {
+  auto s = std::make_unique<RenderSession>(scene, method, params);
+  s->set_aux_passes(false);
+  return s;
+}
+
 int run_bench(const std::string& scene_path, double seconds, int threads) {
-  Scene scene = load_scene(scene_path);
+  const auto shared = std::make_shared<Scene>(load_scene(scene_path));
+  const Scene& scene = *shared;
   const Accelerator& accel = scene.accelerator();
   Params params;
   params.set("threads", threads);
@@ -105,7 +116,7 @@ int run_bench(const std::string& scene_path, double seconds, int threads) {
   RayRecorder recorded;
   recorded.limit = 1 << 21;
   {
-    auto recorder_run = make_integrator("pt", scene, params);
+    auto recorder_run = bench_session(shared, "pt", params);
     Accelerator::record_rays(&recorded);
     while (recorded.closest.size() < recorded.limit && recorder_run->stats().passes < 64)
       recorder_run->iterate(nullptr);
@@ -114,7 +125,7 @@ int run_bench(const std::string& scene_path, double seconds, int threads) {
   const double n_closest = static_cast<double>(recorded.closest.size());
   const double n_shadow = static_cast<double>(recorded.shadow.size());
 
-  auto pt = make_integrator("pt", scene, params);
+  auto pt = bench_session(shared, "pt", params);
   pt->iterate(nullptr);  // warm-up pass (first allocations, caches), not counted
   ReplayTimes closest, occl;
   double pt_seconds = 0, pt_rays = 0, pt_shadow = 0;
@@ -189,7 +200,8 @@ int run_bench(const std::string& scene_path, double seconds, int threads) {
 // share of a pass its eye pass takes.
 int run_bench_photons(const std::string& scene_path, int64_t photons, int passes, int threads,
                       const std::string& hash, int width) {
-  Scene scene = load_scene(scene_path);
+  const auto shared = std::make_shared<Scene>(load_scene(scene_path));
+  Scene& scene = *shared;
   if (width > 0) {
     scene.camera.height = std::max(1, static_cast<int>(std::lround(double(scene.camera.height) * width / scene.camera.width)));
     scene.camera.width = width;
@@ -209,7 +221,7 @@ int run_bench_photons(const std::string& scene_path, int64_t photons, int passes
   params.set("photons", photons);
   params.set("threads", threads);
   params.set("hash", hash);
-  auto sppm = make_integrator("sppm", scene, params);
+  auto sppm = bench_session(shared, "sppm", params);
   sppm->iterate(nullptr);  // warm-up pass (first allocations), not counted
   const Stats before = sppm->stats();
   ReplayTimes raw;
@@ -255,7 +267,7 @@ int run_bench_photons(const std::string& scene_path, int64_t photons, int passes
   // ---- SPPM with its defaults (photon count included): the eye pass's share of a pass ----
   Params defaults;
   defaults.set("threads", threads);
-  auto plain = make_integrator("sppm", scene, defaults);
+  auto plain = bench_session(shared, "sppm", defaults);
   plain->iterate(nullptr);
   const Stats d0 = plain->stats();
   for (int i = 0; i < passes; ++i) plain->iterate(nullptr);
