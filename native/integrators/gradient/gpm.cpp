@@ -806,20 +806,7 @@ void Gpm::iterate(ProgressSink* sink) {
     }
     invalid_phi += bad;
   });
-  stats_.passes += 1;
-  update_error_estimate();
-  stats_.extra["update seconds"] += seconds_since(t_update);
-
-  // ---- Statistics ----
-  double sum_r = 0, n_r = 0;
-  for (const PixelState& s : px_)
-    if (s.r2 > 0) { sum_r += std::sqrt(s.r2); n_r += 1; }
-  stats_.rays += rays + ps.rays + shift_rays;
-  stats_.paths += ps.emitted;
-  stats_.invalid_samples += invalid + invalid_phi + ps.invalid;
-  stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
-  stats_.extra["photons stored"] += static_cast<double>(ps.stored);
-  stats_.extra["photon rays"] += static_cast<double>(ps.rays);
+  end_pass(t_update, ps, rays + shift_rays, invalid + invalid_phi);  // SPPM's end of a pass
   stats_.extra["photon shifts"] += static_cast<double>(shifts);
   stats_.extra["photon shift rays"] += static_cast<double>(shift_rays);
   stats_.extra["manifold walks"] += static_cast<double>(walks);
@@ -829,8 +816,6 @@ void Gpm::iterate(ProgressSink* sink) {
     if (failures[k] > 0) stats_.extra["sensor " + reason] += static_cast<double>(failures[k]);
     if (failures[kPhotonFailureBase + k] > 0) stats_.extra[reason] += static_cast<double>(failures[kPhotonFailureBase + k]);
   }
-  stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
-  stats_.extra["estimated error"] = estimated_error_;
   stats_.seconds += seconds_since(start);
 }
 

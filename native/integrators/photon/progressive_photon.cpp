@@ -294,22 +294,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     cut_rays += probe_rays;
   });
   rays += cut_rays;
-  stats_.passes += 1;
-  update_error_estimate();
-  stats_.extra["update seconds"] += seconds_since(t_update);
-
-  // ---- Statistics ----
-  double sum_r = 0, n_r = 0;
-  for (const PixelState& s : px_)
-    if (s.r2 > 0) { sum_r += std::sqrt(s.r2); n_r += 1; }
-  stats_.rays += rays + ps.rays;
-  stats_.paths += ps.emitted;
-  stats_.invalid_samples += invalid + invalid_phi + ps.invalid;
-  stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
-  stats_.extra["photons stored"] += static_cast<double>(ps.stored);
-  stats_.extra["photon rays"] += static_cast<double>(ps.rays);
-  stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
-  stats_.extra["estimated error"] = estimated_error_;
+  end_pass(t_update, ps, rays, invalid + invalid_phi);
   if (adaptive_) {
     stats_.extra["acceptance rate"] = adaptive_->acceptance_rate();
     stats_.extra["mutation size"] = adaptive_->mean_theta();
@@ -319,6 +304,24 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     stats_.extra["photon paths traced"] = static_cast<double>(adaptive_->paths_traced());
   }
   stats_.seconds += seconds_since(start);
+}
+
+void ProgressivePhotonMapping::end_pass(std::chrono::steady_clock::time_point t_update, const PhotonPassStats& ps,
+                                        int64_t rays, int64_t invalid) {
+  stats_.passes += 1;
+  update_error_estimate();
+  stats_.extra["update seconds"] += seconds_since(t_update);
+  double sum_r = 0, n_r = 0;
+  for (const PixelState& s : px_)
+    if (s.r2 > 0) { sum_r += std::sqrt(s.r2); n_r += 1; }
+  stats_.rays += rays + ps.rays;
+  stats_.paths += ps.emitted;
+  stats_.invalid_samples += invalid + ps.invalid;
+  stats_.extra["photons traced"] += static_cast<double>(ps.emitted);
+  stats_.extra["photons stored"] += static_cast<double>(ps.stored);
+  stats_.extra["photon rays"] += static_cast<double>(ps.rays);
+  stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
+  stats_.extra["estimated error"] = estimated_error_;
 }
 
 DiscShape ProgressivePhotonMapping::disc_shape(const VisiblePoint& vp, double R, Rng& rng, int64_t& rays) const {

@@ -10,6 +10,8 @@
 // point's radius is known.
 #pragma once
 
+#include <chrono>
+
 #include <array>
 #include <memory>
 #include <string>
@@ -205,6 +207,11 @@ class ProgressivePhotonMapping : public Integrator {
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
+  // The end of a photon pass, shared by SPPM and GPM: the pass counted, the error estimate
+  // updated, the update's time and the pass's statistics (rays and invalid samples of its own
+  // besides the photons') added.
+  void end_pass(std::chrono::steady_clock::time_point t_update, const PhotonPassStats& ps, int64_t rays,
+                int64_t invalid);
   // The Laplacian, B'_i and its standard error of pixel k (the rest of ErrorTerms left 0).
   ErrorTerms bias_estimate(size_t k) const;
   // cut, edge_bias and edge_bias_sd of pixel k into e (e.radiance set).
