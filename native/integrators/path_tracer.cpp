@@ -65,7 +65,7 @@ RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std:
     // ---- Emission found by the ray: full weight for camera and specular rays, MIS otherwise
     // Emission found at depth 0 or 1 is direct light (Cycles' clamping), deeper is indirect.
     if (!hit) {
-      if (depth == 0 && film_transparent_) {
+      if (depth == 0 && (film_transparent_ || ray.held_out)) {  // no background; a holdout: black
         if (escaped) *escaped = true;
         break;
       }

@@ -210,7 +210,7 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
       if (env >= 0) {
         const Light& e = lights.lights()[env];  // the World's Ray Visibility
         if (depth == 0) {
-          if (e.visible_to_camera) add_emission(spectra_.light[env], 0.0f, true);
+          if (e.visible_to_camera && !ray.held_out) add_emission(spectra_.light[env], 0.0f, true);
         } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
           if (e.visible_lobes & prev.lobe)
             add_emission(spectra_.light[env], 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
