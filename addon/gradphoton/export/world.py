@@ -1,6 +1,7 @@
 """World: the Background node's colour x strength as constant environment radiance
 (W sr^-1 m^-2, as Cycles), with World > Settings > Ray Visibility (export/visibility.py).
-Textures and other nodes are approximated by the socket values."""
+A node linked into the Background node (a texture, a Sky) is rendered as the value typed in
+the socket it feeds: a warning naming the node and that value."""
 
 from . import visibility
 
@@ -28,7 +29,17 @@ def _radiance(world, warnings):
         return None
     color, strength = node.inputs["Color"], node.inputs["Strength"]
     for s in (color, strength):
-        if s.is_linked:
-            warnings.add("linked input uses its own value (textures unsupported)", f"world '{world.name}': {s.name}")
+        if s.is_linked:  # name the node that feeds it and the value rendered instead
+            src = s.links[0].from_node
+            warnings.add("World node not rendered: its Background input renders with the value typed in it",
+                         f"'{world.name}': {src.name} into Background {s.name} (rendered as {_value(s)})")
     c = color.default_value
     return {"color": [c[0], c[1], c[2]], "strength": max(0.0, strength.default_value)}
+
+
+def _value(socket):
+    """A socket's own value as the report shows it: 0.8, or (0.05, 0.05, 0.05) for a colour."""
+    v = socket.default_value
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    return "(" + ", ".join(f"{x:.3g}" for x in tuple(v)[:3]) + ")"
