@@ -1,8 +1,11 @@
 """F12 to the first pass on screen, in real Blender, split into its phases.
 
     blender -b --factory-startup --python scripts/json_to_blend.py -- scenes/cornell-dense.json /tmp/cd.blend
-    blender -b /tmp/cd.blend --python scripts/bench_f12.py [-- --method pt --threads 2 --repeats 3]
-    blender -b /tmp/cd.blend --python scripts/bench_f12.py -- --seconds 12   # the refresh table
+    blender -b --factory-startup /tmp/cd.blend --python scripts/bench_f12.py [-- --method pt --threads 2 --repeats 3]
+    blender -b --factory-startup /tmp/cd.blend --python scripts/bench_f12.py -- --seconds 12   # the refresh table
+
+(--factory-startup: an addon installed in Blender's user folder would be loaded instead of this
+checkout's.)
 
 Renders the file's scene with gradphoton (bpy.ops.render.render, what F12 runs) stopping after
 one pass, and times, from the operator's call: the depsgraph export to numpy arrays, the native

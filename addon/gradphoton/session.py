@@ -22,13 +22,20 @@ from . import export, native, properties, sync
 from .properties import FILM_TRANSPARENT, declared, method_info
 
 POLL_SECONDS = 0.02
-# How often an F12 render's image reaches Blender, as Cycles' final renders (render_scheduler.cpp,
-# guess_display_update_interval_in_seconds: 1 s while few samples are done, 2 s later; work is
-# kept to 2 s pieces for the first 10 s): the first pass at once, then every pass that ends a
-# second or more after the last image, every two seconds after the first ten.
-DISPLAY_INTERVAL = ((10.0, 1.0), (math.inf, 2.0))  # (until this many seconds, interval)
+# How often an F12 render's image reaches Blender: the first pass at once, then Cycles' ladder
+# (render_scheduler.cpp, guess_display_update_interval_in_seconds: 0.25 s in the first 2 s of
+# rendering, 0.5 s to 4 s, 1 s to 10 s; 2 s after, as its final renders), at the pass end nearest
+# each interval (a pass is the smallest step: Cycles' is a sample).
+DISPLAY_INTERVAL = ((2.0, 0.25), (4.0, 0.5), (10.0, 1.0), (math.inf, 2.0))  # (until, interval), seconds
 # Passes Film > Exposure scales, as Cycles scales its light passes (not data: error, radius,
 # counts, alpha, albedo, normal, depth).
+# Progressive resolution, as Cycles' start resolution: while a full pass would take longer than
+# Cycles' one-second refresh, the first passes render the image at 1/8, 1/4, 1/2 of its size
+# (its longer side at least PREVIEW_MIN_SIDE pixels), each shown enlarged, then discarded.
+PREVIEW_DIVIDERS = (8, 4, 2)
+PREVIEW_MIN_SIDE = 128
+PREVIEW_FULL_PASS = 1.0  # seconds: a full pass expected faster than this needs no preview
+PREVIEW_MAX = 0.5        # seconds a preview pass may be expected to take: each delays the full image
 EXPOSED_PASSES = {"combined", "primal", "gradient_x", "gradient_y", "spectral_primal", "spectral_gradient",
                   "path_tracing"}
 LAST = None  # the latest RenderSession (tests and the UI test inspect it)
@@ -139,6 +146,20 @@ def to_blender_pixels(img, channels, window=None, alpha=None):
         out = np.zeros(img.shape[:2] + (channels,), np.float32)
         out[..., :min(c, channels)] = img[..., :min(c, channels)]
     return out.reshape(-1, channels)
+
+
+def previews_help(method):
+    """Whether smaller first passes give earlier images: methods whose pass cost follows the pixel
+    count (not photon passes, whose photons cost the same at any size, nor Metropolis chains)."""
+    return not any(d["name"] in ("photons", "mutations") for d in declared(method))
+
+
+def enlarged(img, height, width):
+    """`img` (h, w, C) scaled to (height, width) by repeating pixels (nearest)."""
+    h, w = img.shape[:2]
+    ys = np.minimum(np.arange(height) * h // height, h - 1)
+    xs = np.minimum(np.arange(width) * w // width, w - 1)
+    return img[ys][:, xs]
 
 
 def display_interval(elapsed):
@@ -338,7 +359,13 @@ class RenderSession:
         progress = Progress(settings)
         last_update = -math.inf
         n = 0
+        previewed = False
         try:
+            if window is None and previews_help(settings.method) and progress.rule != 'PASSES':
+                previewed = self._previews(N, nscene, exported.description["camera"], settings.method, params,
+                                           result, passes, progress)
+                if previewed:
+                    last_update = progress.elapsed()
             while True:
                 cancelled_at = self._iterate_cancellable()
                 stats = self.session.stats
@@ -346,7 +373,11 @@ class RenderSession:
                 error = self.session.estimated_error
                 done = cancelled_at is not None or progress.done(n, error)
                 now = progress.elapsed()
-                if done or now - last_update >= display_interval(now):
+                # The pass end nearest the interval: half a pass early rather than a whole one late.
+                half_pass = 0.5 * now / max(1, n)
+                if previewed and stats.get("passes", 0) == 0:
+                    pass  # stopped before a full pass: the preview stays, not an empty image
+                elif done or now - last_update + half_pass >= display_interval(now):
                     self._write(result, passes)
                     engine.update_result(result)
                     self.updates.append((now, n))
@@ -383,6 +414,45 @@ class RenderSession:
         except (AttributeError, RuntimeError, TypeError) as e:  # never fail the render for metadata
             self.engine.report({'WARNING'}, f"gradphoton: run metadata not recorded: {e}")
 
+    def _previews(self, N, nscene, camera, method, params, result, passes, progress):
+        """The progressive-resolution first passes (PREVIEW_DIVIDERS): each a session of its own on
+        the camera made smaller, one pass, its image enlarged into the result; the camera is
+        restored and the full-size session made anew after them. Returns whether any was shown."""
+        import json
+        W, H = camera["width"], camera["height"]
+        shown = False
+        full = self.session
+        last = None  # (divider, seconds) of the latest preview pass
+        try:
+            for d in PREVIEW_DIVIDERS:
+                w, h = math.ceil(W / d), math.ceil(H / d)
+                if max(w, h) < PREVIEW_MIN_SIDE:
+                    continue
+                if last is not None and last[1] * (last[0] / d) ** 2 > PREVIEW_MAX:
+                    break  # it would hold the first full image back for longer than it shows
+
+                nscene.set_camera(json.dumps(dict(camera, width=w, height=h)))
+                self.session = N.Session(nscene, method, params)
+                self.session.set_aux_passes(False)
+                t0 = time.perf_counter()
+                if self._iterate_cancellable() is not None:
+                    break
+                seconds = time.perf_counter() - t0
+                images = {k: enlarged(v, H, W) for k, v in self.session.develop().items()
+                          if k in ("combined", "alpha")}
+                self._write(result, [p for p in passes if p[0] == "combined"], images)
+                self.engine.update_result(result)
+                self.updates.append((progress.elapsed(), 0))
+                shown = True
+                last = (d, seconds)
+                if seconds * d * d <= PREVIEW_FULL_PASS:
+                    break  # a full pass will be about as quick: no smaller one is needed
+        finally:
+            nscene.set_camera(json.dumps(camera))
+            self.session = N.Session(nscene, method, params) if shown or full.stale else full
+            self.session.set_aux_passes(any(p[0] in AUX_PASSES for p in passes))
+        return shown
+
     def _iterate_cancellable(self):
         """Runs one pass; returns the time test_break() fired, or None."""
         if self.test_break():
@@ -398,10 +468,11 @@ class RenderSession:
                 self.session.cancel()
         return fired
 
-    def _write(self, result, passes):
+    def _write(self, result, passes, images=None):
         """Every enabled pass into the result (a border render's images are already the
-        border: the core traced only its pixels)."""
-        images = self.session.develop()
+        border: the core traced only its pixels); `images` instead of the session's own."""
+        if images is None:
+            images = self.session.develop()
         layer = result.layers[0]
         alpha = images.get("alpha") if self.transparent else None
         for name, bl_name, channels, _, _ in passes:

@@ -349,7 +349,8 @@ std::vector<Method> make_methods() {
                        .reference = "Kelemen et al. 2002", .group = "Metropolis"},
                       {.name = "direct", .type = ParamType::String, .default_value = "chain",
                        .choices = {"chain", "uniform"}, .label = "Direct Light",
-                       .description = "delta-only light from the chains' splats, or from the uniform samples",
+                       .description = "where light that only mirrors and glass carry comes from; chain: the chains' splats; "
+                                      "uniform: the ordinary samples",
                        .group = "Metropolis"},
                       recon("l1"), lambda(), max_depth(32), rr_depth()},
                      common()}),

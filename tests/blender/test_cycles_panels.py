@@ -157,13 +157,22 @@ def test_time_limit_is_drawn_beside_target_error(empty_scene):
 
 
 def test_target_error_time_limit_ends_a_real_render(empty_scene):
-    _holdout_scene(empty_scene, "sppm")
-    s = empty_scene.gradphoton
-    s.stop_rule, s.target_error, s.error_time_limit = "ERROR", 1e-4, 0.5
-    t0 = time.perf_counter()
-    bpy.ops.render.render()
-    assert time.perf_counter() - t0 < 20
-    assert any("Time Limit reached" in m for _, m in session.REPORTS), session.REPORTS
+    from test_render import _CancelAfter
+    bpy.utils.register_class(_CancelAfter)
+    try:
+        _holdout_scene(empty_scene, "sppm")
+        empty_scene.render.engine = _CancelAfter.bl_idname
+        _CancelAfter.delay = 20.0  # a guard: Esc after 20 s, should the Time Limit not stop it
+        _CancelAfter.record.clear()
+        s = empty_scene.gradphoton
+        s.stop_rule, s.target_error, s.error_time_limit = "ERROR", 1e-4, 0.5
+        bpy.ops.render.render()
+        assert _CancelAfter.record["latency"] is None  # the guard never fired
+        assert any("Time Limit reached" in m for _, m in session.REPORTS), session.REPORTS
+    finally:
+        _CancelAfter.delay = 0.6
+        empty_scene.render.engine = "GRADPHOTON"
+        bpy.utils.unregister_class(_CancelAfter)
 
 
 def _spectral_drawn(scene):
@@ -301,5 +310,24 @@ def test_export_warnings_reach_the_status_bar_when_the_render_ends(empty_scene):
 
 
 def test_images_reach_blender_as_often_as_cycles_sends_them():
-    assert session.display_interval(0.0) == 1.0 and session.display_interval(9.9) == 1.0
-    assert session.display_interval(10.0) == 2.0
+    assert session.display_interval(0.0) == 0.25 and session.display_interval(3.0) == 0.5
+    assert session.display_interval(9.9) == 1.0 and session.display_interval(10.0) == 2.0
+
+
+def test_first_images_at_reduced_resolution_leave_the_render_unchanged(empty_scene, out_dir):
+    """A time-limited F12 render shows smaller first passes (progressive resolution) before its
+    full-size passes; the image it ends with is the full-size passes' alone, bit for bit the
+    render of as many passes without them."""
+    _holdout_scene(empty_scene, "pt")
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 256, 192
+    s = empty_scene.gradphoton
+    s.stop_rule, s.time_limit = "TIME", 1.5
+    timed, _ = _rgba(empty_scene, out_dir, "timed")
+    updates = list(session.LAST.updates)
+    passes = session.LAST.session.stats["passes"]
+    assert updates[0][1] == 0 and any(p > 0 for _, p in updates), updates  # a preview first
+    assert passes >= 1
+    s.stop_rule, s.passes = "PASSES", passes
+    counted, _ = _rgba(empty_scene, out_dir, "counted")
+    assert session.LAST.updates[0][1] > 0  # no preview for a pass count
+    np.testing.assert_array_equal(timed, counted)
