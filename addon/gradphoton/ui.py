@@ -228,7 +228,7 @@ class GRADPHOTON_PT_film_transparency(GradphotonPanel, bpy.types.Panel):
     def draw(self, context):
         layout = _split(self.layout)
         layout.active = context.scene.render.film_transparent
-        layout.label(text="No background: Alpha is the share of samples that meet the scene")
+        layout.label(text="Alpha 0 where the world is seen")
 
 
 # Blender's icon for each report level (the status bar's and the Info editor's): a warning is the
