@@ -45,9 +45,36 @@ def _row(d):
 HEADER = ["| parameter | default | allowed | meaning | paper |", "| --- | --- | --- | --- | --- |"]
 
 
+def _passes(d):
+    return ", ".join(f"`{name}`" + (f" (with `{when}`)" if when else "") for name, when in d["passes"])
+
+
+def _merge(d):
+    m = d["merge"]
+    return ("reconstructed from merged gradients" if m["reconstructs"] else "mean") + \
+        ("; keeps one run's bias" if m["keeps_bias"] else "")
+
+
+def overview(N):
+    """One row per method: what it declares of itself besides its parameters (Method, methods.h)."""
+    out = ["What each method is, as it declares itself (`_native.method_description`): the passes its "
+           "develop() writes (every render session adds `albedo`, `normal` and `depth`), whether it estimates "
+           "its error (`--target-error`), how `gradphoton merge` combines its runs, and the statistics Blender's "
+           "status line shows.", "",
+           "| method | label | passes | error estimate | merge | status line |",
+           "| --- | --- | --- | --- | --- | --- |"]
+    for method in N.methods():
+        d = N.method_description(method)
+        stats = ", ".join(f"{label} (`{key}`)" for key, label, _ in d["stats"]) or "—"
+        out.append(f"| `{method}` | {d['label']} | {_passes(d)} | {'yes' if d['error_estimate'] else 'no'} | "
+                   f"{_merge(d)} | {stats} |")
+    return out + [""]
+
+
 def tables(N):
-    """The generated section: one table per method of its own parameters, then the shared ones."""
-    out = [BEGIN, "", "Each method's parameters as it declares them (`gradphoton methods NAME` prints the same; "
+    """The generated section: what each method is, one table per method of its own parameters, then the
+    shared ones."""
+    out = [BEGIN, ""] + overview(N) + ["Each method's parameters as it declares them (`gradphoton methods NAME` prints the same; "
            "`render` takes each as `--<name> VALUE` or `--param name=value`; Blender shows each method's own). "
            "The shared ones follow the methods.", ""]
     shared = {}

@@ -1,7 +1,10 @@
 #include "core/sampling.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+
+#include "core/parallel.h"
 
 namespace gp {
 
@@ -85,6 +88,83 @@ size_t DiscreteDistribution::sample(float u, float* u_remapped) const {
     *u_remapped = std::min((u - lo) / pmf_[i], 0x1.fffffep-1f);
   }
   return i;
+}
+
+}  // namespace gp
+
+namespace gp {
+
+namespace {
+
+// Density (mean 1) and CDF of one row of piecewise-constant values; returns the row's mean.
+// An all-zero row is uniform, so sampling it stays defined (its weight in the marginal is 0).
+double piecewise_1d(const float* f, int n, float* pdf, float* cdf) {
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    const float v = f[i];
+    sum += std::isnan(v) || v < 0 ? 0.0 : std::min<double>(v, std::numeric_limits<float>::max());
+  }
+  const double mean = sum / n;
+  double running = 0;
+  cdf[0] = 0;
+  for (int i = 0; i < n; ++i) {
+    const float v = f[i];
+    const double w = std::isnan(v) || v < 0 ? 0.0 : std::min<double>(v, std::numeric_limits<float>::max());
+    const double p = sum > 0 ? w / mean : 1.0;  // density over [0,1]
+    pdf[i] = static_cast<float>(p);
+    running += sum > 0 ? w / sum : 1.0 / n;
+    cdf[i + 1] = static_cast<float>(running);
+  }
+  cdf[n] = 1.0f;
+  return mean;
+}
+
+// Continuous sample of a 1D piecewise-constant density: the cell whose CDF interval holds u,
+// then u's place inside it. Cells of zero probability are never returned.
+float sample_1d(const float* pdf, const float* cdf, int n, float u, int* cell) {
+  int i = static_cast<int>(std::upper_bound(cdf, cdf + n + 1, u) - cdf) - 1;
+  i = std::clamp(i, 0, n - 1);
+  while (i > 0 && pdf[i] == 0) --i;
+  while (i < n - 1 && pdf[i] == 0) ++i;
+  const float width = cdf[i + 1] - cdf[i];
+  const float t = width > 0 ? std::clamp((u - cdf[i]) / width, 0.0f, 0x1.fffffep-1f) : 0.5f;
+  *cell = i;
+  return std::min((i + t) / n, 0x1.fffffep-1f);
+}
+
+}  // namespace
+
+PiecewiseConstant2D::PiecewiseConstant2D(const float* f, int nu, int nv) : nu_(nu), nv_(nv) {
+  if (nu <= 0 || nv <= 0) {
+    nu_ = nv_ = 0;
+    return;
+  }
+  cond_pdf_.resize(static_cast<size_t>(nu) * nv);
+  cond_cdf_.resize(static_cast<size_t>(nu + 1) * nv);
+  std::vector<float> row_mean(nv);
+  parallel_for(static_cast<size_t>(nv), 0, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v != end; ++v)
+      row_mean[v] = static_cast<float>(piecewise_1d(f + v * nu, nu, &cond_pdf_[v * nu], &cond_cdf_[v * (nu + 1)]));
+  });
+  marg_pdf_.resize(nv);
+  marg_cdf_.resize(nv + 1);
+  integral_ = piecewise_1d(row_mean.data(), nv, marg_pdf_.data(), marg_cdf_.data());
+}
+
+Vec2 PiecewiseConstant2D::sample(Vec2 u, float* pdf) const {
+  int v = 0, c = 0;
+  const float y = sample_1d(marg_pdf_.data(), marg_cdf_.data(), nv_, u.y, &v);
+  const size_t row = static_cast<size_t>(v);
+  const float x = sample_1d(&cond_pdf_[row * nu_], &cond_cdf_[row * (nu_ + 1)], nu_, u.x, &c);
+  *pdf = marg_pdf_[v] * cond_pdf_[row * nu_ + c];
+  return {x, y};
+}
+
+float PiecewiseConstant2D::pdf(Vec2 p) const {
+  if (empty() || !(p.x >= 0 && p.x < 1 && p.y >= 0 && p.y < 1)) return 0.0f;
+  const int v = std::min(static_cast<int>(p.y * nv_), nv_ - 1);
+  const int c = std::min(static_cast<int>(p.x * nu_), nu_ - 1);
+  return marg_pdf_[v] * cond_pdf_[static_cast<size_t>(v) * nu_ + c];
 }
 
 }  // namespace gp

@@ -61,4 +61,32 @@ class DiscreteDistribution {
   float total_ = 0;
 };
 
+// Piecewise-constant density over [0,1]^2 from an nu x nv grid of non-negative values (row v,
+// column u; pbrt-v3's Distribution2D, PBR 3rd ed. §13.6.7): a marginal over rows, a conditional
+// over each row's cells, continuous samples inside the chosen cell. Sums run in double, so an
+// 8192 x 4096 map with a sun of 1e5 beside a sky of 1e-2 keeps every cell's probability.
+class PiecewiseConstant2D {
+ public:
+  PiecewiseConstant2D() = default;
+  // f: nv rows of nu values (NaN or negative read as 0). All zero: uniform.
+  PiecewiseConstant2D(const float* f, int nu, int nv);
+  bool empty() const { return nu_ == 0; }
+  int nu() const { return nu_; }
+  int nv() const { return nv_; }
+  // The grid's mean value (its integral over the unit square).
+  double integral() const { return integral_; }
+  // A point of [0,1)^2 and its density per unit area of the square.
+  Vec2 sample(Vec2 u, float* pdf) const;
+  float pdf(Vec2 p) const;
+  size_t bytes() const { return (cond_cdf_.size() + marg_cdf_.size() + cond_pdf_.size()) * sizeof(float); }
+
+ private:
+  int nu_ = 0, nv_ = 0;
+  double integral_ = 0;
+  std::vector<float> cond_pdf_;  // nv x nu: density of u within row v (mean 1 over the row)
+  std::vector<float> cond_cdf_;  // nv x (nu + 1)
+  std::vector<float> marg_pdf_;  // nv: density of v
+  std::vector<float> marg_cdf_;  // nv + 1
+};
+
 }  // namespace gp

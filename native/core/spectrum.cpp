@@ -294,6 +294,12 @@ RgbSpectrum RgbSpectrum::illuminant(const RGB& rgb) {
   return s;
 }
 
+RgbSpectrum RgbSpectrum::illuminant_interpolated(const RGB& rgb) {
+  const float m = std::max(0.0f, rgb.max_component());
+  if (!(m > 0) || !std::isfinite(m)) return reflectance(RGB(0.0f));
+  return reflectance_interpolated(rgb / m).scaled(m);
+}
+
 std::optional<std::vector<SpectralLine>> spectral_line_preset(const std::string& name) {
   if (name == "sodium") return std::vector<SpectralLine>{{588.995f, 2.0f}, {589.592f, 1.0f}};  // D2, D1
   if (name == "mercury")

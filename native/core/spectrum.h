@@ -100,6 +100,15 @@ class RgbSpectrum {
   static RgbSpectrum reflectance_interpolated(const RGB& rgb);
   // Unbounded spectrum for emission: scale * reflectance(rgb / scale) with scale = max(rgb).
   static RgbSpectrum illuminant(const RGB& rgb);
+  // The same from the interpolated table (reflectance_interpolated): for emission met per hit
+  // (an environment map's texel), where a fit per value would cost a millisecond.
+  static RgbSpectrum illuminant_interpolated(const RGB& rgb);
+  // This spectrum times f (f >= 0).
+  RgbSpectrum scaled(float f) const {
+    RgbSpectrum s = *this;
+    s.scale_ *= f;
+    return s;
+  }
   // Gaussian lines of one FWHM (nm), scaled so that the spectrum has luminance Y = scale (Y of
   // the constant spectrum 1 is 1). At most kMaxSpectralLines lines.
   static RgbSpectrum lines(const std::vector<SpectralLine>& lines, float fwhm, float scale);

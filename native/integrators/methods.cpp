@@ -370,14 +370,14 @@ std::vector<Method> make_methods() {
                .summary = "spectral path tracing, one wavelength per path, Cauchy dispersion",
                .tooltip = "Path tracing by wavelength, for rainbows through dispersive glass (one wavelength per "
                           "path, Cauchy dispersion)",
-               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1)}, common()}),
-               .make = spt(false), .passes = {always(pass::kCombined)}, .holdout = true});
+               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1), film_transparent()}, common()}),
+               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .holdout = true});
   m.push_back({.name = "spt-hero", .label = "Spectral PT Hero",
                .summary = "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
                .tooltip = "Spectral path tracing with four wavelengths per path: less colour noise (hero "
                           "wavelengths, Wilkie et al. 2014)",
-               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4)}, common()}),
-               .make = spt(true), .passes = {always(pass::kCombined)}, .holdout = true});
+               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4), film_transparent()}, common()}),
+               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .holdout = true});
   m.push_back({.name = "sgpt", .label = "Spectral Gradient",
                .summary = "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
                .tooltip = "Spectral path tracing with a smooth reconstruction across wavelengths (spectral "
@@ -434,9 +434,26 @@ std::vector<std::string> Method::passes_with(const Params& bound) const {
   return out;
 }
 
-const std::vector<Method>& methods() {
-  static const std::vector<Method> all = make_methods();
+// Bound parameters point at their method's declarations (Params::bound), so the registry never
+// reallocates: room for kMaxMethods.
+constexpr size_t kMaxMethods = 64;
+std::vector<Method>& registry() {
+  static std::vector<Method> all = [] {
+    std::vector<Method> m;
+    m.reserve(kMaxMethods);
+    for (Method& b : make_methods()) m.push_back(std::move(b));
+    return m;
+  }();
   return all;
+}
+
+const std::vector<Method>& methods() { return registry(); }
+
+void register_method(Method m) {
+  for (const Method& k : registry())
+    if (k.name == m.name) throw std::invalid_argument("method '" + m.name + "' is registered already");
+  if (registry().size() == kMaxMethods) throw std::length_error("more than 64 methods");
+  registry().push_back(std::move(m));
 }
 
 const Method& find_method(const std::string& name) {

@@ -45,7 +45,8 @@ struct StatDecl {
 
 // Scene features beyond surfaces and lights, for "method X does not render Y" messages.
 struct SceneFeatures {
-  bool media = false, motion_blur = false, environment_map = false;
+  bool media = false, motion_blur = false;
+  bool environment_map = true;  // an image World: every method samples it (lights/environment_map.h)
 };
 
 // What a method is, in one place: front ends (CLI help, Python, Blender's method menu, panels,
@@ -89,6 +90,10 @@ struct Method {
 
 // Every method, in the order front ends list them.
 const std::vector<Method>& methods();
+// Adds a method after the built-in ones (a method of a test or an extension: everything that
+// reads methods() then offers it). std::invalid_argument for a name already taken. Not
+// thread-safe: register before rendering.
+void register_method(Method m);
 // The method called `name`; ParamError naming the known ones when there is none.
 const Method& find_method(const std::string& name);
 

@@ -16,6 +16,7 @@
 
 #include "core/rng.h"
 #include "integrators/integrator.h"
+#include "integrators/paths/camera_path.h"
 #include "integrators/pixel_estimate.h"
 
 namespace gp {
@@ -35,13 +36,10 @@ class PathTracer : public Integrator {
          const std::optional<SurfaceHit>* first = nullptr) const;
 
  private:
-  // A contribution clamped as Cycles does (sum of |R|+|G|+|B| at most the limit; 0 = off).
-  RGB clamped(const RGB& c, bool direct) const;
-
   const Scene& scene_;
-  bool film_transparent_;
+  CameraPathSettings settings_;
   float clamp_direct_, clamp_indirect_;
-  int max_depth_, rr_depth_, threads_, tile_size_;
+  int threads_, tile_size_;
   uint64_t seed_;
   int width_, height_;
   PixelEstimate estimate_;

@@ -28,7 +28,7 @@ float LightSet::power(int i) const {
     case LightType::Point: return 4.0f * kPi * e;
     case LightType::Spot: return 2.0f * kPi * e * (1.0f - l.spot_cos_half);
     case LightType::Directional: return kPi * r2 * e;
-    case LightType::Environment: return 4.0f * kPi * kPi * r2 * e;
+    case LightType::Environment: return kPi * r2 * (l.map ? l.map->integral().average() : 4.0f * kPi * e);
   }
   return 0.0f;
 }
@@ -115,6 +115,13 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
       s.delta = true;
       return s;
     case LightType::Environment:
+      if (l.map) {  // the map's luminance x sin(theta) distribution (environment_map.h)
+        float pdf_dir = 0;
+        if (!l.map->sample(u, &s.wi, &pdf_dir)) return std::nullopt;
+        s.L = l.map->eval(s.wi);
+        s.pdf = pmf * pdf_dir;
+        return s;
+      }
       s.wi = sample_uniform_sphere(u);
       s.L = l.emit;
       s.pdf = pmf * uniform_sphere_pdf();
@@ -131,11 +138,16 @@ float LightSet::pdf_area(int i, const Vec3& p, const Vec3& p_light, const Vec3& 
 }
 
 float LightSet::pdf_environment(const Vec3& wi) const {
-  return environment_ < 0 ? 0.0f : select_.pmf(environment_) * uniform_sphere_pdf();
+  if (environment_ < 0) return 0.0f;
+  const Light& l = lights_[environment_];
+  return select_.pmf(environment_) * (l.map ? l.map->pdf(wi) : uniform_sphere_pdf());
 }
 
-RGB LightSet::environment_radiance(const Vec3& dir) const {
-  return environment_ < 0 ? RGB(0.0f) : lights_[environment_].emit;
+RGB LightSet::environment_radiance(const Vec3& dir, bool camera_ray) const {
+  if (environment_ < 0) return RGB(0.0f);
+  const Light& l = lights_[environment_];
+  if (camera_ray && l.camera_override) return l.camera_map ? l.camera_map->eval(dir) : l.camera_emit;
+  return l.map ? l.map->eval(dir) : l.emit;
 }
 
 int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, float* pdf) const {
@@ -206,9 +218,9 @@ void LightSet::emission_pdf(int i, const Vec3& d, float& pdf_pos, float& pdf_dir
       pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
       pdf_dir = pmf;
       return;
-    case LightType::Environment:
+    case LightType::Environment:  // radiance arrives from -d
       pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
-      pdf_dir = pmf * uniform_sphere_pdf();
+      pdf_dir = pmf * (l.map ? l.map->pdf(-d) : uniform_sphere_pdf());
       return;
   }
 }
@@ -270,7 +282,14 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
       const float r = scene_radius_;
       float dir_pdf = 1.0f;
       Vec3 d = l.direction;
-      if (l.type == LightType::Environment) {
+      RGB radiance = l.emit;
+      if (l.type == LightType::Environment && l.map) {
+        // The map's own distribution, as next-event estimation draws it (environment_map.h).
+        Vec3 wi;
+        if (!l.map->sample(u_dir, &wi, &dir_pdf)) return std::nullopt;
+        d = -wi;
+        radiance = l.map->eval(wi);
+      } else if (l.type == LightType::Environment) {
         d = -sample_uniform_sphere(u_dir);  // radiance arrives from -d: any direction
         dir_pdf = uniform_sphere_pdf();
       }
@@ -279,7 +298,7 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
       e.o = scene_center_ + (f.s * disk.x + f.t * disk.y) - d * r;
       e.d = d;
       // Directional: E * (pi r^2). Environment: L * (pi r^2) / pdf_dir.
-      e.power = l.emit * (kPi * r * r / (dir_pdf * pmf));
+      e.power = radiance * (kPi * r * r / (dir_pdf * pmf));
       emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
       return e;
     }

@@ -2,6 +2,7 @@
 // environment. Units are radiometric; the Blender addon converts Blender's conventions.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "core/spectrum.h"
 #include "core/math.h"
 #include "core/sampling.h"
+#include "lights/environment_map.h"
 
 namespace gp {
 
@@ -49,6 +51,14 @@ struct Light {
   // that leave the scene see it, or black. Other lights are never seen by camera rays (area
   // lights: their surface's Material::visible_to_camera).
   bool visible_to_camera = true;
+  // Environment: an image-based World (environment_map.h), or null for the constant `emit`.
+  // With a map, emit is the map's mean radiance (4 pi sr of it integrate to integral()).
+  std::shared_ptr<const EnvironmentMap> map;
+  // Light Path "Is Camera Ray" choosing another background for camera rays (Ray::camera):
+  // what they see instead of emit / map, when camera_override.
+  bool camera_override = false;
+  RGB camera_emit{0.0f};
+  std::shared_ptr<const EnvironmentMap> camera_map;
 
   // Cycles 3.4 does not sample a constant World as a light; where that changes what it lights
   // (a World hidden from some kinds, integrators/lobe_split.h), next-event estimation skips it
@@ -110,8 +120,12 @@ class LightSet {
   float pdf_area(int light, const Vec3& p, const Vec3& p_light, const Vec3& wi) const;
   // Solid-angle pdf of sampling direction wi from the environment (0 if none).
   float pdf_environment(const Vec3& wi) const;
-  // Radiance seen along a ray that leaves the scene.
-  RGB environment_radiance(const Vec3& dir) const;
+  // Radiance seen along a ray that leaves the scene; `camera_ray` (Ray::camera) selects the
+  // background camera rays see where the World tells them apart (Light Path: Is Camera Ray).
+  RGB environment_radiance(const Vec3& dir, bool camera_ray = false) const;
+  // True when the environment's radiance depends on direction (an image or sky): the spectral
+  // methods then upsample each value they find instead of one spectrum for the light.
+  bool environment_textured() const { return environment_ >= 0 && (lights_[environment_].map || lights_[environment_].camera_map); }
   // Whether camera rays that leave the scene see the environment (World > Ray Visibility >
   // Camera; true without one: there is nothing to hide).
   bool environment_visible_to_camera() const { return environment_ < 0 || lights_[environment_].visible_to_camera; }

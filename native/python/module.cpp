@@ -249,11 +249,8 @@ py::dict method_info(const std::string& method, const py::dict& params) {
   return out;
 }
 
-}  // namespace
-
-PYBIND11_MODULE(_native, m) {
-  m.doc() = "gradphoton native core";
-  m.attr("__version__") = GRADPHOTON_VERSION;
+// The methods as they declare themselves (integrators/methods.h).
+void bind_methods(py::module_& m) {
   m.attr("PASS_COMBINED") = std::string(pass::kCombined);
   m.def("methods", &integrator_names, "Names of the rendering methods");
   m.def("passes", []() {
@@ -279,6 +276,10 @@ PYBIND11_MODULE(_native, m) {
         "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read, "
         "'lobe_visibility': {'surfaces': bool, 'lights': bool}, the per-kind ray visibility switches it honours, "
         "'holdout': whether camera rays end at holdout surfaces with no colour and alpha 0}");
+}
+
+// Images: EXR read and write, screened Poisson reconstruction.
+void bind_images(py::module_& m) {
   m.def("read_exr", [](const std::string& path) {
     Film film;
     {
@@ -353,9 +354,10 @@ PYBIND11_MODULE(_native, m) {
      "Screened Poisson reconstruction (gradient-domain photon paper eq. 3) of float32 (H, W, C) arrays: "
      "gx[y, x] = I[y, x+1] - I[y, x], gy[y, x] = I[y+1, x] - I[y, x]; method 'l2' (exact, DCT) or 'l1' (IRLS)");
 
-  py::register_exception<SceneError>(m, "SceneError", PyExc_ValueError);
-  py::register_exception<ParamError>(m, "ParamError", PyExc_ValueError);
+}
 
+// Scenes: loaded from files, read back, updated in place (the rendered viewport).
+void bind_scene(py::module_& m) {
   py::class_<Scene, std::shared_ptr<Scene>>(m, "Scene")
       .def_property_readonly("triangle_count", &Scene::triangle_count)
       .def_property_readonly("light_count", [](const Scene& s) { return s.light_set().lights().size(); })
@@ -481,6 +483,10 @@ PYBIND11_MODULE(_native, m) {
     return std::make_shared<Scene>(load_scene_from_string(text, base_dir, "<json>"));
   }, py::arg("text"), py::arg("base_dir") = ".", "Load a scene from JSON text");
 
+}
+
+// Scenes built from numpy arrays (the Blender exporter).
+void bind_builder(py::module_& m) {
   py::class_<SceneBuilder>(m, "SceneBuilder",
                            "A Scene from numpy arrays (exporters): description for the small parts, arrays for meshes")
       .def(py::init<std::string>(), py::arg("source") = "<builder>")
@@ -538,6 +544,10 @@ PYBIND11_MODULE(_native, m) {
         return std::make_shared<Scene>(b.finalize());
       }, "Validate and build the scene (errors name the object)");
 
+}
+
+// Progressive renders (session/render_session.h).
+void bind_session(py::module_& m) {
   py::class_<Session>(m, "Session")
       .def(py::init<std::shared_ptr<Scene>, const std::string&, const py::dict&>(), py::arg("scene"),
            py::arg("method") = "pt", py::arg("params") = py::dict())
@@ -565,4 +575,19 @@ PYBIND11_MODULE(_native, m) {
            "bound, radius; luminance) as {name: float64 array (H, W)}")
       .def_property_readonly("estimated_error", &Session::estimated_error,
                              "Current estimated relative error, or < 0 when the method has none");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_native, m) {
+  m.doc() = "gradphoton native core";
+  m.attr("__version__") = GRADPHOTON_VERSION;
+  py::register_exception<SceneError>(m, "SceneError", PyExc_ValueError);
+  py::register_exception<ParamError>(m, "ParamError", PyExc_ValueError);
+
+  bind_methods(m);
+  bind_images(m);
+  bind_scene(m);
+  bind_builder(m);
+  bind_session(m);
 }

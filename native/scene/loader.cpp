@@ -220,6 +220,10 @@ class Loader : private JsonReader {
   // ---- Textured inputs ----
 
   static bool is_texture(const json& j) { return j.is_object() && j.contains("texture"); }
+  // Blender's Interpolation menu; Smart is Cubic on Cycles' CPU kernel (device/cpu/image.h).
+  static constexpr std::pair<const char*, TextureFilter> kFilters[] = {
+      {"linear", TextureFilter::Linear}, {"closest", TextureFilter::Closest}, {"cubic", TextureFilter::Cubic},
+      {"smart", TextureFilter::Cubic}};
 
   // A texture reference (docs/scene-format.md, "Textures"): the image, read once through the
   // texture store, and how the input reads it. `color` inputs default to the RGB channel,
@@ -258,9 +262,7 @@ class Loader : private JsonReader {
       t.wrap = pick(*w, sub(path, "wrap"), kWraps, "repeat, extend, clip");
     }
     if (const json* f = find(j, "interpolation")) {
-      static const std::pair<const char*, TextureFilter> kFilters[] = {{"linear", TextureFilter::Linear},
-                                                                       {"closest", TextureFilter::Closest}};
-      t.filter = pick(*f, sub(path, "interpolation"), kFilters, "linear, closest");
+      t.filter = pick(*f, sub(path, "interpolation"), kFilters, "linear, closest, cubic, smart");
     }
     if (const json* mp = find(j, "mapping")) {
       const std::string mpath = sub(path, "mapping");
@@ -775,22 +777,105 @@ class Loader : private JsonReader {
 
   void load_environment(const json& e, const std::string& path) {
     require_object(e, path);
-    check_keys(e, path, {"color", "strength", "visible_to_camera", "visible_to_diffuse", "visible_to_glossy",
-                         "visible_to_transmission"});
-    RGB color(1.0f);
-    float strength = 1.0f;
-    if (const json* c = find(e, "color")) color = get_color(*c, sub(path, "color"));
-    if (const json* s = find(e, "strength")) strength = get_nonnegative(*s, sub(path, "strength"));
-    const RGB radiance = color * strength;
-    if (radiance.is_black()) return;
+    check_keys(e, path, {"type", "color", "strength", "image", "colorspace", "rotation", "transform", "interpolation",
+                         "projection", "sampling_resolution", "camera", "visible_to_camera", "visible_to_diffuse",
+                         "visible_to_glossy", "visible_to_transmission"});
     Light env;
     env.type = LightType::Environment;
     env.name = "environment";
-    env.emit = radiance;
+    load_background(e, path, env.emit, env.map);
+    // Light Path > Is Camera Ray: what camera rays see instead (a nested background).
+    if (const json* c = find(e, "camera")) {
+      const std::string cpath = sub(path, "camera");
+      require_object(*c, cpath);
+      check_keys(*c, cpath, {"type", "color", "strength", "image", "colorspace", "rotation", "transform",
+                             "interpolation", "projection", "sampling_resolution"});
+      env.camera_override = true;
+      load_background(*c, cpath, env.camera_emit, env.camera_map);
+    }
+    if (env.emit.is_black() && !env.map && !(env.camera_override && (env.camera_map || !env.camera_emit.is_black())))
+      return;
     // World > Settings > Ray Visibility (Cycles' camera / diffuse / glossy / transmission).
     if (const json* v = find(e, "visible_to_camera")) env.visible_to_camera = get_bool(*v, sub(path, "visible_to_camera"));
     env.visible_lobes = load_visible_lobes(e, path);
     scene_.lights.push_back(std::move(env));
+  }
+
+  // One background (docs/scene-format.md, "Environment"): a constant colour x strength, or
+  // an image map (lights/environment_map.h) scaled by them. emit receives the constant, or the
+  // map's mean radiance.
+  void load_background(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const EnvironmentMap>& map) {
+    std::string type = "color";
+    if (const json* t = find(e, "type")) type = get_string(*t, sub(path, "type"));
+    RGB color(1.0f);
+    float strength = 1.0f;
+    if (const json* c = find(e, "color")) color = get_color(*c, sub(path, "color"));
+    if (const json* s = find(e, "strength")) strength = get_nonnegative(*s, sub(path, "strength"));
+    emit = color * strength;
+    if (type == "color") {
+      for (const char* k : {"image", "colorspace", "rotation", "transform", "interpolation", "projection", "sampling_resolution"})
+        if (find(e, k)) fail(sub(path, k), "only an environment of \"type\": \"map\" takes it");
+      return;
+    }
+    if (type != "map") fail(sub(path, "type"), fmt::format("unknown environment type '{}' (known: color, map)", type));
+    EnvironmentMapOptions o;
+    o.scale = emit;
+    std::filesystem::path file = get_string(need(e, "image", path), sub(path, "image"));
+    if (file.empty()) fail(sub(path, "image"), "empty file name");
+    if (file.is_relative() && !base_dir_.empty()) file = std::filesystem::path(base_dir_) / file;
+    std::string colorspace;
+    if (const json* c = find(e, "colorspace")) colorspace = get_string(*c, sub(path, "colorspace"));
+    TextureLoad loaded = load_texture(file.string(), colorspace);
+    if (!loaded.warning.empty())  // a missing HDRI renders magenta, as Cycles, with this one warning
+      scene_.warnings.add(loaded.image->missing ? "missing image texture (magenta)" : "image texture approximated",
+                          fmt::format("{}: {}: {}", file_, path, loaded.warning));
+    if (const json* f = find(e, "interpolation")) o.filter = pick(*f, sub(path, "interpolation"), kFilters, "linear, closest, cubic, smart");
+    if (const json* p = find(e, "projection")) {
+      static const std::pair<const char*, EnvProjection> kProjections[] = {
+          {"equirectangular", EnvProjection::Equirectangular}, {"mirror_ball", EnvProjection::MirrorBall}};
+      o.projection = pick(*p, sub(path, "projection"), kProjections, "equirectangular, mirror_ball");
+    }
+    const json* rot = find(e, "rotation");
+    const json* tr = find(e, "transform");
+    if (rot && tr) fail(path, "give either 'rotation' or 'transform', not both");
+    if (rot) {
+      // Blender's Mapping rotation (Euler XYZ, degrees): the texture vector is Rz Ry Rx d.
+      const Vec3 deg = get_vec3(*rot, sub(path, "rotation"));
+      const Transform r = Transform::rotate(deg.z, Vec3(0, 0, 1)) * Transform::rotate(deg.y, Vec3(0, 1, 0)) *
+                          Transform::rotate(deg.x, Vec3(1, 0, 0));
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) o.to_map[i][j] = r.m[i][j];
+    }
+    if (tr) {  // world direction -> texture vector, row-major 3x3 (or 4x4: its linear part)
+      const std::string tpath = sub(path, "transform");
+      if (!tr->is_array() || (tr->size() != 3 && tr->size() != 4))
+        fail(tpath, fmt::format("expected a 3x3 or 4x4 matrix (rows), got {}", describe(*tr)));
+      const size_t n = tr->size();
+      for (size_t i = 0; i < n; ++i) {
+        const json& row = (*tr)[i];
+        if (!row.is_array() || row.size() != n) fail(sub(tpath, i), fmt::format("expected {} numbers, got {}", n, describe(row)));
+        for (size_t j = 0; j < n; ++j) {
+          const float v = get_float(row[j], sub(sub(tpath, i), j));
+          if (i < 3 && j < 3) o.to_map[i][j] = v;
+        }
+      }
+    }
+    if (const json* r = find(e, "sampling_resolution")) {
+      const std::string rpath = sub(path, "sampling_resolution");
+      if (r->is_string()) {
+        if (get_string(*r, rpath) != "auto") fail(rpath, "expected \"auto\" or a number of columns (Manual)");
+      } else {  // Cycles' Manual map resolution: N x N/2 cells
+        const int n = static_cast<int>(get_int(*r, rpath, 4, 32768));
+        o.sampling_width = n;
+        o.sampling_height = std::max(1, n / 2);
+      }
+    }
+    try {
+      map = std::make_shared<const EnvironmentMap>(loaded.image, o);
+    } catch (const std::invalid_argument& ex) {
+      fail(tr ? sub(path, "transform") : path, ex.what());
+    }
+    emit = map->integral() * kInv4Pi;
   }
 
   std::string base_dir_;

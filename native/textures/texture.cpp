@@ -41,8 +41,33 @@ RGBA TextureImage::lookup(Vec2 uv, TextureWrap wrap, TextureFilter filter) const
   const float x = texel_coordinate(uv.x, width), y = texel_coordinate(uv.y, height);
   if (filter == TextureFilter::Closest)
     return decoded(texel_or_zero(*this, static_cast<int>(std::floor(x)), static_cast<int>(std::floor(y)), wrap));
-  // Bilinear between the four texel centres around (x, y).
   const float fx = x - 0.5f, fy = y - 0.5f;
+  if (filter == TextureFilter::Cubic) {
+    // Uniform cubic B-spline weights of the four texels around (x, y) in each axis (Cycles'
+    // SET_CUBIC_SPLINE_WEIGHTS): they sum to 1 and smooth; the image is not interpolated exactly.
+    const float x0f = std::floor(fx), y0f = std::floor(fy);
+    float wx[4], wy[4];
+    auto weights = [](float t, float* w) {
+      const float s = 1.0f - t;
+      w[0] = s * s * s / 6.0f;
+      w[1] = (3.0f * t * t * t - 6.0f * t * t + 4.0f) / 6.0f;
+      w[2] = (3.0f * s * s * s - 6.0f * s * s + 4.0f) / 6.0f;
+      w[3] = t * t * t / 6.0f;
+    };
+    weights(fx - x0f, wx);
+    weights(fy - y0f, wy);
+    const int x0 = static_cast<int>(x0f) - 1, y0 = static_cast<int>(y0f) - 1;
+    RGBA sum{RGB(0.0f), 0.0f};
+    for (int j = 0; j < 4; ++j)
+      for (int i = 0; i < 4; ++i) {
+        const RGBA t = texel_or_zero(*this, x0 + i, y0 + j, wrap);
+        const float w = wx[i] * wy[j];
+        sum.rgb = sum.rgb + t.rgb * w;
+        sum.a += t.a * w;
+      }
+    return decoded(sum);
+  }
+  // Bilinear between the four texel centres around (x, y).
   const float x0f = std::floor(fx), y0f = std::floor(fy);
   const float tx = fx - x0f, ty = fy - y0f;
   const int x0 = static_cast<int>(x0f), y0 = static_cast<int>(y0f);

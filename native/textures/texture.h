@@ -16,7 +16,9 @@ namespace gp {
 
 // Blender's Image Texture extension modes.
 enum class TextureWrap { Repeat, Extend, Clip };
-enum class TextureFilter { Linear, Closest };
+// Cubic: Cycles' uniform cubic B-spline over 4 x 4 texels (kernel/device/cpu/image.h), which
+// Cycles' CPU kernel also uses for Smart.
+enum class TextureFilter { Linear, Closest, Cubic };
 
 struct RGBA {
   RGB rgb;

@@ -238,8 +238,8 @@ def test_world_warning_names_the_node_and_the_value_used(empty_scene):
     world.node_tree.links.new(sky.outputs["Color"], bg.inputs["Color"])
     w = Warnings()
     world_export.export_world(world, w)
-    assert any("Sky Texture into Background Color (rendered as (0.05, 0.1, 0.2))" in line for line in w.lines()), \
-        w.lines()
+    assert any("node 'Sky Texture' into Background: Color (rendered as (0.05, 0.1, 0.2))" in line
+               for line in w.lines()), w.lines()
 
 
 def test_area_light_spread_is_said_plainly(empty_scene):

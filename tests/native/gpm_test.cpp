@@ -15,7 +15,7 @@
 #include "integrators/methods.h"
 #include "core/frame.h"
 #include "integrators/gradient/gpm.h"
-#include "integrators/gradient/photon_shift.h"
+#include "integrators/shift/photon_shift.h"
 #include "io/metrics.h"
 #include "reconstruction/poisson.h"
 #include "scene/loader.h"

@@ -1,5 +1,5 @@
 // Gradient-domain path tracing (integrators/gradient/gpt) and its shift mapping
-// (integrators/gradient/shift): Jacobians against finite differences, convergence to a
+// (integrators/shift/shift): Jacobians against finite differences, convergence to a
 // path-traced reference, the paper's Figure 4 trend, zero gradients where the image is flat,
 // determinism and finiteness.
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@
 #include "integrators/methods.h"
 #include "core/frame.h"
 #include "integrators/gradient/gpt.h"
-#include "integrators/gradient/shift.h"
+#include "integrators/shift/shift.h"
 #include "io/metrics.h"
 #include "scene/loader.h"
 

@@ -1,4 +1,4 @@
-// Manifold walk of GPM's light-subpath shift (integrators/gradient/manifold): the generalized
+// Manifold walk of GPM's light-subpath shift (integrators/shift/manifold): the generalized
 // geometry term of a two-vertex refraction chain (GPM eq. 8) and a glossy chain with held
 // half-vectors against finite differences of the ray-traced chain, the half-vector Jacobian of
 // eq. 9 against finite differences, and the walk reaching a target on the floor.
@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "core/frame.h"
-#include "integrators/gradient/manifold.h"
+#include "integrators/shift/manifold.h"
 #include "scene/loader.h"
 
 namespace gp {

@@ -7,7 +7,9 @@
 #include <set>
 
 #include "integrators/methods.h"
+#include "distributed/merge.h"
 #include "render_for_tests.h"
+#include "session/render_session.h"
 
 namespace gp {
 namespace {
@@ -206,6 +208,54 @@ TEST(Methods, DeclaredStatisticsAreReported) {
       EXPECT_TRUE(integ->stats().extra.count(d.key)) << m.name << " does not report '" << d.key << "'";
     }
   }
+}
+
+}  // namespace
+}  // namespace gp
+
+namespace gp {
+namespace {
+
+// A new method is its own class, one registration and its tests: this one (the first surface's
+// albedo, one camera ray per pixel) is registered here, and every front end's way in then offers
+// it: the registry, parameter binding and the unused report, the render session (the CLI's and
+// Python's), the pass declaration, the merge rule.
+class AlbedoMethod : public Integrator {
+ public:
+  AlbedoMethod(const Scene& s, const Params& p) : scene_(s), gain_(p.get<double>("gain")) {}
+  std::string name() const override { return "test-albedo"; }
+  void iterate(ProgressSink*) override { ++stats_.passes; }
+  void develop(Film& film) const override {
+    const int w = scene_.camera.film_width(), h = scene_.camera.film_height();
+    film = Film(w, h);
+    Pass& c = film.add_pass(pass::kCombined, 3);
+    std::fill(c.data.begin(), c.data.end(), static_cast<float>(gain_));
+  }
+
+ private:
+  const Scene& scene_;
+  double gain_;
+};
+
+TEST(Methods, ANewMethodIsOneRegistration) {
+  register_method({.name = "test-albedo", .label = "Test Albedo", .summary = "a constant image (a test)",
+                   .tooltip = "a test method",
+                   .params = {{.name = "gain", .type = ParamType::Float, .default_value = 0.5, .min = 0,
+                               .label = "Gain", .description = "the image's value"}},
+                   .make = [](const Scene& s, const Params& p) { return std::make_unique<AlbedoMethod>(s, p); },
+                   .passes = {{pass::kCombined, ""}}});
+  EXPECT_THROW(register_method({.name = "test-albedo"}), std::invalid_argument);
+  EXPECT_EQ(integrator_names().back(), "test-albedo");
+  auto scene = std::make_shared<Scene>(cornell_box(4, 3));
+  RenderSession session(scene, "test-albedo", Params(nlohmann::json{{"gain", 0.25}, {"gian", 1}}));
+  ASSERT_EQ(session.unused_report().size(), 1u);
+  EXPECT_NE(session.unused_report()[0].find("did you mean 'gain'"), std::string::npos);
+  session.run(StopRule{.passes = 2}, nullptr);
+  const Film film = session.develop();
+  EXPECT_FLOAT_EQ(film.rgb(pass::kCombined, 1, 1).r, 0.25f);
+  EXPECT_TRUE(film.has_pass(pass::kAlbedo));  // the session's auxiliary passes come with it
+  EXPECT_FALSE(merge_keeps_bias("test-albedo"));
+  EXPECT_THROW(make_integrator("test-albedo", *scene, Params(nlohmann::json{{"gain", -1}})), ParamError);
 }
 
 }  // namespace

@@ -16,7 +16,7 @@
 #include "integrators/integrator.h"
 #include "integrators/methods.h"
 #include "integrators/spectral/sgpt.h"
-#include "integrators/spectral/spectral_shift.h"
+#include "integrators/shift/spectral_shift.h"
 #include "reconstruction/spectral_poisson.h"
 #include "scene/loader.h"
 

@@ -1,19 +1,34 @@
-"""World: the Background node's colour x strength as constant environment radiance
-(W sr^-1 m^-2, as Cycles), with World > Settings > Ray Visibility (export/visibility.py).
-A node linked into the Background node (a texture, a Sky) is rendered as the value typed in
-the socket it feeds: a warning naming the node and that value."""
+"""World: the World's node tree -> the core's environment (docs/scene-format.md, "Environment"),
+with World > Settings > Ray Visibility (export/visibility.py) and Sampling.
 
-from . import visibility
+What is read, until the core's node evaluator drives the World (branch nodes-core):
+  - World Output <- Background (Color x Strength, W sr^-1 m^-2 as Cycles);
+  - the Background's Color from an Environment Texture (image, Linear / Closest / Cubic / Smart,
+    Equirectangular / Mirror Ball): an image map the core importance-samples;
+  - the texture's Vector: unlinked, or a Texture Coordinate's Generated or Object output (the
+    ray direction; Object through the object's inverse matrix), through Mapping nodes (Point,
+    Vector, Texture, Normal: their linear part, which is how users turn an HDRI);
+  - a Mix Shader whose factor is Light Path "Is Camera Ray" between two such backgrounds:
+    camera rays see the second, everything else is lit by the first (the core's "camera");
+  - World > Settings > Sampling: Auto (the image's size) or Manual (map resolution).
+Anything else is one warning naming the node, and the socket's own value.
+"""
+import math
+
+from . import texture, visibility
+
+_INTERPOLATION = {'Linear': "linear", 'Closest': "closest", 'Cubic': "cubic", 'Smart': "smart"}
+_PROJECTION = {'EQUIRECTANGULAR': "equirectangular", 'MIRROR_BALL': "mirror_ball"}
 
 
 def export_world(world, warnings):
-    env = _radiance(world, warnings)
+    env = _environment(world, warnings)
     if env:
         env.update(visibility.world_flags(world, warnings))
     return env
 
 
-def _radiance(world, warnings):
+def _environment(world, warnings):
     if world is None:
         return None
     if not world.use_nodes or world.node_tree is None:
@@ -23,22 +38,153 @@ def _radiance(world, warnings):
                 if n.bl_idname == 'ShaderNodeOutputWorld' and n.is_active_output), None)
     if out is None or not out.inputs["Surface"].is_linked:
         return None
-    node = out.inputs["Surface"].links[0].from_node
+    node, _ = texture._from(out.inputs["Surface"])
+    if node is None:
+        return None
+    if node.bl_idname == 'ShaderNodeMixShader' and _is_camera_ray(node.inputs["Fac"]):
+        lit = _background(world, texture._from(node.inputs[1])[0], warnings)
+        seen = _background(world, texture._from(node.inputs[2])[0], warnings)
+        env = lit or {"color": [0.0, 0.0, 0.0]}
+        env["camera"] = seen or {"color": [0.0, 0.0, 0.0]}
+        return env
+    return _background(world, node, warnings)
+
+
+def _is_camera_ray(socket):
+    node, out = texture._from(socket)
+    return node is not None and node.bl_idname == 'ShaderNodeLightPath' and out.name == "Is Camera Ray"
+
+
+def _background(world, node, warnings):
+    """One Background node as {"color", "strength"} or a map; None for black or unsupported."""
+    if node is None:
+        return None
     if node.bl_idname != 'ShaderNodeBackground':
-        warnings.add("unsupported world shader (black environment)", f"'{world.name}': {node.name}")
+        warnings.add("unsupported world shader (black environment)", f"world '{world.name}': node '{node.name}'")
         return None
     color, strength = node.inputs["Color"], node.inputs["Strength"]
-    for s in (color, strength):
-        if s.is_linked:  # name the node that feeds it and the value rendered instead
-            src = s.links[0].from_node
-            warnings.add("World node not rendered: its Background input renders with the value typed in it",
-                         f"'{world.name}': {src.name} into Background {s.name} (rendered as {_value(s)})")
+    if strength.is_linked:
+        src, _ = texture._from(strength)
+        warnings.add("unsupported world node (socket value used)",
+                     f"world '{world.name}': node '{src.name if src else '?'}' into {node.name}: Strength "
+                     f"(rendered as {_value(strength)})")
+    s = max(0.0, strength.default_value)
+    src, out = texture._from(color)
+    if src is not None and src.bl_idname == 'ShaderNodeTexEnvironment' and out.name == "Color":
+        env = _environment_texture(world, src, warnings)
+        env["strength"] = s
+        return env
+    if src is not None:
+        warnings.add("unsupported world node (socket value used)",
+                     f"world '{world.name}': node '{src.name}' into {node.name}: Color (rendered as {_value(color)})")
     c = color.default_value
-    return {"color": [c[0], c[1], c[2]], "strength": max(0.0, strength.default_value)}
+    return {"color": [c[0], c[1], c[2]], "strength": s}
+
+
+def _environment_texture(world, node, warnings):
+    where = f"world '{world.name}': node '{node.name}'"
+    path, why = texture.image_file(node.image)
+    if path is None:
+        if node.image is not None and why.startswith("file not found"):
+            path = why.split(": ", 1)[1]  # the core renders it magenta, with one warning
+        else:
+            warnings.add("missing image texture (magenta)", f"{where}: {why}")
+            return {"color": list(texture.MAGENTA)}
+    env = {"type": "map", "image": path,
+           "interpolation": _INTERPOLATION.get(node.interpolation, "linear"),
+           "projection": _PROJECTION.get(node.projection, "equirectangular")}
+    cs = node.image.colorspace_settings.name if node.image is not None else ""
+    if cs:
+        env["colorspace"] = cs
+    m = _vector_transform(world, node.inputs["Vector"], warnings)
+    if m is not None:
+        env["transform"] = m
+    settings = getattr(world, "cycles", None)
+    method = getattr(settings, "sampling_method", 'AUTOMATIC') if settings else 'AUTOMATIC'
+    if method == 'MANUAL':
+        env["sampling_resolution"] = int(settings.sample_map_resolution)
+    elif method == 'NONE':
+        warnings.add("world sampling None read as Auto (the map is always importance-sampled)", f"world '{world.name}'")
+    return env
+
+
+def _matmul(a, b):
+    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+
+
+def _euler_xyz(r):
+    """Blender's XYZ Euler rotation matrix Rz Ry Rx (mathutils.Euler(r, 'XYZ').to_matrix())."""
+    cx, sx, cy, sy, cz, sz = math.cos(r[0]), math.sin(r[0]), math.cos(r[1]), math.sin(r[1]), math.cos(r[2]), math.sin(r[2])
+    rx = [[1, 0, 0], [0, cx, -sx], [0, sx, cx]]
+    ry = [[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]]
+    rz = [[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]
+    return _matmul(rz, _matmul(ry, rx))
+
+
+def _inverse(m):
+    a = m
+    det = (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]))
+    if det == 0:
+        return None
+    return [[(a[(c + 1) % 3][(r + 1) % 3] * a[(c + 2) % 3][(r + 2) % 3] -
+              a[(c + 1) % 3][(r + 2) % 3] * a[(c + 2) % 3][(r + 1) % 3]) / det for c in range(3)] for r in range(3)]
+
+
+def _mapping(node, warnings, where):
+    """The linear part of a Mapping node (Cycles' svm_mapping / mapping.h): Point and Vector
+    R S v (+ location for Point, which a direction ignores: warned), Texture (R S)^-1, Normal
+    R S^-1 (then normalised, as the texture normalises anyway)."""
+    for name in ("Location", "Rotation", "Scale"):
+        if node.inputs[name].is_linked:
+            warnings.add("unsupported world node (socket value used)", f"{where}: {node.name}: {name} linked")
+    rot = list(node.inputs["Rotation"].default_value)
+    scale = list(node.inputs["Scale"].default_value)
+    loc = list(node.inputs["Location"].default_value)
+    r = _euler_xyz(rot)
+    s = [[scale[0], 0, 0], [0, scale[1], 0], [0, 0, scale[2]]]
+    kind = node.vector_type
+    if kind in ('POINT', 'TEXTURE') and any(abs(v) > 1e-9 for v in loc):
+        warnings.add("world Mapping location ignored (a direction has no position)", f"{where}: {node.name}")
+    if kind == 'TEXTURE':
+        return _inverse(_matmul(r, s))
+    if kind == 'NORMAL':
+        if 0.0 in scale:
+            return None
+        return _matmul(r, [[1 / scale[0], 0, 0], [0, 1 / scale[1], 0], [0, 0, 1 / scale[2]]])
+    return _matmul(r, s)
+
+
+def _vector_transform(world, socket, warnings):
+    """World direction -> the texture's vector through Mapping and Texture Coordinate nodes, as
+    a 3x3 matrix (None: identity)."""
+    where = f"world '{world.name}'"
+    m = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    node, out = texture._from(socket)
+    while node is not None:
+        if node.bl_idname == 'ShaderNodeMapping':
+            mm = _mapping(node, warnings, where)
+            if mm is None:
+                warnings.add("unsupported world node (identity used)", f"{where}: {node.name}: zero scale")
+            else:
+                m = _matmul(m, mm)  # the Mapping nearer the texture applies last: M = M_near M_far
+            node, out = texture._from(node.inputs["Vector"])
+            continue
+        if node.bl_idname == 'ShaderNodeTexCoord' and out.name in ("Generated", "Object"):
+            if out.name == "Object" and node.object is not None:
+                inv = _inverse([list(node.object.matrix_world[i])[:3] for i in range(3)])
+                if inv is not None:
+                    m = _matmul(m, inv)
+            break
+        warnings.add("unsupported world node (direction used)", f"{where}: node '{node.name}' ({out.name})")
+        break
+    if m == [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]:
+        return None
+    return m
 
 
 def _value(socket):
-    """A socket's own value as the report shows it: 0.8, or (0.05, 0.05, 0.05) for a colour."""
+    """A socket's own value as a report shows it: 0.8, or (0.05, 0.1, 0.2) for a colour."""
     v = socket.default_value
     if isinstance(v, float):
         return f"{v:.3g}"

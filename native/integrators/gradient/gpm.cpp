@@ -7,7 +7,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
-#include "integrators/gradient/photon_shift.h"
+#include "integrators/shift/photon_shift.h"
 #include "materials/bsdf.h"
 
 namespace gp {

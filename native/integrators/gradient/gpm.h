@@ -81,8 +81,8 @@
 #include <memory>
 #include <vector>
 
-#include "integrators/gradient/manifold.h"
-#include "integrators/gradient/shift.h"
+#include "integrators/shift/manifold.h"
+#include "integrators/shift/shift.h"
 #include "integrators/photon/progressive_photon.h"
 #include "reconstruction/poisson.h"
 

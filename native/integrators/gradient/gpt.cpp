@@ -7,7 +7,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
-#include "integrators/gradient/shift.h"
+#include "integrators/shift/shift.h"
 #include "integrators/lobe_split.h"
 #include "materials/bsdf.h"
 
@@ -140,7 +140,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       if (!hit) {
         // The World's Camera switch (its sky seen by camera rays; directly seen light has no
         // gradient offsets here, direct_only below).
-        const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray.d);
+        const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray.d, ray.camera);
         if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
         c = split_hit(lights.environment(), Le, lights.pdf_environment(ray.d), nullptr).value_or(beta * Le * w_base);
       } else if (hit->light >= 0) {
@@ -162,7 +162,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
                 .value_or(o.beta * Le * (specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, pdf_light)));
           };
           if (o.link == Link::Connected) {  // same vertices and last segment, own MIS pdf
-            if (!hit) c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d), lights.pdf_environment(ray.d));
+            if (!hit) c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
             else if (hit->light >= 0)
               c_off[d] = found(hit->light, lights.area_radiance(hit->light, -ray.d),
                                lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
@@ -171,7 +171,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
               c_off[d] = found(hit->light, lights.area_radiance(hit->light, o.wo),
                                lights.pdf_area(hit->light, o.prev_p, hit->p, -o.wo));
             } else if (!hit) {  // reconnected at infinity: same direction
-              c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d), lights.pdf_environment(ray.d));
+              c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
             }
           } else {  // own vertex
             if (!o.hit) {
@@ -179,7 +179,7 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
                 fail(o, ShiftFailure::Missed);
                 continue;
               }
-              c_off[d] = found(lights.environment(), lights.environment_radiance(o.ray.d), lights.pdf_environment(o.ray.d));
+              c_off[d] = found(lights.environment(), lights.environment_radiance(o.ray.d, o.ray.camera), lights.pdf_environment(o.ray.d));
             } else if (!hit) {
               fail(o, ShiftFailure::Occluded);  // the base escaped, the offset did not
               continue;

@@ -1,7 +1,7 @@
 // Gradient-domain path tracing (Kettunen et al. 2015, "Gradient-domain path tracing", KMA15;
 // gradient-domain photon density estimation §3). Each pass traces one base path per pixel
 // (path tracing with next-event estimation and power-heuristic MIS, as PathTracer) and shifts it
-// to the four neighbouring pixels (integrators/gradient/shift.h): the offset path starts at the
+// to the four neighbouring pixels (integrators/shift/shift.h): the offset path starts at the
 // same sub-pixel position and lens sample one pixel over, copies half-vectors through glossy and
 // delta vertices, and reconnects to the base path at the first pair of consecutive diffuse
 // vertices (an emitter hit counts as diffuse; a base ray that leaves the scene from a diffuse

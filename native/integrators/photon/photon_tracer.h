@@ -28,6 +28,7 @@
 #include "core/frame.h"
 #include "core/math.h"
 #include "core/rng.h"
+#include "integrators/paths/light_chain.h"
 #include "materials/bsdf.h"
 #include "scene/scene.h"
 
@@ -66,30 +67,6 @@ struct PhotonOrigin {
   // The segment y_{s-1} -> y_s crossed a surface hidden from some of its kinds, or y_s is one:
   // the tracer chose there between crossing and scattering (per-kind switches; GPM shifts none).
   bool branched = false;
-};
-
-// A specular or glossy vertex of a light subpath, enough to rebuild its local surface model.
-inline constexpr int kMaxChainVertices = 6;
-struct ChainVertex {
-  Vec3 p, ng;  // position, geometric normal
-  int mesh = -1, prim = -1;
-  bool transmission = false;  // the lobe the path took here
-};
-
-// GPM §4.2 step 2: a photon whose previous vertex is specular or glossy remembers its light
-// subpath back to the reconnection vertex y_b, the last diffuse vertex or the light vertex
-// (y_b .. y_{s-1} = y_b, v[0] .. v[count-1]). From a distant light, y_b is the photon's point
-// on the emission disk and `dir` its direction, which every shift of the chain keeps (the
-// chain moves across the parallel beam). Chains longer than kMaxChainVertices are not recorded.
-struct PhotonChain {
-  Vec3 p, ng, ns;     // y_b; a light vertex has its normal in ng (zero for a point or distant light)
-  Vec3 dir;           // distant light: the unit direction of its photons; zero otherwise
-  Vec3 wo;            // surface y_b: unit world direction towards y_{b-1}
-  int material = -1;  // surface y_b
-  Vec2 uv;  // texture coordinate there (Scene::bsdf)
-  int light = -1;     // y_b is a vertex on this light
-  int count = 0;
-  std::array<ChainVertex, kMaxChainVertices> v{};
 };
 
 // Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to

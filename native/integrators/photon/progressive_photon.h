@@ -22,7 +22,7 @@
 #include "integrators/photon/error_estimate.h"
 #include "integrators/integrator.h"
 #include "integrators/photon/photon_tracer.h"
-#include "integrators/spectral/spectral_pt.h"
+#include "integrators/paths/spectral_scene.h"
 #include "core/sampling.h"
 #include "materials/bsdf.h"
 
@@ -322,7 +322,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     if (!hit) {
       const int env = lights.environment();
       if (depth == 0 && (film_transparent_ || ray.held_out)) out.escaped = true;  // a holdout: black
-      else if (env >= 0 && lights.lights()[env].visible_to(kind)) out.Ld += beta * lights.environment_radiance(ray.d);
+      else if (env >= 0 && lights.lights()[env].visible_to(kind)) out.Ld += beta * lights.environment_radiance(ray.d, ray.camera);
       break;
     }
     out.path_length += hit->t;

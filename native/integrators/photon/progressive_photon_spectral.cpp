@@ -25,15 +25,6 @@ namespace gp {
 
 namespace {
 
-// Factor turning a light's RGB emission (times grey factors: distance, falloff, pdfs) into its
-// spectrum: the grey factor read off the brightest channel of the emission colour.
-float grey_factor(const RGB& value, const RGB& emit) {
-  const float m = emit.max_component();
-  if (m <= 0) return 0.0f;
-  const int c = emit.r == m ? 0 : (emit.g == m ? 1 : 2);
-  return value[c] / emit[c];
-}
-
 // Per-wavelength factor f_k |cos| / pdf_hero of a hero-sampled BSDF direction at `hit` (each
 // wavelength's BSDF with the hit's normals, as Scene::bsdf). Returns false when every wavelength
 // is dead; sets hero_only on a smooth dispersive refraction.
@@ -134,9 +125,11 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                   break;
                 }
                 const int env = lights.environment();
-                if (env >= 0 && lights.lights()[env].visible_to(kind))
-                  add_light(pass_spectra_.light(env),
-                            grey_factor(lights.environment_radiance(ray.d), lights.lights()[env].emit));
+                if (env >= 0 && lights.lights()[env].visible_to(kind)) {
+                  float spec[kMaxWavelengths];  // this direction's colour, for an image (light_spectrum)
+                  pass_spectra_.emitted(env, lights.environment_radiance(ray.d, ray.camera), spec);
+                  add_light(spec, 1.0f);
+                }
                 break;
               }
               path_length += hit->t;
@@ -168,8 +161,9 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
                       ++rays;
                       const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
                       if (!blocked) {
-                        const float grey = grey_factor(ls->L, lights.lights()[ls->light].emit) / ls->pdf;
-                        for (int k = 0; k < C; ++k) Ld[k] += beta[k] * f[k] * grey * pass_spectra_.light(ls->light)[k];
+                        float spec[kMaxWavelengths];
+                        pass_spectra_.emitted(ls->light, ls->L, spec);
+                        for (int k = 0; k < C; ++k) Ld[k] += beta[k] * f[k] * spec[k] / ls->pdf;
                       }
                     }
                   }
@@ -253,8 +247,9 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
           const auto em = lights.sample_le(us, Vec2(up0, up1), Vec2(ud0, ud1));
           if (!em || em->power.is_black()) continue;
           SpectralValues beta{};
-          const float grey = grey_factor(em->power, lights.lights()[em->light].emit);
-          for (int k = 0; k < C; ++k) beta[k] = grey * pass_spectra_.light(em->light)[k];
+          float spec[kMaxWavelengths];  // the photon's power as a spectrum (light_spectrum)
+          pass_spectra_.emitted(em->light, em->power, spec);
+          for (int k = 0; k < C; ++k) beta[k] = spec[k];
           bool hero_only = false;
           Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0
                         ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)

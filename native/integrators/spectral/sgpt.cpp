@@ -10,7 +10,7 @@
 #include "core/frame.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
-#include "integrators/spectral/spectral_shift.h"
+#include "integrators/shift/spectral_shift.h"
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -297,7 +297,10 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
   auto emitted = [&](const SurfaceHit* h, const Vec3& dir_in, float l, bool camera) -> float {
     if (!h) {
       const int env = lights.environment();
-      return env >= 0 && (!camera || lights.environment_visible_to_camera()) ? spectra_.light[env](l) : 0.0f;
+      if (env < 0 || (camera && !lights.environment_visible_to_camera())) return 0.0f;
+      if (lights.environment_textured())  // an image: this direction's colour (light_spectrum)
+        return RgbSpectrum::illuminant_interpolated(lights.environment_radiance(dir_in, camera))(l);
+      return spectra_.light[env](l);
     }
     if (h->light < 0 || lights.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
     return spectra_.light[h->light](l);
@@ -385,11 +388,11 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
         n.valid = true;
         const Vec3 wi = v.hit.frame.to_local(v.ls.wi);
         const Light& light = lights.lights()[v.ls.light];
-        const float scale = light_scale(v.ls, light);
+        const RgbSpectrum spec = light_spectrum(spectra_, lights, v.ls.light, v.ls.L);
         Values Ls{};
         for (int j = 0; j < C; ++j) {
           const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
-          Ls[j] = v.nee_visible ? scale * spectra_.light[v.ls.light](wl.lambda[j]) : 0.0f;
+          Ls[j] = v.nee_visible ? spec(wl.lambda[j]) : 0.0f;
           n.f[j] = F[j] * s.f_cos * Ls[j];
           n.p_light[j] = P[j] * v.ls.pdf;
           n.p_bsdf[j] = v.ls.delta ? 0.0f : P[j] * s.pdf;
@@ -604,13 +607,13 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
           }
           if (ls && visible && ls->pdf > 0) {
             const Vec3 wi = yh.frame.to_local(ls->wi);
-            const float scale = light_scale(*ls, lights.lights()[ls->light]);
+            const RgbSpectrum spec = light_spectrum(spectra_, lights, ls->light, ls->L);
             Scatter s0{};
             Values Ls{};
             for (int j = 0; j < C; ++j) {
               const Scatter s = scatter_at(yh, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
               if (j == 0) s0 = s;
-              Ls[j] = scale * spectra_.light[ls->light](lambda2[j]);
+              Ls[j] = spec(lambda2[j]);
               ey.f[j] = F2[j] * s.f_cos * Ls[j];
               ey.p_light[j] = P2[j] * ls->pdf;
               ey.p_bsdf[j] = ls->delta ? 0.0f : P2[j] * s.pdf;

@@ -57,7 +57,7 @@
 
 #include "core/rng.h"
 #include "core/spectrum.h"
-#include "integrators/gradient/shift.h"
+#include "integrators/shift/shift.h"
 #include "integrators/integrator.h"
 #include "integrators/spectral/spectral_pt.h"
 #include "reconstruction/spectral_poisson.h"
@@ -93,7 +93,7 @@ class SpectralGradientPathTracer : public Integrator {
                     int x1 = -1, int y1 = -1) const;
 
   // Shift statistics by outcome (also in stats().extra); failures by the reasons every shift
-  // mapping counts (gradient/shift.h ShiftFailure: "shift failed: occluded", ...).
+  // mapping counts (shift/shift.h ShiftFailure: "shift failed: occluded", ...).
   struct ShiftCounts {
     int64_t attempts = 0, shifted = 0, below_tau = 0;
     std::array<int64_t, kShiftFailureCount> failed{};

@@ -6,80 +6,17 @@
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "integrators/lobe_split.h"
+#include "integrators/paths/camera_path.h"
 #include "materials/bsdf.h"
 
 namespace gp {
-
-std::string first_dispersive_material(const Scene& scene) {
-  for (const Material& m : scene.materials)
-    if (is_dispersive(m)) return m.name.empty() ? "(unnamed)" : m.name;
-  return "";
-}
-
-SpectralMode parse_spectral_mode(const std::string& s) {
-  if (s == "auto") return SpectralMode::Auto;
-  if (s == "rgb") return SpectralMode::Rgb;
-  if (s == "spectral") return SpectralMode::Spectral;
-  throw ParamError("spectral mode must be auto, rgb or spectral, got '" + s + "'");
-}
-
-bool use_spectral(SpectralMode mode, const Scene& scene) {
-  switch (mode) {
-    case SpectralMode::Rgb: return false;
-    case SpectralMode::Spectral: return true;
-    case SpectralMode::Auto: return !first_dispersive_material(scene).empty();
-  }
-  return false;
-}
-
-SceneSpectra::SceneSpectra(const Scene& scene) {
-  for (const Material& m : scene.materials) albedo.push_back(RgbSpectrum::reflectance(m.color));
-  for (const Light& l : scene.light_set().lights()) {
-    if (l.lines.empty()) {
-      light.push_back(RgbSpectrum::illuminant(l.emit));
-    } else {  // luminance from emit = the lines' unit-luminance RGB x luminance
-      const RGB unit = spectral_lines_rgb(l.lines, l.line_fwhm);
-      const float m = unit.max_component();
-      light.push_back(RgbSpectrum::lines(l.lines, l.line_fwhm, m > 0 ? l.emit.max_component() / m : 0.0f));
-    }
-  }
-}
-
-BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, Vec2 uv, float lambda) {
-  return SpectralSurface(m, uv, &albedo).at(lambda);
-}
-
-void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spectra, const SampledWavelengths& wl) {
-  count_ = wl.count;
-  scene_ = &scene;
-  spectra_ = &spectra;
-  wl_ = wl;
-  bsdf_.resize(scene.materials.size() * count_);
-  per_point_.resize(scene.materials.size());
-  for (size_t m = 0; m < scene.materials.size(); ++m) {
-    per_point_[m] = scene.materials[m].has_bsdf_textures();
-    if (per_point_[m]) continue;  // made per point (material())
-    const SpectralSurface surface(scene.materials[m], Vec2(), &spectra.albedo[m]);
-    for (int k = 0; k < count_; ++k) bsdf_[m * count_ + k] = surface.at(wl.lambda[k]);
-  }
-  light_.resize(spectra.light.size() * count_);
-  for (size_t l = 0; l < spectra.light.size(); ++l)
-    for (int k = 0; k < count_; ++k) light_[l * count_ + k] = spectra.light[l](wl.lambda[k]);
-}
-
-const BsdfParams* SpectraAtWavelengths::at_point(int m, Vec2 uv, WavelengthParams& local) const {
-  const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], uv, &spectra_->albedo[static_cast<size_t>(m)]);
-  BsdfParams* params = local.make();
-  for (int k = 0; k < count_; ++k) params[k] = surface.at(wl_.lambda[k]);
-  return params;
-}
 
 SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params, bool hero)
     : scene_(scene),
       spectra_(scene),
       hero_(hero),
-      max_depth_(params.get<int>("max_depth")),
-      rr_depth_(params.get<int>("rr_depth")),
+      settings_{.max_depth = params.get<int>("max_depth"), .rr_depth = params.get<int>("rr_depth"),
+                .film_transparent = params.get<bool>("film_transparent")},
       count_(params.get<int>("wavelengths")),
       threads_(params.get<int>("threads")),
       tile_size_(params.get<int>("tile_size")),
@@ -134,7 +71,7 @@ struct SpectralLobeSplit {
   // The emission `spec` found by the BSDF ray from a light visible to `vis` (not all kinds),
   // added to L; pdf_light is the light strategy's density of the point.
   void add(const RgbSpectrum& spec, uint8_t vis, float pdf_light, const SampledWavelengths& wl,
-           SpectralValues& L) const {
+           SpectralValues& L, float scale = 1.0f) const {
     if (!(vis & lobe)) return;
     const int C = wl.count;
     SpectralValues fv{};
@@ -150,149 +87,123 @@ struct SpectralLobeSplit {
     }
     denom /= C;
     if (!(denom > 0)) return;
-    for (int j = 0; j < C; ++j) L[j] += beta[j] * fv[j] * cos * spec(wl.lambda[j]) / denom;
+    for (int j = 0; j < C; ++j) L[j] += beta[j] * fv[j] * cos * spec(wl.lambda[j]) * scale / denom;
   }
 };
 
-}  // namespace
 
-float light_scale(const LightSample& ls, const Light& l) {
-  const float m = l.emit.max_component();
-  if (m <= 0) return 0.0f;
-  const int c = l.emit.r == m ? 0 : (l.emit.g == m ? 1 : 2);
-  return ls.L[c] / l.emit[c];
-}
-
-SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
-                                      const std::optional<SurfaceHit>* first) const {
-  const LightSet& lights = scene_.light_set();
-  const int C = wl.count;
-  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
-  // beta: throughput divided by the hero's path pdf. r_u: p(x | lambda_k) / p(x | hero) of the
-  // BSDF-sampled path (eq. 4's ratios). r_l: the same without the last BSDF pdf, divided by
-  // the hero's last pdf, times which the light pdf gives the NEE strategy's ratio.
+// The path at C wavelengths (paths/camera_path.h). beta: throughput divided by the hero's path
+// pdf. r_u: p(x | lambda_k) / p(x | hero) of the BSDF-sampled path (eq. 4's ratios). r_l: the
+// same without the last BSDF pdf, divided by the hero's last pdf, times which the light pdf
+// gives the NEE strategy's ratio. Emission is combined by the balance heuristic over C
+// wavelengths x {BSDF, light} strategies (eq. 3-4).
+struct SpectralPath {
+  const Scene& scene;
+  const LightSet& lights;
+  const SceneSpectra& spectra;
+  const SampledWavelengths& wl;
+  const int C;
+  const bool split_lobes;
   SpectralValues L{}, beta{}, r_u{}, r_l{};
-  for (int k = 0; k < C; ++k) beta[k] = r_u[k] = 1.0f;
   bool specular_bounce = false;
   Vec3 prev_p;
   std::array<BsdfParams, kMaxWavelengths> mk;
   std::array<std::optional<Bsdf>, kMaxWavelengths> bk;  // mk's BSDFs at the hit
+  bool dispersive = false;
   SpectralLobeSplit prev;  // the previous vertex's lobes, where some light is hidden from some kinds
+  int64_t shadow_rays = 0;
+
+  SpectralPath(const Scene& s, const SceneSpectra& sp, const SampledWavelengths& w)
+      : scene(s), lights(s.light_set()), spectra(sp), wl(w), C(w.count), split_lobes(s.lights_hidden_from_some_lobes()) {
+    for (int k = 0; k < C; ++k) beta[k] = r_u[k] = 1.0f;
+  }
 
   // Emission found by a ray: balance heuristic over C wavelengths x {BSDF, light} strategies.
-  auto add_emission = [&](const RgbSpectrum& spec, float pdf_light, bool full, float scale = 1.0f) {
+  void add_emission(const RgbSpectrum& spec, float pdf_light, bool full, float scale = 1.0f) {
     float denom = 0;
     for (int k = 0; k < C; ++k) denom += full ? r_u[k] : r_u[k] + r_l[k] * pdf_light;
     denom /= C;
     if (denom <= 0) return;
     for (int j = 0; j < C; ++j) L[j] += beta[j] * spec(wl.lambda[j]) * scale / denom;  // eq. 3-4
-  };
+  }
   // Emission of a light visible to the kinds `vis` found by a bounce ray (Cycles' per-kind
   // visibility, as in the path tracer).
-  auto add_bounce_emission = [&](const RgbSpectrum& spec, uint8_t vis, float pdf_light) {
-    if (vis == kAllLobes) return add_emission(spec, pdf_light, specular_bounce);
+  void add_bounce_emission(const RgbSpectrum& spec, uint8_t vis, float pdf_light, float scale = 1.0f) {
+    if (vis == kAllLobes) return add_emission(spec, pdf_light, specular_bounce, scale);
     if (!(vis & prev.lobe)) return;
-    if (specular_bounce) return add_emission(spec, 0.0f, true);
-    prev.add(spec, vis, pdf_light, wl, L);
-  };
-
-  constexpr int kMaxPassThrough = 8;  // as the path tracer (Cycles' Transparent bounces)
-  int pass_through = 0;
-  for (int depth = 0;; ++depth) {
-    ++rays.closest;
-    const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
-    const std::optional<SurfaceHit>& hit = first ? *first : traced;
-    first = nullptr;  // only the camera ray's hit is given
-
-    // ---- Emission found by the ray ----
-    if (!hit) {
-      const int env = lights.environment();
-      if (env >= 0) {
-        const Light& e = lights.lights()[env];  // the World's Ray Visibility
-        if (depth == 0) {
-          if (e.visible_to_camera && !ray.held_out) add_emission(spectra_.light[env], 0.0f, true);
-        } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
-          if (e.visible_lobes & prev.lobe)
-            add_emission(spectra_.light[env], 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
-        } else {
-          add_bounce_emission(spectra_.light[env], e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
-        }
-      }
-      break;
+    if (specular_bounce) return add_emission(spec, 0.0f, true, scale);
+    prev.add(spec, vis, pdf_light, wl, L, scale);
+  }
+  // A point or spot light's disk, its radiance Le the light's spectrum times a grey factor.
+  void disk_light(int, int l, const RGB& Le, float pdf) {
+    add_bounce_emission(spectra.light[l], lights.lights()[l].visible_lobes, specular_bounce ? 0.0f : pdf,
+                        grey_factor(Le, lights.lights()[l].emit));
+  }
+  // An environment whose colour varies with direction is upsampled per hit (light_spectrum).
+  void environment(int depth, const Ray& ray) {
+    const int env = lights.environment();
+    if (env < 0) return;
+    const Light& e = lights.lights()[env];  // the World's Ray Visibility
+    std::optional<RgbSpectrum> varying;
+    if (varies_with_direction(lights, env))
+      varying = light_spectrum(spectra, lights, env, lights.environment_radiance(ray.d, ray.camera));
+    const RgbSpectrum& spec = varying ? *varying : spectra.light[env];
+    if (depth == 0) {
+      if (e.visible_to_camera) add_emission(spec, 0.0f, true);
+    } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
+      if (e.visible_lobes & prev.lobe) add_emission(spec, 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
+    } else {
+      add_bounce_emission(spec, e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
     }
-    if (hit->light >= 0 && !lights.area_radiance(hit->light, -ray.d).is_black()) {
-      if (depth == 0) {
-        add_emission(spectra_.light[hit->light], 0.0f, true);
-      } else {
-        add_bounce_emission(spectra_.light[hit->light], lights.lights()[hit->light].visible_lobes,
-                            specular_bounce ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
-      }
-    }
-    const Material& base = scene_.material(hit->material);
-    // ---- A pass-through surface (a light object): crossed as the path tracer crosses it,
-    // keeping the path's state and its kind of ray ----
-    if (base.is_pass_through() && pass_through < kMaxPassThrough) {
-      ++pass_through;
-      Ray on(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
-      on.camera = ray.camera;
-      on.bounce = ray.bounce;
-      ray = on;
-      --depth;
-      continue;
-    }
-    if (depth + 1 >= max_depth_) break;
-
-    const bool dispersive = is_dispersive(base);
-    const SpectralSurface surface(base, hit->uv, &spectra_.albedo[hit->material]);  // textures read once
+  }
+  void area_light(int depth, const SurfaceHit& hit, const Ray& ray) {
+    if (lights.area_radiance(hit.light, -ray.d).is_black()) return;
+    if (depth == 0) return add_emission(spectra.light[hit.light], 0.0f, true);
+    add_bounce_emission(spectra.light[hit.light], lights.lights()[hit.light].visible_lobes,
+                        specular_bounce ? 0.0f : lights.pdf_area(hit.light, prev_p, hit.p, ray.d));
+  }
+  bool prepare(const SurfaceHit& hit) {
+    const Material& base = scene.material(hit.material);
+    dispersive = is_dispersive(base);
+    const SpectralSurface surface(base, hit.uv, &spectra.albedo[hit.material]);  // textures read once
     for (int k = 0; k < C; ++k) {
       mk[k] = surface.at(wl.lambda[k]);
-      bk[k] = scene_.bsdf(mk[k], *hit);  // with the hit's normals (a normal map's bump shadowing)
+      bk[k] = scene.bsdf(mk[k], hit);  // with the hit's normals (a normal map's bump shadowing)
     }
-    const Bsdf& hero_bsdf = *bk[0];
-    if (scene_.bsdf(*hit).is_black()) break;
-    const Vec3 wo = hit->frame.to_local(-ray.d);
-    if (wo.z == 0) break;
-
-    // ---- Emitter sampling (next-event estimation) ----
-    // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
-    // visible to, with their density for MIS (as the path tracer).
-    if (!hero_bsdf.is_delta() && !lights.empty()) {
-      const float u_light = rng.uniform();
-      const Vec2 u2(rng.uniform(), rng.uniform());
-      if (auto ls = lights.sample_li(hit->p, u_light, u2);
-          ls && ls->pdf > 0 && !ls->L.is_black() && !lights.lights()[ls->light].lit_by_bsdf_rays_only()) {
-        const uint8_t vis = lights.lights()[ls->light].visible_lobes;
-        const Vec3 wi = hit->frame.to_local(ls->wi);
-        SpectralValues f{}, pdf{};
-        bool any = false;
-        for (int k = 0; k < C; ++k) {
-          const Bsdf& b = *bk[k];
-          f[k] = b.eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);  // grey material: any channel
-          // The pdf only depends on the wavelength through a dispersive IOR.
-          pdf[k] = (k == 0 || dispersive) ? b.pdf(wo, wi, vis) : pdf[0];
-          any |= f[k] > 0;
-        }
-        if (any) {
-          ++rays.shadow;
-          const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
-          if (!blocked) {
-            float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
-            for (int k = 0; k < C; ++k) denom += r_u[k] * (ls->pdf + (ls->delta ? 0.0f : pdf[k]));
-            denom /= C;
-            const float scale = light_scale(*ls, lights.lights()[ls->light]);
-            const RgbSpectrum& spec = spectra_.light[ls->light];
-            if (denom > 0)
-              for (int j = 0; j < C; ++j) L[j] += beta[j] * f[j] * scale * spec(wl.lambda[j]) / denom;
-          }
-        }
-      }
+    return !scene.bsdf(hit).is_black();
+  }
+  bool is_delta() const { return bk[0]->is_delta(); }
+  // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
+  // visible to, with their density for MIS (as the path tracer).
+  void next_event(int, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls) {
+    const uint8_t vis = lights.lights()[ls.light].visible_lobes;
+    const Vec3 wi = hit.frame.to_local(ls.wi);
+    SpectralValues f{}, pdf{};
+    bool any = false;
+    for (int k = 0; k < C; ++k) {
+      const Bsdf& b = *bk[k];
+      f[k] = b.eval(wo, wi, TransportMode::Radiance, vis)[0] * std::abs(wi.z);  // grey material: any channel
+      // The pdf only depends on the wavelength through a dispersive IOR.
+      pdf[k] = (k == 0 || dispersive) ? b.pdf(wo, wi, vis) : pdf[0];
+      any |= f[k] > 0;
     }
-
-    // ---- BSDF sampling (driven by the hero wavelength) ----
-    const float uc = rng.uniform();
-    const Vec2 u(rng.uniform(), rng.uniform());
-    const auto bs = hero_bsdf.sample(wo, uc, u);
-    if (!bs || bs->pdf <= 0) break;
+    if (!any) return;
+    ++shadow_rays;
+    if (scene.occluded(hit.p, hit.ng, ls)) return;
+    float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
+    for (int k = 0; k < C; ++k) denom += r_u[k] * (ls.pdf + (ls.delta ? 0.0f : pdf[k]));
+    denom /= C;
+    std::optional<RgbSpectrum> varying;
+    if (varies_with_direction(lights, ls.light)) varying = light_spectrum(spectra, lights, ls.light, ls.L);
+    const float scale = varying ? 1.0f : light_scale(ls, lights.lights()[ls.light]);
+    const RgbSpectrum& spec = varying ? *varying : spectra.light[ls.light];
+    if (denom > 0)
+      for (int j = 0; j < C; ++j) L[j] += beta[j] * f[j] * scale * spec(wl.lambda[j]) / denom;
+  }
+  // Driven by the hero wavelength; the others follow with their own factors and pdfs.
+  std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u) {
+    const auto bs = bk[0]->sample(wo, uc, u);
+    if (!bs || bs->pdf <= 0) return std::nullopt;
     if (split_lobes) {
       prev.beta = beta;
       prev.r_u = r_u;
@@ -333,27 +244,35 @@ SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng
       r_u[k] *= pdf[k] / bs->pdf;
       alive |= beta[k] > 0;
     }
-    if (!alive) break;
+    if (!alive) return std::nullopt;
     specular_bounce = bs->delta;
-    prev_p = hit->p;
-    const Vec3 wi = hit->frame.to_world(bs->wi);
-    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
-    ray.bounce = bs->lobe;  // surfaces hidden from this kind of ray let it through
-
-    // ---- Russian roulette (on the MIS-weighted throughput) ----
-    if (depth + 1 >= rr_depth_) {
-      const float ru = mean(r_u, C);
-      float bmax = 0;
-      for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
-      const float q = std::max(0.05f, 1.0f - (ru > 0 ? bmax / ru : 0.0f));
-      if (rng.uniform() < q) break;
-      for (int k = 0; k < C; ++k) {
-        beta[k] /= 1.0f - q;
-        prev.beta[k] /= 1.0f - q;
-      }
-    }
+    prev_p = hit.p;
+    return bs;
   }
-  return L;
+  // Russian roulette on the MIS-weighted throughput.
+  bool survive(float u_rr) {
+    const float ru = mean(r_u, C);
+    float bmax = 0;
+    for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
+    const float q = std::max(0.05f, 1.0f - (ru > 0 ? bmax / ru : 0.0f));
+    if (u_rr < q) return false;
+    for (int k = 0; k < C; ++k) {
+      beta[k] /= 1.0f - q;
+      prev.beta[k] /= 1.0f - q;
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
+SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
+                                      const std::optional<SurfaceHit>* first, bool* escaped) const {
+  SpectralPath path(scene_, spectra_, wl);
+  const bool covered = trace_camera_path(scene_, settings_, ray, rng, rays, path, first);
+  if (escaped) *escaped = !covered;
+  rays.shadow += path.shadow_rays;
+  return path.L;
 }
 
 void SpectralPathTracer::iterate(ProgressSink* sink) {
@@ -366,11 +285,16 @@ void SpectralPathTracer::iterate(ProgressSink* sink) {
                              for (size_t i = 0; i < n; ++i) {
                                Rng& rng = starts[i].rng;
                                const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
-                               out[i].L = sample_to_rgb(Li(camera[i], wl, rng, rays, &hits[i]), wl);
+                               bool escaped = false;
+                               out[i].L = sample_to_rgb(Li(camera[i], wl, rng, rays, &hits[i], &escaped), wl);
+                               out[i].alpha = escaped ? 0.0f : 1.0f;
                              }
                            });
 }
 
-void SpectralPathTracer::develop(Film& film) const { estimate_.develop(film, pass::kCombined); }
+void SpectralPathTracer::develop(Film& film) const {
+  estimate_.develop(film, pass::kCombined);
+  if (settings_.film_transparent) estimate_.develop_alpha(film);
+}
 
 }  // namespace gp

@@ -38,8 +38,8 @@
 #include <optional>
 
 #include "core/math.h"
-#include "integrators/gradient/shift.h"
-#include "integrators/photon/photon_tracer.h"  // ChainVertex, kMaxChainVertices
+#include "integrators/shift/shift.h"
+#include "integrators/paths/light_chain.h"
 #include "scene/scene.h"
 
 namespace gp {

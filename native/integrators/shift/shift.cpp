@@ -1,5 +1,5 @@
 // Half-vector copy and reconnection shifts (see shift.h).
-#include "integrators/gradient/shift.h"
+#include "integrators/shift/shift.h"
 
 #include <cmath>
 #include <optional>

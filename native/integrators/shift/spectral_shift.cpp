@@ -1,4 +1,4 @@
-#include "integrators/spectral/spectral_shift.h"
+#include "integrators/shift/spectral_shift.h"
 
 #include <cmath>
 

@@ -1,5 +1,5 @@
 // Manifold walk for GPM's light-subpath shift (see manifold.h for the method and references).
-#include "integrators/gradient/manifold.h"
+#include "integrators/shift/manifold.h"
 
 #include <Eigen/Dense>
 #include <unsupported/Eigen/AutoDiff>

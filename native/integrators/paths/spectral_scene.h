@@ -1,0 +1,109 @@
+// What every spectral estimator shares, below the method families (spectral path tracing,
+// spectral photons, spectral gradients): the spectral mode a scene renders in, the spectra of
+// its colours upsampled once, the material and lights seen at a set of wavelengths.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/params.h"
+#include "core/spectrum.h"
+#include "lights/light.h"
+#include "materials/bsdf.h"
+#include "materials/material.h"
+#include "materials/spectral_material.h"
+#include "scene/scene.h"
+
+namespace gp {
+
+// Name of the first dispersive material of the scene, or "" when there is none.
+std::string first_dispersive_material(const Scene& scene);
+
+// Spectral mode selection (`--spectral auto|rgb|spectral`, parameter `spectral`): `rgb` and
+// `spectral` force the mode; `auto` renders spectrally only when the scene has a dispersive
+// material. Throws ParamError for other values.
+enum class SpectralMode { Auto, Rgb, Spectral };
+SpectralMode parse_spectral_mode(const std::string& s);
+bool use_spectral(SpectralMode mode, const Scene& scene);
+
+// Spectra of a scene's colours, upsampled once (materials by index, lights by LightSet index).
+struct SceneSpectra {
+  explicit SceneSpectra(const Scene& scene);
+  std::vector<RgbSpectrum> albedo;  // Material::color as a reflectance
+  std::vector<RgbSpectrum> light;   // Light::emit as an illuminant
+};
+
+// The material seen by one wavelength at texture coordinate uv, as BSDF parameters
+// (materials/spectral_material.h): a grey colour, the colour's spectrum at lambda (`albedo`,
+// the constant colour's, or the texel's upsampled), a Cauchy IOR at lambda; textures, mix
+// components and the rest as the RGB Bsdf has them.
+BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, Vec2 uv, float lambda);
+
+// Room for the parameters of one material at each wavelength of a set, filled only for a
+// textured material (SpectraAtWavelengths::at_point): eight BsdfParams are worth not
+// initialising per vertex. Not a std::optional: GCC 12 zeroes a disengaged optional's whole
+// storage (648 bytes per vertex: 12 % of spectral SPPM's eye pass on pool, docs/benchmarks.md).
+class WavelengthParams {
+ public:
+  WavelengthParams() {}  // leaves params_ unconstructed: nothing is written unless make() is called
+  // The array, constructed (it is then written in full by the caller).
+  BsdfParams* make() { return std::construct_at(&params_)->data(); }
+
+ private:
+  union {
+    std::array<BsdfParams, kMaxWavelengths> params_;
+  };
+};
+
+// The scene's materials (monochromatic() per wavelength) and light spectra at one set of
+// wavelengths, evaluated once for the set. SPPM shares one set per pass between all its eye
+// paths, photons and gathers, so nothing spectral is evaluated per vertex, except for materials
+// an image texture drives, which are looked up per point.
+class SpectraAtWavelengths {
+ public:
+  void evaluate(const Scene& scene, const SceneSpectra& spectra, const SampledWavelengths& wl);
+  // The parameters of material m at uv at each wavelength of the set (count of them): the
+  // shared ones, or for a textured material those at uv, made in `local`.
+  const BsdfParams* material(int m, Vec2 uv, WavelengthParams& local) const {
+    if (!per_point_[static_cast<size_t>(m)]) return &bsdf_[static_cast<size_t>(m) * count_];
+    return at_point(m, uv, local);
+  }
+  // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
+  const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
+  // The spectral radiance at each wavelength of the set of the RGB `value` light l sends
+  // (light_spectrum): out[k] for k < count.
+  void emitted(int l, const RGB& value, float* out) const;
+
+ private:
+  int count_ = 0;
+  const Scene* scene_ = nullptr;
+  const SceneSpectra* spectra_ = nullptr;
+  SampledWavelengths wl_;
+  std::vector<BsdfParams> bsdf_;
+  std::vector<uint8_t> per_point_;  // the material has textures: parameters per point
+  std::vector<float> light_;
+  const BsdfParams* at_point(int m, Vec2 uv, WavelengthParams& local) const;
+};
+
+// Spectral radiance of a light sample over its light's spectrum: lights scale their RGB
+// emission by grey factors only (distance, spot falloff), so the factor read off the brightest
+// channel applies to the spectrum.
+float light_scale(const LightSample& ls, const Light& l);
+// Factor turning a light's RGB emission (times grey factors: distance, falloff, pdfs) into its
+// spectrum: the grey factor read off the brightest channel of the emission colour `emit`.
+float grey_factor(const RGB& value, const RGB& emit);
+
+// The spectrum of radiance `value` (RGB: the light's emission times grey factors, or what an
+// environment sends along one direction) that light l sends: for a light of one colour, its
+// spectrum (SceneSpectra::light) times the grey factor read off its brightest channel; for an
+// environment whose colour varies with direction (an image, Light Path: Is Camera Ray), `value`
+// itself upsampled as an illuminant, per hit, as textured emission is.
+RgbSpectrum light_spectrum(const SceneSpectra& spectra, const LightSet& lights, int l, const RGB& value);
+// Whether light l is an environment whose colour varies with direction (light_spectrum's case 2).
+inline bool varies_with_direction(const LightSet& lights, int l) {
+  return l == lights.environment() && lights.environment_textured();
+}
+
+}  // namespace gp
