@@ -9,6 +9,7 @@ parameter added or renamed there appears here with no edit.
 """
 import bpy
 import math
+import re
 
 from bpy.app.handlers import persistent
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
@@ -103,13 +104,34 @@ def read_when(settings, method, decl):
     return str(native_value(settings, method, other)) == value
 
 
+# "thesis" in a declaration's reference is Hachisuka's (DESIGN.md): a tooltip says whose.
+THESIS = "Hachisuka 2011,"
+
+
+def _cited(text):
+    return re.sub(r"\bthesis\b", THESIS, text)
+
+
+def choice_descriptions(decl):
+    """{choice: what it does} from a description written "what it sets; a: ...; b: ...", each
+    choice's item in the menu then says what it does instead of repeating its name."""
+    out = {}
+    for part in decl["description"].split("; ")[1:]:
+        name, sep, text = part.partition(": ")
+        if sep and name in decl["choices"]:
+            out[name] = text[0].upper() + text[1:]
+    return out
+
+
 def _tooltip(decl):
     text = decl["description"]
+    if decl["type"] == "string" and choice_descriptions(decl):
+        text = text.split("; ")[0]  # the choices say the rest, each in its own item
     text = text[0].upper() + text[1:]
     if decl["zero_means"]:
-        text += f"; Auto: {decl['zero_means']}"
-    ref = ", ".join(x for x in (decl["symbol"], decl["reference"]) if x)
-    if ref:
+        text += f"; Auto: {_cited(decl['zero_means'])}"
+    ref = ", ".join(_cited(x) for x in (decl["symbol"], decl["reference"]) if x)
+    if ref:  # the paper last, short
         text += f" ({ref})"
     if decl["name"] in BOUNCES:
         text += f". Core: {decl['name']} = bounces + {BOUNCES_TO_SEGMENTS}"
@@ -141,7 +163,8 @@ def make_property(decl):
     if kind == "bool":
         prop = BoolProperty(name=label, default=bool(default), description=tip)
     elif kind == "string":
-        items = [(c, _choice_label(c), c) for c in decl["choices"]]
+        said = choice_descriptions(decl)
+        items = [(c, _choice_label(c), said.get(c, c)) for c in decl["choices"]]
         prop = EnumProperty(name=label, default=default, items=items, description=tip)
     else:
         lo, hi = _bound(decl, "min"), _bound(decl, "max")
@@ -183,14 +206,12 @@ def _shared_annotations():
         for d in declared(method):
             if d["shared"] and d["name"] not in BLENDER_HELD and prop_name(d) not in out:
                 prop = make_property(d)
-                if d["name"] == "spectral":
+                if d["name"] == "spectral":  # Blender's capitals for the items, the core's words
+                    said = choice_descriptions(d)
+                    labels = {"auto": "Auto", "rgb": "RGB", "spectral": "Spectral"}
                     prop[prop_name(d)] = EnumProperty(
                         name="Spectral", default="auto", description=_tooltip(d),
-                        items=[("auto", "Auto", "Spectral rendering only when a material disperses (Abbe "
-                                                "number or Cauchy B)"),
-                               ("rgb", "RGB", "Always RGB (dispersion ignored)"),
-                               ("spectral", "Spectral", "Always spectral (path tracing runs with hero "
-                                                        "wavelengths)")])
+                        items=[(c, labels.get(c, _choice_label(c)), said.get(c, c)) for c in d["choices"]])
                 out.update(prop)
     return out
 
@@ -325,8 +346,12 @@ class _RenderSettings:
                         description="Passes to render: samples per pixel for path tracing, photon passes "
                                     "for photon methods (one costs as much as many samples)")
     target_error: FloatProperty(name="Target Error", default=0.05, min=1e-4, max=1.0,
-                                description="Mean relative error of the image to stop at, as the method "
-                                            "estimates it (0.05 = 5 %; thesis eq. 6.33 over each pixel's mean error)")
+                                description="Stop when the method estimates the image's mean error has fallen to "
+                                            "this (0.05 = 5 % of the pixels' brightness; Hachisuka 2011, eq. 6.33)")
+    error_time_limit: FloatProperty(name="Time Limit", default=0.0, min=0.0, unit='TIME_ABSOLUTE',
+                                    subtype='TIME_ABSOLUTE',
+                                    description="Stop after this time even if Target Error is not reached yet, "
+                                                "whichever comes first (0 = no limit), as Cycles' Time Limit")
     use_animated_seed: BoolProperty(name="Use Animated Seed", default=False,
                                     description="Another seed every frame (a hash of the frame and the seed), "
                                                 "as Cycles: the noise changes over an animation")
@@ -336,7 +361,9 @@ class _RenderSettings:
     viewport_passes: IntProperty(name="Passes", default=1024, min=0,
                                  description="Passes the rendered viewport refines to (0 = no limit)")
     export_uvs: BoolProperty(name="Export UVs", default=False,
-                             description="Export UV maps (splits vertices at UV seams; no material uses UVs yet)")
+                             description="Export every mesh's UV map, also where no material reads one (for Export "
+                                         "Scene): materials with image textures get theirs anyway. Splits "
+                                         "vertices at UV seams")
 
 
 # Blender registers no pass toggle for these: alpha is Combined's Alpha (film_transparent).

@@ -22,6 +22,22 @@ from . import export, native, properties, sync
 from .properties import FILM_TRANSPARENT, declared, method_info
 
 POLL_SECONDS = 0.02
+# How often an F12 render's image reaches Blender: the first pass at once, then Cycles' ladder
+# (render_scheduler.cpp, guess_display_update_interval_in_seconds: 0.25 s in the first 2 s of
+# rendering, 0.5 s to 4 s, 1 s to 10 s; 2 s after, as its final renders), at the pass end nearest
+# each interval (a pass is the smallest step: Cycles' is a sample).
+DISPLAY_INTERVAL = ((2.0, 0.25), (4.0, 0.5), (10.0, 1.0), (math.inf, 2.0))  # (until, interval), seconds
+# Passes Film > Exposure scales, as Cycles scales its light passes (not data: error, radius,
+# counts, alpha, albedo, normal, depth).
+# Progressive resolution, as Cycles' start resolution: while a full pass would take longer than
+# Cycles' one-second refresh, the first passes render the image at 1/8, 1/4, 1/2 of its size
+# (its longer side at least PREVIEW_MIN_SIDE pixels), each shown enlarged, then discarded.
+PREVIEW_DIVIDERS = (8, 4, 2)
+PREVIEW_MIN_SIDE = 128
+PREVIEW_FULL_PASS = 1.0  # seconds: a full pass expected faster than this needs no preview
+PREVIEW_MAX = 0.5        # seconds a preview pass may be expected to take: each delays the full image
+EXPOSED_PASSES = {"combined", "primal", "gradient_x", "gradient_y", "spectral_primal", "spectral_gradient",
+                  "path_tracing"}
 LAST = None  # the latest RenderSession (tests and the UI test inspect it)
 REPORTS = []  # [(level, message)] of the latest render, shown in the Render tab's Last Render panel
 
@@ -132,6 +148,31 @@ def to_blender_pixels(img, channels, window=None, alpha=None):
     return out.reshape(-1, channels)
 
 
+def previews_help(method):
+    """Whether smaller first passes give earlier images: methods whose pass cost follows the pixel
+    count (not photon passes, whose photons cost the same at any size, nor Metropolis chains)."""
+    return not any(d["name"] in ("photons", "mutations") for d in declared(method))
+
+
+def enlarged(img, height, width):
+    """`img` (h, w, C) scaled to (height, width) by repeating pixels (nearest)."""
+    h, w = img.shape[:2]
+    ys = np.minimum(np.arange(height) * h // height, h - 1)
+    xs = np.minimum(np.arange(width) * w // width, w - 1)
+    return img[ys][:, xs]
+
+
+def display_interval(elapsed):
+    """Seconds between two images sent to Blender, `elapsed` seconds into the render."""
+    return next(interval for until, interval in DISPLAY_INTERVAL if elapsed < until)
+
+
+def film_exposure(scene):
+    """Film > Exposure (Cycles' setting, a linear scale of the image; 1 without Cycles)."""
+    c = getattr(scene, "cycles", None)
+    return float(getattr(c, "film_exposure", 1.0)) if c is not None else 1.0
+
+
 class Progress:
     """Stop rule bookkeeping: fraction done and the status line."""
 
@@ -140,6 +181,8 @@ class Progress:
         self.seconds = settings.time_limit
         self.passes = settings.passes
         self.target = settings.target_error
+        # Target Error's Time Limit, as Cycles': whichever comes first (0: none).
+        self.error_seconds = getattr(settings, "error_time_limit", 0.0) if self.rule == 'ERROR' else 0.0
         self.start = time.perf_counter()
 
     def elapsed(self):
@@ -150,9 +193,10 @@ class Progress:
             return min(1.0, self.elapsed() / self.seconds)
         if self.rule == 'PASSES':
             return min(1.0, passes / self.passes)
+        by_time = min(1.0, self.elapsed() / self.error_seconds) if self.error_seconds > 0 else 0.0
         if error is None or error < 0 or error <= self.target:
-            return 1.0 if error is not None and 0 <= error <= self.target else 0.0
-        return min(1.0, (self.target / error) ** 2)  # error ~ 1/sqrt(work)
+            return 1.0 if error is not None and 0 <= error <= self.target else by_time
+        return max(by_time, min(1.0, (self.target / error) ** 2))  # error ~ 1/sqrt(work)
 
     def done(self, passes, error):
         if self.rule == 'TIME':
@@ -162,7 +206,14 @@ class Progress:
             return el >= self.seconds or (passes >= 1 and el + 0.5 * el / passes >= self.seconds)
         if self.rule == 'PASSES':
             return passes >= self.passes
+        if self.error_seconds > 0 and self.elapsed() >= self.error_seconds:
+            return True
         return error is not None and 0 <= error <= self.target
+
+    def timed_out(self, error):
+        """The Target Error rule stopped on its Time Limit before the target."""
+        return (self.rule == 'ERROR' and self.error_seconds > 0 and self.elapsed() >= self.error_seconds
+                and not (error is not None and 0 <= error <= self.target))
 
     def status(self, stats, error, method=""):
         f = self.fraction(stats.get("passes", 0), error)
@@ -178,7 +229,7 @@ class Progress:
         parts.extend(method_stats(method, stats))
         if 0 < f < 1:
             parts.append(f"{el * (1 - f) / f:.1f} s left")
-        parts.append(f"{el:.1f} s")
+        # No elapsed time: Blender's own stats beside this line show it (Time: 00:04.52).
         return " | ".join(parts)
 
 
@@ -220,17 +271,37 @@ class RenderSession:
         self.break_at = None        # wall clock (time.time()) when test_break() first fired
         self.finished_at = None     # wall clock when render() returned
         self.status_line = ""       # the latest status line sent to Blender
+        self.exposure = 1.0         # Film > Exposure
         self.reports = REPORTS      # what this render reported, also shown in the Last Render panel
+        self.deferred = []          # warnings for Blender's status bar, sent when the render ends
         REPORTS.clear()
         global LAST
         LAST = self
 
-    def report(self, level, message):
-        """Blender's report (the status bar, the Info editor) and the Last Render panel."""
+    def report(self, level, message, defer=False):
+        """Blender's report (the status bar, the Info editor) and the Last Render panel. A
+        `defer`red warning is in the panel at once and goes to Blender when the render ends:
+        Blender's status bar shows a warning for 5 s from the moment it is reported (an error
+        10 s: wm_operators, INFO_TIMEOUT / ERROR_TIMEOUT), which ran out while F12's window
+        was opening when the export's warnings were reported at once."""
         self.reports.append((level, message))
-        self.engine.report({level}, message)
+        if defer:
+            self.deferred.append((level, message))
+        else:
+            self.engine.report({level}, message)
+
+    def _send_deferred(self):
+        for level, message in self.deferred:
+            self.engine.report({level}, message)
+        self.deferred.clear()
 
     def render(self, depsgraph):
+        try:
+            self._render(depsgraph)
+        finally:
+            self._send_deferred()  # also when the export or the session failed
+
+    def _render(self, depsgraph):
         engine = self.engine
         try:
             N = native.get()
@@ -252,7 +323,7 @@ class RenderSession:
                 engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
                 nscene = exported.build(N)
             if exported.warnings:
-                self.report('WARNING', exported.warnings.summary())
+                self.report('WARNING', exported.warnings.summary(), defer=True)
             params = params_of(settings, settings.method, frame=scene.frame_current)
             if any(d["name"] == FILM_TRANSPARENT for d in declared(settings.method)):
                 params[FILM_TRANSPARENT] = bool(scene.render.film_transparent)
@@ -267,15 +338,16 @@ class RenderSession:
                                  "please report it with the console output")
             return
         for w in nscene.warnings:
-            self.report('WARNING', f"gradphoton scene: {w}")
+            self.report('WARNING', f"gradphoton scene: {w}", defer=True)
         # The session sends only what the method declares: a name it does not know is a bug here.
         for line in self.session.unused_report:
             if "is not a parameter of" in line:
-                self.report('WARNING', f"gradphoton: {line}")
+                self.report('WARNING', f"gradphoton: {line}", defer=True)
         if scene.render.film_transparent and (FILM_TRANSPARENT in self.session.unused_params
                                               or FILM_TRANSPARENT not in params):
             self.report('WARNING', f"gradphoton: {self.session.method} has no transparent film: "
-                                   "the background stays opaque")
+                                   "the background stays opaque", defer=True)
+        self.exposure = film_exposure(scene)
         self.transparent = (scene.render.film_transparent and FILM_TRANSPARENT in params
                             and FILM_TRANSPARENT not in self.session.unused_params)
         W, H = exported.width, exported.height
@@ -285,10 +357,15 @@ class RenderSession:
         self.session.set_aux_passes(any(p[0] in AUX_PASSES for p in passes))  # no cost unless asked for
         result = engine.begin_result(0, 0, rw, rh, layer=view_layer.name)
         progress = Progress(settings)
-        last_update = -1.0
-        interval = 0.25
+        last_update = -math.inf
         n = 0
+        previewed = False
         try:
+            if window is None and previews_help(settings.method) and progress.rule != 'PASSES':
+                previewed = self._previews(N, nscene, exported.description["camera"], settings.method, params,
+                                           result, passes, progress)
+                if previewed:
+                    last_update = progress.elapsed()
             while True:
                 cancelled_at = self._iterate_cancellable()
                 stats = self.session.stats
@@ -296,12 +373,15 @@ class RenderSession:
                 error = self.session.estimated_error
                 done = cancelled_at is not None or progress.done(n, error)
                 now = progress.elapsed()
-                if done or now - last_update >= interval:
+                # The pass end nearest the interval: half a pass early rather than a whole one late.
+                half_pass = 0.5 * now / max(1, n)
+                if previewed and stats.get("passes", 0) == 0:
+                    pass  # stopped before a full pass: the preview stays, not an empty image
+                elif done or now - last_update + half_pass >= display_interval(now):
                     self._write(result, passes)
                     engine.update_result(result)
                     self.updates.append((now, n))
                     last_update = now
-                    interval = min(2.0, interval * 1.5)
                 self.status_line = progress.status(stats, error, settings.method)
                 engine.update_stats("", self.status_line)
                 engine.update_progress(progress.fraction(n, error))
@@ -310,6 +390,9 @@ class RenderSession:
                     self.break_at = time.time() - self.cancel_latency
                     break
                 if done:
+                    if progress.timed_out(error):
+                        self.report('INFO', f"gradphoton: Time Limit reached at estimated error {error or 0:.4f} "
+                                            f"(Target Error {progress.target:g})", defer=True)
                     break
                 if progress.rule == 'ERROR' and error < 0 and n >= 1:
                     self.report('ERROR', f"gradphoton: method '{settings.method}' has no error estimate; "
@@ -331,6 +414,45 @@ class RenderSession:
         except (AttributeError, RuntimeError, TypeError) as e:  # never fail the render for metadata
             self.engine.report({'WARNING'}, f"gradphoton: run metadata not recorded: {e}")
 
+    def _previews(self, N, nscene, camera, method, params, result, passes, progress):
+        """The progressive-resolution first passes (PREVIEW_DIVIDERS): each a session of its own on
+        the camera made smaller, one pass, its image enlarged into the result; the camera is
+        restored and the full-size session made anew after them. Returns whether any was shown."""
+        import json
+        W, H = camera["width"], camera["height"]
+        shown = False
+        full = self.session
+        last = None  # (divider, seconds) of the latest preview pass
+        try:
+            for d in PREVIEW_DIVIDERS:
+                w, h = math.ceil(W / d), math.ceil(H / d)
+                if max(w, h) < PREVIEW_MIN_SIDE:
+                    continue
+                if last is not None and last[1] * (last[0] / d) ** 2 > PREVIEW_MAX:
+                    break  # it would hold the first full image back for longer than it shows
+
+                nscene.set_camera(json.dumps(dict(camera, width=w, height=h)))
+                self.session = N.Session(nscene, method, params)
+                self.session.set_aux_passes(False)
+                t0 = time.perf_counter()
+                if self._iterate_cancellable() is not None:
+                    break
+                seconds = time.perf_counter() - t0
+                images = {k: enlarged(v, H, W) for k, v in self.session.develop().items()
+                          if k in ("combined", "alpha")}
+                self._write(result, [p for p in passes if p[0] == "combined"], images)
+                self.engine.update_result(result)
+                self.updates.append((progress.elapsed(), 0))
+                shown = True
+                last = (d, seconds)
+                if seconds * d * d <= PREVIEW_FULL_PASS:
+                    break  # a full pass will be about as quick: no smaller one is needed
+        finally:
+            nscene.set_camera(json.dumps(camera))
+            self.session = N.Session(nscene, method, params) if shown or full.stale else full
+            self.session.set_aux_passes(any(p[0] in AUX_PASSES for p in passes))
+        return shown
+
     def _iterate_cancellable(self):
         """Runs one pass; returns the time test_break() fired, or None."""
         if self.test_break():
@@ -346,10 +468,11 @@ class RenderSession:
                 self.session.cancel()
         return fired
 
-    def _write(self, result, passes):
+    def _write(self, result, passes, images=None):
         """Every enabled pass into the result (a border render's images are already the
-        border: the core traced only its pixels)."""
-        images = self.session.develop()
+        border: the core traced only its pixels); `images` instead of the session's own."""
+        if images is None:
+            images = self.session.develop()
         layer = result.layers[0]
         alpha = images.get("alpha") if self.transparent else None
         for name, bl_name, channels, _, _ in passes:
@@ -359,4 +482,6 @@ class RenderSession:
             img = images.get(name)
             if img is None:
                 continue  # the method does not produce this pass: Blender keeps it zero
+            if self.exposure != 1.0 and name in EXPOSED_PASSES:
+                img = img * np.float32(self.exposure)
             rp.rect.foreach_set(to_blender_pixels(img, channels, None, alpha if name == "combined" else None))

@@ -93,8 +93,11 @@ class GRADPHOTON_PT_render(GradphotonPanel, bpy.types.Panel):
         layout.prop(s, "stop_rule")
         rule = s.stop_rule or 'TIME'
         layout.prop(s, {"TIME": "time_limit", "PASSES": "passes", "ERROR": "target_error"}[rule])
+        if rule == 'ERROR':  # Cycles' Time Limit beside its Noise Threshold: whichever comes first
+            layout.prop(s, "error_time_limit")
         for d in group_params(s.method, "Rendering"):
-            draw_param(layout, s, s.method, d)
+            if d["name"] not in SPECTRAL_PANEL:
+                draw_param(layout, s, s.method, d)
 
 
 class GRADPHOTON_PT_viewport(GradphotonPanel, bpy.types.Panel):
@@ -107,6 +110,45 @@ class GRADPHOTON_PT_viewport(GradphotonPanel, bpy.types.Panel):
         s = context.scene.gradphoton
         layout.prop(s, "viewport_method")
         layout.prop(s, "viewport_passes")
+
+
+# Spectral rendering is set in one place, the Spectral sub-panel: the mode (declared in the
+# Rendering group) and the method's spectral parameters.
+SPECTRAL_PANEL = {"spectral"}
+# Methods that always render by wavelength (they refuse spectral mode 'rgb').
+SPECTRAL_METHODS = {"spt", "spt-hero", "sgpt"}
+
+
+def spectral_matters(scene, method):
+    """Whether the Spectral sub-panel is worth showing: a spectral method, a material that
+    disperses (what spectral mode Auto switches on), or a mode the user set away from Auto."""
+    if method in SPECTRAL_METHODS:
+        return True
+    if not any(d["name"] in SPECTRAL_PANEL or d["group"] == "Spectral" for d in declared(method)):
+        return False
+    if getattr(scene.gradphoton, "spectral_mode", "auto") != "auto":
+        return True
+    return any(m.users and getattr(m, "gradphoton", None) is not None and m.gradphoton.dispersion != 'NONE'
+               for m in bpy.data.materials)
+
+
+class GRADPHOTON_PT_spectral(GradphotonPanel, bpy.types.Panel):
+    """Spectral mode and the method's spectral parameters, shown once, where spectral rendering
+    matters (spectral_matters)."""
+    bl_label = "Spectral"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_render"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and spectral_matters(context.scene, context.scene.gradphoton.method)
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        s = context.scene.gradphoton
+        for d in declared(s.method):
+            if d["name"] in SPECTRAL_PANEL or d["group"] == "Spectral":
+                draw_param(layout, s, s.method, d)
 
 
 def _params_panel(ident, group, label, parent="GRADPHOTON_PT_render", options=None):
@@ -122,7 +164,6 @@ def _params_panel(ident, group, label, parent="GRADPHOTON_PT_render", options=No
 GRADPHOTON_PT_photons = _params_panel("GRADPHOTON_PT_photons", "Photons", "Photons")
 GRADPHOTON_PT_metropolis = _params_panel("GRADPHOTON_PT_metropolis", "Metropolis", "Metropolis")
 GRADPHOTON_PT_reconstruction = _params_panel("GRADPHOTON_PT_reconstruction", "Reconstruction", "Reconstruction")
-GRADPHOTON_PT_spectral = _params_panel("GRADPHOTON_PT_spectral", "Spectral", "Spectral")
 GRADPHOTON_PT_light_paths = _params_panel("GRADPHOTON_PT_light_paths", "Light Paths", "Light Paths", parent=None)
 GRADPHOTON_PT_clamping = _params_panel("GRADPHOTON_PT_clamping", "Clamping", "Clamping",
                                        parent="GRADPHOTON_PT_light_paths")
@@ -130,18 +171,69 @@ PARAM_PANELS = (GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_r
                 GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping)
 
 
+def cycles_settings(scene):
+    """Cycles' scene settings (scene.cycles), which hold Film > Exposure and Pixel Filter; None
+    when the Cycles add-on is disabled."""
+    return getattr(scene, "cycles", None)
+
+
 class GRADPHOTON_PT_film(GradphotonPanel, bpy.types.Panel):
+    """Cycles' Film panel: Exposure (every method: the image is scaled when it reaches Blender),
+    with Pixel Filter and Transparent below. The settings are Cycles' own, so a scene renders
+    alike in both engines."""
     bl_label = "Film"
     bl_context = "render"
     bl_options = {'DEFAULT_CLOSED'}
 
+    def draw(self, context):
+        layout = _split(self.layout)
+        c = cycles_settings(context.scene)
+        if c is None:
+            layout.label(text="Exposure and Pixel Filter are Cycles' settings: enable the Cycles add-on", icon='ERROR')
+            return
+        layout.prop(c, "film_exposure")
+
+
+class GRADPHOTON_PT_film_pixel_filter(GradphotonPanel, bpy.types.Panel):
+    bl_label = "Pixel Filter"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_film"
+
     @classmethod
-    def poll(cls, context):  # Blender's own setting, drawn for the methods that declare it
-        return super().poll(context) and reads(context.scene.gradphoton.method, FILM_TRANSPARENT)
+    def poll(cls, context):
+        return super().poll(context) and cycles_settings(context.scene) is not None
 
     def draw(self, context):
         layout = _split(self.layout)
-        layout.prop(context.scene.render, "film_transparent", text="Transparent")
+        c = cycles_settings(context.scene)
+        col = layout.column()
+        col.prop(c, "pixel_filter_type", text="Type")
+        if c.pixel_filter_type != 'BOX':
+            col.prop(c, "filter_width", text="Width")
+
+
+class GRADPHOTON_PT_film_transparency(GradphotonPanel, bpy.types.Panel):
+    """Blender's Film > Transparent, for the methods that declare film_transparent."""
+    bl_label = "Transparent"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_film"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and reads(context.scene.gradphoton.method, FILM_TRANSPARENT)
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.render, "film_transparent", text="")
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        layout.active = context.scene.render.film_transparent
+        layout.label(text="Alpha 0 where the world is seen")
+
+
+# Blender's icon for each report level (the status bar's and the Info editor's): a warning is the
+# triangle, an error the cross.
+REPORT_ICONS = {'ERROR': 'CANCEL', 'WARNING': 'ERROR', 'INFO': 'INFO'}
 
 
 class GRADPHOTON_PT_report(GradphotonPanel, bpy.types.Panel):
@@ -157,7 +249,7 @@ class GRADPHOTON_PT_report(GradphotonPanel, bpy.types.Panel):
         region = getattr(context, "region", None)  # wrap to the panel's width
         chars = max(20, int(region.width / (7 * context.preferences.system.ui_scale))) if region else 60
         for level, message in session.REPORTS:
-            icon = 'ERROR' if level == 'ERROR' else 'INFO'
+            icon = REPORT_ICONS.get(level, 'INFO')
             for part in message.replace("gradphoton approximated: ", "approximated: ").split("; "):
                 for i, line in enumerate(textwrap.wrap(part, chars) or [""]):
                     col.label(text=line, icon=icon if i == 0 else 'BLANK1')
@@ -266,14 +358,89 @@ class GRADPHOTON_LIGHT_PT_light(GradphotonPanel, bpy.types.Panel):
                 sub.prop(light, "size", text="Size X")
                 sub.prop(light, "size_y", text="Y")
             if abs(light.spread - math.pi) > 1e-4:
-                ignored = "Spread ignored: 180 degrees"
+                ignored = (f"Spread {math.degrees(light.spread):.0f}\u00b0 renders as 180\u00b0: "
+                           "the light spreads over its whole front side")
         if ignored:
-            layout.label(text=ignored, icon='INFO')
+            for i, line in enumerate(textwrap.wrap(ignored, 44)):
+                layout.label(text=line, icon='INFO' if i == 0 else 'BLANK1')
 
 
-_classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_viewport, GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction,
-            GRADPHOTON_PT_spectral, GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping, GRADPHOTON_PT_film, GRADPHOTON_PT_performance,
-            GRADPHOTON_PT_report, GRADPHOTON_PT_passes, GRADPHOTON_PT_material, GRADPHOTON_LIGHT_PT_light)
+# Object types whose Visibility panel has Cycles' Ray Visibility (its has_geometry_visibility).
+RAY_VISIBILITY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META', 'LIGHT'}
+
+
+def object_has_ray_visibility(ob):
+    return ob is not None and (ob.type in RAY_VISIBILITY_TYPES or
+                               (ob.instance_type == 'COLLECTION' and ob.instance_collection is not None))
+
+
+def holdout_note(method, ob):
+    """A line for an object set to Mask > Holdout that `method` does not hold out, else None."""
+    if ob is None or not getattr(ob, "is_holdout", False) or ob.type == 'LIGHT':
+        return None
+    if (native.method_info(method) or {}).get("holdout", True):
+        return None
+    return f"Holdout: {method_label(method)} renders this object as a plain surface"
+
+
+class GRADPHOTON_OBJECT_PT_visibility_ray_visibility(GradphotonPanel, bpy.types.Panel):
+    """Object > Visibility > Ray Visibility, as Cycles': the switches the core honours (every
+    method: Camera, Shadow; Diffuse, Glossy, Transmission as each method declares). Blender's
+    Visibility panel above it holds Mask > Holdout. Volume Scatter is not drawn: the core renders
+    no volumes. A point, spot or sun light is never seen by camera rays (export/visibility.py),
+    so its Camera switch is greyed out."""
+    bl_label = "Ray Visibility"
+    bl_context = "object"
+    bl_parent_id = "OBJECT_PT_visibility"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and object_has_ray_visibility(context.object)
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        ob = context.object
+        col = layout.column()
+        cam = col.column()
+        cam.active = not (ob.type == 'LIGHT' and ob.data is not None and ob.data.type != 'AREA')
+        cam.prop(ob, "visible_camera", text="Camera")
+        col.prop(ob, "visible_diffuse", text="Diffuse")
+        col.prop(ob, "visible_glossy", text="Glossy")
+        col.prop(ob, "visible_transmission", text="Transmission")
+        if ob.type != 'LIGHT':
+            col.prop(ob, "visible_shadow", text="Shadow")
+        note = holdout_note(context.scene.gradphoton.method, ob)
+        if note:
+            layout.label(text=note, icon='ERROR')
+
+
+class GRADPHOTON_WORLD_PT_ray_visibility(GradphotonPanel, bpy.types.Panel):
+    """World > Ray Visibility, as Cycles' (its world.cycles_visibility): Camera, Diffuse, Glossy,
+    Transmission (export/visibility.py: the World by Cycles' own rule for it)."""
+    bl_label = "Ray Visibility"
+    bl_context = "world"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.world is not None
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        vis = getattr(context.world, "cycles_visibility", None)
+        if vis is None:
+            layout.label(text="Ray Visibility is Cycles' setting: enable the Cycles add-on", icon='ERROR')
+            return
+        col = layout.column()
+        for name in ("camera", "diffuse", "glossy", "transmission"):
+            col.prop(vis, name)
+
+
+_classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_spectral, GRADPHOTON_PT_viewport, GRADPHOTON_PT_photons,
+            GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction, GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping,
+            GRADPHOTON_PT_film, GRADPHOTON_PT_film_pixel_filter, GRADPHOTON_PT_film_transparency,
+            GRADPHOTON_PT_performance, GRADPHOTON_PT_report, GRADPHOTON_PT_passes, GRADPHOTON_PT_material,
+            GRADPHOTON_LIGHT_PT_light, GRADPHOTON_OBJECT_PT_visibility_ray_visibility, GRADPHOTON_WORLD_PT_ray_visibility)
 
 # Blender's panels for its own renderer that gradphoton draws itself (the Light panel and its
 # area and spot settings, as Cycles does) or cannot honour: a preview (no preview renders),

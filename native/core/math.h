@@ -117,6 +117,9 @@ struct Ray {
   // (Blender's object Visibility > Camera, off for light objects) let camera rays through.
   // Every other ray (bounces, photons, shadow rays) is built fresh and is not a camera ray.
   bool camera = false;
+  // A camera ray whose closest hit was a holdout surface (CameraRays: the hit is dropped): the
+  // path ends with no colour and alpha 0, no background behind it (Cycles' holdout).
+  bool held_out = false;
   // A bounce ray's kind (kRayDiffuse, kRayGlossy or kRayTransmission), set by integrators that
   // honour surfaces' per-kind switches (Method::lobe_visibility; the gradient methods' offset
   // rays take their base's): surfaces hidden from that kind let it through. 0: not a bounce ray

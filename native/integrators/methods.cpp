@@ -32,7 +32,7 @@ ParamDecl max_depth(int d) {
 }
 ParamDecl rr_depth() {
   return {.name = "rr_depth", .type = ParamType::Int, .default_value = 3, .min = 0, .label = "Roulette Depth",
-          .description = "path depth from which Russian roulette may end a path", .group = "Light Paths"};
+          .description = "bounces after which dim paths may end early (Russian roulette): lower is faster and noisier", .group = "Light Paths"};
 }
 ParamDecl seed() {
   return {.name = "seed", .type = ParamType::Int, .default_value = 0, .min = 0, .label = "Seed",
@@ -53,12 +53,12 @@ ParamDecls common() { return {seed(), threads(), tile_size()}; }
 ParamDecl spectral(std::string read_when = "") {
   return {.name = "spectral", .type = ParamType::String, .default_value = "auto", .choices = {"auto", "rgb", "spectral"},
           .label = "Spectral",
-          .description = "spectral mode: auto renders by wavelength only scenes with a dispersive material",
+          .description = "render by wavelength; auto: only when a material disperses light; rgb: never (dispersion ignored); spectral: always",
           .read_when = std::move(read_when), .shared = true, .group = "Rendering"};
 }
 ParamDecl wavelengths(int d, std::string read_when = "") {
   return {.name = "wavelengths", .type = ParamType::Int, .default_value = d, .min = 1, .max = kMaxWavelengths,
-          .label = "Wavelengths", .description = "wavelengths carried together: a hero and its rotations",
+          .label = "Wavelengths", .description = "wavelengths traced together per path: more gives less colour noise",
           .reference = "Wilkie et al. 2014", .read_when = std::move(read_when), .group = "Spectral"};
 }
 ParamDecl film_transparent() {
@@ -76,7 +76,7 @@ ParamDecl clamp(const char* name, const char* label, const char* which) {
 // zero_means: what a default of 0 stands for (required then).
 ParamDecl photons(int64_t d, std::string zero_means = {}) {
   ParamDecl p{.name = "photons", .type = ParamType::Int, .default_value = d, .min = 1, .label = "Photons",
-              .description = "photons emitted per pass", .group = "Photons"};
+              .description = "photons sent from the lights per pass: more detail per pass, slower passes", .group = "Photons"};
   if (d == 0) {
     p.min = 0;
     p.zero_means = std::move(zero_means);
@@ -92,43 +92,48 @@ ParamDecl photons_ramp() {
 ParamDecl alpha(double d, const char* reference) {
   return {.name = "alpha", .type = ParamType::Float, .default_value = d, .min = 0, .max = 1, .min_open = true,
           .max_open = true, .label = "Alpha",
-          .description = "fraction of new photons kept per pass: lower shrinks the radius sooner",
+          .description = "how fast the photon gathers shrink: lower sharpens caustics sooner and leaves more noise",
           .symbol = "α", .reference = reference, .group = "Photons"};
 }
 ParamDecl radius() {
   return {.name = "radius", .type = ParamType::Float, .default_value = 0.0, .min = 0, .label = "Initial Radius",
-          .description = "gathering radius of the first pass, in metres", .symbol = "R_0",
-          .zero_means = "from the pixel footprint", .manual_value = 0.01, .group = "Photons"};
+          .description = "size of the first pass's photon gathers, in metres: larger is smoother and blurrier at first",
+          .symbol = "R_0", .zero_means = "from the size of a pixel (Footprint)", .manual_value = 0.01, .group = "Photons"};
 }
 ParamDecl footprint(double d, const char* reference) {
   return {.name = "footprint", .type = ParamType::Float, .default_value = d, .min = 0, .min_open = true,
-          .label = "Footprint", .description = "initial radius from the pixel footprint, in pixels (radius 0)",
+          .label = "Footprint", .description = "size of the first photon gathers, in pixels, when Initial Radius is Auto: larger is "
+                         "smoother and blurrier at first",
           .reference = reference, .group = "Photons"};
 }
 ParamDecl confidence() {
   return {.name = "confidence", .type = ParamType::Float, .default_value = 0.5, .min = 0, .max = 1, .min_open = true,
           .max_open = true, .label = "Confidence",
-          .description = "confidence of the error pass's bound; a target error stops on the estimated mean "
-                         "error whatever it is (with error_bound thesis: on the average bound, later when higher)",
+          .description = "how sure the Error pass is that a pixel's error is below its figure: higher gives larger, "
+                         "safer figures; Target Error stops on the estimated mean error either way (on the mean "
+                         "figure with Error Bound Thesis, so later when higher)",
           .symbol = "1 - β", .reference = "thesis eq. 6.10", .group = "Photons"};
 }
 ParamDecl error_bound() {
   return {.name = "error_bound", .type = ParamType::String, .default_value = "calibrated",
           .choices = {"calibrated", "boundary", "thesis"}, .label = "Error Bound",
-          .description = "the error pass's bound: calibrated to its confidence; boundary: that, plus the bias "
-                         "where an edge cuts the gather disc (probe rays: up to 1.5x the pass time); or eq. 6.12 "
-                         "as written (docs/error-calibration.md)",
+          .description = "how the Error pass bounds each pixel's error; calibrated: as measured, to its Confidence; "
+                         "boundary: the same plus the blur where an edge crosses a photon gather (up to 1.5x the "
+                         "pass time); thesis: the formula as published, which is too low at the default Confidence",
           .reference = "thesis eq. 6.12", .group = "Photons"};
 }
 ParamDecl hash() {
   return {.name = "hash", .type = ParamType::String, .default_value = "exact", .choices = {"exact", "stochastic"},
-          .label = "Lookup", .description = "photon lookup: every photon near a point, or one per grid cell",
+          .label = "Lookup",
+          .description = "how photons near a point are found; exact: every one; stochastic: one per grid cell, faster "
+                         "where photons are dense",
           .reference = "thesis ch. 10", .group = "Photons"};
 }
 ParamDecl photon_sampler(const char* d) {
   return {.name = "photon_sampler", .type = ParamType::String, .default_value = d,
           .choices = {"uniform", "adaptive"}, .label = "Photon Sampler",
-          .description = "photon paths from uniform random numbers, or by MCMC on their visibility",
+          .description = "where photons are sent; uniform: wherever the lights shine; adaptive: towards what the "
+                         "camera sees (Markov chains), for light through small openings",
           .reference = "thesis ch. 8", .group = "Photons"};
 }
 ParamDecl chains(int d, const char* group, std::string read_when = "") {
@@ -138,7 +143,8 @@ ParamDecl chains(int d, const char* group, std::string read_when = "") {
 ParamDecl specular_threshold() {
   return {.name = "specular_threshold", .type = ParamType::Float, .default_value = 0.05,  // kDefaultSpecularThreshold
           .min = 0, .label = "Specular Cutoff",
-          .description = "roughness at or below which a surface is specular for photons",
+          .description = "roughness at or below which a surface reflects photons as a mirror does instead of "
+                         "keeping them",
           .reference = "gradient-domain photon density estimation §5", .group = "Light Paths"};
 }
 ParamDecls photon_common(ParamDecl photons, double alpha_default, const char* alpha_ref, double footprint_default,
@@ -151,13 +157,14 @@ ParamDecls photon_common(ParamDecl photons, double alpha_default, const char* al
 ParamDecl recon(const char* d) {
   return {.name = "recon", .type = ParamType::String, .default_value = d, .choices = {"l1", "l2"},
           .label = "Reconstruction",
-          .description = "screened Poisson reconstruction: l2 (unbiased) or l1 (robust to outlier gradients)",
+          .description = "how the image is rebuilt from its gradients; l1: robust to stray gradients, fewer "
+                         "artefacts; l2: unbiased, may show halos around bright spots",
           .reference = "gradient-domain photon density estimation eq. 3", .group = "Reconstruction"};
 }
 ParamDecl lambda(const char* symbol = "λ", const char* reference = "gradient-domain photon density estimation eq. 3") {
   return {.name = "lambda", .type = ParamType::Float, .default_value = 0.2, .min = 0, .min_open = true,
           .label = "Lambda",
-          .description = "weight of the primal image against the gradients: higher keeps more noise and detail",
+          .description = "weight of the noisy image against its gradients: higher keeps more noise and detail",
           .symbol = symbol, .reference = reference, .group = "Reconstruction"};
 }
 
@@ -214,18 +221,18 @@ std::vector<Method> make_methods() {
                  if (use_spectral(spectral_mode(p), s)) return std::make_unique<SpectralPathTracer>(s, p, true);
                  return std::make_unique<PathTracer>(s, p);
                },
-               .passes = {always(pass::kCombined), alpha_pass()}});
+               .passes = {always(pass::kCombined), alpha_pass()}, .holdout = true});
   m.push_back({.name = "ppm", .label = "Photon Mapping",
                .summary = "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
                .tooltip = "Caustics and light through glass, sharpening as it renders; camera paths traced once "
-                          "(progressive photon mapping, Hachisuka et al. 2008; thesis ch. 5)",
+                          "(progressive photon mapping, Hachisuka et al. 2008)",
                .params = join({photon_common(photons(100000), 0.7, "thesis eq. 5.7", 2.0, "thesis §7.4"),
                      {photon_sampler("uniform"), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
                       specular_threshold(), film_transparent()},
                      common()}),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats()});
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .holdout = true});
   auto sppm_params = [&](const char* sampler, ParamDecl photons) {
     return join({photon_common(std::move(photons), 0.7, "thesis eq. 7.2", 2.0, "thesis §7.4"),
                  {photon_sampler(sampler), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
@@ -237,24 +244,24 @@ std::vector<Method> make_methods() {
   m.push_back({.name = "sppm", .label = "Stochastic PPM",
                .summary = "stochastic progressive photon mapping: new camera paths every pass (thesis ch. 7)",
                .tooltip = "Caustics and light through glass, with depth of field and glossy surfaces; stops at a "
-                          "target error (thesis ch. 7)",
+                          "target error (stochastic progressive photon mapping, Hachisuka and Jensen 2009)",
                .params = sppm_params("uniform", photons_ramp()),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats()});  // with photon_sampler adaptive
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .holdout = true});  // with photon_sampler adaptive
   m.push_back({.name = "sppm-adaptive", .label = "SPPM Adaptive",
                .summary = "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
                .tooltip = "Stochastic PPM that sends photons where the camera sees them: for light hidden behind "
-                          "openings (adaptive MCMC photons, thesis ch. 8)",
+                          "openings (adaptive Markov chain photons, Hachisuka and Jensen 2011)",
                // The adaptive sampler keeps the count it was measured with (its chains' share).
                .params = sppm_params("adaptive", photons(100000)),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm-adaptive"); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats()});
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .holdout = true});
   m.push_back({.name = "msppm", .label = "Multisampled PPM",
                .summary = "multisampled PPM: path tracing and SPPM combined per path by MIS (thesis ch. 9)",
-               .tooltip = "Path tracing and photons combined per pixel, each where it is better (MIS of path "
-                          "tracing and SPPM, thesis ch. 9)",
+               .tooltip = "Path tracing and photons combined per pixel, each where it is better (multiple "
+                          "importance sampling of both, Hachisuka's 2011 thesis ch. 9)",
                .params = join({{photons(0, "one per pixel (thesis §9.5)"), alpha(0.6, "thesis eq. 7.2; below 2/3 for eq. 9.25"), radius(),
                       {.name = "path_samples", .type = ParamType::Int, .default_value = 0, .min = 0,
                        .label = "Path Samples", .description = "path-tracing samples per pixel and pass",
@@ -286,19 +293,20 @@ std::vector<Method> make_methods() {
                                    "thesis §7.4, as sppm: the primal is SPPM's image"),
                      {{.name = "gradient_footprint", .type = ParamType::Float, .default_value = 1.0, .min = 0,
                        .min_open = true, .label = "Gradient Footprint",
-                       .description = "initial radius of the shifted photons' gathers, in pixels (radius 0)",
+                       .description = "size of the first gradient gathers, in pixels: larger gives smoother gradients and "
+                                      "softer edges",
                        .reference = "gradient-domain photon density estimation §5", .group = "Photons"},
                       {.name = "gradient_photons", .type = ParamType::Float, .default_value = 1.0, .min = 0,
                        .label = "Gradient Photons",
                        .description = "photons per pass a gradient gather aims at: after a pixel's first pass its "
                                       "gradients' radius is widened, up to the primal's, where fewer were found; "
-                                      "0 keeps gradient_footprint",
-                       .reference = "docs/gradient.md \"Sparse photons\"", .group = "Photons"},
+                                      "0 keeps Gradient Footprint",
+                       .group = "Photons"},  // measured: docs/gradient.md "Sparse photons"
                       {.name = "emission_samples", .type = ParamType::Int, .default_value = 4, .min = 0, .max = 64,
                        .label = "Emission Samples",
                        .description = "camera paths per pixel and pass, besides the gather path, for the light "
                                       "seen along them (emitters, their images in mirrors and glass); combined only",
-                       .reference = "docs/gradient.md \"Emission\"", .group = "Photons"},
+                       .group = "Photons"},  // measured: docs/gradient.md "Emission"
                       recon("l1"), lambda(),
                       {.name = "manifold_iterations", .type = ParamType::Int, .default_value = 20, .min = 0,
                        .label = "Manifold Steps",
@@ -325,14 +333,15 @@ std::vector<Method> make_methods() {
                        .symbol = "p_large", .reference = "Kelemen et al. 2002", .group = "Metropolis"},
                       {.name = "sigma", .type = ParamType::Float, .default_value = 0.01, .min = 0, .max = 1,
                        .min_open = true, .max_open = true, .label = "Step Size",
-                       .description = "deviation of a small step in primary sample space", .symbol = "σ",
+                       .description = "size of a small mutation: smaller explores around bright paths more closely",
+                       .symbol = "σ",
                        .reference = "Kelemen et al. 2002", .group = "Metropolis"},
                       {.name = "primal_share", .type = ParamType::Float, .default_value = 0.05, .min = 0,
                        .min_open = true, .label = "Image Share",
-                       .description = "share of the primal throughput in the chains' target function",
+                       .description = "how much the image's brightness, besides its gradients, steers where the chains go",
                        .symbol = "α", .reference = "GD-MLT slides", .group = "Metropolis"},
                       {.name = "bootstrap", .type = ParamType::Int, .default_value = 1, .min = 1, .label = "Bootstrap",
-                       .description = "uniform samples per pixel that start the chains and set the brightness b",
+                       .description = "ordinary samples per pixel that start the chains and set the image's brightness",
                        .group = "Metropolis"},
                       {.name = "large_step_mis", .type = ParamType::Bool, .default_value = true,
                        .label = "Large Step MIS",
@@ -340,7 +349,8 @@ std::vector<Method> make_methods() {
                        .reference = "Kelemen et al. 2002", .group = "Metropolis"},
                       {.name = "direct", .type = ParamType::String, .default_value = "chain",
                        .choices = {"chain", "uniform"}, .label = "Direct Light",
-                       .description = "delta-only light from the chains' splats, or from the uniform samples",
+                       .description = "where light that only mirrors and glass carry comes from; chain: the chains' splats; "
+                                      "uniform: the ordinary samples",
                        .group = "Metropolis"},
                       recon("l1"), lambda(), max_depth(32), rr_depth()},
                      common()}),
@@ -361,26 +371,27 @@ std::vector<Method> make_methods() {
                .tooltip = "Path tracing by wavelength, for rainbows through dispersive glass (one wavelength per "
                           "path, Cauchy dispersion)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1), film_transparent()}, common()}),
-               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}});
+               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .holdout = true});
   m.push_back({.name = "spt-hero", .label = "Spectral PT Hero",
                .summary = "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
                .tooltip = "Spectral path tracing with four wavelengths per path: less colour noise (hero "
                           "wavelengths, Wilkie et al. 2014)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4), film_transparent()}, common()}),
-               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}});
+               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .holdout = true});
   m.push_back({.name = "sgpt", .label = "Spectral Gradient",
                .summary = "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
                .tooltip = "Spectral path tracing with a smooth reconstruction across wavelengths (spectral "
                           "gradient sampling, Petitjean et al. 2018)",
                .params = join({{{.name = "bins", .type = ParamType::Int, .default_value = 15, .min = 3, .max = 256,
-                       .label = "Bins", .description = "spectral bins per pixel", .reference = "Petitjean et al. §3.2",
+                       .label = "Bins", .description = "wavelength bands per pixel that the reconstruction smooths across", .reference = "Petitjean et al. §3.2",
                        .group = "Spectral"},
                       {.name = "delta", .type = ParamType::Float, .default_value = 0.15, .min = 0, .max = 1,
                        .min_open = true, .max_open = true, .label = "Delta",
-                       .description = "wavelength shift as a fraction of 360-830 nm", .symbol = "δ",
+                       .description = "distance to the neighbouring wavelength of a shift, as a fraction of 360-830 nm",
+                       .symbol = "δ",
                        .reference = "Petitjean et al. §4", .group = "Spectral"},
                       {.name = "tau", .type = ParamType::Float, .default_value = 0.0, .min = 0, .label = "Tau",
-                       .description = "throughput below which a path is not shifted", .symbol = "τ",
+                       .description = "paths dimmer than this are not shifted: faster, less smoothing", .symbol = "τ",
                        .reference = "Petitjean et al. eq. 16", .group = "Spectral"},
                       lambda("α", "Petitjean et al. eq. 14"), spectral(), wavelengths(1), max_depth(32), rr_depth()},
                      common()}),

@@ -73,6 +73,9 @@ struct Method {
   struct LobeVisibility {
     bool surfaces = true, lights = true;
   } lobe_visibility;
+  // Whether its camera paths honour Holdout (Material::holdout): those that start from CameraRays
+  // end at a holdout surface with no colour and alpha 0, as Cycles. Front ends warn otherwise.
+  bool holdout = false;
   // Pixels are traced independently (each from its own random stream): `render --pixel`
   // renders one pixel's samples as the full render does. False: global Markov chains (gdmlt).
   bool per_pixel = true;

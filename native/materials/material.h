@@ -89,6 +89,9 @@ struct Material {
   bool mix_add = false;
   bool visible_to_camera = true;
   bool casts_shadow = true;
+  // Cycles' holdout (object Mask > Holdout, the Holdout shader): a camera ray that meets this
+  // surface ends there with no colour and alpha 0 (CameraRays); other rays see it as it is.
+  bool holdout = false;
   // Cycles' Diffuse / Glossy / Transmission switches: the kinds of bounce ray (kRay* bits of
   // the lobe that sampled them) that see this surface, and whose lobes its emission lights by
   // next-event estimation. Honoured by the path tracer (docs/blender.md).

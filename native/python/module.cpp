@@ -245,6 +245,7 @@ py::dict method_info(const std::string& method, const py::dict& params) {
   out["unused"] = unused;
   out["lobe_visibility"] = py::dict(py::arg("surfaces") = m.lobe_visibility.surfaces,
                                     py::arg("lights") = m.lobe_visibility.lights);
+  out["holdout"] = m.holdout;
   return out;
 }
 
@@ -273,7 +274,8 @@ void bind_methods(py::module_& m) {
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
         "What a method writes with these params, from its declaration: {'passes': names its develop() writes, "
         "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read, "
-        "'lobe_visibility': {'surfaces': bool, 'lights': bool}, the per-kind ray visibility switches it honours}");
+        "'lobe_visibility': {'surfaces': bool, 'lights': bool}, the per-kind ray visibility switches it honours, "
+        "'holdout': whether camera rays end at holdout surfaces with no colour and alpha 0}");
 }
 
 // Images: EXR read and write, screened Poisson reconstruction.

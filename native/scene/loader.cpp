@@ -78,7 +78,7 @@ class Loader : private JsonReader {
       std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum",
                                             "visible_to_camera", "casts_shadow", "visible_to_diffuse",
                                             "visible_to_glossy", "visible_to_transmission", "alpha", "normal_map",
-                                            "bump", "nodes", "normal"};
+                                            "bump", "nodes", "normal", "holdout"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
         keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
@@ -188,6 +188,7 @@ class Loader : private JsonReader {
       if (const json* t = find(m, "two_sided")) mat.two_sided = get_bool(*t, sub(mpath, "two_sided"));
       if (const json* v = find(m, "visible_to_camera")) mat.visible_to_camera = get_bool(*v, sub(mpath, "visible_to_camera"));
       if (const json* v = find(m, "casts_shadow")) mat.casts_shadow = get_bool(*v, sub(mpath, "casts_shadow"));
+      if (const json* v = find(m, "holdout")) mat.holdout = get_bool(*v, sub(mpath, "holdout"));
       mat.visible_lobes = load_visible_lobes(m, mpath);
       if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
       if (mat.emission_in && !find(m, "strength")) mat.emission_strength = 1.0f;

@@ -376,6 +376,16 @@ void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, R
   scene.intersect_coherent(rays, n, hits);
 }
 
+void hold_out_camera_rays(const Scene& scene, size_t n, Ray* rays, std::optional<SurfaceHit>* hits) {
+  // Cycles ends a camera path at a holdout with its throughput as transparency
+  // (integrator/shade_surface.h, integrate_surface_holdout): no colour, alpha 0.
+  for (size_t i = 0; i < n; ++i)
+    if (hits[i] && scene.material(hits[i]->material).holdout) {
+      hits[i].reset();
+      rays[i].held_out = true;
+    }
+}
+
 void Scene::surface_point(const RawHit& raw, SurfacePoint& h) const {
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];

@@ -92,12 +92,17 @@ struct ShadePoint {
 class Scene;
 void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
                        std::optional<SurfaceHit>* hits);
-// The same, held: n pixels' camera rays and closest hits.
+// Camera rays whose closest hit is a holdout surface (Material::holdout) lose the hit and are
+// marked Ray::held_out: their paths see neither the surface nor the background behind it.
+void hold_out_camera_rays(const Scene& scene, size_t n, Ray* rays, std::optional<SurfaceHit>* hits);
+// The same, held: n pixels' camera rays and closest hits, holdouts applied. The paths of the
+// methods that start from here honour Holdout (Method::holdout).
 struct CameraRays {
   std::vector<Ray> rays;
   std::vector<std::optional<SurfaceHit>> hits;
   CameraRays(const Scene& scene, const PixelStart* starts, size_t n) : rays(n), hits(n) {
     trace_camera_rays(scene, starts, n, rays.data(), hits.data());
+    hold_out_camera_rays(scene, n, rays.data(), hits.data());
   }
 };
 // The pixels of `tile`, row by row, started for `pass` (start_pixel): what its camera rays need.

@@ -40,7 +40,13 @@ def test_properties_are_the_declarations(empty_scene, method):
         group, name, rna = prop_of(s, method, d)
         if not d["shared"]:
             own.add(name)
-        assert d["description"][1:] in rna.description, (method, d["name"], rna.description)
+        # A menu's tooltip says what it sets; each item what it does ("...; l1: ...; l2: ...").
+        said = properties.choice_descriptions(d)
+        summary = d["description"].split("; ")[0] if said else d["description"]
+        assert summary[1:] in rna.description, (method, d["name"], rna.description)
+        for item in (rna.enum_items if said else ()):
+            if item.identifier in said:
+                assert item.description == said[item.identifier], (method, d["name"], item.identifier)
         default = d["manual_value"] if d["zero_means"] else d["default"]
         if d["name"] == "max_depth":
             default -= properties.BOUNCES_TO_SEGMENTS
@@ -271,9 +277,11 @@ class _Layout:
 # Render settings the panels draw that are not method parameters.
 # Render settings that are not method parameters: stop rule, export, the viewport's own settings,
 # Cycles' animated seed and Persistent Data.
-NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "export_uvs",
+NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "error_time_limit", "export_uvs",
                   "viewport_method", "viewport_passes", "use_animated_seed"}
 BLENDER_RENDER_SETTINGS = {"use_persistent_data"}
+# Cycles' Film settings gradphoton reads (Film > Exposure, Pixel Filter): not method parameters.
+CYCLES_FILM_SETTINGS = {"film_exposure", "pixel_filter_type", "filter_width"}
 
 
 def drawn_parameters(scene, method):
@@ -281,15 +289,22 @@ def drawn_parameters(scene, method):
     from types import SimpleNamespace
     from gradphoton import ui
     scene.gradphoton.method = method
+    # A dispersive material: the Spectral sub-panel shows where spectral rendering matters.
+    glass = bpy.data.materials.get("Dispersive") or bpy.data.materials.new("Dispersive")
+    glass.gradphoton.dispersion = 'ABBE'
+    glass.use_fake_user = True
     context = SimpleNamespace(scene=scene, engine="GRADPHOTON")
     drawn = []
     for cls in ui._classes:
         if getattr(cls, "bl_context", "") == "render" and cls.poll(context):
             panel = SimpleNamespace(layout=_Layout(), group=getattr(cls, "group", None))
+            if hasattr(cls, "draw_header"):  # a checkbox in the header (Film > Transparent)
+                cls.draw_header(panel, context)
             cls.draw(panel, context)
             drawn += panel.layout.drawn_on
     return {d for d in drawn if not (d[0] == "GradphotonRenderSettings" and d[1] in NOT_PARAMETERS)
-            and not (d[0] == "RenderSettings" and d[1] in BLENDER_RENDER_SETTINGS)}
+            and not (d[0] == "RenderSettings" and d[1] in BLENDER_RENDER_SETTINGS)
+            and not (d[0] == "CyclesRenderSettings" and d[1] in CYCLES_FILM_SETTINGS)}
 
 
 @pytest.mark.parametrize("method", METHODS)

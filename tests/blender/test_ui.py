@@ -136,3 +136,21 @@ def test_rendered_viewport_shows_the_progressive_image_and_follows_edits():
     # Through the camera: the scene's border, a quarter of the camera frame (whole pixels).
     assert abs(res["camera_border_share"] - 0.25) < 0.02, res
     assert res["worker_stop_s"] is not None and res["worker_stop_s"] < 0.5
+
+
+@pytest.mark.skipif(not shutil.which("xvfb-run"), reason="needs xvfb-run")
+def test_cycles_panels_and_a_holdout_render_in_the_window():
+    """Object > Visibility > Ray Visibility (with Blender's Mask > Holdout above it), World > Ray
+    Visibility and Render > Film (Exposure, Pixel Filter, Transparent) drawn in a real window
+    (ui_cycles_panels.py; screenshots build/test-artifacts/ui/cycles_*.png), and F12 on the cube
+    set to Holdout with Film > Transparent: black and alpha 0 where the cube is, the floor opaque."""
+    out = os.path.join(ROOT, "build", "test-artifacts", "ui")
+    os.makedirs(out, exist_ok=True)
+    res, r = run_ui("ui_cycles_panels.py", out, "ui_cycles_panels.json", screen="1920x1400x24")
+    assert res["ok"], res
+    assert "Traceback" not in r.stdout + r.stderr, (r.stdout + r.stderr)[-3000:]
+    assert set(res["tabs"]) == {"object", "world", "render"} and all(t["png"] for t in res["tabs"].values())
+    h = res["holdout"]
+    assert h["centre_alpha_max"] == 0.0 and h["centre_rgb_max"] == 0.0, h
+    assert h["floor_alpha_min"] == 1.0 and h["floor_rgb_mean"] > 0.05, h
+    assert not any("Holdout" in m for m in h["reports"]), h

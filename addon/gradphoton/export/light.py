@@ -70,7 +70,8 @@ def _add_area(out, ob, la, m, name, color, warnings, flags):
     if sx <= 0 or sy <= 0:
         return
     if abs(getattr(la, "spread", math.pi) - math.pi) > 1e-4:
-        warnings.add("area light spread ignored (180 degrees)", ob.name)
+        warnings.add("area light Spread not modelled: the light spreads over its whole front side, as Spread 180\u00b0",
+                     f"{ob.name} (Spread {math.degrees(la.spread):.0f}\u00b0)")
     if la.shape in {'SQUARE', 'RECTANGLE'}:
         # Winding such that the geometric normal is the light's local -Z (its emitting side).
         pos = np.array([[-sx / 2, -sy / 2, 0], [-sx / 2, sy / 2, 0], [sx / 2, sy / 2, 0], [sx / 2, -sy / 2, 0]],

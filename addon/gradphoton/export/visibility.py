@@ -17,6 +17,12 @@ Diffuse/Glossy/Transmission the method itself declares (`_native.method_info`'s
 visible, a counted warning naming the method and the object. Volume Scatter is a warning
 (volumes are not rendered).
 
+Mask > Holdout (Object Properties > Visibility, Cycles' is_holdout) becomes the `holdout` key of
+the surface's materials: camera rays that meet it give no colour and alpha 0, as Cycles renders
+a holdout (black without Film > Transparent). Which methods honour it each declares
+(`_native.method_info`'s 'holdout'); another renders the object as a plain surface, a warning
+naming the method and the object.
+
 Light objects: Blender 3.4 creates them with Camera off, so Cycles does not show a light to
 the camera unless the user turns it on (area lights are pass-through surfaces: export/light.py).
 """
@@ -39,6 +45,8 @@ def surface_flags(ob, warnings):
         flags["visible_to_camera"] = False
     if not ob.visible_shadow:
         flags["casts_shadow"] = False
+    if getattr(ob, "is_holdout", False):
+        flags["holdout"] = True
     return flags
 
 
@@ -84,13 +92,28 @@ def _maybe_positive(v):
     return isinstance(v, dict) or v > 0
 
 
+def holdout_methods():
+    """The labels of the methods that honour Holdout, as each declares (method_info)."""
+    from .. import native
+    return [native.method_label(m) for m in native.methods() if (native.method_info(m) or {}).get("holdout")]
+
+
 def check_method(description, method, warnings, honoured=None):
     """One warning per object (material, light, the World) whose Diffuse/Glossy/Transmission
     switches `method` ignores. `honoured`: {'surfaces': bool, 'lights': bool} as the core's method
     declares it (native.method_info), looked up when not given."""
+    info = None
     if honoured is None:
         from .. import native
-        honoured = (native.method_info(method) or {}).get("lobe_visibility") or {}
+        info = native.method_info(method) or {}
+    # Held-out surfaces are material variants "<material> [holdout=True, ...]" (material.py's name_for).
+    holdouts = sorted({name.split(" [")[0] for name, d in description["materials"].items() if d.get("holdout")})
+    if holdouts and not (info.get("holdout", True) if info is not None else honoured.get("holdout", True)):
+        warnings.add(f"Holdout not rendered by {method}: objects set to Mask > Holdout render as plain surfaces "
+                     f"({', '.join(holdout_methods())} hold them out)",
+                     ", ".join(f"material '{m}'" for m in holdouts))
+    if honoured is None:
+        honoured = info.get("lobe_visibility") or {}
     entries = list(description["materials"].items()) + [(d.get("name", "?"), d) for d in description["lights"]]
     if description.get("environment"):
         entries.append(("World", dict(description["environment"], type="world")))

@@ -81,7 +81,8 @@ def _background(world, node, warnings):
     if strength.is_linked:
         src, _ = _from(strength)
         warnings.add("unsupported world node (socket value used)",
-                     f"world '{world.name}': node '{src.name if src else '?'}' into {node.name}: Strength")
+                     f"world '{world.name}': node '{src.name if src else '?'}' into {node.name}: Strength "
+                     f"(rendered as {_value(strength)})")
     s = max(0.0, strength.default_value)
     src, out = _from(color)
     if src is not None and src.bl_idname == 'ShaderNodeTexEnvironment' and out.name == "Color":
@@ -90,7 +91,7 @@ def _background(world, node, warnings):
         return env
     if src is not None:
         warnings.add("unsupported world node (socket value used)",
-                     f"world '{world.name}': node '{src.name}' into {node.name}: Color")
+                     f"world '{world.name}': node '{src.name}' into {node.name}: Color (rendered as {_value(color)})")
     c = color.default_value
     return {"color": [c[0], c[1], c[2]], "strength": s}
 
@@ -195,3 +196,11 @@ def _vector_transform(world, socket, warnings):
     if m == [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]:
         return None
     return m
+
+
+def _value(socket):
+    """A socket's own value as a report shows it: 0.8, or (0.05, 0.1, 0.2) for a colour."""
+    v = socket.default_value
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    return "(" + ", ".join(f"{x:.3g}" for x in tuple(v)[:3]) + ")"

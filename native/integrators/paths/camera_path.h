@@ -33,8 +33,8 @@ struct CameraPathSettings {
 };
 
 // Follows `ray` from the camera (its closest hit `first`, when given, already traced); returns
-// false when the camera ray escaped with a transparent film (the pixel's sample is then
-// uncovered), true otherwise.
+// false when the camera ray escaped with a transparent film or met a holdout (Ray::held_out: the
+// pixel's sample is then uncovered and black), true otherwise.
 template <class P>
 bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray, Rng& rng, RayCounts& rays, P& path,
                        const std::optional<SurfaceHit>* first = nullptr) {
@@ -56,7 +56,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
         path.disk_light(depth, l, Le, pdf_disk);
     }
     if (!hit) {
-      if (depth == 0 && s.film_transparent) return false;
+      if (depth == 0 && (s.film_transparent || ray.held_out)) return false;  // a holdout: black, uncovered
       path.environment(depth, ray);
       return true;
     }

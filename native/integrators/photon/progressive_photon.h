@@ -328,7 +328,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     // which no photon covers, so nothing is counted twice.
     if (!hit) {
       const int env = lights.environment();
-      if (depth == 0 && film_transparent_) out.escaped = true;
+      if (depth == 0 && (film_transparent_ || ray.held_out)) out.escaped = true;  // a holdout: black
       else if (env >= 0 && lights.lights()[env].visible_to(kind)) out.Ld += beta * lights.environment_radiance(ray.d, ray.camera);
       break;
     }

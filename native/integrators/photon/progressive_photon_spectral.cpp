@@ -120,7 +120,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               const std::optional<SurfaceHit>& hit = first ? *first : traced;
               first = nullptr;
               if (!hit) {
-                if (depth == 0 && film_transparent_) {  // no background: pass alpha (as trace_eye_path)
+                if (depth == 0 && (film_transparent_ || ray.held_out)) {  // no background: pass alpha (as trace_eye_path)
                   escaped = true;
                   break;
                 }

@@ -1,0 +1,333 @@
+"""What a Cycles user reaches for in Blender's panels works with gradphoton (issue 36): Object and
+World Ray Visibility, Mask > Holdout, Film > Exposure and Pixel Filter, Target Error with a Time
+Limit, Spectral in one place, tooltips that say what a control does, warnings that name the
+node and the value used, and the image sent to Blender as often as Cycles sends it."""
+import re
+import time
+from types import SimpleNamespace
+
+import bpy
+import numpy as np
+import pytest
+
+from gradphoton import native, properties, session, ui
+from gradphoton.export import light as light_export
+from gradphoton.export import world as world_export
+from gradphoton.export import Warnings
+from test_method_params import _Layout
+from test_render import small_scene
+import scenes
+
+
+def draw(panel_cls, context):
+    panel = SimpleNamespace(layout=_Layout())
+    panel_cls.draw(panel, context)
+    return panel.layout.drawn
+
+
+# ---- Ray Visibility ----
+
+def test_object_ray_visibility_sub_panel_draws_cycles_switches(empty_scene):
+    assert ui.ENGINE in bpy.types.OBJECT_PT_visibility.COMPAT_ENGINES  # its parent, with Mask > Holdout
+    assert ui.GRADPHOTON_OBJECT_PT_visibility_ray_visibility.bl_parent_id == "OBJECT_PT_visibility"
+    cube = bpy.data.objects.new("Cube", bpy.data.meshes.new("Cube"))
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", 'AREA'))
+    empty = bpy.data.objects.new("Empty", None)
+    ctx = lambda ob, engine="GRADPHOTON": SimpleNamespace(engine=engine, object=ob, scene=empty_scene)  # noqa: E731
+    panel = ui.GRADPHOTON_OBJECT_PT_visibility_ray_visibility
+    assert panel.poll(ctx(cube)) and panel.poll(ctx(lamp))
+    assert not panel.poll(ctx(empty)) and not panel.poll(ctx(cube, "CYCLES"))
+    assert draw(panel, ctx(cube)) == ["visible_camera", "visible_diffuse", "visible_glossy",
+                                      "visible_transmission", "visible_shadow"]
+    assert draw(panel, ctx(lamp)) == ["visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission"]
+
+
+def test_world_ray_visibility_panel(empty_scene):
+    panel = ui.GRADPHOTON_WORLD_PT_ray_visibility
+    ctx = SimpleNamespace(engine="GRADPHOTON", world=empty_scene.world, scene=empty_scene)
+    assert panel.poll(ctx)
+    assert draw(panel, ctx) == ["camera", "diffuse", "glossy", "transmission"]
+
+
+# ---- Holdout ----
+
+def _holdout_scene(scene, method):
+    small_scene(scene)
+    scenes.set_world(scene, (0.2, 0.4, 1.0), 1.0)
+    s = scene.gradphoton
+    s.method, s.passes = method, 2
+    if method == "sppm":
+        s.sppm.use_auto_photons, s.sppm.photons = False, 5000
+    return bpy.data.objects["Suzanne"]
+
+
+def _rgba(scene, out_dir, name):
+    exr = native.get().read_exr(scenes.render_to_exr(scene, str(out_dir / f"{name}.exr")))
+    if "R" in exr:  # a single-layer file
+        return np.dstack([exr[c][..., 0] for c in ("R", "G", "B")]), exr["A"][..., 0]
+    return exr["combined"], exr["A"][..., 0]  # multilayer: Combined's RGB, and its Alpha as "A"
+
+
+@pytest.mark.parametrize("method", ["pt", "sppm"])
+def test_holdout_is_black_with_alpha_zero_as_cycles(empty_scene, out_dir, method):
+    """Mask > Holdout on the monkey: where the camera sees it, no colour and alpha 0 with Film >
+    Transparent, black without (Cycles' integrate_surface_holdout); the floor it shadows is as
+    without the holdout."""
+    monkey = _holdout_scene(empty_scene, method)
+    empty_scene.render.film_transparent = True
+    try:
+        plain_rgb, plain_a = _rgba(empty_scene, out_dir, "plain")
+        monkey.is_holdout = True
+        held_rgb, held_a = _rgba(empty_scene, out_dir, "held")
+        empty_scene.render.film_transparent = False
+        opaque_rgb, opaque_a = _rgba(empty_scene, out_dir, "opaque")
+    finally:
+        empty_scene.render.film_transparent = False
+        monkey.is_holdout = False
+    held = (held_a == 0) & (plain_a == 1)  # the monkey's pixels
+    assert held.sum() > 20, held.sum()
+    assert np.abs(held_rgb[held]).max() == 0.0
+    assert plain_rgb[held].mean() > 0.05  # it was a lit monkey
+    assert np.abs(opaque_rgb[held]).max() == 0.0 and (opaque_a == 1).all()
+    assert not any("Holdout" in m for _, m in session.REPORTS), session.REPORTS
+
+
+def test_holdout_in_a_method_without_it_is_a_warning_naming_method_and_material(empty_scene):
+    monkey = _holdout_scene(empty_scene, "gpt")
+    monkey.is_holdout = True
+    try:
+        bpy.ops.render.render()
+    finally:
+        monkey.is_holdout = False
+    line = next((m for _, m in session.REPORTS if "Holdout not rendered by gpt" in m), None)
+    assert line is not None, session.REPORTS
+    assert "Path Tracing" in line and "material" in line, line
+    assert "gpm" not in {m for m in native.methods() if native.method_info(m)["holdout"]}
+
+
+# ---- Film ----
+
+@pytest.mark.parametrize("method", native.methods())
+def test_film_panel_offers_exposure_and_pixel_filter_to_every_method(empty_scene, method):
+    empty_scene.gradphoton.method = method
+    ctx = SimpleNamespace(engine="GRADPHOTON", scene=empty_scene)
+    assert ui.GRADPHOTON_PT_film.poll(ctx) and ui.GRADPHOTON_PT_film_pixel_filter.poll(ctx)
+    assert draw(ui.GRADPHOTON_PT_film, ctx) == ["film_exposure"]
+    empty_scene.cycles.pixel_filter_type = 'GAUSSIAN'
+    assert draw(ui.GRADPHOTON_PT_film_pixel_filter, ctx) == ["pixel_filter_type", "filter_width"]
+    empty_scene.cycles.pixel_filter_type = 'BOX'
+    assert draw(ui.GRADPHOTON_PT_film_pixel_filter, ctx) == ["pixel_filter_type"]
+    empty_scene.cycles.property_unset("pixel_filter_type")
+    assert ui.GRADPHOTON_PT_film_transparency.poll(ctx) == ui.reads(method, "film_transparent")
+
+
+def test_exposure_scales_the_image_as_cycles(empty_scene, out_dir):
+    _holdout_scene(empty_scene, "pt")
+    one, _ = _rgba(empty_scene, out_dir, "exposure1")
+    empty_scene.cycles.film_exposure = 2.5
+    try:
+        more, alpha = _rgba(empty_scene, out_dir, "exposure2")
+    finally:
+        empty_scene.cycles.property_unset("film_exposure")
+    assert one.mean() > 0.05
+    np.testing.assert_allclose(more, 2.5 * one, rtol=1e-6, atol=0)
+    assert (alpha == 1).all()
+
+
+# ---- Rendering: Target Error with a Time Limit, Spectral once ----
+
+def test_target_error_stops_at_its_time_limit_whichever_comes_first():
+    settings = SimpleNamespace(stop_rule='ERROR', time_limit=30.0, passes=64, target_error=0.01, error_time_limit=5.0)
+    p = session.Progress(settings)
+    assert not p.done(3, 0.5)
+    p.start = time.perf_counter() - 5.0
+    assert p.done(3, 0.5) and p.timed_out(0.5)
+    assert p.fraction(3, 0.5) == 1.0
+    settings.error_time_limit = 0.0  # no limit: the target alone
+    p = session.Progress(settings)
+    p.start = time.perf_counter() - 500.0
+    assert not p.done(3, 0.5) and p.done(3, 0.009)
+
+
+def test_time_limit_is_drawn_beside_target_error(empty_scene):
+    s = empty_scene.gradphoton
+    s.method, s.stop_rule = "sppm", "ERROR"
+    drawn = draw(ui.GRADPHOTON_PT_render, SimpleNamespace(engine="GRADPHOTON", scene=empty_scene))
+    assert drawn[:4] == ["method", "stop_rule", "target_error", "error_time_limit"], drawn
+
+
+def test_target_error_time_limit_ends_a_real_render(empty_scene):
+    from test_render import _CancelAfter
+    bpy.utils.register_class(_CancelAfter)
+    try:
+        _holdout_scene(empty_scene, "sppm")
+        empty_scene.render.engine = _CancelAfter.bl_idname
+        _CancelAfter.delay = 20.0  # a guard: Esc after 20 s, should the Time Limit not stop it
+        _CancelAfter.record.clear()
+        s = empty_scene.gradphoton
+        s.stop_rule, s.target_error, s.error_time_limit = "ERROR", 1e-4, 0.5
+        bpy.ops.render.render()
+        assert _CancelAfter.record["latency"] is None  # the guard never fired
+        assert any("Time Limit reached" in m for _, m in session.REPORTS), session.REPORTS
+    finally:
+        _CancelAfter.delay = 0.6
+        empty_scene.render.engine = "GRADPHOTON"
+        bpy.utils.unregister_class(_CancelAfter)
+
+
+def _spectral_drawn(scene):
+    ctx = SimpleNamespace(engine="GRADPHOTON", scene=scene)
+    out = []
+    for cls in ui._classes:
+        if getattr(cls, "bl_context", "") == "render" and cls.poll(ctx):
+            panel = SimpleNamespace(layout=_Layout(), group=getattr(cls, "group", None))
+            cls.draw(panel, ctx)
+            out += [name for name in panel.layout.drawn if name in ("spectral_mode", "wavelengths")]
+    return out
+
+
+def test_spectral_is_shown_once_and_only_where_it_matters(empty_scene):
+    s = empty_scene.gradphoton
+    s.method = "pt"
+    assert _spectral_drawn(empty_scene) == []  # nothing disperses
+    glass = scenes.glass_material("Prism")
+    glass.gradphoton.dispersion = 'ABBE'
+    plane = scenes.add_plane(empty_scene, "Prism", 1.0, glass)
+    assert _spectral_drawn(empty_scene) == ["spectral_mode", "wavelengths"]
+    bpy.data.objects.remove(plane)
+    bpy.data.materials.remove(glass)
+    assert _spectral_drawn(empty_scene) == []
+    s.spectral_mode = "spectral"  # the user asked for it: shown
+    assert _spectral_drawn(empty_scene) == ["spectral_mode", "wavelengths"]
+    s.spectral_mode = "auto"
+    s.method = "spt"
+    assert _spectral_drawn(empty_scene).count("spectral_mode") == 1
+
+
+# ---- Words ----
+
+def test_tooltips_say_what_a_control_does():
+    """No parameter tooltip points at a docs file, ends in a bare '(radius 0)', leaves 'thesis'
+    unnamed, or describes a menu item by its identifier."""
+    for method in native.methods():
+        for d in native.get().method_params(method):
+            tip = properties._tooltip(d)
+            assert "docs/" not in tip and "(radius 0)" not in tip, (method, tip)
+            assert not re.search(r"\bthesis\b", tip), (method, tip)
+            if d["type"] == "string" and d["name"] != "spectral":
+                said = properties.choice_descriptions(d)
+                assert set(said) == set(d["choices"]), (method, d["name"], d["description"])
+    conf = next(d for d in native.get().method_params("sppm") if d["name"] == "confidence")
+    assert properties._tooltip(conf).endswith("(1 - β, Hachisuka 2011, eq. 6.10)")
+    assert "no material uses UVs" not in properties._RenderSettings.__annotations__["export_uvs"].keywords["description"]
+
+
+def test_status_line_does_not_repeat_blenders_elapsed_time():
+    p = session.Progress(SimpleNamespace(stop_rule='TIME', time_limit=30.0, passes=64, target_error=0.05))
+    p.start = time.perf_counter() - 3.0
+    line = p.status({"passes": 2, "paths": 1000}, None, "pt")
+    assert line == "Pass 2 | 1,000 paths | 27.0 s left", line
+
+
+def test_world_warning_names_the_node_and_the_value_used(empty_scene):
+    world = empty_scene.world
+    world.use_nodes = True
+    bg = world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.05, 0.1, 0.2, 1)
+    sky = world.node_tree.nodes.new("ShaderNodeTexSky")
+    world.node_tree.links.new(sky.outputs["Color"], bg.inputs["Color"])
+    w = Warnings()
+    world_export.export_world(world, w)
+    assert any("node 'Sky Texture' into Background: Color (rendered as (0.05, 0.1, 0.2))" in line
+               for line in w.lines()), w.lines()
+
+
+def test_area_light_spread_is_said_plainly(empty_scene):
+    la = bpy.data.lights.new("Panel", 'AREA')
+    la.spread = 0.5
+    ob = bpy.data.objects.new("Panel", la)
+    drawn = []
+
+    class Layout(_Layout):
+        def label(self, text="", **kwargs):
+            drawn.append(text)
+    panel = SimpleNamespace(layout=Layout())
+    ui.GRADPHOTON_LIGHT_PT_light.draw(panel, SimpleNamespace(scene=empty_scene, light=la, object=ob))
+    assert "Spread 29° renders as 180°:" in " ".join(drawn), drawn
+    w = Warnings()
+    light_export._add_area(SimpleNamespace(description={"materials": {}}, meshes=[]), ob, la,
+                           np.eye(4), "Panel", [1, 1, 1], w, {})
+    assert any("Spread not modelled" in line and "Panel (Spread 29°)" in line for line in w.lines()), w.lines()
+
+
+# ---- Reports and refresh ----
+
+def test_last_render_panel_uses_blenders_icons_per_level():
+    assert ui.REPORT_ICONS == {'ERROR': 'CANCEL', 'WARNING': 'ERROR', 'INFO': 'INFO'}
+
+
+def test_export_warnings_reach_the_status_bar_when_the_render_ends(empty_scene):
+    """Blender's banner shows a warning 5 s from its report: sent at the end, it is there when
+    the image is; the Last Render panel has it from the start."""
+    small_scene(empty_scene)
+    bpy.data.lights["Sun"].use_shadow = False
+    empty_scene.gradphoton.passes = 1
+    events = []
+
+    class Engine:
+        persistent = None
+
+        def test_break(self):
+            return False
+
+        def report(self, levels, message):
+            events.append(("report", message))
+
+        def update_stats(self, *a):
+            pass
+
+        def update_progress(self, *a):
+            pass
+
+        def begin_result(self, *a, **kw):
+            return bpy.types.RenderResult  # never written: the pass list is empty below
+
+        def update_result(self, r):
+            events.append(("image", None))
+
+        def end_result(self, r):
+            events.append(("end", None))
+
+        def get_result(self):
+            raise AttributeError
+
+    s = session.RenderSession(Engine())
+    s._write = lambda result, passes: None
+    s.render(bpy.context.evaluated_depsgraph_get())
+    kinds = [k for k, m in events if k != "report" or "renders with shadows" in m]
+    assert kinds.index("end") < kinds.index("report"), events
+    assert any("renders with shadows" in m for _, m in session.REPORTS)
+
+
+def test_images_reach_blender_as_often_as_cycles_sends_them():
+    assert session.display_interval(0.0) == 0.25 and session.display_interval(3.0) == 0.5
+    assert session.display_interval(9.9) == 1.0 and session.display_interval(10.0) == 2.0
+
+
+def test_first_images_at_reduced_resolution_leave_the_render_unchanged(empty_scene, out_dir):
+    """A time-limited F12 render shows smaller first passes (progressive resolution) before its
+    full-size passes; the image it ends with is the full-size passes' alone, bit for bit the
+    render of as many passes without them."""
+    _holdout_scene(empty_scene, "pt")
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 256, 192
+    s = empty_scene.gradphoton
+    s.stop_rule, s.time_limit = "TIME", 1.5
+    timed, _ = _rgba(empty_scene, out_dir, "timed")
+    updates = list(session.LAST.updates)
+    passes = session.LAST.session.stats["passes"]
+    assert updates[0][1] == 0 and any(p > 0 for _, p in updates), updates  # a preview first
+    assert passes >= 1
+    s.stop_rule, s.passes = "PASSES", passes
+    counted, _ = _rgba(empty_scene, out_dir, "counted")
+    assert session.LAST.updates[0][1] > 0  # no preview for a pass count
+    np.testing.assert_array_equal(timed, counted)

@@ -1,0 +1,108 @@
+// Holdout (Material::holdout, Cycles' object Mask > Holdout): camera rays that meet a holdout
+// surface give no colour and alpha 0; every other ray sees the surface as it is. Which methods
+// honour it each declares (Method::holdout); the declaration is checked against what it renders.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "render_for_tests.h"
+
+namespace gp {
+namespace {
+
+// A grey floor under a white sky, seen from above (every camera ray hits something), and a grey
+// card standing on it in the left half of the view, `card_keys` added to its material.
+Scene card_scene(const std::string& card_keys) {
+  return scene_from(R"({"camera": {"position": [0, -3, 2.5], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40,
+                                   "width": 16, "height": 12},
+    "materials": {"floor": {"type": "diffuse", "color": 0.5},
+                  "card": {"type": "diffuse", "color": 0.6)" + card_keys + R"(}},
+    "environment": {"color": 1, "strength": 1},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [6, 0, 0], "v": [0, 6, 0], "material": "floor"},
+                {"type": "quad", "center": [-0.6, -0.5, 0.5], "u": [0.5, 0, 0], "v": [0, 0, 0.5], "material": "card"}]})");
+}
+
+Params small_params(const Method& m, bool transparent) {
+  Params p;
+  p.set("seed", 5);
+  p.set("threads", 1);
+  if (m.find("photons")) p.set("photons", 3000);
+  if (m.find("bins")) p.set("bins", 3);
+  if (transparent) p.set("film_transparent", true);
+  return p;
+}
+
+float luminance_at(const Film& f, int x, int y) { return f.rgb(pass::kCombined, x, y).luminance(); }
+
+// The pixels the card covers wholly and those it does not touch, from pt's alpha with the card
+// a holdout: 0 and 1 (a pixel the card's edge crosses has a fraction, and is in neither).
+void card_pixels(std::vector<int>* held, std::vector<int>* clear) {
+  const Scene s = card_scene(R"(, "holdout": true)");
+  Params p = small_params(find_method("pt"), true);
+  const Film f = render("pt", s, 16, p);
+  const Pass& a = f.pass(pass::kAlpha);
+  for (int i = 0; i < static_cast<int>(f.pixel_count()); ++i) {
+    if (a.data[i] == 0.0f) held->push_back(i);
+    if (a.data[i] == 1.0f) clear->push_back(i);
+  }
+}
+
+TEST(Holdout, CameraRaysGiveNoColourAndAlphaZeroInTheMethodsThatDeclareIt) {
+  std::vector<int> held, clear;
+  card_pixels(&held, &clear);
+  ASSERT_GE(held.size(), 6u);   // the card covers a block of pixels
+  ASSERT_GE(clear.size(), 60u); // and leaves most of the floor
+  const Scene holdout = card_scene(R"(, "holdout": true)");
+  for (const Method& m : methods()) {
+    for (bool transparent : {false, true}) {
+      if (transparent && !m.find("film_transparent")) continue;
+      const Film f = render(m.name, holdout, 2, small_params(m, transparent));
+      double held_sum = 0, clear_sum = 0;
+      for (int i : held) held_sum += luminance_at(f, i % f.width(), i / f.width());
+      for (int i : clear) clear_sum += luminance_at(f, i % f.width(), i / f.width());
+      const std::string what = m.name + (transparent ? ", transparent" : "");
+      if (m.holdout) {
+        EXPECT_EQ(held_sum, 0.0) << what << ": a holdout seen by the camera is black";
+        if (transparent)
+          for (int i : held) EXPECT_EQ(f.pass(pass::kAlpha).data[i], 0.0f) << what << " pixel " << i;
+      } else {
+        // It declares no holdout, so front ends warn: the card must then render as a card.
+        EXPECT_GT(held_sum / held.size(), 0.05) << what << " renders a holdout it does not declare";
+      }
+      // (Two passes of few photons leave some floor pixels dark: the mean, not each pixel.)
+      EXPECT_GT(clear_sum / clear.size(), 0.05) << what << ": the floor around the card renders";
+    }
+  }
+}
+
+// Only camera rays are held out: the floor beside the card, lit by a sky the card shadows and
+// reflects to it, is bit for bit what it is with an ordinary card (pt: each pixel its own stream).
+TEST(Holdout, OtherRaysSeeTheSurfaceAsItIs) {
+  std::vector<int> held, clear;
+  card_pixels(&held, &clear);
+  const Film with = render("pt", card_scene(R"(, "holdout": true)"), 8, small_params(find_method("pt"), false));
+  const Film without = render("pt", card_scene(""), 8, small_params(find_method("pt"), false));
+  const Film gone = render("pt", card_scene(R"(, "holdout": true, "visible_to_camera": false)"), 8,
+                           small_params(find_method("pt"), false));
+  for (int i : clear) {
+    const int x = i % with.width(), y = i / with.width();
+    EXPECT_EQ(luminance_at(with, x, y), luminance_at(without, x, y)) << "pixel " << i;
+  }
+  // Hidden from the camera, a holdout is not met by camera rays at all: the floor shows there.
+  double gone_held = 0;
+  for (int i : held) gone_held += luminance_at(gone, i % gone.width(), i / gone.width());
+  EXPECT_GT(gone_held / held.size(), 0.05);
+}
+
+TEST(Holdout, SceneFileKeyIsABoolean) {
+  try {
+    card_scene(R"(, "holdout": 1)");
+    FAIL() << "accepted a number";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("holdout"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace gp
