@@ -126,6 +126,12 @@ def _camera(scene, c):
         cam.dof.use_dof = True
         cam.dof.focus_distance = c["focus_distance"]
         cam.dof.aperture_fstop = cam.lens * 1e-3 / (2.0 * c["aperture_radius"])
+    # Film > Pixel Filter as the file's camera (scene files default to a one-pixel box).
+    f = c.get("pixel_filter", {"type": "box", "width": 1.0})
+    kinds = {"box": 'BOX', "gaussian": 'GAUSSIAN', "blackman-harris": 'BLACKMAN_HARRIS'}
+    if hasattr(scene, "cycles"):
+        scene.cycles.pixel_filter_type = kinds.get(f["type"], 'BOX')
+        scene.cycles.filter_width = f["width"]
     ob = bpy.data.objects.new("Camera", cam)
     ob.matrix_world = Matrix([list(r) for r in c["matrix"]])
     scene.collection.objects.link(ob)

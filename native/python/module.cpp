@@ -435,6 +435,8 @@ void bind_scene(py::module_& m) {
         d["type"] = c.projection == Projection::Orthographic ? "orthographic" : "perspective";
         d["ortho_scale"] = c.ortho_scale;
         d["shift"] = py::make_tuple(c.shift.x, c.shift.y);
+        d["pixel_filter"] = py::dict(py::arg("type") = std::string(c.filter.type_name()),
+                                     py::arg("width") = c.filter.width());
         d["crop"] = c.crop_width > 0 ? py::object(py::make_tuple(c.crop_x, c.crop_y, c.crop_width, c.crop_height))
                                      : py::object(py::none());
         return d;
