@@ -92,6 +92,26 @@ def test_holdout_is_black_with_alpha_zero_as_cycles(empty_scene, out_dir, method
     assert not any("Holdout" in m for _, m in session.REPORTS), session.REPORTS
 
 
+def test_holdout_shader_is_cut_out_as_mask_holdout(empty_scene, out_dir):
+    """A Holdout shader as the monkey's surface: alpha 0 and no colour where the camera sees it,
+    as Mask > Holdout (Cycles' holdout closure)."""
+    monkey = _holdout_scene(empty_scene, "pt")
+    mat = bpy.data.materials.new("HoldoutShader")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    nt.links.new(nt.nodes.new("ShaderNodeHoldout").outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    monkey.data.materials.clear()
+    monkey.data.materials.append(mat)
+    empty_scene.render.film_transparent = True
+    try:
+        rgb, a = _rgba(empty_scene, out_dir, "shader_held")
+    finally:
+        empty_scene.render.film_transparent = False
+    held = a == 0
+    assert held.sum() > 20, held.sum()
+    assert np.abs(rgb[held]).max() == 0.0
+
+
 def test_holdout_in_a_method_without_it_is_a_warning_naming_method_and_material(empty_scene):
     monkey = _holdout_scene(empty_scene, "gpt")
     monkey.is_holdout = True

@@ -229,6 +229,13 @@ class MaterialExporter:
                                       "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
                                       "ior": self.g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")},
                                      node, path)
+        if kind == 'ShaderNodeHoldout':
+            # Cycles' Holdout closure: the surface is cut out of the image (no colour, alpha 0) where
+            # the camera sees it. The core holds out whole materials: inside a Mix or Add the whole
+            # material is held out (a warning; Cycles weighs a holdout by the mix).
+            if depth > 0:
+                self.w.add("Holdout inside a mix holds out the whole surface", f"'{mat.name}': {self._nid(node, path)}")
+            return {"type": "emission", "strength": 0.0, "holdout": True}
         if kind == 'ShaderNodeEmission':
             return {"type": "emission", "emission": self._in(node, path, "Color"),
                     "strength": self.g.math("MAXIMUM", self._num(node, path, "Strength"), 0.0, hint="strength"),
