@@ -456,6 +456,12 @@ void register_method(Method m) {
   registry().push_back(std::move(m));
 }
 
+void unregister_method(const std::string& name) {
+  if (registry().size() <= make_methods().size() || registry().back().name != name)
+    throw std::invalid_argument("method '" + name + "' is not the last one registered");
+  registry().pop_back();
+}
+
 const Method& find_method(const std::string& name) {
   for (const Method& m : methods())
     if (m.name == name) return m;

@@ -94,6 +94,9 @@ const std::vector<Method>& methods();
 // reads methods() then offers it). std::invalid_argument for a name already taken. Not
 // thread-safe: register before rendering.
 void register_method(Method m);
+// Removes a method added by register_method (a test's, at its end, so that later tests see the
+// built-in list). std::invalid_argument unless it is the last one registered.
+void unregister_method(const std::string& name);
 // The method called `name`; ParamError naming the known ones when there is none.
 const Method& find_method(const std::string& name);
 

@@ -256,6 +256,8 @@ TEST(Methods, ANewMethodIsOneRegistration) {
   EXPECT_TRUE(film.has_pass(pass::kAlbedo));  // the session's auxiliary passes come with it
   EXPECT_FALSE(merge_keeps_bias("test-albedo"));
   EXPECT_THROW(make_integrator("test-albedo", *scene, Params(nlohmann::json{{"gain", -1}})), ParamError);
+  unregister_method("test-albedo");  // later tests (in this process) see the built-in methods
+  EXPECT_EQ(integrator_names().back(), "sgpt");
 }
 
 }  // namespace
