@@ -43,6 +43,7 @@ class PathTracer : public Integrator {
   uint64_t seed_;
   int width_, height_;
   PixelEstimate estimate_;
+  std::vector<MediumChannels> media_;  // the scene's media at R, G, B
 };
 
 }  // namespace gp
