@@ -135,6 +135,7 @@ struct RgbPath {
   static RGB to_rgb(const ChannelValues& v) { return {v[0], v[1], v[2]}; }
   int channels() const { return 3; }
   const MediumChannels& medium_channels(int m) const { return (*media)[m]; }
+  ChannelValues channel_weights() const { return {beta.r, beta.g, beta.b}; }
   struct Saved {
     RGB beta, prev_beta;
   };

@@ -47,8 +47,20 @@ ChannelValues MediumSegment::emission_integral(float t) const {
   return e;
 }
 
+void MediumSegment::set_channel_weights(const ChannelValues& w) {
+  float sum = 0;
+  for (int k = 0; k < n; ++k) sum += std::max(0.0f, w[k]);
+  if (!(sum > 0) || !std::isfinite(sum)) return;  // keeps uniform
+  for (int k = 0; k < n; ++k) q[k] = std::max(0.0f, w[k]) / sum;
+}
+
 float MediumSegment::sample_distance(float u_channel, float u) const {
-  const int c = std::min(static_cast<int>(u_channel * n), n - 1);
+  if (!scatters) return kInfinity;
+  int c = 0;
+  for (float acc = 0; c + 1 < n; ++c) {
+    acc += q[c];
+    if (u_channel < acc) break;
+  }
   if (!(sigma_t[c] > 0)) return kInfinity;
   return -std::log1p(-u) / sigma_t[c];
 }
@@ -61,9 +73,8 @@ ChannelValues MediumSegment::transmittance(float t) const {
 
 ChannelValues MediumSegment::scatter_weight(float t) const {
   const ChannelValues T = transmittance(t);
-  float pdf = 0;  // mean over channels of sigma_t T(t): the density of the distance
-  for (int k = 0; k < n; ++k) pdf += sigma_t[k] * T[k];
-  pdf /= n;
+  float pdf = 0;  // sum_c q_c sigma_t,c T_c(t): the density of the distance
+  for (int k = 0; k < n; ++k) pdf += q[k] * sigma_t[k] * T[k];
   ChannelValues w{};
   if (pdf > 0)
     for (int k = 0; k < n; ++k) w[k] = sigma_s[k] * T[k] / pdf;
@@ -72,9 +83,9 @@ ChannelValues MediumSegment::scatter_weight(float t) const {
 
 ChannelValues MediumSegment::pass_weight(float t) const {
   ChannelValues T = transmittance(t);
-  float p = 0;  // mean over channels of T(t): the probability of no scattering before t
-  for (int k = 0; k < n; ++k) p += T[k];
-  p /= n;
+  if (!scatters) return T;
+  float p = 0;  // sum_c q_c T_c(t): the probability of no scattering before t
+  for (int k = 0; k < n; ++k) p += q[k] * T[k];
   for (int k = 0; k < n; ++k) T[k] = p > 0 ? T[k] / p : 0.0f;
   return T;
 }

@@ -144,12 +144,17 @@ struct MediumSpectra {
 };
 
 // ---- A homogeneous segment: the media of a stack summed, along one ray ----
-// Free-flight distances are sampled by picking a channel uniformly and sampling its
-// exponential; the density of the distance is then the channels' mean (the one-sample balance
-// heuristic over channels, "spectral MIS", as Cycles picks a channel and pbrt-v4's volpath
-// weighs wavelengths), so every channel's throughput stays unbiased and bounded.
+// Free-flight distances are sampled by picking a channel c with probability q_c proportional
+// to the path's throughput in it (Cycles' volume_sample_channel weighs by throughput too) and
+// sampling its exponential; the density of the distance is then sum_c q_c sigma_t,c T_c (the
+// one-sample balance heuristic over channels, "spectral MIS", as pbrt-v4's volpath weighs
+// wavelengths), so every channel stays unbiased and the throughput's sum cannot grow by
+// scattering. Without scattering anywhere on the segment nothing is sampled: the throughput
+// takes the transmittance itself (Beer-Lambert, exact).
 struct MediumSegment {
   int n = 0;  // channels
+  bool scatters = false;  // some channel has sigma_s > 0
+  ChannelValues q{};      // channel selection probabilities (set_channel_weights)
   ChannelValues sigma_s{}, sigma_t{}, emission{};
   // The phase functions of the stack's media with their channel scattering: for the mixture.
   struct Lobe {
@@ -178,21 +183,22 @@ struct MediumSegment {
       total += lobe.weight;
     }
     for (int l = 0; l < n_lobes; ++l) lobes[l].weight = total > 0 ? lobes[l].weight / total : 0.0f;
+    scatters = total > 0;
+    for (int k = 0; k < n; ++k) q[k] = 1.0f / n;
   }
 
-  bool any_extinction() const {
-    for (int k = 0; k < n; ++k)
-      if (sigma_t[k] > 0) return true;
-    return false;
-  }
+  // Channel selection in proportion to w (the path's throughput; uniform where it is all 0).
+  void set_channel_weights(const ChannelValues& w);
   // The emission reaching the ray's origin from [0, t): integral of exp(-sigma_t s) Le ds,
   // exactly; 0 for an unbounded segment without extinction (no NaN/Inf reaches the film).
   ChannelValues emission_integral(float t) const;
-  // Samples a free-flight distance (u_channel picks the channel); returns it, or infinity.
+  // Samples a free-flight distance (u_channel picks the channel); returns it, or infinity
+  // (always without scattering).
   float sample_distance(float u_channel, float u) const;
   // The throughput factor of scattering at distance t: sigma_s T(t) / pdf(t) per channel.
   ChannelValues scatter_weight(float t) const;
-  // The factor of passing beyond distance t (no scattering before it): T(t) / P(t_s > t).
+  // The factor of passing beyond distance t (no scattering before it): T(t) / P(t_s > t);
+  // T(t) itself when nothing scatters.
   ChannelValues pass_weight(float t) const;
   // Transmittance per channel over distance t.
   ChannelValues transmittance(float t) const;

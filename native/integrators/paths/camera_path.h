@@ -24,6 +24,7 @@
 //
 //   int channels() const;                                  // 3, or the path's wavelengths
 //   const MediumChannels& medium_channels(int medium);     // a medium's coefficients at them
+//   ChannelValues channel_weights() const;                 // the throughput per channel
 //   Saved save() const; void restore(const Saved&);        // the throughput, around a disk's hit
 //   void medium_weight(const ChannelValues& w);            // throughput *= w (free flight)
 //   void medium_emission(int depth, const ChannelValues& e);  // L += throughput * e
@@ -76,8 +77,9 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       segment.emplace(stack, path.channels(), [&](int m) -> const MediumChannels& { return path.medium_channels(m); });
       const float t_end = hit ? hit->t : kInfinity;
       path.medium_emission(depth, segment->emission_integral(t_end));
+      segment->set_channel_weights(path.channel_weights());
       const float u_channel = rng.uniform(), u_distance = rng.uniform();
-      if (segment->any_extinction()) t_scatter = segment->sample_distance(u_channel, u_distance);
+      t_scatter = segment->sample_distance(u_channel, u_distance);
       if (!(t_scatter < t_end)) t_scatter = kInfinity;
     }
 
