@@ -33,6 +33,7 @@ Dispersion comes from the material's gradphoton panel.
 """
 
 from .texture import TextureReader
+from .volume import export_volume, volume_socket
 
 DEFAULT = "__gradphoton_default"
 # Keys that belong to the whole material, not to one layer of it (lifted out of mix parts).
@@ -45,8 +46,9 @@ def _rgb(socket):
 
 
 class MaterialExporter:
-    def __init__(self, table, warnings):
+    def __init__(self, table, warnings, media=None):
         self.table = table  # name -> scene-format material dict
+        self.media = media if media is not None else {}  # name -> scene-format medium (Volume outputs)
         self.w = warnings
         self._used = {}     # Blender materials exported, by name
         self.tex = TextureReader(warnings)
@@ -128,10 +130,22 @@ class MaterialExporter:
         if not mat.use_nodes or mat.node_tree is None:
             c = mat.diffuse_color
             return self._dispersion({"type": "diffuse", "color": [c[0], c[1], c[2]]}, mat)
+        # The Volume output: the medium inside the material's closed meshes (export/volume.py).
+        medium = None
         node = self._surface_node(mat)
+        socket = volume_socket(mat.node_tree, 'ShaderNodeOutputMaterial')
+        if socket is not None:
+            medium = export_volume(socket, f"material '{mat.name}'", self.w, keep_empty=node is None)
         if node is None:
+            if medium is not None:  # a volume without a surface: a pass-through boundary (Cycles)
+                self.media[mat.name] = medium
+                return {"type": "volume", "interior": mat.name}
             return {"type": "diffuse", "color": 0.0}  # Cycles renders an unconnected output black
-        return self._one_sided(self._dispersion(self._node(node, mat, 0), mat), mat)
+        d = self._one_sided(self._dispersion(self._node(node, mat, 0), mat), mat)
+        if medium is not None:
+            self.media[mat.name] = medium
+            d["interior"] = mat.name
+        return d
 
     @staticmethod
     def _linked_node(socket):

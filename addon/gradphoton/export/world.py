@@ -15,10 +15,21 @@ Anything else is one warning naming the node, and the socket's own value.
 """
 import math
 
-from . import texture, visibility
+from . import texture, visibility, volume
 
 _INTERPOLATION = {'Linear': "linear", 'Closest': "closest", 'Cubic': "cubic", 'Smart': "smart"}
 _PROJECTION = {'EQUIRECTANGULAR': "equirectangular", 'MIRROR_BALL': "mirror_ball"}
+
+
+WORLD_MEDIUM = "__world"  # the World's Volume output, as a medium of the scene format
+
+
+def export_world_volume(world, warnings):
+    """The World's Volume output as a medium filling the open (export/volume.py), or None."""
+    if world is None or not world.use_nodes:
+        return None
+    socket = volume.volume_socket(world.node_tree, 'ShaderNodeOutputWorld')
+    return volume.export_volume(socket, f"world '{world.name}'", warnings) if socket is not None else None
 
 
 def export_world(world, warnings):
