@@ -343,6 +343,8 @@ class RenderSession:
         for line in self.session.unused_report:
             if "is not a parameter of" in line:
                 self.report('WARNING', f"gradphoton: {line}", defer=True)
+        for line in self.session.feature_report:  # a scene feature the method leaves out (media)
+            self.report('WARNING', f"gradphoton: {line}", defer=True)
         if scene.render.film_transparent and (FILM_TRANSPARENT in self.session.unused_params
                                               or FILM_TRANSPARENT not in params):
             self.report('WARNING', f"gradphoton: {self.session.method} has no transparent film: "

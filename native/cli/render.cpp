@@ -172,6 +172,7 @@ int run_render(const RenderArgs& a) {
   }
   RenderSession session(loaded, a.method, params);
   for (const auto& line : session.unused_report()) fmt::print(stderr, "warning: {}\n", line);
+  for (const auto& line : session.feature_report()) fmt::print(stderr, "warning: {}\n", line);
   const Integrator* integrator = &session.integrator();
 
   StopRule stop;

@@ -23,6 +23,7 @@ PathTracer::PathTracer(const Scene& scene, const Params& params)
       height_(scene.camera.film_height()),
       estimate_(std::max(1, width_), std::max(1, height_), &scene.camera) {  // sizes checked just below
   check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
+  for (const Medium& m : scene.media) media_.push_back(rgb_channels(m));
 }
 
 namespace {
@@ -41,11 +42,13 @@ struct RgbPath {
   float prev_pdf = 0;  // solid-angle pdf of the BSDF sample that produced the ray
   Vec3 prev_p;
   LobeSplit prev;      // the previous vertex's lobes, where some light is hidden from some kinds
+  bool medium_vertex = false;  // the ray was scattered by a medium (every light sees it)
   std::optional<Bsdf> bsdf;
+  const std::vector<MediumChannels>* media;  // the scene's media at R, G, B (PathTracer)
 
-  RgbPath(const Scene& s, float cd, float ci)
+  RgbPath(const Scene& s, float cd, float ci, const std::vector<MediumChannels>* m)
       : scene(s), lights(s.light_set()), clamp_direct(cd), clamp_indirect(ci),
-        split_lobes(s.lights_hidden_from_some_lobes()) {}
+        split_lobes(s.lights_hidden_from_some_lobes()), media(m) {}
 
   // A contribution clamped as Cycles does (sum of |R|+|G|+|B| at most the limit; 0 = off).
   RGB clamped(const RGB& c, bool direct) const {
@@ -56,7 +59,7 @@ struct RgbPath {
   // Emission Le found by the BSDF ray from a light visible to `vis` (MIS against pdf_light).
   RGB emitted(int depth, const RGB& Le, uint8_t vis, float pdf_light) {
     if (depth == 0) return beta * Le;
-    if (vis != kAllLobes) return prev.weigh(Le, vis, specular_bounce, beta, pdf_light);
+    if (vis != kAllLobes && !medium_vertex) return prev.weigh(Le, vis, specular_bounce, beta, pdf_light);
     return beta * Le * (specular_bounce ? 1.0f : power_heuristic(prev_pdf, pdf_light));
   }
   // Emission found at depth 0 or 1 is direct light (Cycles' clamping), deeper is indirect.
@@ -70,8 +73,10 @@ struct RgbPath {
     if (env < 0 || !(depth > 0 || lights.lights()[env].visible_to_camera)) return;
     const RGB Le = lights.environment_radiance(ray.d, ray.camera);
     const Light& world = lights.lights()[env];
+    // A World lit only by BSDF rays is not sampled by next-event estimation: a phase-sampled
+    // ray finds it with full weight.
     L += clamped(depth > 0 && world.lit_by_bsdf_rays_only()
-                     ? prev.weigh_world(Le, world.visible_lobes, specular_bounce, beta)
+                     ? (medium_vertex ? beta * Le : prev.weigh_world(Le, world.visible_lobes, specular_bounce, beta))
                      : emitted(depth, Le, world.visible_lobes, lights.pdf_environment(ray.d)),
                  depth <= 1);
   }
@@ -89,13 +94,15 @@ struct RgbPath {
   bool is_delta() const { return bsdf->is_delta(); }
   // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
   // visible to (Cycles' closure exclusion), with the MIS density of those lobes.
-  void next_event(int depth, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls) {
+  void next_event(int depth, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls, const ShadowTest& shadow) {
     const uint8_t vis = ls.light >= 0 ? lights.lights()[ls.light].visible_lobes : kAllLobes;
     const Vec3 wi = hit.frame.to_local(ls.wi);
-    const RGB f = bsdf->eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
+    RGB f = bsdf->eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
     if (f.is_black()) return;
     ++shadow_rays;
-    if (scene.occluded(hit.p, hit.ng, ls)) return;
+    MediumLengths lengths;
+    if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
+    if (lengths.n > 0) f *= to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
     const float w = !ls.delta       ? power_heuristic(ls.pdf, bsdf->pdf(wo, wi, vis))
                     : ls.mis_pdf > 0 ? power_heuristic(ls.mis_pdf, bsdf->pdf(wo, wi, vis))
                                      : 1.0f;
@@ -111,6 +118,7 @@ struct RgbPath {
     }
     beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
     specular_bounce = bs->delta;
+    medium_vertex = false;
     prev_pdf = bs->pdf;
     prev_p = hit.p;
     return bs;
@@ -122,12 +130,53 @@ struct RgbPath {
     return true;
   }
   int64_t shadow_rays = 0;
+
+  // ---- Participating media (paths/camera_path.h), at the three channels R, G, B ----
+  static RGB to_rgb(const ChannelValues& v) { return {v[0], v[1], v[2]}; }
+  int channels() const { return 3; }
+  const MediumChannels& medium_channels(int m) const { return (*media)[m]; }
+  ChannelValues channel_weights() const { return {beta.r, beta.g, beta.b}; }
+  struct Saved {
+    RGB beta, prev_beta;
+  };
+  Saved save() const { return {beta, prev.beta}; }
+  void restore(const Saved& s) {
+    beta = s.beta;
+    prev.beta = s.prev_beta;
+  }
+  // The free flight's factor; the previous vertex's throughput for per-kind light visibility
+  // (LobeSplit) sees the same medium.
+  void medium_weight(const ChannelValues& w) {
+    beta *= to_rgb(w);
+    prev.beta *= to_rgb(w);
+  }
+  // Emission of the medium along the ray (found by the ray only: no next-event estimation of
+  // it, as in Cycles); direct light on the segments to the first vertex, as emitters found there.
+  void medium_emission(int depth, const ChannelValues& e) {
+    if (e[0] > 0 || e[1] > 0 || e[2] > 0) L += clamped(beta * to_rgb(e), depth <= 1);
+  }
+  void medium_next_event(int depth, const LightSample& ls, const ChannelValues& phase, float phase_pdf,
+                         const MediumLengths& lengths) {
+    ++shadow_rays;  // counted as the loop traced it
+    const RGB T = to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
+    const float w = !ls.delta       ? power_heuristic(ls.pdf, phase_pdf)
+                    : ls.mis_pdf > 0 ? power_heuristic(ls.mis_pdf, phase_pdf)
+                                     : 1.0f;
+    L += clamped(beta * to_rgb(phase) * T * ls.L * (w / ls.pdf), depth == 0);
+  }
+  void medium_scattered(const Vec3& p, float phase_pdf, const ChannelValues& ratio) {
+    beta *= to_rgb(ratio);
+    specular_bounce = false;
+    medium_vertex = true;
+    prev_pdf = phase_pdf;
+    prev_p = p;
+  }
 };
 
 }  // namespace
 
 RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
-  RgbPath path(scene_, clamp_direct_, clamp_indirect_);
+  RgbPath path(scene_, clamp_direct_, clamp_indirect_, &media_);
   const bool covered = trace_camera_path(scene_, settings_, ray, rng, rays, path, first);
   if (escaped) *escaped = !covered;
   rays.shadow += path.shadow_rays;

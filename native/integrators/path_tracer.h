@@ -8,6 +8,11 @@
 // direct is emission seen by the camera and light reaching the first surface (NEE there, or
 // emission hit by its BSDF ray); indirect is the rest.
 //
+// Participating media (media/medium.h) are tracked in the shared loop (paths/camera_path.h):
+// free-flight distances by a throughput-weighted channel, next-event estimation through the
+// phase function with MIS against phase sampling, exact Beer-Lambert transmittance on shadow
+// rays, the media's emission integrated along each segment.
+//
 // Passes: combined; alpha with film_transparent.
 #pragma once
 
@@ -43,6 +48,7 @@ class PathTracer : public Integrator {
   uint64_t seed_;
   int width_, height_;
   PixelEstimate estimate_;
+  std::vector<MediumChannels> media_;  // the scene's media at R, G, B
 };
 
 }  // namespace gp

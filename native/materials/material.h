@@ -96,6 +96,10 @@ struct Material {
   // the lobe that sampled them) that see this surface, and whose lobes its emission lights by
   // next-event estimation. Honoured by the path tracer (docs/blender.md).
   uint8_t visible_lobes = kAllLobes;
+  // The participating medium inside a closed mesh of this material (Scene::media; -1: none),
+  // entered through the front face (Blender's material Volume output). A material with a
+  // volume and no surface (scene format "type": "volume") is a pass-through boundary.
+  int interior = -1;
 
   // ---- Textured inputs (an empty TextureRef: the constant above) ----
   // Looked up at the hit's uv by Bsdf (colour, roughness, mix factor; in a mix, each

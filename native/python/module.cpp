@@ -163,6 +163,7 @@ class Session {
   const std::vector<std::string>& unused() const { return session_.unused(); }
   bool stale() const { return session_.stale(); }
   const std::vector<std::string>& unused_report() const { return session_.unused_report(); }
+  const std::vector<std::string>& feature_report() const { return session_.feature_report(); }
   std::string method() const { return session_.integrator().name(); }
   double estimated_error() const { return session_.integrator().estimated_error(); }
   // The terms of every pixel's error bound (ProgressivePhotonMapping::ErrorTerms), as
@@ -570,6 +571,8 @@ void bind_session(py::module_& m) {
       .def_property_readonly("unused_report", &Session::unused_report,
                              "One line per unused parameter: not the method's (with a near name), or not read "
                              "with these settings")
+      .def_property_readonly("feature_report", &Session::feature_report,
+                             "One line per scene feature the method leaves out (participating media), naming it")
       .def_property_readonly("method", &Session::method,
                              "The method that runs (pt becomes spt-hero in spectral mode)")
       .def("error_terms", &Session::error_terms,

@@ -135,6 +135,8 @@ void update_description(Scene& scene, const std::string& json_text) {
     if (index.count(next.materials[i].name)) materials.push_back(next.materials[i]);
   scene.materials = std::move(materials);
   scene.lights = std::move(next.lights);
+  scene.media = std::move(next.media);  // the materials' interiors index the update's media
+  scene.world_medium = next.world_medium;
   if (has_camera) scene.camera = next.camera;
   scene.warnings = std::move(next.warnings);
   for (size_t mi = 0; mi < scene.meshes.size(); ++mi)

@@ -48,8 +48,11 @@ class Loader : private JsonReader {
 
   void load(const json& root) {
     if (!root.is_object()) fail("", fmt::format("the scene must be a JSON object, not {}", root.type_name()));
-    check_keys(root, "", {"description", "camera", "materials", "objects", "lights", "environment"});
+    check_keys(root, "", {"description", "camera", "media", "materials", "objects", "lights", "environment",
+                          "world_medium"});
     if (const json* d = find(root, "description")) get_string(*d, "/description");
+    if (const json* m = find(root, "media")) load_media(*m, "/media");
+    if (const json* w = find(root, "world_medium")) scene_.world_medium = medium_by_name(*w, "/world_medium");
     if (const json* m = find(root, "materials")) load_materials(*m, "/materials");
     if (const json* c = find(root, "camera")) load_camera(*c, "/camera");
     if (const json* o = find(root, "objects")) {
@@ -78,7 +81,7 @@ class Loader : private JsonReader {
       std::vector<std::string_view> keys = {"type", "emission", "strength", "two_sided", "spectrum",
                                             "visible_to_camera", "casts_shadow", "visible_to_diffuse",
                                             "visible_to_glossy", "visible_to_transmission", "alpha", "normal_map",
-                                            "bump", "nodes", "normal", "holdout"};
+                                            "bump", "nodes", "normal", "holdout", "interior"};
       if (type == "diffuse") {
         mat.type = MaterialType::Diffuse;
         keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
@@ -96,6 +99,14 @@ class Loader : private JsonReader {
         mat.color = RGB(1.0f);
         mat.ior = 1.0f;
         keys.push_back("color");
+      } else if (type == "volume") {
+        // A volume and no surface (Blender's Volume-only material): a pass-through boundary of
+        // its interior medium that casts no shadow (a light object's surface, paths/camera_path.h).
+        mat.type = MaterialType::Dielectric;
+        mat.color = RGB(1.0f);
+        mat.ior = 1.0f;
+        mat.casts_shadow = false;
+        need(m, "interior", mpath);
       } else if (type == "refraction") {
         // Blender's Refraction BSDF: the refraction lobe of glass alone, without Fresnel.
         mat.type = MaterialType::Dielectric;
@@ -132,7 +143,7 @@ class Loader : private JsonReader {
       } else {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
-                         "principled, mix, add, transparent, refraction, translucent, velvet)", type));
+                         "principled, mix, add, transparent, refraction, translucent, velvet, volume)", type));
       }
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
@@ -189,6 +200,7 @@ class Loader : private JsonReader {
       if (const json* v = find(m, "visible_to_camera")) mat.visible_to_camera = get_bool(*v, sub(mpath, "visible_to_camera"));
       if (const json* v = find(m, "casts_shadow")) mat.casts_shadow = get_bool(*v, sub(mpath, "casts_shadow"));
       if (const json* v = find(m, "holdout")) mat.holdout = get_bool(*v, sub(mpath, "holdout"));
+      if (const json* i = find(m, "interior")) mat.interior = medium_by_name(*i, sub(mpath, "interior"));
       mat.visible_lobes = load_visible_lobes(m, mpath);
       if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
       if (mat.emission_in && !find(m, "strength")) mat.emission_strength = 1.0f;
@@ -258,6 +270,38 @@ class Loader : private JsonReader {
     } catch (const shading::GraphError& e) {
       fail(sub(mpath, "nodes"), e.what());
     }
+  }
+  // ---- Media ----
+
+  // "media": {"fog": {"sigma_a": c, "sigma_s": c, "g": g, "emission": c}}, colours (or greys) in
+  // m^-1 (emission W sr^-1 m^-3), g in [-1, 1] clamped to Cycles' +-(1 - 1e-3).
+  void load_media(const json& media, const std::string& path) {
+    require_object(media, path);
+    for (auto it = media.begin(); it != media.end(); ++it) {
+      const std::string mpath = sub(path, it.key());
+      const json& j = it.value();
+      require_object(j, mpath);
+      check_keys(j, mpath, {"sigma_a", "sigma_s", "g", "emission"});
+      Medium m;
+      m.name = it.key();
+      if (const json* a = find(j, "sigma_a")) m.sigma_a = get_color(*a, sub(mpath, "sigma_a"));
+      if (const json* b = find(j, "sigma_s")) m.sigma_s = get_color(*b, sub(mpath, "sigma_s"));
+      if (const json* e = find(j, "emission")) m.emission = get_color(*e, sub(mpath, "emission"));
+      if (const json* g = find(j, "g")) m.g = std::clamp(get_in_range(*g, sub(mpath, "g"), -1.0f, 1.0f),
+                                                          -kMaxAnisotropy, kMaxAnisotropy);
+      medium_index_[m.name] = static_cast<int>(scene_.media.size());
+      scene_.media.push_back(std::move(m));
+    }
+  }
+  int medium_by_name(const json& j, const std::string& path) const {
+    const std::string name = get_string(j, path);
+    auto it = medium_index_.find(name);
+    if (it == medium_index_.end()) {
+      std::vector<std::string> names;
+      for (const auto& [n, i] : medium_index_) names.push_back(n);
+      fail(path, fmt::format("unknown medium '{}' (known: {})", name, names.empty() ? "none defined" : join(names)));
+    }
+    return it->second;
   }
 
   // A conductor's "fresnel": true (Schlick, the default), false (none: Blender's Glossy BSDF) or
@@ -938,6 +982,7 @@ class Loader : private JsonReader {
   std::string base_dir_;
   Scene& scene_;
   std::map<std::string, uint32_t> material_index_;
+  std::map<std::string, int> medium_index_;
   double shape_triangles_ = 0;
   double budget_bytes_ = -1;  // memory_budget_bytes(), read at the first shape
 };

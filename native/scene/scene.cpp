@@ -222,6 +222,21 @@ void Scene::build_lights() {
   surfaces_hidden_from_some_lobes_ = std::any_of(materials.begin(), materials.end(), [](const Material& m) {
     return m.visible_lobes != kAllLobes && !m.is_pass_through();
   });
+  // Media: indices in range, coefficients finite and non-negative (a Python caller may set them).
+  const auto check_medium = [&](int m, const std::string& who) {
+    if (m < -1 || m >= static_cast<int>(media.size()))
+      throw std::runtime_error(fmt::format("{}: {} names medium {} of {}", source, who, m, media.size()));
+  };
+  check_medium(world_medium, "the World");
+  for (const Material& m : materials) check_medium(m.interior, fmt::format("material '{}'", m.name));
+  for (const Medium& m : media)
+    if (!m.sigma_a.is_finite() || !m.sigma_s.is_finite() || !m.emission.is_finite() || !std::isfinite(m.g) ||
+        std::fmin(m.sigma_a.r, std::fmin(m.sigma_a.g, m.sigma_a.b)) < 0 ||
+        std::fmin(m.sigma_s.r, std::fmin(m.sigma_s.g, m.sigma_s.b)) < 0 ||
+        std::fmin(m.emission.r, std::fmin(m.emission.g, m.emission.b)) < 0)
+      throw std::runtime_error(fmt::format("{}: medium '{}' has a negative or non-finite coefficient", source, m.name));
+  has_media_ = world_medium >= 0 || std::any_of(materials.begin(), materials.end(),
+                                                [](const Material& m) { return m.interior >= 0; });
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);
 }

@@ -17,6 +17,7 @@
 #include "lights/light.h"
 #include "materials/bsdf.h"
 #include "materials/material.h"
+#include "media/medium.h"
 #include "scene/camera.h"
 
 namespace gp {
@@ -128,6 +129,10 @@ class Scene {
   std::vector<Mesh> meshes;
   std::vector<Material> materials;
   std::vector<Light> lights;  // non-area lights from the scene description
+  // Participating media (media/medium.h): inside the meshes whose material names one as its
+  // interior (Material::interior), and the World's (-1: none).
+  std::vector<Medium> media;
+  int world_medium = -1;
   Camera camera;
   std::string source;         // file the scene came from (for messages)
   Warnings warnings;          // counted load warnings
@@ -209,6 +214,11 @@ class Scene {
   bool lights_hidden_from_some_lobes() const { return lights_hidden_from_some_lobes_; }
   // True when some surface is hidden from some kind of bounce ray (Material::visible_lobes).
   bool surfaces_hidden_from_some_lobes() const { return surfaces_hidden_from_some_lobes_; }
+  // True when some material has an interior medium or the World has one (set by finalize()
+  // and commit()): the path tracers then track media; without, they run as before, bit for bit.
+  bool has_media() const { return has_media_; }
+  // The media a path starting in the open is inside: the World's.
+  MediumStack initial_medium_stack() const { return MediumStack(world_medium); }
   const Bounds3& bounds() const { return bounds_; }
   size_t triangle_count() const;
   const Material& material(int i) const { return materials[i]; }
@@ -279,6 +289,7 @@ class Scene {
   uint64_t generation_ = 0;
   bool lights_hidden_from_some_lobes_ = false;
   bool surfaces_hidden_from_some_lobes_ = false;
+  bool has_media_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 

@@ -2,7 +2,10 @@
 
 #include <stdexcept>
 
+#include <fmt/format.h>
+
 #include "distributed/run_info.h"
+#include "integrators/methods.h"
 #include "io/exr.h"
 
 namespace gp {
@@ -15,6 +18,11 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
   integrator_ = make_integrator(method, *scene_, params_);
   unused_ = params_.unused();
   unused_report_ = unused_parameter_report(method, params_);
+  // Scene features the method does not render: said once, naming it; the rest still renders.
+  if (scene_->has_media() && !find_method(method).supports.media)
+    feature_report_.push_back(fmt::format("method '{}' does not render participating media yet: the scene's media "
+                                          "are left out and only its surfaces render (pt, spt and spt-hero render them)",
+                                          method));
   aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
 }
 

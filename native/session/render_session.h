@@ -49,6 +49,9 @@ class RenderSession {
   const Params& params() const { return params_; }
   const std::vector<std::string>& unused() const { return unused_; }
   const std::vector<std::string>& unused_report() const { return unused_report_; }
+  // Warnings on scene features the method leaves out ("method 'sppm' does not render
+  // participating media yet: ..."), for every front end to show.
+  const std::vector<std::string>& feature_report() const { return feature_report_; }
   const Scene& scene() const { return *scene_; }
   // A scene update (Scene::commit, set_camera) since the session was made leaves the integrator
   // with what it derived from the old scene: it must not render (make a new session).
@@ -61,7 +64,7 @@ class RenderSession {
   std::unique_ptr<AovEstimator> aov_;
   bool aux_ = true;
   uint64_t generation_ = 0;
-  std::vector<std::string> unused_, unused_report_;
+  std::vector<std::string> unused_, unused_report_, feature_report_;
 
   void check_fresh() const;
   void aux_pass(ProgressSink* sink);  // one auxiliary pass if they are fewer than the method's

@@ -70,7 +70,8 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
     out = ExportedScene()
     out.name = scene.name
     w = out.warnings
-    mats = material.MaterialExporter(out.description["materials"], w)
+    media = {}
+    mats = material.MaterialExporter(out.description["materials"], w, media)
     meshes = {}
     lights = out.description["lights"]
     for inst in depsgraph.object_instances:
@@ -93,6 +94,12 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
     env = world.export_world(scene.world, w)
     if env:
         out.description["environment"] = env
+    world_medium = world.export_world_volume(scene.world, w)
+    if world_medium is not None:
+        media[world.WORLD_MEDIUM] = world_medium
+        out.description["world_medium"] = world.WORLD_MEDIUM
+    if media:
+        out.description["media"] = media
     visibility.check_method(out.description, method or (settings.method if settings else "pt"), w)
     out.seconds = time.perf_counter() - t0
     return out

@@ -49,6 +49,7 @@ Dispersion comes from the material's gradphoton panel.
 import sys
 
 from .nodes import NodeGraph, SHADER
+from .volume import export_volume, volume_socket
 
 DEFAULT = "__gradphoton_default"
 # Keys that belong to the whole material, not to one layer of it (lifted out of mix parts).
@@ -84,8 +85,9 @@ def surface_output(tree):
 
 
 class MaterialExporter:
-    def __init__(self, table, warnings):
+    def __init__(self, table, warnings, media=None):
         self.table = table  # name -> scene-format material dict
+        self.media = media if media is not None else {}  # name -> scene-format medium (Volume outputs)
         self.w = warnings
         self._used = {}     # Blender materials exported, by name
         self._textured = set()  # exported materials that read UVs (their meshes need them)
@@ -143,9 +145,21 @@ class MaterialExporter:
     def _convert_tree(self, mat):
         out = surface_output(mat.node_tree)
         src = self.g.resolve(out.inputs["Surface"], ()) if out is not None else None
-        if src is None or getattr(src, "kind", None) != SHADER or src.node is None:
+        has_surface = not (src is None or getattr(src, "kind", None) != SHADER or src.node is None)
+        # The Volume output: the medium inside the material's closed meshes (export/volume.py).
+        medium = None
+        socket = volume_socket(mat.node_tree, 'ShaderNodeOutputMaterial')
+        if socket is not None:
+            medium = export_volume(socket, f"material '{mat.name}'", self.w, keep_empty=not has_surface)
+        if not has_surface:
+            if medium is not None:  # a volume without a surface: a pass-through boundary (Cycles)
+                self.media[mat.name] = medium
+                return {"type": "volume", "interior": mat.name}
             return {"type": "diffuse", "color": 0.0}  # Cycles renders an unconnected output black
         d = self._one_sided(self._dispersion(self._closure(src.node, src.path, 0), mat), mat)
+        if medium is not None:
+            self.media[mat.name] = medium
+            d["interior"] = mat.name
         # Each material object carries the nodes its own inputs reach.
         uv = False
         for part in [d] + self.parts:

@@ -1,6 +1,8 @@
 """What the core does not render, each counted once in the render's report instead of being
 skipped without a word: motion blur, hair (curves objects and hair particle systems) and
-volumes (volume objects, a material's or the world's Volume output)."""
+Volume objects (OpenVDB grids: the next landing). A material's or the World's Volume output is
+exported (export/volume.py); a method that does not render media says so itself, naming it
+(the session's feature_report)."""
 
 
 def check_object(ob, kind, warnings):
@@ -13,18 +15,6 @@ def check_object(ob, kind, warnings):
             warnings.add("hair curves not rendered", f"{ob.name}: {ps.name}")
 
 
-def _volume_linked(tree):
-    return tree is not None and any(
-        n.bl_idname in ('ShaderNodeOutputMaterial', 'ShaderNodeOutputWorld') and n.inputs.get("Volume") is not None
-        and n.inputs["Volume"].is_linked for n in tree.nodes)
-
-
 def check_scene(scene, materials, warnings):
     if scene.render.use_motion_blur:
         warnings.add("motion blur not rendered", scene.name)
-    for mat in materials:
-        if mat.use_nodes and _volume_linked(mat.node_tree):
-            warnings.add("volumes not rendered", f"material '{mat.name}'")
-    world = scene.world
-    if world is not None and world.use_nodes and _volume_linked(world.node_tree):
-        warnings.add("volumes not rendered", f"world '{world.name}'")

@@ -15,7 +15,7 @@ The core honours Camera and Shadow in every method, the World's Camera too. Whic
 Diffuse/Glossy/Transmission the method itself declares (`_native.method_info`'s
 'lobe_visibility': of surfaces, of lights and the World): another method renders them as
 visible, a counted warning naming the method and the object. Volume Scatter is a warning
-(volumes are not rendered).
+(not honoured: media scatter to every light).
 
 Mask > Holdout (Object Properties > Visibility, Cycles' is_holdout) becomes the `holdout` key of
 the surface's materials: camera rays that meet it give no colour and alpha 0, as Cycles renders
@@ -34,7 +34,7 @@ LOBE_KEYS = tuple(key for _, key, _ in LOBE_SWITCHES)
 def lobe_flags(ob, warnings):
     """The object's Diffuse / Glossy / Transmission switches that are off, as scene-format keys."""
     if not getattr(ob, "visible_volume_scatter", True):
-        warnings.add("volume scatter visibility not honoured (volumes are not rendered)", ob.name)
+        warnings.add("volume scatter visibility not honoured", ob.name)
     return {key: False for attr, key, _ in LOBE_SWITCHES if not getattr(ob, attr, True)}
 
 
@@ -66,7 +66,7 @@ def world_flags(world, warnings):
     if vis is None:  # Cycles' add-on not registered: its defaults, all visible
         return {}
     if not getattr(vis, "scatter", True):
-        warnings.add("volume scatter visibility not honoured (volumes are not rendered)", f"world '{world.name}'")
+        warnings.add("volume scatter visibility not honoured", f"world '{world.name}'")
     flags = {key: False for attr, key, _ in LOBE_SWITCHES if not getattr(vis, attr[len("visible_"):], True)}
     if not getattr(vis, "camera", True):
         flags["visible_to_camera"] = False

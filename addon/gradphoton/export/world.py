@@ -15,25 +15,23 @@ Anything else is one warning naming the node, and the socket's own value.
 """
 import math
 
-from . import texture, visibility
+from . import texture, visibility, volume
+from .links import linked_from as _from
 
-
-def _from(socket):
-    """(node, output socket) feeding an input socket, through reroutes; (None, None) if unlinked.
-    (The World is read here node by node until its graph goes through the core's evaluator.)"""
-    if not socket.is_linked:
-        return None, None
-    link = socket.links[0]
-    node, out = link.from_node, link.from_socket
-    while node.bl_idname == 'NodeReroute':
-        if not node.inputs[0].is_linked:
-            return None, None
-        link = node.inputs[0].links[0]
-        node, out = link.from_node, link.from_socket
-    return node, out
 
 _INTERPOLATION = {'Linear': "linear", 'Closest': "closest", 'Cubic': "cubic", 'Smart': "smart"}
 _PROJECTION = {'EQUIRECTANGULAR': "equirectangular", 'MIRROR_BALL': "mirror_ball"}
+
+
+WORLD_MEDIUM = "__world"  # the World's Volume output, as a medium of the scene format
+
+
+def export_world_volume(world, warnings):
+    """The World's Volume output as a medium filling the open (export/volume.py), or None."""
+    if world is None or not world.use_nodes:
+        return None
+    socket = volume.volume_socket(world.node_tree, 'ShaderNodeOutputWorld')
+    return volume.export_volume(socket, f"world '{world.name}'", warnings) if socket is not None else None
 
 
 def export_world(world, warnings):

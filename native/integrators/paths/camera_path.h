@@ -16,12 +16,29 @@
 //   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u);
 //                                               // updates the throughput; nullopt: end
 //   bool survive(float u);                      // Russian roulette: false ends the path
+//
+// next_event's shadow ray goes through a ShadowTest (paths/medium_walk.h): Scene::occluded in a
+// scene without media, transmittance through the media the ray crosses otherwise. Participating
+// media (media/medium.h) add, only in scenes that have them (Scene::has_media), per channel of
+// the path (RGB, or its wavelengths):
+//
+//   int channels() const;                                  // 3, or the path's wavelengths
+//   const MediumChannels& medium_channels(int medium);     // a medium's coefficients at them
+//   ChannelValues channel_weights() const;                 // the throughput per channel
+//   Saved save() const; void restore(const Saved&);        // the throughput, around a disk's hit
+//   void medium_weight(const ChannelValues& w);            // throughput *= w (free flight)
+//   void medium_emission(int depth, const ChannelValues& e);  // L += throughput * e
+//   void medium_next_event(int depth, const LightSample& ls, const ChannelValues& phase,
+//                          float phase_pdf, const MediumLengths& lengths);
+//   void medium_scattered(const Vec3& p, float phase_pdf, const ChannelValues& ratio);
+//                                               // a phase-sampled direction (ratio: phase / pdf)
 #pragma once
 
 #include <optional>
 
 #include "core/progress.h"
 #include "core/rng.h"
+#include "integrators/paths/medium_walk.h"
 #include "lights/light.h"
 #include "scene/scene.h"
 
@@ -40,21 +57,85 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
                        const std::optional<SurfaceHit>* first = nullptr) {
   const LightSet& lights = scene.light_set();
   constexpr int kMaxPassThrough = 8;  // Cycles: Light Paths > Transparent, 8 by default
-  int pass_through = 0;
+  constexpr int kMaxBoundaries = 64;  // volume boundaries crossed (Cycles: VOLUME_BOUNDS_MAX)
+  int pass_through = 0, boundaries = 0;
+  // The media the path is in (Cycles' volume stack), only in scenes that have media.
+  const bool media = scene.has_media();
+  MediumStack stack = scene.initial_medium_stack();
+  ShadowTest shadow(scene, media ? &stack : nullptr);
   for (int depth = 0;; ++depth) {
     ++rays.closest;
     const std::optional<SurfaceHit> traced = first ? std::nullopt : scene.intersect(ray);
     const std::optional<SurfaceHit>& hit = first ? *first : traced;
     first = nullptr;  // only the camera ray's hit is given
 
+    // ---- Participating media along the ray: emission integrated exactly, a free-flight
+    // distance sampled against the channels' mean density (MediumSegment) ----
+    std::optional<MediumSegment> segment;
+    float t_scatter = kInfinity;
+    if (media && !stack.empty()) {
+      segment.emplace(stack, path.channels(), [&](int m) -> const MediumChannels& { return path.medium_channels(m); });
+      const float t_end = hit ? hit->t : kInfinity;
+      path.medium_emission(depth, segment->emission_integral(t_end));
+      segment->set_channel_weights(path.channel_weights());
+      const float u_channel = rng.uniform(), u_distance = rng.uniform();
+      t_scatter = segment->sample_distance(u_channel, u_distance);
+      if (!(t_scatter < t_end)) t_scatter = kInfinity;
+    }
+
     // Cycles' point and spot lights of radius > 0: disks that BSDF rays may hit (MIS with
-    // their sampling; a mirror shows them). Camera rays do not see them.
+    // their sampling; a mirror shows them). Camera rays do not see them. In a medium, a disk
+    // before the sampled scattering point is reached with the free flight's factor to it.
     if (depth > 0) {
       float t_disk, pdf_disk;
       RGB Le;
-      if (const int l = lights.intersect_disk(ray, hit ? hit->t : kInfinity, &t_disk, &Le, &pdf_disk); l >= 0)
-        path.disk_light(depth, l, Le, pdf_disk);
+      const float t_max = std::min(hit ? hit->t : kInfinity, t_scatter);
+      if (const int l = lights.intersect_disk(ray, t_max, &t_disk, &Le, &pdf_disk); l >= 0) {
+        if (segment) {
+          const auto saved = path.save();
+          path.medium_weight(segment->pass_weight(t_disk));
+          path.disk_light(depth, l, Le, pdf_disk);
+          path.restore(saved);
+        } else {
+          path.disk_light(depth, l, Le, pdf_disk);
+        }
+      }
     }
+
+    if (segment && t_scatter < kInfinity) {
+      // ---- Scattering in the medium: next-event estimation through the phase function, MIS
+      // with phase sampling (the phase function as the BSDF of a medium vertex) ----
+      path.medium_weight(segment->scatter_weight(t_scatter));
+      const Vec3 p = ray.at(t_scatter);
+      if (depth + 1 >= s.max_depth) return true;
+      if (!lights.empty()) {
+        const float u_light = rng.uniform();
+        const Vec2 u2(rng.uniform(), rng.uniform());
+        if (auto ls = lights.sample_li(p, u_light, u2);
+            ls && ls->pdf > 0 && !ls->L.is_black() &&
+            !(ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only())) {
+          const float cos_theta = dot(ray.d, ls->wi);
+          MediumLengths lengths;
+          shadow.in_medium();
+          if (shadow.visible(p, nullptr, *ls, &lengths))
+            path.medium_next_event(depth, *ls, segment->phase(cos_theta), segment->phase_pdf(cos_theta), lengths);
+        }
+      }
+      const float u_lobe = rng.uniform();
+      const Vec2 u(rng.uniform(), rng.uniform());
+      const Vec3 wi = segment->sample_phase(ray.d, u_lobe, u);
+      const float cos_theta = dot(ray.d, wi);
+      const float pdf = segment->phase_pdf(cos_theta);
+      if (!(pdf > 0)) return true;
+      ChannelValues ratio = segment->phase(cos_theta);
+      for (float& r : ratio) r /= pdf;
+      path.medium_scattered(p, pdf, ratio);
+      ray = Ray(p, wi);  // a volume ray: every surface is there for it
+      if (depth + 1 >= s.rr_depth && !path.survive(rng.uniform())) return true;
+      continue;
+    }
+    if (segment) path.medium_weight(segment->pass_weight(hit ? hit->t : kInfinity));
+
     if (!hit) {
       if (depth == 0 && (s.film_transparent || ray.held_out)) return false;  // a holdout: black, uncovered
       path.environment(depth, ray);
@@ -63,8 +144,16 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     if (hit->light >= 0) path.area_light(depth, *hit, ray);
     // ---- A pass-through surface (a light object): the path goes on as if it were not there,
     // keeping its state and its kind of ray, not counting a bounce (Cycles' transparent bounce)
-    if (scene.material(hit->material).is_pass_through() && pass_through < kMaxPassThrough) {
-      ++pass_through;
+    const Material& material = scene.material(hit->material);
+    if (material.is_pass_through() && (media && material.interior >= 0 ? boundaries < kMaxBoundaries
+                                                                         : pass_through < kMaxPassThrough)) {
+      // A volume boundary (Blender's Volume-only material) enters or leaves its medium.
+      if (media && material.interior >= 0) {
+        ++boundaries;
+        stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
+      } else {
+        ++pass_through;
+      }
       const bool camera = ray.camera;
       const uint8_t bounce = ray.bounce;
       ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
@@ -85,8 +174,10 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       const Vec2 u2(rng.uniform(), rng.uniform());
       if (auto ls = lights.sample_li(hit->p, u_light, u2);
           ls && ls->pdf > 0 && !ls->L.is_black() &&
-          !(ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only()))
-        path.next_event(depth, *hit, wo, *ls);
+          !(ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only())) {
+        if (media) shadow.at_surface(hit->mesh, material.interior, hit->ng, ray.d);
+        path.next_event(depth, *hit, wo, *ls, shadow);
+      }
     }
 
     // ---- BSDF sampling ----
@@ -95,6 +186,9 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     const std::optional<BsdfSample> bs = path.scatter(*hit, wo, uc, u);
     if (!bs) return true;
     const Vec3 wi = hit->frame.to_world(bs->wi);
+    // A sample through a surface with an interior medium (glass of murky water) crosses it.
+    if (media && material.interior >= 0 && (dot(wi, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
+      stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     ray.bounce = bs->lobe;  // surfaces hidden from this kind of ray let it through
 

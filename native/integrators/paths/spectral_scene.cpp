@@ -26,6 +26,7 @@ bool use_spectral(SpectralMode mode, const Scene& scene) {
 
 SceneSpectra::SceneSpectra(const Scene& scene) {
   for (const Material& m : scene.materials) albedo.push_back(RgbSpectrum::reflectance(m.color));
+  for (const Medium& m : scene.media) media.emplace_back(m);
   for (const Light& l : scene.light_set().lights()) {
     if (l.lines.empty()) {
       light.push_back(RgbSpectrum::illuminant(l.emit));

@@ -14,6 +14,7 @@
 #include "materials/bsdf.h"
 #include "materials/material.h"
 #include "materials/spectral_material.h"
+#include "media/medium.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -33,6 +34,7 @@ struct SceneSpectra {
   explicit SceneSpectra(const Scene& scene);
   std::vector<RgbSpectrum> albedo;  // Material::color as a reflectance
   std::vector<RgbSpectrum> light;   // Light::emit as an illuminant
+  std::vector<MediumSpectra> media;  // Scene::media's coefficients, upsampled (media/medium.h)
 };
 
 // The material seen by one wavelength at texture coordinate uv, as BSDF parameters

@@ -112,10 +112,14 @@ struct SpectralPath {
   bool dispersive = false;
   SpectralLobeSplit prev;  // the previous vertex's lobes, where some light is hidden from some kinds
   int64_t shadow_rays = 0;
+  bool medium_vertex = false;          // the ray was scattered by a medium (every light sees it)
+  std::vector<MediumChannels> media;   // the scene's media at the path's wavelengths
 
   SpectralPath(const Scene& s, const SceneSpectra& sp, const SampledWavelengths& w)
       : scene(s), lights(s.light_set()), spectra(sp), wl(w), C(w.count), split_lobes(s.lights_hidden_from_some_lobes()) {
     for (int k = 0; k < C; ++k) beta[k] = r_u[k] = 1.0f;
+    if (s.has_media())
+      for (const MediumSpectra& m : sp.media) media.push_back(m.at(w));
   }
 
   // Emission found by a ray: balance heuristic over C wavelengths x {BSDF, light} strategies.
@@ -129,7 +133,7 @@ struct SpectralPath {
   // Emission of a light visible to the kinds `vis` found by a bounce ray (Cycles' per-kind
   // visibility, as in the path tracer).
   void add_bounce_emission(const RgbSpectrum& spec, uint8_t vis, float pdf_light, float scale = 1.0f) {
-    if (vis == kAllLobes) return add_emission(spec, pdf_light, specular_bounce, scale);
+    if (vis == kAllLobes || medium_vertex) return add_emission(spec, pdf_light, specular_bounce, scale);
     if (!(vis & prev.lobe)) return;
     if (specular_bounce) return add_emission(spec, 0.0f, true, scale);
     prev.add(spec, vis, pdf_light, wl, L, scale);
@@ -151,7 +155,8 @@ struct SpectralPath {
     if (depth == 0) {
       if (e.visible_to_camera) add_emission(spec, 0.0f, true);
     } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
-      if (e.visible_lobes & prev.lobe) add_emission(spec, 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
+      if (medium_vertex) add_emission(spec, 0.0f, true);  // a phase-sampled ray: not sampled by NEE
+      else if (e.visible_lobes & prev.lobe) add_emission(spec, 0.0f, true, specular_bounce ? 1.0f : prev.world_reweight);
     } else {
       add_bounce_emission(spec, e.visible_lobes, specular_bounce ? 0.0f : lights.pdf_environment(ray.d));
     }
@@ -175,7 +180,7 @@ struct SpectralPath {
   bool is_delta() const { return bk[0]->is_delta(); }
   // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
   // visible to, with their density for MIS (as the path tracer).
-  void next_event(int, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls) {
+  void next_event(int, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls, const ShadowTest& shadow) {
     const uint8_t vis = lights.lights()[ls.light].visible_lobes;
     const Vec3 wi = hit.frame.to_local(ls.wi);
     SpectralValues f{}, pdf{};
@@ -189,7 +194,12 @@ struct SpectralPath {
     }
     if (!any) return;
     ++shadow_rays;
-    if (scene.occluded(hit.p, hit.ng, ls)) return;
+    MediumLengths lengths;
+    if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
+    if (lengths.n > 0) {
+      const ChannelValues T = transmittance(lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
+      for (int k = 0; k < C; ++k) f[k] *= T[k];
+    }
     float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
     for (int k = 0; k < C; ++k) denom += r_u[k] * (ls.pdf + (ls.delta ? 0.0f : pdf[k]));
     denom /= C;
@@ -246,6 +256,7 @@ struct SpectralPath {
     }
     if (!alive) return std::nullopt;
     specular_bounce = bs->delta;
+    medium_vertex = false;
     prev_p = hit.p;
     return bs;
   }
@@ -261,6 +272,61 @@ struct SpectralPath {
       prev.beta[k] /= 1.0f - q;
     }
     return true;
+  }
+
+  // ---- Participating media (paths/camera_path.h), at the path's C wavelengths ----
+  // Free-flight distances are sampled from the mean over wavelengths (MediumSegment), the same
+  // density for every wavelength: the ratios r_u of eq. 4 are unchanged by them; the phase
+  // function's density does not depend on the wavelength either.
+  int channels() const { return C; }
+  const MediumChannels& medium_channels(int m) const { return media[m]; }
+  ChannelValues channel_weights() const {
+    ChannelValues w{};
+    for (int k = 0; k < C; ++k) w[k] = beta[k];
+    return w;
+  }
+  struct Saved {
+    SpectralValues beta, prev_beta;
+  };
+  Saved save() const { return {beta, prev.beta}; }
+  void restore(const Saved& s) {
+    beta = s.beta;
+    prev.beta = s.prev_beta;
+  }
+  void medium_weight(const ChannelValues& w) {
+    for (int k = 0; k < C; ++k) {
+      beta[k] *= w[k];
+      prev.beta[k] *= w[k];
+    }
+  }
+  // Emission found by the ray only (the BSDF strategy's full weight, as add_emission).
+  void medium_emission(int, const ChannelValues& e) {
+    const float ru = mean(r_u, C);
+    if (!(ru > 0)) return;
+    for (int j = 0; j < C; ++j) L[j] += beta[j] * e[j] / ru;
+  }
+  void medium_next_event(int, const LightSample& ls, const ChannelValues& phase, float phase_pdf,
+                         const MediumLengths& lengths) {
+    ++shadow_rays;
+    const ChannelValues T = transmittance(lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
+    float denom = 0;  // as next_event, the phase function in the BSDF's place
+    for (int k = 0; k < C; ++k) denom += r_u[k] * (ls.pdf + (ls.delta ? 0.0f : phase_pdf));
+    denom /= C;
+    if (!(denom > 0)) return;
+    std::optional<RgbSpectrum> varying;
+    if (varies_with_direction(lights, ls.light)) varying = light_spectrum(spectra, lights, ls.light, ls.L);
+    const float scale = varying ? 1.0f : light_scale(ls, lights.lights()[ls.light]);
+    const RgbSpectrum& spec = varying ? *varying : spectra.light[ls.light];
+    for (int j = 0; j < C; ++j) L[j] += beta[j] * phase[j] * T[j] * scale * spec(wl.lambda[j]) / denom;
+  }
+  void medium_scattered(const Vec3& p, float phase_pdf, const ChannelValues& ratio) {
+    for (int k = 0; k < C; ++k) {
+      beta[k] *= ratio[k];
+      r_l[k] = r_u[k] / phase_pdf;
+    }
+    specular_bounce = false;
+    medium_vertex = true;
+    prev_p = p;
   }
 };
 

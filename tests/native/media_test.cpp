@@ -1,0 +1,313 @@
+// Participating media (media/medium.h, paths/camera_path.h): the Henyey-Greenstein phase
+// function's sampling against its density (chi-square), Beer-Lambert transmittance through a slab
+// for camera rays and for next-event shadow rays (analytic), an albedo-1 medium in a uniform
+// environment (furnace), the RGB and hero-wavelength path tracers on one medium scene, the
+// scene format's media and its errors, and the warning of methods that do not render media.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "chi2.h"
+#include "core/rng.h"
+#include "integrators/integrator.h"
+#include "integrators/methods.h"
+#include "media/medium.h"
+#include "render_for_tests.h"
+#include "scene/loader.h"
+#include "session/render_session.h"
+
+namespace gp {
+namespace {
+
+// ---- Henyey-Greenstein: density and sampling ----
+
+// Cells of (cos theta, phi) in the world frame (not the phase function's own), so the frame
+// built around the travel direction is tested too.
+constexpr int kCosBins = 24, kPhiBins = 48;
+int cell_of(const Vec3& w) {
+  const int c = std::clamp(static_cast<int>((w.z + 1) * 0.5f * kCosBins), 0, kCosBins - 1);
+  float phi = std::atan2(w.y, w.x);
+  if (phi < 0) phi += 2 * kPi;
+  const int p = std::clamp(static_cast<int>(phi / (2 * kPi) * kPhiBins), 0, kPhiBins - 1);
+  return c * kPhiBins + p;
+}
+Vec3 direction_at(double c, double phi) {
+  const double s = std::sqrt(std::max(0.0, 1 - c * c));
+  return Vec3(float(s * std::cos(phi)), float(s * std::sin(phi)), float(c));
+}
+
+// Pearson's chi-square of n samples of `sample` against `pdf` integrated over each cell
+// (midpoint rule on a 12 x 12 grid per cell: the density is smooth for |g| <= 0.9 at this size).
+template <class Sample, class Pdf>
+Chi2Result phase_chi2(Sample&& sample, Pdf&& pdf, uint64_t seed, int n = 1 << 20) {
+  std::vector<double> observed(kCosBins * kPhiBins, 0.0), expected(kCosBins * kPhiBins, 0.0);
+  Rng rng = Rng::for_key(seed, 0, 0x9a5e);
+  for (int i = 0; i < n; ++i) {
+    const float u0 = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    observed[cell_of(sample(u0, u))] += 1;
+  }
+  constexpr int kSub = 12;
+  const double dc = 2.0 / kCosBins, dp = 2 * M_PI / kPhiBins;
+  for (int ci = 0; ci < kCosBins; ++ci)
+    for (int pi = 0; pi < kPhiBins; ++pi) {
+      double s = 0;
+      for (int a = 0; a < kSub; ++a)
+        for (int b = 0; b < kSub; ++b)
+          s += pdf(direction_at(-1 + (ci + (a + 0.5) / kSub) * dc, (pi + (b + 0.5) / kSub) * dp));
+      expected[ci * kPhiBins + pi] = s / (kSub * kSub) * dc * dp * n;  // solid angle = dcos dphi
+    }
+  Chi2Result r;
+  pearson_pooled(observed, expected, 5.0, r);
+  return r;
+}
+
+const Vec3 kTravel = normalize(Vec3(0.3f, -0.5f, 0.8f));
+
+TEST(HenyeyGreenstein, DensityIntegratesToOneAndIsCyclesClamped) {
+  for (float g : {-0.9f, -0.3f, 0.0f, 0.5f, 0.95f}) {
+    // integral over the sphere = 2 pi * integral over cos theta (Simpson, 2e5 intervals: g 0.95 peaks)
+    const int n = 200000;
+    double s = 0;
+    for (int i = 0; i <= n; ++i) {
+      const double c = -1 + 2.0 * i / n;
+      s += (i == 0 || i == n ? 1 : (i % 2 ? 4 : 2)) * henyey_greenstein(float(c), g);
+    }
+    EXPECT_NEAR(s * (2.0 / n) / 3 * 2 * M_PI, 1.0, 2e-3) << "g " << g;
+  }
+  // Isotropic: 1 / (4 pi) everywhere.
+  EXPECT_NEAR(henyey_greenstein(0.3f, 0.0f), 1 / (4 * M_PI), 1e-7);
+  // The scene format clamps g to Cycles' 1 - 1e-3.
+  const Scene s = scene_from(R"({"media": {"m": {"sigma_s": 1, "g": 1}}, "world_medium": "m"})");
+  EXPECT_FLOAT_EQ(s.media[0].g, kMaxAnisotropy);
+}
+
+TEST(HenyeyGreenstein, SamplingMatchesDensityChi2) {
+  // Sidak-corrected 1 % over the cases (pbrt-v4's Chi2Test threshold).
+  const std::vector<float> gs = {-0.7f, 0.0f, 0.3f, 0.8f};
+  const double alpha = 1 - std::pow(0.99, 1.0 / (gs.size() + 1));
+  uint64_t seed = 11;
+  for (float g : gs) {
+    const Chi2Result r = phase_chi2([&](float, Vec2 u) { return sample_henyey_greenstein(kTravel, g, u); },
+                                    [&](const Vec3& w) { return henyey_greenstein(dot(kTravel, w), g); }, seed++);
+    EXPECT_TRUE(r.error.empty()) << r.error;
+    EXPECT_GT(r.p_value, alpha) << "g " << g << " chi2 " << r.statistic << " dof " << r.dof;
+  }
+  // Two media overlapping (Cycles sums them): the mixture's sampling against its density.
+  Medium a, b;
+  a.sigma_s = RGB(1.0f, 2.0f, 0.5f);
+  a.g = -0.5f;
+  b.sigma_s = RGB(3.0f);
+  b.g = 0.8f;
+  std::vector<MediumChannels> table = {rgb_channels(a), rgb_channels(b)};
+  MediumStack stack(0);
+  stack.cross(7, 1, true);
+  const MediumSegment seg(stack, 3, [&](int m) -> const MediumChannels& { return table[m]; });
+  const Chi2Result r = phase_chi2([&](float ul, Vec2 u) { return seg.sample_phase(kTravel, ul, u); },
+                                  [&](const Vec3& w) { return seg.phase_pdf(dot(kTravel, w)); }, seed++);
+  EXPECT_GT(r.p_value, alpha) << "mixture chi2 " << r.statistic << " dof " << r.dof;
+}
+
+TEST(HenyeyGreenstein, Chi2RejectsAWrongAnisotropy) {
+  // The test has power: samples of g = 0.3 against the density of g = 0.33 are rejected.
+  const Chi2Result r = phase_chi2([&](float, Vec2 u) { return sample_henyey_greenstein(kTravel, 0.3f, u); },
+                                  [&](const Vec3& w) { return henyey_greenstein(dot(kTravel, w), 0.33f); }, 5);
+  EXPECT_LT(r.p_value, 1e-3);
+}
+
+// ---- Free flight ----
+
+TEST(MediumSegment, FreeFlightWeightsAreUnbiasedPerChannel) {
+  // E[pass weight 1{t_s > t}] = T_c(t) and E[scatter weight 1{t_s < t}] = integral of
+  // sigma_s T over [0, t), per channel, with the channel picked uniformly or by throughput.
+  Medium m;
+  m.sigma_a = RGB(0.2f, 0.0f, 1.0f);
+  m.sigma_s = RGB(0.5f, 1.5f, 0.0f);
+  const std::vector<MediumChannels> table = {rgb_channels(m)};
+  for (const ChannelValues& weights : {ChannelValues{}, ChannelValues{0.2f, 1.0f, 3.0f}}) {
+    MediumSegment seg(MediumStack(0), 3, [&](int i) -> const MediumChannels& { return table[i]; });
+    seg.set_channel_weights(weights);
+    const float t_end = 1.3f;
+    double pass[3] = {0, 0, 0}, scat[3] = {0, 0, 0};
+    const int n = 400000;
+    Rng rng = Rng::for_key(3, 0, 1);
+    for (int i = 0; i < n; ++i) {
+      const float t = seg.sample_distance(rng.uniform(), rng.uniform());
+      const ChannelValues w = t < t_end ? seg.scatter_weight(t) : seg.pass_weight(t_end);
+      for (int c = 0; c < 3; ++c) (t < t_end ? scat : pass)[c] += w[c];
+    }
+    // 4e5 samples of weights below 3: standard errors under 2e-3.
+    for (int c = 0; c < 3; ++c) {
+      const double st = m.sigma_a[c] + m.sigma_s[c];
+      EXPECT_NEAR(pass[c] / n, std::exp(-st * t_end), 6e-3) << "channel " << c << " weights " << weights[2];
+      const double in_scatter = st > 0 ? m.sigma_s[c] / st * (1 - std::exp(-st * t_end)) : 0.0;
+      EXPECT_NEAR(scat[c] / n, in_scatter, 6e-3) << "channel " << c << " weights " << weights[2];
+    }
+  }
+  // Nothing scatters: no sampling, the transmittance itself.
+  Medium ink;
+  ink.sigma_a = RGB(0.5f, 1.0f, 2.0f);
+  const std::vector<MediumChannels> ink_table = {rgb_channels(ink)};
+  const MediumSegment seg(MediumStack(0), 3, [&](int i) -> const MediumChannels& { return ink_table[i]; });
+  EXPECT_EQ(seg.sample_distance(0.5f, 0.999f), kInfinity);
+  EXPECT_FLOAT_EQ(seg.pass_weight(2.0f)[2], std::exp(-4.0f));
+}
+
+// ---- Whole paths ----
+
+Film render_pt(const Scene& s, int passes, const std::string& method = "pt", uint64_t seed = 1, int max_depth = 256) {
+  Params p;
+  p.set("seed", seed);
+  p.set("max_depth", max_depth);
+  return render(method, s, passes, p);
+}
+
+// Camera looking down the z axis at the origin through a narrow field (rays within 1.4 degrees).
+const char* kCameraDown = R"("camera": {"position": [0, 0, 2], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 2, "width": 8, "height": 8})";
+
+TEST(MediaPathTracing, BeerLambertThroughASlabOnCameraRays) {
+  // An emitter of radiance 1 seen through 0.4 m of a purely absorbing slab: L = exp(-sigma_a d).
+  const Scene s = scene_from(std::string("{") + kCameraDown + R"(,
+    "media": {"ink": {"sigma_a": [0.5, 1.0, 2.0]}},
+    "materials": {"light": {"type": "emission", "emission": 1, "strength": 1},
+                  "slab": {"type": "volume", "interior": "ink"}},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "light"},
+                {"type": "box", "min": [-3, -3, 0.5], "max": [3, 3, 0.9], "material": "slab"}]})");
+  ASSERT_TRUE(s.has_media());
+  const RGB m = image_mean(render_pt(s, 64));
+  const float sigma[3] = {0.5f, 1.0f, 2.0f};
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(m[c], std::exp(-sigma[c] * 0.4f), 0.01) << "channel " << c;
+}
+
+TEST(MediaPathTracing, BeerLambertOnNextEventShadowRays) {
+  // A point light of intensity 8 at height 2 over a diffuse plane of albedo 0.5, a 0.4 m
+  // absorbing slab between them, the camera under the slab: L = (a / pi) (I / h^2) exp(-sigma d).
+  // Only the shadow ray crosses the slab: a dropped transmittance fails here.
+  const Scene s = scene_from(std::string("{") + R"("camera": {"position": [0, 0, 0.5], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 2, "width": 8, "height": 8},
+    "media": {"ink": {"sigma_a": [0.5, 1.0, 2.0]}},
+    "materials": {"grey": {"type": "diffuse", "color": 0.5}, "slab": {"type": "volume", "interior": "ink"}},
+    "lights": [{"type": "point", "position": [0, 0, 2], "intensity": 8}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "grey"},
+                {"type": "box", "min": [-3, -3, 1.0], "max": [3, 3, 1.4], "material": "slab"}]})");
+  const RGB m = image_mean(render_pt(s, 16, "pt", 1, 2));  // direct light only
+  const float sigma[3] = {0.5f, 1.0f, 2.0f};
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(m[c], 0.5 / M_PI * 8.0 / 4.0 * std::exp(-sigma[c] * 0.4f), 2e-3) << "channel " << c;
+}
+
+// A sphere of a scattering-only medium (albedo 1, coloured, anisotropic) in a uniform World.
+std::string furnace_scene(const char* medium) {
+  return std::string("{") + R"("camera": {"position": [0, -4, 0], "look_at": [0, 0, 0], "fov": 30, "width": 16, "height": 16},
+    "media": {"cloud": )" + medium + R"(},
+    "materials": {"boundary": {"type": "volume", "interior": "cloud"}},
+    "environment": {"color": [0.5, 1.0, 2.0], "strength": 1},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 48, "material": "boundary"}]})";
+}
+
+TEST(MediaPathTracing, AlbedoOneMediumInUniformEnvironmentIsInvisible) {
+  // Scattering without absorption under a uniform World returns the World's radiance along
+  // every ray (the volumetric white furnace). Tests phase NEE with MIS against phase sampling
+  // (a missing or wrong phase pdf breaks the balance), shadow-ray transmittance and free flight.
+  for (const char* medium : {R"({"sigma_s": [0.5, 2.0, 4.0], "g": 0.6})", R"({"sigma_s": 3, "g": -0.4})"}) {
+    const Scene s = scene_from(furnace_scene(medium));
+    for (const char* method : {"pt", "spt-hero"}) {
+      bool finite = false;
+      const RGB m = image_mean(render_pt(s, 48, method), &finite);
+      EXPECT_TRUE(finite);
+      // 48 spp over 256 pixels: a few per mille of noise; 2 % headroom.
+      EXPECT_NEAR(m.r, 0.5, 0.01) << method << " " << medium;
+      EXPECT_NEAR(m.g, 1.0, 0.02) << method << " " << medium;
+      EXPECT_NEAR(m.b, 2.0, 0.04) << method << " " << medium;
+    }
+  }
+}
+
+TEST(MediaPathTracing, RgbAndHeroWavelengthsAgreeOnAMediumScene) {
+  // A grey fog sphere with emission and an absorbing core, a diffuse floor, a point light and a
+  // coloured World: pt and spt-hero (grey coefficients upsample exactly) agree within noise.
+  const Scene s = scene_from(std::string("{") + R"("camera": {"position": [0, -5, 1], "look_at": [0, 0, 0.5], "fov": 35, "width": 16, "height": 12},
+    "media": {"fog": {"sigma_a": 0.3, "sigma_s": 1.2, "g": 0.4, "emission": 0.2}, "ink": {"sigma_a": 2}},
+    "materials": {"floor": {"type": "diffuse", "color": 0.6}, "fog": {"type": "volume", "interior": "fog"},
+                  "core": {"type": "volume", "interior": "ink"}},
+    "environment": {"color": [0.2, 0.3, 0.5]},
+    "lights": [{"type": "point", "position": [1, -1, 3], "intensity": 30}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [6, 0, 0], "v": [0, 6, 0], "material": "floor"},
+                {"type": "sphere", "center": [0, 0, 1], "radius": 0.9, "segments": 32, "material": "fog"},
+                {"type": "sphere", "center": [0, 0, 1], "radius": 0.4, "segments": 24, "material": "core"}]})");
+  const RGB a = image_mean(render_pt(s, 96, "pt", 2, 64));
+  const RGB b = image_mean(render_pt(s, 96, "spt-hero", 3, 64));
+  // Luminance of the means; both at a few per mille of noise here, 2 % headroom.
+  EXPECT_NEAR(b.luminance() / a.luminance(), 1.0, 0.02) << a.luminance() << " vs " << b.luminance();
+}
+
+TEST(MediaPathTracing, AMediumInsideGlassIsEnteredThroughTheGlass) {
+  // Murky water in glass: a box of clear glass of IOR 1 whose interior absorbs, in front of an
+  // emitter; seen straight on, L = exp(-sigma_a d) (no refraction at IOR 1, no reflection).
+  const Scene s = scene_from(std::string("{") + kCameraDown + R"(,
+    "media": {"water": {"sigma_a": [0.2, 0.5, 1.5]}},
+    "materials": {"light": {"type": "emission", "emission": 1, "strength": 1},
+                  "glass": {"type": "dielectric", "ior": 1.0, "color": [1, 1, 0.999], "interior": "water"}},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "light"},
+                {"type": "box", "min": [-3, -3, 0.5], "max": [3, 3, 1.0], "material": "glass"}]})");
+  const RGB m = image_mean(render_pt(s, 64));
+  const float sigma[3] = {0.2f, 0.5f, 1.5f}, tint[3] = {1, 1, 0.999f * 0.999f};
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(m[c], tint[c] * std::exp(-sigma[c] * 0.5f), 0.01) << "channel " << c;
+}
+
+TEST(MediaPathTracing, SceneWithoutMediaHasNoMediaAndWorldMediumFillsTheOpen) {
+  EXPECT_FALSE(cornell_box(8, 8).has_media());
+  // A World medium that only absorbs: the emitter at distance 2 is seen through exp(-sigma 2).
+  const Scene s = scene_from(std::string("{") + kCameraDown + R"(,
+    "media": {"haze": {"sigma_a": 0.25}}, "world_medium": "haze",
+    "materials": {"light": {"type": "emission", "emission": 1, "strength": 1}},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "light"}]})");
+  EXPECT_NEAR(image_mean(render_pt(s, 32)).g, std::exp(-0.5f), 0.01);
+}
+
+// ---- Scene format and front ends ----
+
+TEST(MediaSceneFormat, ErrorsNameTheFileAndTheKey) {
+  auto error_of = [](const std::string& json) -> std::string {
+    try {
+      scene_from(json);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(error_of(R"({"materials": {"b": {"type": "volume", "interior": "fgo"}}, "media": {"fog": {}}})")
+                .find("test.json: /materials/b/interior: unknown medium 'fgo' (known: fog)"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"materials": {"b": {"type": "volume"}}})").find("/materials/b: missing required key 'interior'"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"media": {"fog": {"sigma_s": -1}}})").find("/media/fog/sigma_s: must not be negative"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"media": {"fog": {"g": 2}}})").find("/media/fog/g: must be in [-1, 1]"), std::string::npos);
+  EXPECT_NE(error_of(R"({"world_medium": "fog"})").find("/world_medium: unknown medium 'fog' (known: none defined)"),
+            std::string::npos);
+}
+
+TEST(MediaMethods, MethodsWithoutMediaSayItOnceNamingThemselves) {
+  auto scene = std::make_shared<const Scene>(scene_from(furnace_scene(R"({"sigma_s": 1})")));
+  for (const Method& m : methods()) {
+    if (m.name == "gdmlt" || m.name == "sgpt" || m.name == "spt") continue;  // need options or a spectral scene
+    Params p;
+    p.set("seed", 1);
+    RenderSession session(scene, m.name, p);
+    if (m.supports.media) {
+      EXPECT_TRUE(session.feature_report().empty()) << m.name;
+    } else {
+      ASSERT_EQ(session.feature_report().size(), 1u) << m.name;
+      EXPECT_NE(session.feature_report()[0].find("method '" + m.name + "' does not render participating media"),
+                std::string::npos);
+    }
+  }
+  EXPECT_TRUE(find_method("pt").supports.media);
+  EXPECT_TRUE(find_method("spt-hero").supports.media);
+  EXPECT_FALSE(find_method("sppm").supports.media);
+}
+
+}  // namespace
+}  // namespace gp
