@@ -138,11 +138,10 @@ struct SpectralPath {
     if (specular_bounce) return add_emission(spec, 0.0f, true, scale);
     prev.add(spec, vis, pdf_light, wl, L, scale);
   }
-  // A point or spot light's disk, its radiance Le the light's spectrum times a grey factor.
-  void disk_light(int, int l, const RGB& Le, float pdf) {
-    add_bounce_emission(spectra.light[l], lights.lights()[l].visible_lobes, specular_bounce ? 0.0f : pdf,
-                        grey_factor(Le, lights.lights()[l].emit));
-  }
+  // A point or spot light's disk met by a BSDF ray adds nothing here: next-event estimation
+  // takes such a light at full weight (a delta sample, next_event), where the RGB path shares it
+  // with BSDF hits by MIS (LightSample::mis_pdf). Either way the disk's light is counted once.
+  void disk_light(int, int, const RGB&, float) {}
   // An environment whose colour varies with direction is upsampled per hit (light_spectrum).
   void environment(int depth, const Ray& ray) {
     const int env = lights.environment();
