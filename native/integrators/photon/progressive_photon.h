@@ -90,6 +90,9 @@ struct PhotonMethodOptions {
 // first seconds want passes). docs/gradient.md "Photons per pass that follow the image".
 int64_t auto_photons_per_pass(int width, int height, uint64_t pass);
 
+struct RgbEye;       // the colours an eye path may carry (trace_eye): below,
+struct SpectralEye;  // and in progressive_photon_spectral.cpp
+
 class ProgressivePhotonMapping : public Integrator {
  public:
   ProgressivePhotonMapping(const Scene& scene, const Params& params, const PhotonMethodOptions& options);
@@ -204,6 +207,30 @@ class ProgressivePhotonMapping : public Integrator {
   template <class Hooks>
   EyePath trace_eye_path(Ray ray, Rng& rng, int64_t& rays, Hooks& hooks,
                          const std::optional<SurfaceHit>* first = nullptr, bool emission_only = false) const;
+  // The eye path walk both eye passes share (RGB: trace_eye_path; wavelengths: the spectral eye
+  // pass), generic over what the path carries (`Colour`: RgbEye here, SpectralEye in
+  // progressive_photon_spectral.cpp) with its estimator at the measurement point, at each bounce
+  // and at roulette in the eye_nee / eye_scatter / eye_survive overloads.
+  struct EyeEnd {
+    VisiblePoint vp;        // the measurement point (material -1: none)
+    float path_length = 0;  // distance travelled to it (initial radius)
+    bool escaped = false;   // the camera ray left the scene with film_transparent: no background
+  };
+  template <class Colour, class Hooks>
+  EyeEnd trace_eye(Ray ray, Rng& rng, int64_t& rays, Colour& c, Hooks& hooks, const std::optional<SurfaceHit>* first,
+                   bool emission_only) const;
+  RGB eye_nee(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
+              const Vec2& u2, int64_t& rays) const;
+  std::optional<BsdfSample> eye_scatter(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo,
+                                        float uc, Vec2 u) const;
+  bool eye_survive(RgbEye& c, float u, float* survival) const;
+  void eye_prepare(RgbEye& c, const SurfaceHit& hit) const;
+  void eye_prepare(SpectralEye& c, const SurfaceHit& hit) const;  // the materials at the wavelengths
+  RGB eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
+              const Vec2& u2, int64_t& rays) const;
+  std::optional<BsdfSample> eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf,
+                                        const Vec3& wo, float uc, Vec2 u) const;
+  bool eye_survive(SpectralEye& c, float u, float* survival) const;
   // Factor on every photon estimate: V_c of eq. 8.11 with the adaptive sampler, else 1.
   double photon_scale() const { return adaptive_ ? adaptive_->vc() : 1.0; }
   void update_error_estimate();
@@ -308,14 +335,21 @@ class ProgressivePhotonMapping : public Integrator {
   int64_t emitted_total_ = 0;
 };
 
-template <class Hooks>
-ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray ray, Rng& rng, int64_t& rays,
-                                                                           Hooks& hooks,
-                                                                           const std::optional<SurfaceHit>* first,
-                                                                           bool emission_only) const {
+// The RGB eye path (trace_eye's colour): throughput beta, light Ld the path saw itself.
+struct RgbEye {
+  RGB beta{1.0f}, Ld{0.0f};
+  void environment(const RGB& Le, int) { Ld += beta * Le; }
+  void area_light(const RGB& Le, int, const LightSet&) { Ld += beta * Le; }
+  RGB vp_beta() const { return beta; }
+};
+
+template <class Colour, class Hooks>
+ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rng& rng, int64_t& rays, Colour& c,
+                                                                      Hooks& hooks,
+                                                                      const std::optional<SurfaceHit>* first,
+                                                                      bool emission_only) const {
   const LightSet& lights = scene_.light_set();
-  EyePath out;
-  RGB beta(1.0f);
+  EyeEnd out;
   // The kind of the ray being traced, for the lights' and the World's Ray Visibility: the camera,
   // then the lobe of the last bounce (a light object crossed keeps it, as in the path tracer).
   uint8_t kind = kRayCamera;
@@ -329,16 +363,17 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     if (!hit) {
       const int env = lights.environment();
       if (depth == 0 && (film_transparent_ || ray.held_out)) out.escaped = true;  // a holdout: black
-      else if (env >= 0 && lights.lights()[env].visible_to(kind)) out.Ld += beta * lights.environment_radiance(ray.d, ray.camera);
+      else if (env >= 0 && lights.lights()[env].visible_to(kind)) c.environment(lights.environment_radiance(ray.d, ray.camera), env);
       break;
     }
     out.path_length += hit->t;
     if (hit->light >= 0 && lights.lights()[hit->light].visible_to(kind))
-      out.Ld += beta * lights.area_radiance(hit->light, -ray.d);
+      c.area_light(lights.area_radiance(hit->light, -ray.d), hit->light, lights);
     const Bsdf bsdf = scene_.bsdf(*hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
+    eye_prepare(c, *hit);
     hooks.vertex(*hit, wo);
     if (bsdf.is_diffuse_for_photons(threshold_)) {
       if (emission_only) break;
@@ -346,14 +381,12 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
       if (nee_ && !lights.empty()) {
         const float u_light = rng.uniform();
         const Vec2 u2(rng.uniform(), rng.uniform());
-        const RGB c = beta * direct_light(scene_, *hit, bsdf, wo, u_light, u2, rays);
-        out.Ld += c;
-        hooks.nee(u_light, u2, c);
+        hooks.nee(u_light, u2, eye_nee(c, *hit, bsdf, wo, u_light, u2, rays));
       }
       out.vp.p = hit->p;
       out.vp.frame = hit->frame;
       out.vp.wo = wo;
-      out.vp.beta = beta;
+      out.vp.beta = c.vp_beta();
       out.vp.material = hit->material;
       out.vp.uv = ShadePoint(*hit);
       out.vp.ng = hit->ng;
@@ -364,9 +397,8 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     // ---- Specular or glossy vertex: continue by BSDF sampling ----
     const float uc = rng.uniform();
     const Vec2 u(rng.uniform(), rng.uniform());
-    const auto bs = bsdf.sample(wo, uc, u);
-    if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-    beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+    const std::optional<BsdfSample> bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
+    if (!bs) break;
     const bool crossed = scene_.material(hit->material).is_pass_through();  // a light object
     const Ray next = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
     if (!crossed) kind = bs->lobe;
@@ -374,10 +406,44 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
     ray = next;
     if (depth + 1 >= rr_depth_) {
       float survival = 1.0f;
-      if (!russian_roulette(beta, rng.uniform(), &survival)) break;
+      if (!eye_survive(c, rng.uniform(), &survival)) break;
       hooks.roulette(survival);
     }
   }
+  return out;
+}
+
+// The RGB eye path's estimator at the measurement point, at a bounce and at roulette.
+inline RGB ProgressivePhotonMapping::eye_nee(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo,
+                                             float u_light, const Vec2& u2, int64_t& rays) const {
+  const RGB d = c.beta * direct_light(scene_, hit, bsdf, wo, u_light, u2, rays);
+  c.Ld += d;
+  return d;
+}
+inline std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(RgbEye& c, const SurfaceHit&, const Bsdf& bsdf,
+                                                                       const Vec3& wo, float uc, Vec2 u) const {
+  const auto bs = bsdf.sample(wo, uc, u);
+  if (!bs || bs->pdf <= 0 || bs->f.is_black()) return std::nullopt;
+  c.beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+  return bs;
+}
+inline void ProgressivePhotonMapping::eye_prepare(RgbEye&, const SurfaceHit&) const {}
+inline bool ProgressivePhotonMapping::eye_survive(RgbEye& c, float u, float* survival) const {
+  return russian_roulette(c.beta, u, survival);
+}
+
+template <class Hooks>
+ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray ray, Rng& rng, int64_t& rays,
+                                                                           Hooks& hooks,
+                                                                           const std::optional<SurfaceHit>* first,
+                                                                           bool emission_only) const {
+  RgbEye c;
+  const EyeEnd end = trace_eye(ray, rng, rays, c, hooks, first, emission_only);
+  EyePath out;
+  out.Ld = c.Ld;
+  out.vp = end.vp;
+  out.path_length = end.path_length;
+  out.escaped = end.escaped;
   return out;
 }
 

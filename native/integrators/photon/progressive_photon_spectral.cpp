@@ -83,9 +83,85 @@ SampledWavelengths ProgressivePhotonMapping::pass_wavelengths(uint64_t pass) con
   return SampledWavelengths::sample_uniform(std::min(static_cast<float>(u), 0x1.fffffep-1f), wl_.count);
 }
 
+// The eye path at the pass's wavelengths (trace_eye's colour): the hero drives every sampling
+// decision, the others follow with their factors (scatter_factors); `hero_only` once a smooth
+// dispersive refraction leaves the hero alone.
+struct SpectralEye {
+  const SpectraAtWavelengths& spectra;
+  const int C;
+  SpectralValues beta{}, Ld{};
+  bool hero_only = false;
+  WavelengthParams local;
+  const BsdfParams* mk = nullptr;
+  SpectralEye(const SpectraAtWavelengths& s, int count) : spectra(s), C(count) {
+    for (int k = 0; k < C; ++k) beta[k] = 1.0f;
+  }
+  void add_light(const float* spec, float grey) {
+    for (int k = 0; k < C; ++k) Ld[k] += beta[k] * grey * spec[k];
+  }
+  void environment(const RGB& Le, int env) {
+    float spec[kMaxWavelengths];  // this direction's colour, for an image (light_spectrum)
+    spectra.emitted(env, Le, spec);
+    add_light(spec, 1.0f);
+  }
+  void area_light(const RGB& Le, int l, const LightSet& lights) {
+    add_light(spectra.light(l), grey_factor(Le, lights.lights()[l].emit));
+  }
+  RGB vp_beta() const { return RGB(1.0f); }  // unused: the spectral throughput is vp_beta_
+};
+
+RGB ProgressivePhotonMapping::eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf&, const Vec3& wo,
+                                      float u_light, const Vec2& u2, int64_t& rays) const {
+  const LightSet& lights = scene_.light_set();
+  if (auto ls = lights.sample_li(hit.p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+    const Vec3 wi = hit.frame.to_local(ls->wi);
+    // Only the lobes that see the light; the World by its own rule (direct_light).
+    const Light* light = ls->light >= 0 ? &lights.lights()[ls->light] : nullptr;
+    SpectralValues f{};
+    bool any = false;
+    for (int k = 0; k < c.C; ++k) {
+      f[k] = nee_only_f(scene_.bsdf(c.mk[k], hit), wo, wi, light)[0] * std::abs(wi.z);
+      any |= f[k] > 0;
+    }
+    if (any) {
+      ++rays;
+      const bool blocked = scene_.occluded(hit.p, hit.ng, *ls);
+      if (!blocked) {
+        float spec[kMaxWavelengths];
+        pass_spectra_.emitted(ls->light, ls->L, spec);
+        for (int k = 0; k < c.C; ++k) c.Ld[k] += c.beta[k] * f[k] * spec[k] / ls->pdf;
+      }
+    }
+  }
+  return RGB(0.0f);  // no hooks watch the spectral eye path
+}
+
+std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf&,
+                                                                const Vec3& wo, float uc, Vec2 u) const {
+  const auto bs = scene_.bsdf(c.mk[0], hit).sample(wo, uc, u);
+  if (!bs || bs->pdf <= 0) return std::nullopt;
+  SpectralValues factor{};
+  if (!scatter_factors(scene_, hit, c.mk, c.C, wo, *bs, uc, u, TransportMode::Radiance, factor, c.hero_only))
+    return std::nullopt;
+  for (int k = 0; k < c.C; ++k) c.beta[k] *= factor[k];
+  return bs;
+}
+
+void ProgressivePhotonMapping::eye_prepare(SpectralEye& c, const SurfaceHit& hit) const {
+  c.mk = pass_spectra_.material(hit.material, hit.uv, c.local);
+}
+
+bool ProgressivePhotonMapping::eye_survive(SpectralEye& c, float u, float*) const {
+  float bmax = 0;
+  for (int k = 0; k < c.C; ++k) bmax = std::max(bmax, c.beta[k]);
+  const float q = std::max(0.05f, 1.0f - bmax);
+  if (u < q) return false;
+  for (int k = 0; k < c.C; ++k) c.beta[k] /= 1.0f - q;
+  return true;
+}
+
 void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
                                                  std::atomic<int64_t>& invalid_out) {
-  const LightSet& lights = scene_.light_set();
   const int C = wl_.count;
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
@@ -98,105 +174,17 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
         std::vector<std::optional<SurfaceHit>>& hits = first.hits;
         const Vec2 ext = scene_.camera.half_extent();
         size_t i = 0;
+        EyePathHooks none;
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x, ++i) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            Rng& rng = starts[i].rng;
-            Ray ray = camera[i];
-            const std::optional<SurfaceHit>* first = &hits[i];
-            SpectralValues beta{}, Ld{};
-            for (int k = 0; k < C; ++k) beta[k] = 1.0f;
-            bool hero_only = false;
-            VisiblePoint vp;
-            float path_length = 0;
-            uint8_t kind = kRayCamera;  // the ray's kind, for lights' switches (trace_eye_path)
-            bool escaped = false;       // the camera ray left the scene with film_transparent
-            auto add_light = [&](const float* spec, float grey) {
-              for (int k = 0; k < C; ++k) Ld[k] += beta[k] * grey * spec[k];
-            };
-            for (int depth = 0; depth < max_depth_; ++depth) {
-              ++rays;
-              const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
-              const std::optional<SurfaceHit>& hit = first ? *first : traced;
-              first = nullptr;
-              if (!hit) {
-                if (depth == 0 && (film_transparent_ || ray.held_out)) {  // no background: pass alpha (as trace_eye_path)
-                  escaped = true;
-                  break;
-                }
-                const int env = lights.environment();
-                if (env >= 0 && lights.lights()[env].visible_to(kind)) {
-                  float spec[kMaxWavelengths];  // this direction's colour, for an image (light_spectrum)
-                  pass_spectra_.emitted(env, lights.environment_radiance(ray.d, ray.camera), spec);
-                  add_light(spec, 1.0f);
-                }
-                break;
-              }
-              path_length += hit->t;
-              if (hit->light >= 0 && lights.lights()[hit->light].visible_to(kind))
-                add_light(pass_spectra_.light(hit->light),
-                          grey_factor(lights.area_radiance(hit->light, -ray.d), lights.lights()[hit->light].emit));
-              const Material& base = scene_.material(hit->material);
-              const Bsdf bsdf = scene_.bsdf(*hit);
-              if (bsdf.is_black()) break;
-              const Vec3 wo = hit->frame.to_local(-ray.d);
-              if (wo.z == 0) break;
-              WavelengthParams local;
-              const BsdfParams* mk = pass_spectra_.material(hit->material, hit->uv, local);
-              if (bsdf.is_diffuse_for_photons(threshold_)) {
-                if (nee_ && !lights.empty()) {
-                  const float u_light = rng.uniform();
-                  const Vec2 u2(rng.uniform(), rng.uniform());
-                  if (auto ls = lights.sample_li(hit->p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
-                    const Vec3 wi = hit->frame.to_local(ls->wi);
-                    // Only the lobes that see the light; the World by its own rule (direct_light).
-                    const Light* light = ls->light >= 0 ? &lights.lights()[ls->light] : nullptr;
-                    SpectralValues f{};
-                    bool any = false;
-                    for (int k = 0; k < C; ++k) {
-                      f[k] = nee_only_f(scene_.bsdf(mk[k], *hit), wo, wi, light)[0] * std::abs(wi.z);
-                      any |= f[k] > 0;
-                    }
-                    if (any) {
-                      ++rays;
-                      const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
-                      if (!blocked) {
-                        float spec[kMaxWavelengths];
-                        pass_spectra_.emitted(ls->light, ls->L, spec);
-                        for (int k = 0; k < C; ++k) Ld[k] += beta[k] * f[k] * spec[k] / ls->pdf;
-                      }
-                    }
-                  }
-                }
-                vp.p = hit->p;
-                vp.frame = hit->frame;
-                vp.wo = wo;
-                vp.beta = RGB(1.0f);  // unused: the spectral throughput is vp_beta_
-                vp.material = hit->material;
-                vp.uv = ShadePoint(*hit);
-                vp.ng = hit->ng;
-                vp.n_smooth = hit->n_smooth;
-                break;
-              }
-              const float uc = rng.uniform();
-              const Vec2 u(rng.uniform(), rng.uniform());
-              const auto bs = scene_.bsdf(mk[0], *hit).sample(wo, uc, u);
-              if (!bs || bs->pdf <= 0) break;
-              SpectralValues factor{};
-              if (!scatter_factors(scene_, *hit, mk, C, wo, *bs, uc, u, TransportMode::Radiance, factor, hero_only))
-                break;
-              for (int k = 0; k < C; ++k) beta[k] *= factor[k];
-              const bool crossed = base.is_pass_through();  // a light object
-              ray = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
-              if (!crossed) kind = bs->lobe;
-              if (depth + 1 >= rr_depth_) {
-                float bmax = 0;
-                for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
-                const float q = std::max(0.05f, 1.0f - bmax);
-                if (rng.uniform() < q) break;
-                for (int k = 0; k < C; ++k) beta[k] /= 1.0f - q;
-              }
-            }
+            SpectralEye eye(pass_spectra_, C);
+            const EyeEnd end = trace_eye(camera[i], starts[i].rng, rays, eye, none, &hits[i], false);
+            const SpectralValues& Ld = eye.Ld;
+            const SpectralValues& beta = eye.beta;
+            const bool hero_only = eye.hero_only, escaped = end.escaped;
+            const float path_length = end.path_length;
+            VisiblePoint vp = end.vp;
             RGB Lrgb = spectral_to_rgb(Ld);
             if (!Lrgb.is_finite()) {
               ++invalid;
