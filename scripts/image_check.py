@@ -76,7 +76,7 @@ def main():
             verdict = f"DIFFERENT (passes {sorted(a)} -> {sorted(b)})"
         elif all(a[p]["hash"] == b[p]["hash"] for p in a):
             verdict = "same"
-        elif all(abs(x - y) <= 1e-5 * max(abs(x), abs(y), 1e-12) for p in a for x, y in zip(a[p]["mean"], b[p]["mean"])):
+        elif all(abs(x - y) <= 1e-5 * max(abs(x), abs(y)) + 1e-7 for p in a for x, y in zip(a[p]["mean"], b[p]["mean"])):
             verdict = "round-off (" + ", ".join(p for p in a if a[p]["hash"] != b[p]["hash"]) + ")"
         else:
             verdict = "DIFFERENT (" + ", ".join(f"{p} {a[p]['mean'][0]:.6g} -> {b[p]['mean'][0]:.6g}"

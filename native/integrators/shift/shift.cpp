@@ -4,6 +4,7 @@
 #include <cmath>
 #include <optional>
 
+#include "integrators/shift/spectral_shift.h"
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -95,8 +96,8 @@ DirectionShift shift_half_vector(const Bsdf& bsdf, const Vec3& wo, const Vec3& w
       r.failure = ShiftFailure::NotInvertible;
       return r;
     }
-    const double wo_h = std::abs(dot(wo, h));
-    r.jacobian = delta ? 1.0 : (wo_h > 0 ? std::abs(dot(wo_offset, h)) / wo_h : 0.0);
+    const Etas same = dielectric_etas(1.0f, wo.z, false);
+    r.jacobian = delta ? 1.0 : half_vector_jacobian<double>(wo, wi, same, wo_offset, r.wi, same, h, false);
     if (!(r.jacobian > 0)) r.failure = ShiftFailure::ZeroLength;
     return r;
   }
@@ -125,13 +126,9 @@ DirectionShift shift_half_vector(const Bsdf& bsdf, const Vec3& wo, const Vec3& w
     r.jacobian = 1.0;
     return r;
   }
-  // |d omega_h / d omega_i| for base and offset, Walter07 eq. 17 (divided through by eta_o^2).
-  auto dwh_dwi = [&](const Vec3& o, const Vec3& i) {
-    const double d = dot(i, h) + dot(o, h) / etap;
-    return d != 0 ? std::abs(dot(i, h)) / (d * d) : 0.0;
-  };
-  const double base = dwh_dwi(wo, wi), offset = dwh_dwi(wo_offset, r.wi);
-  r.jacobian = offset > 0 ? base / offset : 0.0;
+  // Base and offset cross the same interface (the same IORs on each side).
+  const Etas e = dielectric_etas(m.ior, wo.z, true);
+  r.jacobian = half_vector_jacobian<double>(wo, wi, e, wo_offset, r.wi, e, h, true);
   if (!(r.jacobian > 0) || !std::isfinite(r.jacobian)) r.failure = ShiftFailure::ZeroLength;
   return r;
 }

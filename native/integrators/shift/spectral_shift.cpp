@@ -32,18 +32,5 @@ std::optional<Vec3> copy_half_vector(const Vec3& wo, const Vec3& h, const Etas& 
   return normalize(wi);
 }
 
-float half_vector_jacobian(const Vec3& wo, const Vec3& wi, const Etas& e, const Vec3& wo2,
-                           const Vec3& wi2, const Etas& e2, const Vec3& h, bool transmission) {
-  if (!transmission) {
-    const float d = absdot(wi, h);
-    return d > 0 ? absdot(wi2, h) / d : 0.0f;
-  }
-  // Eq. 13 (o = wi, i = wo): (n_o / n'_o)^2 |o.h| / |o'.h| ((n'_i i'.h + n'_o o'.h) / (n_i i.h + n_o o.h))^2.
-  const float base = e.wo * dot(wo, h) + e.wi * dot(wi, h);
-  const float off = e2.wo * dot(wo2, h) + e2.wi * dot(wi2, h);
-  const float d = absdot(wi2, h) * base * base;
-  if (d <= 0) return 0.0f;
-  return sqr(e.wi / e2.wi) * absdot(wi, h) * off * off / d;
-}
 
 }  // namespace gp

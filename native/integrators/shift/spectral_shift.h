@@ -5,6 +5,7 @@
 // both point away from the surface (wo towards the previous vertex, wi the sampled direction).
 #pragma once
 
+#include <cmath>
 #include <optional>
 
 #include "core/math.h"
@@ -30,10 +31,25 @@ std::optional<Vec3> half_vector(const Vec3& wo, const Vec3& wi, const Etas& e, b
 std::optional<Vec3> copy_half_vector(const Vec3& wo_offset, const Vec3& h, const Etas& e_offset,
                                      bool transmission);
 
-// |d wi' / d wi| (solid angle) of the half-vector copy: eq. 13 for refraction,
-// |wi'.h| / |wi.h| for reflection. Base pair (wo, wi, e), offset pair (wo', wi', e').
-float half_vector_jacobian(const Vec3& wo, const Vec3& wi, const Etas& e, const Vec3& wo_offset,
-                           const Vec3& wi_offset, const Etas& e_offset, const Vec3& h,
-                           bool transmission);
+// |d wi' / d wi| (solid angle) of the half-vector copy, the one place it is written: eq. 13 for
+// refraction (Walter et al. 2007 eq. 17 for base and offset, whose IORs may differ: the spectral
+// shift's wavelengths), |wi'.h| / |wi.h| for reflection. Base pair (wo, wi, e), offset pair
+// (wo', wi', e'). Both shifts use it: the spectral shift in float, gradient-domain path
+// tracing's half-vector copy (shift.cpp) in double. 0 where it is undefined.
+template <typename Real = float>
+Real half_vector_jacobian(const Vec3& wo, const Vec3& wi, const Etas& e, const Vec3& wo2, const Vec3& wi2,
+                          const Etas& e2, const Vec3& h, bool transmission) {
+  if (!transmission) {
+    const Real d = std::abs(Real(dot(wi, h)));
+    return d > 0 ? std::abs(Real(dot(wi2, h))) / d : Real(0);
+  }
+  // Eq. 13 (o = wi, i = wo): (n_o / n'_o)^2 |o.h| / |o'.h| ((n'_i i'.h + n'_o o'.h) / (n_i i.h + n_o o.h))^2.
+  const Real base = Real(e.wo) * Real(dot(wo, h)) + Real(e.wi) * Real(dot(wi, h));
+  const Real off = Real(e2.wo) * Real(dot(wo2, h)) + Real(e2.wi) * Real(dot(wi2, h));
+  const Real d = std::abs(Real(dot(wi2, h))) * base * base;
+  if (d <= 0) return Real(0);
+  const Real r = Real(e.wi) / Real(e2.wi);
+  return r * r * std::abs(Real(dot(wi, h))) * off * off / d;
+}
 
 }  // namespace gp
