@@ -42,57 +42,64 @@ struct Offset {
   bool alive() const { return exists && failure == ShiftFailure::None; }
 };
 
-}  // namespace
-
-GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
-    : scene_(scene),
-      max_depth_(params.get<int>("max_depth")),
-      rr_depth_(params.get<int>("rr_depth")),
-      threads_(params.get<int>("threads")),
-      tile_size_(params.get<int>("tile_size")),
-      seed_(params.get<uint64_t>("seed")),
-      width_(scene.camera.film_width()),
-      height_(scene.camera.film_height()) {
-  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
-  recon_ = gradient_recon_options(params, threads_);
-  const size_t n = static_cast<size_t>(width_) * height_;
-  primal_.assign(3 * n, 0.0);
-  direct_.assign(3 * n, 0.0);
-  grad_.assign(12 * n, 0.0);
-  samples_.assign(n, 0);
-}
-
-GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampler& rng, RayCounts& rays,
-                                                     std::map<std::string, double>* failures, int pixel_x,
-                                                     int pixel_y) const {
-  const LightSet& lights = scene_.light_set();
+// One base path and its four offsets while trace() follows them, vertex by vertex: the state
+// the shift carries, with one member function per step of the walk (emission found, the
+// offsets' vertices matched, next-event estimation shifted to the same light point, the BSDF
+// sample and each offset's shift, Russian roulette).
+struct PathPair {
+  const Scene& scene_;
+  const LightSet& lights;
+  Sampler& rng;
+  RayCounts& rays;
+  std::map<std::string, double>* failures;
   // Cycles' per-kind switches: every bounce ray carries its lobe (Ray::bounce), the offsets'
   // rays and reconnections the base's, so an offset sees the scene as the base's ray of that
   // kind does (each segment of a pair is traced among the same surfaces, and the shift stays
   // invertible: the inverse shift follows the same lobes). Lights hidden from some kinds weigh
   // BSDF hits by the lobes that see them, as the path tracer (lobe_split.h).
-  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
+  const bool split_lobes;
   LobeSplit prev;  // the base's lobes at its previous vertex (split_lobes)
-  Sample out;
-  out.primal = out.direct = RGB(0.0f);
+  GradientPathTracer::Sample out;
   Offset off[4];
-  for (int d = 0; d < 4; ++d) {
-    out.diff[d] = RGB(0.0f);
-    // `film` is in the whole image's pixels (camera.h start_pixel); the film is the crop window.
-    const int px = (pixel_x >= 0 ? pixel_x : static_cast<int>(film.x)) - scene_.camera.crop_x + kOffsetX[d],
-              py = (pixel_y >= 0 ? pixel_y : static_cast<int>(film.y)) - scene_.camera.crop_y + kOffsetY[d];
-    out.has[d] = off[d].exists = px >= 0 && px < width_ && py >= 0 && py < height_;
-    if (!off[d].exists) continue;
-    // Same sub-pixel position and lens sample one pixel over: the camera's Jacobian is 1.
-    off[d].ray = scene_.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]), lens);
+  Ray ray;
+  RGB beta{1.0f};
+  bool specular_bounce = false, all_delta = true;
+  float prev_pdf = 0;
+  Vec3 prev_p;
+  std::optional<SurfaceHit> hit;
+
+  PathPair(const Scene& scene, Vec2 film, Vec2 lens, Sampler& sampler, RayCounts& ray_counts,
+           std::map<std::string, double>* fails, int pixel_x, int pixel_y, int width, int height)
+      : scene_(scene), lights(scene.light_set()), rng(sampler), rays(ray_counts), failures(fails),
+        split_lobes(scene.lights_hidden_from_some_lobes()) {
+    out.primal = out.direct = RGB(0.0f);
+    for (int d = 0; d < 4; ++d) {
+      out.diff[d] = RGB(0.0f);
+      // `film` is in the whole image's pixels (camera.h start_pixel); the film is the crop window.
+      const int px = (pixel_x >= 0 ? pixel_x : static_cast<int>(film.x)) - scene_.camera.crop_x + kOffsetX[d],
+                py = (pixel_y >= 0 ? pixel_y : static_cast<int>(film.y)) - scene_.camera.crop_y + kOffsetY[d];
+      out.has[d] = off[d].exists = px >= 0 && px < width && py >= 0 && py < height;
+      if (!off[d].exists) continue;
+      // Same sub-pixel position and lens sample one pixel over: the camera's Jacobian is 1.
+      off[d].ray = scene_.camera.generate_ray(Vec2(film.x + kOffsetX[d], film.y + kOffsetY[d]), lens);
+    }
+    ray = scene_.camera.generate_ray(film, lens);
+    ++rays.closest;
+    hit = scene_.intersect(ray);
+    for (int d = 0; d < 4; ++d)
+      if (off[d].alive()) {
+        ++rays.closest;
+        off[d].hit = scene_.intersect(off[d].ray);
+      }
   }
-  auto fail = [&](Offset& o, ShiftFailure f) {
+
+  void fail(Offset& o, ShiftFailure f) {
     o.failure = f;
     if (failures) (*failures)[std::string(failure_stat_name(f))] += 1;
-  };
+  }
   // One contribution of the base (c) and of each offset (c_off[d]) to their pixels, made with
   // the same strategy; `ratio[d]` = p(T x)|T'| / p(x) of the whole strategy's path.
-  auto add = [&](const RGB& c, const RGB* c_off, const double* ratio, bool direct_only) {
+  void add(const RGB& c, const RGB* c_off, const double* ratio, bool direct_only) {
     if (direct_only) {
       out.direct += c;
       return;
@@ -105,102 +112,82 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       const RGB co = ok ? c_off[d] : RGB(0.0f);
       out.diff[d] += (co - c) * (w * kSign[d]);
     }
-  };
+  }
 
-  Ray ray = scene_.camera.generate_ray(film, lens);
-  RGB beta(1.0f);
-  bool specular_bounce = false, all_delta = true;
-  float prev_pdf = 0;
-  Vec3 prev_p;
-  ++rays.closest;
-  std::optional<SurfaceHit> hit = scene_.intersect(ray);
-  for (int d = 0; d < 4; ++d)
-    if (off[d].alive()) {
-      ++rays.closest;
-      off[d].hit = scene_.intersect(off[d].ray);
-    }
-
-  for (int depth = 0;; ++depth) {
-    // ---- Emission found by the last ray (camera or BSDF sample) ----
-    {
-      RGB c(0.0f), c_off[4];
-      double ratio[4];
-      float w_base = 1.0f;
-      // A BSDF hit on a light hidden from some kinds (lobe_split.h); `o` an offset, else the base.
-      auto split_hit = [&](int light, const RGB& Le, float pdf_light, const Offset* o) -> std::optional<RGB> {
-        const uint8_t vis = light >= 0 ? lights.lights()[light].visible_lobes : kAllLobes;
-        if (depth == 0 || !split_lobes || vis == kAllLobes) return std::nullopt;
-        if (lights.lights()[light].lit_by_bsdf_rays_only()) {  // the World (lobe_split.h), full weight
-          if (!o) return prev.weigh_world(Le, vis, specular_bounce, beta);
-          return o->split.weigh_world(Le, vis, specular_bounce, o->beta, prev.lobe_share(prev.lobe));
-        }
-        if (!o) return prev.weigh(Le, vis, specular_bounce, beta, pdf_light);
-        return o->split.weigh(Le, vis, specular_bounce, o->beta, pdf_light, o->jacobian, prev.pdf_of(vis));
-      };
-      if (!hit) {
-        // The World's Camera switch (its sky seen by camera rays; directly seen light has no
-        // gradient offsets here, direct_only below).
-        const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray.d, ray.camera);
-        if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
-        c = split_hit(lights.environment(), Le, lights.pdf_environment(ray.d), nullptr).value_or(beta * Le * w_base);
-      } else if (hit->light >= 0) {
-        const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p);
-        const float pdf_light = depth == 0 ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d);
-        if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, pdf_light);
-        c = split_hit(hit->light, Le, pdf_light, nullptr).value_or(beta * Le * w_base);
+  // ---- Emission found by the last ray (camera or BSDF sample) ----
+  void emission(int depth) {
+    RGB c(0.0f), c_off[4];
+    double ratio[4];
+    float w_base = 1.0f;
+    // A BSDF hit on a light hidden from some kinds (lobe_split.h); `o` an offset, else the base.
+    auto split_hit = [&](int light, const RGB& Le, float pdf_light, const Offset* o) -> std::optional<RGB> {
+      const uint8_t vis = light >= 0 ? lights.lights()[light].visible_lobes : kAllLobes;
+      if (depth == 0 || !split_lobes || vis == kAllLobes) return std::nullopt;
+      if (lights.lights()[light].lit_by_bsdf_rays_only()) {  // the World (lobe_split.h), full weight
+        if (!o) return prev.weigh_world(Le, vis, specular_bounce, beta);
+        return o->split.weigh_world(Le, vis, specular_bounce, o->beta, prev.lobe_share(prev.lobe));
       }
-      const bool direct_only = all_delta;  // emitters seen directly or through delta vertices only
-      if (!direct_only) {
-        for (int d = 0; d < 4; ++d) {
-          Offset& o = off[d];
-          c_off[d] = RGB(0.0f);
-          ratio[d] = o.ratio;
-          if (!o.alive()) continue;
-          // Emission Le from `light` (-1: none) with the offset's own MIS density pdf_light.
-          auto found = [&](int light, const RGB& Le, float pdf_light) {
-            return split_hit(light, Le, pdf_light, &o)
-                .value_or(o.beta * Le * (specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, pdf_light)));
-          };
-          if (o.link == Link::Connected) {  // same vertices and last segment, own MIS pdf
-            if (!hit) c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
-            else if (hit->light >= 0)
-              c_off[d] = found(hit->light, lights.area_radiance(hit->light, -ray.d),
-                               lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
-          } else if (o.link == Link::RecentlyConnected) {  // reconnected onto this very vertex
-            if (hit && hit->light >= 0) {
-              c_off[d] = found(hit->light, lights.area_radiance(hit->light, o.wo),
-                               lights.pdf_area(hit->light, o.prev_p, hit->p, -o.wo));
-            } else if (!hit) {  // reconnected at infinity: same direction
-              c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
-            }
-          } else {  // own vertex
-            if (!o.hit) {
-              if (hit) {
-                fail(o, ShiftFailure::Missed);
-                continue;
-              }
-              c_off[d] = found(lights.environment(), lights.environment_radiance(o.ray.d, o.ray.camera), lights.pdf_environment(o.ray.d));
-            } else if (!hit) {
-              fail(o, ShiftFailure::Occluded);  // the base escaped, the offset did not
+      if (!o) return prev.weigh(Le, vis, specular_bounce, beta, pdf_light);
+      return o->split.weigh(Le, vis, specular_bounce, o->beta, pdf_light, o->jacobian, prev.pdf_of(vis));
+    };
+    if (!hit) {
+      // The World's Camera switch (its sky seen by camera rays; directly seen light has no
+      // gradient offsets here, direct_only below).
+      const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray.d, ray.camera);
+      if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
+      c = split_hit(lights.environment(), Le, lights.pdf_environment(ray.d), nullptr).value_or(beta * Le * w_base);
+    } else if (hit->light >= 0) {
+      const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p);
+      const float pdf_light = depth == 0 ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d);
+      if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, pdf_light);
+      c = split_hit(hit->light, Le, pdf_light, nullptr).value_or(beta * Le * w_base);
+    }
+    const bool direct_only = all_delta;  // emitters seen directly or through delta vertices only
+    if (!direct_only) {
+      for (int d = 0; d < 4; ++d) {
+        Offset& o = off[d];
+        c_off[d] = RGB(0.0f);
+        ratio[d] = o.ratio;
+        if (!o.alive()) continue;
+        // Emission Le from `light` (-1: none) with the offset's own MIS density pdf_light.
+        auto found = [&](int light, const RGB& Le, float pdf_light) {
+          return split_hit(light, Le, pdf_light, &o)
+              .value_or(o.beta * Le * (specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, pdf_light)));
+        };
+        if (o.link == Link::Connected) {  // same vertices and last segment, own MIS pdf
+          if (!hit) c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
+          else if (hit->light >= 0)
+            c_off[d] = found(hit->light, lights.area_radiance(hit->light, -ray.d),
+                             lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
+        } else if (o.link == Link::RecentlyConnected) {  // reconnected onto this very vertex
+          if (hit && hit->light >= 0) {
+            c_off[d] = found(hit->light, lights.area_radiance(hit->light, o.wo),
+                             lights.pdf_area(hit->light, o.prev_p, hit->p, -o.wo));
+          } else if (!hit) {  // reconnected at infinity: same direction
+            c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
+          }
+        } else {  // own vertex
+          if (!o.hit) {
+            if (hit) {
+              fail(o, ShiftFailure::Missed);
               continue;
-            } else if (o.hit->light >= 0) {
-              c_off[d] = found(o.hit->light, lights.area_radiance(o.hit->light, -o.ray.d),
-                               lights.pdf_area(o.hit->light, o.prev_p, o.hit->p, o.ray.d));
             }
+            c_off[d] = found(lights.environment(), lights.environment_radiance(o.ray.d, o.ray.camera), lights.pdf_environment(o.ray.d));
+          } else if (!hit) {
+            fail(o, ShiftFailure::Occluded);  // the base escaped, the offset did not
+            continue;
+          } else if (o.hit->light >= 0) {
+            c_off[d] = found(o.hit->light, lights.area_radiance(o.hit->light, -o.ray.d),
+                             lights.pdf_area(o.hit->light, o.prev_p, o.hit->p, o.ray.d));
           }
         }
       }
-      add(c, c_off, ratio, direct_only);
     }
-    if (!hit || depth + 1 >= max_depth_) break;
+    add(c, c_off, ratio, direct_only);
+  }
 
-    const Bsdf bsdf = scene_.bsdf(*hit);
-    if (bsdf.is_black()) break;
-    const Vec3 wo = hit->frame.to_local(-ray.d);
-    if (wo.z == 0) break;
-    const VertexKind kind = classify_vertex(bsdf);
-
-    // ---- Offset vertices: kinds must match for the shift to be invertible ----
+  // ---- Offset vertices: kinds must match for the shift to be invertible ----
+  void match_offsets(VertexKind kind) {
     for (int d = 0; d < 4; ++d) {
       Offset& o = off[d];
       if (!o.alive() || o.link != Link::NotConnected) continue;
@@ -211,8 +198,10 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       if (const Bsdf ob = scene_.bsdf(*o.hit); classify_vertex(ob) != kind || ob.is_black())
         fail(o, ShiftFailure::NotInvertible);
     }
+  }
 
-    // ---- Emitter sampling (next-event estimation), shifted to the same light point ----
+  // ---- Emitter sampling (next-event estimation), shifted to the same light point ----
+  void next_event(const Bsdf& bsdf, const Vec3& wo) {
     if (!bsdf.is_delta() && !lights.empty()) {
       const float u_light = rng.uniform();
       const Vec2 u2(rng.uniform(), rng.uniform());
@@ -259,12 +248,14 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
       }
       add(c, c_off, ratio, false);
     }
+  }
 
-    // ---- BSDF sampling of the base, then the shift of each offset ----
+  // ---- BSDF sampling of the base, then the shift of each offset; false: the path ends ----
+  bool scatter(const Bsdf& bsdf, const Vec3& wo, VertexKind kind) {
     const float uc = rng.uniform();
     const Vec2 u(rng.uniform(), rng.uniform());
     const auto bs = bsdf.sample(wo, uc, u);
-    if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
+    if (!bs || bs->pdf <= 0 || bs->f.is_black()) return false;
     const RGB base_factor = bs->f * (std::abs(bs->wi.z) / bs->pdf);
     const Vec3 wi_world = hit->frame.to_world(bs->wi);
     Ray next_ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
@@ -378,20 +369,61 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
     prev_p = hit->p;
     ray = next_ray;
     hit = next;
-
-    // ---- Russian roulette: one decision for the base and its offsets ----
-    if (depth + 1 >= rr_depth_) {
-      const float q = std::max(0.05f, 1.0f - beta.max_component());
-      if (rng.uniform() < q) break;
-      beta = beta / (1.0f - q);
-      prev.beta = prev.beta / (1.0f - q);
-      for (Offset& o : off) {
-        o.beta = o.beta / (1.0f - q);
-        o.split.beta = o.split.beta / (1.0f - q);
-      }
-    }
+    return true;
   }
-  return out;
+
+  // ---- Russian roulette: one decision for the base and its offsets; false: the path ends ----
+  bool survive() {
+    const float q = std::max(0.05f, 1.0f - beta.max_component());
+    if (rng.uniform() < q) return false;
+    beta = beta / (1.0f - q);
+    prev.beta = prev.beta / (1.0f - q);
+    for (Offset& o : off) {
+      o.beta = o.beta / (1.0f - q);
+      o.split.beta = o.split.beta / (1.0f - q);
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
+GradientPathTracer::GradientPathTracer(const Scene& scene, const Params& params)
+    : scene_(scene),
+      max_depth_(params.get<int>("max_depth")),
+      rr_depth_(params.get<int>("rr_depth")),
+      threads_(params.get<int>("threads")),
+      tile_size_(params.get<int>("tile_size")),
+      seed_(params.get<uint64_t>("seed")),
+      width_(scene.camera.film_width()),
+      height_(scene.camera.film_height()) {
+  check_image_size(width_, height_);  // the parameters are checked by their declarations (methods.cpp)
+  recon_ = gradient_recon_options(params, threads_);
+  const size_t n = static_cast<size_t>(width_) * height_;
+  primal_.assign(3 * n, 0.0);
+  direct_.assign(3 * n, 0.0);
+  grad_.assign(12 * n, 0.0);
+  samples_.assign(n, 0);
+}
+
+GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampler& rng, RayCounts& rays,
+                                                     std::map<std::string, double>* failures, int pixel_x,
+                                                     int pixel_y) const {
+  PathPair p(scene_, film, lens, rng, rays, failures, pixel_x, pixel_y, width_, height_);
+  for (int depth = 0;; ++depth) {
+    p.emission(depth);
+    if (!p.hit || depth + 1 >= max_depth_) break;
+    const Bsdf bsdf = scene_.bsdf(*p.hit);
+    if (bsdf.is_black()) break;
+    const Vec3 wo = p.hit->frame.to_local(-p.ray.d);
+    if (wo.z == 0) break;
+    const VertexKind kind = classify_vertex(bsdf);
+    p.match_offsets(kind);
+    p.next_event(bsdf, wo);
+    if (!p.scatter(bsdf, wo, kind)) break;
+    if (depth + 1 >= rr_depth_ && !p.survive()) break;
+  }
+  return p.out;
 }
 
 void GradientPathTracer::iterate(ProgressSink* sink) {
