@@ -386,8 +386,8 @@ def holdout_note(method, ob):
 class GRADPHOTON_OBJECT_PT_visibility_ray_visibility(GradphotonPanel, bpy.types.Panel):
     """Object > Visibility > Ray Visibility, as Cycles': the switches the core honours (every
     method: Camera, Shadow; Diffuse, Glossy, Transmission as each method declares). Blender's
-    Visibility panel above it holds Mask > Holdout. Volume Scatter is not drawn: the core renders
-    no volumes. A point, spot or sun light is never seen by camera rays (export/visibility.py),
+    Visibility panel above it holds Mask > Holdout. Volume Scatter is not drawn: the core does not
+    honour it yet (media render in path tracing, but without that switch). A point, spot or sun light is never seen by camera rays (export/visibility.py),
     so its Camera switch is greyed out."""
     bl_label = "Ray Visibility"
     bl_context = "object"

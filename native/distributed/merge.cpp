@@ -19,12 +19,6 @@ namespace {
   throw std::runtime_error(fmt::format("cannot merge '{}': {}", path, why));
 }
 
-// The method's own merge rule (Method::merge); null for a name the core does not register.
-const Method* known_method(const std::string& m) {
-  for (const Method& k : methods())
-    if (k.name == m) return &k;
-  return nullptr;
-}
 
 // The core's pass a film pass is: its own name, or Blender's "<view layer>.<label>".
 std::string_view canonical(const std::string& name) {
@@ -74,7 +68,7 @@ void check_compatible(const MergeInput& first, const MergeInput& in) {
 }  // namespace
 
 bool merge_keeps_bias(const std::string& method) {
-  const Method* m = known_method(method);
+  const Method* m = lookup_method(method);
   return m && m->merge.keeps_bias;
 }
 
@@ -94,7 +88,7 @@ MergeResult merge_runs(const std::vector<MergeInput>& runs, int threads) {
   if (runs.empty()) throw std::runtime_error("nothing to merge: no input files");
   const MergeInput& first = runs.front();
   const std::string& method = first.run.method;
-  const Method* rule = known_method(method);
+  const Method* rule = lookup_method(method);
   if (!rule) refuse(first.path, fmt::format("unknown method '{}'", method));
   std::map<uint64_t, std::string> seen;  // seed -> file
   double total = 0;

@@ -437,15 +437,20 @@ std::vector<std::string> Method::passes_with(const Params& bound) const {
 // Bound parameters point at their method's declarations (Params::bound), so the registry never
 // reallocates: room for kMaxMethods.
 constexpr size_t kMaxMethods = 64;
-std::vector<Method>& registry() {
-  static std::vector<Method> all = [] {
-    std::vector<Method> m;
-    m.reserve(kMaxMethods);
-    for (Method& b : make_methods()) m.push_back(std::move(b));
-    return m;
-  }();
-  return all;
+struct Registry {
+  std::vector<Method> all;
+  size_t built_in = 0;  // the first built_in are make_methods()'; register_method's follow
+  Registry() {
+    all.reserve(kMaxMethods);
+    for (Method& b : make_methods()) all.push_back(std::move(b));
+    built_in = all.size();
+  }
+};
+Registry& the_registry() {
+  static Registry r;
+  return r;
 }
+std::vector<Method>& registry() { return the_registry().all; }
 
 const std::vector<Method>& methods() { return registry(); }
 
@@ -457,14 +462,19 @@ void register_method(Method m) {
 }
 
 void unregister_method(const std::string& name) {
-  if (registry().size() <= make_methods().size() || registry().back().name != name)
+  if (registry().size() <= the_registry().built_in || registry().back().name != name)
     throw std::invalid_argument("method '" + name + "' is not the last one registered");
   registry().pop_back();
 }
 
-const Method& find_method(const std::string& name) {
+const Method* lookup_method(const std::string& name) {
   for (const Method& m : methods())
-    if (m.name == name) return m;
+    if (m.name == name) return &m;
+  return nullptr;
+}
+
+const Method& find_method(const std::string& name) {
+  if (const Method* m = lookup_method(name)) return *m;
   std::string known;
   for (const Method& m : methods()) known += (known.empty() ? "" : ", ") + m.name;
   throw ParamError("unknown method '" + name + "' (known: " + known + ")");

@@ -99,6 +99,8 @@ void register_method(Method m);
 void unregister_method(const std::string& name);
 // The method called `name`; ParamError naming the known ones when there is none.
 const Method& find_method(const std::string& name);
+// The method called `name`, or null (a name read from a file: `gradphoton merge`).
+const Method* lookup_method(const std::string& name);
 
 // Builds a method by name ("pt", ...) from its registration (methods.h). Unknown names and
 // values outside their declaration (type, range, choices) throw ParamError; unread parameters

@@ -92,6 +92,14 @@ struct RgbPath {
     return !bsdf->is_black();
   }
   bool is_delta() const { return bsdf->is_delta(); }
+  // Next-event estimation's MIS weight against the BSDF's (or phase function's) density, which
+  // `other_pdf()` gives, evaluated only when needed: a delta light without a disk takes it all.
+  template <class Pdf>
+  static float light_weight(const LightSample& ls, Pdf other_pdf) {
+    return !ls.delta       ? power_heuristic(ls.pdf, other_pdf())
+           : ls.mis_pdf > 0 ? power_heuristic(ls.mis_pdf, other_pdf())
+                            : 1.0f;
+  }
   // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
   // visible to (Cycles' closure exclusion), with the MIS density of those lobes.
   void next_event(int depth, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls, const ShadowTest& shadow) {
@@ -103,9 +111,7 @@ struct RgbPath {
     MediumLengths lengths;
     if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
     if (lengths.n > 0) f *= to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
-    const float w = !ls.delta       ? power_heuristic(ls.pdf, bsdf->pdf(wo, wi, vis))
-                    : ls.mis_pdf > 0 ? power_heuristic(ls.mis_pdf, bsdf->pdf(wo, wi, vis))
-                                     : 1.0f;
+    const float w = light_weight(ls, [&] { return bsdf->pdf(wo, wi, vis); });
     L += clamped(beta * f * ls.L * (w / ls.pdf), depth == 0);
   }
   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u) {
@@ -159,9 +165,7 @@ struct RgbPath {
                          const MediumLengths& lengths) {
     ++shadow_rays;  // counted as the loop traced it
     const RGB T = to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
-    const float w = !ls.delta       ? power_heuristic(ls.pdf, phase_pdf)
-                    : ls.mis_pdf > 0 ? power_heuristic(ls.mis_pdf, phase_pdf)
-                                     : 1.0f;
+    const float w = light_weight(ls, [&] { return phase_pdf; });
     L += clamped(beta * to_rgb(phase) * T * ls.L * (w / ls.pdf), depth == 0);
   }
   void medium_scattered(const Vec3& p, float phase_pdf, const ChannelValues& ratio) {

@@ -114,7 +114,7 @@ py::array_t<T> exact_array(const py::object& obj, const std::string& object, con
 class Session {
  public:
   Session(std::shared_ptr<Scene> scene, const std::string& method, const py::dict& params)
-      : scene_(scene), session_(scene, method, params_from_dict(params)) {}
+      : session_(std::move(scene), method, params_from_dict(params)) {}
   // One pass of the method, and while they are few, one of the auxiliary passes (aov.h).
   void iterate() {
     py::gil_scoped_release release;
@@ -171,7 +171,8 @@ class Session {
   py::dict error_terms() const {
     const auto* ppm = dynamic_cast<const ProgressivePhotonMapping*>(&session_.integrator());
     if (!ppm) throw std::invalid_argument("error_terms: method '" + method() + "' has no photon error estimate");
-    const int w = scene_->camera.film_width(), h = scene_->camera.film_height();
+    const Camera& camera = session_.scene().camera;
+    const int w = camera.film_width(), h = camera.film_height();
     const char* names[] = {"radiance", "bias", "bias_sd", "noise_sd", "sigma", "bound", "mean_abs", "photon_passes", "radius", "cut", "edge_bias", "edge_bias_sd"};
     constexpr int kTerms = std::size(names);
     std::vector<py::array_t<double>> arrays;
@@ -188,7 +189,6 @@ class Session {
   }
 
  private:
-  std::shared_ptr<const Scene> scene_;
   RenderSession session_;
   ProgressSink sink_;
 };

@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "distributed/run_info.h"
 #include "integrators/methods.h"
@@ -19,10 +20,14 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
   unused_ = params_.unused();
   unused_report_ = unused_parameter_report(method, params_);
   // Scene features the method does not render: said once, naming it; the rest still renders.
-  if (scene_->has_media() && !find_method(method).supports.media)
+  if (scene_->has_media() && !find_method(method).supports.media) {
+    std::vector<std::string> with_media;  // as the methods declare (Method::supports)
+    for (const Method& m : methods())
+      if (m.supports.media) with_media.push_back(m.name);
     feature_report_.push_back(fmt::format("method '{}' does not render participating media yet: the scene's media "
-                                          "are left out and only its surfaces render (pt, spt and spt-hero render them)",
-                                          method));
+                                          "are left out and only its surfaces render ({} render them)",
+                                          method, fmt::join(with_media, ", ")));
+  }
   aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
 }
 

@@ -12,7 +12,8 @@
 //   void area_light(int depth, const SurfaceHit& hit, const Ray& ray); // an emissive triangle
 //   bool prepare(const SurfaceHit& hit);        // the BSDF(s) at the hit; false: black, end
 //   bool is_delta() const;                      // no next-event estimation
-//   void next_event(int depth, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls);
+//   void next_event(int depth, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls,
+//                   const ShadowTest& shadow);
 //   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u);
 //                                               // updates the throughput; nullopt: end
 //   bool survive(float u);                      // Russian roulette: false ends the path

@@ -71,7 +71,7 @@ struct SpectralLobeSplit {
   // The emission `spec` found by the BSDF ray from a light visible to `vis` (not all kinds),
   // added to L; pdf_light is the light strategy's density of the point.
   void add(const RgbSpectrum& spec, uint8_t vis, float pdf_light, const SampledWavelengths& wl,
-           SpectralValues& L, float scale = 1.0f) const {
+           SpectralValues& L) const {
     if (!(vis & lobe)) return;
     const int C = wl.count;
     SpectralValues fv{};
@@ -87,7 +87,7 @@ struct SpectralLobeSplit {
     }
     denom /= C;
     if (!(denom > 0)) return;
-    for (int j = 0; j < C; ++j) L[j] += beta[j] * fv[j] * cos * spec(wl.lambda[j]) * scale / denom;
+    for (int j = 0; j < C; ++j) L[j] += beta[j] * fv[j] * cos * spec(wl.lambda[j]) / denom;
   }
 };
 
@@ -132,11 +132,24 @@ struct SpectralPath {
   }
   // Emission of a light visible to the kinds `vis` found by a bounce ray (Cycles' per-kind
   // visibility, as in the path tracer).
-  void add_bounce_emission(const RgbSpectrum& spec, uint8_t vis, float pdf_light, float scale = 1.0f) {
-    if (vis == kAllLobes || medium_vertex) return add_emission(spec, pdf_light, specular_bounce, scale);
+  void add_bounce_emission(const RgbSpectrum& spec, uint8_t vis, float pdf_light) {
+    if (vis == kAllLobes || medium_vertex) return add_emission(spec, pdf_light, specular_bounce);
     if (!(vis & prev.lobe)) return;
-    if (specular_bounce) return add_emission(spec, 0.0f, true, scale);
-    prev.add(spec, vis, pdf_light, wl, L, scale);
+    if (specular_bounce) return add_emission(spec, 0.0f, true);
+    prev.add(spec, vis, pdf_light, wl, L);
+  }
+  // The spectrum light l sends as RGB `value()`: its own spectrum (SceneSpectra::light), or, for
+  // a World whose colour varies with direction, value() upsampled per hit (light_spectrum),
+  // kept in `varying`; value() is evaluated only then.
+  template <class Value>
+  const RgbSpectrum& light_seen(int l, Value value, std::optional<RgbSpectrum>& varying) const {
+    if (varies_with_direction(lights, l)) varying = light_spectrum(spectra, lights, l, value());
+    return varying ? *varying : spectra.light[l];
+  }
+  // The grey factor of a light sample on its light's spectrum (1 for a varying World, whose
+  // light_seen spectrum is the sample's own colour).
+  float sample_scale(const LightSample& ls, const std::optional<RgbSpectrum>& varying) const {
+    return varying ? 1.0f : light_scale(ls, lights.lights()[ls.light]);
   }
   // A point or spot light's disk met by a BSDF ray adds nothing here: next-event estimation
   // takes such a light at full weight (a delta sample, next_event), where the RGB path shares it
@@ -148,9 +161,7 @@ struct SpectralPath {
     if (env < 0) return;
     const Light& e = lights.lights()[env];  // the World's Ray Visibility
     std::optional<RgbSpectrum> varying;
-    if (varies_with_direction(lights, env))
-      varying = light_spectrum(spectra, lights, env, lights.environment_radiance(ray.d, ray.camera));
-    const RgbSpectrum& spec = varying ? *varying : spectra.light[env];
+    const RgbSpectrum& spec = light_seen(env, [&] { return lights.environment_radiance(ray.d, ray.camera); }, varying);
     if (depth == 0) {
       if (e.visible_to_camera) add_emission(spec, 0.0f, true);
     } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
@@ -203,9 +214,8 @@ struct SpectralPath {
     for (int k = 0; k < C; ++k) denom += r_u[k] * (ls.pdf + (ls.delta ? 0.0f : pdf[k]));
     denom /= C;
     std::optional<RgbSpectrum> varying;
-    if (varies_with_direction(lights, ls.light)) varying = light_spectrum(spectra, lights, ls.light, ls.L);
-    const float scale = varying ? 1.0f : light_scale(ls, lights.lights()[ls.light]);
-    const RgbSpectrum& spec = varying ? *varying : spectra.light[ls.light];
+    const RgbSpectrum& spec = light_seen(ls.light, [&] { return ls.L; }, varying);
+    const float scale = sample_scale(ls, varying);
     if (denom > 0)
       for (int j = 0; j < C; ++j) L[j] += beta[j] * f[j] * scale * spec(wl.lambda[j]) / denom;
   }
@@ -313,9 +323,8 @@ struct SpectralPath {
     denom /= C;
     if (!(denom > 0)) return;
     std::optional<RgbSpectrum> varying;
-    if (varies_with_direction(lights, ls.light)) varying = light_spectrum(spectra, lights, ls.light, ls.L);
-    const float scale = varying ? 1.0f : light_scale(ls, lights.lights()[ls.light]);
-    const RgbSpectrum& spec = varying ? *varying : spectra.light[ls.light];
+    const RgbSpectrum& spec = light_seen(ls.light, [&] { return ls.L; }, varying);
+    const float scale = sample_scale(ls, varying);
     for (int j = 0; j < C; ++j) L[j] += beta[j] * phase[j] * T[j] * scale * spec(wl.lambda[j]) / denom;
   }
   void medium_scattered(const Vec3& p, float phase_pdf, const ChannelValues& ratio) {
