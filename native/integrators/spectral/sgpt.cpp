@@ -205,39 +205,186 @@ SpectralGradientPathTracer::SpectralGradientPathTracer(const Scene& scene, const
   samples_.assign(n, 0);
 }
 
-bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays,
-                                              ShiftCounts& counts) {
-  using Values = SpectralValues;
-  const LightSet& lights = scene_.light_set();
-  const int C = count_;
-  const double bin_width = double(kLambdaRange) / bins_;
-  // Hero wavelength and its C - 1 rotations (§3.4; C = 1 is plain §3). Each keeps its position
-  // inside its bin, so lambda_j +- delta lands in bin b_j +- s.
-  const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), C);
-  const float lambda = wl.lambda[0];
-  std::array<int, kMaxWavelengths> bin{};
-  for (int j = 0; j < C; ++j)
-    bin[j] = std::min(bins_ - 1, static_cast<int>((wl.lambda[j] - kLambdaMin) / bin_width));
+namespace {
+
+// What one sample needs of the integrator: the scene and the parameters.
+struct SampleSetup {
+  const Scene& scene;
+  const SceneSpectra& spectra;
+  int bins, C, stride, max_depth, rr_depth;
+  double tau;
+};
+
+// Per-thread scratch reused from sample to sample (no allocations per sample).
+struct SampleScratch {
+  BasePath base;
+  std::vector<Event> hit_ev, nee_ev;  // per base vertex k: emission found there, NEE from there
+  std::vector<double> G;              // this sample's gradient estimates, per bin
+  std::vector<float> f_max_from;      // largest base contribution from vertex k on
+};
+
+using Values = SpectralValues;
+using Bins = std::array<int, kMaxWavelengths>;
+
+// One sample of a pixel, in the order the estimator takes it: the base path at the hero
+// wavelength and its rotations (trace_base), its events with their densities under both
+// strategies (base_events), the primal estimate and the bound that stops offsets early
+// (base_estimates), then the two offsets lambda + delta and lambda - delta (shift, OffsetPath).
+class SpectralSample {
+ public:
+  SpectralSample(const SampleSetup& setup, Rng& rng, RayCounts& rays, SpectralGradientPathTracer::ShiftCounts& counts)
+      : s_(setup), lights_(setup.scene.light_set()), C(setup.C), bin_width_(double(kLambdaRange) / setup.bins),
+        rng_(rng), rays_(rays), counts_(counts), sc_(scratch()), base_(sc_.base), hit_ev_(sc_.hit_ev),
+        nee_ev_(sc_.nee_ev), G_(sc_.G), f_max_from_(sc_.f_max_from),
+        split_lobes_(setup.scene.lights_hidden_from_some_lobes()) {
+    // Hero wavelength and its C - 1 rotations (§3.4; C = 1 is plain §3). Each keeps its position
+    // inside its bin, so lambda_j +- delta lands in bin b_j +- s.
+    wl_ = SampledWavelengths::sample_uniform(rng_.uniform(), C);
+    lambda_ = wl_.lambda[0];
+    for (int j = 0; j < C; ++j)
+      bin_[j] = std::min(s_.bins - 1, static_cast<int>((wl_.lambda[j] - kLambdaMin) / bin_width_));
+  }
+
+  void trace_base(Ray ray);
+  void base_events();
+  void base_estimates();
+  void shift(int sign);
+
+  // Adds the sample to the pixel's sums (primal bins I, gradient bins Gp, RGB); false (and
+  // nothing added) when any estimate is NaN/Inf.
+  bool add_to(double* I, double* Gp, double* rgb) const {
+    bool finite = true;
+    for (int j = 0; j < C; ++j) finite &= std::isfinite(primal_[j]);
+    for (double g : G_) finite &= std::isfinite(g);
+    if (!finite) return false;
+    Vec3 xyz(0, 0, 0);
+    for (int j = 0; j < C; ++j) {
+      I[bin_[j]] += primal_[j];
+      // The same sample with the exact CMF at lambda_j (no binning), for the primal colour.
+      xyz = xyz + cie_xyz_bar(wl_.lambda[j]) * static_cast<float>(primal_[j]);
+    }
+    for (int j = 0; j < s_.bins; ++j) Gp[j] += G_[j];
+    const RGB c = xyz_to_rgb(xyz * (1.0f / cie_y_integral()));
+    for (int k = 0; k < 3; ++k) rgb[k] += c[k];
+    return true;
+  }
+
+ private:
+  friend struct OffsetPath;
+  static SampleScratch& scratch() {
+    thread_local SampleScratch s;
+    return s;
+  }
+
   // Russian roulette's survival probability after vertex k of a path whose hero throughput
   // ratio is beta (prod f |cos| / pdf, divided by the survival probabilities so far, as pbrt's
   // beta): roulette on the compensated throughput keeps survivors' weights near 1 (on the raw
   // ratio the kills compound and the few survivors carry weights 1 / prod(beta), a heavy tail).
   // The same rule gives the base's and, from the offset's own throughput, the offset's density:
   // the density a base path sampled at lambda' would have had, which eq. 10-11 need.
-  auto survival = [&](size_t k, float beta) {
-    return k + 1 >= static_cast<size_t>(rr_depth_) ? std::min(1.0f, std::max(0.05f, beta)) : 1.0f;
-  };
+  float survival(size_t k, float beta) const {
+    return k + 1 >= static_cast<size_t>(s_.rr_depth) ? std::min(1.0f, std::max(0.05f, beta)) : 1.0f;
+  }
+  // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l; `camera`: the
+  // ray is a camera ray (the World's Camera switch).
+  float emitted(const SurfaceHit* h, const Vec3& dir_in, float l, bool camera) const {
+    if (!h) {
+      const int env = lights_.environment();
+      if (env < 0 || (camera && !lights_.environment_visible_to_camera())) return 0.0f;
+      if (lights_.environment_textured())  // an image: this direction's colour (light_spectrum)
+        return RgbSpectrum::illuminant_interpolated(lights_.environment_radiance(dir_in, camera))(l);
+      return s_.spectra.light[env](l);
+    }
+    if (h->light < 0 || lights_.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
+    return s_.spectra.light[h->light](l);
+  }
+  // Whether the ray reaching vertex k of the base (and of an offset: it takes the base's kinds)
+  // is a camera ray: the first, or one that crossed light objects only (which keep its kind).
+  bool camera_ray_to(size_t k) const { return k == 0 || base_.v[k - 1].kind == 0; }
+  // Solid-angle pdf with which next-event estimation from p would pick the emission found
+  // along dir (at h, or the environment when h is null): the light strategy of the MIS.
+  float light_pdf(const Vec3& p, const SurfaceHit* h, const Vec3& dir) const {
+    if (!h) return lights_.pdf_environment(dir);
+    return h->light >= 0 ? lights_.pdf_area(h->light, p, h->p, dir) : 0.0f;
+  }
+  // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l (of its lobes of the
+  // kinds `lobes` only, for a smooth pair). The direction was chosen for the hero (or the
+  // offset's hero): a smooth dispersive refraction has no density for any other wavelength.
+  Scatter scatter_at(const SurfaceHit& h, float l, const Vec3& wo, const Vec3& wi, bool delta, bool transmission,
+                     float uc, Vec2 u, bool hero, uint8_t lobes = kAllLobes) const {
+    const Material& mat = s_.scene.material(h.material);
+    if (!hero && delta && transmission && is_dispersive(mat)) return {};
+    const Bsdf b = s_.scene.bsdf(monochromatic(mat, s_.spectra.albedo[h.material], h.uv, l), h);
+    return delta ? delta_scatter(b, wo, wi, transmission, uc, u) : smooth_scatter(b, wo, wi, lobes);
+  }
+  // ---- Lights hidden from some kinds of ray (LobeScatter above) ----
+  // The kinds of ray that see the emission at h (the environment's where h is null).
+  uint8_t light_vis(const SurfaceHit* h) const {
+    const int l = h ? h->light : lights_.environment();
+    return l >= 0 ? lights_.lights()[l].visible_lobes : kAllLobes;
+  }
+  // s's f and pdf per lobe kind for a smooth pair (wo, wi) at vertex h, at the wavelengths lw.
+  void split_smooth(LobeScatter& s, const SurfaceHit& h, const Values& lw, const Vec3& wo, const Vec3& wi) const {
+    for (int l = 0; l < 3; ++l)
+      for (int j = 0; j < C; ++j) {
+        const Scatter sc = scatter_at(h, lw[j], wo, wi, false, false, 0, {}, j == 0, static_cast<uint8_t>(kRayDiffuse << l));
+        s.f[l][j] = sc.f_cos;
+        s.pdf[l][j] = sc.pdf;
+      }
+  }
+  float sum_p(const Values& a, const Values& b) const {
+    float s = 0;
+    for (int i = 0; i < C; ++i) s += a[i] + b[i];
+    return s;
+  }
+  // Standard sampling of event e's I_lambda term into the gradient bins (eq. 15).
+  void standard(const Event& e, int sign, const Bins& gbin) {
+    const float d = sum_p(e.p_bsdf, e.p_light);
+    if (!e.valid || d <= 0) return;
+    for (int j = 0; j < C; ++j)
+      if (e.f[j] > 0) G_[gbin[j]] += (sign > 0 ? -1.0 : 1.0) * e.f[j] / d;
+  }
+  // Standard-sampling share of the base events from vertex k on (its NEE included, its
+  // emission only if with_hit) once an offset has failed.
+  void standard_rest(size_t from, bool with_hit, int sign, const Bins& gbin) {
+    for (size_t r = from; r < K_; ++r) {
+      if (r > from || with_hit) standard(hit_ev_[r], sign, gbin);
+      standard(nee_ev_[r], sign, gbin);
+    }
+  }
 
-  // ---- Base path at the hero wavelength, recorded for the shifts ----
-  // Per-thread scratch reused from sample to sample (no allocations per sample).
-  thread_local BasePath base;
+  const SampleSetup& s_;
+  const LightSet& lights_;
+  const int C;
+  const double bin_width_;
+  Rng& rng_;
+  RayCounts& rays_;
+  SpectralGradientPathTracer::ShiftCounts& counts_;
+  SampleScratch& sc_;
+  BasePath& base_;
+  std::vector<Event>& hit_ev_;
+  std::vector<Event>& nee_ev_;
+  std::vector<double>& G_;
+  std::vector<float>& f_max_from_;
+  const bool split_lobes_;
+  SampledWavelengths wl_;
+  float lambda_ = 0;
+  Bins bin_{};
+  size_t K_ = 0;     // base vertices that may emit (the escape counts as one)
+  Values primal_{};  // f(x, lambda_j) / sum over strategies and wavelengths of p (eq. 3-4)
+};
+
+// ---- Base path at the hero wavelength, recorded for the shifts ----
+void SpectralSample::trace_base(Ray ray) {
+  const Scene& scene = s_.scene;
+  BasePath& base = base_;
   base.v.clear();
   base.escaped = false;
   base.camera_ray = ray;
   float beta = 1.0f;  // hero throughput ratio, for roulette
   for (int depth = 0;; ++depth) {
-    ++rays.closest;
-    const auto hit = scene_.intersect(ray);
+    ++rays_.closest;
+    const auto hit = scene.intersect(ray);
     if (!hit) {
       base.escaped = true;
       base.escape_ray = ray;
@@ -247,26 +394,26 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     bv.hit = *hit;
     bv.wo = hit->frame.to_local(-ray.d);
     base.v.push_back(bv);
-    if (depth + 1 >= max_depth_) break;
-    const Material& mat = scene_.material(hit->material);
-    if (scene_.bsdf(*hit).is_black() || bv.wo.z == 0) break;
-    const Bsdf b = scene_.bsdf(monochromatic(mat, spectra_.albedo[hit->material], hit->uv, lambda), *hit);
+    if (depth + 1 >= s_.max_depth) break;
+    const Material& mat = scene.material(hit->material);
+    if (scene.bsdf(*hit).is_black() || bv.wo.z == 0) break;
+    const Bsdf b = scene.bsdf(monochromatic(mat, s_.spectra.albedo[hit->material], hit->uv, lambda_), *hit);
     BaseVertex& v = base.v.back();
     // ---- Emitter sampling (next-event estimation), shared by the offsets ----
-    if (!b.is_delta() && !lights.empty()) {
+    if (!b.is_delta() && !lights_.empty()) {
       v.nee_eligible = true;
-      v.u_light = rng.uniform();
-      v.u_light2 = Vec2(rng.uniform(), rng.uniform());
-      if (auto ls = lights.sample_li(hit->p, v.u_light, v.u_light2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+      v.u_light = rng_.uniform();
+      v.u_light2 = Vec2(rng_.uniform(), rng_.uniform());
+      if (auto ls = lights_.sample_li(hit->p, v.u_light, v.u_light2); ls && ls->pdf > 0 && !ls->L.is_black()) {
         v.ls = *ls;
         v.nee = true;
-        ++rays.shadow;
-        v.nee_visible = !scene_.occluded(hit->p, hit->ng, *ls);
+        ++rays_.shadow;
+        v.nee_visible = !scene.occluded(hit->p, hit->ng, *ls);
       }
     }
     // ---- BSDF sampling ----
-    v.uc = rng.uniform();
-    v.u = Vec2(rng.uniform(), rng.uniform());
+    v.uc = rng_.uniform();
+    v.u = Vec2(rng_.uniform(), rng_.uniform());
     const auto bs = b.sample(v.wo, v.uc, v.u);
     if (!bs || bs->pdf <= 0 || bs->f[0] <= 0) break;
     v.scattered = true;
@@ -285,499 +432,477 @@ bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, R
     const Scatter s = v.delta ? delta_scatter(b, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(b, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;
     v.rr = mat.is_pass_through() ? 1.0f : survival(depth, beta);  // a light object crossed: no roulette (as spt)
-    if (v.rr < 1.0f && rng.uniform() >= v.rr) {
+    if (v.rr < 1.0f && rng_.uniform() >= v.rr) {
       v.scattered = false;  // roulette ended the path after NEE at this vertex
       break;
     }
     beta /= v.rr;
   }
+  K_ = base.v.size() + (base.escaped ? 1 : 0);
+}
 
-  // Emission reaching x_{k-1} from x_k (or from the environment) at wavelength l; `camera`: the
-  // ray is a camera ray (the World's Camera switch).
-  auto emitted = [&](const SurfaceHit* h, const Vec3& dir_in, float l, bool camera) -> float {
-    if (!h) {
-      const int env = lights.environment();
-      if (env < 0 || (camera && !lights.environment_visible_to_camera())) return 0.0f;
-      if (lights.environment_textured())  // an image: this direction's colour (light_spectrum)
-        return RgbSpectrum::illuminant_interpolated(lights.environment_radiance(dir_in, camera))(l);
-      return spectra_.light[env](l);
-    }
-    if (h->light < 0 || lights.area_radiance(h->light, -dir_in).is_black()) return 0.0f;
-    return spectra_.light[h->light](l);
-  };
-  // Whether the ray reaching vertex k of the base (and of an offset: it takes the base's kinds)
-  // is a camera ray: the first, or one that crossed light objects only (which keep its kind).
-  auto camera_ray_to = [&](size_t k) { return k == 0 || base.v[k - 1].kind == 0; };
-  // Solid-angle pdf with which next-event estimation from p would pick the emission found
-  // along dir (at h, or the environment when h is null): the light strategy of the MIS.
-  auto light_pdf = [&](const Vec3& p, const SurfaceHit* h, const Vec3& dir) -> float {
-    if (!h) return lights.pdf_environment(dir);
-    return h->light >= 0 ? lights.pdf_area(h->light, p, h->p, dir) : 0.0f;
-  };
-  // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l (of its lobes of the
-  // kinds `lobes` only, for a smooth pair). The direction was chosen for the hero (or the
-  // offset's hero): a smooth dispersive refraction has no density for any other wavelength.
-  auto scatter_at = [&](const SurfaceHit& h, float l, const Vec3& wo, const Vec3& wi, bool delta,
-                        bool transmission, float uc, Vec2 u, bool hero, uint8_t lobes = kAllLobes) -> Scatter {
-    const Material& mat = scene_.material(h.material);
-    if (!hero && delta && transmission && is_dispersive(mat)) return {};
-    const Bsdf b = scene_.bsdf(monochromatic(mat, spectra_.albedo[h.material], h.uv, l), h);
-    return delta ? delta_scatter(b, wo, wi, transmission, uc, u) : smooth_scatter(b, wo, wi, lobes);
-  };
-  // ---- Lights hidden from some kinds of ray (LobeScatter above) ----
-  const bool split_lobes = scene_.lights_hidden_from_some_lobes();
-  // The kinds of ray that see the emission at h (the environment's where h is null).
-  auto light_vis = [&](const SurfaceHit* h) -> uint8_t {
-    const int l = h ? h->light : lights.environment();
-    return l >= 0 ? lights.lights()[l].visible_lobes : kAllLobes;
-  };
-  // s's f and pdf per lobe kind for a smooth pair (wo, wi) at vertex h, at the wavelengths lw.
-  auto split_smooth = [&](LobeScatter& s, const SurfaceHit& h, const Values& lw, const Vec3& wo, const Vec3& wi) {
-    for (int l = 0; l < 3; ++l)
-      for (int j = 0; j < C; ++j) {
-        const Scatter sc = scatter_at(h, lw[j], wo, wi, false, false, 0, {}, j == 0, static_cast<uint8_t>(kRayDiffuse << l));
-        s.f[l][j] = sc.f_cos;
-        s.pdf[l][j] = sc.pdf;
-      }
-  };
-
-  // ---- Base events: emission found at vertex k (BSDF strategy) and NEE at vertex k ----
-  auto sum_p = [&](const Values& a, const Values& b) {
-    float s = 0;
-    for (int i = 0; i < C; ++i) s += a[i] + b[i];
-    return s;
-  };
-  const size_t K = base.v.size() + (base.escaped ? 1 : 0);  // vertices that may emit
-  thread_local std::vector<Event> hit_ev, nee_ev;
-  hit_ev.assign(K, Event{});
-  nee_ev.assign(K, Event{});
-  {
-    Values F{}, P{}, P_prev{};
-    for (int j = 0; j < C; ++j) {
-      F[j] = 1.0f;
-      P[j] = SampledWavelengths::pdf();
-    }
-    Vec3 dir = base.camera_ray.d;
-    float beta_k = 1.0f;
-    // The last vertex that scattered the path, before the light objects (pass-through
-    // surfaces) it then crossed, if any: where its BSDF ray began, NEE competes for what the ray
-    // finds, and its lobes see it (NEE from there is not shadowed by light objects either).
-    const BaseVertex* from = nullptr;
-    LobeScatter last;  // its scattering by lobe kind (split_lobes)
-    for (size_t k = 0; k < K; ++k) {
-      const bool is_escape = k == base.v.size();
-      const SurfaceHit* h = is_escape ? nullptr : &base.v[k].hit;
-      Event& e = hit_ev[k];
-      e.valid = true;
-      // NEE competes for this emission unless a Dirac lobe found it (a mix's smooth part beside
-      // a rough one: NEE-eligible, yet no density to compare).
-      const bool nee_competes = from && from->nee_eligible && !from->delta;
-      const float pl = nee_competes ? light_pdf(from->hit.p, h, dir) : 0.0f;
-      Values Le{};
-      for (int j = 0; j < C; ++j) {
-        Le[j] = emitted(h, dir, wl.lambda[j], camera_ray_to(k));
-        e.f[j] = F[j] * Le[j];
-        e.p_bsdf[j] = P[j];
-        e.p_light[j] = P_prev[j] * pl;
-      }
-      if (split_lobes && !camera_ray_to(k)) last.restrict(e, light_vis(h), Le, C);
-      if (is_escape) break;
-      const BaseVertex& v = base.v[k];
-      if (v.nee) {
-        Event& n = nee_ev[k];
-        n.valid = true;
-        const Vec3 wi = v.hit.frame.to_local(v.ls.wi);
-        const Light& light = lights.lights()[v.ls.light];
-        const RgbSpectrum spec = light_spectrum(spectra_, lights, v.ls.light, v.ls.L);
-        Values Ls{};
-        for (int j = 0; j < C; ++j) {
-          const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
-          Ls[j] = v.nee_visible ? spec(wl.lambda[j]) : 0.0f;
-          n.f[j] = F[j] * s.f_cos * Ls[j];
-          n.p_light[j] = P[j] * v.ls.pdf;
-          n.p_bsdf[j] = v.ls.delta ? 0.0f : P[j] * s.pdf;
-        }
-        // The BSDF strategy's density includes the roulette it would have applied there.
-        float rr = 1.0f;
-        if (!v.ls.delta) {
-          const Scatter s0 = scatter_at(v.hit, wl.lambda[0], v.wo, wi, false, false, 0, {}, true);
-          rr = s0.pdf > 0 ? survival(k, beta_k * s0.f_cos / s0.pdf) : 1.0f;
-          for (int j = 0; j < C; ++j) n.p_bsdf[j] *= rr;
-        }
-        if (split_lobes) {  // f_V and p_V of the light's kinds (no sampled lobe to check)
-          LobeScatter ns;
-          ns.F = F;
-          ns.P = P;
-          ns.rr = rr;
-          split_smooth(ns, v.hit, wl.lambda, v.wo, wi);
-          if (v.ls.delta) ns.pdf = {};  // a Dirac light: no BSDF strategy
-          ns.restrict(n, light.visible_lobes, Ls, C);
-        }
-      }
-      if (!v.scattered) break;
-      const bool crossing = scene_.material(v.hit.material).is_pass_through();
-      if (!crossing) {
-        from = &v;
-        P_prev = P;
-      }
-      if (split_lobes && !crossing) {
-        last = LobeScatter{};
-        last.F = F;
-        last.P = P;
-        last.rr = v.rr;
-        last.lobe = v.kind;
-        if (!v.delta) split_smooth(last, v.hit, wl.lambda, v.wo, v.wi);
-      }
-      float f0 = 0, p0 = 0;
-      for (int j = 0; j < C; ++j) {
-        const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
-        F[j] *= s.f_cos;
-        P[j] *= s.pdf * v.rr;
-        if (j == 0) f0 = s.f_cos, p0 = s.pdf;
-        if (split_lobes && v.delta && v.kind != 0) {  // a Dirac pair is all its lobe's
-          last.f[lobe_index(v.kind)][j] = s.f_cos;
-          last.pdf[lobe_index(v.kind)][j] = s.pdf;
-        }
-      }
-      beta_k *= p0 > 0 ? f0 / p0 / v.rr : 0.0f;
-      dir = v.hit.frame.to_world(v.wi);
-    }
+// ---- Base events: emission found at vertex k (BSDF strategy) and NEE at vertex k ----
+void SpectralSample::base_events() {
+  const BasePath& base = base_;
+  const SampledWavelengths& wl = wl_;
+  const size_t K = K_;
+  hit_ev_.assign(K, Event{});
+  nee_ev_.assign(K, Event{});
+  Values F{}, P{}, P_prev{};
+  for (int j = 0; j < C; ++j) {
+    F[j] = 1.0f;
+    P[j] = SampledWavelengths::pdf();
   }
+  Vec3 dir = base.camera_ray.d;
+  float beta_k = 1.0f;
+  // The last vertex that scattered the path, before the light objects (pass-through
+  // surfaces) it then crossed, if any: where its BSDF ray began, NEE competes for what the ray
+  // finds, and its lobes see it (NEE from there is not shadowed by light objects either).
+  const BaseVertex* from = nullptr;
+  LobeScatter last;  // its scattering by lobe kind (split_lobes)
+  for (size_t k = 0; k < K; ++k) {
+    const bool is_escape = k == base.v.size();
+    const SurfaceHit* h = is_escape ? nullptr : &base.v[k].hit;
+    Event& e = hit_ev_[k];
+    e.valid = true;
+    // NEE competes for this emission unless a Dirac lobe found it (a mix's smooth part beside
+    // a rough one: NEE-eligible, yet no density to compare).
+    const bool nee_competes = from && from->nee_eligible && !from->delta;
+    const float pl = nee_competes ? light_pdf(from->hit.p, h, dir) : 0.0f;
+    Values Le{};
+    for (int j = 0; j < C; ++j) {
+      Le[j] = emitted(h, dir, wl.lambda[j], camera_ray_to(k));
+      e.f[j] = F[j] * Le[j];
+      e.p_bsdf[j] = P[j];
+      e.p_light[j] = P_prev[j] * pl;
+    }
+    if (split_lobes_ && !camera_ray_to(k)) last.restrict(e, light_vis(h), Le, C);
+    if (is_escape) break;
+    const BaseVertex& v = base.v[k];
+    if (v.nee) {
+      Event& n = nee_ev_[k];
+      n.valid = true;
+      const Vec3 wi = v.hit.frame.to_local(v.ls.wi);
+      const Light& light = lights_.lights()[v.ls.light];
+      const RgbSpectrum spec = light_spectrum(s_.spectra, lights_, v.ls.light, v.ls.L);
+      Values Ls{};
+      for (int j = 0; j < C; ++j) {
+        const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
+        Ls[j] = v.nee_visible ? spec(wl.lambda[j]) : 0.0f;
+        n.f[j] = F[j] * s.f_cos * Ls[j];
+        n.p_light[j] = P[j] * v.ls.pdf;
+        n.p_bsdf[j] = v.ls.delta ? 0.0f : P[j] * s.pdf;
+      }
+      // The BSDF strategy's density includes the roulette it would have applied there.
+      float rr = 1.0f;
+      if (!v.ls.delta) {
+        const Scatter s0 = scatter_at(v.hit, wl.lambda[0], v.wo, wi, false, false, 0, {}, true);
+        rr = s0.pdf > 0 ? survival(k, beta_k * s0.f_cos / s0.pdf) : 1.0f;
+        for (int j = 0; j < C; ++j) n.p_bsdf[j] *= rr;
+      }
+      if (split_lobes_) {  // f_V and p_V of the light's kinds (no sampled lobe to check)
+        LobeScatter ns;
+        ns.F = F;
+        ns.P = P;
+        ns.rr = rr;
+        split_smooth(ns, v.hit, wl.lambda, v.wo, wi);
+        if (v.ls.delta) ns.pdf = {};  // a Dirac light: no BSDF strategy
+        ns.restrict(n, light.visible_lobes, Ls, C);
+      }
+    }
+    if (!v.scattered) break;
+    const bool crossing = s_.scene.material(v.hit.material).is_pass_through();
+    if (!crossing) {
+      from = &v;
+      P_prev = P;
+    }
+    if (split_lobes_ && !crossing) {
+      last = LobeScatter{};
+      last.F = F;
+      last.P = P;
+      last.rr = v.rr;
+      last.lobe = v.kind;
+      if (!v.delta) split_smooth(last, v.hit, wl.lambda, v.wo, v.wi);
+    }
+    float f0 = 0, p0 = 0;
+    for (int j = 0; j < C; ++j) {
+      const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
+      F[j] *= s.f_cos;
+      P[j] *= s.pdf * v.rr;
+      if (j == 0) f0 = s.f_cos, p0 = s.pdf;
+      if (split_lobes_ && v.delta && v.kind != 0) {  // a Dirac pair is all its lobe's
+        last.f[lobe_index(v.kind)][j] = s.f_cos;
+        last.pdf[lobe_index(v.kind)][j] = s.pdf;
+      }
+    }
+    beta_k *= p0 > 0 ? f0 / p0 / v.rr : 0.0f;
+    dir = v.hit.frame.to_world(v.wi);
+  }
+}
 
-  // This sample's estimates, added to the pixel only if all are finite (NaN/Inf are counted).
-  // Primal: f(x, lambda_j) / sum over strategies and wavelengths of p (eq. 3-4) into bin b_j.
-  thread_local std::vector<double> G;
-  G.assign(bins_, 0.0);
-  Values primal{};
-  auto standard = [&](const Event& e, int sign, const std::array<int, kMaxWavelengths>& gbin) {
-    const float d = sum_p(e.p_bsdf, e.p_light);
-    if (!e.valid || d <= 0) return;
-    for (int j = 0; j < C; ++j)
-      if (e.f[j] > 0) G[gbin[j]] += (sign > 0 ? -1.0 : 1.0) * e.f[j] / d;
-  };
-  for (size_t k = 0; k < K; ++k)
-    for (const Event* e : {&hit_ev[k], &nee_ev[k]}) {
+// The primal estimate, f(x, lambda_j) / sum over strategies and wavelengths of p (eq. 3-4)
+// into bin b_j, and the largest base contribution f(x) among the events from vertex k on: where
+// it is <= tau, every remaining pair falls back to standard sampling whatever the offset gives
+// (eq. 16 takes the smaller f of the pair), so the offset is not traced further (the cost
+// saving of §3.3).
+void SpectralSample::base_estimates() {
+  G_.assign(s_.bins, 0.0);
+  for (size_t k = 0; k < K_; ++k)
+    for (const Event* e : {&hit_ev_[k], &nee_ev_[k]}) {
       const float d = sum_p(e->p_bsdf, e->p_light);
       if (e->valid && d > 0)
-        for (int j = 0; j < C; ++j) primal[j] += e->f[j] / d;
+        for (int j = 0; j < C; ++j) primal_[j] += e->f[j] / d;
     }
-  // Standard-sampling share of the base events from vertex k on (its NEE included, its
-  // emission only if with_hit) once an offset has failed.
-  auto standard_rest = [&](size_t from, bool with_hit, int sign, const std::array<int, kMaxWavelengths>& gbin) {
-    for (size_t r = from; r < K; ++r) {
-      if (r > from || with_hit) standard(hit_ev[r], sign, gbin);
-      standard(nee_ev[r], sign, gbin);
-    }
-  };
-
-  // Largest base contribution f(x) among the events from vertex k on: where it is <= tau, every
-  // remaining pair falls back to standard sampling whatever the offset gives (eq. 16 takes the
-  // smaller f of the pair), so the offset is not traced further (the cost saving of §3.3).
-  thread_local std::vector<float> f_max_from;
-  f_max_from.assign(K + 1, 0.0f);
-  for (size_t k = K; k-- > 0;) {
-    f_max_from[k] = f_max_from[k + 1];
-    for (const Event* e : {&hit_ev[k], &nee_ev[k]})
+  f_max_from_.assign(K_ + 1, 0.0f);
+  for (size_t k = K_; k-- > 0;) {
+    f_max_from_[k] = f_max_from_[k + 1];
+    for (const Event* e : {&hit_ev_[k], &nee_ev_[k]})
       if (e->valid)
-        for (int j = 0; j < C; ++j) f_max_from[k] = std::max(f_max_from[k], e->f[j]);
+        for (int j = 0; j < C; ++j) f_max_from_[k] = std::max(f_max_from_[k], e->f[j]);
   }
+}
 
-  // ---- The two offsets: lambda + delta (forward gradient of bin j) and lambda - delta ----
-  for (int sign : {+1, -1}) {
-    Values lambda2{};
-    std::array<int, kMaxWavelengths> gbin{};  // G_gbin = I_{gbin+s} - I_gbin
-    for (int j = 0; j < C; ++j) {
-      lambda2[j] = wrap_wavelength(static_cast<float>(wl.lambda[j] + sign * stride_ * bin_width));
-      gbin[j] = sign > 0 ? bin[j] : (bin[j] - stride_ + bins_) % bins_;
-    }
-    // One pair of events (x, lambda_j), (y, lambda'_j): eq. 9-11 (C = 1) or eq. 17-18, with
-    // both strategies (BSDF, light) of both paths in the balance heuristic's denominator and
-    // the threshold of eq. 15-16 on the contributions f of the two paths.
-    // Where the two paths meet lights seen by different kinds, each path's term has its own
-    // denominator: both paths' densities through the lobes that see its light (LobeScatter).
-    auto pair = [&](const Event& x, const Event& y, float Jy) {
-      const float dx = sum_p(x.p_bsdf, x.p_light);
-      float denom = dx;  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
-      for (int i = 0; i < C; ++i) denom += (y.p_bsdf[i] + y.p_light[i]) * Jy;
-      float denom_x = denom, denom_y = denom;  // of x's term and of y's
-      if (x.vis != y.vis) {
-        const Values py = y.p_bsdf_in(x.vis, C), px = x.p_bsdf_in(y.vis, C);
-        denom_x = dx;
-        denom_y = sum_p(px, x.p_light);
-        for (int i = 0; i < C; ++i) {
-          denom_x += (py[i] + y.p_light[i]) * Jy;
-          denom_y += (y.p_bsdf[i] + y.p_light[i]) * Jy;
-        }
-      }
-      for (int j = 0; j < C; ++j) {
-        if (!(x.f[j] > 0 || y.f[j] > 0)) continue;
-        if (std::min(x.f[j], y.f[j]) > tau_ && denom_x > 0 && denom_y > 0) {  // w^s = 1, eq. 16 (f, not f / p)
-          // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
-          const float g = denom_x == denom_y ? (y.f[j] * Jy - x.f[j]) / denom : y.f[j] * Jy / denom_y - x.f[j] / denom_x;
-          G[gbin[j]] += sign > 0 ? g : -g;
-          ++counts.shifted;
-        } else if (dx > 0) {
-          const float cx = x.f[j] / dx;  // standard sampling of the I_lambda term (eq. 15)
-          G[gbin[j]] += sign > 0 ? -cx : cx;
-          ++counts.below_tau;
-        }
-      }
-    };
-    enum class State { Same, Reconnected, Diverged } state = State::Same;
-    Values F2{}, P2{}, P2_prev{};
-    for (int j = 0; j < C; ++j) {
+// ---- One offset: lambda + delta (sign +1, the forward gradient of bin j) or lambda - delta ----
+// The offset follows the base vertex by vertex (state Same), diverges at the first dispersive
+// refraction (a half-vector copy, eq. 12-13), and reconnects to the base at two consecutive
+// connectable vertices (Reconnected, then Same again).
+struct OffsetPath {
+  enum class State { Same, Reconnected, Diverged };
+
+  OffsetPath(SpectralSample& sample, int sign) : s(sample), sign(sign) {
+    for (int j = 0; j < s.C; ++j) {
+      lambda2[j] = wrap_wavelength(static_cast<float>(s.wl_.lambda[j] + sign * s.s_.stride * s.bin_width_));
+      gbin[j] = sign > 0 ? s.bin_[j] : (s.bin_[j] - s.s_.stride + s.s_.bins) % s.s_.bins;
       F2[j] = 1.0f;
       P2[j] = SampledWavelengths::pdf();
     }
-    LobeScatter y_last;  // the offset's previous vertex's scattering by lobe kind (split_lobes)
-    float J = 1.0f, beta2 = 1.0f;
-    std::optional<SurfaceHit> y;   // the offset's own vertex while diverged
-    Vec3 wo_y;                     // offset's local wo at its current vertex
-    Vec3 y_dir = base.camera_ray.d;  // direction of the ray that reached the offset vertex
-    Vec3 y_prev_p;                 // the offset's previous vertex
-    bool y_prev_nee = false;       // ... and whether NEE was possible there
-    bool y_escaped = false;
-    ++counts.attempts;
-    for (size_t k = 0; k < K; ++k) {
-      if (!(f_max_from[k] > tau_)) {  // w^s = 0 for every remaining pair (eq. 16)
-        for (size_t r = k; r < K; ++r)
-          for (const Event* e : {&hit_ev[r], &nee_ev[r]})
-            if (e->valid)
-              for (int j = 0; j < C; ++j) counts.below_tau += e->f[j] > 0;
-        standard_rest(k, true, sign, gbin);
-        break;
+    y_dir = s.base_.camera_ray.d;
+  }
+
+  // One pair of events (x, lambda_j), (y, lambda'_j): eq. 9-11 (C = 1) or eq. 17-18, with
+  // both strategies (BSDF, light) of both paths in the balance heuristic's denominator and
+  // the threshold of eq. 15-16 on the contributions f of the two paths.
+  // Where the two paths meet lights seen by different kinds, each path's term has its own
+  // denominator: both paths' densities through the lobes that see its light (LobeScatter).
+  void pair(const Event& x, const Event& y, float Jy) {
+    const int C = s.C;
+    const float dx = s.sum_p(x.p_bsdf, x.p_light);
+    float denom = dx;  // sum_k p(x, lambda_k) + p(y, lambda'_k) |S'|
+    for (int i = 0; i < C; ++i) denom += (y.p_bsdf[i] + y.p_light[i]) * Jy;
+    float denom_x = denom, denom_y = denom;  // of x's term and of y's
+    if (x.vis != y.vis) {
+      const Values py = y.p_bsdf_in(x.vis, C), px = x.p_bsdf_in(y.vis, C);
+      denom_x = dx;
+      denom_y = s.sum_p(px, x.p_light);
+      for (int i = 0; i < C; ++i) {
+        denom_x += (py[i] + y.p_light[i]) * Jy;
+        denom_y += (y.p_bsdf[i] + y.p_light[i]) * Jy;
       }
-      const bool is_escape = k == base.v.size();
-      // Offset vertex k and its emission.
-      const SurfaceHit* yk = nullptr;
-      if (state == State::Same || state == State::Reconnected) {
-        yk = is_escape ? nullptr : &base.v[k].hit;
-        if (state == State::Same) wo_y = is_escape ? Vec3() : base.v[k].wo;
-      } else {
-        yk = y_escaped ? nullptr : &*y;
+    }
+    for (int j = 0; j < C; ++j) {
+      if (!(x.f[j] > 0 || y.f[j] > 0)) continue;
+      if (std::min(x.f[j], y.f[j]) > s.s_.tau && denom_x > 0 && denom_y > 0) {  // w^s = 1, eq. 16 (f, not f / p)
+        // w (f(y)|S'| - f(x)) / p(x), eq. 10 / 18
+        const float g = denom_x == denom_y ? (y.f[j] * Jy - x.f[j]) / denom : y.f[j] * Jy / denom_y - x.f[j] / denom_x;
+        s.G_[gbin[j]] += sign > 0 ? g : -g;
+        ++s.counts_.shifted;
+      } else if (dx > 0) {
+        const float cx = x.f[j] / dx;  // standard sampling of the I_lambda term (eq. 15)
+        s.G_[gbin[j]] += sign > 0 ? -cx : cx;
+        ++s.counts_.below_tau;
       }
-      {
-        Event ey;
-        Values Le{};
-        const float l_pdf = (k > 0 && y_prev_nee) ? light_pdf(y_prev_p, yk, y_dir) : 0.0f;
+    }
+  }
+
+  // Where no base event from vertex k on has f > tau: w^s = 0 for every remaining pair (eq. 16),
+  // so they are standard sampling and the offset stops; true if so.
+  bool below_tau_from(size_t k) {
+    if (s.f_max_from_[k] > s.s_.tau) return false;
+    for (size_t r = k; r < s.K_; ++r)
+      for (const Event* e : {&s.hit_ev_[r], &s.nee_ev_[r]})
+        if (e->valid)
+          for (int j = 0; j < s.C; ++j) s.counts_.below_tau += e->f[j] > 0;
+    s.standard_rest(k, true, sign, gbin);
+    return true;
+  }
+
+  // Offset vertex k's emission, paired with the base's emission found at x_k.
+  void emission(size_t k) {
+    const bool is_escape = k == s.base_.v.size();
+    const SurfaceHit* yk = nullptr;
+    if (state == State::Same || state == State::Reconnected) {
+      yk = is_escape ? nullptr : &s.base_.v[k].hit;
+      if (state == State::Same) wo_y = is_escape ? Vec3() : s.base_.v[k].wo;
+    } else {
+      yk = y_escaped ? nullptr : &*y;
+    }
+    Event ey;
+    Values Le{};
+    const float l_pdf = (k > 0 && y_prev_nee) ? s.light_pdf(y_prev_p, yk, y_dir) : 0.0f;
+    for (int j = 0; j < s.C; ++j) {
+      Le[j] = s.emitted(yk, y_dir, lambda2[j], s.camera_ray_to(k));
+      ey.f[j] = F2[j] * Le[j];
+      ey.p_bsdf[j] = P2[j];
+      ey.p_light[j] = P2_prev[j] * l_pdf;
+    }
+    // The offset's light weighed by the lobes that see it at its own vertex (the base's lobe sampled).
+    if (s.split_lobes_ && !s.camera_ray_to(k)) y_last.restrict(ey, s.light_vis(yk), Le, s.C);
+    pair(s.hit_ev_[k], ey, J);
+  }
+
+  // The offset's vertex k: its surface (the base's until diverged) and BSDF at lambda'.
+  struct Vertex {
+    const BaseVertex& x;
+    const SurfaceHit& yh;
+    const Material& mat_y;
+    BsdfParams my;
+    bool y_delta;  // the offset hero's BSDF there is a Dirac one
+    bool y_nee;    // next-event estimation is possible there
+  };
+  Vertex vertex(size_t k) const {
+    const BaseVertex& x = s.base_.v[k];
+    const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
+    const Material& mat_y = s.s_.scene.material(yh.material);
+    const BsdfParams my = monochromatic(mat_y, s.s_.spectra.albedo[yh.material], yh.uv, lambda2[0]);
+    const bool y_delta = s.s_.scene.bsdf(my, yh).is_delta();
+    const bool y_nee = x.nee_eligible && !y_delta && !s.s_.scene.bsdf(yh).is_black() && wo_y.z != 0;
+    return {x, yh, mat_y, my, y_delta, y_nee};
+  }
+
+  // ---- NEE of the offset: the same light sample (point on an area light, direction of a
+  // distant one), reconnected from y_k; Jacobian as a reconnection (KMA15 §5.2) ----
+  void next_event(size_t k, const Vertex& v) {
+    const BaseVertex& x = v.x;
+    const SurfaceHit& yh = v.yh;
+    const LightSet& lights = s.lights_;
+    const int C = s.C;
+    Event ey;
+    float Jz = 1.0f;
+    // Where the base's light sample gives f(x) <= tau at every wavelength the pair is
+    // standard whatever the offset gives (eq. 16): no shadow ray for the offset.
+    bool needed = false;
+    for (int j = 0; j < C; ++j) needed |= s.nee_ev_[k].f[j] > s.s_.tau;
+    if (v.y_nee && needed) {
+      std::optional<LightSample> ls = x.ls;
+      bool visible = x.nee_visible;
+      if (state == State::Diverged) {
+        ls = lights.sample_li(yh.p, x.u_light, x.u_light2);  // same u: same point / direction
+        visible = false;
+        if (ls && ls->pdf > 0 && !ls->L.is_black()) {
+          ++s.rays_.shadow;
+          visible = !s.s_.scene.occluded(yh.p, yh.ng, *ls);
+          if (lights.lights()[ls->light].type == LightType::Area)
+            Jz = reconnection_jacobian<float>(x.hit.p, yh.p, ls->p, ls->n);
+        }
+      }
+      if (ls && visible && ls->pdf > 0) {
+        const Vec3 wi = yh.frame.to_local(ls->wi);
+        const RgbSpectrum spec = light_spectrum(s.s_.spectra, lights, ls->light, ls->L);
+        Scatter s0{};
+        Values Ls{};
         for (int j = 0; j < C; ++j) {
-          Le[j] = emitted(yk, y_dir, lambda2[j], camera_ray_to(k));
-          ey.f[j] = F2[j] * Le[j];
-          ey.p_bsdf[j] = P2[j];
-          ey.p_light[j] = P2_prev[j] * l_pdf;
+          const Scatter sc = s.scatter_at(yh, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
+          if (j == 0) s0 = sc;
+          Ls[j] = spec(lambda2[j]);
+          ey.f[j] = F2[j] * sc.f_cos * Ls[j];
+          ey.p_light[j] = P2[j] * ls->pdf;
+          ey.p_bsdf[j] = ls->delta ? 0.0f : P2[j] * sc.pdf;
         }
-        // The offset's light weighed by the lobes that see it at its own vertex (the base's lobe sampled).
-        if (split_lobes && !camera_ray_to(k)) y_last.restrict(ey, light_vis(yk), Le, C);
-        pair(hit_ev[k], ey, J);
-      }
-      if (is_escape) break;
-      if (state == State::Diverged && y_escaped) {  // the offset left the scene, the base did not
-        counts.fail(ShiftFailure::Missed);
-        standard_rest(k, false, sign, gbin);
-        break;
-      }
-      const BaseVertex& x = base.v[k];
-      const SurfaceHit& yh = (state == State::Diverged) ? *y : x.hit;
-      const Material& mat_y = scene_.material(yh.material);
-      const BsdfParams my = monochromatic(mat_y, spectra_.albedo[yh.material], yh.uv, lambda2[0]);
-      const bool y_delta = scene_.bsdf(my, yh).is_delta();  // the offset hero's BSDF there
-      const bool y_nee = x.nee_eligible && !y_delta && !scene_.bsdf(yh).is_black() && wo_y.z != 0;
-
-      // ---- NEE of the offset: the same light sample (point on an area light, direction of
-      // a distant one), reconnected from y_k; Jacobian as a reconnection (KMA15 §5.2) ----
-      if (x.nee) {
-        Event ey;
-        float Jz = 1.0f;
-        // Where the base's light sample gives f(x) <= tau at every wavelength the pair is
-        // standard whatever the offset gives (eq. 16): no shadow ray for the offset.
-        bool needed = false;
-        for (int j = 0; j < C; ++j) needed |= nee_ev[k].f[j] > tau_;
-        if (y_nee && needed) {
-          std::optional<LightSample> ls = x.ls;
-          bool visible = x.nee_visible;
-          if (state == State::Diverged) {
-            ls = lights.sample_li(yh.p, x.u_light, x.u_light2);  // same u: same point / direction
-            visible = false;
-            if (ls && ls->pdf > 0 && !ls->L.is_black()) {
-              ++rays.shadow;
-              visible = !scene_.occluded(yh.p, yh.ng, *ls);
-              if (lights.lights()[ls->light].type == LightType::Area)
-                Jz = reconnection_jacobian<float>(x.hit.p, yh.p, ls->p, ls->n);
-            }
-          }
-          if (ls && visible && ls->pdf > 0) {
-            const Vec3 wi = yh.frame.to_local(ls->wi);
-            const RgbSpectrum spec = light_spectrum(spectra_, lights, ls->light, ls->L);
-            Scatter s0{};
-            Values Ls{};
-            for (int j = 0; j < C; ++j) {
-              const Scatter s = scatter_at(yh, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
-              if (j == 0) s0 = s;
-              Ls[j] = spec(lambda2[j]);
-              ey.f[j] = F2[j] * s.f_cos * Ls[j];
-              ey.p_light[j] = P2[j] * ls->pdf;
-              ey.p_bsdf[j] = ls->delta ? 0.0f : P2[j] * s.pdf;
-            }
-            const float rr = ls->delta || !(s0.pdf > 0) ? 1.0f : survival(k, beta2 * s0.f_cos / s0.pdf);
-            for (int j = 0; j < C; ++j) ey.p_bsdf[j] *= rr;
-            if (split_lobes) {  // f_V and p_V of its light's kinds, at the offset's own vertex
-              LobeScatter ns;
-              ns.F = F2;
-              ns.P = P2;
-              ns.rr = rr;
-              split_smooth(ns, yh, lambda2, wo_y, wi);
-              if (ls->delta) ns.pdf = {};
-              ns.restrict(ey, lights.lights()[ls->light].visible_lobes, Ls, C);
-            }
-          }
+        const float rr = ls->delta || !(s0.pdf > 0) ? 1.0f : s.survival(k, beta2 * s0.f_cos / s0.pdf);
+        for (int j = 0; j < C; ++j) ey.p_bsdf[j] *= rr;
+        if (s.split_lobes_) {  // f_V and p_V of its light's kinds, at the offset's own vertex
+          LobeScatter ns;
+          ns.F = F2;
+          ns.P = P2;
+          ns.rr = rr;
+          s.split_smooth(ns, yh, lambda2, wo_y, wi);
+          if (ls->delta) ns.pdf = {};
+          ns.restrict(ey, lights.lights()[ls->light].visible_lobes, Ls, C);
         }
-        pair(nee_ev[k], ey, J * Jz);
       }
-      if (!x.scattered) break;
+    }
+    pair(s.nee_ev_[k], ey, J * Jz);
+  }
 
-      // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry) ----
-      const Material& mat_x = scene_.material(x.hit.material);
-      const BsdfParams mx = monochromatic(mat_x, spectra_.albedo[x.hit.material], x.hit.uv, lambda);
-      Vec3 wi_y;  // local at the offset vertex
-      bool ok = true, diverge_now = false, reconnect_now = false;
-      bool delta_y = x.delta;  // the lobe the offset follows: the base's
-      auto fail = [&](ShiftFailure why) {
-        ok = false;
-        counts.fail(why);
-      };
-      if (state == State::Same || state == State::Reconnected) {
-        if (is_dispersive(mat_x) && x.transmission) {
-          // First wavelength-dependent interaction: copy the generalised half vector (eq. 12).
-          const Etas e = etas_of(mx, x.wo, true), e2 = etas_of(my, wo_y, true);
-          const auto h = half_vector(x.wo, x.wi, e, true);
-          const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, true) : std::nullopt;
+  // ---- Scatter: the offset's outgoing direction at its vertex k (hero geometry), its BSDF
+  // and roulette, and its vertex k + 1. False when the shift failed there (the rest of the
+  // base's events are then standard sampling). ----
+  bool scatter(size_t k, const Vertex& v) {
+    const BaseVertex& x = v.x;
+    const SurfaceHit& yh = v.yh;
+    const int C = s.C;
+    const Scene& scene = s.s_.scene;
+    const Material& mat_x = scene.material(x.hit.material);
+    const BsdfParams mx = monochromatic(mat_x, s.s_.spectra.albedo[x.hit.material], x.hit.uv, s.lambda_);
+    Vec3 wi_y;  // local at the offset vertex
+    bool ok = true, diverge_now = false, reconnect_now = false;
+    bool delta_y = x.delta;  // the lobe the offset follows: the base's
+    auto fail = [&](ShiftFailure why) {
+      ok = false;
+      s.counts_.fail(why);
+    };
+    if (state == State::Same || state == State::Reconnected) {
+      if (is_dispersive(mat_x) && x.transmission) {
+        // First wavelength-dependent interaction: copy the generalised half vector (eq. 12).
+        const Etas e = etas_of(mx, x.wo, true), e2 = etas_of(v.my, wo_y, true);
+        const auto h = half_vector(x.wo, x.wi, e, true);
+        const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, true) : std::nullopt;
+        if (!wi2) {
+          fail(ShiftFailure::TotalInternalReflection);
+        } else {
+          wi_y = *wi2;
+          if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, true);  // eq. 13
+          diverge_now = true;
+        }
+      } else {
+        wi_y = x.wi;  // wavelength-independent direction: the offset follows the base
+      }
+    } else {  // Diverged
+      // The base's continuation from x_{k+1} must be a lobe the offset can evaluate from its
+      // new direction: not a Dirac one (a plastic's or principled's smooth coat).
+      const std::vector<BaseVertex>& bv = s.base_.v;
+      const bool next_connectable = k + 1 < bv.size() && !bv[k + 1].delta && connectable(scene.material(bv[k + 1].hit.material));
+      if (connectable(mat_x) && connectable(v.mat_y) && next_connectable && !x.delta) {
+        // ---- Reconnection to x_{k+1} ----
+        const BaseVertex& xn = bv[k + 1];
+        ++s.rays_.shadow;
+        if (scene.hides_between(yh.p, yh.ng, xn.hit.p, xn.hit.ng, x.kind)) {
+          fail(ShiftFailure::Occluded);
+        } else {
+          const Vec3 d = normalize(xn.hit.p - yh.p);
+          wi_y = yh.frame.to_local(d);
+          J *= reconnection_jacobian<float>(x.hit.p, yh.p, xn.hit.p, xn.hit.ng);
+          reconnect_now = true;
+          delta_y = false;
+        }
+      } else {
+        // ---- Half-vector copy at the offset's own vertex ----
+        if (v.y_delta != x.delta || (x.transmission && v.my.type != MaterialType::Dielectric)) {
+          fail(ShiftFailure::NotInvertible);  // the vertex kinds differ
+        } else {
+          const Etas e = etas_of(mx, x.wo, x.transmission), e2 = etas_of(v.my, wo_y, x.transmission);
+          const auto h = half_vector(x.wo, x.wi, e, x.transmission);
+          const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, x.transmission) : std::nullopt;
           if (!wi2) {
             fail(ShiftFailure::TotalInternalReflection);
           } else {
             wi_y = *wi2;
-            if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, true);  // eq. 13
-            diverge_now = true;
-          }
-        } else {
-          wi_y = x.wi;  // wavelength-independent direction: the offset follows the base
-        }
-      } else {  // Diverged
-        // The base's continuation from x_{k+1} must be a lobe the offset can evaluate from its
-        // new direction: not a Dirac one (a plastic's or principled's smooth coat).
-        const bool next_connectable = k + 1 < base.v.size() && !base.v[k + 1].delta &&
-                                      connectable(scene_.material(base.v[k + 1].hit.material));
-        if (connectable(mat_x) && connectable(mat_y) && next_connectable && !x.delta) {
-          // ---- Reconnection to x_{k+1} ----
-          const BaseVertex& xn = base.v[k + 1];
-          ++rays.shadow;
-          if (scene_.hides_between(yh.p, yh.ng, xn.hit.p, xn.hit.ng, x.kind)) {
-            fail(ShiftFailure::Occluded);
-          } else {
-            const Vec3 d = normalize(xn.hit.p - yh.p);
-            wi_y = yh.frame.to_local(d);
-            J *= reconnection_jacobian<float>(x.hit.p, yh.p, xn.hit.p, xn.hit.ng);
-            reconnect_now = true;
-            delta_y = false;
-          }
-        } else {
-          // ---- Half-vector copy at the offset's own vertex ----
-          if (y_delta != x.delta || (x.transmission && my.type != MaterialType::Dielectric)) {
-            fail(ShiftFailure::NotInvertible);  // the vertex kinds differ
-          } else {
-            const Etas e = etas_of(mx, x.wo, x.transmission), e2 = etas_of(my, wo_y, x.transmission);
-            const auto h = half_vector(x.wo, x.wi, e, x.transmission);
-            const auto wi2 = h ? copy_half_vector(wo_y, *h, e2, x.transmission) : std::nullopt;
-            if (!wi2) {
-              fail(ShiftFailure::TotalInternalReflection);
-            } else {
-              wi_y = *wi2;
-              if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, x.transmission);
-            }
+            if (!x.delta) J *= half_vector_jacobian(x.wo, x.wi, e, wo_y, wi_y, e2, *h, x.transmission);
           }
         }
-      }
-      // The offset's BSDF at each of its wavelengths along the chosen direction.
-      std::array<Scatter, kMaxWavelengths> s2{};
-      if (ok)
-        for (int j = 0; j < C; ++j)
-          s2[j] = scatter_at(yh, lambda2[j], wo_y, wi_y, delta_y, x.transmission && !reconnect_now,
-                             x.uc, x.u, j == 0);
-      if (!ok || s2[0].pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
-        if (ok) counts.fail(ShiftFailure::NotInvertible);  // no density for the base's lobe
-        standard_rest(k + 1, true, sign, gbin);
-        break;
-      }
-      // The offset's own roulette survival (eq. 10-11 need its density as a base path).
-      beta2 *= s2[0].f_cos / s2[0].pdf;
-      const bool crossing = mat_y.is_pass_through();  // a light object: as the base, no roulette
-      const float rr2 = crossing ? 1.0f : survival(k, beta2);
-      beta2 /= rr2;
-      if (split_lobes && !crossing) {  // along the base's lobe, from the offset's own vertex
-        y_last = LobeScatter{};
-        y_last.F = F2;
-        y_last.P = P2;
-        y_last.rr = rr2;
-        y_last.lobe = x.kind;
-        if (!delta_y) {
-          split_smooth(y_last, yh, lambda2, wo_y, wi_y);
-        } else if (x.kind != 0) {  // a Dirac pair is all its lobe's
-          for (int j = 0; j < C; ++j) {
-            y_last.f[lobe_index(x.kind)][j] = s2[j].f_cos;
-            y_last.pdf[lobe_index(x.kind)][j] = s2[j].pdf;
-          }
-        }
-      }
-      if (!crossing) {  // the vertex whose BSDF ray the next events come from (as the base's `from`)
-        P2_prev = P2;
-        y_prev_p = yh.p;
-        y_prev_nee = y_nee && !delta_y;  // as nee_competes above
-      }
-      for (int j = 0; j < C; ++j) {
-        F2[j] *= s2[j].f_cos;
-        P2[j] *= s2[j].pdf * rr2;
-      }
-      if (state == State::Reconnected) state = State::Same;
-      // ---- Next offset vertex ----
-      if (reconnect_now) {
-        const BaseVertex& xn = base.v[k + 1];
-        state = State::Reconnected;
-        y_dir = normalize(xn.hit.p - yh.p);
-        wo_y = xn.hit.frame.to_local(-y_dir);
-        y.reset();
-      } else if (state == State::Same && !diverge_now) {
-        y_dir = x.hit.frame.to_world(x.wi);
-      } else {  // diverged (now or before): trace the offset's own ray
-        const Vec3 d = yh.frame.to_world(wi_y);
-        Ray r(offset_ray_origin(yh.p, yh.ng, d), d);
-        r.bounce = x.kind;
-        ++rays.closest;
-        y = scene_.intersect(r);
-        y_dir = d;
-        y_escaped = !y;
-        if (y) wo_y = y->frame.to_local(-d);
-        state = State::Diverged;
-        // If the base ends in an escape at k + 1 while the offset hit something, the pair's
-        // last event is the offset's emission at its hit, evaluated at the top of the loop.
       }
     }
+    // The offset's BSDF at each of its wavelengths along the chosen direction.
+    std::array<Scatter, kMaxWavelengths> s2{};
+    if (ok)
+      for (int j = 0; j < C; ++j)
+        s2[j] = s.scatter_at(yh, lambda2[j], wo_y, wi_y, delta_y, x.transmission && !reconnect_now, x.uc, x.u, j == 0);
+    if (!ok || s2[0].pdf <= 0 || !(J > 0) || !std::isfinite(J)) {
+      if (ok) s.counts_.fail(ShiftFailure::NotInvertible);  // no density for the base's lobe
+      s.standard_rest(k + 1, true, sign, gbin);
+      return false;
+    }
+    // The offset's own roulette survival (eq. 10-11 need its density as a base path).
+    beta2 *= s2[0].f_cos / s2[0].pdf;
+    const bool crossing = v.mat_y.is_pass_through();  // a light object: as the base, no roulette
+    const float rr2 = crossing ? 1.0f : s.survival(k, beta2);
+    beta2 /= rr2;
+    if (s.split_lobes_ && !crossing) {  // along the base's lobe, from the offset's own vertex
+      y_last = LobeScatter{};
+      y_last.F = F2;
+      y_last.P = P2;
+      y_last.rr = rr2;
+      y_last.lobe = x.kind;
+      if (!delta_y) {
+        s.split_smooth(y_last, yh, lambda2, wo_y, wi_y);
+      } else if (x.kind != 0) {  // a Dirac pair is all its lobe's
+        for (int j = 0; j < C; ++j) {
+          y_last.f[lobe_index(x.kind)][j] = s2[j].f_cos;
+          y_last.pdf[lobe_index(x.kind)][j] = s2[j].pdf;
+        }
+      }
+    }
+    if (!crossing) {  // the vertex whose BSDF ray the next events come from (as the base's `from`)
+      P2_prev = P2;
+      y_prev_p = yh.p;
+      y_prev_nee = v.y_nee && !delta_y;  // as nee_competes in base_events
+    }
+    for (int j = 0; j < C; ++j) {
+      F2[j] *= s2[j].f_cos;
+      P2[j] *= s2[j].pdf * rr2;
+    }
+    if (state == State::Reconnected) state = State::Same;
+    // ---- Next offset vertex ----
+    if (reconnect_now) {
+      const BaseVertex& xn = s.base_.v[k + 1];
+      state = State::Reconnected;
+      y_dir = normalize(xn.hit.p - yh.p);
+      wo_y = xn.hit.frame.to_local(-y_dir);
+      y.reset();
+    } else if (state == State::Same && !diverge_now) {
+      y_dir = x.hit.frame.to_world(x.wi);
+    } else {  // diverged (now or before): trace the offset's own ray
+      const Vec3 d = yh.frame.to_world(wi_y);
+      Ray r(offset_ray_origin(yh.p, yh.ng, d), d);
+      r.bounce = x.kind;
+      ++s.rays_.closest;
+      y = scene.intersect(r);
+      y_dir = d;
+      y_escaped = !y;
+      if (y) wo_y = y->frame.to_local(-d);
+      state = State::Diverged;
+      // If the base ends in an escape at k + 1 while the offset hit something, the pair's
+      // last event is the offset's emission at its hit, evaluated at the top of the loop.
+    }
+    return true;
   }
 
-  bool finite = true;
-  for (int j = 0; j < C; ++j) finite &= std::isfinite(primal[j]);
-  for (double g : G) finite &= std::isfinite(g);
-  if (!finite) return false;
-  double* I = &primal_[pixel * bins_];
-  double* Gp = &gradient_[pixel * bins_];
-  Vec3 xyz(0, 0, 0);
-  for (int j = 0; j < C; ++j) {
-    I[bin[j]] += primal[j];
-    // The same sample with the exact CMF at lambda_j (no binning), for the primal colour.
-    xyz = xyz + cie_xyz_bar(wl.lambda[j]) * static_cast<float>(primal[j]);
+  SpectralSample& s;
+  const int sign;
+  Values lambda2{};
+  Bins gbin{};  // G_gbin = I_{gbin+s} - I_gbin
+  State state = State::Same;
+  Values F2{}, P2{}, P2_prev{};
+  LobeScatter y_last;  // the offset's previous vertex's scattering by lobe kind (split_lobes)
+  float J = 1.0f, beta2 = 1.0f;
+  std::optional<SurfaceHit> y;     // the offset's own vertex while diverged
+  Vec3 wo_y;                       // offset's local wo at its current vertex
+  Vec3 y_dir;                      // direction of the ray that reached the offset vertex
+  Vec3 y_prev_p;                   // the offset's previous vertex
+  bool y_prev_nee = false;         // ... and whether NEE was possible there
+  bool y_escaped = false;
+};
+
+void SpectralSample::shift(int sign) {
+  OffsetPath o(*this, sign);
+  ++counts_.attempts;
+  for (size_t k = 0; k < K_; ++k) {
+    if (o.below_tau_from(k)) break;
+    o.emission(k);
+    if (k == base_.v.size()) break;  // the base escaped at k
+    if (o.state == OffsetPath::State::Diverged && o.y_escaped) {  // the offset left the scene, the base did not
+      counts_.fail(ShiftFailure::Missed);
+      standard_rest(k, false, sign, o.gbin);
+      break;
+    }
+    const OffsetPath::Vertex v = o.vertex(k);
+    if (v.x.nee) o.next_event(k, v);
+    if (!v.x.scattered) break;
+    if (!o.scatter(k, v)) break;
   }
-  for (int j = 0; j < bins_; ++j) Gp[j] += G[j];
-  const RGB c = xyz_to_rgb(xyz * (1.0f / cie_y_integral()));
-  for (int k = 0; k < 3; ++k) rgb_[3 * pixel + k] += c[k];
-  return true;
+}
+
+}  // namespace
+
+bool SpectralGradientPathTracer::sample_pixel(size_t pixel, Rng& rng, Ray ray, RayCounts& rays,
+                                              ShiftCounts& counts) {
+  const SampleSetup setup{scene_, spectra_, bins_, count_, stride_, max_depth_, rr_depth_, tau_};
+  SpectralSample sample(setup, rng, rays, counts);
+  sample.trace_base(ray);
+  sample.base_events();
+  sample.base_estimates();
+  for (int sign : {+1, -1}) sample.shift(sign);
+  return sample.add_to(&primal_[pixel * bins_], &gradient_[pixel * bins_], &rgb_[3 * pixel]);
 }
 
 void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
