@@ -71,7 +71,7 @@ namespace gp {
 // dielectric's glossy lobe at least as rough as the specular threshold, not dispersive; a mix
 // when either part is. Emission-only surfaces end the path there and count as connectable.
 // A mixed-lobe vertex whose base path went on through a Dirac lobe is not reconnected to
-// (sample_pixel checks the sampled lobe).
+// (OffsetPath::scatter in sgpt.cpp checks the sampled lobe).
 bool connectable(const Material& m);
 
 class SpectralGradientPathTracer : public Integrator {
