@@ -417,7 +417,7 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
 }
 
 Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                                      const PhotonOrigin& org, int64_t& rays) const {
+                                      const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf, int64_t& rays) const {
   PhotonShift out;
   // Per-kind switches: a last segment where the photon tracer chose between crossing a surface
   // and scattering there (a surface hidden from some of the segment's kinds) is not shifted, on
@@ -451,7 +451,8 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
   }
   // ---- Step 2, DD ending: reconnect y'_s to y_{s-1} (its BSDF re-evaluated) ----
   const Vec3 wi_l = org.frame.to_local(wi_prev);
-  const Bsdf prev_bsdf = scene_.bsdf(org.material, org.uv);
+  if (!org_bsdf) org_bsdf.emplace(scene_.bsdf(org.material, org.uv));
+  const Bsdf& prev_bsdf = *org_bsdf;
   const Vec3 wo_prev = org.frame.to_world(org.wo);
   const RGB f_prev = prev_bsdf.eval(org.wo, wi_l, TransportMode::Importance);
   const float corr = adjoint_shading_correction(wo_prev, wi_prev, org.ng, org.frame.n);
@@ -683,6 +684,10 @@ void Gpm::iterate(ProgressSink* sink) {
       double m = 0, m_grad = 0, lap = 0;
       RGB phi(0.0f), phi_fb(0.0f);
       std::array<RGB, 4> diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
+      // The offset gather points' BSDFs (their normals, bump shadowing), built once per pixel on
+      // first use rather than once per photon and direction: with a node graph, each build
+      // evaluates the material's program.
+      std::array<std::optional<Bsdf>, 4> off_bsdf;
       grid_.query(vp.p, std::max(R_primal, R), [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
         if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
@@ -709,6 +714,7 @@ void Gpm::iterate(ProgressSink* sink) {
         }
         ChainBase local_base;
         const ChainBase* base = nullptr;  // evaluated on the first offset that needs it
+        std::optional<Bsdf> org_bsdf;     // y_{s-1}'s BSDF, likewise (DD endings)
         for (int d = 0; d < 4; ++d) {
           const OffsetPoint& o = off[d];
           if (!o.exists) continue;
@@ -718,17 +724,16 @@ void Gpm::iterate(ProgressSink* sink) {
             ++local_shifts;
             if (chain && !base) base = &chain_base(ph, org, local_base);
             const PhotonShift sh = chain ? shift_chain_photon(vp, o, R, ph, org, *chain, *base, local_rays, walk_stats)
-                                         : shift_dd_photon(vp, o, R, ph, org, local_rays);
+                                         : shift_dd_photon(vp, o, R, ph, org, org_bsdf, local_rays);
             if (sh.failure != ShiftFailure::None) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {
               // The base path's kernel (same radius) around the offset gather point, whose BSDF
               // and bent cosine are the base's counterparts (its normals, bump shadowing).
               const float o_shading = gather_shading_correction(o.frame.to_world(sh.wi_gather), o.n_smooth, o.frame.n);
-              c_off = o.beta *
-                      scene_.bsdf(o.material, o.uv, o.frame, o.ng, o.n_smooth)
-                          .eval(o.wo, sh.wi_gather, TransportMode::Radiance, ph.lobes) *
-                      sh.power * (weight * o_shading);
+              if (!off_bsdf[d]) off_bsdf[d].emplace(scene_.bsdf(o.material, o.uv, o.frame, o.ng, o.n_smooth));
+              c_off = o.beta * off_bsdf[d]->eval(o.wo, sh.wi_gather, TransportMode::Radiance, ph.lobes) * sh.power *
+                      (weight * o_shading);
               // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----
               const double ratio = o.ratio * sh.ratio_y;
               if (std::isfinite(ratio)) w = static_cast<float>(1.0 / (1.0 + ratio));
