@@ -92,6 +92,35 @@ def test_holdout_is_black_with_alpha_zero_as_cycles(empty_scene, out_dir, method
     assert not any("Holdout" in m for _, m in session.REPORTS), session.REPORTS
 
 
+def test_collection_holdout_in_the_view_layer_holds_out_its_objects(empty_scene, out_dir):
+    """A collection with Holdout ticked in the view layer (View Layer > Collections, the
+    Outliner's Holdout toggle) holds out its objects as Mask > Holdout does (Cycles: the
+    object's holdout_get in the view layer); the same collection without it does not."""
+    monkey = _holdout_scene(empty_scene, "pt")
+    coll = bpy.data.collections.new("HeldOut")
+    empty_scene.collection.children.link(coll)
+    for c in list(monkey.users_collection):
+        c.objects.unlink(monkey)
+    coll.objects.link(monkey)
+    layer_coll = bpy.context.view_layer.layer_collection.children["HeldOut"]
+    empty_scene.render.film_transparent = True
+    try:
+        plain_rgb, plain_a = _rgba(empty_scene, out_dir, "coll_plain")
+        layer_coll.holdout = True
+        held_rgb, held_a = _rgba(empty_scene, out_dir, "coll_held")
+    finally:
+        empty_scene.render.film_transparent = False
+        layer_coll.holdout = False
+        coll.objects.unlink(monkey)
+        empty_scene.collection.objects.link(monkey)
+        bpy.data.collections.remove(coll)
+    assert (plain_a == 1).sum() > (held_a == 1).sum() + 20
+    held = (held_a == 0) & (plain_a == 1)  # the monkey's pixels
+    assert held.sum() > 20, held.sum()
+    assert np.abs(held_rgb[held]).max() == 0.0
+    assert plain_rgb[held].mean() > 0.05
+
+
 def test_holdout_shader_is_cut_out_as_mask_holdout(empty_scene, out_dir):
     """A Holdout shader as the monkey's surface: alpha 0 and no colour where the camera sees it,
     as Mask > Holdout (Cycles' holdout closure)."""

@@ -81,7 +81,7 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
         kind = ob.type
         skipped.check_object(ob, kind, w)
         if kind in mesh.GEOMETRY_TYPES:
-            mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache)
+            mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache, view_layer=depsgraph.view_layer_eval)
         elif kind == 'LIGHT':
             light.add_light(out, inst, mats, w)
         # cameras, empties, armatures: nothing to render

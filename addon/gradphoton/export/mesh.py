@@ -102,9 +102,10 @@ class MeshCache:
         self.users = {n: k & set(keys) for n, k in self.users.items() if k & set(keys)}
 
 
-def add_instance(records, inst, mats, warnings, export_uvs, cache=None):
+def add_instance(records, inst, mats, warnings, export_uvs, cache=None, view_layer=None):
     """Adds one depsgraph instance of a geometry object to `records` (key -> MeshRecord); with a
-    MeshCache, a record's arrays come from it when it has them."""
+    MeshCache, a record's arrays come from it when it has them. `view_layer` (the depsgraph's
+    evaluated one) decides holdouts by collection."""
     ob = inst.object
     matrix = np.array(inst.matrix_world, dtype=np.float32)
     if np.isfinite(matrix).all() and np.linalg.det(matrix[:3, :3].astype(np.float64)) == 0:
@@ -113,7 +114,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None):
         warnings.add("zero scale (left out)", ob.name)
         return
     slots = [s.material for s in ob.material_slots]
-    flags = visibility.surface_flags(ob, warnings)
+    flags = visibility.surface_flags(ob, warnings, visibility.is_held_out(inst, view_layer))
     names = [mats.name_for(m, flags) for m in slots] or [mats.name_for(None, flags)]
     needs_uvs = export_uvs or any(mats.needs_uvs(m) for m in slots)
     data_key = ob.data.as_pointer() if (ob.type == 'MESH' and ob.data is not None) else ob.as_pointer()

@@ -17,8 +17,8 @@ Diffuse/Glossy/Transmission the method itself declares (`_native.method_info`'s
 visible, a counted warning naming the method and the object. Volume Scatter is a warning
 (not honoured: media scatter to every light).
 
-Mask > Holdout (Object Properties > Visibility, Cycles' is_holdout) becomes the `holdout` key of
-the surface's materials: camera rays that meet it give no colour and alpha 0, as Cycles renders
+Mask > Holdout (Object Properties > Visibility, Cycles' is_holdout), or a collection's Holdout in
+the view layer, becomes the `holdout` key of the surface's materials: camera rays that meet it give no colour and alpha 0, as Cycles renders
 a holdout (black without Film > Transparent). Which methods honour it each declares
 (`_native.method_info`'s 'holdout'); another renders the object as a plain surface, a warning
 naming the method and the object.
@@ -38,16 +38,29 @@ def lobe_flags(ob, warnings):
     return {key: False for attr, key, _ in LOBE_SWITCHES if not getattr(ob, attr, True)}
 
 
-def surface_flags(ob, warnings):
-    """Material flags for a geometry object's surfaces: {} when Cycles' defaults apply."""
+def surface_flags(ob, warnings, holdout=None):
+    """Material flags for a geometry object's surfaces: {} when Cycles' defaults apply.
+    `holdout`: whether the object is held out in the view layer (is_held_out), else its own
+    Mask > Holdout alone."""
     flags = lobe_flags(ob, warnings)
     if not ob.visible_camera:
         flags["visible_to_camera"] = False
     if not ob.visible_shadow:
         flags["casts_shadow"] = False
-    if getattr(ob, "is_holdout", False):
+    if holdout if holdout is not None else getattr(ob, "is_holdout", False):
         flags["holdout"] = True
     return flags
+
+
+def is_held_out(inst, view_layer):
+    """Cycles 3.4's rule (blender/object.cpp): an object is a holdout when its parent (the
+    instancer for an instance, else itself) is held out in the view layer: its own Mask >
+    Holdout, or a collection of it with Holdout ticked in the view layer (Outliner / View Layer
+    > Collections, LayerCollection.holdout). Blender's Object.holdout_get answers both."""
+    holder = inst.parent if inst.is_instance and inst.parent is not None else inst.object
+    if view_layer is None:
+        return getattr(holder, "is_holdout", False)
+    return holder.holdout_get(view_layer=view_layer)
 
 
 def check_light(ob, la, warnings):
