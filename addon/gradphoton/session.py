@@ -25,7 +25,9 @@ POLL_SECONDS = 0.02
 # How often an F12 render's image reaches Blender: the first pass at once, then Cycles' ladder
 # (render_scheduler.cpp, guess_display_update_interval_in_seconds: 0.25 s in the first 2 s of
 # rendering, 0.5 s to 4 s, 1 s to 10 s; 2 s after, as its final renders), at the pass end nearest
-# each interval (a pass is the smallest step: Cycles' is a sample).
+# each interval. A pass is the smallest step, except for the methods whose pass can pause at a
+# tile (pt, spt, spt-hero: the core's ProgressSink::pause): their pass stops when the next image
+# is due and goes on after it, so a long pass (1920x1080) still refreshes on Cycles' ladder.
 DISPLAY_INTERVAL = ((2.0, 0.25), (4.0, 0.5), (10.0, 1.0), (math.inf, 2.0))  # (until, interval), seconds
 # Passes Film > Exposure scales, as Cycles scales its light passes (not data: error, radius,
 # counts, alpha, albedo, normal, depth).
@@ -369,7 +371,11 @@ class RenderSession:
                 if previewed:
                     last_update = progress.elapsed()
             while True:
-                cancelled_at = self._iterate_cancellable()
+                # After the first whole pass, until the next image is due (a method whose pass
+                # cannot pause ignores it); the first pass runs whole (every pixel a sample).
+                due = max(POLL_SECONDS, last_update + display_interval(progress.elapsed()) - progress.elapsed())
+                whole = self.session.stats.get("passes", 0) < 1 or not math.isfinite(due)
+                cancelled_at = self._iterate_cancellable(0.0 if whole else due)
                 stats = self.session.stats
                 n = stats.get("passes", n + 1)
                 error = self.session.estimated_error
@@ -455,12 +461,13 @@ class RenderSession:
             self.session.set_aux_passes(any(p[0] in AUX_PASSES for p in passes))
         return shown
 
-    def _iterate_cancellable(self):
-        """Runs one pass; returns the time test_break() fired, or None."""
+    def _iterate_cancellable(self, seconds=0.0):
+        """Runs one pass (with seconds > 0, a pausable pass for about that long: Session.iterate);
+        returns the time test_break() fired, or None."""
         if self.test_break():
             self.session.cancel()
             return time.perf_counter()
-        worker = threading.Thread(target=self.session.iterate, name="gradphoton pass")
+        worker = threading.Thread(target=self.session.iterate, args=(seconds,), name="gradphoton pass")
         worker.start()
         fired = None
         while worker.is_alive():

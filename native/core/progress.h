@@ -43,6 +43,12 @@ class ProgressSink {
   // Polled between tiles; returning true stops the current pass early and ends the render.
   virtual bool cancelled() { return cancel_flag.load(std::memory_order_relaxed); }
   std::atomic<bool> cancel_flag{false};
+  // Polled between tiles by the methods whose pass can stop at a tile and go on at the next
+  // iterate() (the one-sample-per-pixel estimate: pt, spt, spt-hero); true ends this call with
+  // the pass unfinished, its pixels' means valid, so a caller can show the image within a long
+  // pass (Blender's F12 window at 1920x1080). Methods whose passes are one whole (photons,
+  // gradients) never ask.
+  virtual bool pause() { return false; }
 };
 
 }  // namespace gp

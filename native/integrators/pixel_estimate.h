@@ -7,7 +7,9 @@
 // into develop_alpha(); one that returns RGB counts as covering its pixel.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <chrono>
 #include <string_view>
 #include <type_traits>
@@ -56,15 +58,27 @@ class PixelEstimate {
   // The same pass with the estimator called once per tile, so that it can trace the tile's
   // camera rays together (Scene::intersect_coherent): estimate_tile(starts, n, rays, out)
   // fills out[i] from starts[i], the PixelStart of the tile's i-th pixel in row order.
+  // When the sink asks to pause (ProgressSink::pause), the pass stops at a tile and the next
+  // call goes on with the tiles it has not done, with the same pass index: the image is the same
+  // as without the pause, and in between every pixel's mean is of the samples it has.
   template <typename TileEstimator>
   void run_pass_tiles(uint64_t seed, int tile_size, int threads, ProgressSink* sink, Stats& stats,
                       const TileEstimator& estimate_tile) {
     const auto start = std::chrono::steady_clock::now();
     const uint64_t pass = static_cast<uint64_t>(stats.passes);
     std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
+    const int tiles_x = (width_ + tile_size - 1) / tile_size;
+    if (tile_done_.empty()) {  // a new pass
+      tile_done_.assign(static_cast<size_t>(tiles_x) * ((height_ + tile_size - 1) / tile_size), 0);
+      tiles_left_ = tile_done_.size();
+    }
+    std::atomic<bool> paused{false};
+    std::atomic<size_t> tiles_now{0};  // tiles this call did
     parallel_for_tiles(
         width_, height_, tile_size, threads,
         [&](const Tile& tile) {
+          const size_t index = static_cast<size_t>(tile.y0 / tile_size) * tiles_x + tile.x0 / tile_size;
+          if (index < tile_done_.size() && tile_done_[index]) return;  // done before a pause
           RayCounts tile_rays;
           int64_t tile_invalid = 0;
           std::vector<PixelStart> starts;
@@ -93,9 +107,26 @@ class PixelEstimate {
           shadow += tile_rays.shadow;
           paths += static_cast<int64_t>(starts.size());
           invalid += tile_invalid;
+          if (index < tile_done_.size()) {
+            tile_done_[index] = 1;
+            tiles_now.fetch_add(1, std::memory_order_relaxed);
+          }
         },
-        [sink] { return sink && sink->cancelled(); });
-    stats.passes += 1;
+        [sink, &paused, &tiles_now] {
+          if (!sink) return false;
+          if (sink->cancelled() || paused.load(std::memory_order_relaxed)) return true;
+          // At least one tile a call, so that a caller pausing early still moves on.
+          if (tiles_now.load(std::memory_order_relaxed) == 0 || !sink->pause()) return false;
+          paused = true;
+          return true;
+        });
+    tiles_left_ -= std::min(tiles_left_, tiles_now.load());
+    // A pause leaves the pass open; a cancel ends it (its unreached pixels one sample short).
+    const bool finished = tiles_left_ == 0 || !paused.load() || (sink && sink->cancelled());
+    if (finished) {
+      tile_done_.clear();
+      stats.passes += 1;
+    }
     stats.rays += closest + shadow;
     stats.shadow_rays += shadow;
     stats.paths += paths;
@@ -126,6 +157,9 @@ class PixelEstimate {
   std::vector<double> sum_;        // RGB sums per pixel
   std::vector<uint32_t> samples_;  // samples per pixel
   std::vector<double> alpha_;      // alpha sums per pixel
+  // The open pass's tiles (run_pass_tiles): done or not; empty between passes.
+  std::vector<uint8_t> tile_done_;
+  size_t tiles_left_ = 0;
 };
 
 }  // namespace gp

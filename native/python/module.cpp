@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <stdexcept>
@@ -110,15 +112,40 @@ py::array_t<T> exact_array(const py::object& obj, const std::string& object, con
   return a;
 }
 
+// The Python session's sink: cancel() from any thread, and a pause at a deadline that
+// iterate(seconds) sets (ProgressSink::pause: only methods with tile-resumable passes ask).
+class SessionSink : public ProgressSink {
+ public:
+  void pause_after(double seconds) {
+    using clock = std::chrono::steady_clock;
+    deadline_ = seconds > 0 ? (clock::now() + std::chrono::duration_cast<clock::duration>(
+                                                  std::chrono::duration<double>(seconds)))
+                                  .time_since_epoch()
+                                  .count()
+                            : 0;
+  }
+  bool pause() override {
+    const auto d = deadline_.load(std::memory_order_relaxed);
+    return d != 0 && std::chrono::steady_clock::now().time_since_epoch().count() >= d;
+  }
+
+ private:
+  std::atomic<std::chrono::steady_clock::rep> deadline_{0};
+};
+
 // One progressive render (session/render_session.h), with the GIL released while it works.
 class Session {
  public:
   Session(std::shared_ptr<Scene> scene, const std::string& method, const py::dict& params)
       : session_(std::move(scene), method, params_from_dict(params)) {}
   // One pass of the method, and while they are few, one of the auxiliary passes (aov.h).
-  void iterate() {
+  // With seconds > 0, a method whose pass can pause at a tile (pt, spt, spt-hero) returns after
+  // about that long with the pass unfinished; the next call goes on with it.
+  void iterate(double seconds) {
     py::gil_scoped_release release;
+    sink_.pause_after(seconds);
     session_.iterate(&sink_);
+    sink_.pause_after(0);
   }
   void run(double seconds, int64_t passes) {
     py::gil_scoped_release release;
@@ -190,7 +217,7 @@ class Session {
 
  private:
   RenderSession session_;
-  ProgressSink sink_;
+  SessionSink sink_;
 };
 
 // Scene.width / .height: a new image size drops any crop window (it was in pixels of the old size).
@@ -554,7 +581,10 @@ void bind_session(py::module_& m) {
   py::class_<Session>(m, "Session")
       .def(py::init<std::shared_ptr<Scene>, const std::string&, const py::dict&>(), py::arg("scene"),
            py::arg("method") = "pt", py::arg("params") = py::dict())
-      .def("iterate", &Session::iterate, "Render one pass (releases the GIL)")
+      .def("iterate", &Session::iterate, py::arg("seconds") = 0.0,
+           "Render one pass (releases the GIL); with seconds > 0, methods whose passes can pause at a tile "
+           "(pt, spt, spt-hero) return after about that long and go on with the same pass at the next call "
+           "(stats['passes'] counts whole passes)")
       .def("run", &Session::run, py::arg("seconds") = 0.0, py::arg("passes") = 0,
            "Render until the time budget or pass count is reached, or cancel() is called")
       .def("cancel", &Session::cancel, "Ask the current pass to stop (thread-safe)")
