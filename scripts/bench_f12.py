@@ -3,6 +3,7 @@
     blender -b --factory-startup --python scripts/json_to_blend.py -- scenes/cornell-dense.json /tmp/cd.blend
     blender -b --factory-startup /tmp/cd.blend --python scripts/bench_f12.py [-- --method pt --threads 2 --repeats 3]
     blender -b --factory-startup /tmp/cd.blend --python scripts/bench_f12.py -- --seconds 12   # the refresh table
+        [--size 1920x1080] [--whole-passes: never pause a pass for an image, as before passes could]
 
 (--factory-startup: an addon installed in Blender's user folder would be loaded instead of this
 checkout's.)
@@ -43,6 +44,8 @@ method = arg("--method", "pt")
 threads = arg("--threads", 2, int)
 repeats = arg("--repeats", 3, int)
 seconds = arg("--seconds", 0.0, float)
+size = arg("--size", "")  # WxH: the scene's resolution for this run (e.g. 1920x1080)
+whole_passes = "--whole-passes" in args  # passes never paused for an image: the behaviour before they could be
 
 addon_utils.enable("gradphoton", default_set=False)
 from gradphoton import export, session  # noqa: E402
@@ -64,7 +67,11 @@ def timed(name, fn):
 export.export_scene = timed("export", export.export_scene)
 session.export.export_scene = export.export_scene  # session.py reads it through its module
 export.ExportedScene.build = timed("build", export.ExportedScene.build)
-session.RenderSession._iterate_cancellable = timed("first pass", session.RenderSession._iterate_cancellable)
+_iterate = session.RenderSession._iterate_cancellable
+if whole_passes:
+    def _iterate(self, seconds=0.0, _inner=_iterate):
+        return _inner(self, 0.0)
+session.RenderSession._iterate_cancellable = timed("first pass", _iterate)
 _write = timed("develop + copy", session.RenderSession._write)
 
 
@@ -79,6 +86,9 @@ session.RenderSession._write = write_and_mark
 
 scene = bpy.context.scene
 scene.render.engine = 'GRADPHOTON'
+if size:
+    scene.render.resolution_x, scene.render.resolution_y = (int(v) for v in size.split("x"))
+    scene.render.resolution_percentage = 100
 settings = scene.gradphoton
 settings.method = method
 settings.stop_rule = 'TIME' if seconds > 0 else 'PASSES'
