@@ -313,6 +313,42 @@ std::string check_object_matrix(const Transform& t) {
   return {};
 }
 
+void set_mesh_motion(Mesh& mesh, const Transform& to_world, const std::vector<Transform>& transforms,
+                     std::vector<std::vector<Vec3>> steps) {
+  if (transforms.size() == 1)
+    throw std::invalid_argument("'motion' has 1 transform: give at least 2 (shutter open and close)");
+  if (steps.size() == 1)
+    throw std::invalid_argument("'motion_positions' has 1 step: give at least 2 (shutter open and close)");
+  if (const std::string bad = check_object_matrix(to_world); !bad.empty()) throw std::invalid_argument(bad);
+  for (size_t i = 0; i < transforms.size(); ++i)
+    if (const std::string bad = check_object_matrix(transforms[i]); !bad.empty())
+      throw std::invalid_argument(fmt::format("motion transform {}: {}", i, bad));
+  for (size_t s = 0; s < steps.size(); ++s) {
+    if (steps[s].size() != mesh.positions.size())
+      throw std::invalid_argument(fmt::format("motion_positions step {} has {} vertices, 'positions' {}", s,
+                                              steps[s].size(), mesh.positions.size()));
+    for (size_t v = 0; v < steps[s].size(); ++v)
+      if (!is_finite(steps[s][v]))
+        throw std::invalid_argument(fmt::format("motion_positions step {} vertex {} is not finite", s, v));
+  }
+  auto motion = std::make_shared<MeshMotion>();
+  if (!transforms.empty()) {
+    motion->transform = TransformMotion(transforms);
+    if (motion->transform.still()) motion->transform = TransformMotion();  // "moves" nowhere: static
+  }
+  motion->to_world = to_world;
+  motion->positions = std::move(steps);
+  motion->object_positions = mesh.positions;
+  motion->object_normals = mesh.normals;
+  auto src = std::make_shared<MeshSource>();
+  src->positions = mesh.positions;
+  src->normals = mesh.normals;
+  mesh.source = src;
+  mesh.to_world = Transform();
+  transform_mesh(*src, to_world, mesh);  // the frame's world-space arrays
+  if (!motion->transform.empty() || !motion->positions.empty()) mesh.motion = std::move(motion);
+}
+
 void transform_mesh(const MeshSource& src, const Transform& tr, Mesh& m) {
   // Cofactor matrix of the 3x3 part = det * inverse transpose (for normals); the sign of det
   // is folded back in so the normals keep their side.

@@ -57,6 +57,15 @@ struct Mesh {
 void transform_mesh(const MeshSource& source, const Transform& to_world, Mesh& mesh);
 // Empty, or why `t` cannot place an object: not finite, not affine, singular.
 std::string check_object_matrix(const Transform& t);
+// Motion blur: makes `mesh`, whose positions, normals and indices are still in object space,
+// a mesh over the shutter placed at the frame's `to_world` (positions and normals moved there,
+// winding kept for a mirroring matrix, as apply_transform): object motion `transforms` (S >= 2
+// object-to-world matrices at evenly spaced shutter times; empty, or all equal: `to_world`
+// throughout) and deformation `steps` (S' >= 2 object-space vertex arrays of the mesh's vertex
+// count; empty: none). Keeps the object-space arrays (Mesh::source), so the viewport can move
+// it. Throws std::invalid_argument saying what is wrong (the caller names the object).
+void set_mesh_motion(Mesh& mesh, const Transform& to_world, const std::vector<Transform>& transforms,
+                     std::vector<std::vector<Vec3>> steps);
 
 // A ray's closest hit without what only shading needs (the interpolated shading normal, its
 // frame, the light): for rays whose hit is only a place on a surface (a manifold walk's
