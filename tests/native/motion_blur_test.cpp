@@ -211,22 +211,25 @@ TEST(MotionBlur, AStillSceneDrawsNoTime) {
   EXPECT_FALSE(still.has_motion());
 }
 
-// A light moving with its mesh, over a still floor: a 1 m emissive quad (hidden from the
-// camera, facing down) slides from x = -1 to x = +1 at 0.5 m above a 4 m floor. Averaged over
-// the shutter the floor's light is symmetric; SPPM's photons must leave the light where it is
-// at their pass's time (the same as its eye paths'), pt's next-event estimation must sample it
-// where it is at the path's time. pt's halves within 3 % of each other (a time per path);
-// SPPM's within 15 % (one time per pass: the light's mean place over 512 passes has a deviation
-// of 0.026 m, about 4 % in the ratio), the methods' totals within 5 %. A light frozen at t = 0
-// makes the left half several times the right.
+// A light moving with its mesh, lighting a still floor only indirectly: a 1 m emissive quad
+// facing up slides from x = -1 to x = +1 at 0.5 m, under a white ceiling at 1 m hidden from the
+// camera; the floor sees the ceiling's bright patch. Averaged over the shutter the floor's light
+// is symmetric. In SPPM that light is photons' (its eye paths' next-event estimation finds only
+// the lamp's back): they must leave the lamp where it is at their pass's time, the same as its
+// eye paths'; pt samples it at each path's time. pt's halves within 10 % of each other (noise
+// of the indirect light, about 2 %); SPPM's within 15 % (one time per pass: the lamp's mean place
+// over 512 passes deviates by 0.026 m); the totals within 10 %. Photons left at t = 0 make the
+// left half far brighter.
 TEST(MotionBlur, AMovingLightLightsTheFloorOverTheShutter) {
   Scene scene = scene_from(R"({
     "camera": {"type": "orthographic", "position": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0],
                "ortho_scale": 4, "width": 16, "height": 16},
     "materials": {"white": {"type": "diffuse", "color": 0.8},
+                  "ceiling": {"type": "diffuse", "color": 0.8, "visible_to_camera": false},
                   "lamp": {"type": "emission", "emission": [1, 1, 1], "strength": 10, "visible_to_camera": false}},
     "objects": [{"name": "floor", "type": "quad", "center": [0, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": "white"},
-                {"name": "lamp", "type": "quad", "center": [0, 0, 0.5], "u": [0, 0.5, 0], "v": [0.5, 0, 0], "material": "lamp",
+                {"name": "ceiling", "type": "quad", "center": [0, 0, 1], "u": [0, 2, 0], "v": [2, 0, 0], "material": "ceiling"},
+                {"name": "lamp", "type": "quad", "center": [0, 0, 0.5], "u": [0.5, 0, 0], "v": [0, 0.5, 0], "material": "lamp",
                  "motion": [{"translate": [-1, 0, 0]}, {"translate": [1, 0, 0]}]}]})");
   const auto halves = [](const Film& f) {
     double l = 0, r = 0;
@@ -236,12 +239,13 @@ TEST(MotionBlur, AMovingLightLightsTheFloorOverTheShutter) {
   };
   Params pp;
   pp.set("seed", 3);
-  const auto [pl, pr] = halves(render("pt", scene, 64, pp));
+  const auto [pl, pr] = halves(render("pt", scene, 256, pp));
   Params sp = photon_params(4000, 3);
   const auto [sl, sr] = halves(render("sppm", scene, 512, sp));
-  EXPECT_NEAR(pl / pr, 1.0, 0.03);
+  EXPECT_GT(pl + pr, 0.0);
+  EXPECT_NEAR(pl / pr, 1.0, 0.1);
   EXPECT_NEAR(sl / sr, 1.0, 0.15);
-  EXPECT_NEAR((sl + sr) / (pl + pr), 1.0, 0.05);
+  EXPECT_NEAR((sl + sr) / (pl + pr), 1.0, 0.1);
 }
 
 }  // namespace
