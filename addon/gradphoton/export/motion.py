@@ -209,7 +209,7 @@ class MotionSampler:
         where a record's instances differ in steps; record.motion_positions: (S',N,3) or None)
         and the camera's "motion"; returns the records (split ones added) and the names of the
         objects that move."""
-        moving = []
+        moving = {}  # names, in order (a dict as an ordered set)
         per_record = {}  # id(record) -> {index: (S,4,4)}
         for key, (steps, slots) in self.instances.items():
             seen = self.matrices.get(key, {})
@@ -218,7 +218,7 @@ class MotionSampler:
                 ms = np.stack([seen.get(rel, frame_m) for rel in relative_times(steps)]).astype(np.float32)
                 if not (ms == ms[0]).all():
                     per_record.setdefault(id(record), {})[index] = ms
-                    moving.append(record.instance_names[index])
+                    moving.setdefault(record.name)  # by object: thousands of particles are one name
         out = []
         for rec in records:
             motions = per_record.get(id(rec))
@@ -237,8 +237,8 @@ class MotionSampler:
             frames = [self.camera.get(rel, self.camera_frame) for rel in relative_times(self.camera_steps)]
             if any(f != frames[0] for f in frames):
                 description["camera"]["motion"] = [list(map(float, f)) for f in frames]
-                moving.append("camera")
-        return out, moving
+                moving.setdefault("camera")
+        return out, list(moving)
 
     def _deformation(self, rec, warnings, moving):
         name = rec.deform_source
@@ -258,7 +258,7 @@ class MotionSampler:
         arr = np.stack(steps_pos).astype(np.float32)
         if not (arr == arr[0]).all():
             rec.motion_positions = arr
-            moving.append(name)
+            moving.setdefault(name)
 
 
 def _split_by_steps(rec, motions):
