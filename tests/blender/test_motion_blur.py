@@ -494,3 +494,47 @@ def test_motion_blur_against_cycles(blur_scene, out_dir, case):
     assert abs(ratio - 1) < MOTION_MEAN, f"{case}: gradphoton/Cycles mean = {ratio:.4f}"
     assert err < MOTION_RELMSE[case], f"{case}: relMSE {err:.5f} >= {MOTION_RELMSE[case]}"
     assert err_sharp > 2 * MOTION_RELMSE[case], f"{case}: the sharp frame is as close ({err_sharp:.5f}): no test of blur"
+
+
+def _combined(N, scene, passes=4):
+    s = N.Session(scene, "pt", {"seed": 3, "threads": 2})
+    for _ in range(passes):
+        s.iterate()
+    return s.develop()["combined"]
+
+
+@pytest.mark.skipif(not _core_blurs(), reason="the core's path tracer does not render motion blur (its declaration)")
+def test_json_export_renders_as_the_blender_export(blur_scene, out_dir):
+    """File > Export > gradphoton Scene writes the motion (ExportedScene.to_json): the command
+    line renders the file as the render from Blender renders its export."""
+    sliding_turning_cube(blur_scene)
+    wavy_plane(blur_scene)
+    blur_scene.render.resolution_x, blur_scene.render.resolution_y = MOTION_SIZE
+    path = str(out_dir / "moving.json")
+    assert bpy.ops.gradphoton.export_scene(filepath=path) == {'FINISHED'}
+    N = native.get()
+    with open(path) as f:
+        objects = {o["name"]: o for o in json.load(f)["objects"]}
+    assert "motion" in objects["Cube"] and "motion_positions" in objects["Wavy"]
+    direct, loaded = _combined(N, export_final().build(N)), _combined(N, N.load_scene(path))
+    assert direct.mean() > 0.01
+    np.testing.assert_allclose(loaded, direct, rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.skipif(not _core_blurs(), reason="the core's path tracer does not render motion blur (its declaration)")
+def test_batch_animation_renders_each_frame_blurred(blur_scene, out_dir):
+    """`blender -b file -a`: each frame is sampled over its own shutter and the frame is restored
+    for the next one: frame 3 of the animation is the F12 render of frame 3."""
+    from test_render import batch_render
+    sliding_turning_cube(blur_scene)
+    blur_scene.gradphoton.passes = 4
+    blur_scene.frame_start, blur_scene.frame_end = 2, 3
+    blend = str(out_dir / "moving.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    r = batch_render(blend, str(out_dir / "anim_"), "-a")
+    assert r.returncode == 0, r.stdout + r.stderr
+    frames = [native.get().read_exr(str(out_dir / f"anim_000{f}.exr"))["ViewLayer.Combined"] for f in (2, 3)]
+    blur_scene.frame_set(3)
+    f12 = read_rgb(scenes.render_to_exr(blur_scene, str(out_dir / "f12.exr")))
+    assert np.abs(frames[0] - frames[1]).mean() > 1e-3  # the cube moved between the frames
+    np.testing.assert_allclose(frames[1][..., :3], f12, rtol=1e-5, atol=1e-6)
