@@ -174,7 +174,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, motion=N
     n = len(rec.matrices)
     rec.instance_names.append(ob.name if n == 1 else f"{ob.name} [{n - 1}]")
     if motion is not None and rec.triangle_count > 0:
-        motion.add_instance(inst, rec, n - 1, warnings)
+        motion.add_instance(inst, rec, n - 1)
 
 
 def evaluated_positions(ob, needs_uvs):

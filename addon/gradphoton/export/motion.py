@@ -142,7 +142,7 @@ class MotionSampler:
         self.camera = {}      # relative time -> 16 numbers
 
     # ---- registration (the frame's export) ----
-    def add_instance(self, inst, record, index, warnings):
+    def add_instance(self, inst, record, index):
         ob = inst.object
         parent = inst.parent if inst.is_instance else None
         steps = object_steps(parent, ob)
@@ -182,8 +182,10 @@ class MotionSampler:
         if not self.times:
             return
         wanted = set(self.instances) | set(self.lights)
+        # Centred on the frame, time 0 is the frame itself, already read (Cycles skips it too).
+        centred = POSITION_OFFSET.get(self.shutter.position, 0.0) == 0.0
         try:
-            for rel in sorted(self.times):
+            for rel in sorted(t for t in self.times if not (centred and t == 0.0)):
                 frame, subframe = self.shutter.time(rel)
                 self.frame_set(frame, subframe)
                 for inst in depsgraph.object_instances:
@@ -246,7 +248,7 @@ class MotionSampler:
         seen = self.positions.get(name, {})
         steps_pos = []
         for rel in relative_times(steps):
-            got = seen.get(rel)
+            got = seen.get(rel, (rec.positions, rec.indices) if rel == 0.0 else None)  # 0: the frame (centred)
             if got is None:
                 return  # not met at that time (hidden): no deformation blur
             pos, idx = got
