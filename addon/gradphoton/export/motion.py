@@ -20,7 +20,8 @@ The result follows docs/scene-format.md "Motion blur": S samples at t = i/(S-1),
 over the shutter; `matrices` / `positions` stay the frame's own.
 
 Lights do not move in the core yet (one warning names them). The shutter curve and the rolling
-shutter are not rendered (one warning each, naming the setting).
+shutter are not rendered (one warning each, naming the setting). A method that does not render
+motion blur says so itself (the core's feature_report, read from its declaration).
 """
 import math
 
@@ -289,16 +290,3 @@ def _subrecord(rec, indices, motions, steps):
                            for i in indices]).astype(np.float32)
     return sub
 
-
-def check_method(method, moving, warnings):
-    """One warning when `method` does not render motion blur, as its declaration in the core says
-    (Method::supports.motion_blur, _native.method_description), naming the methods that do."""
-    from .. import native
-    d = native.method_description(method)
-    if d is None or d.get("supports", {}).get("motion_blur", False):
-        return
-    others = [native.method_label(m) for m in native.methods()
-              if (native.method_description(m) or {}).get("supports", {}).get("motion_blur")]
-    tail = f"; {', '.join(others)} render it" if others else ""
-    for name in moving:
-        warnings.add(f"motion blur not rendered by {d.get('label', method)} (rendered at the frame{tail})", name)

@@ -3,7 +3,7 @@ skipped without a word: hair (curves objects and hair particle systems) and
 Volume objects (OpenVDB grids: the next landing). A material's or the World's Volume output is
 exported (export/volume.py); a method that does not render media says so itself, naming it
 (the session's feature_report). Motion blur is exported (export/motion.py); a method that does
-not render it is told from its declaration (motion.check_method)."""
+not render it says so the same way."""
 
 
 def check_object(ob, kind, warnings):
