@@ -110,9 +110,35 @@ struct Bounds3 {
 enum RayVisibility : uint8_t { kRayCamera = 1, kRayDiffuse = 2, kRayGlossy = 4, kRayTransmission = 8 };
 inline constexpr uint8_t kAllLobes = kRayDiffuse | kRayGlossy | kRayTransmission;
 
+// Motion blur: the shutter time (0: shutter open, 1: shutter close) of the camera path or
+// photon pass the calling thread traces. Every ray made on the thread takes it (Ray::time), so
+// the rays of one path (bounces, shadow rays, offset paths) share their path's time without
+// each call site passing it on; parallel_for and parallel_for_tiles hand the caller's time to
+// their workers (a pass's time reaches all its tasks). Set by ShutterTime scopes: per camera
+// path (paths/camera_path.h), per pass (Scene::pass_shutter_time). A scene without motion never
+// sets it: it stays 0 and every image is what it was before motion blur.
+namespace detail {
+inline thread_local float t_shutter_time = 0.0f;
+}
+inline float shutter_time() { return detail::t_shutter_time; }
+// Sets the calling thread's shutter time for its lifetime, then restores the previous one.
+class ShutterTime {
+ public:
+  explicit ShutterTime(float t) : saved_(detail::t_shutter_time) { detail::t_shutter_time = t; }
+  ~ShutterTime() { detail::t_shutter_time = saved_; }
+  ShutterTime(const ShutterTime&) = delete;
+  ShutterTime& operator=(const ShutterTime&) = delete;
+
+ private:
+  float saved_;
+};
+
 struct Ray {
   Vec3 o, d;
   float tmin = 0.0f, tmax = kInfinity;
+  // Shutter time in [0, 1] at which the ray looks at the scene (Embree's RTCRay::time): the
+  // thread's path or pass time (shutter_time()) unless set.
+  float time = shutter_time();
   // Set by Camera::generate_ray only: surfaces whose material is not visible to the camera
   // (Blender's object Visibility > Camera, off for light objects) let camera rays through.
   // Every other ray (bounces, photons, shadow rays) is built fresh and is not a camera ray.

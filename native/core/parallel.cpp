@@ -6,6 +6,8 @@
 // depend on the order (each pixel owns its random stream and accumulator).
 #include "core/parallel.h"
 
+#include "core/math.h"
+
 #include <algorithm>
 #include <atomic>
 #include <map>
@@ -46,12 +48,14 @@ void parallel_for_tiles(int width, int height, int tile_size, int threads,
     for (int x = 0; x < width; x += tile_size)
       tiles.push_back({x, y, std::min(x + tile_size, width), std::min(y + tile_size, height)});
   std::atomic<bool> stop{false};
+  const float time = shutter_time();  // the caller's pass time reaches every worker (core/math.h)
   run_indices(tiles.size(), threads, [&](size_t i) {
     if (stop.load()) return;
     if (cancelled && cancelled()) {
       stop = true;
       return;
     }
+    ShutterTime at(time);
     fn(tiles[i]);
   });
 }
@@ -59,7 +63,11 @@ void parallel_for_tiles(int width, int height, int tile_size, int threads,
 void parallel_for(size_t count, int threads, const std::function<void(size_t, size_t)>& fn) {
   const size_t chunks = std::min<size_t>(count, 8 * static_cast<size_t>(resolve_thread_count(threads)));
   if (chunks == 0) return;
-  run_indices(chunks, threads, [&](size_t c) { fn(count * c / chunks, count * (c + 1) / chunks); });
+  const float time = shutter_time();
+  run_indices(chunks, threads, [&](size_t c) {
+    ShutterTime at(time);
+    fn(count * c / chunks, count * (c + 1) / chunks);
+  });
 }
 
 }  // namespace gp
@@ -114,9 +122,11 @@ void parallel_for_tiles(int width, int height, int tile_size, int threads,
     for (int x = 0; x < width; x += tile_size)
       tiles.push_back({x, y, std::min(x + tile_size, width), std::min(y + tile_size, height)});
   std::atomic<bool> stop{false};
+  const float time = shutter_time();  // the caller's pass time reaches every worker (core/math.h)
   arena_for(threads).execute([&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1),
                       [&](const tbb::blocked_range<size_t>& r) {
+                        ShutterTime at(time);
                         for (size_t i = r.begin(); i != r.end(); ++i) {
                           if (stop.load(std::memory_order_relaxed)) return;
                           if (cancelled && cancelled()) {
@@ -130,9 +140,12 @@ void parallel_for_tiles(int width, int height, int tile_size, int threads,
 }
 
 void parallel_for(size_t count, int threads, const std::function<void(size_t, size_t)>& fn) {
+  const float time = shutter_time();
   arena_for(threads).execute([&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, count),
-                      [&](const tbb::blocked_range<size_t>& r) { fn(r.begin(), r.end()); });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count), [&](const tbb::blocked_range<size_t>& r) {
+      ShutterTime at(time);
+      fn(r.begin(), r.end());
+    });
   });
 }
 

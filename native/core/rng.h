@@ -57,6 +57,7 @@ class Rng {
 struct PixelStart {
   Rng rng;
   Vec2 film, lens;
+  float time = 0;  // shutter time of the camera ray (motion blur; camera.h start_pixel)
 };
 inline PixelStart start_pixel(uint64_t seed, size_t pixel, uint64_t pass, int x, int y,
                               const PixelFilter* filter = nullptr) {
@@ -72,7 +73,7 @@ inline PixelStart start_pixel(uint64_t seed, size_t pixel, uint64_t pass, int x,
     film = Vec2(filter->sample(static_cast<float>(x), ux), filter->sample(static_cast<float>(y), uy));
   }
   const Vec2 lens(rng.uniform(), rng.uniform());
-  return {rng, film, lens};
+  return {rng, film, lens, 0.0f};
 }
 
 }  // namespace gp

@@ -221,7 +221,7 @@ std::vector<Method> make_methods() {
                  if (use_spectral(spectral_mode(p), s)) return std::make_unique<SpectralPathTracer>(s, p, true);
                  return std::make_unique<PathTracer>(s, p);
                },
-               .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true}, .holdout = true});
+               .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true}, .holdout = true});
   m.push_back({.name = "ppm", .label = "Photon Mapping",
                .summary = "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
                .tooltip = "Caustics and light through glass, sharpening as it renders; camera paths traced once "
@@ -248,7 +248,8 @@ std::vector<Method> make_methods() {
                .params = sppm_params("uniform", photons_ramp()),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .holdout = true});  // with photon_sampler adaptive
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .supports = {.motion_blur = true},
+               .holdout = true});  // with photon_sampler adaptive
   m.push_back({.name = "sppm-adaptive", .label = "SPPM Adaptive",
                .summary = "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
                .tooltip = "Stochastic PPM that sends photons where the camera sees them: for light hidden behind "
@@ -257,7 +258,8 @@ std::vector<Method> make_methods() {
                .params = sppm_params("adaptive", photons(100000)),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm-adaptive"); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .holdout = true});
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .supports = {.motion_blur = true},
+               .holdout = true});
   m.push_back({.name = "msppm", .label = "Multisampled PPM",
                .summary = "multisampled PPM: path tracing and SPPM combined per path by MIS (thesis ch. 9)",
                .tooltip = "Path tracing and photons combined per pixel, each where it is better (multiple "
@@ -277,14 +279,16 @@ std::vector<Method> make_methods() {
                           always(pass::kPathTracing)},
                .merge = {.keeps_bias = true},
                .stats = {{"path tracing share", "PT share", "{:.3f}"},
-                         {"measurement points per pixel", "points/px", "{:.2f}"}}});
+                         {"measurement points per pixel", "points/px", "{:.2f}"}},
+               .supports = {.motion_blur = true}});
   m.push_back({.name = "gpt", .label = "Gradient PT",
                .summary = "gradient-domain path tracing: gradients by shifted paths, screened Poisson (KMA15)",
                .tooltip = "Path tracing of image gradients, then a smooth reconstruction: less noise on flat areas "
                           "(gradient-domain path tracing, Kettunen et al. 2015)",
                .params = join({{recon("l2"), lambda(), max_depth(32), rr_depth()}, common()}),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<GradientPathTracer>(s, p); },
-               .passes = gradient_passes(), .merge = {.reconstructs = true}, .stats = {shift_failures()}});
+               .passes = gradient_passes(), .merge = {.reconstructs = true}, .stats = {shift_failures()},
+               .supports = {.motion_blur = true}});
   m.push_back({.name = "gpm", .label = "Gradient Photons",
                .summary = "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
                .tooltip = "Photon mapping of image gradients: smooth caustics in fewer passes (gradient-domain "
@@ -320,7 +324,7 @@ std::vector<Method> make_methods() {
                .passes = concat(photon_passes(), {always(pass::kPrimal), always(pass::kGradientX), always(pass::kGradientY)}),
                .error_estimate = true,
                .merge = {.keeps_bias = true, .reconstructs = true},
-               .stats = {shift_failures(), {"manifold walks", "walks", "{:,.0f}"}}});
+               .stats = {shift_failures(), {"manifold walks", "walks", "{:,.0f}"}}, .supports = {.motion_blur = true}});
   m.push_back({.name = "gdmlt", .label = "Gradient MLT",
                .summary = "gradient-domain Metropolis light transport in primary sample space (Lehtinen et al. 2013)",
                .tooltip = "Explores bright, hard-to-find light paths by mutating them (gradient-domain Metropolis "
@@ -359,7 +363,7 @@ std::vector<Method> make_methods() {
                .merge = {.reconstructs = true},
                .stats = {{"acceptance rate", "accept", "{:.3f}"}, {"large-step share", "large", "{:.3f}"},
                          {"chains", "chains", "{:.0f}"}, shift_failures()},
-               .per_pixel = false});
+               .supports = {.motion_blur = true}, .per_pixel = false});
   auto spt = [](bool hero) {
     return [hero](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
       require_spectral(hero ? "spt-hero" : "spt", p);
@@ -371,13 +375,13 @@ std::vector<Method> make_methods() {
                .tooltip = "Path tracing by wavelength, for rainbows through dispersive glass (one wavelength per "
                           "path, Cauchy dispersion)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1), film_transparent()}, common()}),
-               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true}, .holdout = true});
+               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true}, .holdout = true});
   m.push_back({.name = "spt-hero", .label = "Spectral PT Hero",
                .summary = "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
                .tooltip = "Spectral path tracing with four wavelengths per path: less colour noise (hero "
                           "wavelengths, Wilkie et al. 2014)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4), film_transparent()}, common()}),
-               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true}, .holdout = true});
+               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true}, .holdout = true});
   m.push_back({.name = "sgpt", .label = "Spectral Gradient",
                .summary = "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
                .tooltip = "Spectral path tracing with a smooth reconstruction across wavelengths (spectral "
@@ -400,7 +404,7 @@ std::vector<Method> make_methods() {
                  return std::make_unique<SpectralGradientPathTracer>(s, p);
                },
                .passes = {always(pass::kCombined), always(pass::kSpectralPrimal), always(pass::kSpectralGradient)},
-               .stats = {{"shifted pairs", "shifted", "{:,.0f}"}, shift_failures()}});
+               .stats = {{"shifted pairs", "shifted", "{:,.0f}"}, shift_failures()}, .supports = {.motion_blur = true}});
   return m;
 }
 

@@ -19,6 +19,30 @@ LightSet::LightSet(std::vector<Light> lights, const Bounds3& scene_bounds)
   if (!weights.empty()) select_ = DiscreteDistribution(weights);
 }
 
+namespace {
+// An area light where it is at the thread's shutter time (core/math.h): itself when it does not
+// move, else a copy in `moved` with its triangle, normal and area at that time. The light is
+// sampled uniformly on the triangle it is at that time, so the area pdf is 1 / A(t): exact for
+// rigid motion (A constant) and for deformation and animated scale alike (A(t) changes, the pdf
+// with it); its selection probability stays the frame's power, any fixed choice being unbiased.
+const Light& at_shutter_time(const Light& l, std::optional<Light>& moved) {
+  if (!l.motion) return l;
+  moved.emplace(l);
+  Vec3 v[3];
+  l.motion->triangle(l.tri, shutter_time(), v);
+  const Vec3 nc = cross(v[1] - v[0], v[2] - v[0]);
+  const float area = 0.5f * length(nc);
+  moved->p0 = v[0];
+  moved->p1 = v[1];
+  moved->p2 = v[2];
+  if (area > 0 && std::isfinite(area)) {
+    moved->area = area;
+    moved->n = nc / (2.0f * area);
+  }
+  return *moved;
+}
+}  // namespace
+
 float LightSet::power(int i) const {
   const Light& l = lights_[i];
   const float e = l.emit.average();
@@ -51,7 +75,8 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
   float u_rest;
   const int i = static_cast<int>(select_.sample(u_select, &u_rest));
   const float pmf = select_.pmf(i);
-  const Light& l = lights_[i];
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[i], moved);
   LightSample s;
   s.light = i;
   switch (l.type) {
@@ -131,7 +156,8 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
 }
 
 float LightSet::pdf_area(int i, const Vec3& p, const Vec3& p_light, const Vec3& wi) const {
-  const Light& l = lights_[i];
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[i], moved);
   const float cos_l = -dot(l.n, wi);
   if (cos_l == 0 || (!l.two_sided && cos_l < 0)) return 0.0f;
   return select_.pmf(i) * length_squared(p_light - p) / (std::abs(cos_l) * l.area);
@@ -177,13 +203,15 @@ int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, f
 }
 
 RGB LightSet::area_radiance(int i, const Vec3& w) const {
-  const Light& l = lights_[i];
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[i], moved);
   const float c = dot(l.n, w);
   return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
 }
 
 RGB LightSet::area_radiance(int i, const Vec3& w, const Vec3& p) const {
-  const Light& l = lights_[i];
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[i], moved);
   const float c = dot(l.n, w);
   if (!(c > 0 || (l.two_sided && c < 0))) return RGB(0.0f);
   return l.emission_graph ? l.emission_graph->at(l, p, w) : l.emit;
@@ -219,7 +247,8 @@ RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo) const {
 }
 
 RGB LightSet::emitted(int i, const Vec3& d) const {
-  const Light& l = lights_[i];
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[i], moved);
   switch (l.type) {
     case LightType::Area: return area_radiance(i, d) * std::abs(dot(l.n, d));
     case LightType::Point: return l.emit;
@@ -231,7 +260,8 @@ RGB LightSet::emitted(int i, const Vec3& d) const {
 }
 
 void LightSet::emission_pdf(int i, const Vec3& d, float& pdf_pos, float& pdf_dir) const {
-  const Light& l = lights_[i];
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[i], moved);
   const float pmf = select_.pmf(i);
   pdf_pos = pdf_dir = 0;
   switch (l.type) {
@@ -266,7 +296,8 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
   const int i = static_cast<int>(select_.sample(u_select));
   const float pmf = select_.pmf(i);
   if (!(pmf > 0)) return std::nullopt;
-  const Light& l = lights_[i];
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[i], moved);
   PhotonEmission e;
   e.light = i;
   switch (l.type) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/color.h"
+#include "core/motion.h"
 #include "core/spectrum.h"
 #include "core/math.h"
 #include "core/sampling.h"
@@ -57,6 +58,11 @@ struct Light {
   float area = 0.0f;
   bool two_sided = false;
   int mesh = -1, prim = -1;      // the emissive triangle this light is
+  // An emissive triangle of a moving mesh (motion blur): the mesh over the shutter and the
+  // triangle's vertex indices; p0, p1, p2, n and area are then the frame's, and sampling takes
+  // the triangle at the thread's shutter time (core/math.h shutter_time).
+  std::shared_ptr<const MeshMotion> motion;
+  uint32_t tri[3] = {0, 0, 0};
   std::shared_ptr<const EmissionGraph> emission_graph;  // area lights of graph-driven emission
   // Line emission spectrum (spectral modes); empty = the smooth spectrum of emit. emit is then
   // the lines' (clipped) RGB times the luminance.

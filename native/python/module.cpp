@@ -498,7 +498,8 @@ void bind_builder(py::module_& m) {
       .def("add_mesh",
            [](SceneBuilder& b, const std::string& name, const py::object& positions, const py::object& indices,
               const std::vector<std::string>& materials, const py::object& material_ids, const py::object& normals,
-              const py::object& uvs, const py::object& matrices, const std::vector<std::string>& instance_names) {
+              const py::object& uvs, const py::object& matrices, const std::vector<std::string>& instance_names,
+              const py::object& motion, const py::object& motion_positions) {
              MeshArrays in;
              in.name = name;
              in.materials = materials;
@@ -532,15 +533,50 @@ void bind_builder(py::module_& m) {
              // An empty (0, 4, 4) array means no copy at all (None means one, untransformed).
              if (!matrices.is_none() && in.instances.empty()) return;
              in.instance_names = instance_names;
+             // Motion blur: (K, S, 4, 4) object-to-world matrices over the shutter, (S', N, 3) positions.
+             if (!motion.is_none()) {
+               auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(motion);
+               const size_t k = in.instances.empty() ? 1 : in.instances.size();
+               if (!a || a.ndim() != 4 || static_cast<size_t>(a.shape(0)) != k || a.shape(2) != 4 || a.shape(3) != 4)
+                 throw py::value_error(fmt::format("object '{}': motion must be a ({}, S, 4, 4) array (per instance its "
+                                                   "S object-to-world matrices over the shutter)", name, k));
+               if (a.shape(1) < 2)
+                 throw py::value_error(fmt::format("object '{}': motion has {} matrix per instance; give at least 2 "
+                                                   "(shutter open and close)", name, a.shape(1)));
+               const size_t steps = a.shape(1);
+               const float* d = a.data();
+               in.motion.assign(k, std::vector<Transform>(steps));
+               for (size_t i = 0; i < k; ++i)
+                 for (size_t st = 0; st < steps; ++st)
+                   for (int r = 0; r < 4; ++r)
+                     for (int c = 0; c < 4; ++c) in.motion[i][st].m[r][c] = d[16 * (i * steps + st) + 4 * r + c];
+             }
+             py::array_t<float> mp;
+             if (!motion_positions.is_none()) {
+               if (!py::isinstance<py::array_t<float>>(motion_positions))
+                 throw py::type_error(fmt::format("object '{}': motion_positions must be a numpy float32 array", name));
+               mp = motion_positions.cast<py::array_t<float>>();
+               if (!(mp.flags() & py::array::c_style) || mp.ndim() != 3 ||
+                   static_cast<size_t>(mp.shape(1)) != in.vertex_count || mp.shape(2) != 3)
+                 throw py::value_error(fmt::format("object '{}': motion_positions must be a C-contiguous (S, {}, 3) "
+                                                   "array (S steps of the mesh's vertices)", name, in.vertex_count));
+               if (mp.shape(0) < 2)
+                 throw py::value_error(fmt::format("object '{}': motion_positions has {} step; give at least 2 "
+                                                   "(shutter open and close)", name, mp.shape(0)));
+               in.motion_positions = mp.data();
+               in.motion_steps = mp.shape(0);
+             }
              py::gil_scoped_release release;
              b.add_mesh(in);
            },
            py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("materials"),
            py::arg("material_ids") = py::none(), py::arg("normals") = py::none(), py::arg("uvs") = py::none(),
            py::arg("matrices") = py::none(), py::arg("instance_names") = std::vector<std::string>(),
+           py::arg("motion") = py::none(), py::arg("motion_positions") = py::none(),
            "Add a mesh: positions float32 (N,3), indices uint32 (M,3), material names with optional uint32 "
            "material_ids (M,), optional float32 normals (N,3) and uvs (N,2), optional (K,4,4) object-to-world "
-           "matrices (one world-space copy per matrix)")
+           "matrices (one world-space copy per matrix); motion blur: optional motion (K,S,4,4), each instance's "
+           "S >= 2 matrices over the shutter, and motion_positions float32 (S',N,3), object-space vertices per step")
       .def_property_readonly("triangle_count", &SceneBuilder::triangle_count)
       .def("finalize", [](SceneBuilder& b) {
         py::gil_scoped_release release;

@@ -153,19 +153,64 @@ static void check_device(RTCDevice device, const char* what) {
 }
 
 namespace {
+// The object-space vertex arrays of a moving mesh's time steps.
+std::vector<const std::vector<Vec3>*> object_steps(const MeshMotion& motion) {
+  std::vector<const std::vector<Vec3>*> steps;
+  if (motion.positions.empty()) steps.push_back(&motion.object_positions);
+  for (const auto& p : motion.positions) steps.push_back(&p);
+  return steps;
+}
+
+// An instance of `of` moving over the shutter: one quaternion-decomposed transform per time step
+// (rtcSetGeometryTransformQuaternion, slerped by Embree), the decomposition core/motion.h uses
+// for hits and lights.
+RTCGeometry new_motion_instance(RTCDevice device, RTCScene of, const TransformMotion& motion) {
+  RTCGeometry inst = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+  rtcSetGeometryInstancedScene(inst, of);
+  rtcSetGeometryTimeStepCount(inst, static_cast<unsigned>(motion.size()));
+  for (unsigned s = 0; s < motion.size(); ++s) {
+    const DecomposedTransform& d = motion.steps()[s];
+    RTCQuaternionDecomposition q;
+    rtcInitQuaternionDecomposition(&q);
+    rtcQuaternionDecompositionSetScale(&q, d.s00, d.s11, d.s22);
+    rtcQuaternionDecompositionSetSkew(&q, d.s01, d.s02, d.s12);
+    rtcQuaternionDecompositionSetQuaternion(&q, d.qr, d.qi, d.qj, d.qk);
+    rtcQuaternionDecompositionSetTranslation(&q, d.translation.x, d.translation.y, d.translation.z);
+    rtcSetGeometryTransformQuaternion(inst, s, &q);
+  }
+  rtcCommitGeometry(inst);
+  return inst;
+}
+
+// Sets a (possibly moving) instance back to one fixed transform.
+void set_instance_transform(RTCGeometry inst, const Transform& to_world) {
+  rtcSetGeometryTimeStepCount(inst, 1);
+  // Transform::m is row-major: its first three rows are Embree's 3x4 row-major matrix.
+  rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &to_world.m[0][0]);
+}
+
 // One mesh as an Embree triangle geometry with vertices `positions` (its world-space ones, or its
 // object-space ones for an instanced mesh), with its ray-visibility filters; `keep` receives the
 // filters' per-triangle flags (they must outlive the geometry's use in traversal).
-RTCGeometry make_geometry(RTCDevice device, const std::vector<Vec3>& positions, const Mesh& m,
-                          const std::vector<Material>* materials, std::unique_ptr<TriangleVisibility>& keep) {
+// `steps`: the vertex arrays of its time steps (one for a mesh that does not deform; S' >= 2 for
+// a deforming one, Embree's linear motion blur), each mapped by `to_world` where given.
+RTCGeometry make_geometry(RTCDevice device, const std::vector<const std::vector<Vec3>*>& steps, const Transform* to_world,
+                          const Mesh& m, const std::vector<Material>* materials,
+                          std::unique_ptr<TriangleVisibility>& keep) {
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  // Embree-owned buffers (a copy): Embree may read up to 16 bytes past a shared vertex
-  // buffer, and owning them keeps the accelerator valid if a Mesh vector reallocates.
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), positions.size()));
-  // (An empty mesh has no data pointer to take ->x of: found by fuzz_obj on an empty file.)
-  for (size_t v = 0; v < positions.size(); ++v)
-    for (int k = 0; k < 3; ++k) vb[3 * v + k] = positions[v][k];
+  if (steps.size() > 1) rtcSetGeometryTimeStepCount(g, static_cast<unsigned>(steps.size()));
+  for (unsigned s = 0; s < steps.size(); ++s) {
+    const std::vector<Vec3>& positions = *steps[s];
+    // Embree-owned buffers (a copy): Embree may read up to 16 bytes past a shared vertex
+    // buffer, and owning them keeps the accelerator valid if a Mesh vector reallocates.
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, s, RTC_FORMAT_FLOAT3, sizeof(Vec3), positions.size()));
+    // (An empty mesh has no data pointer to take ->x of: found by fuzz_obj on an empty file.)
+    for (size_t v = 0; v < positions.size(); ++v) {
+      const Vec3 p = to_world ? to_world->point(positions[v]) : positions[v];
+      for (int k = 0; k < 3; ++k) vb[3 * v + k] = p[k];
+    }
+  }
   auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
       g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangle_count()));
   std::copy(m.indices.begin(), m.indices.end(), ib);
@@ -218,7 +263,26 @@ Accelerator::Accelerator(const std::vector<Mesh>& meshes, const std::vector<Mate
   impl_->object.assign(meshes.size(), nullptr);
   impl_->object_mirror.assign(meshes.size(), 0);
   for (size_t i = 0; i < meshes.size(); ++i) {
-    RTCGeometry g = make_geometry(impl_->device, meshes[i].positions, meshes[i], materials, impl_->visibility[i]);
+    const Mesh& m = meshes[i];
+    const MeshMotion* motion = m.motion.get();
+    if (motion && !motion->transform.empty()) {
+      // Object motion: its object-space triangles (deforming or not) in a BVH of their own,
+      // instanced under the transform's steps (as Cycles' bvh/embree.cpp add_instance).
+      impl_->object[i] = impl_->new_scene();
+      RTCGeometry g = make_geometry(impl_->device, object_steps(*motion), nullptr, m, materials, impl_->visibility[i]);
+      rtcAttachGeometryByID(impl_->object[i], g, static_cast<unsigned>(i));
+      rtcReleaseGeometry(g);
+      rtcCommitScene(impl_->object[i]);
+      RTCGeometry inst = new_motion_instance(impl_->device, impl_->object[i], motion->transform);
+      rtcAttachGeometryByID(impl_->scene, inst, static_cast<unsigned>(i));
+      rtcReleaseGeometry(inst);
+      impl_->object_mirror[i] = linear_determinant(m.to_world) < 0;
+      continue;
+    }
+    // Deformation alone: world-space steps in the flat BVH.
+    RTCGeometry g = motion ? make_geometry(impl_->device, object_steps(*motion), &motion->to_world, m, materials,
+                                           impl_->visibility[i])
+                           : make_geometry(impl_->device, {&m.positions}, nullptr, m, materials, impl_->visibility[i]);
     rtcAttachGeometryByID(impl_->scene, g, static_cast<unsigned>(i));
     rtcReleaseGeometry(g);
   }
@@ -243,6 +307,7 @@ void Accelerator::Impl::split_levels() {
   unmoved = new_scene();
   unmoved_id = static_cast<unsigned>(object.size());
   for (unsigned i = 0; i < unmoved_id; ++i) {
+    if (object[i]) continue;  // a moving object: an instance of its own already
     RTCGeometry g = rtcGetGeometry(scene, i);
     rtcRetainGeometry(g);
     rtcDetachGeometry(scene, i);
@@ -279,7 +344,7 @@ void Accelerator::move_mesh(size_t index, const Mesh& mesh, const std::vector<Ma
     replace_mesh(index, mesh, materials);
   } else {
     RTCGeometry inst = rtcGetGeometry(im.scene, id);
-    rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &mesh.to_world.m[0][0]);
+    set_instance_transform(inst, mesh.to_world);
     rtcCommitGeometry(inst);
   }
   check_device(im.device, "moving a mesh");
@@ -293,14 +358,14 @@ void Accelerator::replace_mesh(size_t index, const Mesh& mesh, const std::vector
   const bool moved = im.object[index] != nullptr;
   if (!moved || im.object_mirror[index] != Impl::kNotBuilt) rtcDetachGeometry(home, id);
   im.visibility[index].reset();
-  RTCGeometry g = make_geometry(im.device, moved ? mesh.source->positions : mesh.positions, mesh, materials,
-                                im.visibility[index]);
+  RTCGeometry g = make_geometry(im.device, {moved ? &mesh.source->positions : &mesh.positions}, nullptr, mesh,
+                                materials, im.visibility[index]);
   rtcAttachGeometryByID(home, g, id);
   rtcReleaseGeometry(g);
   if (moved) {
     im.object_mirror[index] = linear_determinant(mesh.to_world) < 0;
     RTCGeometry inst = rtcGetGeometry(im.scene, id);
-    rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &mesh.to_world.m[0][0]);
+    set_instance_transform(inst, mesh.to_world);
   }
   if (home != im.scene) im.dirty.push_back(moved ? id : im.unmoved_id);
   check_device(im.device, "replacing a mesh");
@@ -335,7 +400,7 @@ void to_embree(const Ray& ray, RTCRay& r) {
   r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
   r.tnear = ray.tmin;
   r.tfar = ray.tmax;
-  r.time = 0;
+  r.time = ray.time;
   r.mask = 0xFFFFFFFFu;
   r.id = 0;
   r.flags = 0;
@@ -348,6 +413,7 @@ bool from_embree(const RTCRayHit& rh, RawHit& hit) {
   hit.ng = Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
   hit.geom = static_cast<int>(rh.hit.geomID);
   hit.prim = static_cast<int>(rh.hit.primID);
+  hit.time = rh.ray.time;
   return true;
 }
 }  // namespace

@@ -16,6 +16,7 @@ struct RawHit {
   float t = kInfinity, u = 0, v = 0;
   Vec3 ng;  // unnormalised geometric normal as Embree reports it (object space for a moved mesh)
   int geom = -1, prim = -1;  // mesh index (moved or not) and triangle
+  float time = 0;            // the ray's shutter time (Ray::time): where a moving mesh was hit
 };
 
 // Copies of the rays traced while it is installed, so a benchmark can replay an integrator's

@@ -48,6 +48,16 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
 
   std::vector<Transform> instances = in.instances;
   if (instances.empty()) instances.emplace_back();
+  if (!in.motion.empty() && in.motion.size() != instances.size())
+    fail(fmt::format("motion for {} instances but the object has {}", in.motion.size(), instances.size()));
+  if (in.motion_steps == 1) fail("'motion_positions' has 1 step: give at least 2 (shutter open and close)");
+  if (in.motion_steps > 1 && !in.motion_positions) fail("motion_positions missing");
+  std::vector<std::vector<Vec3>> deform(in.motion_steps, std::vector<Vec3>(nv));
+  for (size_t s = 0; s < deform.size(); ++s)
+    for (size_t v = 0; v < nv; ++v) {
+      const float* p = in.motion_positions + 3 * (s * nv + v);
+      deform[s][v] = Vec3(p[0], p[1], p[2]);
+    }
   for (size_t i = 0; i < instances.size(); ++i) {
     const std::string name = in.instance_names.empty() ? in.name : in.instance_names[i];
     if (const std::string bad = check_object_matrix(instances[i]); !bad.empty())
@@ -67,8 +77,20 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
     Mesh& m = p.mesh;
     m.name = in.instance_names.empty() ? in.name : in.instance_names[i];
     m.indices.assign(in.indices, in.indices + 3 * nt);
-    transform_mesh(*src, instances[i], m);  // world space, winding kept for a mirroring matrix
-    m.source = src;
+    const std::vector<Transform> no_motion;
+    const std::vector<Transform>& motion = in.motion.empty() ? no_motion : in.motion[i];
+    if (!motion.empty() || !deform.empty()) {  // motion blur: object space kept beside the frame's
+      m.positions = src->positions;
+      m.normals = src->normals;
+      try {
+        set_mesh_motion(m, instances[i], motion, deform);
+      } catch (const std::invalid_argument& e) {
+        throw SceneError(fmt::format("{}: object '{}': {}", source_, m.name, e.what()));
+      }
+    } else {
+      transform_mesh(*src, instances[i], m);  // world space, winding kept for a mirroring matrix
+      m.source = src;
+    }
     if (in.uvs) {
       m.uvs.resize(nv);
       for (size_t v = 0; v < nv; ++v) m.uvs[v] = Vec2(in.uvs[2 * v], in.uvs[2 * v + 1]);

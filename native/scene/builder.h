@@ -32,6 +32,13 @@ struct MeshArrays {
   // Object-to-world matrices (row-major 4x4, affine). Empty = one copy, identity.
   std::vector<Transform> instances;
   std::vector<std::string> instance_names;  // optional, one per instance (default: name)
+  // Motion blur (docs/scene-format.md): per instance its S >= 2 object-to-world matrices over the
+  // shutter (empty: none; `instances` stays the frame's own); an instance whose matrices are all
+  // equal is static. Deformation: motion_steps >= 2 object-space vertex arrays, each
+  // vertex_count * 3 floats (null / 0: none).
+  std::vector<std::vector<Transform>> motion;
+  const float* motion_positions = nullptr;
+  size_t motion_steps = 0;
 };
 
 // ---- Updates of a finalized scene (the rendered viewport; scene.h "Updates") ----

@@ -23,7 +23,7 @@ float Camera::pixel_footprint(float distance, Vec2 ext) const {
   return projection == Projection::Orthographic ? pixel : pixel * distance;
 }
 
-Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext) const {
+Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext, float time) const {
   // Blender's shift is a fraction of the larger extent (Cycles: blender_camera_viewplane).
   const float s = 2.0f * std::max(ext.x, ext.y);
   const float sx = (2.0f * film.x / width - 1.0f) * ext.x + shift.x * s;
@@ -40,7 +40,14 @@ Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext) const {
     origin = Vec3(lens.x, lens.y, 0);
     dir = focus - origin;
   }
-  Ray ray(camera_to_world.point(origin), normalize(camera_to_world.vector(dir)));
+  Ray ray;
+  if (motion.empty()) {
+    ray = Ray(camera_to_world.point(origin), normalize(camera_to_world.vector(dir)));
+  } else {
+    const Transform to_world = motion.at(time);
+    ray = Ray(to_world.point(origin), normalize(to_world.vector(dir)));
+  }
+  ray.time = time;
   ray.camera = true;
   return ray;
 }
@@ -49,6 +56,11 @@ std::string Camera::check() const {
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c)
       if (!std::isfinite(camera_to_world.m[r][c])) return "the camera matrix is not finite";
+  if (motion.size() == 1) return "the camera's motion has 1 matrix (at least 2 are needed)";
+  for (const DecomposedTransform& d : motion.steps())
+    if (!is_finite(d.translation) || !std::isfinite(d.qr + d.qi + d.qj + d.qk) || !std::isfinite(d.s00 * d.s11 * d.s22) ||
+        !(d.s00 * d.s11 * d.s22 != 0))
+      return "a camera motion matrix is not finite or is singular";
   if (width < 1 || height < 1) return fmt::format("the image is {}x{} pixels", width, height);
   if (!(std::isfinite(shift.x) && std::isfinite(shift.y))) return "the camera shift is not finite";
   if (projection == Projection::Orthographic ? !(ortho_scale > 0 && std::isfinite(ortho_scale))

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/math.h"
+#include "core/motion.h"
 #include "core/rng.h"
 
 namespace gp {
@@ -29,6 +30,15 @@ struct Camera {
   PixelFilter filter;
   // Crop window in pixels of the whole image (0,0 = top-left corner); crop_width 0 = none.
   int crop_x = 0, crop_y = 0, crop_width = 0, crop_height = 0;
+  // Motion blur: camera-to-world at S >= 2 evenly spaced shutter times (scene-format "motion"),
+  // interpolated as objects' (core/motion.h); empty: camera_to_world throughout the shutter.
+  TransformMotion motion;
+  // Whether camera paths draw a shutter time: something in the scene moves (the camera or a mesh;
+  // set by Scene::finalize and commit). Without, no time is drawn and images are as before.
+  bool motion_blur = false;
+
+  // Camera-to-world at shutter time t.
+  Transform to_world_at(float t) const { return motion.empty() ? camera_to_world : motion.at(t); }
 
   // The pixels the integrators trace and their film holds: the crop window, or the image.
   int film_width() const { return crop_width > 0 ? crop_width : width; }
@@ -41,10 +51,11 @@ struct Camera {
 
   // Ray through position (x, y) in pixels of the whole image (0,0 = its top-left corner; a crop
   // window's film pixel (x, y) lies at (x + crop_x, y + crop_y)) with lens sample u_lens in
-  // [0,1)^2. Direction is normalised.
+  // [0,1)^2, at shutter time `time` (the camera where it is then; the ray's Ray::time): by
+  // default the thread's path or pass time. Direction is normalised.
   Ray generate_ray(Vec2 film, Vec2 u_lens) const { return generate_ray(film, u_lens, half_extent()); }
   // The same with half_extent() computed once by a caller that makes many rays (it costs a tan).
-  Ray generate_ray(Vec2 film, Vec2 u_lens, Vec2 half_extent) const;
+  Ray generate_ray(Vec2 film, Vec2 u_lens, Vec2 half_extent, float time = shutter_time()) const;
   // Half-extents of the image plane: at distance 1 (tan of the half angles) for a perspective
   // camera, in metres for an orthographic one.
   Vec2 half_extent() const;
@@ -52,7 +63,7 @@ struct Camera {
   // of ray differentials that photon methods use to size their first radius).
   float pixel_footprint(float distance) const { return pixel_footprint(distance, half_extent()); }
   float pixel_footprint(float distance, Vec2 half_extent) const;
-  Vec3 position() const { return camera_to_world.point({0, 0, 0}); }
+  Vec3 position() const { return to_world_at(shutter_time()).point({0, 0, 0}); }
   // An empty string, or what is wrong (a crop outside the image, a non-finite value).
   std::string check() const;
 };
@@ -60,8 +71,20 @@ struct Camera {
 // start_pixel (core/rng.h) for film pixel (x, y) of `camera`: the random stream of its place in
 // the whole image and a film position in the whole image's pixels, for generate_ray (so a crop
 // window's pixel takes exactly the ray it takes in the whole image).
+// With motion blur (Camera::motion_blur) the camera path's shutter time is drawn last from the
+// pixel's stream (pt, spt, gpt: one time per camera path), so a scene without motion draws the
+// same numbers as before.
 inline PixelStart start_pixel(const Camera& camera, uint64_t seed, uint64_t pass, int x, int y) {
-  return start_pixel(seed, camera.pixel_key(x, y), pass, x + camera.crop_x, y + camera.crop_y, &camera.filter);
+  PixelStart s = start_pixel(seed, camera.pixel_key(x, y), pass, x + camera.crop_x, y + camera.crop_y, &camera.filter);
+  if (camera.motion_blur) s.time = s.rng.uniform();
+  return s;
+}
+// The same for a method whose passes each have one time (the photon methods): the pixel's
+// stream as without motion, the time the thread's pass time (Scene::pass_shutter_time).
+inline PixelStart start_pixel_in_pass(const Camera& camera, uint64_t seed, uint64_t pass, int x, int y) {
+  PixelStart s = start_pixel(seed, camera.pixel_key(x, y), pass, x + camera.crop_x, y + camera.crop_y, &camera.filter);
+  s.time = shutter_time();
+  return s;
 }
 
 }  // namespace gp

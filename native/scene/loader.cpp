@@ -445,7 +445,7 @@ class Loader : private JsonReader {
   void load_camera(const json& c, const std::string& path) {
     require_object(c, path);
     check_keys(c, path, {"position", "look_at", "up", "matrix", "type", "fov", "ortho_scale", "sensor_fit", "width",
-                         "height", "shift", "crop", "aperture_radius", "focus_distance", "pixel_filter"});
+                         "height", "shift", "crop", "aperture_radius", "focus_distance", "pixel_filter", "motion"});
     Camera cam;
     if (const json* m = find(c, "matrix")) {
       if (find(c, "position") || find(c, "look_at") || find(c, "up"))
@@ -502,6 +502,16 @@ class Loader : private JsonReader {
       cam.crop_height = static_cast<int>(get_int((*w)[3], sub(wpath, 3), 1, cam.height - cam.crop_y));
     }
     if (const json* f = find(c, "pixel_filter")) cam.filter = load_pixel_filter(*f, sub(path, "pixel_filter"));
+    if (const json* m = find(c, "motion")) {  // camera-to-world over the shutter (motion blur)
+      const std::string mpath = sub(path, "motion");
+      require_array(*m, mpath);
+      if (m->size() < 2)
+        fail(mpath, fmt::format("{} matrix(es); camera motion needs at least 2 (shutter open and close)", m->size()));
+      std::vector<Transform> steps;
+      for (size_t i = 0; i < m->size(); ++i) steps.push_back(get_matrix((*m)[i], sub(mpath, i)));
+      cam.motion = TransformMotion(steps);
+      if (cam.motion.still()) cam.motion = TransformMotion();
+    }
     if (const std::string bad = cam.check(); !bad.empty()) fail(path, bad);
     scene_.camera = cam;
   }
@@ -582,7 +592,7 @@ class Loader : private JsonReader {
     const std::string type = get_string(need(o, "type", path), sub(path, "type"));
     std::string name = path;
     if (const json* n = find(o, "name")) name = get_string(*n, sub(path, "name"));
-    const std::initializer_list<std::string_view> common = {"type", "name", "material", "transform"};
+    const std::initializer_list<std::string_view> common = {"type", "name", "material", "transform", "motion"};
     auto keys = [&](std::initializer_list<std::string_view> extra) {
       std::vector<std::string_view> all(common);
       all.insert(all.end(), extra);
@@ -653,7 +663,7 @@ class Loader : private JsonReader {
       reserve_triangles(n, path, name);
       mesh = make_disk(c, r, n, material());
     } else if (type == "mesh") {
-      keys({"positions", "indices", "normals", "uvs", "materials", "material_indices"});
+      keys({"positions", "indices", "normals", "uvs", "materials", "material_indices", "motion_positions"});
       mesh = load_inline_mesh(o, path, name);
     } else if (type == "obj") {
       keys({"file"});
@@ -662,13 +672,70 @@ class Loader : private JsonReader {
       fail(sub(path, "type"), fmt::format("unknown object type '{}' (known: mesh, obj, sphere, quad, box, torus, disk)", type));
     }
     mesh.name = name;
-    if (const json* t = find(o, "transform")) {
+    const json* motion = find(o, "motion");
+    const json* deform = type == "mesh" ? find(o, "motion_positions") : nullptr;
+    if (motion || deform) {
+      load_motion(o, path, name, motion, deform, mesh);
+    } else if (const json* t = find(o, "transform")) {
       const std::string tpath = sub(path, "transform");
       apply_transform(mesh, load_transform(*t, tpath));
       for (size_t v = 0; v < mesh.positions.size(); ++v)
         if (!is_finite(mesh.positions[v])) fail(tpath, fmt::format("transformed vertex {} of '{}' is not finite", v, name));
     }
     scene_.meshes.push_back(std::move(mesh));
+  }
+
+  // Motion blur (docs/scene-format.md "Motion blur"): "motion", S >= 2 transforms at evenly
+  // spaced shutter times (instead of "transform"), and for inline meshes "motion_positions",
+  // S' >= 2 object-space vertex arrays ([3N floats] or [[x, y, z], ...] each). `mesh` is still in
+  // object space; it is placed at the frame: "transform", or the motion's mid-shutter transform.
+  void load_motion(const json& o, const std::string& path, const std::string& name, const json* motion,
+                   const json* deform, Mesh& mesh) {
+    std::vector<Transform> steps;
+    Transform frame;
+    if (motion) {
+      const std::string mpath = sub(path, "motion");
+      if (find(o, "transform")) fail(path, fmt::format("object '{}' has both 'transform' and 'motion': give one", name));
+      require_array(*motion, mpath);
+      if (motion->size() < 2)
+        fail(mpath, fmt::format("object '{}': {} transform(s); motion needs at least 2 (shutter open and close)", name,
+                                motion->size()));
+      for (size_t i = 0; i < motion->size(); ++i) steps.push_back(load_transform((*motion)[i], sub(mpath, i)));
+      frame = TransformMotion(steps).at(0.5f);
+    } else if (const json* t = find(o, "transform")) {
+      frame = load_transform(*t, sub(path, "transform"));
+    }
+    std::vector<std::vector<Vec3>> vertices;
+    if (deform) {
+      const std::string dpath = sub(path, "motion_positions");
+      require_array(*deform, dpath);
+      if (deform->size() < 2)
+        fail(dpath, fmt::format("object '{}': {} step(s); deformation needs at least 2 (shutter open and close)", name,
+                                deform->size()));
+      const size_t nv = mesh.positions.size();
+      for (size_t s = 0; s < deform->size(); ++s) {
+        const std::string spath = sub(dpath, s);
+        const json& step = (*deform)[s];
+        require_array(step, spath);
+        std::vector<Vec3> v;
+        if (!step.empty() && step[0].is_array()) {  // [[x, y, z], ...]
+          for (size_t i = 0; i < step.size(); ++i) v.push_back(get_vec3(step[i], sub(spath, i)));
+        } else {  // [3N floats]
+          if (step.size() % 3 != 0) fail(spath, fmt::format("{} numbers are not 3 per vertex", step.size()));
+          for (size_t i = 0; i + 2 < step.size(); i += 3)
+            v.emplace_back(get_float(step[i], sub(spath, i)), get_float(step[i + 1], sub(spath, i + 1)),
+                           get_float(step[i + 2], sub(spath, i + 2)));
+        }
+        if (v.size() != nv)
+          fail(spath, fmt::format("object '{}': step {} has {} vertices but 'positions' has {}", name, s, v.size(), nv));
+        vertices.push_back(std::move(v));
+      }
+    }
+    try {
+      set_mesh_motion(mesh, frame, steps, std::move(vertices));
+    } catch (const std::invalid_argument& e) {
+      fail(path, fmt::format("object '{}': {}", name, e.what()));
+    }
   }
 
   Mesh load_inline_mesh(const json& o, const std::string& path, const std::string& name) {

@@ -119,7 +119,9 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
     const Mesh& m = meshes[h.mesh];
     const uint32_t i0 = m.indices[3 * h.prim], i1 = m.indices[3 * h.prim + 1], i2 = m.indices[3 * h.prim + 2];
     const bool has_uvs = !m.uvs.empty();
-    if (!triangle_dpduv(m.positions[i0], m.positions[i1], m.positions[i2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
+    Vec3 v[3];
+    triangle_at(h.mesh, h.prim, shutter_time(), v);  // the path's time (a moving mesh's tangents turn)
+    if (!triangle_dpduv(v[0], v[1], v[2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
                         has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &c.dPdu, &c.dPdv))
       c.dPdu = c.dPdv = Vec3(0.0f);
     if (static_cast<size_t>(h.mesh) < shading_objects_.size()) c.object = &shading_objects_[h.mesh];
@@ -127,10 +129,41 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
   return c;
 }
 
+// A moving mesh's steps: counts, vertex counts and finite values (a Python caller may set them);
+// the scene's bounds take in every step (distant lights' photons must cover the whole shutter).
+void Scene::check_mesh_motion(const Mesh& m, const std::string& where) {
+  const MeshMotion& mo = *m.motion;
+  if (mo.transform.size() == 1)
+    throw std::runtime_error(fmt::format("{}: motion has 1 transform (at least 2 are needed)", where));
+  if (mo.positions.size() == 1)
+    throw std::runtime_error(fmt::format("{}: motion_positions has 1 step (at least 2 are needed)", where));
+  if (mo.object_positions.size() != m.positions.size())
+    throw std::runtime_error(fmt::format("{}: {} object-space positions for {} vertices", where,
+                                         mo.object_positions.size(), m.positions.size()));
+  for (size_t s = 0; s < mo.positions.size(); ++s) {
+    if (mo.positions[s].size() != m.positions.size())
+      throw std::runtime_error(fmt::format("{}: motion_positions step {} has {} vertices, the mesh {}", where, s,
+                                           mo.positions[s].size(), m.positions.size()));
+    for (const Vec3& p : mo.positions[s])
+      if (!is_finite(p)) throw std::runtime_error(fmt::format("{}: motion_positions step {} is not finite", where, s));
+  }
+  for (const DecomposedTransform& d : mo.transform.steps())
+    if (!is_finite(d.translation) || !std::isfinite(d.s00 * d.s11 * d.s22) || !(d.s00 * d.s11 * d.s22 != 0) ||
+        !std::isfinite(d.qr + d.qi + d.qj + d.qk))
+      throw std::runtime_error(fmt::format("{}: a motion transform is not finite or is singular", where));
+  const size_t steps = std::max<size_t>({2, 2 * mo.transform.size(), mo.positions.size()});
+  for (size_t k = 0; k <= steps; ++k) {
+    const float t = static_cast<float>(k) / static_cast<float>(steps);
+    const Transform tw = mo.to_world_at(t);
+    for (uint32_t v = 0; v < mo.object_positions.size(); ++v) bounds_.extend(tw.point(mo.object_vertex(v, t)));
+  }
+}
+
 void Scene::build_lights() {
   build_shading_objects();
   bounds_ = Bounds3();
   std::vector<Light> all_lights = lights;
+  bool moving = !camera.motion.empty();
   triangle_light_.assign(meshes.size(), {});
   for (size_t mi = 0; mi < meshes.size(); ++mi) {
     const Mesh& m = meshes[mi];
@@ -153,6 +186,8 @@ void Scene::build_lights() {
       if (m.indices[k] >= m.positions.size())
         throw std::runtime_error(fmt::format("{}: triangle {} uses vertex {} but the mesh has {} vertices",
                                              where, k / 3, m.indices[k], m.positions.size()));
+    if (m.motion) check_mesh_motion(m, where);
+    if (m.motion) moving = true;
     triangle_light_[mi].assign(m.triangle_count(), -1);
     for (size_t t = 0; t < m.triangle_count(); ++t) {
       const uint32_t mat = m.material_ids[t];
@@ -209,6 +244,10 @@ void Scene::build_lights() {
         l.line_fwhm = mtl.emission_fwhm;
         l.mesh = static_cast<int>(mi);
         l.prim = static_cast<int>(t);
+        if (m.motion) {  // an emissive triangle moving with its mesh: sampled where it is at the path's time
+          l.motion = m.motion;
+          std::copy(&m.indices[3 * t], &m.indices[3 * t] + 3, l.tri);
+        }
         triangle_light_[mi][t] = static_cast<int32_t>(all_lights.size());
         all_lights.push_back(l);
       }
@@ -237,6 +276,7 @@ void Scene::build_lights() {
       throw std::runtime_error(fmt::format("{}: medium '{}' has a negative or non-finite coefficient", source, m.name));
   has_media_ = world_medium >= 0 || std::any_of(materials.begin(), materials.end(),
                                                 [](const Material& m) { return m.interior >= 0; });
+  camera.motion_blur = moving;
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);
 }
@@ -271,6 +311,42 @@ std::string check_object_matrix(const Transform& t) {
     return "the matrix is not affine (last row must be 0 0 0 1)";
   if (linear_determinant(t) == 0) return "the matrix is singular (zero scale?)";
   return {};
+}
+
+void set_mesh_motion(Mesh& mesh, const Transform& to_world, const std::vector<Transform>& transforms,
+                     std::vector<std::vector<Vec3>> steps) {
+  if (transforms.size() == 1)
+    throw std::invalid_argument("'motion' has 1 transform: give at least 2 (shutter open and close)");
+  if (steps.size() == 1)
+    throw std::invalid_argument("'motion_positions' has 1 step: give at least 2 (shutter open and close)");
+  if (const std::string bad = check_object_matrix(to_world); !bad.empty()) throw std::invalid_argument(bad);
+  for (size_t i = 0; i < transforms.size(); ++i)
+    if (const std::string bad = check_object_matrix(transforms[i]); !bad.empty())
+      throw std::invalid_argument(fmt::format("motion transform {}: {}", i, bad));
+  for (size_t s = 0; s < steps.size(); ++s) {
+    if (steps[s].size() != mesh.positions.size())
+      throw std::invalid_argument(fmt::format("motion_positions step {} has {} vertices, 'positions' {}", s,
+                                              steps[s].size(), mesh.positions.size()));
+    for (size_t v = 0; v < steps[s].size(); ++v)
+      if (!is_finite(steps[s][v]))
+        throw std::invalid_argument(fmt::format("motion_positions step {} vertex {} is not finite", s, v));
+  }
+  auto motion = std::make_shared<MeshMotion>();
+  if (!transforms.empty()) {
+    motion->transform = TransformMotion(transforms);
+    if (motion->transform.still()) motion->transform = TransformMotion();  // "moves" nowhere: static
+  }
+  motion->to_world = to_world;
+  motion->positions = std::move(steps);
+  motion->object_positions = mesh.positions;
+  motion->object_normals = mesh.normals;
+  auto src = std::make_shared<MeshSource>();
+  src->positions = mesh.positions;
+  src->normals = mesh.normals;
+  mesh.source = src;
+  mesh.to_world = Transform();
+  transform_mesh(*src, to_world, mesh);  // the frame's world-space arrays
+  if (!motion->transform.empty() || !motion->positions.empty()) mesh.motion = std::move(motion);
 }
 
 void transform_mesh(const MeshSource& src, const Transform& tr, Mesh& m) {
@@ -319,7 +395,14 @@ void Scene::set_mesh_transform(size_t index, const Transform& to_world) {
     throw std::invalid_argument(fmt::format("{}: mesh '{}' comes from a scene file and cannot be moved", source, m.name));
   if (const std::string bad = check_object_matrix(to_world); !bad.empty())
     throw std::invalid_argument(fmt::format("{}: object '{}': {}", source, m.name, bad));
-  if (std::memcmp(&to_world, &m.to_world, sizeof(Transform)) == 0) return;  // not moved: stays flat
+  if (m.motion) {
+    // The viewport moves objects without blur (as Cycles' viewport): a moving mesh becomes
+    // a still one at its new place (its geometry rebuilt without time steps).
+    m.motion.reset();
+    changed_meshes_.push_back(index);
+  } else if (std::memcmp(&to_world, &m.to_world, sizeof(Transform)) == 0) {
+    return;  // not moved: stays flat
+  }
   transform_mesh(*m.source, to_world, m);  // world-space arrays: lights, photon chains, manifold walks
   moved_meshes_.push_back(index);
 }
@@ -387,7 +470,7 @@ void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceH
 void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
                        std::optional<SurfaceHit>* hits) {
   const Vec2 ext = scene.camera.half_extent();  // a tan: once, not per ray
-  for (size_t i = 0; i < n; ++i) rays[i] = scene.camera.generate_ray(starts[i].film, starts[i].lens, ext);
+  for (size_t i = 0; i < n; ++i) rays[i] = scene.camera.generate_ray(starts[i].film, starts[i].lens, ext, starts[i].time);
   scene.intersect_coherent(rays, n, hits);
 }
 
@@ -406,9 +489,17 @@ void Scene::surface_point(const RawHit& raw, SurfacePoint& h) const {
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
   const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
   h.t = raw.t;
+  // A moving mesh: the triangle where it was at the ray's time (the same interpolation as the
+  // accelerator's), so position, normal and tangents are those of the surface the ray met.
+  Vec3 moved[3];
+  const Vec3* v[3] = {&m.positions[i0], &m.positions[i1], &m.positions[i2]};
+  if (m.motion) {
+    m.motion->triangle(&m.indices[3 * raw.prim], raw.time, moved);
+    v[0] = &moved[0], v[1] = &moved[1], v[2] = &moved[2];
+  }
   // Interpolating the vertices is more precise than o + t d far from the ray origin.
-  h.p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
-  h.ng = normalize(cross(m.positions[i1] - m.positions[i0], m.positions[i2] - m.positions[i0]));
+  h.p = *v[0] * b0 + *v[1] * b1 + *v[2] * b2;
+  h.ng = normalize(cross(*v[1] - *v[0], *v[2] - *v[0]));
   if (!m.uvs.empty()) h.uv = m.uvs[i0] * b0 + m.uvs[i1] * b1 + m.uvs[i2] * b2;
   else h.uv = Vec2(b1, b2);
   h.bary = Vec2(b1, b2);
@@ -421,7 +512,7 @@ std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, u
   std::vector<PixelStart> starts;
   starts.reserve(static_cast<size_t>(tile.x1 - tile.x0) * (tile.y1 - tile.y0));
   for (int y = tile.y0; y < tile.y1; ++y)
-    for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel(camera, seed, pass, x, y));
+    for (int x = tile.x0; x < tile.x1; ++x) starts.push_back(start_pixel_in_pass(camera, seed, pass, x, y));
   return starts;
 }
 
@@ -435,7 +526,12 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
   surface_point(raw, h);
   h.ns = h.ng;
   if (!m.normals.empty()) {
-    const Vec3 n = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
+    Vec3 n = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
+    // A moving object's normals turn with it (object-space normals under its transform at t).
+    if (m.motion && !m.motion->transform.empty() && !m.motion->object_normals.empty()) {
+      const auto& on = m.motion->object_normals;
+      n = m.motion->transform.at(raw.time).normal(on[i0] * b0 + on[i1] * b1 + on[i2] * b2);
+    }
     const float len = length(n);
     if (len > 0 && std::isfinite(len)) h.ns = n / len;
     if (dot(h.ns, h.ng) < 0) h.ns = -h.ns;  // shading normal on the geometric side
@@ -444,9 +540,10 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
   h.wo = -ray_dir;
   if (const Material& mat = materials[h.material]; mat.perturbs_normal()) {
     // ---- Normal and bump maps: the shading normal of every method ----
-    Vec3 dpdu, dpdv;
+    Vec3 dpdu, dpdv, v[3];
+    triangle_at(raw.geom, raw.prim, raw.time, v);
     const bool has_uvs = !m.uvs.empty();
-    if (triangle_dpduv(m.positions[i0], m.positions[i1], m.positions[i2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
+    if (triangle_dpduv(v[0], v[1], v[2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
                        has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &dpdu, &dpdv)) {
       Vec3 n = h.ns;
       if (mat.normal_tex) n = normal_mapped(mat.normal_tex, mat.normal_strength, h.uv, n, dpdu, dpdv);
@@ -466,17 +563,32 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
   return out;
 }
 
+void Scene::triangle_at(int mesh, int prim, float time, Vec3 out[3]) const {
+  const Mesh& m = meshes[mesh];
+  const uint32_t* tri = &m.indices[3 * static_cast<size_t>(prim)];
+  if (m.motion) return m.motion->triangle(tri, time, out);
+  for (int k = 0; k < 3; ++k) out[k] = m.positions[tri[k]];
+}
+
+float Scene::pass_shutter_time(uint64_t seed, uint64_t pass) const {
+  if (!has_motion()) return 0.0f;
+  // A stream no pixel or photon uses (their keys are pixel and photon indices below 2^63).
+  return Rng::for_key(seed, ~uint64_t{0}, pass).uniform();
+}
+
 Vec2 Scene::uv_at(int mesh, int prim, const Vec3& p) const {
   const Mesh& m = meshes[mesh];
-  const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
+  const uint32_t i0 = m.indices[3 * prim];
+  Vec3 v[3];
+  triangle_at(mesh, prim, shutter_time(), v);
   // Barycentrics of p's projection onto the triangle's plane.
-  const Vec3 e1 = m.positions[i1] - m.positions[i0], e2 = m.positions[i2] - m.positions[i0], d = p - m.positions[i0];
+  const Vec3 e1 = v[1] - v[0], e2 = v[2] - v[0], d = p - v[0];
   const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), dp1 = dot(d, e1), dp2 = dot(d, e2);
   const float det = d11 * d22 - d12 * d12;
   if (!(std::abs(det) > 0)) return m.uvs.empty() ? Vec2() : m.uvs[i0];
   const float b1 = (d22 * dp1 - d12 * dp2) / det, b2 = (d11 * dp2 - d12 * dp1) / det;
   if (m.uvs.empty()) return Vec2(b1, b2);  // as intersect() without uvs
-  return m.uvs[i0] * (1 - b1 - b2) + m.uvs[i1] * b1 + m.uvs[i2] * b2;
+  return m.uvs[i0] * (1 - b1 - b2) + m.uvs[m.indices[3 * prim + 1]] * b1 + m.uvs[m.indices[3 * prim + 2]] * b2;
 }
 
 bool Scene::occluded(const Ray& ray) const { return accel_->occluded(ray); }

@@ -12,6 +12,7 @@
 #include "core/frame.h"
 #include "core/log.h"
 #include "core/math.h"
+#include "core/motion.h"
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "lights/light.h"
@@ -44,6 +45,10 @@ struct Mesh {
   // files, which cannot be moved by Scene::set_mesh_transform).
   std::shared_ptr<const MeshSource> source;
   Transform to_world;
+  // Motion blur (scene-format "Motion blur"): the mesh over the shutter, or null for a mesh that
+  // does not move. `positions`, `normals` and `to_world` stay the frame's (what anything without
+  // a time reads); hits, area lights and the accelerator use this at the ray's time.
+  std::shared_ptr<const MeshMotion> motion;
 };
 
 // positions and normals of `mesh` = `source` under `to_world` (normals by the inverse transpose,
@@ -52,6 +57,15 @@ struct Mesh {
 void transform_mesh(const MeshSource& source, const Transform& to_world, Mesh& mesh);
 // Empty, or why `t` cannot place an object: not finite, not affine, singular.
 std::string check_object_matrix(const Transform& t);
+// Motion blur: makes `mesh`, whose positions, normals and indices are still in object space,
+// a mesh over the shutter placed at the frame's `to_world` (positions and normals moved there,
+// winding kept for a mirroring matrix, as apply_transform): object motion `transforms` (S >= 2
+// object-to-world matrices at evenly spaced shutter times; empty, or all equal: `to_world`
+// throughout) and deformation `steps` (S' >= 2 object-space vertex arrays of the mesh's vertex
+// count; empty: none). Keeps the object-space arrays (Mesh::source), so the viewport can move
+// it. Throws std::invalid_argument saying what is wrong (the caller names the object).
+void set_mesh_motion(Mesh& mesh, const Transform& to_world, const std::vector<Transform>& transforms,
+                     std::vector<std::vector<Vec3>> steps);
 
 // A ray's closest hit without what only shading needs (the interpolated shading normal, its
 // frame, the light): for rays whose hit is only a place on a surface (a manifold walk's
@@ -106,7 +120,8 @@ struct CameraRays {
     hold_out_camera_rays(scene, n, rays.data(), hits.data());
   }
 };
-// The pixels of `tile`, row by row, started for `pass` (start_pixel): what its camera rays need.
+// The pixels of `tile`, row by row, started for `pass` (start_pixel_in_pass: the photon methods',
+// whose camera rays take their pass's shutter time): what its camera rays need.
 std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, uint64_t pass, const Tile& tile);
 
 // Ray origin pushed off a surface so the next ray does not re-hit it ("A Fast and Robust
@@ -217,6 +232,16 @@ class Scene {
   // True when some material has an interior medium or the World has one (set by finalize()
   // and commit()): the path tracers then track media; without, they run as before, bit for bit.
   bool has_media() const { return has_media_; }
+  // True when some mesh or the camera moves over the shutter (set by finalize() and commit()):
+  // paths then carry a shutter time (Ray::time); without, none is drawn and images are as before.
+  bool has_motion() const { return camera.motion_blur; }
+  // The world-space vertices of triangle `prim` of mesh `mesh` at shutter time `time` (the
+  // stored positions for a mesh that does not move).
+  void triangle_at(int mesh, int prim, float time, Vec3 out[3]) const;
+  // The shutter time of photon-method pass `pass` (thesis ch. 7: one time per pass, shared by
+  // its photons and eye paths, so the shared statistics average over the shutter), drawn from
+  // the render's seed and the pass (a stream of its own); 0 without motion, drawing nothing.
+  float pass_shutter_time(uint64_t seed, uint64_t pass) const;
   // The media a path starting in the open is inside: the World's.
   MediumStack initial_medium_stack() const { return MediumStack(world_medium); }
   const Bounds3& bounds() const { return bounds_; }
@@ -294,6 +319,7 @@ class Scene {
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 
   void build_lights();  // validation, area lights, light set and bounds (finalize, commit)
+  void check_mesh_motion(const Mesh& m, const std::string& where);
   // What shading needs of a hit (ray_dir: the normal map keeps the view side valid).
   std::optional<SurfaceHit> surface_hit(const RawHit& raw, const Vec3& ray_dir) const;
   void surface_point(const RawHit& raw, SurfacePoint& out) const;  // what both hits share

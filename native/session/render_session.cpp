@@ -28,6 +28,14 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
                                           "are left out and only its surfaces render ({} render them)",
                                           method, fmt::join(with_media, ", ")));
   }
+  if (scene_->has_motion() && !find_method(method).supports.motion_blur) {
+    std::vector<std::string> with_blur;
+    for (const Method& m : methods())
+      if (m.supports.motion_blur) with_blur.push_back(m.name);
+    feature_report_.push_back(fmt::format("method '{}' does not render motion blur: the scene renders at one instant "
+                                          "of the shutter ({} blur it)",
+                                          method, fmt::join(with_blur, ", ")));
+  }
   aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
 }
 

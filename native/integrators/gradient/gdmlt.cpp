@@ -129,6 +129,14 @@ GradientDomainMlt::State GradientDomainMlt::evaluate(Sampler& sampler, RayCounts
   fx = std::min(fx, std::nextafter(static_cast<float>(width_), 0.0f));
   fy = std::min(fy, std::nextafter(static_cast<float>(height_), 0.0f));
   const Vec2 lens(sampler.uniform(), sampler.uniform());
+  // Motion blur: the shutter time is one more coordinate of the state (u4), drawn only when the
+  // scene moves. Not one time per pass: the target T(u) would change under the chains between
+  // passes, leaving each chain's current T and the bootstrap's b and start states those of
+  // another time; as a coordinate, T is one fixed function over (u, t) whose integral spans the
+  // shutter, large steps draw t uniformly and small steps move it as any other coordinate. The
+  // base path and its four offsets share it (GradientPathTracer::trace, one thread).
+  const float time = scene_.has_motion() ? sampler.uniform() : 0.0f;
+  const ShutterTime at_time(time);
   State s;
   s.sample = gpt_.trace(Vec2(fx, fy), lens, sampler, rays, failures);
   s.pixel = static_cast<int>(fy) * width_ + static_cast<int>(fx);

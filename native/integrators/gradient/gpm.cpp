@@ -627,6 +627,8 @@ void Gpm::widen_gradient_radius(GradState& g, double r2_primal, double m_primal)
 void Gpm::iterate(ProgressSink* sink) {
   const auto start = clock_type::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  // Motion blur (thesis ch. 7): one shutter time per pass, shared by its eye paths and photons.
+  const ShutterTime at_time(scene_.pass_shutter_time(seed_, pass));
   const size_t n_pixels = px_.size();
   std::atomic<int64_t> rays{0}, invalid{0}, shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0};
   std::array<std::atomic<int64_t>, 2 * kShiftFailureCount> failures;

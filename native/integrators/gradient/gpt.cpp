@@ -441,7 +441,9 @@ void GradientPathTracer::iterate(ProgressSink* sink) {
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
+            auto [rng, film, lens, time] = start_pixel(scene_.camera, seed_, pass, x, y);
+            // Motion blur: the base path and its offsets at the base's shutter time (core/math.h).
+            const ShutterTime at_time(time);
             RngSampler sampler(rng);
             const Sample s = trace(film, lens, sampler, tile_rays, &tile_failures, x + scene_.camera.crop_x,
                                    y + scene_.camera.crop_y);

@@ -56,6 +56,9 @@ struct CameraPathSettings {
 template <class P>
 bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray, Rng& rng, RayCounts& rays, P& path,
                        const std::optional<SurfaceHit>* first = nullptr) {
+  // Motion blur: the whole path at its camera ray's shutter time (drawn once per camera path by
+  // start_pixel), which every ray, hit and light sample on the path then takes (core/math.h).
+  const ShutterTime at_time(ray.time);
   const LightSet& lights = scene.light_set();
   constexpr int kMaxPassThrough = 8;  // Cycles: Light Paths > Transparent, 8 by default
   constexpr int kMaxBoundaries = 64;  // volume boundaries crossed (Cycles: VOLUME_BOUNDS_MAX)

@@ -312,6 +312,8 @@ void Msppm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
 void Msppm::iterate(ProgressSink* sink) {
   const auto start = clock_type::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  // Motion blur (thesis ch. 7): one shutter time per pass, shared by its eye paths and photons.
+  const ShutterTime at_time(scene_.pass_shutter_time(seed_, pass));
   const size_t n_pixels = px_.size();
   std::atomic<int64_t> rays{0}, invalid{0};
 

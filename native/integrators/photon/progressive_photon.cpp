@@ -141,6 +141,11 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
 void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   const auto start = clock_type::now();
   const uint64_t pass = static_cast<uint64_t>(stats_.passes);
+  // ---- Motion blur (thesis ch. 7): one shutter time per pass, drawn from the pass's seed and
+  // shared by its eye paths and photons (and so by the statistics they update), so that the
+  // shared radius and flux average over the shutter. PPM keeps the measurement points of its
+  // first pass: its passes all take that pass's time (no blur; Method::supports says so). ----
+  const ShutterTime at_time(scene_.pass_shutter_time(seed_, retrace_ ? pass : 0));
   const size_t n_pixels = px_.size();
   std::atomic<int64_t> rays{0}, invalid{0};
 

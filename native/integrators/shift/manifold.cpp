@@ -37,7 +37,9 @@ struct LocalSurface {
 LocalSurface local_surface(const Scene& scene, int mesh, int prim, const Vec3& p) {
   const Mesh& m = scene.meshes[mesh];
   const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
-  const Vec3d p0 = to_d(m.positions[i0]), e1 = to_d(m.positions[i1]) - p0, e2 = to_d(m.positions[i2]) - p0;
+  Vec3 v[3];
+  scene.triangle_at(mesh, prim, shutter_time(), v);  // where a moving mesh is at the path's time
+  const Vec3d p0 = to_d(v[0]), e1 = to_d(v[1]) - p0, e2 = to_d(v[2]) - p0;
   LocalSurface ls;
   ls.p = to_d(p);
   ls.ng = e1.cross(e2).normalized();
@@ -55,7 +57,12 @@ LocalSurface local_surface(const Scene& scene, int mesh, int prim, const Vec3& p
   const Eigen::Matrix2d g_inv = g.inverse();
   const Vec3d d = ls.p - p0;
   const Eigen::Vector2d bary = g_inv * Eigen::Vector2d(d.dot(ls.s), d.dot(ls.t));
-  const Vec3d n0 = to_d(m.normals[i0]), dn1 = to_d(m.normals[i1]) - n0, dn2 = to_d(m.normals[i2]) - n0;
+  Vec3 nv[3] = {m.normals[i0], m.normals[i1], m.normals[i2]};
+  if (m.motion && !m.motion->transform.empty() && !m.motion->object_normals.empty()) {
+    const Transform to_world = m.motion->transform.at(shutter_time());  // a turning object's normals turn
+    for (int k = 0; k < 3; ++k) nv[k] = normalize(to_world.normal(m.motion->object_normals[m.indices[3 * prim + k]]));
+  }
+  const Vec3d n0 = to_d(nv[0]), dn1 = to_d(nv[1]) - n0, dn2 = to_d(nv[2]) - n0;
   ls.n = n0 + bary[0] * dn1 + bary[1] * dn2;
   ls.dn_a = g_inv(0, 0) * dn1 + g_inv(1, 0) * dn2;
   ls.dn_b = g_inv(0, 1) * dn1 + g_inv(1, 1) * dn2;

@@ -794,7 +794,9 @@ void SpectralGradientPathTracer::iterate(ProgressSink* sink) {
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            auto [rng, film, lens] = start_pixel(scene_.camera, seed_, pass, x, y);
+            auto [rng, film, lens, time] = start_pixel(scene_.camera, seed_, pass, x, y);
+            // Motion blur: the base path and its offsets at the base's shutter time (core/math.h).
+            const ShutterTime at_time(time);
             if (!sample_pixel(pixel, rng, scene_.camera.generate_ray(film, lens), tile_rays, tc)) ++invalid;
             ++samples_[pixel];
             ++tile_paths;
