@@ -416,7 +416,8 @@ def test_f12_render_of_a_static_scene_with_motion_blur_is_bit_for_bit(blur_scene
 # it takes 512 passes to Cycles' 128.
 MOTION_SIZE, CYCLES_SAMPLES, GRADPHOTON_PASSES = (48, 36), 128, 512
 MOTION_MEAN = 0.01
-MOTION_RELMSE = {"sliding_turning_cube": 0.0015, "falling_ball": 0.0015, "panning_camera": 0.0015}
+MOTION_RELMSE = {"sliding_turning_cube": 0.0015, "falling_ball": 0.0015, "panning_camera": 0.0015,
+                 "stretching_cube": 0.0015}
 
 
 def _lit_floor(scene):
@@ -473,8 +474,31 @@ def panning_camera(scene):
     scene.frame_set(3)
 
 
+def stretching_cube(scene):
+    """Deformation: a cube whose shape key pulls its +x face out by two units a frame (the object
+    does not move), seen from above."""
+    _lit_floor(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(-1, 0, 0.5))
+    cube = bpy.context.active_object
+    cube.data.materials.append(scenes.diffuse_material("Red", (0.8, 0.1, 0.1)))
+    cube.shape_key_add(name="Basis")
+    key = cube.shape_key_add(name="Long")
+    for v in key.data:
+        if v.co.x > 0:
+            v.co.x += 4.0
+    kb = cube.data.shape_keys.key_blocks["Long"]
+    for frame, value in ((1, 0.0), (3, 1.0)):
+        kb.value = value
+        kb.keyframe_insert("value", frame=frame)
+    for fc in cube.data.shape_keys.animation_data.action.fcurves:
+        for k in fc.keyframe_points:
+            k.interpolation = 'LINEAR'
+    scenes.add_camera(scene, (0, 0, 8), (0, 0, 0))
+    scene.frame_set(2)
+
+
 MOTION_SCENES = {"sliding_turning_cube": sliding_turning_cube, "falling_ball": falling_ball,
-                 "panning_camera": panning_camera}
+                 "panning_camera": panning_camera, "stretching_cube": stretching_cube}
 
 
 @pytest.mark.parametrize("case", list(MOTION_SCENES))
