@@ -9,7 +9,8 @@ from . import export
 
 
 def write_scene_json(depsgraph, path, export_uvs=False):
-    exported = export.export_scene(depsgraph, export_uvs=export_uvs)
+    # As a final render exports it, motion blur included (CLI parity).
+    exported = export.export_scene(depsgraph, export_uvs=export_uvs, frame_set=export.scene_frame_set(depsgraph))
     data = exported.to_json()
     data["description"] = f"exported from Blender scene '{exported.name}'"
     with open(path, "w", encoding="utf-8") as f:

@@ -10,6 +10,10 @@ the native scene stays with it (PersistentScene); each frame syncs what changed 
 objects are transformed natively, unchanged meshes are not exported again).
 
 Border: the camera's crop window (export/camera.py), so only the border's pixels are traced.
+
+Motion blur: the export samples the scene over the shutter through RenderEngine.frame_set, as
+Cycles does, and restores the frame (export/motion.py); with Persistent Data a frame whose
+export moves anything rebuilds the native scene (its arrays still come from the mesh cache).
 """
 import fnmatch
 import math
@@ -244,10 +248,11 @@ class PersistentScene:
         self.scene = None
         self.plans = []  # the kinds of each frame's plan (tests: ["rebuild"], ["transforms"], ...)
 
-    def scene_for(self, depsgraph, N, export_uvs):
-        """(ExportedScene, native Scene) for this frame: updated in place where possible."""
+    def scene_for(self, depsgraph, N, export_uvs, frame_set=None):
+        """(ExportedScene, native Scene) for this frame: updated in place where possible
+        (`frame_set`: motion blur, export.export_scene)."""
         first = self.scene is None
-        plan = self.sync.sync(depsgraph, export_uvs=export_uvs, first=first)
+        plan = self.sync.sync(depsgraph, export_uvs=export_uvs, first=first, frame_set=frame_set)
         self.plans.append(plan.kinds())
         try:
             self.scene = sync.apply(plan, self.scene, N)
@@ -316,12 +321,14 @@ class RenderSession:
         try:
             engine.update_stats("", "Exporting scene")
             persistent = getattr(engine, "persistent", None) if scene.render.use_persistent_data else None
+            # Motion blur samples the scene over the shutter through the engine (Cycles' frame_set).
+            frame_set = getattr(engine, "frame_set", None)
             if persistent is not None:
-                exported, nscene = persistent.scene_for(depsgraph, N, settings.export_uvs)
+                exported, nscene = persistent.scene_for(depsgraph, N, settings.export_uvs, frame_set)
             else:
                 if hasattr(engine, "persistent"):
                     engine.persistent = PersistentScene()  # switched off: the next frame starts anew
-                exported = export.export_scene(depsgraph, export_uvs=settings.export_uvs)
+                exported = export.export_scene(depsgraph, export_uvs=settings.export_uvs, frame_set=frame_set)
                 engine.update_stats("", f"Building scene ({exported.triangle_count:,} triangles)")
                 nscene = exported.build(N)
             if exported.warnings:

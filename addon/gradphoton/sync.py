@@ -120,19 +120,21 @@ class SceneSync:
         self.description = None   # JSON text without the camera
         self.camera = None        # JSON text of the camera
         self.exported = None
+        self.had_motion = False   # the previous export moved something (motion blur)
 
     def reset(self):
         self.__init__()
 
-    def sync(self, depsgraph, *, export_uvs=False, first=False, camera=None):
+    def sync(self, depsgraph, *, export_uvs=False, first=False, camera=None, frame_set=None):
         """A Plan for the depsgraph's current state. `first`: a fresh evaluation (a new viewport
         or a render without persistent data): everything is read again. `camera`: a camera
-        JSON-able dict that replaces the exported one (the viewport's view)."""
+        JSON-able dict that replaces the exported one (the viewport's view). `frame_set`: motion
+        blur (a render with Persistent Data; export.export_scene), never in the viewport."""
         if first:
             self.reset()
         else:
             self.cache.drop(geometry_updates(depsgraph))
-        exported = export.export_scene(depsgraph, export_uvs=export_uvs, mesh_cache=self.cache)
+        exported = export.export_scene(depsgraph, export_uvs=export_uvs, mesh_cache=self.cache, frame_set=frame_set)
         if camera is not None:
             exported.description["camera"] = camera
         return self.plan_for(exported)
@@ -143,8 +145,10 @@ class SceneSync:
                     if exported.meshes else np.zeros((0, 4, 4), np.float32))
         description = _description_text(exported)
         camera = json.dumps(exported.description.get("camera"), sort_keys=True)
-        if self.layout is None or layout != self.layout:
-            reason = "first export" if self.layout is None else "objects or geometry changed"
+        if self.layout is None or layout != self.layout or exported.has_motion or self.had_motion:
+            # Motion (or its end) has no in-place update: Scene.set_transforms takes one matrix.
+            reason = ("first export" if self.layout is None else "objects or geometry changed"
+                      if layout != self.layout else "motion blur")
             plan = Plan(rebuild=exported, reason=reason)
         else:
             changed = np.nonzero(np.any(matrices != self.matrices, axis=(1, 2)))[0]
@@ -153,6 +157,7 @@ class SceneSync:
                         camera=camera if camera != self.camera else None, exported=exported)
         self.layout, self.matrices, self.description, self.camera = layout, matrices, description, camera
         self.exported = exported
+        self.had_motion = exported.has_motion
         return plan
 
 

@@ -231,6 +231,113 @@ class GRADPHOTON_PT_film_transparency(GradphotonPanel, bpy.types.Panel):
         layout.label(text="Alpha 0 where the world is seen")
 
 
+def motion_blur_note(method):
+    """A line for the Motion Blur panels when `method` does not render motion blur (its
+    declaration in the core, Method::supports), else None."""
+    d = native.method_description(method)
+    if d is None or d.get("supports", {}).get("motion_blur", False):
+        return None
+    return f"{method_label(method)} renders the frame without blur"
+
+
+def _note(layout, text, icon='INFO', width=44):
+    for i, line in enumerate(textwrap.wrap(text, width)):
+        layout.label(text=line, icon=icon if i == 0 else 'BLANK1')
+
+
+class GRADPHOTON_RENDER_PT_motion_blur(GradphotonPanel, bpy.types.Panel):
+    """Render > Motion Blur, as Cycles' panel and with its settings (Blender's render settings and
+    scene.cycles): Position, Shutter; Rolling Shutter is drawn but not rendered (a note here, a
+    warning when rendering). Final renders blur; the viewport does not, as Cycles'
+    (export/motion.py)."""
+    bl_label = "Motion Blur"
+    bl_context = "render"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.render, "use_motion_blur", text="")
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        rd = context.scene.render
+        layout.active = rd.use_motion_blur
+        c = cycles_settings(context.scene)
+        col = layout.column()
+        if c is not None:
+            col.prop(c, "motion_blur_position", text="Position")
+        col.prop(rd, "motion_blur_shutter")
+        if c is not None:
+            col.separator()
+            col.prop(c, "rolling_shutter_type", text="Rolling Shutter")
+            sub = col.column()
+            sub.active = c.rolling_shutter_type != 'NONE'
+            sub.prop(c, "rolling_shutter_duration")
+            if c.rolling_shutter_type != 'NONE':
+                _note(layout, "Rolling Shutter is not rendered: every row sees the whole shutter")
+        else:
+            _note(layout, "Position is Cycles' setting: enable the Cycles add-on (Center is used)", 'ERROR')
+        note = motion_blur_note(context.scene.gradphoton.method)
+        if note:
+            _note(layout, note)
+
+
+class GRADPHOTON_RENDER_PT_motion_blur_curve(GradphotonPanel, bpy.types.Panel):
+    """Motion Blur > Shutter Curve, as Cycles'. Not rendered: a curve that is not flat is named in
+    the render's warnings and here."""
+    bl_label = "Shutter Curve"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_RENDER_PT_motion_blur"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        from .export import motion
+        layout = _split(self.layout)
+        rd = context.scene.render
+        layout.active = rd.use_motion_blur
+        layout.column().template_curve_mapping(rd, "motion_blur_shutter_curve")
+        row = layout.column(align=True).row(align=True)
+        for shape, icon in (('SMOOTH', 'SMOOTHCURVE'), ('ROUND', 'SPHERECURVE'), ('ROOT', 'ROOTCURVE'),
+                            ('SHARP', 'SHARPCURVE'), ('LINE', 'LINCURVE'), ('MAX', 'NOCURVE')):
+            row.operator("render.shutter_curve_preset", icon=icon, text="").shape = shape
+        if not motion.shutter_curve_is_flat(rd.motion_blur_shutter_curve):
+            _note(layout, "The curve is not rendered: the shutter is open fully for its whole time (a flat curve)")
+
+
+# Object types with Cycles' Object > Motion Blur panel (its CYCLES_OBJECT_PT_motion_blur.poll).
+MOTION_BLUR_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META', 'CAMERA', 'CURVES', 'POINTCLOUD', 'VOLUME'}
+
+
+class GRADPHOTON_OBJECT_PT_motion_blur(GradphotonPanel, bpy.types.Panel):
+    """Object > Motion Blur, as Cycles' (ob.cycles): the switch, Steps (2^Steps + 1 samples over
+    the shutter) and Deformation (not for cameras). An instancer's switch and Steps apply to its
+    instances too."""
+    bl_label = "Motion Blur"
+    bl_context = "object"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        ob = context.object
+        if not super().poll(context) or ob is None or getattr(ob, "cycles", None) is None:
+            return False
+        return ob.type in MOTION_BLUR_TYPES or (ob.instance_type == 'COLLECTION' and ob.instance_collection is not None)
+
+    def draw_header(self, context):
+        self.layout.active = context.scene.render.use_motion_blur
+        self.layout.prop(context.object.cycles, "use_motion_blur", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        ob = context.object
+        cob = ob.cycles
+        layout.active = context.scene.render.use_motion_blur and cob.use_motion_blur
+        col = layout.column()
+        col.prop(cob, "motion_steps", text="Steps")
+        if ob.type != 'CAMERA':
+            col.prop(cob, "use_deform_motion", text="Deformation")
+
+
 # Blender's icon for each report level (the status bar's and the Info editor's): a warning is the
 # triangle, an error the cross.
 REPORT_ICONS = {'ERROR': 'CANCEL', 'WARNING': 'ERROR', 'INFO': 'INFO'}
@@ -439,6 +546,7 @@ class GRADPHOTON_WORLD_PT_ray_visibility(GradphotonPanel, bpy.types.Panel):
 _classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_spectral, GRADPHOTON_PT_viewport, GRADPHOTON_PT_photons,
             GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction, GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping,
             GRADPHOTON_PT_film, GRADPHOTON_PT_film_pixel_filter, GRADPHOTON_PT_film_transparency,
+            GRADPHOTON_RENDER_PT_motion_blur, GRADPHOTON_RENDER_PT_motion_blur_curve, GRADPHOTON_OBJECT_PT_motion_blur,
             GRADPHOTON_PT_performance, GRADPHOTON_PT_report, GRADPHOTON_PT_passes, GRADPHOTON_PT_material,
             GRADPHOTON_LIGHT_PT_light, GRADPHOTON_OBJECT_PT_visibility_ray_visibility, GRADPHOTON_WORLD_PT_ray_visibility)
 

@@ -263,7 +263,11 @@ class _Layout:
         pass
 
     def operator(self, *args, **kwargs):
-        pass
+        from types import SimpleNamespace
+        return SimpleNamespace()  # its properties are set by the panel
+
+    def template_curve_mapping(self, data, name, **kwargs):
+        assert hasattr(data, name), name
 
     def prop(self, data, name, **kwargs):
         assert hasattr(data, name), name
@@ -279,9 +283,11 @@ class _Layout:
 # Cycles' animated seed and Persistent Data.
 NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "error_time_limit", "export_uvs",
                   "viewport_method", "viewport_passes", "use_animated_seed"}
-BLENDER_RENDER_SETTINGS = {"use_persistent_data"}
-# Cycles' Film settings gradphoton reads (Film > Exposure, Pixel Filter): not method parameters.
-CYCLES_FILM_SETTINGS = {"film_exposure", "pixel_filter_type", "filter_width"}
+BLENDER_RENDER_SETTINGS = {"use_persistent_data", "use_motion_blur", "motion_blur_shutter"}
+# Cycles' Film and Motion Blur settings gradphoton reads (Film > Exposure, Pixel Filter; Motion
+# Blur > Position, Rolling Shutter): not method parameters.
+CYCLES_FILM_SETTINGS = {"film_exposure", "pixel_filter_type", "filter_width", "motion_blur_position",
+                        "rolling_shutter_type", "rolling_shutter_duration"}
 
 
 def drawn_parameters(scene, method):

@@ -8,10 +8,20 @@ import time
 
 import numpy as np
 
-from . import camera, light, material, mesh, skipped, visibility, world
+from . import camera, light, material, mesh, motion, skipped, visibility, world
 from .warnings import Warnings
 
-__all__ = ["ExportedScene", "export_scene", "Warnings"]
+__all__ = ["ExportedScene", "export_scene", "scene_frame_set", "Warnings"]
+
+
+def scene_frame_set(depsgraph):
+    """frame_set for export_scene outside a render (Export Scene, tests): the scene's own
+    Scene.frame_set, which evaluates the view layer's depsgraph (the one given)."""
+    scene = depsgraph.scene.original
+
+    def frame_set(frame, subframe):
+        scene.frame_set(frame, subframe=subframe)
+    return frame_set
 
 
 class ExportedScene:
@@ -23,6 +33,11 @@ class ExportedScene:
         self.border = None        # (x0, y0, w, h) in pixels, Blender's bottom-left origin, or None
         self.seconds = 0.0        # export time
         self.name = "scene"
+        self.moving = []          # names of what moves over the shutter (export/motion.py), or []
+
+    @property
+    def has_motion(self):
+        return bool(self.moving)
 
     @property
     def triangle_count(self):
@@ -33,8 +48,15 @@ class ExportedScene:
         b = native_module.SceneBuilder(f"Blender scene '{self.name}'")
         b.set_description(json.dumps(self.description))
         for m in self.meshes:
+            # Motion only where there is some: a static scene calls the builder as before.
+            extra = {}
+            if m.motion is not None:
+                extra["motion"] = m.motion
+            if m.motion_positions is not None:
+                extra["motion_positions"] = m.motion_positions
             b.add_mesh(m.name, m.positions, m.indices, m.materials, material_ids=m.material_ids,
-                       normals=m.normals, uvs=m.uvs, matrices=np.stack(m.matrices), instance_names=m.instance_names)
+                       normals=m.normals, uvs=m.uvs, matrices=np.stack(m.matrices), instance_names=m.instance_names,
+                       **extra)
         return b.finalize()
 
     def to_json(self):
@@ -42,9 +64,15 @@ class ExportedScene:
         out = dict(self.description)
         objects = []
         for m in self.meshes:
-            for matrix, name in zip(m.matrices, m.instance_names):
-                o = {"name": name, "type": "mesh", "positions": m.positions.tolist(),
-                     "indices": m.indices.tolist(), "transform": {"matrix": matrix.reshape(16).tolist()}}
+            for k, (matrix, name) in enumerate(zip(m.matrices, m.instance_names)):
+                o = {"name": name, "type": "mesh", "positions": m.positions.tolist(), "indices": m.indices.tolist()}
+                steps = m.motion[k] if m.motion is not None else None
+                if steps is not None and not (steps == steps[0]).all():
+                    o["motion"] = [{"matrix": t.reshape(16).tolist()} for t in steps]
+                else:
+                    o["transform"] = {"matrix": matrix.reshape(16).tolist()}
+                if m.motion_positions is not None:
+                    o["motion_positions"] = m.motion_positions.reshape(len(m.motion_positions), -1).tolist()
                 if m.normals is not None:
                     o["normals"] = m.normals.tolist()
                 if m.uvs is not None:
@@ -59,10 +87,14 @@ class ExportedScene:
         return out
 
 
-def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
+def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, frame_set=None):
     """Exports the evaluated depsgraph (visible objects and instances, modifiers applied); mesh
     arrays come from `mesh_cache` (mesh.MeshCache) where it holds them. `method` (default: the
-    scene's) is the one that will render it, for the warnings about what it ignores."""
+    scene's) is the one that will render it, for the warnings about what it ignores.
+    `frame_set(frame, subframe)` evaluates the depsgraph at another time (RenderEngine.frame_set
+    in a render, scene_frame_set otherwise): given, and with Render > Motion Blur on, objects and
+    the camera are sampled over the shutter as Cycles does (export/motion.py) and the frame is
+    restored; without it (the viewport) nothing blurs, as in Cycles' viewport."""
     t0 = time.perf_counter()
     if mesh_cache is not None:
         mesh_cache.hits = mesh_cache.misses = 0
@@ -70,6 +102,8 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
     out = ExportedScene()
     out.name = scene.name
     w = out.warnings
+    shutter = motion.scene_shutter(scene, depsgraph.view_layer, w) if frame_set is not None else None
+    sampler = motion.MotionSampler(shutter, frame_set, scene) if shutter is not None else None
     media = {}
     mats = material.MaterialExporter(out.description["materials"], w, media)
     meshes = {}
@@ -81,14 +115,16 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
         kind = ob.type
         skipped.check_object(ob, kind, w)
         if kind in mesh.GEOMETRY_TYPES:
-            mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache, view_layer=depsgraph.view_layer_eval)
+            mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache, sampler,
+                              view_layer=depsgraph.view_layer_eval)
         elif kind == 'LIGHT':
             light.add_light(out, inst, mats, w)
+            if sampler is not None:
+                sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32))
         # cameras, empties, armatures: nothing to render
     if mesh_cache is not None:
         mesh_cache.keep_only(meshes.keys())
     out.meshes = [m for m in meshes.values() if m.triangle_count > 0] + out.meshes  # area lights first added
-    skipped.check_scene(scene, mats.used_materials(), w)
     out.description["camera"], out.width, out.height, out.border = camera.export_camera(scene, w)
     settings = getattr(scene, "gradphoton", None)
     env = world.export_world(scene.world, w)
@@ -100,6 +136,12 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
         out.description["world_medium"] = world.WORLD_MEDIUM
     if media:
         out.description["media"] = media
-    visibility.check_method(out.description, method or (settings.method if settings else "pt"), w)
+    method = method or (settings.method if settings else "pt")
+    visibility.check_method(out.description, method, w)
+    if sampler is not None:  # last: every other read is of the frame itself
+        sampler.add_camera(scene.camera, out.description["camera"].get("matrix"))
+        sampler.sample(depsgraph, mesh.evaluated_positions, camera.camera_matrix)
+        out.meshes, out.moving = sampler.apply(out.meshes, out.description, w)
+        # A method that does not blur says so itself (the core's feature_report, from its declaration).
     out.seconds = time.perf_counter() - t0
     return out

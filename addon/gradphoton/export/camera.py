@@ -27,6 +27,16 @@ def pixel_filter(scene):
     return {"type": kind, "width": min(64.0, max(0.01, width))}
 
 
+def camera_matrix(ob):
+    """The camera-to-world matrix (16 numbers, row-major) of a camera object, its scale dropped:
+    the core wants a rigid camera. Also each step of the camera's motion (export/motion.py)."""
+    mw = ob.matrix_world
+    rot = mw.to_quaternion().to_matrix()
+    t = mw.translation
+    return [rot[0][0], rot[0][1], rot[0][2], t[0], rot[1][0], rot[1][1], rot[1][2], t[1],
+            rot[2][0], rot[2][1], rot[2][2], t[2], 0, 0, 0, 1]
+
+
 def export_camera(scene, warnings):
     render = scene.render
     width, height = resolution(render)
@@ -47,10 +57,8 @@ def export_camera(scene, warnings):
         return d, width, height, border
     cam = ob.data
     mw = ob.matrix_world
-    rot = mw.to_quaternion().to_matrix()  # drop scale: the core wants a rigid camera
     t = mw.translation
-    d["matrix"] = [rot[0][0], rot[0][1], rot[0][2], t[0], rot[1][0], rot[1][1], rot[1][2], t[1],
-                   rot[2][0], rot[2][1], rot[2][2], t[2], 0, 0, 0, 1]
+    d["matrix"] = camera_matrix(ob)
     if cam.type == 'ORTHO':
         d["type"] = "orthographic"
         d["ortho_scale"] = cam.ortho_scale

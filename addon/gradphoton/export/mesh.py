@@ -28,6 +28,19 @@ class MeshRecord:
         self.matrices = []
         self.instance_names = []
         self.triangle_count = 0
+        # Motion blur (export/motion.py): (K, S, 4, 4) object-to-world matrices of each instance
+        # over the shutter, and (S', N, 3) positions of a deforming mesh; None when static.
+        self.motion = None
+        self.motion_positions = None
+        self.deform_source = None  # the object whose deformation is sampled for these arrays
+        self.needs_uvs = False
+
+    def copy_without_instances(self):
+        """The same arrays and materials with no instances (a record split by motion steps)."""
+        c = MeshRecord(self.name)
+        c.__dict__.update(self.__dict__)
+        c.matrices, c.instance_names, c.motion = [], [], None
+        return c
 
 
 def mesh_arrays(me, export_uvs=False):
@@ -102,10 +115,11 @@ class MeshCache:
         self.users = {n: k & set(keys) for n, k in self.users.items() if k & set(keys)}
 
 
-def add_instance(records, inst, mats, warnings, export_uvs, cache=None, view_layer=None):
+def add_instance(records, inst, mats, warnings, export_uvs, cache=None, motion=None, view_layer=None):
     """Adds one depsgraph instance of a geometry object to `records` (key -> MeshRecord); with a
-    MeshCache, a record's arrays come from it when it has them. `view_layer` (the depsgraph's
-    evaluated one) decides holdouts by collection."""
+    MeshCache, a record's arrays come from it when it has them. `motion` (motion.MotionSampler,
+    final renders with motion blur on) is told of the instance, to sample it over the shutter.
+    `view_layer` (the depsgraph's evaluated one) decides holdouts by collection."""
     ob = inst.object
     matrix = np.array(inst.matrix_world, dtype=np.float32)
     if np.isfinite(matrix).all() and np.linalg.det(matrix[:3, :3].astype(np.float64)) == 0:
@@ -127,6 +141,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, view_lay
         (rec.geometry_id, rec.positions, rec.indices, rec.normals, rec.uvs, rec.material_ids,
          rec.triangle_count) = cache.arrays[key]
         rec.materials = names
+        rec.needs_uvs = needs_uvs
         records[key] = rec
         cache.hits += 1
     if rec is None:
@@ -149,6 +164,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, view_lay
             if owner is not None:
                 owner.to_mesh_clear()
         rec.materials = names
+        rec.needs_uvs = needs_uvs
         records[key] = rec
         if cache is not None:
             rec.geometry_id = cache.new_id()
@@ -158,3 +174,22 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, view_lay
     rec.matrices.append(matrix)
     n = len(rec.matrices)
     rec.instance_names.append(ob.name if n == 1 else f"{ob.name} [{n - 1}]")
+    if motion is not None and rec.triangle_count > 0:
+        motion.add_instance(inst, rec, n - 1)
+
+
+def evaluated_positions(ob, needs_uvs):
+    """(positions, indices) of an evaluated geometry object as mesh_arrays lays them out (the
+    deformation steps of motion blur: export/motion.py), or None without faces."""
+    if ob.type == 'MESH':
+        me, owner = ob.data, None
+    else:
+        me, owner = ob.to_mesh(), ob
+    try:
+        if me is None or not len(me.polygons):
+            return None
+        pos, idx, _, _, _ = mesh_arrays(me, needs_uvs)
+        return pos, idx
+    finally:
+        if owner is not None:
+            owner.to_mesh_clear()

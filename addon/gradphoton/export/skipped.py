@@ -1,8 +1,9 @@
 """What the core does not render, each counted once in the render's report instead of being
-skipped without a word: motion blur, hair (curves objects and hair particle systems) and
+skipped without a word: hair (curves objects and hair particle systems) and
 Volume objects (OpenVDB grids: the next landing). A material's or the World's Volume output is
 exported (export/volume.py); a method that does not render media says so itself, naming it
-(the session's feature_report)."""
+(the session's feature_report). Motion blur is exported (export/motion.py); a method that does
+not render it says so the same way."""
 
 
 def check_object(ob, kind, warnings):
@@ -13,8 +14,3 @@ def check_object(ob, kind, warnings):
     for ps in getattr(ob, "particle_systems", ()):
         if ps.settings.type == 'HAIR' and ps.settings.render_type == 'PATH':
             warnings.add("hair curves not rendered", f"{ob.name}: {ps.name}")
-
-
-def check_scene(scene, materials, warnings):
-    if scene.render.use_motion_blur:
-        warnings.add("motion blur not rendered", scene.name)
