@@ -89,11 +89,7 @@ class MaterialExporter:
         self.table = table  # name -> scene-format material dict
         self.media = media if media is not None else {}  # name -> scene-format medium (Volume outputs)
         self.w = warnings
-        self._used = {}     # Blender materials exported, by name
         self._textured = set()  # exported materials that read UVs (their meshes need them)
-
-    def used_materials(self):
-        return list(self._used.values())
 
     def needs_uvs(self, mat):
         """True when Blender material `mat` reads the UV map (its meshes must export UVs)."""
@@ -108,7 +104,6 @@ class MaterialExporter:
             name = DEFAULT
         else:
             name = mat.name
-            self._used[name] = mat
             if name not in self.table:
                 self.table[name] = self.convert(mat)
         if not flags:
