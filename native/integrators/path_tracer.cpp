@@ -181,26 +181,16 @@ struct RgbPath {
 
 RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
   RgbPath path(scene_, clamp_direct_, clamp_indirect_, &media_);
-  const bool covered = trace_camera_path(scene_, settings_, ray, rng, rays, path, first);
-  if (escaped) *escaped = !covered;
-  rays.shadow += path.shadow_rays;
-  return path.L;
+  return camera_path_radiance(scene_, settings_, ray, rng, rays, path, first, escaped);
 }
 
 void PathTracer::iterate(ProgressSink* sink) {
-  // A tile's camera rays are traced together (Embree packets: the same hits, several times
-  // faster than one by one), then each path goes on alone from its first hit.
-  estimate_.run_pass_tiles(seed_, tile_size_, threads_, sink, stats_,
-                           [this](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
-                             CameraRays first(scene_, starts, n);
-                             const std::vector<Ray>& camera = first.rays;
-                             std::vector<std::optional<SurfaceHit>>& hits = first.hits;
-                             for (size_t i = 0; i < n; ++i) {
-                               bool escaped = false;
-                               const RGB L = Li(camera[i], starts[i].rng, rays, &escaped, &hits[i]);
-                               out[i] = PixelSample{L, escaped ? 0.0f : 1.0f};
-                             }
-                           });
+  estimate_.run_camera_pass(scene_, seed_, tile_size_, threads_, sink, stats_,
+                            [this](const Ray& ray, Rng& rng, RayCounts& rays, const std::optional<SurfaceHit>* first) {
+                              bool escaped = false;
+                              const RGB L = Li(ray, rng, rays, &escaped, first);
+                              return PixelSample{L, escaped ? 0.0f : 1.0f};
+                            });
 }
 
 void PathTracer::develop(Film& film) const {

@@ -20,6 +20,7 @@
 #include "core/progress.h"
 #include "core/rng.h"
 #include "scene/camera.h"
+#include "scene/scene.h"
 
 namespace gp {
 
@@ -132,6 +133,19 @@ class PixelEstimate {
     stats.paths += paths;
     stats.invalid_samples += invalid;
     stats.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
+  // One pass of a camera-path tracer (pt, spt, spt-hero): a tile's camera rays traced together
+  // (Embree packets: the same hits, several times faster than one by one; holdouts applied),
+  // then each path alone from its first hit: sample(ray, rng, rays, first_hit) -> PixelSample.
+  template <typename Sample>
+  void run_camera_pass(const Scene& scene, uint64_t seed, int tile_size, int threads, ProgressSink* sink,
+                       Stats& stats, const Sample& sample) {
+    run_pass_tiles(seed, tile_size, threads, sink, stats,
+                   [&](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
+                     CameraRays first(scene, starts, n);
+                     for (size_t i = 0; i < n; ++i) out[i] = sample(first.rays[i], starts[i].rng, rays, &first.hits[i]);
+                   });
   }
 
   // The mean of every pixel's samples into pass `name` (RGB) of `film`, sized to the image.

@@ -201,4 +201,16 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
   }
 }
 
+// The radiance of one camera path (path.L after trace_camera_path), with whether it covered its
+// pixel (not escaped to a transparent background) and its shadow rays counted: the path
+// tracers' Li, RGB and spectral.
+template <typename P>
+auto camera_path_radiance(const Scene& scene, const CameraPathSettings& s, Ray ray, Rng& rng, RayCounts& rays, P& path,
+                          const std::optional<SurfaceHit>* first, bool* escaped) {
+  const bool covered = trace_camera_path(scene, s, ray, rng, rays, path, first);
+  if (escaped) *escaped = !covered;
+  rays.shadow += path.shadow_rays;
+  return path.L;
+}
+
 }  // namespace gp

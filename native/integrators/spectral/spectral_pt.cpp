@@ -343,27 +343,17 @@ struct SpectralPath {
 SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
                                       const std::optional<SurfaceHit>* first, bool* escaped) const {
   SpectralPath path(scene_, spectra_, wl);
-  const bool covered = trace_camera_path(scene_, settings_, ray, rng, rays, path, first);
-  if (escaped) *escaped = !covered;
-  rays.shadow += path.shadow_rays;
-  return path.L;
+  return camera_path_radiance(scene_, settings_, ray, rng, rays, path, first, escaped);
 }
 
 void SpectralPathTracer::iterate(ProgressSink* sink) {
-  // A tile's camera rays are traced together (as in PathTracer::iterate).
-  estimate_.run_pass_tiles(seed_, tile_size_, threads_, sink, stats_,
-                           [this](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
-                             CameraRays first(scene_, starts, n);
-                             const std::vector<Ray>& camera = first.rays;
-                             std::vector<std::optional<SurfaceHit>>& hits = first.hits;
-                             for (size_t i = 0; i < n; ++i) {
-                               Rng& rng = starts[i].rng;
-                               const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
-                               bool escaped = false;
-                               out[i].L = sample_to_rgb(Li(camera[i], wl, rng, rays, &hits[i], &escaped), wl);
-                               out[i].alpha = escaped ? 0.0f : 1.0f;
-                             }
-                           });
+  estimate_.run_camera_pass(scene_, seed_, tile_size_, threads_, sink, stats_,
+                            [this](const Ray& ray, Rng& rng, RayCounts& rays, const std::optional<SurfaceHit>* first) {
+                              const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
+                              bool escaped = false;
+                              const RGB L = sample_to_rgb(Li(ray, wl, rng, rays, first, &escaped), wl);
+                              return PixelSample{L, escaped ? 0.0f : 1.0f};
+                            });
 }
 
 void SpectralPathTracer::develop(Film& film) const {
