@@ -122,7 +122,7 @@ class RngSamples final : public PrimarySamples {
 // Per-kind switches (photon_tracer.cpp): the probability that a photon whose segment reached a
 // surface hidden from some of its kinds crosses it rather than scattering there: 1 where nothing
 // would leave the surface (no kind of ray sees it, it is black, or the path is at its last
-// bounce), else 1/2. Shared by the RGB and the spectral photon tracers.
+// bounce), else 1/2.
 inline float crossing_probability(uint8_t seen_by, bool black, bool last_bounce) {
   return seen_by == 0 || black || last_bounce ? 1.0f : 0.5f;
 }
@@ -158,6 +158,13 @@ class PhotonTracer {
   int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid,
                      PhotonPathRecord* record = nullptr, std::vector<PhotonOrigin>* origins = nullptr,
                      std::vector<PhotonChain>* chains = nullptr) const;
+  // The walk trace_path and the spectral photons share (photon_walk.h), generic over what the
+  // photon carries (`P`: RgbPhoton in photon_tracer.cpp, SpectralPhotonPower in
+  // progressive_photon_spectral.cpp), which also receives the deposits.
+  template <class P>
+  int64_t walk(PrimarySamples& u, int min_deposit_bounce, P& power, int64_t& invalid,
+               PhotonPathRecord* record = nullptr, std::vector<PhotonOrigin>* origins = nullptr,
+               std::vector<PhotonChain>* chains = nullptr) const;
 
   int max_depth() const { return max_depth_; }
   // Whether a photon arriving at a surface with this BSDF is deposited there.

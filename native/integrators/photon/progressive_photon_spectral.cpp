@@ -18,6 +18,7 @@
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "integrators/lobe_split.h"
+#include "integrators/photon/photon_walk.h"
 #include "integrators/photon/progressive_photon.h"
 #include "materials/bsdf.h"
 
@@ -219,116 +220,98 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
   const int64_t kChunk = PhotonTracer::kChunk;
   const size_t n_chunks = static_cast<size_t>((count + kChunk - 1) / kChunk);
   if (spectral_chunks_.size() < n_chunks) spectral_chunks_.resize(n_chunks);
-  std::atomic<int64_t> rays_total{0}, invalid_total{0};
-  if (!lights.empty() && count > 0) {
-    parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
-      int64_t rays = 0, invalid = 0;
-      for (size_t c = lo; c < hi; ++c) {
-        std::vector<SpectralPhoton>& dst = spectral_chunks_[c];
-        dst.clear();
-        if (cancelled && cancelled()) continue;  // abandoned pass (PhotonTracer::trace)
-        Rng rng = Rng::for_key(seed_ ^ 0x73706870686fULL, c, pass);
-        const int64_t begin = static_cast<int64_t>(c) * kChunk, end = std::min(count, begin + kChunk);
-        for (int64_t n = begin; n < end; ++n) {
-          const float us = rng.uniform();
-          const float up0 = rng.uniform(), up1 = rng.uniform(), ud0 = rng.uniform(), ud1 = rng.uniform();
-          const auto em = lights.sample_le(us, Vec2(up0, up1), Vec2(ud0, ud1));
-          if (!em || em->power.is_black()) continue;
-          SpectralValues beta{};
-          float spec[kMaxWavelengths];  // the photon's power as a spectrum (light_spectrum)
-          pass_spectra_.emitted(em->light, em->power, spec);
-          for (int k = 0; k < C; ++k) beta[k] = spec[k];
-          bool hero_only = false;
-          Ray ray = em->n.x != 0 || em->n.y != 0 || em->n.z != 0
-                        ? Ray(offset_ray_origin(em->o, em->n, em->d), em->d)
-                        : Ray(em->o, em->d);
-          // Per-kind switches and light objects as PhotonTracer::trace_path (photon_tracer.cpp):
-          // `arrive` the kinds the segment may be, a surface hidden from some of them crossed
-          // or scattered at by a coin, light objects not counted as scattering.
-          uint8_t arrive = lights.lights()[em->light].visible_lobes;
-          int scattered = 0, crossed = 0;
-          for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
-            ++rays;
-            const auto hit = scene_.intersect(ray);
-            if (!hit) break;
-            const Material& base = scene_.material(hit->material);
-            const Bsdf bsdf = scene_.bsdf(*hit);
-            const uint8_t seen_by = base.visible_lobes & kAllLobes;
-            const uint8_t hidden = base.is_pass_through() ? 0 : arrive & ~seen_by;
-            if (bsdf.is_black() && !hidden) break;
-            if (scattered >= min_deposit_bounce && !bsdf.is_black() && bsdf.is_diffuse_for_photons(threshold_)) {
-              bool ok = true;
-              for (int k = 0; k < C; ++k) ok &= std::isfinite(beta[k]);
-              if (ok) dst.push_back(SpectralPhoton{Photon{hit->p, -ray.d, RGB(1.0f), 0, arrive}, beta, hero_only});
-              else ++invalid;
-            }
-            if (hidden && crossed < PhotonTracer::kMaxCrossed) {
-              const float q = crossing_probability(seen_by, bsdf.is_black(), bounce + 2 > max_depth_);
-              const float w = q == 1.0f || rng.uniform() < q ? 1.0f / q : -1.0f / (1.0f - q);
-              for (int k = 0; k < C; ++k) beta[k] *= std::abs(w);
-              if (w > 0) {  // cross it
-                arrive = hidden;
-                ++crossed;
-                ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
-                --bounce;
-                continue;
-              }
-            }
-            if (bsdf.is_black() || (seen_by == 0 && !base.is_pass_through())) break;
-            if (bounce + 2 > max_depth_) break;
-            const Vec3 wo_world = -ray.d;
-            const Vec3 wo = hit->frame.to_local(wo_world);
-            if (wo.z == 0) break;
-            WavelengthParams local;
-            const BsdfParams* mk = pass_spectra_.material(hit->material, hit->uv, local);
-            const float uc = rng.uniform();
-            const Vec2 u(rng.uniform(), rng.uniform());
-            const Bsdf hero = scene_.bsdf(mk[0], *hit);  // with the hit's normals, as Scene::bsdf(hit)
-            const auto bs = hero.sample(wo, uc, u, TransportMode::Importance);
-            if (!bs || bs->pdf <= 0) break;
-            const Vec3 wi_world = hit->frame.to_world(bs->wi);
-            const float correction = adjoint_shading_correction(wo_world, wi_world, hit->ng, hit->ns);
-            if (correction == 0) break;
-            // The photon's own C factor is applied at the gather (once per full path), so the
-            // hero-only factor from scatter_factors is undone here.
-            const bool was_hero_only = hero_only;
-            SpectralValues factor{};
-            if (!scatter_factors(scene_, *hit, mk, C, wo, *bs, uc, u, TransportMode::Importance, factor, hero_only))
-              break;
-            if (hero_only && !was_hero_only) factor[0] /= static_cast<float>(C);
-            if (!base.is_pass_through() && arrive != kAllLobes) {  // only the lobes of the segment's kinds
-              if (!(bs->lobe & arrive)) break;
-              if (!bs->delta) {  // f_V / p_V per wavelength, p_V the hero's restricted density
-                const float pdf_v = hero.pdf(wo, bs->wi, arrive);
-                if (!(pdf_v > 0)) break;
-                for (int k = 0; k < C; ++k)
-                  factor[k] = scene_.bsdf(mk[k], *hit).eval(wo, bs->wi, TransportMode::Importance, arrive)[0] * std::abs(bs->wi.z) / pdf_v;
-              }
-            }
-            float m_old = 0, m_new = 0;
-            SpectralValues beta_new{};
-            for (int k = 0; k < C; ++k) {
-              beta_new[k] = beta[k] * factor[k] * correction;
-              m_old = std::max(m_old, beta[k]);
-              m_new = std::max(m_new, beta_new[k]);
-            }
-            if (!(m_new > 0) || !(m_old > 0)) break;
-            const float p_continue = std::min(1.0f, m_new / m_old);
-            if (rng.uniform() >= p_continue) break;
-            for (int k = 0; k < C; ++k) beta[k] = beta_new[k] / p_continue;
-            ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
-            crossed = 0;
-            if (!base.is_pass_through()) {
-              ++scattered;
-              arrive = seen_by;
-            }
-          }
+
+  // The photon at the pass's wavelengths (photon_walk.h's power type): the hero samples every
+  // direction, the others follow with their factors (scatter_factors), as the eye path.
+  struct SpectralPhotonPower {
+    const Scene& scene;
+    const SpectraAtWavelengths& spectra;
+    const int C;
+    std::vector<SpectralPhoton>& dst;
+    SpectralValues beta{}, pending{};
+    bool hero_only = false;
+    WavelengthParams local;
+    const BsdfParams* mk = nullptr;
+    std::optional<Bsdf> hero;  // the hero's BSDF at the last hit
+    // The spectral tracer's direction numbers in the order it has always used them: it drew
+    // them as Vec2(rng.uniform(), rng.uniform()), whose arguments GCC evaluates right to left,
+    // so its first number went to y. Kept, so that images stay bit for bit (issue 35's check);
+    // either order samples the same distribution.
+    static Vec2 drawn(Vec2 u) { return Vec2(u.y, u.x); }
+
+    bool emit(const PhotonEmission& em) {
+      float spec[kMaxWavelengths];  // the photon's power as a spectrum (light_spectrum)
+      spectra.emitted(em.light, em.power, spec);
+      for (int k = 0; k < C; ++k) beta[k] = spec[k];
+      return true;
+    }
+    bool finite() const {
+      bool ok = true;
+      for (int k = 0; k < C; ++k) ok &= std::isfinite(beta[k]);
+      return ok;
+    }
+    void deposit(const SurfaceHit& hit, const Vec3& wi, uint8_t lobes, bool /*world_share: lights' rule*/) {
+      dst.push_back(SpectralPhoton{Photon{hit.p, wi, RGB(1.0f), 0, lobes}, beta, hero_only});
+    }
+    void scale(float s) {
+      for (int k = 0; k < C; ++k) beta[k] *= s;
+    }
+    void prepare(const SurfaceHit& hit) { mk = spectra.material(hit.material, hit.uv, local); }
+    std::optional<BsdfSample> sample(const SurfaceHit& hit, const Bsdf&, const Vec3& wo, float uc, Vec2 u) {
+      u = drawn(u);
+      hero.emplace(scene.bsdf(mk[0], hit));  // with the hit's normals, as Scene::bsdf(hit)
+      auto bs = hero->sample(wo, uc, u, TransportMode::Importance);
+      if (!bs || bs->pdf <= 0) return std::nullopt;
+      return bs;
+    }
+    bool weigh(const SurfaceHit& hit, const Bsdf&, const Vec3& wo, const BsdfSample& bs, float uc, Vec2 u,
+               float correction, uint8_t lobes) {
+      u = drawn(u);
+      // The photon's own C factor is applied at the gather (once per full path), so the
+      // hero-only factor from scatter_factors is undone here.
+      const bool was_hero_only = hero_only;
+      SpectralValues factor{};
+      if (!scatter_factors(scene, hit, mk, C, wo, bs, uc, u, TransportMode::Importance, factor, hero_only))
+        return false;
+      if (hero_only && !was_hero_only) factor[0] /= static_cast<float>(C);
+      if (lobes != kAllLobes) {  // only the lobes of the segment's kinds
+        if (!(bs.lobe & lobes)) return false;
+        if (!bs.delta) {  // f_V / p_V per wavelength, p_V the hero's restricted density
+          const float pdf_v = hero->pdf(wo, bs.wi, lobes);
+          if (!(pdf_v > 0)) return false;
+          for (int k = 0; k < C; ++k)
+            factor[k] = scene.bsdf(mk[k], hit).eval(wo, bs.wi, TransportMode::Importance, lobes)[0] *
+                        std::abs(bs.wi.z) / pdf_v;
         }
       }
-      rays_total += rays;
-      invalid_total += invalid;
-    });
-  }
+      for (int k = 0; k < C; ++k) pending[k] = beta[k] * factor[k] * correction;
+      return true;
+    }
+    float max_old() const {
+      float m = 0;
+      for (int k = 0; k < C; ++k) m = std::max(m, beta[k]);
+      return m;
+    }
+    float max_new() const {
+      float m = 0;
+      for (int k = 0; k < C; ++k) m = std::max(m, pending[k]);
+      return m;
+    }
+    void commit(float p_continue) {
+      for (int k = 0; k < C; ++k) beta[k] = pending[k] / p_continue;
+    }
+    RGB origin_scale(float) const { return RGB(0.0f); }  // GPM's origins: RGB photons only
+  };
+
+  std::atomic<int64_t> rays_total{0}, invalid_total{0};
+  if (!lights.empty() && count > 0)
+    for_photon_chunks(
+        count, seed_ ^ 0x73706870686fULL, pass, threads_, cancelled, rays_total, invalid_total,
+        [&](size_t c) { spectral_chunks_[c].clear(); },
+        [&](size_t c, PrimarySamples& u, int64_t& invalid) {
+          SpectralPhotonPower power{scene_, pass_spectra_, C, spectral_chunks_[c]};
+          return tracer_.walk(u, min_deposit_bounce, power, invalid);
+        });
   // ---- Concatenate in chunk order (independent of the thread count) ----
   std::vector<size_t> offset(n_chunks + 1, 0);
   for (size_t c = 0; c < n_chunks; ++c) offset[c + 1] = offset[c] + spectral_chunks_[c].size();
