@@ -1012,6 +1012,9 @@ class Loader : private JsonReader {
 
   // A Sky Texture on the Background (lights/sky.h); angles in degrees as Blender shows them.
   void load_sky(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const BackgroundTerm>& map) {
+    // Each sky is precomputed (about a tenth of a second): a bound keeps an untrusted file from
+    // asking for thousands of them.
+    if (++skies_ > kMaxSkies) fail(path, fmt::format("at most {} skies in a scene", kMaxSkies));
     SkyOptions o;
     o.scale = emit;
     std::string model = "nishita";
@@ -1086,6 +1089,8 @@ class Loader : private JsonReader {
     emit = map->integral() * kInv4Pi;
   }
 
+  static constexpr int kMaxSkies = 16;
+  int skies_ = 0;
   std::string base_dir_;
   Scene& scene_;
   std::map<std::string, uint32_t> material_index_;

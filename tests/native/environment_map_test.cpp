@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "background_chi2.h"
+#include "environment_test_util.h"
 #include "core/rng.h"
 #include "lights/environment_map.h"
 #include "render_for_tests.h"
@@ -23,24 +23,6 @@
 namespace gp {
 namespace {
 
-// A map from a function of the texel centre's direction (equirectangular, +Z up), row 0 at the
-// bottom as TextureImage keeps it.
-template <typename F>
-std::shared_ptr<TextureImage> map_image(int w, int h, F&& f) {
-  auto img = std::make_shared<TextureImage>();
-  img->width = w;
-  img->height = h;
-  img->rgba.resize(size_t(w) * h * 4);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const Vec3 d = EnvironmentMap::equirectangular_direction(Vec2((x + 0.5f) / w, (y + 0.5f) / h));
-      const RGB c = f(d, x, y);
-      float* p = &img->rgba[4 * (size_t(y) * w + x)];
-      p[0] = c.r, p[1] = c.g, p[2] = c.b, p[3] = 1;
-    }
-  return img;
-}
-
 // A sky brighter towards +Z with a warm blob towards `sun` (not axis-aligned: the test is not
 // symmetric under a wrong sign).
 std::shared_ptr<TextureImage> sky_image(int w, int h, Vec3 sun = normalize(Vec3(0.5f, -0.3f, 0.6f))) {
@@ -50,24 +32,6 @@ std::shared_ptr<TextureImage> sky_image(int w, int h, Vec3 sun = normalize(Vec3(
     return RGB(0.2f + 0.3f * std::max(0.0f, d.z) + blob, 0.25f + 0.3f * std::max(0.0f, d.z) + 0.6f * blob,
                0.4f + 0.2f * std::max(0.0f, d.z) + 0.3f * blob);
   });
-}
-
-// A portable float map (OpenImageIO reads it): rows bottom first, as TextureImage.
-std::string write_pfm(const std::string& name, const TextureImage& img) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "gradphoton_environment_test";
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
-  std::ofstream f(p, std::ios::binary);
-  f << "PF\n" << img.width << " " << img.height << "\n-1.0\n";
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x) {
-      const RGB c = img.texel(x, y).rgb;
-      f.write(reinterpret_cast<const char*>(&c.r), 4);
-      f.write(reinterpret_cast<const char*>(&c.g), 4);
-      f.write(reinterpret_cast<const char*>(&c.b), 4);
-    }
-  return p.string();
 }
 
 EnvironmentMapOptions rotated(float deg_x, float deg_y, float deg_z) {
