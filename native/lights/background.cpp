@@ -16,6 +16,10 @@ std::string ConstantBackground::identity() const {
   return fmt::format("constant {} {} {}", radiance_.r, radiance_.g, radiance_.b);
 }
 
+std::string ScaledBackground::identity() const {
+  return fmt::format("{} x ({} {} {})", term_->identity(), scale_.r, scale_.g, scale_.b);
+}
+
 BackgroundSum::BackgroundSum(std::vector<std::shared_ptr<const BackgroundTerm>> terms) {
   std::vector<float> weights;
   for (auto& t : terms) {

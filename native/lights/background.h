@@ -50,6 +50,23 @@ class ConstantBackground final : public BackgroundTerm {
   RGB radiance_;
 };
 
+// A background times a constant colour: the Background's Color x Strength over a shared sky
+// (sky.h's cache), so that a strength edit reuses the precomputed sky.
+class ScaledBackground final : public BackgroundTerm {
+ public:
+  ScaledBackground(std::shared_ptr<const BackgroundTerm> term, RGB scale) : term_(std::move(term)), scale_(scale) {}
+  RGB eval(const Vec3& dir) const override { return term_->eval(dir) * scale_; }
+  bool sample(Vec2 u, Vec3* dir, float* pdf) const override { return term_->sample(u, dir, pdf); }
+  float pdf(const Vec3& dir) const override { return term_->pdf(dir); }
+  RGB integral() const override { return term_->integral() * scale_; }
+  std::string identity() const override;
+  const BackgroundTerm& term() const { return *term_; }
+
+ private:
+  std::shared_ptr<const BackgroundTerm> term_;
+  RGB scale_;
+};
+
 // The sum of several backgrounds (each already scaled by its Mix factor and strength).
 class BackgroundSum final : public BackgroundTerm {
  public:

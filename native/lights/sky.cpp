@@ -6,7 +6,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
+#include <mutex>
 #include <stdexcept>
+#include <string>
 
 #include "core/frame.h"
 #include "core/parallel.h"
@@ -220,16 +223,12 @@ float perez(const float* l, float theta, float gamma) {
 
 }  // namespace
 
-SkyTexture::SkyTexture(const SkyOptions& o) : options_(o) {
+SkyTexture::SkyTexture(const SkyOptions& o) : options_(normalized(o)) {
   for (float v : {o.sun_size, o.sun_intensity, o.sun_elevation, o.sun_rotation, o.altitude, o.air_density, o.dust_density,
                   o.ozone_density, o.turbidity, o.sun_direction.x, o.sun_direction.y, o.sun_direction.z, o.scale.r, o.scale.g,
                   o.scale.b})
     if (!std::isfinite(v)) throw std::invalid_argument("sky: a setting is not finite");
   if (o.model == SkyModel::Nishita) {
-    // Cycles' clamps (scene/shader_nodes.cpp): altitude to [1 m, 59 999 m], the sun's size to
-    // at least 1e-4 rad.
-    options_.altitude = std::clamp(o.altitude, 1.0f, 59999.0f);
-    options_.sun_size = std::max(o.sun_size, 1e-4f);
     const double alt = options_.altitude, e = options_.sun_elevation;
     const V3 eye(0, 0, kEarthRadius + alt), sun = geographic(e, 0.0);
     const V3 scale(o.air_density, o.dust_density, o.ozone_density);
@@ -432,12 +431,47 @@ float SkyTexture::pdf(const Vec3& dir) const {
   return std::isfinite(p) ? p : 0.0f;
 }
 
-std::string SkyTexture::identity() const {
-  const SkyOptions& o = options_;
+std::string SkyTexture::identity() const { return describe(options_); }
+
+SkyOptions SkyTexture::normalized(SkyOptions o) {
+  if (o.model == SkyModel::Nishita) {
+    // Cycles' clamps (scene/shader_nodes.cpp): altitude to [1 m, 59 999 m], the sun's size to
+    // at least 1e-4 rad.
+    o.altitude = std::clamp(o.altitude, 1.0f, 59999.0f);
+    o.sun_size = std::max(o.sun_size, 1e-4f);
+  }
+  return o;
+}
+
+std::string SkyTexture::describe(const SkyOptions& o) {
   return fmt::format("sky {} {} {} {} {} {} {} {} {} {} ({} {} {}) {} ({} {} {})", int(o.model), o.sun_disc, o.sun_size,
                      o.sun_intensity, o.sun_elevation, o.sun_rotation, o.altitude, o.air_density, o.dust_density,
                      o.ozone_density, o.sun_direction.x, o.sun_direction.y, o.sun_direction.z, o.turbidity, o.scale.r,
                      o.scale.g, o.scale.b);
+}
+
+namespace {
+std::mutex g_sky_mutex;
+std::map<std::string, std::weak_ptr<const SkyTexture>> g_skies;
+}  // namespace
+
+std::shared_ptr<const SkyTexture> shared_sky(SkyOptions options) {
+  options.scale = RGB(1.0f);
+  const std::string key = SkyTexture::describe(SkyTexture::normalized(options));
+  std::lock_guard lock(g_sky_mutex);
+  if (auto it = g_skies.find(key); it != g_skies.end())
+    if (auto s = it->second.lock()) return s;
+  auto s = std::make_shared<const SkyTexture>(options);
+  for (auto it = g_skies.begin(); it != g_skies.end();) it = it->second.expired() ? g_skies.erase(it) : std::next(it);
+  g_skies[key] = s;
+  return s;
+}
+
+size_t sky_cache_size() {
+  std::lock_guard lock(g_sky_mutex);
+  size_t n = 0;
+  for (const auto& [k, v] : g_skies) n += !v.expired();
+  return n;
 }
 
 }  // namespace gp

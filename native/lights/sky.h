@@ -59,6 +59,9 @@ class SkyTexture final : public BackgroundTerm {
   float pdf(const Vec3& dir) const override;
   RGB integral() const override { return (sky_integral_ + sun_integral_) * options_.scale; }
   std::string identity() const override;
+  // Options with Cycles' clamps applied, and as text (the shared cache's key).
+  static SkyOptions normalized(SkyOptions options);
+  static std::string describe(const SkyOptions& options);
   const SkyOptions& options() const { return options_; }
 
   // Unscaled radiance of the model along unit `dir`, with or without the sun disc.
@@ -96,5 +99,12 @@ class SkyTexture final : public BackgroundTerm {
   float p_sun_ = 0;
   RGB sky_integral_, sun_integral_;
 };
+
+// The sky of `options` (its scale ignored: wrap it in a ScaledBackground), built once and shared
+// while anything holds it: the rendered viewport's World edits and a sky seen twice (camera and
+// lit backgrounds) reuse the precomputation.
+std::shared_ptr<const SkyTexture> shared_sky(SkyOptions options);
+// Number of skies alive in the shared cache (tests: "built once").
+size_t sky_cache_size();
 
 }  // namespace gp

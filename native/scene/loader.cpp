@@ -1016,7 +1016,6 @@ class Loader : private JsonReader {
     // asking for thousands of them.
     if (++skies_ > kMaxSkies) fail(path, fmt::format("at most {} skies in a scene", kMaxSkies));
     SkyOptions o;
-    o.scale = emit;
     std::string model = "nishita";
     if (const json* t = find(e, "sky_type")) model = get_string(*t, sub(path, "sky_type"));
     if (model == "preetham") {
@@ -1047,8 +1046,9 @@ class Loader : private JsonReader {
     nonnegative("turbidity", o.turbidity);
     if (o.sun_size < 0) fail(sub(path, "sun_size"), "expected an angle >= 0");
     if (const json* v = find(e, "sun_direction")) o.sun_direction = get_vec3(*v, sub(path, "sun_direction"));
+    o.scale = RGB(1.0f);  // the sky is shared (World edits reuse it), the Background's colour x strength on top
     try {
-      map = std::make_shared<const SkyTexture>(o);
+      map = std::make_shared<const ScaledBackground>(shared_sky(o), emit);
     } catch (const std::invalid_argument& ex) {
       fail(path, ex.what());
     }

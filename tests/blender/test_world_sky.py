@@ -102,7 +102,7 @@ def test_export_mix_and_add_of_backgrounds(empty_scene):
     assert env["type"] == "sum" and len(env["backgrounds"]) == 2
     hdri, colour = env["backgrounds"]
     assert hdri["type"] == "map" and hdri["strength"] == pytest.approx(0.7)
-    assert colour["color"] == pytest.approx([0.9 * 0.6, 0.5 * 0.6, 0.2 * 0.6])
+    assert colour["color"] == pytest.approx([0.9, 0.5, 0.2]) and colour["strength"] == pytest.approx(2.0 * 0.3)
 
 
 # ---- Against Cycles ----

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cmath>
 #include <string>
@@ -16,6 +17,7 @@
 #include "environment_test_util.h"
 #include "lights/sky.h"
 #include "render_for_tests.h"
+#include "scene/builder.h"
 #include "scene/loader.h"
 
 namespace gp {
@@ -188,7 +190,8 @@ TEST(Sky, SunDiscLightsAPlaneAsQuadratureSays) {
       "objects": [{"type": "quad", "center": [0, 0, 0], "u": [1000, 0, 0], "v": [0, 1000, 0], "material": "grey"}],
       "environment": {"type": "sky", "sun_elevation": )" + std::to_string(elevation) + R"(, "sun_rotation": 25}})";
     const Scene s = scene_from(json);
-    const auto& sky = dynamic_cast<const SkyTexture&>(*s.light_set().lights()[s.light_set().environment()].map);
+    const auto& sky = dynamic_cast<const SkyTexture&>(
+        dynamic_cast<const ScaledBackground&>(*s.light_set().lights()[s.light_set().environment()].map).term());
     const double expect = 0.5 / M_PI * plane_irradiance(sky);
     Params p;
     p.set("seed", 4);
@@ -206,6 +209,29 @@ const char* kBallOnFloor = R"("camera": {"position": [0, -4, 1.5], "look_at": [0
                 {"type": "sphere", "center": [0, 0, 0.6], "radius": 0.6, "segments": 24, "material": "white"}])";
 
 Scene world(const std::string& env) { return scene_from(std::string("{") + kBallOnFloor + R"(, "environment": )" + env + "}"); }
+
+TEST(Sky, WorldEditsReuseTheSky) {
+  // A strength edit in the rendered viewport (update_description) keeps the precomputed sky:
+  // the same object, nothing built again; another sun elevation builds another.
+  auto env = [](float strength, float elevation) {
+    return std::string(R"({"materials": {"grey": {"type": "diffuse", "color": 0.5}, "white": {"type": "diffuse", "color": 0.8}},
+      "environment": {"type": "sky", "sun_elevation": )") + std::to_string(elevation) + R"(, "strength": )" +
+           std::to_string(strength) + "}}";
+  };
+  auto sky_of = [](const Scene& sc) {
+    return &dynamic_cast<const ScaledBackground&>(*sc.light_set().lights()[sc.light_set().environment()].map).term();
+  };
+  Scene s = world(R"({"type": "sky", "sun_elevation": 21})");
+  const BackgroundTerm* before = sky_of(s);
+  const size_t skies = sky_cache_size();
+  const float g = s.light_set().environment_radiance(Vec3(0, 0, 1)).g;
+  update_description(s, env(2, 21));
+  EXPECT_EQ(sky_of(s), before);
+  EXPECT_EQ(sky_cache_size(), skies);
+  EXPECT_FLOAT_EQ(s.light_set().environment_radiance(Vec3(0, 0, 1)).g, 2 * g);
+  update_description(s, env(2, 40));
+  EXPECT_NE(sky_of(s), before);
+}
 
 TEST(Background, SumRendersAsTheSumOfItsTerms) {
   // Light is linear in the World: the image under a sum is the sum of the images under each
@@ -392,6 +418,29 @@ TEST(Background, CausticOfAGlassBallUnderAMapSun) {
   std::printf("caustic: %d pixels over twice the lit floor (%.3f); sppm / pt %.4f, gpm / pt %.4f\n", n, lit, sppm / r, gpm / r);
   EXPECT_NEAR(sppm / r, 1.0, 0.08);
   EXPECT_NEAR(gpm / r, 1.0, 0.08);
+}
+
+}  // namespace
+}  // namespace gp
+
+namespace gp {
+namespace {
+
+// Not a test: the time to build a sky (Nishita's precomputed image and sun, the sampling grid;
+// Preetham's grid), docs/benchmarks.md. Run with --gtest_also_run_disabled_tests
+// --gtest_filter='*SkyCost*'.
+TEST(Sky, DISABLED_SkyCost) {
+  SkyOptions p;
+  p.model = SkyModel::Preetham;
+  for (const auto& [name, o] : {std::pair{"nishita", nishita(15, 0)}, std::pair{"preetham", p}}) {
+    double best = 1e9;
+    for (int i = 0; i < 3; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const SkyTexture sky(o);
+      best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    std::printf("%s: %.3f s (best of 3)\n", name, best);
+  }
 }
 
 }  // namespace

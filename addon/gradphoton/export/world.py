@@ -105,12 +105,7 @@ def _collect(world, node, weight, terms, warnings):
     bg = _background(world, node, warnings)
     if bg is None:
         return
-    if bg.get("type", "color") == "color":
-        c = bg["color"]
-        s = bg.get("strength", 1.0) * weight
-        bg = {"color": [c[0] * s, c[1] * s, c[2] * s], "strength": 1.0}
-    else:
-        bg["strength"] = bg.get("strength", 1.0) * weight
+    bg["strength"] = bg.get("strength", 1.0) * weight
     terms.append(bg)
 
 
