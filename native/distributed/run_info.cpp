@@ -83,11 +83,7 @@ std::string scene_fingerprint(const Scene& scene) {
     h.add(l.spot_cos_half);
     h.add(l.spot_smooth);
     for (const auto* map : {l.map.get(), l.camera_map.get()})
-      if (map) {  // an image World: which image, turned and scaled how
-        h.add(map->image().path);
-        for (const auto& row : map->options().to_map) h.add(Vec3(row[0], row[1], row[2]));
-        h.add(map->options().scale);
-      }
+      if (map) h.add(map->identity());  // an image or sky World: which, turned and scaled how
   }
   const Camera& c = scene.camera;
   for (const Vec3& p : {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}) h.add(c.camera_to_world.point(p));

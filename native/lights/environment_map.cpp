@@ -328,4 +328,11 @@ int EnvironmentMap::sampling_width() const { return sampling_->width; }
 int EnvironmentMap::sampling_height() const { return sampling_->height; }
 size_t EnvironmentMap::sampling_bytes() const { return sampling_->distribution.bytes(); }
 
+std::string EnvironmentMap::identity() const {
+  const auto& a = options_.to_map;
+  return fmt::format("map {} {} {} [{} {} {} {} {} {} {} {} {}] {} {} {} {}x{}", image_->path, int(options_.projection),
+                     int(options_.filter), a[0][0], a[0][1], a[0][2], a[1][0], a[1][1], a[1][2], a[2][0], a[2][1], a[2][2],
+                     options_.scale.r, options_.scale.g, options_.scale.b, sampling_->width, sampling_->height);
+}
+
 }  // namespace gp

@@ -14,6 +14,7 @@
 #include "core/color.h"
 #include "core/math.h"
 #include "core/sampling.h"
+#include "lights/background.h"
 #include "textures/texture.h"
 
 namespace gp {
@@ -37,22 +38,23 @@ struct EnvironmentMapOptions {
 // in the map's own frame (a rotation moves directions, not the distribution).
 struct EnvironmentSampling;
 
-class EnvironmentMap {
+class EnvironmentMap final : public BackgroundTerm {
  public:
   // Throws std::invalid_argument for a singular or non-finite transform.
   EnvironmentMap(std::shared_ptr<const TextureImage> image, const EnvironmentMapOptions& options);
-  ~EnvironmentMap();
+  ~EnvironmentMap() override;
 
   // Radiance arriving from world direction `dir` (unit), strength included.
-  RGB eval(const Vec3& dir) const;
+  RGB eval(const Vec3& dir) const override;
   // A direction towards the environment drawn from the map's distribution, with its density
   // per solid angle (> 0), or false (a mirror-ball sample outside the ball).
-  bool sample(Vec2 u, Vec3* dir, float* pdf) const;
+  bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
   // The density sample() gives unit world direction `dir`, per solid angle.
-  float pdf(const Vec3& dir) const;
+  float pdf(const Vec3& dir) const override;
   // Integral of the radiance over the sphere (W m^-2 sr^-1 x sr), of the map in its own frame
   // times scale: the light's power, for light selection.
-  RGB integral() const;
+  RGB integral() const override;
+  std::string identity() const override;
   const TextureImage& image() const { return *image_; }
   const std::shared_ptr<const TextureImage>& image_ptr() const { return image_; }
   const EnvironmentMapOptions& options() const { return options_; }

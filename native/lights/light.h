@@ -12,6 +12,7 @@
 #include "core/spectrum.h"
 #include "core/math.h"
 #include "core/sampling.h"
+#include "lights/background.h"
 #include "lights/environment_map.h"
 #include "shading/graph.h"
 
@@ -75,19 +76,20 @@ struct Light {
   // that leave the scene see it, or black. Other lights are never seen by camera rays (area
   // lights: their surface's Material::visible_to_camera).
   bool visible_to_camera = true;
-  // Environment: an image-based World (environment_map.h), or null for the constant `emit`.
-  // With a map, emit is the map's mean radiance (4 pi sr of it integrate to integral()).
-  std::shared_ptr<const EnvironmentMap> map;
+  // Environment: a World whose radiance varies with direction (background.h: an image,
+  // environment_map.h; a sky, sky.h; or a sum of backgrounds), or null for the constant
+  // `emit`. With a map, emit is its mean radiance (4 pi sr of it integrate to integral()).
+  std::shared_ptr<const BackgroundTerm> map;
   // Light Path "Is Camera Ray" choosing another background for camera rays (Ray::camera):
   // what they see instead of emit / map, when camera_override.
   bool camera_override = false;
   RGB camera_emit{0.0f};
-  std::shared_ptr<const EnvironmentMap> camera_map;
+  std::shared_ptr<const BackgroundTerm> camera_map;
 
   // Cycles 3.4 does not sample a constant World as a light; where that changes what it lights
   // (a World hidden from some kinds, integrators/lobe_split.h), next-event estimation skips it
   // and BSDF rays alone find it, each with full weight.
-  bool lit_by_bsdf_rays_only() const { return type == LightType::Environment && visible_lobes != kAllLobes; }
+  bool lit_by_bsdf_rays_only() const { return type == LightType::Environment && !map && visible_lobes != kAllLobes; }
   // Whether a ray of kind `kind` (kRayCamera or one lobe bit) sees this light.
   bool visible_to(uint8_t kind) const { return kind == kRayCamera ? visible_to_camera : (visible_lobes & kind) != 0; }
   bool is_delta() const { return type == LightType::Point || type == LightType::Spot || type == LightType::Directional; }

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -48,6 +49,9 @@ class JsonReader {
   }
 
   void check_keys(const json& obj, const std::string& path, std::initializer_list<std::string_view> allowed) {
+    check_keys(obj, path, std::span<const std::string_view>(allowed.begin(), allowed.size()));
+  }
+  void check_keys(const json& obj, const std::string& path, std::span<const std::string_view> allowed) {
     for (auto it = obj.begin(); it != obj.end(); ++it)
       if (std::find(allowed.begin(), allowed.end(), std::string_view(it.key())) == allowed.end())
         warnings_.add("unknown key", fmt::format("{}: {}", file_, sub(path, it.key())));

@@ -27,6 +27,7 @@
 
 #include "core/memory.h"
 #include "shading/graph.h"
+#include "lights/sky.h"
 #include "scene/json_reader.h"
 #include "scene/obj_mesh.h"
 #include "scene/shapes.h"
@@ -943,11 +944,25 @@ class Loader : private JsonReader {
     scene_.lights.push_back(std::move(light));
   }
 
+  // Keys of one background (docs/scene-format.md, "Environment"), by type.
+  static constexpr const char* kMapKeys[] = {"image", "colorspace", "rotation", "transform", "interpolation", "projection",
+                                             "sampling_resolution"};
+  static constexpr const char* kSkyKeys[] = {"sky_type", "sun_disc", "sun_size", "sun_intensity", "sun_elevation",
+                                             "sun_rotation", "altitude", "air_density", "dust_density", "ozone_density",
+                                             "sun_direction", "turbidity"};
+  static std::vector<std::string_view> background_keys() {
+    std::vector<std::string_view> k{"type", "color", "strength", "backgrounds"};
+    for (const char* m : kMapKeys) k.push_back(m);
+    for (const char* m : kSkyKeys) k.push_back(m);
+    return k;
+  }
+
   void load_environment(const json& e, const std::string& path) {
     require_object(e, path);
-    check_keys(e, path, {"type", "color", "strength", "image", "colorspace", "rotation", "transform", "interpolation",
-                         "projection", "sampling_resolution", "camera", "visible_to_camera", "visible_to_diffuse",
-                         "visible_to_glossy", "visible_to_transmission"});
+    std::vector<std::string_view> keys = background_keys();
+    for (const char* k : {"camera", "visible_to_camera", "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission"})
+      keys.push_back(k);
+    check_keys(e, path, keys);
     Light env;
     env.type = LightType::Environment;
     env.name = "environment";
@@ -956,8 +971,7 @@ class Loader : private JsonReader {
     if (const json* c = find(e, "camera")) {
       const std::string cpath = sub(path, "camera");
       require_object(*c, cpath);
-      check_keys(*c, cpath, {"type", "color", "strength", "image", "colorspace", "rotation", "transform",
-                             "interpolation", "projection", "sampling_resolution"});
+      check_keys(*c, cpath, background_keys());
       env.camera_override = true;
       load_background(*c, cpath, env.camera_emit, env.camera_map);
     }
@@ -969,23 +983,40 @@ class Loader : private JsonReader {
     scene_.lights.push_back(std::move(env));
   }
 
-  // One background (docs/scene-format.md, "Environment"): a constant colour x strength, or
-  // an image map (lights/environment_map.h) scaled by them. emit receives the constant, or the
-  // map's mean radiance.
-  void load_background(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const EnvironmentMap>& map) {
+  // One background (docs/scene-format.md, "Environment"): a constant colour x strength, an
+  // image map (lights/environment_map.h) or a sky (lights/sky.h) scaled by them, or a sum of
+  // backgrounds (lights/background.h). emit receives the constant, or the mean radiance of a
+  // background that varies with direction (then in map).
+  void load_background(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const BackgroundTerm>& map) {
     std::string type = "color";
     if (const json* t = find(e, "type")) type = get_string(*t, sub(path, "type"));
+    if (type != "color" && type != "map" && type != "sky" && type != "sum")
+      fail(sub(path, "type"), fmt::format("unknown environment type '{}' (known: color, map, sky, sum)", type));
+    auto only = [&](const char* key, const char* owner) {
+      if (find(e, key)) fail(sub(path, key), fmt::format("only an environment of \"type\": \"{}\" takes it", owner));
+    };
+    if (type != "map")
+      for (const char* k : kMapKeys) only(k, "map");
+    if (type != "sky")
+      for (const char* k : kSkyKeys) only(k, "sky");
+    if (type != "sum") only("backgrounds", "sum");
+    if (type == "sum") {
+      for (const char* k : {"color", "strength"})
+        if (find(e, k)) fail(sub(path, k), "a sum takes its terms' colours and strengths (put them in \"backgrounds\")");
+      load_background_sum(e, path, emit, map);
+      return;
+    }
     RGB color(1.0f);
     float strength = 1.0f;
     if (const json* c = find(e, "color")) color = get_color(*c, sub(path, "color"));
     if (const json* s = find(e, "strength")) strength = get_nonnegative(*s, sub(path, "strength"));
     emit = color * strength;
-    if (type == "color") {
-      for (const char* k : {"image", "colorspace", "rotation", "transform", "interpolation", "projection", "sampling_resolution"})
-        if (find(e, k)) fail(sub(path, k), "only an environment of \"type\": \"map\" takes it");
+    map = nullptr;
+    if (type == "color") return;
+    if (type == "sky") {
+      load_sky(e, path, emit, map);
       return;
     }
-    if (type != "map") fail(sub(path, "type"), fmt::format("unknown environment type '{}' (known: color, map)", type));
     EnvironmentMapOptions o;
     o.scale = emit;
     std::filesystem::path file = get_string(need(e, "image", path), sub(path, "image"));
@@ -1046,6 +1077,87 @@ class Loader : private JsonReader {
     emit = map->integral() * kInv4Pi;
   }
 
+  // A Sky Texture on the Background (lights/sky.h); angles in degrees as Blender shows them.
+  void load_sky(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const BackgroundTerm>& map) {
+    // Each sky is precomputed (about a tenth of a second): a bound keeps an untrusted file from
+    // asking for thousands of them.
+    if (++skies_ > kMaxSkies) fail(path, fmt::format("at most {} skies in a scene", kMaxSkies));
+    SkyOptions o;
+    std::string model = "nishita";
+    if (const json* t = find(e, "sky_type")) model = get_string(*t, sub(path, "sky_type"));
+    if (model == "preetham") {
+      o.model = SkyModel::Preetham;
+    } else if (model == "hosek_wilkie") {
+      // Its fitted tables are not available here (no Debian package ships them): Preetham,
+      // with the same sun direction and turbidity, and one warning.
+      o.model = SkyModel::Preetham;
+      scene_.warnings.add("Hosek-Wilkie sky rendered as Preetham", fmt::format("{}: {}", file_, path));
+    } else if (model != "nishita") {
+      fail(sub(path, "sky_type"), fmt::format("unknown sky type '{}' (known: nishita, preetham, hosek_wilkie)", model));
+    }
+    auto degrees = [&](const char* key, float& out) {
+      if (const json* v = find(e, key)) out = get_float(*v, sub(path, key)) * (kPi / 180.0f);
+    };
+    auto nonnegative = [&](const char* key, float& out) {
+      if (const json* v = find(e, key)) out = get_nonnegative(*v, sub(path, key));
+    };
+    if (const json* v = find(e, "sun_disc")) o.sun_disc = get_bool(*v, sub(path, "sun_disc"));
+    degrees("sun_size", o.sun_size);
+    degrees("sun_elevation", o.sun_elevation);
+    degrees("sun_rotation", o.sun_rotation);
+    nonnegative("sun_intensity", o.sun_intensity);
+    nonnegative("altitude", o.altitude);
+    nonnegative("air_density", o.air_density);
+    nonnegative("dust_density", o.dust_density);
+    nonnegative("ozone_density", o.ozone_density);
+    nonnegative("turbidity", o.turbidity);
+    if (o.sun_size < 0) fail(sub(path, "sun_size"), "expected an angle >= 0");
+    if (const json* v = find(e, "sun_direction")) o.sun_direction = get_vec3(*v, sub(path, "sun_direction"));
+    o.scale = RGB(1.0f);  // the sky is shared (World edits reuse it), the Background's colour x strength on top
+    try {
+      map = std::make_shared<const ScaledBackground>(shared_sky(o), emit);
+    } catch (const std::invalid_argument& ex) {
+      fail(path, ex.what());
+    }
+    emit = map->integral() * kInv4Pi;
+  }
+
+  // Cycles' Mix / Add Shader of Backgrounds: the terms' radiances add (a Mix's factor already in
+  // each term's strength). A sum of constants stays a constant World, as Cycles renders it.
+  void load_background_sum(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const BackgroundTerm>& map) {
+    const std::string bpath = sub(path, "backgrounds");
+    const json& list = need(e, "backgrounds", path);
+    require_array(list, bpath);
+    if (list.empty()) fail(bpath, "expected at least one background");
+    if (list.size() > 64) fail(bpath, fmt::format("at most 64 backgrounds, got {}", list.size()));
+    emit = RGB(0.0f);
+    std::vector<std::shared_ptr<const BackgroundTerm>> terms;
+    for (size_t i = 0; i < list.size(); ++i) {
+      const std::string tpath = sub(bpath, i);
+      require_object(list[i], tpath);
+      check_keys(list[i], tpath, background_keys());
+      RGB term_emit;
+      std::shared_ptr<const BackgroundTerm> term;
+      load_background(list[i], tpath, term_emit, term);
+      if (term) {
+        if (term->integral().average() > 0) terms.push_back(std::move(term));  // a black map adds nothing
+      } else {
+        emit += term_emit;
+      }
+    }
+    map = nullptr;
+    if (terms.empty()) return;  // constants only
+    if (!emit.is_black()) terms.push_back(std::make_shared<const ConstantBackground>(emit));
+    try {
+      map = terms.size() == 1 ? terms[0] : std::make_shared<const BackgroundSum>(std::move(terms));
+    } catch (const std::invalid_argument& ex) {
+      fail(bpath, ex.what());
+    }
+    emit = map->integral() * kInv4Pi;
+  }
+
+  static constexpr int kMaxSkies = 16;
+  int skies_ = 0;
   std::string base_dir_;
   Scene& scene_;
   std::map<std::string, uint32_t> material_index_;

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "chi2.h"
+#include "environment_test_util.h"
 #include "core/rng.h"
 #include "lights/environment_map.h"
 #include "render_for_tests.h"
@@ -23,24 +23,6 @@
 namespace gp {
 namespace {
 
-// A map from a function of the texel centre's direction (equirectangular, +Z up), row 0 at the
-// bottom as TextureImage keeps it.
-template <typename F>
-std::shared_ptr<TextureImage> map_image(int w, int h, F&& f) {
-  auto img = std::make_shared<TextureImage>();
-  img->width = w;
-  img->height = h;
-  img->rgba.resize(size_t(w) * h * 4);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const Vec3 d = EnvironmentMap::equirectangular_direction(Vec2((x + 0.5f) / w, (y + 0.5f) / h));
-      const RGB c = f(d, x, y);
-      float* p = &img->rgba[4 * (size_t(y) * w + x)];
-      p[0] = c.r, p[1] = c.g, p[2] = c.b, p[3] = 1;
-    }
-  return img;
-}
-
 // A sky brighter towards +Z with a warm blob towards `sun` (not axis-aligned: the test is not
 // symmetric under a wrong sign).
 std::shared_ptr<TextureImage> sky_image(int w, int h, Vec3 sun = normalize(Vec3(0.5f, -0.3f, 0.6f))) {
@@ -50,24 +32,6 @@ std::shared_ptr<TextureImage> sky_image(int w, int h, Vec3 sun = normalize(Vec3(
     return RGB(0.2f + 0.3f * std::max(0.0f, d.z) + blob, 0.25f + 0.3f * std::max(0.0f, d.z) + 0.6f * blob,
                0.4f + 0.2f * std::max(0.0f, d.z) + 0.3f * blob);
   });
-}
-
-// A portable float map (OpenImageIO reads it): rows bottom first, as TextureImage.
-std::string write_pfm(const std::string& name, const TextureImage& img) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "gradphoton_environment_test";
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
-  std::ofstream f(p, std::ios::binary);
-  f << "PF\n" << img.width << " " << img.height << "\n-1.0\n";
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x) {
-      const RGB c = img.texel(x, y).rgb;
-      f.write(reinterpret_cast<const char*>(&c.r), 4);
-      f.write(reinterpret_cast<const char*>(&c.g), 4);
-      f.write(reinterpret_cast<const char*>(&c.b), 4);
-    }
-  return p.string();
 }
 
 EnvironmentMapOptions rotated(float deg_x, float deg_y, float deg_z) {
@@ -144,46 +108,6 @@ TEST(EnvironmentMap, CubicIsCyclesBSpline) {
 // Pearson's chi-square of `n` samples of `map` over nt x np cells equal in (cos theta, phi) of
 // the world's directions (not the map's cells, so a wrong Jacobian or rotation shows), expected
 // counts from the pdf integrated over each cell on a sub x sub grid.
-Chi2Result chi2_of(const EnvironmentMap& map, int n, int nt = 24, int np = 48, int sub = 12) {
-  std::vector<double> observed(size_t(nt) * np, 0.0), expected(size_t(nt) * np, 0.0);
-  Rng rng(11, 0);
-  int accepted = 0;
-  auto cell_of = [&](const Vec3& d) {
-    const int t = std::clamp(int((d.z + 1) * 0.5f * nt), 0, nt - 1);
-    float phi = std::atan2(d.y, d.x);
-    if (phi < 0) phi += 2 * kPi;
-    const int p = std::clamp(int(phi / (2 * kPi) * np), 0, np - 1);
-    return size_t(t) * np + p;
-  };
-  for (int i = 0; i < n; ++i) {
-    Vec3 d;
-    float pdf;
-    if (!map.sample(Vec2(rng.uniform(), rng.uniform()), &d, &pdf)) continue;
-    ++accepted;
-    observed[cell_of(d)] += 1;
-  }
-  Chi2Result r;
-  double total = 0;
-  for (int t = 0; t < nt; ++t)
-    for (int p = 0; p < np; ++p) {
-      double s = 0;
-      for (int j = 0; j < sub; ++j)
-        for (int i = 0; i < sub; ++i) {
-          const float z = -1 + 2 * (t + (j + 0.5f) / sub) / nt, phi = 2 * kPi * (p + (i + 0.5f) / sub) / np;
-          const float st = std::sqrt(std::max(0.0f, 1 - z * z));
-          s += map.pdf(Vec3(st * std::cos(phi), st * std::sin(phi), z));
-        }
-      const double cell_sr = 4 * kPi / (nt * np);
-      expected[size_t(t) * np + p] = s / (sub * sub) * cell_sr;
-      total += expected[size_t(t) * np + p];
-    }
-  r.pdf_integral = total;
-  r.accepted_fraction = double(accepted) / n;
-  for (double& e : expected) e *= n;  // rejected samples: the density integrates to < 1
-  pearson_pooled(observed, expected, 5.0, r);
-  return r;
-}
-
 TEST(EnvironmentMap, SamplesFollowTheirDensity) {
   // 100 000 samples; the p-value threshold 1e-4 (after pbrt's chi2 tests) leaves headroom for the
   // expected counts' quadrature (the density is piecewise constant in the map's cells).
@@ -305,7 +229,7 @@ TEST(EnvironmentMap, TinyBrightSunConvergesWithMis) {
       "materials": {"grey": {"type": "diffuse", "color": 0.5}},
       "objects": [{"type": "quad", "center": [0, 0, 0], "u": [1000, 0, 0], "v": [0, 1000, 0], "material": "grey"}],
       "environment": {"type": "map", "image": ")" + file + R"(", "interpolation": ")" + filter + R"("}})");
-    const EnvironmentMap& map = *s.light_set().lights()[s.light_set().environment()].map;
+    const auto& map = dynamic_cast<const EnvironmentMap&>(*s.light_set().lights()[s.light_set().environment()].map);
     const double expect = plane_radiance(map, 0.5);
     Params p;
     p.set("seed", 9);
@@ -415,14 +339,17 @@ TEST(EnvironmentMap, WorldEditsReuseTheImageAndItsDistribution) {
   };
   Scene s = scene_from(std::string("{") + kBallOnFloor + R"(, "environment": {"type": "map", "image": ")" + file + R"("}})");
   const size_t images = texture_store_size(), samplings = environment_sampling_cache_size();
-  const TextureImage* before = &s.light_set().lights()[s.light_set().environment()].map->image();
+  auto env_map = [](const Scene& sc) {
+    return dynamic_cast<const EnvironmentMap*>(sc.light_set().lights()[sc.light_set().environment()].map.get());
+  };
+  ASSERT_TRUE(env_map(s));
+  const TextureImage* before = &env_map(s)->image();
   update_description(s, env(90, 2));
-  const Light& l = s.light_set().lights()[s.light_set().environment()];
-  ASSERT_TRUE(l.map);
-  EXPECT_EQ(&l.map->image(), before);
+  ASSERT_TRUE(env_map(s));
+  EXPECT_EQ(&env_map(s)->image(), before);
   EXPECT_EQ(texture_store_size(), images);
   EXPECT_EQ(environment_sampling_cache_size(), samplings);
-  EXPECT_FLOAT_EQ(l.map->options().scale.g, 2.0f);
+  EXPECT_FLOAT_EQ(env_map(s)->options().scale.g, 2.0f);
 }
 
 }  // namespace

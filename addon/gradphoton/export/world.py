@@ -5,9 +5,13 @@ What is read, until the core's node evaluator drives the World (branch nodes-cor
   - World Output <- Background (Color x Strength, W sr^-1 m^-2 as Cycles);
   - the Background's Color from an Environment Texture (image, Linear / Closest / Cubic / Smart,
     Equirectangular / Mirror Ball): an image map the core importance-samples;
+  - or from a Sky Texture (Nishita, Preetham; Hosek-Wilkie, which the core renders as Preetham
+    with one warning): the core precomputes and samples it as Cycles 3.4 defines it;
   - the texture's Vector: unlinked, or a Texture Coordinate's Generated or Object output (the
     ray direction; Object through the object's inverse matrix), through Mapping nodes (Point,
     Vector, Texture, Normal: their linear part, which is how users turn an HDRI);
+  - Mix Shader (its Fac a value) and Add Shader of backgrounds, nested as deep as they go: the
+    core's sum of backgrounds, each weighted by its factors (Cycles adds the weighted closures);
   - a Mix Shader whose factor is Light Path "Is Camera Ray" between two such backgrounds:
     camera rays see the second, everything else is lit by the first (the core's "camera");
   - World > Settings > Sampling: Auto (the image's size) or Manual (map resolution).
@@ -55,12 +59,12 @@ def _environment(world, warnings):
     if node is None:
         return None
     if node.bl_idname == 'ShaderNodeMixShader' and _is_camera_ray(node.inputs["Fac"]):
-        lit = _background(world, _from(node.inputs[1])[0], warnings)
-        seen = _background(world, _from(node.inputs[2])[0], warnings)
+        lit = _backgrounds(world, _from(node.inputs[1])[0], warnings)
+        seen = _backgrounds(world, _from(node.inputs[2])[0], warnings)
         env = lit or {"color": [0.0, 0.0, 0.0]}
         env["camera"] = seen or {"color": [0.0, 0.0, 0.0]}
         return env
-    return _background(world, node, warnings)
+    return _backgrounds(world, node, warnings)
 
 
 def _is_camera_ray(socket):
@@ -68,8 +72,45 @@ def _is_camera_ray(socket):
     return node is not None and node.bl_idname == 'ShaderNodeLightPath' and out.name == "Is Camera Ray"
 
 
+def _backgrounds(world, node, warnings):
+    """A tree of Mix / Add Shaders over Background nodes as one background description: the
+    single term itself, or {"type": "sum", "backgrounds": [...]} with each term's strength (a
+    colour's colour) times the factors above it. None for black or unsupported."""
+    terms = []
+    _collect(world, node, 1.0, terms, warnings)
+    terms = [t for t in terms if t is not None]
+    if not terms:
+        return None
+    return terms[0] if len(terms) == 1 else {"type": "sum", "backgrounds": terms}
+
+
+def _collect(world, node, weight, terms, warnings):
+    if node is None or weight <= 0.0:
+        return
+    if node.bl_idname == 'ShaderNodeAddShader':
+        for i in (0, 1):
+            _collect(world, _from(node.inputs[i])[0], weight, terms, warnings)
+        return
+    if node.bl_idname == 'ShaderNodeMixShader':
+        fac = node.inputs["Fac"]
+        if fac.is_linked:
+            src, out = _from(fac)
+            warnings.add("unsupported world node (socket value used)",
+                         f"world '{world.name}': node '{src.name if src else '?'}' ({out.name if out else '?'}) "
+                         f"into {node.name}: Fac (rendered as {_value(fac)})")
+        f = min(max(fac.default_value, 0.0), 1.0)  # Cycles clamps a Mix Shader's factor
+        _collect(world, _from(node.inputs[1])[0], weight * (1.0 - f), terms, warnings)
+        _collect(world, _from(node.inputs[2])[0], weight * f, terms, warnings)
+        return
+    bg = _background(world, node, warnings)
+    if bg is None:
+        return
+    bg["strength"] = bg.get("strength", 1.0) * weight
+    terms.append(bg)
+
+
 def _background(world, node, warnings):
-    """One Background node as {"color", "strength"} or a map; None for black or unsupported."""
+    """One Background node as {"color", "strength"}, a map or a sky; None for black or unsupported."""
     if node is None:
         return None
     if node.bl_idname != 'ShaderNodeBackground':
@@ -87,11 +128,41 @@ def _background(world, node, warnings):
         env = _environment_texture(world, src, warnings)
         env["strength"] = s
         return env
+    if src is not None and src.bl_idname == 'ShaderNodeTexSky' and out.name == "Color":
+        env = _sky_texture(world, src, warnings)
+        env["strength"] = s
+        return env
     if src is not None:
         warnings.add("unsupported world node (socket value used)",
                      f"world '{world.name}': node '{src.name}' into {node.name}: Color (rendered as {_value(color)})")
     c = color.default_value
     return {"color": [c[0], c[1], c[2]], "strength": s}
+
+
+_SKY_TYPES = {'NISHITA': "nishita", 'PREETHAM': "preetham", 'HOSEK_WILKIE': "hosek_wilkie"}
+
+
+def _sky_texture(world, node, warnings):
+    """A Sky Texture's settings in the scene format's units (degrees, metres); the core
+    precomputes it as Cycles 3.4 does (lights/sky.h)."""
+    where = f"world '{world.name}': node '{node.name}'"
+    if node.inputs["Vector"].is_linked:
+        warnings.add("unsupported world node (direction used)", f"{where}: Vector linked (the sky is not turned)")
+    sky = {"type": "sky", "sky_type": _SKY_TYPES.get(node.sky_type, "nishita")}
+    if node.sky_type == 'HOSEK_WILKIE':
+        # The model's fitted tables are not available to the core: Preetham with the same sun
+        # direction and turbidity (ground albedo unused), one warning naming the node.
+        warnings.add("Hosek-Wilkie sky rendered as Preetham", f"{where} (ground albedo {node.ground_albedo:.3g} unused)")
+        sky["sky_type"] = "preetham"
+    if node.sky_type == 'NISHITA':
+        sky.update({"sun_disc": bool(node.sun_disc), "sun_size": math.degrees(node.sun_size),
+                    "sun_intensity": node.sun_intensity, "sun_elevation": math.degrees(node.sun_elevation),
+                    "sun_rotation": math.degrees(node.sun_rotation), "altitude": node.altitude,
+                    "air_density": node.air_density, "dust_density": node.dust_density,
+                    "ozone_density": node.ozone_density})
+    else:
+        sky.update({"sun_direction": list(node.sun_direction), "turbidity": node.turbidity})
+    return sky
 
 
 def _environment_texture(world, node, warnings):

@@ -1,0 +1,87 @@
+// The World's emission as a function of direction with a sampler: one interface for an image
+// (environment_map.h), a procedural sky (sky.h), a constant colour, and a sum of them (Cycles'
+// Mix / Add Shader of Backgrounds: the World's radiance is the weighted sum of theirs).
+//
+// A sum is sampled by one-sample MIS over its terms (Veach's mixture): a term picked in
+// proportion to its power, then a direction from it; the density of a direction is the
+// mixture's, sum_i p_i pdf_i(d), so next-event estimation, MIS with BSDF rays and photon
+// emission see the combined emission's density (Veach 1997 §9.2.4, the balance heuristic as
+// one mixture density).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/color.h"
+#include "core/math.h"
+#include "core/sampling.h"
+
+namespace gp {
+
+class BackgroundTerm {
+ public:
+  virtual ~BackgroundTerm() = default;
+  // Radiance arriving from unit world direction `dir` (strength included).
+  virtual RGB eval(const Vec3& dir) const = 0;
+  // A unit direction towards the World and its density per solid angle (> 0), or false.
+  virtual bool sample(Vec2 u, Vec3* dir, float* pdf) const = 0;
+  // The density sample() gives `dir`, per solid angle.
+  virtual float pdf(const Vec3& dir) const = 0;
+  // The radiance's integral over the sphere (the light's power, for light selection and for
+  // picking a term of a sum).
+  virtual RGB integral() const = 0;
+  // What it is, as text (which image, turned and scaled how; which sky): a run's scene
+  // fingerprint (distributed/run_info.cpp) tells two Worlds apart by it.
+  virtual std::string identity() const = 0;
+};
+
+// A constant radiance from every direction, sampled uniformly over the sphere.
+class ConstantBackground final : public BackgroundTerm {
+ public:
+  explicit ConstantBackground(RGB radiance) : radiance_(radiance) {}
+  RGB eval(const Vec3&) const override { return radiance_; }
+  bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
+  float pdf(const Vec3&) const override { return uniform_sphere_pdf(); }
+  RGB integral() const override { return radiance_ * (4.0f * kPi); }
+  std::string identity() const override;
+
+ private:
+  RGB radiance_;
+};
+
+// A background times a constant colour: the Background's Color x Strength over a shared sky
+// (sky.h's cache), so that a strength edit reuses the precomputed sky.
+class ScaledBackground final : public BackgroundTerm {
+ public:
+  ScaledBackground(std::shared_ptr<const BackgroundTerm> term, RGB scale) : term_(std::move(term)), scale_(scale) {}
+  RGB eval(const Vec3& dir) const override { return term_->eval(dir) * scale_; }
+  bool sample(Vec2 u, Vec3* dir, float* pdf) const override { return term_->sample(u, dir, pdf); }
+  float pdf(const Vec3& dir) const override { return term_->pdf(dir); }
+  RGB integral() const override { return term_->integral() * scale_; }
+  std::string identity() const override;
+  const BackgroundTerm& term() const { return *term_; }
+
+ private:
+  std::shared_ptr<const BackgroundTerm> term_;
+  RGB scale_;
+};
+
+// The sum of several backgrounds (each already scaled by its Mix factor and strength).
+class BackgroundSum final : public BackgroundTerm {
+ public:
+  // Terms whose integral is black are dropped; throws std::invalid_argument when none is left.
+  explicit BackgroundSum(std::vector<std::shared_ptr<const BackgroundTerm>> terms);
+  RGB eval(const Vec3& dir) const override;
+  bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
+  float pdf(const Vec3& dir) const override;
+  RGB integral() const override;
+  std::string identity() const override;
+  const std::vector<std::shared_ptr<const BackgroundTerm>>& terms() const { return terms_; }
+
+ private:
+  std::vector<std::shared_ptr<const BackgroundTerm>> terms_;
+  DiscreteDistribution pick_;  // by each term's power
+};
+
+}  // namespace gp
