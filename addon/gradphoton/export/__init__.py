@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from . import camera, light, material, mesh, skipped, visibility, world
+from . import camera, light, material, mesh, skipped, visibility, volume_object, world
 from .warnings import Warnings
 
 __all__ = ["ExportedScene", "export_scene", "Warnings"]
@@ -84,6 +84,8 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None):
             mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache)
         elif kind == 'LIGHT':
             light.add_light(out, inst, mats, w)
+        elif kind == 'VOLUME':
+            volume_object.add_volume_object(out, inst, mats, media, w)
         # cameras, empties, armatures: nothing to render
     if mesh_cache is not None:
         mesh_cache.keep_only(meshes.keys())
