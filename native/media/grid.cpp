@@ -91,18 +91,24 @@ GridMedium::GridMedium(std::shared_ptr<const VoxelGrid> density, std::shared_ptr
   }
   for (int a = 0; a < 3; ++a) size_[a] = std::max(0, hi[a] - lo_[a]);
   const Affine index_to_world = object_to_world * first->index_to_object;
-  if (!index_to_world.inverse(&world_to_index_))
+  Affine inverse;
+  if (!index_to_world.inverse(&inverse))
     throw std::invalid_argument(fmt::format("grid '{}': its transform (with the object's) is singular", first->name));
+  // Cycles' convention, not OpenVDB's: voxel i fills the cell [i, i + 1] of index space with its
+  // value at i + 1/2 (kernel/device/cpu/image.h, NanoVDB trilinear lookups at x - 0.5). Lookups
+  // here put values at integers: the index space of lookups is OpenVDB's shifted by -1/2.
+  Affine shift;
+  for (int a = 0; a < 3; ++a) shift.m[a][3] = -0.5f;
+  world_to_index_ = shift * inverse;
   {
     const auto& m = index_to_world.m;
     const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
                        m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     voxel_size_ = static_cast<float>(std::cbrt(std::abs(det)));
   }
-  // World bounds: the corners of the cells' box.
+  // World bounds: the corners of the voxels' cells (OpenVDB's index space).
   for (int c = 0; c < 8; ++c) {
-    const Vec3 p(c & 1 ? hi[0] - 0.5f : lo_[0] - 0.5f, c & 2 ? hi[1] - 0.5f : lo_[1] - 0.5f,
-                 c & 4 ? hi[2] - 0.5f : lo_[2] - 0.5f);
+    const Vec3 p(float(c & 1 ? hi[0] : lo_[0]), float(c & 2 ? hi[1] : lo_[1]), float(c & 4 ? hi[2] : lo_[2]));
     world_bounds_.extend(index_to_world.point(p));
   }
   build_blocks();

@@ -6,8 +6,9 @@
 // A grid is dense here: OpenVDB's sparse tree is copied into an array over its active voxels'
 // bounding box (Blender's smoke caches and Volume objects are small: a limit of kMaxGridVoxels
 // keeps memory bounded, an error beyond). Values are looked up trilinearly between voxel centres
-// (OpenVDB's BoxSampler: a voxel's value sits at its integer index coordinates) and are the grid's
-// background outside its bounding box.
+// and are the grid's background outside its bounding box. VoxelGrid::lookup puts a voxel's value
+// at its integer index coordinates (OpenVDB's BoxSampler); a GridMedium follows Cycles instead
+// (voxel i fills the cell [i, i + 1], its value at i + 1/2: grid.cpp).
 //
 // The majorant grid (pbrt-v4's MajorantGrid, Novak et al. 2018 "Monte Carlo methods for volumetric
 // light transport simulation" §4.1): the maximum of every grid over each block of kBlock^3 voxels,

@@ -159,7 +159,7 @@ def write_blob_vdb(path, n=12):
     density = np.clip(1 - (x * x + y * y + z * z), 0, None).astype(np.float32) * 3.0
     m = np.eye(4, dtype=np.float32)
     m[:3, :3] *= 2.0 / n
-    m[:3, 3] = -1 + 1.0 / n
+    m[:3, 3] = -1  # voxel i fills the cell [i, i + 1] (as Cycles reads grids)
     native.get().write_vdb(path, [
         {"name": "density", "values": density, "index_to_object": m},
         {"name": "temperature", "values": (density > 0).astype(np.float32) * 2.0, "index_to_object": m}])

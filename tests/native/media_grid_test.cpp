@@ -29,7 +29,8 @@ std::string temp_path(const std::string& name) {
   return (dir / name).string();
 }
 
-// An n^3 grid whose cells fill the box [-h, h]^3 (voxel centres at -h + (i + 0.5) 2h / n).
+// An n^3 grid whose cells fill the box [-h, h]^3 (voxel i's cell [i, i + 1] of index space, as
+// Cycles reads grids: media/grid.cpp).
 VoxelGrid box_grid(const std::string& name, int n, float h, int channels = 1) {
   VoxelGrid g;
   g.name = name;
@@ -39,7 +40,7 @@ VoxelGrid box_grid(const std::string& name, int n, float h, int channels = 1) {
   const float v = 2 * h / n;
   for (int i = 0; i < 3; ++i) {
     g.index_to_object.m[i][i] = v;
-    g.index_to_object.m[i][3] = -h + 0.5f * v;
+    g.index_to_object.m[i][3] = -h;
   }
   return g;
 }
@@ -267,10 +268,11 @@ std::string ramp_slab_file() {
   d.name = "density";
   d.size = {2, 2, 9};
   d.data.resize(2 * 2 * 9);
-  // Voxel centres at z = 0.5 + k 0.05 (k = 0..8), x, y at +-3 (linear: interpolation is exact).
+  // Voxel centres (index i + 1/2) at z = 0.5 + k 0.05 (k = 0..8), x, y at +-3 (linear:
+  // interpolation is exact).
   for (int i = 0; i < 3; ++i) d.index_to_object.m[i][i] = i < 2 ? 6.0f : 0.05f;
-  d.index_to_object.m[0][3] = d.index_to_object.m[1][3] = -3.0f;
-  d.index_to_object.m[2][3] = 0.5f;
+  d.index_to_object.m[0][3] = d.index_to_object.m[1][3] = -6.0f;
+  d.index_to_object.m[2][3] = 0.5f - 0.025f;
   fill(d, [](int, int, int k) { return 0.5f + 0.25f * k; });  // 0.5 at z 0.5 up to 2.5 at 0.9: mean 1.5
   return write_grids("ramp.vdb", {&d});
 }

@@ -34,8 +34,9 @@ def _box(grids, names):
     """(positions (8, 3) float32, indices (12, 3) uint32) in object space: the box of the index
     space cells of `names` (all grids when empty), through the grids' transform."""
     chosen = [g for g in grids if g["name"] in names] or grids
-    lo = np.min([np.array(g["lo"]) for g in chosen], axis=0).astype(np.float64) - 0.5
-    hi = np.max([np.array(g["lo"]) + np.array(g["size"]) for g in chosen], axis=0).astype(np.float64) - 0.5
+    # (Voxel i fills the cell [i, i + 1] of index space, as in Cycles: media/grid.cpp.)
+    lo = np.min([np.array(g["lo"]) for g in chosen], axis=0).astype(np.float64)
+    hi = np.max([np.array(g["lo"]) + np.array(g["size"]) for g in chosen], axis=0).astype(np.float64)
     m = np.asarray(chosen[0]["index_to_object"], dtype=np.float64)
     corners = np.array([[hi[0] if c & 1 else lo[0], hi[1] if c & 2 else lo[1], hi[2] if c & 4 else lo[2], 1.0]
                         for c in range(8)])
