@@ -3,11 +3,18 @@
 // file; every input must read (every grid of it densified and looked up) or throw VdbError
 // naming that file, never crash or hang.
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
 #include "fuzz/fuzz_common.h"
 #include "media/vdb_file.h"
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  // A few header bytes may ask for a dense grid up to the limit (media/vdb_file.cpp): 64 MB.
+  setenv("GRADPHOTON_MEMORY_LIMIT_MB", "64", 0);
+  return 0;
+}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::string path = gp::fuzz::scratch_path("vdb", ".vdb");

