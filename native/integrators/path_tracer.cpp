@@ -110,7 +110,7 @@ struct RgbPath {
     ++shadow_rays;
     MediumLengths lengths;
     if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
-    if (lengths.n > 0) f *= to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
+    if (!lengths.empty()) f *= to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
     const float w = light_weight(ls, [&] { return bsdf->pdf(wo, wi, vis); });
     L += clamped(beta * f * ls.L * (w / ls.pdf), depth == 0);
   }

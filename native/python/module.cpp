@@ -19,6 +19,7 @@
 #include "integrators/methods.h"
 #include "integrators/photon/progressive_photon.h"
 #include "io/exr.h"
+#include "media/vdb_file.h"
 #include "reconstruction/poisson.h"
 #include "scene/builder.h"
 #include "scene/loader.h"
@@ -308,6 +309,59 @@ void bind_methods(py::module_& m) {
 
 // Images: EXR read and write, screened Poisson reconstruction.
 void bind_images(py::module_& m) {
+  // ---- OpenVDB grids (media/vdb_file.h): what the exporter needs of a Volume object's file,
+  // and a writer for tests (Debian's Blender has no pyopenvdb) ----
+  m.def("vdb_grids", [](const std::string& path) {
+    py::list out;
+    for (const VdbGridInfo& info : vdb_grid_names(path)) {
+      std::shared_ptr<VoxelGrid> g;
+      try {
+        g = read_vdb_grid(path, info.name);
+      } catch (const VdbError&) {
+        continue;  // a grid of a type media do not read (bool, int, points): not listed
+      }
+      py::array_t<float> m({4, 4});
+      auto r = m.mutable_unchecked<2>();
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) r(i, j) = i < 3 ? g->index_to_object.m[i][j] : (j == 3 ? 1.0f : 0.0f);
+      out.append(py::dict(py::arg("name") = info.name, py::arg("channels") = g->channels, py::arg("lo") = g->lo,
+                          py::arg("size") = g->size, py::arg("index_to_object") = m));
+    }
+    return out;
+  }, py::arg("path"),
+        "The float and vector grids of an OpenVDB file: [{'name', 'channels', 'lo', 'size' (the active "
+        "voxels' box in index space), 'index_to_object' (4x4)}]; VdbError (a ValueError) naming the file");
+  m.def("write_vdb", [](const std::string& path, const py::list& grids) {
+    std::vector<VoxelGrid> gs;
+    for (const py::handle& h : grids) {
+      const py::dict d = py::reinterpret_borrow<py::dict>(h);
+      VoxelGrid g;
+      g.name = d["name"].cast<std::string>();
+      const auto v = d["values"].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+      if (v.ndim() != 3 && v.ndim() != 4) throw std::invalid_argument("values: (nz, ny, nx) or (nz, ny, nx, 3)");
+      g.channels = v.ndim() == 4 ? static_cast<int>(v.shape(3)) : 1;
+      if (g.channels != 1 && g.channels != 3) throw std::invalid_argument("values: 1 or 3 channels");
+      g.size = {static_cast<int>(v.shape(2)), static_cast<int>(v.shape(1)), static_cast<int>(v.shape(0))};
+      g.data.assign(v.data(), v.data() + v.size());
+      if (d.contains("lo")) g.lo = d["lo"].cast<std::array<int, 3>>();
+      if (d.contains("background")) {
+        const float b = d["background"].cast<float>();
+        g.background = {b, b, b};
+      }
+      if (d.contains("index_to_object")) {
+        const auto m = d["index_to_object"].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+        if (m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4) throw std::invalid_argument("index_to_object: 4x4");
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 4; ++j) g.index_to_object.m[i][j] = m.at(i, j);
+      }
+      gs.push_back(std::move(g));
+    }
+    std::vector<const VoxelGrid*> ptrs;
+    for (const VoxelGrid& g : gs) ptrs.push_back(&g);
+    write_vdb(path, ptrs);
+  }, py::arg("path"), py::arg("grids"),
+        "Writes grids [{'name', 'values' (nz, ny, nx[, 3]) float, 'lo' (i, j, k), 'background', "
+        "'index_to_object' 4x4}] to an OpenVDB file (tests and tools)");
   m.def("read_exr", [](const std::string& path) {
     Film film;
     {
@@ -654,6 +708,7 @@ PYBIND11_MODULE(_native, m) {
   m.doc() = "gradphoton native core";
   m.attr("__version__") = GRADPHOTON_VERSION;
   py::register_exception<SceneError>(m, "SceneError", PyExc_ValueError);
+  py::register_exception<VdbError>(m, "VdbError", PyExc_ValueError);
   py::register_exception<ParamError>(m, "ParamError", PyExc_ValueError);
 
   bind_methods(m);

@@ -31,6 +31,7 @@
 #include "scene/json_reader.h"
 #include "scene/obj_mesh.h"
 #include "scene/shapes.h"
+#include "media/vdb_file.h"
 #include "textures/texture_store.h"
 
 namespace gp {
@@ -282,7 +283,7 @@ class Loader : private JsonReader {
       const std::string mpath = sub(path, it.key());
       const json& j = it.value();
       require_object(j, mpath);
-      check_keys(j, mpath, {"sigma_a", "sigma_s", "g", "emission"});
+      check_keys(j, mpath, {"sigma_a", "sigma_s", "g", "emission", "grid"});
       Medium m;
       m.name = it.key();
       if (const json* a = find(j, "sigma_a")) m.sigma_a = get_color(*a, sub(mpath, "sigma_a"));
@@ -290,10 +291,64 @@ class Loader : private JsonReader {
       if (const json* e = find(j, "emission")) m.emission = get_color(*e, sub(mpath, "emission"));
       if (const json* g = find(j, "g")) m.g = std::clamp(get_in_range(*g, sub(mpath, "g"), -1.0f, 1.0f),
                                                           -kMaxAnisotropy, kMaxAnisotropy);
+      if (const json* g = find(j, "grid")) m.grid = load_grid_medium(*g, sub(mpath, "grid"));
       medium_index_[m.name] = static_cast<int>(scene_.media.size());
       scene_.media.push_back(std::move(m));
     }
   }
+  // "grid": {"file": "smoke.vdb", "density_grid": "density", "color_grid": "color",
+  // "temperature_grid": "temperature", "transform": {...}, and Principled Volume's "density",
+  // "color", "absorption_color", "blackbody_intensity", "blackbody_tint", "temperature"}
+  // (media/grid.h). The medium's sigma_a / sigma_s are its coefficients at density 1.
+  std::shared_ptr<const GridMedium> load_grid_medium(const json& g, const std::string& path) {
+    require_object(g, path);
+    check_keys(g, path, {"file", "density_grid", "color_grid", "temperature_grid", "transform", "density", "color",
+                         "absorption_color", "blackbody_intensity", "blackbody_tint", "temperature"});
+    need(g, "file", path);
+    std::filesystem::path file = get_string(g["file"], sub(path, "file"));
+    if (file.is_relative() && !base_dir_.empty()) file = std::filesystem::path(base_dir_) / file;
+    auto grid = [&](const char* key) -> std::shared_ptr<const VoxelGrid> {
+      const json* n = find(g, key);
+      if (!n) return nullptr;
+      const std::string name = get_string(*n, sub(path, key));
+      if (name.empty()) return nullptr;
+      const std::string cache_key = file.string() + '\n' + name;
+      if (auto it = grids_.find(cache_key); it != grids_.end()) return it->second;
+      try {
+        std::shared_ptr<const VoxelGrid> v = read_vdb_grid(file.string(), name);
+        grids_[cache_key] = v;
+        return v;
+      } catch (const VdbError& e) {
+        fail(sub(path, key), e.what());
+      }
+    };
+    auto density = grid("density_grid"), color = grid("color_grid"), temperature = grid("temperature_grid");
+    if (!density && !color && !temperature)
+      fail(path, "names no grid: give 'density_grid', 'color_grid' or 'temperature_grid'");
+    if (color && color->channels != 3 && color->channels != 1) fail(sub(path, "color_grid"), "not a colour or float grid");
+    if (density && density->channels != 1) fail(sub(path, "density_grid"), "is a vector grid, not a float grid");
+    if (temperature && temperature->channels != 1) fail(sub(path, "temperature_grid"), "is a vector grid, not a float grid");
+    GridMediumParams params;
+    if (const json* v = find(g, "density")) params.density = get_nonnegative(*v, sub(path, "density"));
+    if (const json* v = find(g, "color")) params.color = get_color(*v, sub(path, "color"));
+    if (const json* v = find(g, "absorption_color")) params.absorption_color = get_color(*v, sub(path, "absorption_color"));
+    if (const json* v = find(g, "blackbody_intensity"))
+      params.blackbody_intensity = get_in_range(*v, sub(path, "blackbody_intensity"), 0.0f, 1.0f);
+    if (const json* v = find(g, "blackbody_tint")) params.blackbody_tint = get_color(*v, sub(path, "blackbody_tint"));
+    if (const json* v = find(g, "temperature")) params.temperature = get_nonnegative(*v, sub(path, "temperature"));
+    Affine object_to_world;
+    if (const json* t = find(g, "transform")) {
+      const Transform x = load_transform(*t, sub(path, "transform"));
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 4; ++j) object_to_world.m[i][j] = x.m[i][j];
+    }
+    try {
+      return std::make_shared<const GridMedium>(density, color, temperature, object_to_world, params);
+    } catch (const std::invalid_argument& e) {
+      fail(path, fmt::format("{}: {}", file.string(), e.what()));
+    }
+  }
+
   int medium_by_name(const json& j, const std::string& path) const {
     const std::string name = get_string(j, path);
     auto it = medium_index_.find(name);
@@ -1159,6 +1214,7 @@ class Loader : private JsonReader {
   static constexpr int kMaxSkies = 16;
   int skies_ = 0;
   std::string base_dir_;
+  std::map<std::string, std::shared_ptr<const VoxelGrid>> grids_;  // (file, grid) read once per scene
   Scene& scene_;
   std::map<std::string, uint32_t> material_index_;
   std::map<std::string, int> medium_index_;

@@ -1214,17 +1214,8 @@ void eval_combine_color(EvalArgs& a) {
 // Rec.709, normalised to luminance 1 as Cycles 3.4's svm_node_blackbody, which reads a fitted
 // table of the same curve: within 0.02 of Cycles (tests/native/shading_procedural_test.cpp).
 void eval_blackbody(EvalArgs& a) {
-  const double T = std::max(a.f(0), 800.0f);
-  Vec3 xyz(0.0f);
-  for (float l = 380.0f; l <= 780.0f; l += 5.0f) {
-    const double lm = l * 1e-9;
-    const double b = 1.0 / (std::pow(lm, 5.0) * (std::exp(0.0143877735 / (lm * T)) - 1.0));
-    xyz = xyz + cie_xyz_bar(l) * static_cast<float>(b * 1e-20);
-  }
-  Vec3 c = xyz_to_rec709(xyz);
-  const float y = luminance(c);
-  c = y > 0.0f ? c / y : Vec3(1.0f);
-  a.out(0, c);
+  const RGB c = blackbody_rec709(a.f(0));
+  a.out(0, Vec3(c.r, c.g, c.b));
 }
 // Wavelength: the CIE colour of a wavelength in Rec.709 scaled by 1 / 2.52 and clipped at zero,
 // as svm/wavelength.h (there from a 5 nm table between 380 and 780 nm, black outside).

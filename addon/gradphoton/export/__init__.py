@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from . import camera, light, material, mesh, motion, skipped, visibility, world
+from . import camera, light, material, mesh, motion, skipped, visibility, volume_object, world
 from .warnings import Warnings
 
 __all__ = ["ExportedScene", "export_scene", "scene_frame_set", "Warnings"]
@@ -121,6 +121,8 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
             light.add_light(out, inst, mats, w)
             if sampler is not None:
                 sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32))
+        elif kind == 'VOLUME':
+            volume_object.add_volume_object(out, inst, mats, media, w)
         # cameras, empties, armatures: nothing to render
     if mesh_cache is not None:
         mesh_cache.keep_only(meshes.keys())

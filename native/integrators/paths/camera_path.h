@@ -74,16 +74,17 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     first = nullptr;  // only the camera ray's hit is given
 
     // ---- Participating media along the ray: emission integrated exactly, a free-flight
-    // distance sampled against the channels' mean density (MediumSegment) ----
+    // distance sampled against the channels' mean density (MediumSegment; grid media: by
+    // ratio and delta tracking) ----
     std::optional<MediumSegment> segment;
     float t_scatter = kInfinity;
     if (media && !stack.empty()) {
-      segment.emplace(stack, path.channels(), [&](int m) -> const MediumChannels& { return path.medium_channels(m); });
+      segment.emplace(stack, ray, path.channels(), [&](int m) -> const MediumChannels& { return path.medium_channels(m); });
       const float t_end = hit ? hit->t : kInfinity;
       path.medium_emission(depth, segment->emission_integral(t_end));
       segment->set_channel_weights(path.channel_weights());
       const float u_channel = rng.uniform(), u_distance = rng.uniform();
-      t_scatter = segment->sample_distance(u_channel, u_distance);
+      t_scatter = segment->sample_distance(u_channel, u_distance, t_end);
       if (!(t_scatter < t_end)) t_scatter = kInfinity;
     }
 

@@ -206,7 +206,7 @@ struct SpectralPath {
     ++shadow_rays;
     MediumLengths lengths;
     if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
-    if (lengths.n > 0) {
+    if (!lengths.empty()) {
       const ChannelValues T = transmittance(lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
       for (int k = 0; k < C; ++k) f[k] *= T[k];
     }
