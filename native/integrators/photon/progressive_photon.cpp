@@ -54,8 +54,6 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   // points, not camera segments (thesis ch. 8 has no volume form), so sppm-adaptive leaves them out.
   media_ = options.media && scene.has_media() && !adaptive_;
   tracer_.set_media(media_);
-  if (options.media && scene.has_media() && adaptive_)
-    stats_.extra["warning: media left out by photon_sampler adaptive"] = 1;
   check_image_size(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});
