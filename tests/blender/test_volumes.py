@@ -145,8 +145,8 @@ def test_principled_volume_cube_at_cycles_brightness(empty_scene, out_dir):
 def test_method_without_media_says_so(empty_scene):
     volume_cube_scene(empty_scene)
     ex = export_current()
-    s = native.get().Session(ex.build(native.get()), "sppm", {"seed": 1})
-    assert len(s.feature_report) == 1 and "method 'sppm' does not render participating media" in s.feature_report[0]
+    s = native.get().Session(ex.build(native.get()), "gpm", {"seed": 1})
+    assert len(s.feature_report) == 1 and "method 'gpm' does not render participating media" in s.feature_report[0]
     assert native.get().Session(ex.build(native.get()), "pt", {"seed": 1}).feature_report == []
 
 

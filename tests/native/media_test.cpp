@@ -296,7 +296,11 @@ TEST(MediaMethods, MethodsWithoutMediaSayItOnceNamingThemselves) {
     Params p;
     p.set("seed", 1);
     RenderSession session(scene, m.name, p);
-    if (m.supports.media) {
+    if (m.supports.media && m.error_estimate) {  // ppm, sppm: media rendered, no error estimate
+      ASSERT_EQ(session.feature_report().size(), 1u) << m.name;
+      EXPECT_NE(session.feature_report()[0].find("method '" + m.name + "' estimates no error with participating media"),
+                std::string::npos);
+    } else if (m.supports.media) {
       EXPECT_TRUE(session.feature_report().empty()) << m.name;
     } else {
       ASSERT_EQ(session.feature_report().size(), 1u) << m.name;
@@ -306,7 +310,10 @@ TEST(MediaMethods, MethodsWithoutMediaSayItOnceNamingThemselves) {
   }
   EXPECT_TRUE(find_method("pt").supports.media);
   EXPECT_TRUE(find_method("spt-hero").supports.media);
-  EXPECT_FALSE(find_method("sppm").supports.media);
+  EXPECT_TRUE(find_method("sppm").supports.media);  // photon methods in media: media_photon_test.cpp
+  EXPECT_TRUE(find_method("ppm").supports.media);
+  EXPECT_FALSE(find_method("gpm").supports.media);
+  EXPECT_FALSE(find_method("msppm").supports.media);
 }
 
 }  // namespace
