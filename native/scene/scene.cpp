@@ -276,6 +276,9 @@ void Scene::build_lights() {
       throw std::runtime_error(fmt::format("{}: medium '{}' has a negative or non-finite coefficient", source, m.name));
   has_media_ = world_medium >= 0 || std::any_of(materials.begin(), materials.end(),
                                                 [](const Material& m) { return m.interior >= 0; });
+  auto grid = [&](int m) { return m >= 0 && m < static_cast<int>(media.size()) && !media[m].is_homogeneous(); };
+  has_grid_media_ = grid(world_medium) ||
+                    std::any_of(materials.begin(), materials.end(), [&](const Material& m) { return grid(m.interior); });
   camera.motion_blur = moving;
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);

@@ -232,6 +232,9 @@ class Scene {
   // True when some material has an interior medium or the World has one (set by finalize()
   // and commit()): the path tracers then track media; without, they run as before, bit for bit.
   bool has_media() const { return has_media_; }
+  // Whether a medium in use is heterogeneous (grid, OpenVDB): the photon methods leave media
+  // out then (SceneFeatures::grid_media says who renders them).
+  bool has_grid_media() const { return has_grid_media_; }
   // True when some mesh or the camera moves over the shutter (set by finalize() and commit()):
   // paths then carry a shutter time (Ray::time); without, none is drawn and images are as before.
   bool has_motion() const { return camera.motion_blur; }
@@ -314,7 +317,7 @@ class Scene {
   uint64_t generation_ = 0;
   bool lights_hidden_from_some_lobes_ = false;
   bool surfaces_hidden_from_some_lobes_ = false;
-  bool has_media_ = false;
+  bool has_media_ = false, has_grid_media_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 

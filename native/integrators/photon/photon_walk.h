@@ -140,12 +140,13 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     const auto hit = scene_.intersect(ray);
     // ---- Participating media along the segment: free flight (as paths/camera_path.h) ----
     if (media && !stack.empty()) {
-      MediumSegment segment(stack, power.channels(),
+      // (Homogeneous media: set_media leaves grid media to the path tracers.)
+      MediumSegment segment(stack, ray, power.channels(),
                             [&](int m) -> const MediumChannels& { return power.medium_channels(m); });
       segment.set_channel_weights(power.channel_weights());
       const float u_channel = u.next(), u_distance = u.next();
       const float t_end = hit ? hit->t : kInfinity;
-      const float t = segment.sample_distance(u_channel, u_distance);
+      const float t = segment.sample_distance(u_channel, u_distance, t_end);
       if (t < t_end) {
         // ---- Scattering in a medium: a volume photon, then the phase function ----
         const float m_old = power.max_old();

@@ -52,7 +52,9 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
     adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
   // Media with uniform photons only: the adaptive sampler's visibility V(u) knows measurement
   // points, not camera segments (thesis ch. 8 has no volume form), so sppm-adaptive leaves them out.
-  media_ = options.media && scene.has_media() && !adaptive_;
+  // Homogeneous media only: the beam gather's transmittance and scattering are closed forms
+  // (a scene with grid media renders its surfaces, said by RenderSession's report).
+  media_ = options.media && scene.has_media() && !scene.has_grid_media() && !adaptive_;
   tracer_.set_media(media_);
   check_image_size(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
@@ -709,7 +711,8 @@ void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<
         const EyeBeam& b = beams_[i * kMaxBeams + k];
         MediumStack stack;
         for (int j = 0; j < b.n_media; ++j) stack.cross(j, b.media[j], true);
-        const MediumSegment segment(stack, C, [&](int med) -> const MediumChannels& { return medium_channels(med); });
+        const MediumSegment segment(stack, Ray(b.o, b.d), C,
+                                    [&](int med) -> const MediumChannels& { return medium_channels(med); });
         float t0, t1;  // the segment within the photons' bounds grown by R
         clip(box, b, R, t0, t1);
         if (!(t0 < t1)) continue;

@@ -431,7 +431,7 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     // the volume photons (the beam radiance estimate, volume_gather), and its transmittance to
     // the surface behind it (no free flight: the photons carry the light scattered in it) ----
     if (media_ && !stack.empty()) {
-      const MediumSegment segment(stack, c.channels(),
+      const MediumSegment segment(stack, ray, c.channels(),
                                   [&](int m) -> const MediumChannels& { return c.medium_channels(m); });
       const float t_end = hit ? hit->t : kInfinity;
       c.medium_emission(segment.emission_integral(t_end));
