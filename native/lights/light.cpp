@@ -203,6 +203,7 @@ RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo) const {
   ctx.N = ctx.Ng = ctx.backfacing ? -l.n : l.n;
   ctx.I = wo;
   ctx.object = object;
+  ctx.prim = prim;
   thread_local std::vector<Vec3> regs;
   regs.resize(program->num_registers());
   program->run(ctx, regs.data());

@@ -27,6 +27,7 @@ struct EmissionGraph {
   RGB emission_constant{1.0f};
   float strength_constant = 1.0f;
   const shading::ShadingObject* object = nullptr;
+  int prim = -1;       // the triangle in its mesh (mesh attributes)
   Vec2 uv0, uv1, uv2;  // the triangle's texture coordinates (barycentrics without a UV map)
   // Radiance at point p of light l seen along wo (unit, away from the surface).
   RGB at(const Light& l, const Vec3& p, const Vec3& wo) const;

@@ -32,6 +32,9 @@ struct MeshArrays {
   // Object-to-world matrices (row-major 4x4, affine). Empty = one copy, identity.
   std::vector<Transform> instances;
   std::vector<std::string> instance_names;  // optional, one per instance (default: name)
+  // Optional named attributes (Color Attribute / Attribute nodes), shared by the instances;
+  // checked against the mesh when the scene is finalized.
+  std::shared_ptr<const shading::MeshAttributes> attributes;
 };
 
 // ---- Updates of a finalized scene (the rendered viewport; scene.h "Updates") ----

@@ -87,6 +87,32 @@ Transform invert_affine(const Transform& t) {
 }
 }  // namespace
 
+// A mesh's attributes must fit it: one element per vertex (point), triangle corner (corner) or
+// triangle (face), 1-4 finite components, distinct names.
+static void check_attributes(const shading::MeshAttributes& attrs, const Mesh& m, const std::string& where) {
+  static const char* kDomain[] = {"point", "corner", "face"};
+  for (size_t i = 0; i < attrs.list.size(); ++i) {
+    const shading::MeshAttribute& a = attrs.list[i];
+    const std::string at = fmt::format("{}: attribute '{}'", where, a.name);
+    if (a.components < 1 || a.components > 4)
+      throw std::runtime_error(fmt::format("{}: {} components (1 to 4)", at, a.components));
+    const size_t want = a.domain == shading::AttributeDomain::Point    ? m.positions.size()
+                        : a.domain == shading::AttributeDomain::Corner ? 3 * m.triangle_count()
+                                                                       : m.triangle_count();
+    if (a.values.size() != want * a.components)
+      throw std::runtime_error(fmt::format("{}: {} values for {} {} elements of {} components", at, a.values.size(),
+                                           want, kDomain[static_cast<int>(a.domain)], a.components));
+    for (size_t k = 0; k < a.values.size(); ++k)
+      if (!std::isfinite(a.values[k]))
+        throw std::runtime_error(fmt::format("{}: element {} is not finite", at, k / a.components));
+    for (size_t j = 0; j < i; ++j)
+      if (attrs.list[j].name == a.name) throw std::runtime_error(fmt::format("{}: given twice", at));
+  }
+  if (attrs.default_color >= static_cast<int>(attrs.list.size()))
+    throw std::runtime_error(fmt::format("{}: default colour attribute {} of {}", where, attrs.default_color,
+                                         attrs.list.size()));
+}
+
 void Scene::build_shading_objects() {
   shading_objects_.assign(meshes.size(), {});
   for (size_t mi = 0; mi < meshes.size(); ++mi) {
@@ -102,6 +128,10 @@ void Scene::build_shading_objects() {
     }
     // Object Info's Random: Cycles hashes the object's name (hash_uint2(BLI_hash_string(name), 0)).
     o.random = shading::uint_to_float_incl(shading::hash_uint2(shading::hash_string_x31(m.name.c_str()), 0u));
+    if (m.attributes && !m.attributes->list.empty()) {
+      o.attributes = m.attributes.get();
+      o.indices = m.indices.data();
+    }
   }
 }
 
@@ -123,6 +153,7 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
                         has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &c.dPdu, &c.dPdv))
       c.dPdu = c.dPdv = Vec3(0.0f);
     if (static_cast<size_t>(h.mesh) < shading_objects_.size()) c.object = &shading_objects_[h.mesh];
+    c.prim = h.prim;
   }
   return c;
 }
@@ -144,6 +175,7 @@ void Scene::build_lights() {
       throw std::runtime_error(fmt::format("{}: {} normals for {} positions", where, m.normals.size(), m.positions.size()));
     if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
       throw std::runtime_error(fmt::format("{}: {} uvs for {} positions", where, m.uvs.size(), m.positions.size()));
+    if (m.attributes) check_attributes(*m.attributes, m, where);
     for (size_t v = 0; v < m.positions.size(); ++v) {
       if (!is_finite(m.positions[v]))
         throw std::runtime_error(fmt::format("{}: vertex {} is not finite", where, v));
@@ -185,6 +217,7 @@ void Scene::build_lights() {
           g->emission_constant = mtl.emission;
           g->strength_constant = mtl.emission_strength;
           g->object = &shading_objects_[mi];
+          g->prim = static_cast<int>(t);
           const uint32_t* tri = &m.indices[3 * t];
           const bool has_uvs = !m.uvs.empty();
           g->uv0 = has_uvs ? m.uvs[tri[0]] : Vec2(0, 0);

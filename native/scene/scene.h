@@ -39,6 +39,9 @@ struct Mesh {
   std::vector<Vec2> uvs;               // optional per-vertex UVs
   std::vector<uint32_t> indices;       // 3 per triangle
   std::vector<uint32_t> material_ids;  // 1 per triangle, index into Scene::materials
+  // Named attributes (colour attributes, generic ones) for Color Attribute / Attribute nodes;
+  // shared by the copies of an instanced mesh. Null: none.
+  std::shared_ptr<const shading::MeshAttributes> attributes;
   size_t triangle_count() const { return indices.size() / 3; }
   // Object space and object-to-world matrix of a mesh given as arrays (null for meshes of scene
   // files, which cannot be moved by Scene::set_mesh_transform).

@@ -22,6 +22,7 @@
 
 #include "core/color.h"
 #include "core/math.h"
+#include "shading/attributes.h"
 #include "textures/texture.h"
 
 namespace gp::shading {
@@ -35,6 +36,10 @@ struct ShadingObject {
   Transform to_world, to_object;
   Bounds3 bounds;       // object space
   float random = 0.0f;  // Object Info's Random (Cycles: hash of the object's name)
+  // Color Attribute / Attribute: the mesh's named attributes and its triangles' vertex indices
+  // (null: none; valid while the scene's meshes are, as this object).
+  const MeshAttributes* attributes = nullptr;
+  const uint32_t* indices = nullptr;
   Vec3 location() const { return {to_world.m[0][3], to_world.m[1][3], to_world.m[2][3]}; }
 };
 
@@ -54,6 +59,7 @@ struct ShadingContext {
   Vec2 uv;           // the mesh's UV map (barycentrics without one)
   Vec2 bary;         // barycentric (u, v) of the hit in its triangle (Geometry's Parametric)
   Vec3 dPdu, dPdv;   // surface tangents along u and v (zero: unknown; bump picks a frame)
+  int prim = -1;     // the hit triangle in its object's mesh (attributes; -1: none)
   const ShadingObject* object = nullptr;
   const Transform* world_to_camera = nullptr;  // Texture Coordinate's Camera, Vector Transform
   bool backfacing = false;

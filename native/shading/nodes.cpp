@@ -371,6 +371,59 @@ void eval_light_path(EvalArgs& a) {  // svm/light_path.h
 void parse_value(const PropReader& r, NodeProps& p);
 void eval_value(EvalArgs& a) { a.out(0, a.v(0)); }
 
+// The named mesh attribute at the shading point (components 0: not found). An empty name with
+// `render_color` is the mesh's render colour attribute (Cycles' ATTR_STD_VERTEX_COLOR).
+AttributeValue attribute_at(const ShadingContext& c, const std::string& name, bool render_color) {
+  if (!c.object || !c.object->attributes || c.prim < 0 || !c.surface) return {};
+  const MeshAttributes& attrs = *c.object->attributes;
+  const MeshAttribute* a = nullptr;
+  if (name.empty() && render_color) {
+    if (attrs.default_color >= 0) a = &attrs.list[attrs.default_color];
+  } else {
+    a = attrs.find(name);
+  }
+  if (!a) return {};
+  return interpolate_attribute(*a, c.prim, c.object->indices + 3 * static_cast<size_t>(c.prim), c.bary);
+}
+void parse_color_attribute(const PropReader& r, NodeProps& p) {
+  auto d = std::make_shared<NodeData>();
+  d->name = r.string("layer_name", "");
+  p.data = d;
+}
+void eval_color_attribute(EvalArgs& a) {  // svm/vertex_color.h
+  const AttributeValue v = attribute_at(a.ctx, a.op.props.data->name, true);
+  if (v.components == 0) {  // not found: black, alpha 0
+    a.out(0, kZero);
+    a.out(1, 0.0f);
+    return;
+  }
+  a.out(0, Vec3(v.v[0], v.v[1], v.v[2]));
+  a.out(1, v.components == 4 ? v.v[3] : 1.0f);
+}
+void parse_attribute(const PropReader& r, NodeProps& p) {
+  auto d = std::make_shared<NodeData>();
+  d->name = r.string("attribute_name", "");
+  p.mode = r.choice("attribute_type", {"GEOMETRY", "OBJECT", "INSTANCER", "VIEW_LAYER"}, 0);
+  if (p.mode != 0)
+    r.warn(fmt::format("Attribute type '{}' is not supported (reads as a missing attribute)",
+                       r.string("attribute_type", "")));
+  p.data = d;
+}
+void eval_attribute(EvalArgs& a) {  // svm/attribute.h svm_node_attr
+  AttributeValue v;
+  if (a.op.props.mode == 0) v = attribute_at(a.ctx, a.op.props.data->name, false);
+  // Cycles: a float reads (f, f, f); a float2 (x, y, 0) with Fac x; wider ones their first
+  // three with Fac their average; Alpha is a float4's w, else 1 (a missing one: 0, 0, 1).
+  Vec3 col(v.v[0], v.v[1], v.v[2]);
+  float fac = (v.v[0] + v.v[1] + v.v[2]) * (1.0f / 3.0f);
+  if (v.components == 1) col = Vec3(v.v[0]), fac = v.v[0];
+  else if (v.components == 2) fac = v.v[0];
+  a.out(0, col);
+  a.out(1, col);
+  a.out(2, fac);
+  a.out(3, v.components == 4 ? v.v[3] : 1.0f);
+}
+
 // ---- Textures ----
 
 Vec4 vec4_of(const Vec3& v, float w = 0.0f) {
@@ -1399,6 +1452,10 @@ std::vector<NodeType> make_types() {
   add({"ShaderNodeTexCoord", {}, {out_v("Generated"), out_v("Normal"), out_v("UV"), out_v("Object"), out_v("Camera"),
                                    out_v("Window"), out_v("Reflection")}, nullptr, eval_tex_coord, true});
   add({"ShaderNodeUVMap", {}, {out_v("UV")}, nullptr, eval_uv_map, true});
+  add({"ShaderNodeVertexColor", {}, {out_c("Color"), out_f("Alpha")}, parse_color_attribute, eval_color_attribute,
+       true});
+  add({"ShaderNodeAttribute", {}, {out_c("Color"), out_v("Vector"), out_f("Fac"), out_f("Alpha")}, parse_attribute,
+       eval_attribute, true});
   add({"ShaderNodeNewGeometry", {}, {out_v("Position"), out_v("Normal"), out_v("Tangent"), out_v("True Normal"),
                                       out_v("Incoming"), out_v("Parametric"), out_f("Backfacing"), out_f("Pointiness"),
                                       out_f("Random Per Island")}, nullptr, eval_geometry, true});

@@ -34,7 +34,8 @@ class ExportedScene:
         b.set_description(json.dumps(self.description))
         for m in self.meshes:
             b.add_mesh(m.name, m.positions, m.indices, m.materials, material_ids=m.material_ids,
-                       normals=m.normals, uvs=m.uvs, matrices=np.stack(m.matrices), instance_names=m.instance_names)
+                       normals=m.normals, uvs=m.uvs, matrices=np.stack(m.matrices), instance_names=m.instance_names,
+                       attributes=m.attributes, default_color=m.default_color)
         return b.finalize()
 
     def to_json(self):
@@ -49,6 +50,8 @@ class ExportedScene:
                     o["normals"] = m.normals.tolist()
                 if m.uvs is not None:
                     o["uvs"] = m.uvs.tolist()
+                if m.attributes:
+                    o["attributes"] = {n: {"domain": d, "values": v.tolist()} for n, d, v in m.attributes}
                 if m.material_ids is None or len(m.materials) == 1:
                     o["material"] = m.materials[0]
                 else:

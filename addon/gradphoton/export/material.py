@@ -91,6 +91,7 @@ class MaterialExporter:
         self.w = warnings
         self._used = {}     # Blender materials exported, by name
         self._textured = set()  # exported materials that read UVs (their meshes need them)
+        self._attributes = {}   # material name -> attribute names its nodes read ("" = render colour)
 
     def used_materials(self):
         return list(self._used.values())
@@ -98,6 +99,10 @@ class MaterialExporter:
     def needs_uvs(self, mat):
         """True when Blender material `mat` reads the UV map (its meshes must export UVs)."""
         return mat is not None and mat.name in self._textured
+
+    def attributes_read(self, mat):
+        """Names of the mesh attributes Blender material `mat` reads ("" is the render colour)."""
+        return self._attributes.get(mat.name, frozenset()) if mat is not None else frozenset()
 
     def name_for(self, mat, flags=None):
         """The core's material name for a Blender material (None: the default grey), with an
@@ -167,6 +172,7 @@ class MaterialExporter:
             if nodes:
                 part["nodes"] = nodes
                 uv = uv or self.g.reads_uv(nodes)
+                self._attributes[mat.name] = self._attributes.get(mat.name, frozenset()) | self.g.attributes_read(nodes)
         if uv:
             self._textured.add(mat.name)
         return d
