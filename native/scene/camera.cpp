@@ -42,6 +42,7 @@ Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext) const {
   }
   Ray ray(camera_to_world.point(origin), normalize(camera_to_world.vector(dir)));
   ray.camera = true;
+  ray.state = RayState::camera();
   return ray;
 }
 

@@ -40,15 +40,26 @@ Vec3 offset_ray_origin(const Vec3& p, const Vec3& ng, const Vec3& w) {
   return out;
 }
 
-Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, uint8_t lobe) {
+Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, const BsdfSample& bs) {
   Ray next(offset_ray_origin(p, ng, wi), wi);
   if (pass_through) {
     next.camera = in.camera;
     next.bounce = in.bounce;
+    next.state = in.state;
+    next.state.length = 0.0f;
   } else {
-    next.bounce = lobe;
+    next.bounce = bs.lobe;
+    next.state = next_ray_state(in.state, bs.lobe, bs.transmission, bs.delta, bs.eta);
   }
   return next;
+}
+
+RayState next_ray_state(const RayState& in, uint8_t lobe, bool transmission, bool delta, float eta) {
+  // Cycles' labels: a Transparent BSDF's pass (smooth, IOR 1) is LABEL_TRANSPARENT; a diffuse
+  // lobe LABEL_DIFFUSE; a smooth one LABEL_SINGULAR; the rest glossy. (A Translucent BSDF's
+  // diffuse transmission reads as glossy here: its sample carries only kRayTransmission.)
+  const bool transparent = transmission && delta && eta == 1.0f;
+  return in.next(transmission, lobe == kRayDiffuse, delta, transparent);
 }
 
 size_t Scene::triangle_count() const {
@@ -390,7 +401,7 @@ void Scene::commit() {
 std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   RawHit raw;
   if (!accel_->intersect(ray, raw)) return std::nullopt;
-  return surface_hit(raw, ray.d);
+  return surface_hit(raw, ray);
 }
 
 std::optional<SurfacePoint> Scene::intersect_point(const Ray& ray) const {
@@ -412,7 +423,7 @@ void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceH
   }
   accel_->intersect_stream(rays, n, raw.data(), found.get(), true);
   for (size_t i = 0; i < n; ++i) {
-    if (found[i]) hits[i] = surface_hit(raw[i], rays[i].d);
+    if (found[i]) hits[i] = surface_hit(raw[i], rays[i]);
     else hits[i].reset();
   }
 }
@@ -458,7 +469,8 @@ std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, u
   return starts;
 }
 
-std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_dir) const {
+std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Ray& ray) const {
+  const Vec3& ray_dir = ray.d;
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
   const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
@@ -475,6 +487,8 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
   }
   h.n_smooth = h.ns;
   h.wo = -ray_dir;
+  h.ray = ray.state;
+  h.ray.length = h.t;  // Cycles' sd->ray_length: the ray's (unit direction) distance to here
   if (const Material& mat = materials[h.material]; mat.perturbs_normal()) {
     // ---- Normal and bump maps: the shading normal of every method ----
     Vec3 dpdu, dpdv;
@@ -487,7 +501,7 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
       if (mat.normal_in) {
         // A Normal Map or Bump node's output from the material's graph (world space, facing
         // the viewer as Cycles' normals do; back on the geometric side below).
-        const Vec3 g = mat.graph->evaluate(shading_context(h, h.wo, h.n_smooth), mat.normal_in.source);
+        const Vec3 g = mat.graph->evaluate(shading_context(h), mat.normal_in.source);
         if (is_finite(g) && length_squared(g) > 0) n = normalize(g);
       }
       if (dot(n, h.ng) < 0) n = -n;  // stays on the geometric side

@@ -77,6 +77,7 @@ struct SurfaceHit : SurfacePoint {
   Frame frame;    // shading frame around ns
   int light = -1; // area light index of this triangle, or -1
   Vec3 wo;        // unit direction back along the ray that found it (node graphs' Incoming)
+  RayState ray;   // that ray's Light Path state (Ray::state), with the length it travelled
 };
 
 // Where a measurement point lies, for its material's node graph: the hit's texture coordinate
@@ -119,8 +120,13 @@ Vec3 offset_ray_origin(const Vec3& p, const Vec3& ng, const Vec3& w);
 // The ray a camera path sends on from a surface point p (geometric normal ng) along wi after a
 // BSDF sample of kind `lobe`, `in` the ray that arrived: a light object (`pass_through`) lets
 // `in` go on as it was (camera flag and kind kept); any other surface makes it a bounce ray of
-// the sampled kind, which surfaces hidden from that kind let through (Ray::bounce).
-Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, uint8_t lobe);
+// the sampled kind, which surfaces hidden from that kind let through (Ray::bounce). Its Light
+// Path state (Ray::state) follows Cycles: kept through a light object, advanced by the sample
+// otherwise.
+Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, const BsdfSample& bs);
+// A ray's Light Path state after a BSDF sample of kind `lobe` (RayState::next; a smooth
+// transmission of relative IOR 1 is Cycles' transparent bounce).
+RayState next_ray_state(const RayState& in, uint8_t lobe, bool transmission, bool delta, float eta);
 
 class Scene {
  public:
@@ -238,7 +244,11 @@ class Scene {
   // What a material's node graph sees at a hit (Cycles' ShaderData): position, normals facing
   // the viewer, uv, tangents, its object (Texture Coordinate's Generated and Object, Object Info).
   shading::ShadingContext shading_context(const SurfacePoint& h, const Vec3& wo, const Vec3& n_smooth) const;
-  shading::ShadingContext shading_context(const SurfaceHit& h) const { return shading_context(h, h.wo, h.n_smooth); }
+  shading::ShadingContext shading_context(const SurfaceHit& h) const {
+    shading::ShadingContext c = shading_context(h, h.wo, h.n_smooth);
+    c.ray = h.ray;
+    return c;
+  }
   // Per mesh: its transform, object-space bounds and random number (finalize/commit).
   const std::vector<shading::ShadingObject>& shading_objects() const { return shading_objects_; }
   Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
@@ -298,7 +308,7 @@ class Scene {
 
   void build_lights();  // validation, area lights, light set and bounds (finalize, commit)
   // What shading needs of a hit (ray_dir: the normal map keeps the view side valid).
-  std::optional<SurfaceHit> surface_hit(const RawHit& raw, const Vec3& ray_dir) const;
+  std::optional<SurfaceHit> surface_hit(const RawHit& raw, const Ray& ray) const;
   void surface_point(const RawHit& raw, SurfacePoint& out) const;  // what both hits share
 };
 

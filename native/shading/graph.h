@@ -43,12 +43,6 @@ struct ShadingObject {
   Vec3 location() const { return {to_world.m[0][3], to_world.m[1][3], to_world.m[2][3]}; }
 };
 
-// Light Path's ray kinds (kernel/svm/light_path.h outputs).
-enum PathFlags : uint16_t {
-  kPathCamera = 1, kPathShadow = 2, kPathDiffuse = 4, kPathGlossy = 8, kPathSingular = 16,
-  kPathReflection = 32, kPathTransmission = 64,
-};
-
 // One shading point, as Cycles' ShaderData: what the input nodes read. Unknown fields keep their
 // defaults (a context with only a direction, for the World: surface = false, I = -direction).
 struct ShadingContext {
@@ -64,10 +58,10 @@ struct ShadingContext {
   const Transform* world_to_camera = nullptr;  // Texture Coordinate's Camera, Vector Transform
   bool backfacing = false;
   bool surface = true;
-  // Light Path: what the integrator knows of the ray that arrived here.
-  uint16_t ray_flags = kPathCamera | kPathReflection;
-  int ray_depth = 0, diffuse_depth = 0, glossy_depth = 0, transmission_depth = 0, transparent_depth = 0;
-  float ray_length = 0.0f;
+  // Light Path: what the integrator knows of the ray that arrived here (core/math.h RayState:
+  // Cycles' path flags and bounce counts). Default: no path's ray (flags 0, depth 0), as a
+  // light's emission evaluated for a light sample (Cycles' PATH_RAY_EMISSION).
+  RayState ray;
 
   // A context for a direction only (World shaders): P = dir, I = -dir.
   static ShadingContext direction(const Vec3& dir) {

@@ -359,14 +359,17 @@ void eval_layer_weight(EvalArgs& a) {  // svm/fresnel.h svm_node_layer_weight
   }
 }
 void eval_light_path(EvalArgs& a) {  // svm/light_path.h
-  const ShadingContext& c = a.ctx;
-  for (int i = 0; i < 7; ++i) a.out(i, (c.ray_flags >> i) & 1 ? 1.0f : 0.0f);
-  a.out(7, c.ray_length);
-  a.out(8, static_cast<float>(c.ray_depth));
-  a.out(9, static_cast<float>(c.diffuse_depth));
-  a.out(10, static_cast<float>(c.glossy_depth));
-  a.out(11, static_cast<float>(c.transparent_depth));
-  a.out(12, static_cast<float>(c.transmission_depth));
+  const RayState& r = a.ctx.ray;
+  for (int i = 0; i < 7; ++i) a.out(i, (r.flags >> i) & 1 ? 1.0f : 0.0f);
+  a.out(7, r.length);
+  // Cycles: a light's emission evaluated for a light sample (or a shadow ray's shading) is one
+  // bounce further than the path's vertex; those contexts carry no path flags here (depth 0
+  // is kept: the vertex's depth is not known there).
+  a.out(8, static_cast<float>(r.depth));
+  a.out(9, static_cast<float>(r.diffuse));
+  a.out(10, static_cast<float>(r.glossy));
+  a.out(11, static_cast<float>(r.transparent));
+  a.out(12, static_cast<float>(r.transmission));
 }
 void parse_value(const PropReader& r, NodeProps& p);
 void eval_value(EvalArgs& a) { a.out(0, a.v(0)); }

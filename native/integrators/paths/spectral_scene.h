@@ -103,9 +103,12 @@ float grey_factor(const RGB& value, const RGB& emit);
 // environment whose colour varies with direction (an image, Light Path: Is Camera Ray), `value`
 // itself upsampled as an illuminant, per hit, as textured emission is.
 RgbSpectrum light_spectrum(const SceneSpectra& spectra, const LightSet& lights, int l, const RGB& value);
-// Whether light l is an environment whose colour varies with direction (light_spectrum's case 2).
+// Whether light l is an environment whose colour varies with direction (light_spectrum's case 2),
+// or an area light whose node graph gives its colour per point (and per ray: Light Path): its
+// RGB is upsampled where it is seen.
 inline bool varies_with_direction(const LightSet& lights, int l) {
-  return l == lights.environment() && lights.environment_textured();
+  return (l == lights.environment() && lights.environment_textured()) ||
+         (l >= 0 && lights.lights()[l].emission_graph != nullptr);
 }
 
 }  // namespace gp

@@ -139,7 +139,9 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
         ++crossed;
         t_crossed += hit->t;
         chain_ok = false;  // the chain's segments no longer join its vertices (GPM shifts none)
+        const RayState state = ray.state;
         ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
+        ray.state = state;
         --bounce;  // not a bounce: the path tracer's ray of those kinds does not stop here
         continue;
       }
@@ -205,7 +207,9 @@ int64_t PhotonTracer::trace_path(PrimarySamples& u, int min_deposit_bounce, std:
       }
     }
     beta = beta_new / p_continue;
+    const RayState state = next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+    ray.state = state;  // Light Path at the photon's next vertex (photons start as emission: no flags)
     crossed = 0;
     t_crossed = 0;
     if (!pass_through) {

@@ -400,7 +400,7 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     const std::optional<BsdfSample> bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
     if (!bs) break;
     const bool crossed = scene_.material(hit->material).is_pass_through();  // a light object
-    const Ray next = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
+    const Ray next = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, *bs);
     if (!crossed) kind = bs->lobe;
     hooks.scatter(wo, *bs, next);
     ray = next;
