@@ -204,6 +204,7 @@ RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo, const RaySt
   ctx.I = wo;
   ctx.object = object;
   ctx.prim = prim;
+  ctx.camera = camera;
   if (ray) ctx.ray = *ray;
   thread_local std::vector<Vec3> regs;
   regs.resize(program->num_registers());

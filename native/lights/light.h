@@ -28,6 +28,7 @@ struct EmissionGraph {
   float strength_constant = 1.0f;
   const shading::ShadingObject* object = nullptr;
   int prim = -1;       // the triangle in its mesh (mesh attributes)
+  const shading::ShadingCamera* camera = nullptr;  // the scene's (Texture Coordinate Camera, Window)
   Vec2 uv0, uv1, uv2;  // the triangle's texture coordinates (barycentrics without a UV map)
   // Radiance at point p of light l seen along wo (unit, away from the surface).
   // `ray`: the path's ray that found p (Light Path); null for a light sample (no path flags).

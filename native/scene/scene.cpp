@@ -124,7 +124,20 @@ static void check_attributes(const shading::MeshAttributes& attrs, const Mesh& m
                                          attrs.list.size()));
 }
 
+void Scene::build_shading_camera() {
+  shading::ShadingCamera& c = *shading_camera_;
+  // Cycles' camera space is Blender's camera space with z negated (z towards the view).
+  c.camera_to_world = camera.camera_to_world;
+  for (int r = 0; r < 3; ++r) c.camera_to_world.m[r][2] = -c.camera_to_world.m[r][2];
+  c.world_to_camera = invert_affine(c.camera_to_world);
+  c.orthographic = camera.projection == Projection::Orthographic;
+  c.ext = camera.half_extent();
+  const float s = 2.0f * std::max(c.ext.x, c.ext.y);  // as Camera::generate_ray's shift
+  c.shift = Vec2(camera.shift.x * s, camera.shift.y * s);
+}
+
 void Scene::build_shading_objects() {
+  build_shading_camera();
   shading_objects_.assign(meshes.size(), {});
   for (size_t mi = 0; mi < meshes.size(); ++mi) {
     const Mesh& m = meshes[mi];
@@ -150,6 +163,7 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
   shading::ShadingContext c;
   c.P = h.p;
   c.I = wo;
+  c.camera = shading_camera_.get();
   c.uv = h.uv;
   c.bary = h.bary;
   // Cycles' ShaderData: normals face the incoming ray, `backfacing` says whether they were flipped.
@@ -229,6 +243,7 @@ void Scene::build_lights() {
           g->strength_constant = mtl.emission_strength;
           g->object = &shading_objects_[mi];
           g->prim = static_cast<int>(t);
+          g->camera = shading_camera_.get();
           const uint32_t* tri = &m.indices[3 * t];
           const bool has_uvs = !m.uvs.empty();
           g->uv0 = has_uvs ? m.uvs[tri[0]] : Vec2(0, 0);
@@ -372,6 +387,7 @@ void Scene::set_camera(const Camera& cam) {
   check_not_rendering("move the camera");
   if (const std::string bad = cam.check(); !bad.empty()) throw std::invalid_argument(fmt::format("{}: {}", source, bad));
   camera = cam;
+  build_shading_camera();
   ++generation_;
 }
 
@@ -513,17 +529,27 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Ray& ray) 
   return out;
 }
 
-Vec2 Scene::uv_at(int mesh, int prim, const Vec3& p) const {
+SurfacePoint Scene::point_at(int mesh, int prim, const Vec3& p) const {
   const Mesh& m = meshes[mesh];
   const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
+  SurfacePoint sp;
+  sp.p = p;
+  sp.mesh = mesh;
+  sp.prim = prim;
+  sp.material = static_cast<int>(m.material_ids[prim]);
   // Barycentrics of p's projection onto the triangle's plane.
   const Vec3 e1 = m.positions[i1] - m.positions[i0], e2 = m.positions[i2] - m.positions[i0], d = p - m.positions[i0];
+  sp.ng = normalize(cross(e1, e2));
   const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), dp1 = dot(d, e1), dp2 = dot(d, e2);
   const float det = d11 * d22 - d12 * d12;
-  if (!(std::abs(det) > 0)) return m.uvs.empty() ? Vec2() : m.uvs[i0];
+  if (!(std::abs(det) > 0)) {
+    sp.uv = m.uvs.empty() ? Vec2() : m.uvs[i0];
+    return sp;
+  }
   const float b1 = (d22 * dp1 - d12 * dp2) / det, b2 = (d11 * dp2 - d12 * dp1) / det;
-  if (m.uvs.empty()) return Vec2(b1, b2);  // as intersect() without uvs
-  return m.uvs[i0] * (1 - b1 - b2) + m.uvs[i1] * b1 + m.uvs[i2] * b2;
+  sp.bary = Vec2(b1, b2);
+  sp.uv = m.uvs.empty() ? Vec2(b1, b2) : m.uvs[i0] * (1 - b1 - b2) + m.uvs[i1] * b1 + m.uvs[i2] * b2;  // as intersect()
+  return sp;
 }
 
 bool Scene::occluded(const Ray& ray) const { return accel_->occluded(ray); }

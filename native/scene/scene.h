@@ -287,7 +287,15 @@ class Scene {
     return bsdf(params, h.material, h.uv, h.frame, h.ng, h.n_smooth);
   }
   // The texture coordinate at point p of a triangle (a vertex a manifold walk moved).
-  Vec2 uv_at(int mesh, int prim, const Vec3& p) const;
+  Vec2 uv_at(int mesh, int prim, const Vec3& p) const { return point_at(mesh, prim, p).uv; }
+  // Point p of a triangle as a hit there would give it (barycentrics of p's projection).
+  SurfacePoint point_at(int mesh, int prim, const Vec3& p) const;
+  // The BSDF at point p of a triangle seen from wo (world, unit) with shading normal ns: a
+  // vertex a manifold walk moved, its node graph seeing the whole point (position, object).
+  Bsdf bsdf_at(int mesh, int prim, const Vec3& p, const Vec3& wo, const Vec3& ns) const {
+    const SurfacePoint sp = point_at(mesh, prim, p);
+    return bsdf(sp.material, ShadePoint(sp), p, wo, Frame(ns), sp.ng, ns);
+  }
   // The raw accelerator, for benchmarks that measure Embree without shading.
   const Accelerator& accelerator() const { return *accel_; }
 
@@ -295,6 +303,10 @@ class Scene {
   std::unique_ptr<Accelerator> accel_;
   std::vector<shading::ShadingObject> shading_objects_;
   void build_shading_objects();
+  // From `camera` (finalize, commit, set_camera); on the heap, so the area lights' pointers to
+  // it (EmissionGraph::camera) survive the scene being moved.
+  std::unique_ptr<shading::ShadingCamera> shading_camera_ = std::make_unique<shading::ShadingCamera>();
+  void build_shading_camera();
   LightSet light_set_;
   Bounds3 bounds_;
   std::vector<std::vector<int32_t>> triangle_light_;  // per mesh, per triangle: light or -1

@@ -32,6 +32,28 @@ enum class SocketType : uint8_t { Float, Vector, Color };
 // What an object contributes to shading (Texture Coordinate's Generated and Object, Object
 // Info, Vector Transform): its transforms and object-space bounds (Blender's auto texture
 // space: Generated = (P_object - lo) / (hi - lo)).
+// The scene's camera as shading sees it (Texture Coordinate's Camera and Window, Vector
+// Transform's Camera space): Cycles' camera space (x right, y up, z towards the view: Blender's
+// camera matrix with z negated, blender/camera.cpp) and the projection onto the frame.
+struct ShadingCamera {
+  Transform world_to_camera, camera_to_world;  // Cycles' camera space
+  bool orthographic = false;
+  Vec2 ext{1.0f, 1.0f};       // half extents of the image plane (at distance 1, or in metres)
+  Vec2 shift{0.0f, 0.0f};     // Blender's shift, in the same units
+  Vec3 camera_position;
+  // Cycles' camera_world_to_ndc: (x, y) in [0, 1] over the frame from its bottom-left corner,
+  // z 0. A World point is a direction, taken from the camera (Cycles adds its position).
+  Vec3 window(const Vec3& p, bool direction) const {
+    const Vec3 c = direction ? world_to_camera.vector(p) : world_to_camera.point(p);
+    float sx = c.x, sy = c.y;
+    if (!orthographic) {
+      if (!(c.z != 0.0f)) return Vec3(0.0f);
+      sx /= c.z, sy /= c.z;
+    }
+    return Vec3(0.5f * ((sx - shift.x) / ext.x + 1.0f), 0.5f * ((sy - shift.y) / ext.y + 1.0f), 0.0f);
+  }
+};
+
 struct ShadingObject {
   Transform to_world, to_object;
   Bounds3 bounds;       // object space
@@ -55,7 +77,7 @@ struct ShadingContext {
   Vec3 dPdu, dPdv;   // surface tangents along u and v (zero: unknown; bump picks a frame)
   int prim = -1;     // the hit triangle in its object's mesh (attributes; -1: none)
   const ShadingObject* object = nullptr;
-  const Transform* world_to_camera = nullptr;  // Texture Coordinate's Camera, Vector Transform
+  const ShadingCamera* camera = nullptr;  // Texture Coordinate's Camera and Window, Vector Transform
   bool backfacing = false;
   bool surface = true;
   // Light Path: what the integrator knows of the ray that arrived here (core/math.h RayState:

@@ -284,8 +284,11 @@ void eval_tex_coord(EvalArgs& a) {  // svm/tex_coord.h
   if (a.used(1)) a.out(1, c.surface ? normal_object(c) : c.N);
   if (a.used(2)) a.out(2, Vec3(c.uv.x, c.uv.y, 0.0f));
   if (a.used(3)) a.out(3, c.surface ? object_point(c, c.P) : c.P);
-  if (a.used(4)) a.out(4, c.world_to_camera ? c.world_to_camera->point(c.P) : kZero);
-  if (a.used(5)) a.out(5, kZero);  // Window: needs the pixel, not known at a shading point
+  // Camera: the point (the World: its direction) in Cycles' camera space; Window: its place
+  // in the frame (svm/tex_coord.h, camera_world_to_ndc).
+  if (a.used(4))
+    a.out(4, !c.camera ? kZero : c.surface ? c.camera->world_to_camera.point(c.P) : c.camera->world_to_camera.vector(c.P));
+  if (a.used(5)) a.out(5, c.camera ? c.camera->window(c.P, !c.surface) : kZero);
   if (a.used(6)) a.out(6, c.surface ? c.N * (2.0f * dot(c.N, c.I)) - c.I : c.I);
 }
 void eval_uv_map(EvalArgs& a) { a.out(0, Vec3(a.ctx.uv.x, a.ctx.uv.y, 0.0f)); }
@@ -1430,8 +1433,10 @@ void eval_vector_transform(EvalArgs& a) {  // svm/vector_transform.h
   };
   // To world first, then to the target.
   if (a.op.props.mode2 == 1 && c.object) v = apply(c.object->to_world, true, &c.object->to_object);
+  if (a.op.props.mode2 == 2 && c.camera) v = apply(c.camera->camera_to_world, true, &c.camera->world_to_camera);
   if (a.op.props.mode3 == 1 && c.object) v = apply(c.object->to_object, true, &c.object->to_world);
-  if (a.op.props.mode3 == 2 && c.world_to_camera) v = type == 0 ? c.world_to_camera->point(v) : c.world_to_camera->vector(v);
+  if (a.op.props.mode3 == 2 && c.camera)
+    v = type == 0 ? c.camera->world_to_camera.point(v) : c.camera->world_to_camera.vector(v);
   a.out(0, v);
 }
 

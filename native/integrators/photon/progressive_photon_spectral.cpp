@@ -148,7 +148,7 @@ std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, 
 }
 
 void ProgressivePhotonMapping::eye_prepare(SpectralEye& c, const SurfaceHit& hit) const {
-  c.mk = pass_spectra_.material(hit.material, hit.uv, c.local);
+  c.mk = pass_spectra_.material(hit, c.local);
 }
 
 bool ProgressivePhotonMapping::eye_survive(SpectralEye& c, float u, float*) const {
@@ -280,7 +280,7 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
             const Vec3 wo = hit->frame.to_local(wo_world);
             if (wo.z == 0) break;
             WavelengthParams local;
-            const BsdfParams* mk = pass_spectra_.material(hit->material, hit->uv, local);
+            const BsdfParams* mk = pass_spectra_.material(*hit, local);
             const float uc = rng.uniform();
             const Vec2 u(rng.uniform(), rng.uniform());
             const Bsdf hero = scene_.bsdf(mk[0], *hit);  // with the hit's normals, as Scene::bsdf(hit)

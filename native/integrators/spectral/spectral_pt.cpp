@@ -184,7 +184,8 @@ struct SpectralPath {
   bool prepare(const SurfaceHit& hit) {
     const Material& base = scene.material(hit.material);
     dispersive = is_dispersive(base);
-    const SpectralSurface surface(base, hit.uv, &spectra.albedo[hit.material]);  // textures read once
+    // Textures and node graphs read once, at the hit's full shading context.
+    const SpectralSurface surface(base, scene.shading_context(hit), &spectra.albedo[hit.material]);
     for (int k = 0; k < C; ++k) {
       mk[k] = surface.at(wl.lambda[k]);
       bk[k] = scene.bsdf(mk[k], hit);  // with the hit's normals (a normal map's bump shadowing)
