@@ -87,8 +87,16 @@ class Loader : private JsonReader {
         keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
-        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior"});
+        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior", "distribution"});
         if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = load_conductor_fresnel(*f, sub(mpath, "fresnel"));
+        if (const json* d = find(m, "distribution")) {
+          // Blender's Glossy BSDF distributions (material.h Microfacet).
+          const std::string dpath = sub(mpath, "distribution"), v = get_string(*d, dpath);
+          if (v == "ggx") mat.distribution = Microfacet::GGX;
+          else if (v == "beckmann") mat.distribution = Microfacet::Beckmann;
+          else if (v == "ashikhmin_shirley") mat.distribution = Microfacet::AshikhminShirley;
+          else fail(dpath, fmt::format("unknown distribution '{}' (known: ggx, beckmann, ashikhmin_shirley)", v));
+        }
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);

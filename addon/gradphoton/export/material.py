@@ -234,14 +234,19 @@ class MaterialExporter:
                 sigma = node.inputs["Sigma"].default_value
             return self._with_normal({"type": "velvet", "color": self._in(node, path, "Color"),
                                       "sigma": min(1.0, max(0.0, sigma))}, node, path)
+        glossy = kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic')
+        # The core's conductor has GGX, Beckmann and Ashikhmin-Shirley (material.h Microfacet).
+        own = {'BECKMANN': "beckmann", 'ASHIKHMIN_SHIRLEY': "ashikhmin_shirley"} if glossy else {}
         if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic', 'ShaderNodeBsdfGlass',
-                    'ShaderNodeBsdfRefraction') and node.distribution not in ('GGX', 'SHARP'):
+                    'ShaderNodeBsdfRefraction') and node.distribution not in {'GGX', 'SHARP'} | set(own):
             self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {self._nid(node, path)} ({node.distribution})")
-        if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic'):
+        if glossy:
             # Cycles' Glossy BSDF: the colour at every angle (no Fresnel).
-            return self._with_normal({"type": "conductor", "color": self._in(node, path, "Color"),
-                                      "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
-                                      "fresnel": False}, node, path)
+            d = {"type": "conductor", "color": self._in(node, path, "Color"),
+                 "roughness": self._square(self._num(node, path, "Roughness"), "alpha"), "fresnel": False}
+            if node.distribution in own:
+                d["distribution"] = own[node.distribution]
+            return self._with_normal(d, node, path)
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
             # Refraction BSDF: glass's refraction lobe alone, without Fresnel (the core's "refraction").
             return self._with_normal({"type": "dielectric" if kind == 'ShaderNodeBsdfGlass' else "refraction",
