@@ -81,7 +81,7 @@ struct RgbPath {
                  depth <= 1);
   }
   void area_light(int depth, const SurfaceHit& hit, const Ray& ray) {
-    const RGB Le = lights.area_radiance(hit.light, -ray.d, hit.p);
+    const RGB Le = lights.area_radiance(hit.light, -ray.d, hit.p, &hit.ray);
     if (!Le.is_black())
       L += clamped(emitted(depth, Le, lights.lights()[hit.light].visible_lobes,
                            depth == 0 ? 0.0f : lights.pdf_area(hit.light, prev_p, hit.p, ray.d)),

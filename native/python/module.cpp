@@ -134,6 +134,41 @@ class SessionSink : public ProgressSink {
   std::atomic<std::chrono::steady_clock::rep> deadline_{0};
 };
 
+// add_mesh's attributes: [(name, domain "point" | "corner" | "face", float32 (N,) or (N, k)
+// with k 1-4)], and the render colour attribute's name (None or "": none). Sizes are checked
+// against the mesh when the scene is finalized.
+std::shared_ptr<const shading::MeshAttributes> attributes_from_list(const py::object& list, const py::object& default_color,
+                                                                    const std::string& object) {
+  if (list.is_none()) return nullptr;
+  auto out = std::make_shared<shading::MeshAttributes>();
+  const std::string want = default_color.is_none() ? std::string() : default_color.cast<std::string>();
+  for (const py::handle item : list) {
+    const py::tuple t = py::reinterpret_borrow<py::object>(item).cast<py::tuple>();
+    if (t.size() != 3) throw py::value_error("object '" + object + "': attributes are (name, domain, values) tuples");
+    shading::MeshAttribute a;
+    a.name = t[0].cast<std::string>();
+    const std::string domain = t[1].cast<std::string>();
+    if (domain == "point") a.domain = shading::AttributeDomain::Point;
+    else if (domain == "corner") a.domain = shading::AttributeDomain::Corner;
+    else if (domain == "face") a.domain = shading::AttributeDomain::Face;
+    else throw py::value_error("object '" + object + "': attribute '" + a.name + "': unknown domain '" + domain + "'");
+    const py::object values = py::reinterpret_borrow<py::object>(t[2]);
+    const std::string what = "attribute '" + a.name + "'";
+    if (!py::isinstance<py::array_t<float>>(values))
+      throw py::type_error("object '" + object + "': " + what + " must be a numpy float32 array");
+    const py::array_t<float> arr = values.cast<py::array_t<float>>();
+    const int k = arr.ndim() == 1 ? 1 : arr.ndim() == 2 ? static_cast<int>(arr.shape(1)) : 0;
+    if (k < 1 || k > 4)
+      throw py::value_error("object '" + object + "': " + what + " must have shape (N,) or (N, k) with k 1 to 4");
+    const py::array_t<float> a2 = exact_array<float>(values, object, what.c_str(), k, "float32");
+    a.components = static_cast<uint8_t>(k);
+    a.values.assign(a2.data(), a2.data() + a2.size());
+    if (!want.empty() && a.name == want) out->default_color = static_cast<int>(out->list.size());
+    out->list.push_back(std::move(a));
+  }
+  return out;
+}
+
 // One progressive render (session/render_session.h), with the GIL released while it works.
 class Session {
  public:
@@ -580,7 +615,8 @@ void bind_builder(py::module_& m) {
            [](SceneBuilder& b, const std::string& name, const py::object& positions, const py::object& indices,
               const std::vector<std::string>& materials, const py::object& material_ids, const py::object& normals,
               const py::object& uvs, const py::object& matrices, const std::vector<std::string>& instance_names,
-              const py::object& motion, const py::object& motion_positions) {
+              const py::object& motion, const py::object& motion_positions, const py::object& attributes,
+              const py::object& default_color) {
              MeshArrays in;
              in.name = name;
              in.materials = materials;
@@ -647,17 +683,21 @@ void bind_builder(py::module_& m) {
                in.motion_positions = mp.data();
                in.motion_steps = mp.shape(0);
              }
+             in.attributes = attributes_from_list(attributes, default_color, name);
              py::gil_scoped_release release;
              b.add_mesh(in);
            },
            py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("materials"),
            py::arg("material_ids") = py::none(), py::arg("normals") = py::none(), py::arg("uvs") = py::none(),
            py::arg("matrices") = py::none(), py::arg("instance_names") = std::vector<std::string>(),
-           py::arg("motion") = py::none(), py::arg("motion_positions") = py::none(),
+           py::arg("motion") = py::none(), py::arg("motion_positions") = py::none(), py::arg("attributes") = py::none(),
+           py::arg("default_color") = py::none(),
            "Add a mesh: positions float32 (N,3), indices uint32 (M,3), material names with optional uint32 "
            "material_ids (M,), optional float32 normals (N,3) and uvs (N,2), optional (K,4,4) object-to-world "
            "matrices (one world-space copy per matrix); motion blur: optional motion (K,S,4,4), each instance's "
-           "S >= 2 matrices over the shutter, and motion_positions float32 (S',N,3), object-space vertices per step")
+           "S >= 2 matrices over the shutter, and motion_positions float32 (S',N,3), object-space vertices per step; "
+           "optional attributes [(name, 'point' | 'corner' | 'face', float32 (N,) or (N,k))] for Color Attribute / "
+           "Attribute nodes, with default_color naming the render colour attribute")
       .def_property_readonly("triangle_count", &SceneBuilder::triangle_count)
       .def("finalize", [](SceneBuilder& b) {
         py::gil_scoped_release release;

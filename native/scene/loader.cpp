@@ -89,8 +89,16 @@ class Loader : private JsonReader {
         keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
-        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior"});
+        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior", "distribution"});
         if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = load_conductor_fresnel(*f, sub(mpath, "fresnel"));
+        if (const json* d = find(m, "distribution")) {
+          // Blender's Glossy BSDF distributions (material.h Microfacet).
+          const std::string dpath = sub(mpath, "distribution"), v = get_string(*d, dpath);
+          if (v == "ggx") mat.distribution = Microfacet::GGX;
+          else if (v == "beckmann") mat.distribution = Microfacet::Beckmann;
+          else if (v == "ashikhmin_shirley") mat.distribution = Microfacet::AshikhminShirley;
+          else fail(dpath, fmt::format("unknown distribution '{}' (known: ggx, beckmann, ashikhmin_shirley)", v));
+        }
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
@@ -719,7 +727,8 @@ class Loader : private JsonReader {
       reserve_triangles(n, path, name);
       mesh = make_disk(c, r, n, material());
     } else if (type == "mesh") {
-      keys({"positions", "indices", "normals", "uvs", "materials", "material_indices", "motion_positions"});
+      keys({"positions", "indices", "normals", "uvs", "materials", "material_indices", "motion_positions", "colors",
+            "attributes"});
       mesh = load_inline_mesh(o, path, name);
     } else if (type == "obj") {
       keys({"file"});
@@ -828,6 +837,7 @@ class Loader : private JsonReader {
         fail(upath, fmt::format("{} uvs for {} positions (one per vertex)", uv->size(), mesh.positions.size()));
       for (size_t i = 0; i < uv->size(); ++i) mesh.uvs.push_back(get_vec2((*uv)[i], sub(upath, i)));
     }
+    load_mesh_attributes(o, path, mesh);
     const size_t tris = mesh.triangle_count();
     const json* single = find(o, "material");
     const json* list = find(o, "materials");
@@ -849,6 +859,74 @@ class Loader : private JsonReader {
       fail(path, "needs 'material' (or 'materials' with 'material_indices')");
     }
     return mesh;
+  }
+
+  // One attribute's values: each element a number or an array of 1-4 numbers, all alike.
+  shading::MeshAttribute load_attribute_values(const json& v, const std::string& vpath, std::string name,
+                                               shading::AttributeDomain domain, size_t elements) {
+    static const char* kDomain[] = {"point", "corner", "face"};
+    require_array(v, vpath);
+    if (v.size() != elements)
+      fail(vpath, fmt::format("{} values for {} elements (one per {})", v.size(), elements,
+                              kDomain[static_cast<int>(domain)]));
+    shading::MeshAttribute a;
+    a.name = std::move(name);
+    a.domain = domain;
+    a.components = v.empty() || v[0].is_number() ? 1 : static_cast<uint8_t>(std::min<size_t>(v[0].size(), 255));
+    if (a.components < 1 || a.components > 4)
+      fail(sub(vpath, 0), fmt::format("expected a number or an array of 1 to 4 numbers, got {}", describe(v[0])));
+    a.values.reserve(elements * a.components);
+    for (size_t i = 0; i < v.size(); ++i) {
+      const std::string ep = sub(vpath, i);
+      if (a.components == 1 && v[i].is_number()) {
+        a.values.push_back(get_float(v[i], ep));
+        continue;
+      }
+      if (!v[i].is_array() || v[i].size() != a.components)
+        fail(ep, fmt::format("expected {} numbers as the first element, got {}", a.components, describe(v[i])));
+      for (size_t k = 0; k < a.components; ++k) a.values.push_back(get_float(v[i][k], sub(ep, k)));
+    }
+    return a;
+  }
+
+  // "colors": the render colour attribute, per vertex ([r, g, b] or [r, g, b, a]), named "Color";
+  // "attributes": {name: {"domain": "point" | "corner" | "face", "values": [...]}} (docs/scene-format.md).
+  void load_mesh_attributes(const json& o, const std::string& path, Mesh& mesh) {
+    const json* colors = find(o, "colors");
+    const json* attrs = find(o, "attributes");
+    if (!colors && !attrs) return;
+    auto out = std::make_shared<shading::MeshAttributes>();
+    if (colors) {
+      const std::string cpath = sub(path, "colors");
+      shading::MeshAttribute a =
+          load_attribute_values(*colors, cpath, "Color", shading::AttributeDomain::Point, mesh.positions.size());
+      if (a.components < 3) fail(cpath, "colours are [r, g, b] or [r, g, b, a]");
+      out->default_color = 0;
+      out->list.push_back(std::move(a));
+    }
+    if (attrs) {
+      const std::string apath = sub(path, "attributes");
+      require_object(*attrs, apath);
+      for (auto it = attrs->begin(); it != attrs->end(); ++it) {
+        const std::string ap = sub(apath, it.key());
+        require_object(*it, ap);
+        check_keys(*it, ap, {"domain", "values"});
+        shading::AttributeDomain domain = shading::AttributeDomain::Point;
+        if (const json* d = find(*it, "domain")) {
+          const std::string ds = get_string(*d, sub(ap, "domain"));
+          if (ds == "corner") domain = shading::AttributeDomain::Corner;
+          else if (ds == "face") domain = shading::AttributeDomain::Face;
+          else if (ds != "point") fail(sub(ap, "domain"), fmt::format("unknown domain '{}' (known: point, corner, face)", ds));
+        }
+        const size_t tris = mesh.indices.size() / 3;
+        const size_t n = domain == shading::AttributeDomain::Point    ? mesh.positions.size()
+                         : domain == shading::AttributeDomain::Corner ? 3 * tris
+                                                                       : tris;
+        if (out->find(it.key())) fail(ap, fmt::format("attribute '{}' given twice ('colors' is named 'Color')", it.key()));
+        out->list.push_back(load_attribute_values(need(*it, "values", ap), sub(ap, "values"), it.key(), domain, n));
+      }
+    }
+    mesh.attributes = std::move(out);
   }
 
   Mesh load_obj(const json& o, const std::string& path, const std::string& name) {

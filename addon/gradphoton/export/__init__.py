@@ -56,7 +56,7 @@ class ExportedScene:
                 extra["motion_positions"] = m.motion_positions
             b.add_mesh(m.name, m.positions, m.indices, m.materials, material_ids=m.material_ids,
                        normals=m.normals, uvs=m.uvs, matrices=np.stack(m.matrices), instance_names=m.instance_names,
-                       **extra)
+                       attributes=m.attributes, default_color=m.default_color, **extra)
         return b.finalize()
 
     def to_json(self):
@@ -77,6 +77,8 @@ class ExportedScene:
                     o["normals"] = m.normals.tolist()
                 if m.uvs is not None:
                     o["uvs"] = m.uvs.tolist()
+                if m.attributes:
+                    o["attributes"] = {n: {"domain": d, "values": v.tolist()} for n, d, v in m.attributes}
                 if m.material_ids is None or len(m.materials) == 1:
                     o["material"] = m.materials[0]
                 else:

@@ -170,7 +170,9 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
         const float p_continue = std::min(1.0f, m_new / m_old);
         if (u.next() >= p_continue) break;
         power.scale(1.0f / p_continue);
+        const RayState state = ray.state.volume_next();
         ray = Ray(p, wi);  // a volume ray: every surface is there for it
+        ray.state = state;
         crossed = 0;
         t_crossed = 0;
         chain_ok = false;
@@ -232,7 +234,9 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
         ++crossed;
         t_crossed += hit->t;
         chain_ok = false;  // the chain's segments no longer join its vertices (GPM shifts none)
+        const RayState state = ray.state;
         ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
+        ray.state = state;
         --bounce;  // not a bounce: the path tracer's ray of those kinds does not stop here
         continue;
       }
@@ -294,7 +298,9 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     // A sample through a surface with an interior medium (glass of murky water) crosses it.
     if (media && mat.interior >= 0 && (dot(wi_world, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
       stack.cross(hit->mesh, mat.interior, dot(ray.d, hit->ng) < 0);
+    const RayState state = next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+    ray.state = state;  // Light Path at the photon's next vertex (photons start as emission: no flags)
     crossed = 0;
     t_crossed = 0;
     if (!pass_through) {

@@ -498,7 +498,7 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     // A sample through a surface with an interior medium (glass of murky water) crosses it.
     if (media_ && material.interior >= 0 && (dot(wi_world, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
       stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
-    const Ray next = scattered_ray(hit->p, hit->ng, wi_world, ray, crossed, bs->lobe);
+    const Ray next = scattered_ray(hit->p, hit->ng, wi_world, ray, crossed, *bs);
     if (!crossed) kind = bs->lobe;
     hooks.scatter(wo, *bs, next);
     ray = next;

@@ -170,7 +170,7 @@ std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, 
 }
 
 void ProgressivePhotonMapping::eye_prepare(SpectralEye& c, const SurfaceHit& hit) const {
-  c.mk = pass_spectra_.material(hit.material, hit.uv, c.local);
+  c.mk = pass_spectra_.material(hit, c.local);
 }
 
 bool ProgressivePhotonMapping::eye_survive(SpectralEye& c, float u, float*) const {
