@@ -284,6 +284,7 @@ py::dict method_description(const std::string& name) {
   for (const StatDecl& st : m.stats) stats.append(py::make_tuple(st.key, st.label, st.format));
   d["stats"] = stats;
   d["supports"] = py::dict(py::arg("media") = m.supports.media, py::arg("motion_blur") = m.supports.motion_blur,
+                           py::arg("grid_media") = m.supports.grid_media,
                            py::arg("environment_map") = m.supports.environment_map);
   d["lobe_visibility"] = py::dict(py::arg("surfaces") = m.lobe_visibility.surfaces,
                                   py::arg("lights") = m.lobe_visibility.lights);
@@ -333,7 +334,7 @@ void bind_methods(py::module_& m) {
   m.def("method_description", &method_description, py::arg("method"),
         "The method as it declares itself: {'name', 'label', 'summary', 'tooltip', 'passes': [(name, "
         "when_param)], 'error_estimate', 'merge': {'keeps_bias', 'reconstructs'}, 'stats': [(key, label, "
-        "format)] (a key with '*' sums the keys it matches), 'supports': {'media', 'motion_blur', "
+        "format)] (a key with '*' sums the keys it matches), 'supports': {'media', 'motion_blur', 'grid_media', "
         "'environment_map'}, 'lobe_visibility', 'per_pixel'}");
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
         "What a method writes with these params, from its declaration: {'passes': names its develop() writes, "
