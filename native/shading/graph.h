@@ -55,6 +55,8 @@ struct ShadingContext {
   Vec2 bary;         // barycentric (u, v) of the hit in its triangle (Geometry's Parametric)
   Vec3 dPdu, dPdv;   // surface tangents along u and v (zero: unknown; bump picks a frame)
   const ShadingObject* object = nullptr;
+  // Where `object` is a moving object at the path's time (set_object_at), the copy it points to.
+  std::shared_ptr<const ShadingObject> object_at_time;
   const Transform* world_to_camera = nullptr;  // Texture Coordinate's Camera, Vector Transform
   bool backfacing = false;
   bool surface = true;
@@ -62,6 +64,15 @@ struct ShadingContext {
   uint16_t ray_flags = kPathCamera | kPathReflection;
   int ray_depth = 0, diffuse_depth = 0, glossy_depth = 0, transmission_depth = 0, transparent_depth = 0;
   float ray_length = 0.0f;
+
+  // `object` placed by `to_world` instead of its frame transform (a moving object at a time).
+  void set_object_at(const ShadingObject& o, const Transform& to_world) {
+    auto placed = std::make_shared<ShadingObject>(o);
+    placed->to_world = to_world;
+    placed->to_object = invert_affine(to_world);
+    object = placed.get();
+    object_at_time = std::move(placed);
+  }
 
   // A context for a direction only (World shaders): P = dir, I = -dir.
   static ShadingContext direction(const Vec3& dir) {

@@ -118,9 +118,9 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
             mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache, sampler,
                               view_layer=depsgraph.view_layer_eval)
         elif kind == 'LIGHT':
-            light.add_light(out, inst, mats, w)
-            if sampler is not None:
-                sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32))
+            added = light.add_light(out, inst, mats, w)
+            if sampler is not None and added is not None:
+                sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32), added)
         # cameras, empties, armatures: nothing to render
     if mesh_cache is not None:
         mesh_cache.keep_only(meshes.keys())
