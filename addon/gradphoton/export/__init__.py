@@ -119,7 +119,8 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
                               view_layer=depsgraph.view_layer_eval)
         elif kind == 'LIGHT':
             added = light.add_light(out, inst, mats, w)
-            if sampler is not None and added is not None:
+            # Cycles 3.4 does not blur lights: they move only when Blur Moving Lights asks.
+            if sampler is not None and added is not None and getattr(getattr(scene, "gradphoton", None), "motion_blur_lights", False):
                 sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32), added)
         # cameras, empties, armatures: nothing to render
     if mesh_cache is not None:

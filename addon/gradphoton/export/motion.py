@@ -19,7 +19,10 @@ object.cpp sync_object_motion_init, sync.cpp sync_motion, mesh.cpp sync_mesh_mot
 The result follows docs/scene-format.md "Motion blur": S samples at t = i/(S-1), t in [0, 1]
 over the shutter; `matrices` / `positions` stay the frame's own.
 
-Lamps move as objects do (Cycles' sync_light reads a light's motion too): a point, spot or sun
+Lights: Cycles 3.4 does not blur them (a moving spot renders the same with Motion Blur on and
+off: measured, tests/blender/test_motion_blur.py), and neither do we by default. With Scene >
+gradphoton > Blur Moving Lights (motion_blur_lights) a lamp is sampled as an object (its Steps:
+Cycles shows no Motion Blur panel for lights, so the defaults, 3 samples): a point, spot or sun
 light gets "motion", the lamp's matrices over the shutter (its position and direction keys
 dropped: the origin and -Z of its own space, as Blender's lamp); an area light's surface (a
 MeshRecord) gets the matrices as a mesh instance does. The shutter curve and the rolling
