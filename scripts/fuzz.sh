@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fuzzes a loader with libFuzzer (Debian's clang), AddressSanitizer and UBSan:
-#   scripts/fuzz.sh TARGET SECONDS [libFuzzer flags...]     TARGET: scene, obj, exr or all
+#   scripts/fuzz.sh TARGET SECONDS [libFuzzer flags...]     TARGET: scene, obj, exr, vdb or all
 # Configures and builds build-fuzz/ (only the fuzz targets and the parts of the core they use)
 # when needed. Seeds come from fuzz/corpus/TARGET (committed); what the fuzzer finds on top
 # goes to build-fuzz/corpus/TARGET, a failing input to build-fuzz/artifacts/. Prints one line
@@ -8,10 +8,10 @@
 # A finding, once fixed, joins fuzz/corpus/TARGET so that CTest replays it (fuzz_corpus_TARGET).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 2 ] || { echo "usage: scripts/fuzz.sh scene|obj|exr|all SECONDS [libFuzzer flags]" >&2; exit 2; }
+[ $# -ge 2 ] || { echo "usage: scripts/fuzz.sh scene|obj|exr|vdb|all SECONDS [libFuzzer flags]" >&2; exit 2; }
 what="$1" seconds="$2"
 shift 2
-targets=(scene obj exr)
+targets=(scene obj exr vdb)
 [ "$what" = all ] || targets=("$what")
 
 if [ ! -f build-fuzz/build.ninja ]; then

@@ -133,6 +133,51 @@ class ShutterTime {
   float saved_;
 };
 
+// What Blender's Light Path node reads of the ray that reached a shading point: Cycles' path
+// flags and bounce counters (kernel/integrator/path_state.h), carried by the ray, advanced at
+// each bounce (next()) and copied to the hit (SurfaceHit::ray, with the length travelled).
+enum PathFlags : uint16_t {
+  kPathCamera = 1, kPathShadow = 2, kPathDiffuse = 4, kPathGlossy = 8, kPathSingular = 16,
+  kPathReflection = 32, kPathTransmission = 64,
+};
+struct RayState {
+  uint16_t flags = 0;  // PathFlags; 0: not a path's ray (light emission evaluated for a light sample)
+  uint16_t depth = 0, diffuse = 0, glossy = 0, transmission = 0, transparent = 0;
+  float length = 0.0f;  // Ray Length: the distance to the shading point (set at the hit)
+  static RayState camera() {
+    RayState s;
+    s.flags = kPathCamera;
+    return s;
+  }
+  // The state of the ray a BSDF sample starts (Cycles' path_state_next): a transparent pass
+  // keeps the flags and counts a transparent bounce; any other bounce counts one, is a
+  // reflection (diffuse or glossy bounce) or a transmission, and diffuse, glossy, or glossy and
+  // singular (a smooth lobe).
+  RayState next(bool transmission_, bool diffuse_, bool singular, bool transparent_) const {
+    RayState s = *this;
+    s.length = 0.0f;
+    if (transparent_) {
+      ++s.transparent;
+      return s;
+    }
+    ++s.depth;
+    s.flags = transmission_ ? kPathTransmission : kPathReflection;
+    if (transmission_) ++s.transmission;
+    else if (diffuse_) ++s.diffuse;
+    else ++s.glossy;
+    s.flags |= diffuse_ ? kPathDiffuse : singular ? (kPathGlossy | kPathSingular) : kPathGlossy;
+    return s;
+  }
+  // After a scattering in a medium: one bounce, a volume-scatter ray (no surface kind).
+  RayState volume_next() const {
+    RayState s = *this;
+    s.length = 0.0f;
+    ++s.depth;
+    s.flags = 0;
+    return s;
+  }
+};
+
 struct Ray {
   Vec3 o, d;
   float tmin = 0.0f, tmax = kInfinity;
@@ -151,6 +196,7 @@ struct Ray {
   // rays take their base's): surfaces hidden from that kind let it through. 0: not a bounce ray
   // of a known kind (photons: photon_tracer.cpp crosses hidden surfaces itself), every surface is there.
   uint8_t bounce = 0;
+  RayState state;  // Light Path's view of this ray (default: not a path's ray)
   Ray() = default;
   Ray(const Vec3& o_, const Vec3& d_, float tmin_ = 0.0f, float tmax_ = kInfinity)
       : o(o_), d(d_), tmin(tmin_), tmax(tmax_) {}

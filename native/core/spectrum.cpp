@@ -225,6 +225,23 @@ Vec3 cie_xyz_bar(float lambda) {
 
 float cie_y_integral() { return static_cast<float>(tables().y_integral); }
 
+RGB blackbody_rec709(float kelvin) {
+  const double T = std::max(kelvin, 800.0f);
+  Vec3 xyz(0.0f);
+  for (float l = 380.0f; l <= 780.0f; l += 5.0f) {
+    const double lm = l * 1e-9;
+    const double b = 1.0 / (std::pow(lm, 5.0) * (std::exp(0.0143877735 / (lm * T)) - 1.0));  // Planck, up to a constant
+    xyz = xyz + cie_xyz_bar(l) * static_cast<float>(b * 1e-20);
+  }
+  // XYZ to linear Rec.709 (D65), as Cycles' rec709 tables.
+  const RGB c(3.2404542f * xyz.x - 1.5371385f * xyz.y - 0.4985314f * xyz.z,
+              -0.9692660f * xyz.x + 1.8760108f * xyz.y + 0.0415560f * xyz.z,
+              0.0556434f * xyz.x - 0.2040259f * xyz.y + 1.0572252f * xyz.z);
+  const float y = 0.2126729f * c.r + 0.7151522f * c.g + 0.0721750f * c.b;  // Cycles' luminance weights
+  const float inv = 1.0f / y;  // (as Vec3 / float: the Blackbody node bit for bit)
+  return y > 0.0f ? RGB(c.r * inv, c.g * inv, c.b * inv) : RGB(1.0f);
+}
+
 RGB xyz_to_rgb(const Vec3& xyz) {
   const Eigen::Vector3d v = tables().xyz_to_rgb * Eigen::Vector3d(xyz.x, xyz.y, xyz.z);
   return RGB(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));

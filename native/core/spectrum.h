@@ -62,6 +62,11 @@ float cie_y_integral();
 // XYZ (normalised so the constant spectrum 1 has Y = 1) to scene-linear Rec.709, adapted so the
 // constant spectrum 1 maps to RGB (1, 1, 1).
 RGB xyz_to_rgb(const Vec3& xyz);
+// The Rec.709 colour (D65 white, not adapted) of a black body at T kelvin (clamped to 800 K,
+// where Cycles' fit stops too) normalised to luminance 1: Planck's law through the CIE 1931
+// observer, as Cycles 3.4's svm_math_blackbody_color_rec709 (a fitted table of the same curve).
+// The Blackbody node and the volumes' blackbody emission both read it.
+RGB blackbody_rec709(float T);
 // XYZ (Y-normalised) of the spectrum s integrated over the domain (5 nm trapezoid), as RGB.
 template <typename F>
 RGB spectrum_to_rgb(F&& s);

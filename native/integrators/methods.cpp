@@ -221,7 +221,7 @@ std::vector<Method> make_methods() {
                  if (use_spectral(spectral_mode(p), s)) return std::make_unique<SpectralPathTracer>(s, p, true);
                  return std::make_unique<PathTracer>(s, p);
                },
-               .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true}, .holdout = true});
+               .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
   m.push_back({.name = "ppm", .label = "Photon Mapping",
                .summary = "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
                .tooltip = "Caustics and light through glass, sharpening as it renders; camera paths traced once "
@@ -232,7 +232,8 @@ std::vector<Method> make_methods() {
                      common()}),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .holdout = true});
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .supports = {.media = true},
+               .holdout = true});  // media with photon_sampler uniform (progressive_photon.cpp)
   auto sppm_params = [&](const char* sampler, ParamDecl photons) {
     return join({photon_common(std::move(photons), 0.7, "thesis eq. 7.2", 2.0, "thesis §7.4"),
                  {photon_sampler(sampler), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
@@ -248,8 +249,9 @@ std::vector<Method> make_methods() {
                .params = sppm_params("uniform", photons_ramp()),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .supports = {.motion_blur = true},
-               .holdout = true});  // with photon_sampler adaptive
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(),  // with photon_sampler adaptive
+               .supports = {.media = true, .motion_blur = true},  // media: photon_sampler uniform, RGB and spectral
+               .holdout = true});
   m.push_back({.name = "sppm-adaptive", .label = "SPPM Adaptive",
                .summary = "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
                .tooltip = "Stochastic PPM that sends photons where the camera sees them: for light hidden behind "
@@ -375,13 +377,13 @@ std::vector<Method> make_methods() {
                .tooltip = "Path tracing by wavelength, for rainbows through dispersive glass (one wavelength per "
                           "path, Cauchy dispersion)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1), film_transparent()}, common()}),
-               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true}, .holdout = true});
+               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
   m.push_back({.name = "spt-hero", .label = "Spectral PT Hero",
                .summary = "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
                .tooltip = "Spectral path tracing with four wavelengths per path: less colour noise (hero "
                           "wavelengths, Wilkie et al. 2014)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4), film_transparent()}, common()}),
-               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true}, .holdout = true});
+               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
   m.push_back({.name = "sgpt", .label = "Spectral Gradient",
                .summary = "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
                .tooltip = "Spectral path tracing with a smooth reconstruction across wavelengths (spectral "

@@ -46,6 +46,7 @@ struct StatDecl {
 // Scene features beyond surfaces and lights, for "method X does not render Y" messages.
 struct SceneFeatures {
   bool media = false, motion_blur = false;
+  bool grid_media = false;  // heterogeneous (OpenVDB) media too, not homogeneous ones only
   bool environment_map = true;  // an image World: every method samples it (lights/environment_map.h)
 };
 

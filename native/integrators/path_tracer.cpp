@@ -81,7 +81,7 @@ struct RgbPath {
                  depth <= 1);
   }
   void area_light(int depth, const SurfaceHit& hit, const Ray& ray) {
-    const RGB Le = lights.area_radiance(hit.light, -ray.d, hit.p);
+    const RGB Le = lights.area_radiance(hit.light, -ray.d, hit.p, &hit.ray);
     if (!Le.is_black())
       L += clamped(emitted(depth, Le, lights.lights()[hit.light].visible_lobes,
                            depth == 0 ? 0.0f : lights.pdf_area(hit.light, prev_p, hit.p, ray.d)),
@@ -110,7 +110,7 @@ struct RgbPath {
     ++shadow_rays;
     MediumLengths lengths;
     if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
-    if (lengths.n > 0) f *= to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
+    if (!lengths.empty()) f *= to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
     const float w = light_weight(ls, [&] { return bsdf->pdf(wo, wi, vis); });
     L += clamped(beta * f * ls.L * (w / ls.pdf), depth == 0);
   }

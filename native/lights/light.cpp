@@ -218,15 +218,15 @@ RGB LightSet::area_radiance(int i, const Vec3& w) const {
   return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
 }
 
-RGB LightSet::area_radiance(int i, const Vec3& w, const Vec3& p) const {
+RGB LightSet::area_radiance(int i, const Vec3& w, const Vec3& p, const RayState* ray) const {
   std::optional<Light> moved;
   const Light& l = at_shutter_time(lights_[i], moved);
   const float c = dot(l.n, w);
   if (!(c > 0 || (l.two_sided && c < 0))) return RGB(0.0f);
-  return l.emission_graph ? l.emission_graph->at(l, p, w) : l.emit;
+  return l.emission_graph ? l.emission_graph->at(l, p, w, ray) : l.emit;
 }
 
-RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo) const {
+RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo, const RayState* ray) const {
   // Barycentrics of p in the light's triangle, for its uv.
   const Vec3 e1 = l.p1 - l.p0, e2 = l.p2 - l.p0, d = p - l.p0;
   const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), dp1 = dot(d, e1), dp2 = dot(d, e2);
@@ -242,6 +242,9 @@ RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo) const {
   ctx.object = object;
   // A light moving with its object: the emission's Object coordinates at the thread's time.
   if (object && l.motion && !l.motion->transform.empty()) ctx.set_object_at(*object, l.motion->transform.at(shutter_time()));
+  ctx.prim = prim;
+  ctx.camera = camera;
+  if (ray) ctx.ray = *ray;
   thread_local std::vector<Vec3> regs;
   regs.resize(program->num_registers());
   program->run(ctx, regs.data());

@@ -29,9 +29,12 @@ struct EmissionGraph {
   RGB emission_constant{1.0f};
   float strength_constant = 1.0f;
   const shading::ShadingObject* object = nullptr;
+  int prim = -1;       // the triangle in its mesh (mesh attributes)
+  const shading::ShadingCamera* camera = nullptr;  // the scene's (Texture Coordinate Camera, Window)
   Vec2 uv0, uv1, uv2;  // the triangle's texture coordinates (barycentrics without a UV map)
   // Radiance at point p of light l seen along wo (unit, away from the surface).
-  RGB at(const Light& l, const Vec3& p, const Vec3& wo) const;
+  // `ray`: the path's ray that found p (Light Path); null for a light sample (no path flags).
+  RGB at(const Light& l, const Vec3& p, const Vec3& wo, const RayState* ray = nullptr) const;
 };
 
 enum class LightType { Area, Point, Spot, Directional, Environment };
@@ -167,8 +170,9 @@ class LightSet {
   int intersect_disk(const Ray& ray, float tmax, float* t, RGB* L, float* pdf) const;
   // Radiance leaving area light `light` towards direction w (away from the light).
   RGB area_radiance(int light, const Vec3& w) const;
-  // The same at point p of the light (a graph-driven emission varies over the surface).
-  RGB area_radiance(int light, const Vec3& w, const Vec3& p) const;
+  // The same at point p of the light (a graph-driven emission varies over the surface), seen by
+  // a path's ray in state `ray` (SurfaceHit::ray; Light Path reads it) or by a light sample (null).
+  RGB area_radiance(int light, const Vec3& w, const Vec3& p, const RayState* ray = nullptr) const;
   // Directional emission of a finite light along unit d, the factor sample_le's photon power is
   // proportional to: area lights radiance |cos| (per unit area), point and spot lights their
   // intensity (spot falloff included); 0 for distant lights. GPM's light-subpath shift

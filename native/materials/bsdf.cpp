@@ -20,6 +20,8 @@
 //              course), energy compensation: (1 - E(mu_i)) (1 - E(mu_o)) / (pi (1 - E_avg)).
 #include "materials/bsdf.h"
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -292,8 +294,87 @@ float microfacet_reflection(float roughness, const Vec3& wo, const Vec3& wi, flo
   return ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o);
 }
 
+// ---- Beckmann and Ashikhmin-Shirley conductors (Blender's Glossy BSDF distributions) ----
+//
+// f as Cycles 3.4 evaluates it; sampled by the half vector's own density (D(wm) cos(wm) for
+// Beckmann, [Walter07] eq. 28-29; (n + 1) / (2 pi) cos^n for Ashikhmin-Shirley) rather than
+// Cycles' visible normals: the same integral, an exact pdf.
+
+// Cycles' bsdf_beckmann_G1: Smith's G1 for Beckmann by [Walter07] eq. 27's rational fit.
+float beckmann_G1(float alpha, float cos_n) {
+  const float c2 = cos_n * cos_n;
+  if (!(c2 > 0)) return 0.0f;
+  const float inv_a = alpha * std::sqrt(std::max(0.0f, (1.0f - c2) / c2));
+  if (inv_a < 0.625f) return 1.0f;
+  const float a = 1.0f / inv_a;
+  return ((2.181f * a + 3.535f) * a) / ((2.577f * a + 2.276f) * a + 1.0f);
+}
+// Beckmann D, [Walter07] eq. 25; wm unit, +z.
+float beckmann_D(float alpha, const Vec3& wm) {
+  if (wm.z <= 0) return 0.0f;
+  const float c2 = wm.z * wm.z, a2 = alpha * alpha;
+  const float tan2 = (wm.x * wm.x + wm.y * wm.y) / c2;
+  return std::exp(-tan2 / a2) / (kPi * a2 * c2 * c2);
+}
+// Cycles' bsdf_ashikhmin_shirley_roughness_to_exponent (alpha clamped to [1e-4, 1] at setup).
+float ashikhmin_shirley_exponent(float alpha) {
+  const float a = std::clamp(alpha, 1e-4f, 1.0f);
+  return 2.0f / (a * a) - 2.0f;
+}
+
+// The BRDF (no Fresnel) of a pair in the upper hemisphere and the half vector's density p_h.
+float other_microfacet_f(const BsdfParams& m, const Vec3& wo, const Vec3& wi, const Vec3& wm, float* p_h) {
+  const float cos_o = wo.z, cos_i = wi.z;
+  if (m.distribution == Microfacet::Beckmann) {
+    const float d = beckmann_D(m.roughness, wm);
+    *p_h = d * wm.z;
+    return d * beckmann_G1(m.roughness, cos_o) * beckmann_G1(m.roughness, cos_i) / (4.0f * cos_i * cos_o);
+  }
+  // Ashikhmin-Shirley, isotropic (bsdf_ashikhmin_shirley.h eval_reflect): norm (n + 1) / (8 pi),
+  // lobe (N.H)^n and the pump 1 / (H.I max(N.I, N.O)).
+  const float n = ashikhmin_shirley_exponent(m.roughness);
+  const float h_dot_i = std::max(std::abs(dot(wm, wo)), 1e-6f), h_dot_n = std::max(wm.z, 1e-6f);
+  const float lobe = std::pow(h_dot_n, n);
+  *p_h = (n + 1.0f) / (2.0f * kPi) * lobe;
+  return (n + 1.0f) / (8.0f * kPi) * lobe / std::max(1e-6f, h_dot_i * std::max(cos_o, cos_i));
+}
+
+// Upper-hemisphere pair (wo.z > 0, as Cycles' cosNI > 0): the BRDF and, in *pdf, the sampling
+// density of wi (p_h / (4 |wo.wm|)).
+RGB other_conductor(const BsdfParams& m, Vec3 wo, Vec3 wi, float* pdf) {
+  *pdf = 0.0f;
+  if (wo.z < 0) wo = -wo, wi = -wi;  // two-sided, as the GGX conductor
+  if (!(wo.z > 0 && wi.z > 0)) return RGB(0.0f);
+  const Vec3 h = wo + wi;
+  if (length_squared(h) == 0) return RGB(0.0f);
+  const Vec3 wm = normalize(h);
+  float p_h = 0.0f;
+  const float f = other_microfacet_f(m, wo, wi, wm, &p_h);
+  const float wo_dot_wm = absdot(wo, wm);
+  if (wo_dot_wm > 0) *pdf = p_h / (4.0f * wo_dot_wm);
+  if (!(f > 0) || !std::isfinite(f)) return RGB(0.0f);
+  return conductor_fresnel(m, wo_dot_wm) * f;
+}
+
+// A half vector from p_h.
+Vec3 other_half_vector(const BsdfParams& m, Vec2 u) {
+  float cos_t;
+  if (m.distribution == Microfacet::Beckmann) {
+    const float tan2 = -m.roughness * m.roughness * std::log(std::max(1.0f - u.x, 1e-30f));  // [Walter07] eq. 28
+    cos_t = 1.0f / std::sqrt(1.0f + tan2);
+  } else {
+    cos_t = std::pow(u.x, 1.0f / (ashikhmin_shirley_exponent(m.roughness) + 1.0f));
+  }
+  const float sin_t = std::sqrt(std::max(0.0f, 1.0f - cos_t * cos_t)), phi = 2.0f * kPi * u.y;
+  return Vec3(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
+}
+
 RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+  if (m.distribution != Microfacet::GGX) {
+    float pdf;
+    return other_conductor(m, wo, wi, &pdf);
+  }
   float cos_h = 0;
   const float f = microfacet_reflection(m.roughness, wo, wi, &cos_h);
   if (f == 0) return RGB(0.0f);
@@ -302,6 +383,11 @@ RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
 
 float conductor_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return 0.0f;
+  if (m.distribution != Microfacet::GGX) {
+    float pdf;
+    other_conductor(m, wo, wi, &pdf);
+    return pdf;
+  }
   Vec3 wm = wi + wo;
   if (length_squared(wm) == 0) return 0.0f;
   wm = normalize(wm);
@@ -322,6 +408,17 @@ std::optional<BsdfSample> conductor_sample(const BsdfParams& m, const Vec3& wo, 
     s.f = conductor_fresnel(m, abs_cos_theta(wo)) / abs_cos_theta(wo);
     s.pdf = 1.0f;
     s.delta = true;
+    return s;
+  }
+  if (m.distribution != Microfacet::GGX) {
+    Vec3 wm = other_half_vector(m, u);
+    if (wo.z < 0) wm = -wm;  // the lower side's mirror image
+    const Vec3 wi = reflect(wo, wm);
+    if (!same_hemisphere(wo, wi)) return std::nullopt;
+    BsdfSample s;
+    s.wi = wi;
+    s.f = other_conductor(m, wo, wi, &s.pdf);
+    if (!valid_sample(s.f, s.pdf)) return std::nullopt;
     return s;
   }
   const Ggx ggx{m.roughness};
@@ -758,6 +855,7 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
   p.color = m.color_tex ? m.color_tex.rgb(uv) : m.color;
   p.roughness = m.roughness_tex ? clamp(m.roughness_tex.value(uv), 0.0f, 1.0f) : m.roughness;
   p.conductor_fresnel = m.conductor_fresnel;
+  p.distribution = m.distribution;
   p.ior = m.ior;
   p.refraction_only = m.refraction_only;
   p.coat_albedo = m.coat_albedo.get();

@@ -40,6 +40,7 @@ struct BsdfParams {
   RGB color{0.8f};
   float roughness = 0.0f;
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
+  Microfacet distribution = Microfacet::GGX;  // conductor (Material::distribution)
   float ior = 1.5f;
   bool refraction_only = false;  // Material::refraction_only
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)

@@ -40,6 +40,13 @@ enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Pri
 //               Fresnel of the Principled lobe's IOR (from its Specular input).
 enum class ConductorFresnel : uint8_t { None, Schlick, Principled };
 
+// A glossy conductor's microfacet distribution (Blender's Glossy BSDF / Anisotropic BSDF
+// Distribution), Cycles 3.4's maths (kernel/closure/bsdf_microfacet.h,
+// bsdf_ashikhmin_shirley.h): GGX; Beckmann (exact D, Smith G1 by Walter et al.'s rational
+// approximation, separable G); Ashikhmin-Shirley (exponent 2 / alpha^2 - 2, its "pump"
+// normalisation). Multiscatter GGX renders as GGX (a warning in the exporter).
+enum class Microfacet : uint8_t { GGX, Beckmann, AshikhminShirley };
+
 // Default roughness below which a BSDF counts as specular for photon methods
 // (gradient-domain photon density estimation §4.3 / §6: "roughness threshold 0.05").
 inline constexpr float kDefaultSpecularThreshold = 0.05f;
@@ -56,6 +63,7 @@ struct Material {
   float roughness = 0.0f;
   // Conductor: how its reflectance varies with the angle (ConductorFresnel; Principled uses `ior`).
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
+  Microfacet distribution = Microfacet::GGX;  // conductor: its microfacet distribution
   // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
   // Principled (Cycles 3.4's Principled BSDF, non-metal): `color` the base colour, `roughness`
   // the specular lobe's GGX alpha (its square root drives the diffuse retro-reflection), `ior`

@@ -7,19 +7,23 @@
 // of path (W sr^-1 m^-3), added as is (Cycles does not multiply it by absorption); the phase
 // function's anisotropy g is clamped to |g| <= 1 - 1e-3 as Cycles' volume_henyey_greenstein_setup.
 //
-// Heterogeneous media (OpenVDB grids, the next landing) scale these coefficients by a density
-// looked up at a point and bounded by a majorant over a segment: density() and
-// majorant_density() are that interface, 1 everywhere for the homogeneous media of today.
+// Heterogeneous media (a Medium with a grid: media/grid.h, Principled Volume over OpenVDB grids)
+// vary per point. A MediumSegment over a stack that holds one is followed by delta tracking
+// against the majorant grid (free flights) and a shadow ray through one by ratio tracking
+// (transmittance): the same interface as for homogeneous media, which keep their exact
+// closed forms (bit for bit as before).
 #pragma once
 
 #include <array>
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include "core/color.h"
 #include "core/frame.h"
 #include "core/math.h"
 #include "core/spectrum.h"
+#include "media/grid.h"
 
 namespace gp {
 
@@ -31,12 +35,13 @@ struct Medium {
   float g = 0.0f;                    // Henyey-Greenstein anisotropy, |g| <= kMaxAnisotropy
   RGB emission{0.0f};                // W sr^-1 m^-3
 
+  // A heterogeneous medium: Principled Volume over grids. Without a colour grid its
+  // coefficients at a point are sigma_a, sigma_s above times the density grid there; emission
+  // adds the grid's blackbody emission to the constant one (media/grid.h).
+  std::shared_ptr<const GridMedium> grid;
+
   RGB sigma_t() const { return sigma_a + sigma_s; }
-  // The density the coefficients are scaled by at p, and its bound over the medium: the
-  // interface a density grid fills (next landing). Homogeneous: 1.
-  float density(const Vec3&) const { return 1.0f; }
-  float majorant_density() const { return 1.0f; }
-  bool is_homogeneous() const { return true; }
+  bool is_homogeneous() const { return !grid; }
 };
 
 // ---- Henyey-Greenstein phase function ----
@@ -103,7 +108,8 @@ class MediumStack {
 
 // How far a shadow ray travelled in each medium (summed over the segments where it was inside
 // it): what the path types turn into a transmittance per channel (exp(-sum sigma_t d), exact
-// Beer-Lambert for homogeneous media).
+// Beer-Lambert for homogeneous media). A grid medium's stretches are kept as pieces of ray
+// instead, for ratio tracking (paths/medium_walk.h, transmittance()).
 struct MediumLengths {
   static constexpr int kCapacity = 16;
   std::array<int, kCapacity> medium{};
@@ -120,6 +126,21 @@ struct MediumLengths {
       length[n++] = d;
     }
   }
+  struct Piece {
+    int medium = -1;
+    Vec3 o, d;
+    float t = 0;  // [0, t) along o + s d
+  };
+  static constexpr int kPieces = 32;
+  std::array<Piece, kPieces> pieces{};
+  int n_pieces = 0;
+  bool overflow = false;  // more grid stretches than kPieces: the shadow test calls it blocked
+  // Nothing crossed: the transmittance is 1 (test this, not n: grid stretches are pieces).
+  bool empty() const { return n == 0 && n_pieces == 0; }
+  void add_piece(int m, const Vec3& o, const Vec3& d, float t) {
+    if (n_pieces < kPieces) pieces[n_pieces++] = {m, o, d, t};
+    else overflow = true;
+  }
 };
 
 // Per-channel values of a path: the RGB path's 3 channels or the spectral path's wavelengths.
@@ -130,7 +151,31 @@ using ChannelValues = std::array<float, kMaxMediumChannels>;
 struct MediumChannels {
   ChannelValues sigma_a{}, sigma_s{}, sigma_t{}, emission{};
   float g = 0.0f;
+  // Heterogeneous: the grid (sigma_* above are then those at density 1), and the path's channels
+  // of the three RGB primaries (identity in RGB; upsampled at the wavelengths), which turn a
+  // point's RGB coefficients (colour grid, blackbody) into the path's channels.
+  const GridMedium* grid = nullptr;
+  std::array<ChannelValues, 3> rgb_basis{};
 };
+
+// ---- A grid medium at a point, at a path's channels ----
+struct PointCoefficients {
+  ChannelValues sigma_s{}, sigma_t{}, emission{};
+};
+// Medium `c` (c.grid set) at world point p: adds its coefficients to `out` (emission only when
+// `emission`).
+void add_grid_point(const MediumChannels& c, int n, const Vec3& p, bool emission, PointCoefficients& out);
+// A bound of max_k sigma_t,k of `c` over a majorant block.
+float grid_majorant(const MediumChannels& c, int n, const GridMedium::Bound& b);
+// Whether `c` may emit in a block (constant emission, or blackbody with T > 0 there).
+bool grid_emits(const MediumChannels& c, int n, const GridMedium::Bound& b);
+// Ratio tracking (Novak et al. 2014) of the transmittance of grid medium `c` along o + t d over
+// [t0, t1), per channel; its random numbers are drawn from `seed` (a hash of the ray: the
+// shadow test has no random numbers of its own).
+ChannelValues grid_transmittance(const MediumChannels& c, int n, const Vec3& o, const Vec3& d, float t0, float t1,
+                                 uint64_t seed);
+// A seed from a ray's bits (and a salt).
+uint64_t ray_seed(const Vec3& o, const Vec3& d, uint64_t salt);
 // Medium `m` at the three RGB channels.
 MediumChannels rgb_channels(const Medium& m);
 
@@ -139,23 +184,37 @@ MediumChannels rgb_channels(const Medium& m);
 struct MediumSpectra {
   RgbSpectrum sigma_a, sigma_s, emission;
   float g = 0.0f;
+  const GridMedium* grid = nullptr;
+  std::array<RgbSpectrum, 3> primaries;  // of a grid medium: for rgb_basis
   explicit MediumSpectra(const Medium& m);
   MediumChannels at(const SampledWavelengths& wl) const;
 };
 
-// ---- A homogeneous segment: the media of a stack summed, along one ray ----
-// Free-flight distances are sampled by picking a channel c with probability q_c proportional
-// to the path's throughput in it (Cycles' volume_sample_channel weighs by throughput too) and
-// sampling its exponential; the density of the distance is then sum_c q_c sigma_t,c T_c (the
-// one-sample balance heuristic over channels, "spectral MIS", as pbrt-v4's volpath weighs
-// wavelengths), so every channel stays unbiased and the throughput's sum cannot grow by
-// scattering. Without scattering anywhere on the segment nothing is sampled: the throughput
-// takes the transmittance itself (Beer-Lambert, exact).
+// ---- A segment: the media of a stack summed, along one ray ----
+// Homogeneous media: free-flight distances are sampled by picking a channel c with probability
+// q_c proportional to the path's throughput in it (Cycles' volume_sample_channel weighs by
+// throughput too) and sampling its exponential; the density of the distance is then
+// sum_c q_c sigma_t,c T_c (the one-sample balance heuristic over channels, "spectral MIS", as
+// pbrt-v4's volpath weighs wavelengths), so every channel stays unbiased and the throughput's sum
+// cannot grow by scattering. Without scattering anywhere on the segment nothing is sampled: the
+// throughput takes the transmittance itself (Beer-Lambert, exact).
+//
+// With a grid medium in the stack the segment is heterogeneous: sample_distance runs delta
+// tracking (Woodcock; Novak et al. 2018 §3, "spectral tracking" of Kutz et al. 2017 for the
+// channels) under one majorant per block, the max over the channels ("hero-style": one
+// distance for all channels, the channels weighted): at each tentative collision at s, with
+// a_c = q_c W_c (W the weight so far), it scatters with probability
+// P_s = sum a_c sigma_s,c / sum a_c (sigma_s,c + sigma_n,c), sigma_n = majorant - sigma_t, and
+// otherwise goes on (a null collision); the channels take sigma_s,c / (majorant P_s), or
+// sigma_n,c / (majorant (1 - P_s)). Absorption is a weight, not an event. Without scattering it
+// is ratio tracking. Its random numbers come from a stream seeded by the two uniforms given;
+// pass_weight before the end replays the same stream. Emission is estimated along the segment
+// by ratio tracking (emission_integral).
 struct MediumSegment {
   int n = 0;  // channels
   bool scatters = false;  // some channel has sigma_s > 0
   ChannelValues q{};      // channel selection probabilities (set_channel_weights)
-  ChannelValues sigma_s{}, sigma_t{}, emission{};
+  ChannelValues sigma_s{}, sigma_t{}, emission{};  // homogeneous media's sums
   // The phase functions of the stack's media with their channel scattering: for the mixture.
   struct Lobe {
     float g = 0.0f;
@@ -164,15 +223,34 @@ struct MediumSegment {
   };
   std::array<Lobe, MediumStack::kCapacity> lobes{};
   int n_lobes = 0;
+  // Heterogeneous: the stack's grid media (their channels and lobe) and the ray.
+  struct GridPart {
+    const MediumChannels* c = nullptr;
+    int lobe = 0;
+  };
+  std::array<GridPart, MediumStack::kCapacity> grids{};
+  int n_grids = 0;
+  Ray ray;
 
-  // The stack's media at the channels `channels(m)` gives (a MediumChannels per medium).
+  // The stack's media along `ray` at the channels `channels_of(m)` gives (a MediumChannels per
+  // medium; references that live as long as the segment).
   template <class F>
-  MediumSegment(const MediumStack& stack, int channels, F&& channels_of) : n(channels) {
+  MediumSegment(const MediumStack& stack, const Ray& r, int channels, F&& channels_of) : n(channels), ray(r) {
     float total = 0;
+    bool emits = false;
     for (int i = 0; i < stack.size(); ++i) {
       const MediumChannels& c = channels_of(stack[i].medium);
       Lobe& lobe = lobes[n_lobes++];
       lobe.g = c.g;
+      if (c.grid) {
+        grids[n_grids++] = {&c, n_lobes - 1};
+        for (int k = 0; k < n; ++k) emits = emits || c.emission[k] > 0;
+        emits = emits || c.grid->emits_blackbody();
+        // Its scattering somewhere: at density 1 (a colour grid's bound: params' colour).
+        const float s = c.grid->has_color_grid() ? c.grid->params().color.luminance() : c.sigma_s[0] + c.sigma_s[n - 1];
+        scatters = scatters || s > 0;
+        continue;
+      }
       for (int k = 0; k < n; ++k) {
         sigma_s[k] += c.sigma_s[k];
         sigma_t[k] += c.sigma_t[k];
@@ -183,32 +261,56 @@ struct MediumSegment {
       total += lobe.weight;
     }
     for (int l = 0; l < n_lobes; ++l) lobes[l].weight = total > 0 ? lobes[l].weight / total : 0.0f;
-    scatters = total > 0;
+    scatters = scatters || total > 0;
+    for (int k = 0; k < n; ++k) emits_ = emits_ || emission[k] > 0;
+    emits_ = emits_ || emits;
     for (int k = 0; k < n; ++k) q[k] = 1.0f / n;
   }
 
+  bool heterogeneous() const { return n_grids > 0; }
   // Channel selection in proportion to w (the path's throughput; uniform where it is all 0).
   void set_channel_weights(const ChannelValues& w);
-  // The emission reaching the ray's origin from [0, t): integral of exp(-sigma_t s) Le ds,
-  // exactly; 0 for an unbounded segment without extinction (no NaN/Inf reaches the film).
+  // The emission reaching the ray's origin from [0, t): integral of T(s) Le(s) ds, exactly
+  // (homogeneous; 0 for an unbounded segment without extinction: no NaN/Inf reaches the film)
+  // or by ratio tracking (heterogeneous).
   ChannelValues emission_integral(float t) const;
-  // Samples a free-flight distance (u_channel picks the channel); returns it, or infinity
-  // (always without scattering).
-  float sample_distance(float u_channel, float u) const;
-  // The throughput factor of scattering at distance t: sigma_s T(t) / pdf(t) per channel.
+  // Samples a free-flight distance (u_channel picks the channel; heterogeneous: the two seed
+  // the tracking, which stops at t_max); returns it, or infinity (always without scattering).
+  float sample_distance(float u_channel, float u, float t_max = kInfinity) const;
+  // The throughput factor of scattering at distance t: sigma_s T(t) / pdf(t) per channel
+  // (heterogeneous: the tracking's weight at the distance it returned).
   ChannelValues scatter_weight(float t) const;
   // The factor of passing beyond distance t (no scattering before it): T(t) / P(t_s > t);
-  // T(t) itself when nothing scatters.
+  // T(t) itself when nothing scatters (heterogeneous: the tracking's weight at t).
   ChannelValues pass_weight(float t) const;
-  // Transmittance per channel over distance t.
+  // Transmittance per channel over distance t (homogeneous media).
   ChannelValues transmittance(float t) const;
 
   // ---- The phase function of the mixture: sum_m sigma_s,m HG_m / sigma_s, per channel ----
+  // (Heterogeneous: the media's scattering at the last scattering point sample_distance found.)
   // Per channel value at the cosine between the travel direction d and wi.
   ChannelValues phase(float cos_theta) const;
   // The density of sample_phase: sum_m weight_m HG_m.
   float phase_pdf(float cos_theta) const;
   Vec3 sample_phase(const Vec3& d, float u_lobe, Vec2 u) const;
+
+ private:
+  // Delta tracking over [0, t_max) from `seed`; returns the scattering distance (infinity: none
+  // before t_max, or absorbed), w the weight there. scatter: whether scattering may end it.
+  float track(uint64_t seed, float t_max, bool scatter, ChannelValues& w) const;
+  // The coefficients at world point p (every medium of the stack); lobes' scattering there when
+  // `lobes_out`.
+  void at_point(const Vec3& p, bool with_emission, PointCoefficients& out, bool set_lobes) const;
+  // Walks the piecewise-constant majorant along the ray over [0, t_max): f(t0, t1, majorant, emits).
+  template <class F>
+  void walk_majorant(float t_max, F&& f) const;
+
+  bool emits_ = false;
+  // The last tracking (heterogeneous).
+  mutable uint64_t seed_ = 0;
+  mutable float t_max_ = 0, t_found_ = kInfinity;
+  mutable ChannelValues w_found_{};
+  mutable std::array<Lobe, MediumStack::kCapacity> point_lobes_{};
 };
 
 }  // namespace gp

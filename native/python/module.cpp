@@ -19,6 +19,7 @@
 #include "integrators/methods.h"
 #include "integrators/photon/progressive_photon.h"
 #include "io/exr.h"
+#include "media/vdb_file.h"
 #include "reconstruction/poisson.h"
 #include "scene/builder.h"
 #include "scene/loader.h"
@@ -132,6 +133,41 @@ class SessionSink : public ProgressSink {
  private:
   std::atomic<std::chrono::steady_clock::rep> deadline_{0};
 };
+
+// add_mesh's attributes: [(name, domain "point" | "corner" | "face", float32 (N,) or (N, k)
+// with k 1-4)], and the render colour attribute's name (None or "": none). Sizes are checked
+// against the mesh when the scene is finalized.
+std::shared_ptr<const shading::MeshAttributes> attributes_from_list(const py::object& list, const py::object& default_color,
+                                                                    const std::string& object) {
+  if (list.is_none()) return nullptr;
+  auto out = std::make_shared<shading::MeshAttributes>();
+  const std::string want = default_color.is_none() ? std::string() : default_color.cast<std::string>();
+  for (const py::handle item : list) {
+    const py::tuple t = py::reinterpret_borrow<py::object>(item).cast<py::tuple>();
+    if (t.size() != 3) throw py::value_error("object '" + object + "': attributes are (name, domain, values) tuples");
+    shading::MeshAttribute a;
+    a.name = t[0].cast<std::string>();
+    const std::string domain = t[1].cast<std::string>();
+    if (domain == "point") a.domain = shading::AttributeDomain::Point;
+    else if (domain == "corner") a.domain = shading::AttributeDomain::Corner;
+    else if (domain == "face") a.domain = shading::AttributeDomain::Face;
+    else throw py::value_error("object '" + object + "': attribute '" + a.name + "': unknown domain '" + domain + "'");
+    const py::object values = py::reinterpret_borrow<py::object>(t[2]);
+    const std::string what = "attribute '" + a.name + "'";
+    if (!py::isinstance<py::array_t<float>>(values))
+      throw py::type_error("object '" + object + "': " + what + " must be a numpy float32 array");
+    const py::array_t<float> arr = values.cast<py::array_t<float>>();
+    const int k = arr.ndim() == 1 ? 1 : arr.ndim() == 2 ? static_cast<int>(arr.shape(1)) : 0;
+    if (k < 1 || k > 4)
+      throw py::value_error("object '" + object + "': " + what + " must have shape (N,) or (N, k) with k 1 to 4");
+    const py::array_t<float> a2 = exact_array<float>(values, object, what.c_str(), k, "float32");
+    a.components = static_cast<uint8_t>(k);
+    a.values.assign(a2.data(), a2.data() + a2.size());
+    if (!want.empty() && a.name == want) out->default_color = static_cast<int>(out->list.size());
+    out->list.push_back(std::move(a));
+  }
+  return out;
+}
 
 // One progressive render (session/render_session.h), with the GIL released while it works.
 class Session {
@@ -308,6 +344,59 @@ void bind_methods(py::module_& m) {
 
 // Images: EXR read and write, screened Poisson reconstruction.
 void bind_images(py::module_& m) {
+  // ---- OpenVDB grids (media/vdb_file.h): what the exporter needs of a Volume object's file,
+  // and a writer for tests (Debian's Blender has no pyopenvdb) ----
+  m.def("vdb_grids", [](const std::string& path) {
+    py::list out;
+    for (const VdbGridInfo& info : vdb_grid_names(path)) {
+      std::shared_ptr<VoxelGrid> g;
+      try {
+        g = read_vdb_grid(path, info.name);
+      } catch (const VdbError&) {
+        continue;  // a grid of a type media do not read (bool, int, points): not listed
+      }
+      py::array_t<float> m({4, 4});
+      auto r = m.mutable_unchecked<2>();
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) r(i, j) = i < 3 ? g->index_to_object.m[i][j] : (j == 3 ? 1.0f : 0.0f);
+      out.append(py::dict(py::arg("name") = info.name, py::arg("channels") = g->channels, py::arg("lo") = g->lo,
+                          py::arg("size") = g->size, py::arg("index_to_object") = m));
+    }
+    return out;
+  }, py::arg("path"),
+        "The float and vector grids of an OpenVDB file: [{'name', 'channels', 'lo', 'size' (the active "
+        "voxels' box in index space), 'index_to_object' (4x4)}]; VdbError (a ValueError) naming the file");
+  m.def("write_vdb", [](const std::string& path, const py::list& grids) {
+    std::vector<VoxelGrid> gs;
+    for (const py::handle& h : grids) {
+      const py::dict d = py::reinterpret_borrow<py::dict>(h);
+      VoxelGrid g;
+      g.name = d["name"].cast<std::string>();
+      const auto v = d["values"].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+      if (v.ndim() != 3 && v.ndim() != 4) throw std::invalid_argument("values: (nz, ny, nx) or (nz, ny, nx, 3)");
+      g.channels = v.ndim() == 4 ? static_cast<int>(v.shape(3)) : 1;
+      if (g.channels != 1 && g.channels != 3) throw std::invalid_argument("values: 1 or 3 channels");
+      g.size = {static_cast<int>(v.shape(2)), static_cast<int>(v.shape(1)), static_cast<int>(v.shape(0))};
+      g.data.assign(v.data(), v.data() + v.size());
+      if (d.contains("lo")) g.lo = d["lo"].cast<std::array<int, 3>>();
+      if (d.contains("background")) {
+        const float b = d["background"].cast<float>();
+        g.background = {b, b, b};
+      }
+      if (d.contains("index_to_object")) {
+        const auto m = d["index_to_object"].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+        if (m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4) throw std::invalid_argument("index_to_object: 4x4");
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 4; ++j) g.index_to_object.m[i][j] = m.at(i, j);
+      }
+      gs.push_back(std::move(g));
+    }
+    std::vector<const VoxelGrid*> ptrs;
+    for (const VoxelGrid& g : gs) ptrs.push_back(&g);
+    write_vdb(path, ptrs);
+  }, py::arg("path"), py::arg("grids"),
+        "Writes grids [{'name', 'values' (nz, ny, nx[, 3]) float, 'lo' (i, j, k), 'background', "
+        "'index_to_object' 4x4}] to an OpenVDB file (tests and tools)");
   m.def("read_exr", [](const std::string& path) {
     Film film;
     {
@@ -526,7 +615,8 @@ void bind_builder(py::module_& m) {
            [](SceneBuilder& b, const std::string& name, const py::object& positions, const py::object& indices,
               const std::vector<std::string>& materials, const py::object& material_ids, const py::object& normals,
               const py::object& uvs, const py::object& matrices, const std::vector<std::string>& instance_names,
-              const py::object& motion, const py::object& motion_positions) {
+              const py::object& motion, const py::object& motion_positions, const py::object& attributes,
+              const py::object& default_color) {
              MeshArrays in;
              in.name = name;
              in.materials = materials;
@@ -593,17 +683,21 @@ void bind_builder(py::module_& m) {
                in.motion_positions = mp.data();
                in.motion_steps = mp.shape(0);
              }
+             in.attributes = attributes_from_list(attributes, default_color, name);
              py::gil_scoped_release release;
              b.add_mesh(in);
            },
            py::arg("name"), py::arg("positions"), py::arg("indices"), py::arg("materials"),
            py::arg("material_ids") = py::none(), py::arg("normals") = py::none(), py::arg("uvs") = py::none(),
            py::arg("matrices") = py::none(), py::arg("instance_names") = std::vector<std::string>(),
-           py::arg("motion") = py::none(), py::arg("motion_positions") = py::none(),
+           py::arg("motion") = py::none(), py::arg("motion_positions") = py::none(), py::arg("attributes") = py::none(),
+           py::arg("default_color") = py::none(),
            "Add a mesh: positions float32 (N,3), indices uint32 (M,3), material names with optional uint32 "
            "material_ids (M,), optional float32 normals (N,3) and uvs (N,2), optional (K,4,4) object-to-world "
            "matrices (one world-space copy per matrix); motion blur: optional motion (K,S,4,4), each instance's "
-           "S >= 2 matrices over the shutter, and motion_positions float32 (S',N,3), object-space vertices per step")
+           "S >= 2 matrices over the shutter, and motion_positions float32 (S',N,3), object-space vertices per step; "
+           "optional attributes [(name, 'point' | 'corner' | 'face', float32 (N,) or (N,k))] for Color Attribute / "
+           "Attribute nodes, with default_color naming the render colour attribute")
       .def_property_readonly("triangle_count", &SceneBuilder::triangle_count)
       .def("finalize", [](SceneBuilder& b) {
         py::gil_scoped_release release;
@@ -654,6 +748,7 @@ PYBIND11_MODULE(_native, m) {
   m.doc() = "gradphoton native core";
   m.attr("__version__") = GRADPHOTON_VERSION;
   py::register_exception<SceneError>(m, "SceneError", PyExc_ValueError);
+  py::register_exception<VdbError>(m, "VdbError", PyExc_ValueError);
   py::register_exception<ParamError>(m, "ParamError", PyExc_ValueError);
 
   bind_methods(m);

@@ -95,6 +95,7 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
       m.uvs.resize(nv);
       for (size_t v = 0; v < nv; ++v) m.uvs[v] = Vec2(in.uvs[2 * v], in.uvs[2 * v + 1]);
     }
+    m.attributes = in.attributes;
     if (in.material_ids) m.material_ids.assign(in.material_ids, in.material_ids + nt);
     else m.material_ids.assign(nt, 0);
     meshes_.push_back(std::move(p));

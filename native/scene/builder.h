@@ -39,6 +39,9 @@ struct MeshArrays {
   std::vector<std::vector<Transform>> motion;
   const float* motion_positions = nullptr;
   size_t motion_steps = 0;
+  // Optional named attributes (Color Attribute / Attribute nodes), shared by the instances;
+  // checked against the mesh when the scene is finalized.
+  std::shared_ptr<const shading::MeshAttributes> attributes;
 };
 
 // ---- Updates of a finalized scene (the rendered viewport; scene.h "Updates") ----

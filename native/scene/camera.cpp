@@ -49,6 +49,7 @@ Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext, float time) const {
   }
   ray.time = time;
   ray.camera = true;
+  ray.state = RayState::camera();
   return ray;
 }
 

@@ -31,6 +31,7 @@
 #include "scene/json_reader.h"
 #include "scene/obj_mesh.h"
 #include "scene/shapes.h"
+#include "media/vdb_file.h"
 #include "textures/texture_store.h"
 
 namespace gp {
@@ -88,8 +89,16 @@ class Loader : private JsonReader {
         keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
-        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior"});
+        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior", "distribution"});
         if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = load_conductor_fresnel(*f, sub(mpath, "fresnel"));
+        if (const json* d = find(m, "distribution")) {
+          // Blender's Glossy BSDF distributions (material.h Microfacet).
+          const std::string dpath = sub(mpath, "distribution"), v = get_string(*d, dpath);
+          if (v == "ggx") mat.distribution = Microfacet::GGX;
+          else if (v == "beckmann") mat.distribution = Microfacet::Beckmann;
+          else if (v == "ashikhmin_shirley") mat.distribution = Microfacet::AshikhminShirley;
+          else fail(dpath, fmt::format("unknown distribution '{}' (known: ggx, beckmann, ashikhmin_shirley)", v));
+        }
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
@@ -282,7 +291,7 @@ class Loader : private JsonReader {
       const std::string mpath = sub(path, it.key());
       const json& j = it.value();
       require_object(j, mpath);
-      check_keys(j, mpath, {"sigma_a", "sigma_s", "g", "emission"});
+      check_keys(j, mpath, {"sigma_a", "sigma_s", "g", "emission", "grid"});
       Medium m;
       m.name = it.key();
       if (const json* a = find(j, "sigma_a")) m.sigma_a = get_color(*a, sub(mpath, "sigma_a"));
@@ -290,10 +299,64 @@ class Loader : private JsonReader {
       if (const json* e = find(j, "emission")) m.emission = get_color(*e, sub(mpath, "emission"));
       if (const json* g = find(j, "g")) m.g = std::clamp(get_in_range(*g, sub(mpath, "g"), -1.0f, 1.0f),
                                                           -kMaxAnisotropy, kMaxAnisotropy);
+      if (const json* g = find(j, "grid")) m.grid = load_grid_medium(*g, sub(mpath, "grid"));
       medium_index_[m.name] = static_cast<int>(scene_.media.size());
       scene_.media.push_back(std::move(m));
     }
   }
+  // "grid": {"file": "smoke.vdb", "density_grid": "density", "color_grid": "color",
+  // "temperature_grid": "temperature", "transform": {...}, and Principled Volume's "density",
+  // "color", "absorption_color", "blackbody_intensity", "blackbody_tint", "temperature"}
+  // (media/grid.h). The medium's sigma_a / sigma_s are its coefficients at density 1.
+  std::shared_ptr<const GridMedium> load_grid_medium(const json& g, const std::string& path) {
+    require_object(g, path);
+    check_keys(g, path, {"file", "density_grid", "color_grid", "temperature_grid", "transform", "density", "color",
+                         "absorption_color", "blackbody_intensity", "blackbody_tint", "temperature"});
+    need(g, "file", path);
+    std::filesystem::path file = get_string(g["file"], sub(path, "file"));
+    if (file.is_relative() && !base_dir_.empty()) file = std::filesystem::path(base_dir_) / file;
+    auto grid = [&](const char* key) -> std::shared_ptr<const VoxelGrid> {
+      const json* n = find(g, key);
+      if (!n) return nullptr;
+      const std::string name = get_string(*n, sub(path, key));
+      if (name.empty()) return nullptr;
+      const std::string cache_key = file.string() + '\n' + name;
+      if (auto it = grids_.find(cache_key); it != grids_.end()) return it->second;
+      try {
+        std::shared_ptr<const VoxelGrid> v = read_vdb_grid(file.string(), name);
+        grids_[cache_key] = v;
+        return v;
+      } catch (const VdbError& e) {
+        fail(sub(path, key), e.what());
+      }
+    };
+    auto density = grid("density_grid"), color = grid("color_grid"), temperature = grid("temperature_grid");
+    if (!density && !color && !temperature)
+      fail(path, "names no grid: give 'density_grid', 'color_grid' or 'temperature_grid'");
+    if (color && color->channels != 3 && color->channels != 1) fail(sub(path, "color_grid"), "not a colour or float grid");
+    if (density && density->channels != 1) fail(sub(path, "density_grid"), "is a vector grid, not a float grid");
+    if (temperature && temperature->channels != 1) fail(sub(path, "temperature_grid"), "is a vector grid, not a float grid");
+    GridMediumParams params;
+    if (const json* v = find(g, "density")) params.density = get_nonnegative(*v, sub(path, "density"));
+    if (const json* v = find(g, "color")) params.color = get_color(*v, sub(path, "color"));
+    if (const json* v = find(g, "absorption_color")) params.absorption_color = get_color(*v, sub(path, "absorption_color"));
+    if (const json* v = find(g, "blackbody_intensity"))
+      params.blackbody_intensity = get_in_range(*v, sub(path, "blackbody_intensity"), 0.0f, 1.0f);
+    if (const json* v = find(g, "blackbody_tint")) params.blackbody_tint = get_color(*v, sub(path, "blackbody_tint"));
+    if (const json* v = find(g, "temperature")) params.temperature = get_nonnegative(*v, sub(path, "temperature"));
+    Affine object_to_world;
+    if (const json* t = find(g, "transform")) {
+      const Transform x = load_transform(*t, sub(path, "transform"));
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 4; ++j) object_to_world.m[i][j] = x.m[i][j];
+    }
+    try {
+      return std::make_shared<const GridMedium>(density, color, temperature, object_to_world, params);
+    } catch (const std::invalid_argument& e) {
+      fail(path, fmt::format("{}: {}", file.string(), e.what()));
+    }
+  }
+
   int medium_by_name(const json& j, const std::string& path) const {
     const std::string name = get_string(j, path);
     auto it = medium_index_.find(name);
@@ -664,7 +727,8 @@ class Loader : private JsonReader {
       reserve_triangles(n, path, name);
       mesh = make_disk(c, r, n, material());
     } else if (type == "mesh") {
-      keys({"positions", "indices", "normals", "uvs", "materials", "material_indices", "motion_positions"});
+      keys({"positions", "indices", "normals", "uvs", "materials", "material_indices", "motion_positions", "colors",
+            "attributes"});
       mesh = load_inline_mesh(o, path, name);
     } else if (type == "obj") {
       keys({"file"});
@@ -773,6 +837,7 @@ class Loader : private JsonReader {
         fail(upath, fmt::format("{} uvs for {} positions (one per vertex)", uv->size(), mesh.positions.size()));
       for (size_t i = 0; i < uv->size(); ++i) mesh.uvs.push_back(get_vec2((*uv)[i], sub(upath, i)));
     }
+    load_mesh_attributes(o, path, mesh);
     const size_t tris = mesh.triangle_count();
     const json* single = find(o, "material");
     const json* list = find(o, "materials");
@@ -794,6 +859,74 @@ class Loader : private JsonReader {
       fail(path, "needs 'material' (or 'materials' with 'material_indices')");
     }
     return mesh;
+  }
+
+  // One attribute's values: each element a number or an array of 1-4 numbers, all alike.
+  shading::MeshAttribute load_attribute_values(const json& v, const std::string& vpath, std::string name,
+                                               shading::AttributeDomain domain, size_t elements) {
+    static const char* kDomain[] = {"point", "corner", "face"};
+    require_array(v, vpath);
+    if (v.size() != elements)
+      fail(vpath, fmt::format("{} values for {} elements (one per {})", v.size(), elements,
+                              kDomain[static_cast<int>(domain)]));
+    shading::MeshAttribute a;
+    a.name = std::move(name);
+    a.domain = domain;
+    a.components = v.empty() || v[0].is_number() ? 1 : static_cast<uint8_t>(std::min<size_t>(v[0].size(), 255));
+    if (a.components < 1 || a.components > 4)
+      fail(sub(vpath, 0), fmt::format("expected a number or an array of 1 to 4 numbers, got {}", describe(v[0])));
+    a.values.reserve(elements * a.components);
+    for (size_t i = 0; i < v.size(); ++i) {
+      const std::string ep = sub(vpath, i);
+      if (a.components == 1 && v[i].is_number()) {
+        a.values.push_back(get_float(v[i], ep));
+        continue;
+      }
+      if (!v[i].is_array() || v[i].size() != a.components)
+        fail(ep, fmt::format("expected {} numbers as the first element, got {}", a.components, describe(v[i])));
+      for (size_t k = 0; k < a.components; ++k) a.values.push_back(get_float(v[i][k], sub(ep, k)));
+    }
+    return a;
+  }
+
+  // "colors": the render colour attribute, per vertex ([r, g, b] or [r, g, b, a]), named "Color";
+  // "attributes": {name: {"domain": "point" | "corner" | "face", "values": [...]}} (docs/scene-format.md).
+  void load_mesh_attributes(const json& o, const std::string& path, Mesh& mesh) {
+    const json* colors = find(o, "colors");
+    const json* attrs = find(o, "attributes");
+    if (!colors && !attrs) return;
+    auto out = std::make_shared<shading::MeshAttributes>();
+    if (colors) {
+      const std::string cpath = sub(path, "colors");
+      shading::MeshAttribute a =
+          load_attribute_values(*colors, cpath, "Color", shading::AttributeDomain::Point, mesh.positions.size());
+      if (a.components < 3) fail(cpath, "colours are [r, g, b] or [r, g, b, a]");
+      out->default_color = 0;
+      out->list.push_back(std::move(a));
+    }
+    if (attrs) {
+      const std::string apath = sub(path, "attributes");
+      require_object(*attrs, apath);
+      for (auto it = attrs->begin(); it != attrs->end(); ++it) {
+        const std::string ap = sub(apath, it.key());
+        require_object(*it, ap);
+        check_keys(*it, ap, {"domain", "values"});
+        shading::AttributeDomain domain = shading::AttributeDomain::Point;
+        if (const json* d = find(*it, "domain")) {
+          const std::string ds = get_string(*d, sub(ap, "domain"));
+          if (ds == "corner") domain = shading::AttributeDomain::Corner;
+          else if (ds == "face") domain = shading::AttributeDomain::Face;
+          else if (ds != "point") fail(sub(ap, "domain"), fmt::format("unknown domain '{}' (known: point, corner, face)", ds));
+        }
+        const size_t tris = mesh.indices.size() / 3;
+        const size_t n = domain == shading::AttributeDomain::Point    ? mesh.positions.size()
+                         : domain == shading::AttributeDomain::Corner ? 3 * tris
+                                                                       : tris;
+        if (out->find(it.key())) fail(ap, fmt::format("attribute '{}' given twice ('colors' is named 'Color')", it.key()));
+        out->list.push_back(load_attribute_values(need(*it, "values", ap), sub(ap, "values"), it.key(), domain, n));
+      }
+    }
+    mesh.attributes = std::move(out);
   }
 
   Mesh load_obj(const json& o, const std::string& path, const std::string& name) {
@@ -1191,6 +1324,7 @@ class Loader : private JsonReader {
   static constexpr int kMaxSkies = 16;
   int skies_ = 0;
   std::string base_dir_;
+  std::map<std::string, std::shared_ptr<const VoxelGrid>> grids_;  // (file, grid) read once per scene
   Scene& scene_;
   std::map<std::string, uint32_t> material_index_;
   std::map<std::string, int> medium_index_;

@@ -40,15 +40,26 @@ Vec3 offset_ray_origin(const Vec3& p, const Vec3& ng, const Vec3& w) {
   return out;
 }
 
-Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, uint8_t lobe) {
+Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, const BsdfSample& bs) {
   Ray next(offset_ray_origin(p, ng, wi), wi);
   if (pass_through) {
     next.camera = in.camera;
     next.bounce = in.bounce;
+    next.state = in.state;
+    next.state.length = 0.0f;
   } else {
-    next.bounce = lobe;
+    next.bounce = bs.lobe;
+    next.state = next_ray_state(in.state, bs.lobe, bs.transmission, bs.delta, bs.eta);
   }
   return next;
+}
+
+RayState next_ray_state(const RayState& in, uint8_t lobe, bool transmission, bool delta, float eta) {
+  // Cycles' labels: a Transparent BSDF's pass (smooth, IOR 1) is LABEL_TRANSPARENT; a diffuse
+  // lobe LABEL_DIFFUSE; a smooth one LABEL_SINGULAR; the rest glossy. (A Translucent BSDF's
+  // diffuse transmission reads as glossy here: its sample carries only kRayTransmission.)
+  const bool transparent = transmission && delta && eta == 1.0f;
+  return in.next(transmission, lobe == kRayDiffuse, delta, transparent);
 }
 
 size_t Scene::triangle_count() const {
@@ -65,7 +76,46 @@ void Scene::finalize() {
 }
 
 
+// A mesh's attributes must fit it: one element per vertex (point), triangle corner (corner) or
+// triangle (face), 1-4 finite components, distinct names.
+static void check_attributes(const shading::MeshAttributes& attrs, const Mesh& m, const std::string& where) {
+  static const char* kDomain[] = {"point", "corner", "face"};
+  for (size_t i = 0; i < attrs.list.size(); ++i) {
+    const shading::MeshAttribute& a = attrs.list[i];
+    const std::string at = fmt::format("{}: attribute '{}'", where, a.name);
+    if (a.components < 1 || a.components > 4)
+      throw std::runtime_error(fmt::format("{}: {} components (1 to 4)", at, a.components));
+    const size_t want = a.domain == shading::AttributeDomain::Point    ? m.positions.size()
+                        : a.domain == shading::AttributeDomain::Corner ? 3 * m.triangle_count()
+                                                                       : m.triangle_count();
+    if (a.values.size() != want * a.components)
+      throw std::runtime_error(fmt::format("{}: {} values for {} {} elements of {} components", at, a.values.size(),
+                                           want, kDomain[static_cast<int>(a.domain)], a.components));
+    for (size_t k = 0; k < a.values.size(); ++k)
+      if (!std::isfinite(a.values[k]))
+        throw std::runtime_error(fmt::format("{}: element {} is not finite", at, k / a.components));
+    for (size_t j = 0; j < i; ++j)
+      if (attrs.list[j].name == a.name) throw std::runtime_error(fmt::format("{}: given twice", at));
+  }
+  if (attrs.default_color >= static_cast<int>(attrs.list.size()))
+    throw std::runtime_error(fmt::format("{}: default colour attribute {} of {}", where, attrs.default_color,
+                                         attrs.list.size()));
+}
+
+void Scene::build_shading_camera() {
+  shading::ShadingCamera& c = *shading_camera_;
+  // Cycles' camera space is Blender's camera space with z negated (z towards the view).
+  c.camera_to_world = camera.camera_to_world;
+  for (int r = 0; r < 3; ++r) c.camera_to_world.m[r][2] = -c.camera_to_world.m[r][2];
+  c.world_to_camera = invert_affine(c.camera_to_world);
+  c.orthographic = camera.projection == Projection::Orthographic;
+  c.ext = camera.half_extent();
+  const float s = 2.0f * std::max(c.ext.x, c.ext.y);  // as Camera::generate_ray's shift
+  c.shift = Vec2(camera.shift.x * s, camera.shift.y * s);
+}
+
 void Scene::build_shading_objects() {
+  build_shading_camera();
   shading_objects_.assign(meshes.size(), {});
   for (size_t mi = 0; mi < meshes.size(); ++mi) {
     const Mesh& m = meshes[mi];
@@ -80,6 +130,10 @@ void Scene::build_shading_objects() {
     }
     // Object Info's Random: Cycles hashes the object's name (hash_uint2(BLI_hash_string(name), 0)).
     o.random = shading::uint_to_float_incl(shading::hash_uint2(shading::hash_string_x31(m.name.c_str()), 0u));
+    if (m.attributes && !m.attributes->list.empty()) {
+      o.attributes = m.attributes.get();
+      o.indices = m.indices.data();
+    }
   }
 }
 
@@ -87,6 +141,7 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
   shading::ShadingContext c;
   c.P = h.p;
   c.I = wo;
+  c.camera = shading_camera_.get();
   c.uv = h.uv;
   c.bary = h.bary;
   // Cycles' ShaderData: normals face the incoming ray, `backfacing` says whether they were flipped.
@@ -109,6 +164,7 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
       // at the ray's time, kernel/geom/shader_data.h).
       if (m.motion && !m.motion->transform.empty()) c.set_object_at(*c.object, m.motion->transform.at(shutter_time()));
     }
+    c.prim = h.prim;
   }
   return c;
 }
@@ -161,6 +217,7 @@ void Scene::build_lights() {
       throw std::runtime_error(fmt::format("{}: {} normals for {} positions", where, m.normals.size(), m.positions.size()));
     if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
       throw std::runtime_error(fmt::format("{}: {} uvs for {} positions", where, m.uvs.size(), m.positions.size()));
+    if (m.attributes) check_attributes(*m.attributes, m, where);
     for (size_t v = 0; v < m.positions.size(); ++v) {
       if (!is_finite(m.positions[v]))
         throw std::runtime_error(fmt::format("{}: vertex {} is not finite", where, v));
@@ -204,6 +261,8 @@ void Scene::build_lights() {
           g->emission_constant = mtl.emission;
           g->strength_constant = mtl.emission_strength;
           g->object = &shading_objects_[mi];
+          g->prim = static_cast<int>(t);
+          g->camera = shading_camera_.get();
           const uint32_t* tri = &m.indices[3 * t];
           const bool has_uvs = !m.uvs.empty();
           g->uv0 = has_uvs ? m.uvs[tri[0]] : Vec2(0, 0);
@@ -262,6 +321,9 @@ void Scene::build_lights() {
       throw std::runtime_error(fmt::format("{}: medium '{}' has a negative or non-finite coefficient", source, m.name));
   has_media_ = world_medium >= 0 || std::any_of(materials.begin(), materials.end(),
                                                 [](const Material& m) { return m.interior >= 0; });
+  auto grid = [&](int m) { return m >= 0 && m < static_cast<int>(media.size()) && !media[m].is_homogeneous(); };
+  has_grid_media_ = grid(world_medium) ||
+                    std::any_of(materials.begin(), materials.end(), [&](const Material& m) { return grid(m.interior); });
   camera.motion_blur = moving;
   if (all_lights.empty()) warnings.add("no lights", fmt::format("{}: the scene has no light and will render black", source));
   light_set_ = LightSet(std::move(all_lights), bounds_);
@@ -397,6 +459,7 @@ void Scene::set_camera(const Camera& cam) {
   check_not_rendering("move the camera");
   if (const std::string bad = cam.check(); !bad.empty()) throw std::invalid_argument(fmt::format("{}: {}", source, bad));
   camera = cam;
+  build_shading_camera();
   ++generation_;
 }
 
@@ -426,7 +489,7 @@ void Scene::commit() {
 std::optional<SurfaceHit> Scene::intersect(const Ray& ray) const {
   RawHit raw;
   if (!accel_->intersect(ray, raw)) return std::nullopt;
-  return surface_hit(raw, ray.d);
+  return surface_hit(raw, ray);
 }
 
 std::optional<SurfacePoint> Scene::intersect_point(const Ray& ray) const {
@@ -448,7 +511,7 @@ void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceH
   }
   accel_->intersect_stream(rays, n, raw.data(), found.get(), true);
   for (size_t i = 0; i < n; ++i) {
-    if (found[i]) hits[i] = surface_hit(raw[i], rays[i].d);
+    if (found[i]) hits[i] = surface_hit(raw[i], rays[i]);
     else hits[i].reset();
   }
 }
@@ -502,7 +565,8 @@ std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, u
   return starts;
 }
 
-std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_dir) const {
+std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Ray& ray) const {
+  const Vec3& ray_dir = ray.d;
   const Mesh& m = meshes[raw.geom];
   const uint32_t i0 = m.indices[3 * raw.prim], i1 = m.indices[3 * raw.prim + 1], i2 = m.indices[3 * raw.prim + 2];
   const float b1 = raw.u, b2 = raw.v, b0 = 1.0f - b1 - b2;
@@ -524,6 +588,8 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
   }
   h.n_smooth = h.ns;
   h.wo = -ray_dir;
+  h.ray = ray.state;
+  h.ray.length = h.t;  // Cycles' sd->ray_length: the ray's (unit direction) distance to here
   if (const Material& mat = materials[h.material]; mat.perturbs_normal()) {
     // ---- Normal and bump maps: the shading normal of every method ----
     Vec3 dpdu, dpdv, v[3];
@@ -537,7 +603,7 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Vec3& ray_
       if (mat.normal_in) {
         // A Normal Map or Bump node's output from the material's graph (world space, facing
         // the viewer as Cycles' normals do; back on the geometric side below).
-        const Vec3 g = mat.graph->evaluate(shading_context(h, h.wo, h.n_smooth), mat.normal_in.source);
+        const Vec3 g = mat.graph->evaluate(shading_context(h), mat.normal_in.source);
         if (is_finite(g) && length_squared(g) > 0) n = normalize(g);
       }
       if (dot(n, h.ng) < 0) n = -n;  // stays on the geometric side
@@ -562,19 +628,29 @@ float Scene::pass_shutter_time(uint64_t seed, uint64_t pass) const {
   return Rng::for_key(seed, ~uint64_t{0}, pass).uniform();
 }
 
-Vec2 Scene::uv_at(int mesh, int prim, const Vec3& p) const {
+SurfacePoint Scene::point_at(int mesh, int prim, const Vec3& p) const {
   const Mesh& m = meshes[mesh];
-  const uint32_t i0 = m.indices[3 * prim];
+  const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
+  SurfacePoint sp;
+  sp.p = p;
+  sp.mesh = mesh;
+  sp.prim = prim;
+  sp.material = static_cast<int>(m.material_ids[prim]);
   Vec3 v[3];
-  triangle_at(mesh, prim, shutter_time(), v);
+  triangle_at(mesh, prim, shutter_time(), v);  // where the triangle is at the thread's time
   // Barycentrics of p's projection onto the triangle's plane.
   const Vec3 e1 = v[1] - v[0], e2 = v[2] - v[0], d = p - v[0];
+  sp.ng = normalize(cross(e1, e2));
   const float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), dp1 = dot(d, e1), dp2 = dot(d, e2);
   const float det = d11 * d22 - d12 * d12;
-  if (!(std::abs(det) > 0)) return m.uvs.empty() ? Vec2() : m.uvs[i0];
+  if (!(std::abs(det) > 0)) {
+    sp.uv = m.uvs.empty() ? Vec2() : m.uvs[i0];
+    return sp;
+  }
   const float b1 = (d22 * dp1 - d12 * dp2) / det, b2 = (d11 * dp2 - d12 * dp1) / det;
-  if (m.uvs.empty()) return Vec2(b1, b2);  // as intersect() without uvs
-  return m.uvs[i0] * (1 - b1 - b2) + m.uvs[m.indices[3 * prim + 1]] * b1 + m.uvs[m.indices[3 * prim + 2]] * b2;
+  sp.bary = Vec2(b1, b2);
+  sp.uv = m.uvs.empty() ? Vec2(b1, b2) : m.uvs[i0] * (1 - b1 - b2) + m.uvs[i1] * b1 + m.uvs[i2] * b2;  // as intersect()
+  return sp;
 }
 
 bool Scene::occluded(const Ray& ray) const { return accel_->occluded(ray); }

@@ -40,6 +40,9 @@ struct Mesh {
   std::vector<Vec2> uvs;               // optional per-vertex UVs
   std::vector<uint32_t> indices;       // 3 per triangle
   std::vector<uint32_t> material_ids;  // 1 per triangle, index into Scene::materials
+  // Named attributes (colour attributes, generic ones) for Color Attribute / Attribute nodes;
+  // shared by the copies of an instanced mesh. Null: none.
+  std::shared_ptr<const shading::MeshAttributes> attributes;
   size_t triangle_count() const { return indices.size() / 3; }
   // Object space and object-to-world matrix of a mesh given as arrays (null for meshes of scene
   // files, which cannot be moved by Scene::set_mesh_transform).
@@ -88,6 +91,7 @@ struct SurfaceHit : SurfacePoint {
   Frame frame;    // shading frame around ns
   int light = -1; // area light index of this triangle, or -1
   Vec3 wo;        // unit direction back along the ray that found it (node graphs' Incoming)
+  RayState ray;   // that ray's Light Path state (Ray::state), with the length it travelled
 };
 
 // Where a measurement point lies, for its material's node graph: the hit's texture coordinate
@@ -131,8 +135,13 @@ Vec3 offset_ray_origin(const Vec3& p, const Vec3& ng, const Vec3& w);
 // The ray a camera path sends on from a surface point p (geometric normal ng) along wi after a
 // BSDF sample of kind `lobe`, `in` the ray that arrived: a light object (`pass_through`) lets
 // `in` go on as it was (camera flag and kind kept); any other surface makes it a bounce ray of
-// the sampled kind, which surfaces hidden from that kind let through (Ray::bounce).
-Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, uint8_t lobe);
+// the sampled kind, which surfaces hidden from that kind let through (Ray::bounce). Its Light
+// Path state (Ray::state) follows Cycles: kept through a light object, advanced by the sample
+// otherwise.
+Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, bool pass_through, const BsdfSample& bs);
+// A ray's Light Path state after a BSDF sample of kind `lobe` (RayState::next; a smooth
+// transmission of relative IOR 1 is Cycles' transparent bounce).
+RayState next_ray_state(const RayState& in, uint8_t lobe, bool transmission, bool delta, float eta);
 
 class Scene {
  public:
@@ -232,6 +241,9 @@ class Scene {
   // True when some material has an interior medium or the World has one (set by finalize()
   // and commit()): the path tracers then track media; without, they run as before, bit for bit.
   bool has_media() const { return has_media_; }
+  // Whether a medium in use is heterogeneous (grid, OpenVDB): the photon methods leave media
+  // out then (SceneFeatures::grid_media says who renders them).
+  bool has_grid_media() const { return has_grid_media_; }
   // True when some mesh or the camera moves over the shutter (set by finalize() and commit()):
   // paths then carry a shutter time (Ray::time); without, none is drawn and images are as before.
   bool has_motion() const { return camera.motion_blur; }
@@ -260,7 +272,11 @@ class Scene {
   // What a material's node graph sees at a hit (Cycles' ShaderData): position, normals facing
   // the viewer, uv, tangents, its object (Texture Coordinate's Generated and Object, Object Info).
   shading::ShadingContext shading_context(const SurfacePoint& h, const Vec3& wo, const Vec3& n_smooth) const;
-  shading::ShadingContext shading_context(const SurfaceHit& h) const { return shading_context(h, h.wo, h.n_smooth); }
+  shading::ShadingContext shading_context(const SurfaceHit& h) const {
+    shading::ShadingContext c = shading_context(h, h.wo, h.n_smooth);
+    c.ray = h.ray;
+    return c;
+  }
   // Per mesh: its transform, object-space bounds and random number (finalize/commit).
   const std::vector<shading::ShadingObject>& shading_objects() const { return shading_objects_; }
   Bsdf bsdf(int material, Vec2 uv) const { return Bsdf(materials[material], uv); }
@@ -299,7 +315,15 @@ class Scene {
     return bsdf(params, h.material, h.uv, h.frame, h.ng, h.n_smooth);
   }
   // The texture coordinate at point p of a triangle (a vertex a manifold walk moved).
-  Vec2 uv_at(int mesh, int prim, const Vec3& p) const;
+  Vec2 uv_at(int mesh, int prim, const Vec3& p) const { return point_at(mesh, prim, p).uv; }
+  // Point p of a triangle as a hit there would give it (barycentrics of p's projection).
+  SurfacePoint point_at(int mesh, int prim, const Vec3& p) const;
+  // The BSDF at point p of a triangle seen from wo (world, unit) with shading normal ns: a
+  // vertex a manifold walk moved, its node graph seeing the whole point (position, object).
+  Bsdf bsdf_at(int mesh, int prim, const Vec3& p, const Vec3& wo, const Vec3& ns) const {
+    const SurfacePoint sp = point_at(mesh, prim, p);
+    return bsdf(sp.material, ShadePoint(sp), p, wo, Frame(ns), sp.ng, ns);
+  }
   // The raw accelerator, for benchmarks that measure Embree without shading.
   const Accelerator& accelerator() const { return *accel_; }
 
@@ -307,6 +331,10 @@ class Scene {
   std::unique_ptr<Accelerator> accel_;
   std::vector<shading::ShadingObject> shading_objects_;
   void build_shading_objects();
+  // From `camera` (finalize, commit, set_camera); on the heap, so the area lights' pointers to
+  // it (EmissionGraph::camera) survive the scene being moved.
+  std::unique_ptr<shading::ShadingCamera> shading_camera_ = std::make_unique<shading::ShadingCamera>();
+  void build_shading_camera();
   LightSet light_set_;
   Bounds3 bounds_;
   std::vector<std::vector<int32_t>> triangle_light_;  // per mesh, per triangle: light or -1
@@ -314,14 +342,14 @@ class Scene {
   uint64_t generation_ = 0;
   bool lights_hidden_from_some_lobes_ = false;
   bool surfaces_hidden_from_some_lobes_ = false;
-  bool has_media_ = false;
+  bool has_media_ = false, has_grid_media_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 
   void build_lights();  // validation, area lights, light set and bounds (finalize, commit)
   void check_mesh_motion(const Mesh& m, const std::string& where);
   // What shading needs of a hit (ray_dir: the normal map keeps the view side valid).
-  std::optional<SurfaceHit> surface_hit(const RawHit& raw, const Vec3& ray_dir) const;
+  std::optional<SurfaceHit> surface_hit(const RawHit& raw, const Ray& ray) const;
   void surface_point(const RawHit& raw, SurfacePoint& out) const;  // what both hits share
 };
 

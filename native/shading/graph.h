@@ -22,6 +22,7 @@
 
 #include "core/color.h"
 #include "core/math.h"
+#include "shading/attributes.h"
 #include "textures/texture.h"
 
 namespace gp::shading {
@@ -31,17 +32,37 @@ enum class SocketType : uint8_t { Float, Vector, Color };
 // What an object contributes to shading (Texture Coordinate's Generated and Object, Object
 // Info, Vector Transform): its transforms and object-space bounds (Blender's auto texture
 // space: Generated = (P_object - lo) / (hi - lo)).
+// The scene's camera as shading sees it (Texture Coordinate's Camera and Window, Vector
+// Transform's Camera space): Cycles' camera space (x right, y up, z towards the view: Blender's
+// camera matrix with z negated, blender/camera.cpp) and the projection onto the frame.
+struct ShadingCamera {
+  Transform world_to_camera, camera_to_world;  // Cycles' camera space
+  bool orthographic = false;
+  Vec2 ext{1.0f, 1.0f};       // half extents of the image plane (at distance 1, or in metres)
+  Vec2 shift{0.0f, 0.0f};     // Blender's shift, in the same units
+  Vec3 camera_position;
+  // Cycles' camera_world_to_ndc: (x, y) in [0, 1] over the frame from its bottom-left corner,
+  // z 0. A World point is a direction, taken from the camera (Cycles adds its position).
+  Vec3 window(const Vec3& p, bool direction) const {
+    const Vec3 c = direction ? world_to_camera.vector(p) : world_to_camera.point(p);
+    float sx = c.x, sy = c.y;
+    if (!orthographic) {
+      if (!(c.z != 0.0f)) return Vec3(0.0f);
+      sx /= c.z, sy /= c.z;
+    }
+    return Vec3(0.5f * ((sx - shift.x) / ext.x + 1.0f), 0.5f * ((sy - shift.y) / ext.y + 1.0f), 0.0f);
+  }
+};
+
 struct ShadingObject {
   Transform to_world, to_object;
   Bounds3 bounds;       // object space
   float random = 0.0f;  // Object Info's Random (Cycles: hash of the object's name)
+  // Color Attribute / Attribute: the mesh's named attributes and its triangles' vertex indices
+  // (null: none; valid while the scene's meshes are, as this object).
+  const MeshAttributes* attributes = nullptr;
+  const uint32_t* indices = nullptr;
   Vec3 location() const { return {to_world.m[0][3], to_world.m[1][3], to_world.m[2][3]}; }
-};
-
-// Light Path's ray kinds (kernel/svm/light_path.h outputs).
-enum PathFlags : uint16_t {
-  kPathCamera = 1, kPathShadow = 2, kPathDiffuse = 4, kPathGlossy = 8, kPathSingular = 16,
-  kPathReflection = 32, kPathTransmission = 64,
 };
 
 // One shading point, as Cycles' ShaderData: what the input nodes read. Unknown fields keep their
@@ -54,16 +75,17 @@ struct ShadingContext {
   Vec2 uv;           // the mesh's UV map (barycentrics without one)
   Vec2 bary;         // barycentric (u, v) of the hit in its triangle (Geometry's Parametric)
   Vec3 dPdu, dPdv;   // surface tangents along u and v (zero: unknown; bump picks a frame)
+  int prim = -1;     // the hit triangle in its object's mesh (attributes; -1: none)
   const ShadingObject* object = nullptr;
   // Where `object` is a moving object at the path's time (set_object_at), the copy it points to.
   std::shared_ptr<const ShadingObject> object_at_time;
-  const Transform* world_to_camera = nullptr;  // Texture Coordinate's Camera, Vector Transform
+  const ShadingCamera* camera = nullptr;  // Texture Coordinate's Camera and Window, Vector Transform
   bool backfacing = false;
   bool surface = true;
-  // Light Path: what the integrator knows of the ray that arrived here.
-  uint16_t ray_flags = kPathCamera | kPathReflection;
-  int ray_depth = 0, diffuse_depth = 0, glossy_depth = 0, transmission_depth = 0, transparent_depth = 0;
-  float ray_length = 0.0f;
+  // Light Path: what the integrator knows of the ray that arrived here (core/math.h RayState:
+  // Cycles' path flags and bounce counts). Default: no path's ray (flags 0, depth 0), as a
+  // light's emission evaluated for a light sample (Cycles' PATH_RAY_EMISSION).
+  RayState ray;
 
   // `object` placed by `to_world` instead of its frame transform (a moving object at a time).
   void set_object_at(const ShadingObject& o, const Transform& to_world) {

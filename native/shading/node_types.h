@@ -37,6 +37,7 @@ struct NodeData {
   bool extrapolate = true;
   std::shared_ptr<const TextureImage> image;
   float blend = 0.0f;           // Image's projection_blend
+  std::string name;             // Color Attribute's layer_name, Attribute's attribute_name
 };
 
 class PropReader {

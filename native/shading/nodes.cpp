@@ -284,8 +284,11 @@ void eval_tex_coord(EvalArgs& a) {  // svm/tex_coord.h
   if (a.used(1)) a.out(1, c.surface ? normal_object(c) : c.N);
   if (a.used(2)) a.out(2, Vec3(c.uv.x, c.uv.y, 0.0f));
   if (a.used(3)) a.out(3, c.surface ? object_point(c, c.P) : c.P);
-  if (a.used(4)) a.out(4, c.world_to_camera ? c.world_to_camera->point(c.P) : kZero);
-  if (a.used(5)) a.out(5, kZero);  // Window: needs the pixel, not known at a shading point
+  // Camera: the point (the World: its direction) in Cycles' camera space; Window: its place
+  // in the frame (svm/tex_coord.h, camera_world_to_ndc).
+  if (a.used(4))
+    a.out(4, !c.camera ? kZero : c.surface ? c.camera->world_to_camera.point(c.P) : c.camera->world_to_camera.vector(c.P));
+  if (a.used(5)) a.out(5, c.camera ? c.camera->window(c.P, !c.surface) : kZero);
   if (a.used(6)) a.out(6, c.surface ? c.N * (2.0f * dot(c.N, c.I)) - c.I : c.I);
 }
 void eval_uv_map(EvalArgs& a) { a.out(0, Vec3(a.ctx.uv.x, a.ctx.uv.y, 0.0f)); }
@@ -359,17 +362,73 @@ void eval_layer_weight(EvalArgs& a) {  // svm/fresnel.h svm_node_layer_weight
   }
 }
 void eval_light_path(EvalArgs& a) {  // svm/light_path.h
-  const ShadingContext& c = a.ctx;
-  for (int i = 0; i < 7; ++i) a.out(i, (c.ray_flags >> i) & 1 ? 1.0f : 0.0f);
-  a.out(7, c.ray_length);
-  a.out(8, static_cast<float>(c.ray_depth));
-  a.out(9, static_cast<float>(c.diffuse_depth));
-  a.out(10, static_cast<float>(c.glossy_depth));
-  a.out(11, static_cast<float>(c.transparent_depth));
-  a.out(12, static_cast<float>(c.transmission_depth));
+  const RayState& r = a.ctx.ray;
+  for (int i = 0; i < 7; ++i) a.out(i, (r.flags >> i) & 1 ? 1.0f : 0.0f);
+  a.out(7, r.length);
+  // Cycles: a light's emission evaluated for a light sample (or a shadow ray's shading) is one
+  // bounce further than the path's vertex; those contexts carry no path flags here (depth 0
+  // is kept: the vertex's depth is not known there).
+  a.out(8, static_cast<float>(r.depth));
+  a.out(9, static_cast<float>(r.diffuse));
+  a.out(10, static_cast<float>(r.glossy));
+  a.out(11, static_cast<float>(r.transparent));
+  a.out(12, static_cast<float>(r.transmission));
 }
 void parse_value(const PropReader& r, NodeProps& p);
 void eval_value(EvalArgs& a) { a.out(0, a.v(0)); }
+
+// The named mesh attribute at the shading point (components 0: not found). An empty name with
+// `render_color` is the mesh's render colour attribute (Cycles' ATTR_STD_VERTEX_COLOR).
+AttributeValue attribute_at(const ShadingContext& c, const std::string& name, bool render_color) {
+  if (!c.object || !c.object->attributes || c.prim < 0 || !c.surface) return {};
+  const MeshAttributes& attrs = *c.object->attributes;
+  const MeshAttribute* a = nullptr;
+  if (name.empty() && render_color) {
+    if (attrs.default_color >= 0) a = &attrs.list[attrs.default_color];
+  } else {
+    a = attrs.find(name);
+  }
+  if (!a) return {};
+  return interpolate_attribute(*a, c.prim, c.object->indices + 3 * static_cast<size_t>(c.prim), c.bary);
+}
+void parse_color_attribute(const PropReader& r, NodeProps& p) {
+  auto d = std::make_shared<NodeData>();
+  d->name = r.string("layer_name", "");
+  p.data = d;
+}
+void eval_color_attribute(EvalArgs& a) {  // svm/vertex_color.h
+  const AttributeValue v = attribute_at(a.ctx, a.op.props.data->name, true);
+  if (v.components == 0) {  // not found: black, alpha 0
+    a.out(0, kZero);
+    a.out(1, 0.0f);
+    return;
+  }
+  a.out(0, Vec3(v.v[0], v.v[1], v.v[2]));
+  a.out(1, v.components == 4 ? v.v[3] : 1.0f);
+}
+void parse_attribute(const PropReader& r, NodeProps& p) {
+  auto d = std::make_shared<NodeData>();
+  d->name = r.string("attribute_name", "");
+  p.mode = r.choice("attribute_type", {"GEOMETRY", "OBJECT", "INSTANCER", "VIEW_LAYER"}, 0);
+  if (p.mode != 0)
+    r.warn(fmt::format("Attribute type '{}' is not supported (reads as a missing attribute)",
+                       r.string("attribute_type", "")));
+  p.data = d;
+}
+void eval_attribute(EvalArgs& a) {  // svm/attribute.h svm_node_attr
+  AttributeValue v;
+  if (a.op.props.mode == 0) v = attribute_at(a.ctx, a.op.props.data->name, false);
+  // Cycles: a float reads (f, f, f); a float2 (x, y, 0) with Fac x; wider ones their first
+  // three with Fac their average; Alpha is a float4's w, else 1 (a missing one: 0, 0, 1).
+  Vec3 col(v.v[0], v.v[1], v.v[2]);
+  float fac = (v.v[0] + v.v[1] + v.v[2]) * (1.0f / 3.0f);
+  if (v.components == 1) col = Vec3(v.v[0]), fac = v.v[0];
+  else if (v.components == 2) fac = v.v[0];
+  a.out(0, col);
+  a.out(1, col);
+  a.out(2, fac);
+  a.out(3, v.components == 4 ? v.v[3] : 1.0f);
+}
 
 // ---- Textures ----
 
@@ -1214,17 +1273,8 @@ void eval_combine_color(EvalArgs& a) {
 // Rec.709, normalised to luminance 1 as Cycles 3.4's svm_node_blackbody, which reads a fitted
 // table of the same curve: within 0.02 of Cycles (tests/native/shading_procedural_test.cpp).
 void eval_blackbody(EvalArgs& a) {
-  const double T = std::max(a.f(0), 800.0f);
-  Vec3 xyz(0.0f);
-  for (float l = 380.0f; l <= 780.0f; l += 5.0f) {
-    const double lm = l * 1e-9;
-    const double b = 1.0 / (std::pow(lm, 5.0) * (std::exp(0.0143877735 / (lm * T)) - 1.0));
-    xyz = xyz + cie_xyz_bar(l) * static_cast<float>(b * 1e-20);
-  }
-  Vec3 c = xyz_to_rec709(xyz);
-  const float y = luminance(c);
-  c = y > 0.0f ? c / y : Vec3(1.0f);
-  a.out(0, c);
+  const RGB c = blackbody_rec709(a.f(0));
+  a.out(0, Vec3(c.r, c.g, c.b));
 }
 // Wavelength: the CIE colour of a wavelength in Rec.709 scaled by 1 / 2.52 and clipped at zero,
 // as svm/wavelength.h (there from a 5 nm table between 380 and 780 nm, black outside).
@@ -1374,8 +1424,10 @@ void eval_vector_transform(EvalArgs& a) {  // svm/vector_transform.h
   };
   // To world first, then to the target.
   if (a.op.props.mode2 == 1 && c.object) v = apply(c.object->to_world, true, &c.object->to_object);
+  if (a.op.props.mode2 == 2 && c.camera) v = apply(c.camera->camera_to_world, true, &c.camera->world_to_camera);
   if (a.op.props.mode3 == 1 && c.object) v = apply(c.object->to_object, true, &c.object->to_world);
-  if (a.op.props.mode3 == 2 && c.world_to_camera) v = type == 0 ? c.world_to_camera->point(v) : c.world_to_camera->vector(v);
+  if (a.op.props.mode3 == 2 && c.camera)
+    v = type == 0 ? c.camera->world_to_camera.point(v) : c.camera->world_to_camera.vector(v);
   a.out(0, v);
 }
 
@@ -1399,6 +1451,10 @@ std::vector<NodeType> make_types() {
   add({"ShaderNodeTexCoord", {}, {out_v("Generated"), out_v("Normal"), out_v("UV"), out_v("Object"), out_v("Camera"),
                                    out_v("Window"), out_v("Reflection")}, nullptr, eval_tex_coord, true});
   add({"ShaderNodeUVMap", {}, {out_v("UV")}, nullptr, eval_uv_map, true});
+  add({"ShaderNodeVertexColor", {}, {out_c("Color"), out_f("Alpha")}, parse_color_attribute, eval_color_attribute,
+       true});
+  add({"ShaderNodeAttribute", {}, {out_c("Color"), out_v("Vector"), out_f("Fac"), out_f("Alpha")}, parse_attribute,
+       eval_attribute, true});
   add({"ShaderNodeNewGeometry", {}, {out_v("Position"), out_v("Normal"), out_v("Tangent"), out_v("True Normal"),
                                       out_v("Incoming"), out_v("Parametric"), out_f("Backfacing"), out_f("Pointiness"),
                                       out_f("Random Per Island")}, nullptr, eval_geometry, true});

@@ -329,13 +329,13 @@ def test_normal_map_and_bump_are_normal_links(empty_scene, out_dir):
 
 def test_unsupported_node_is_one_warning_naming_material_and_node(empty_scene):
     m, nt, out = node_material("Ground")
-    attr = nt.nodes.new("ShaderNodeAttribute")  # vertex attributes: not in the core
+    attr = nt.nodes.new("ShaderNodeWireframe")  # not in the core
     assert attr.bl_idname not in export_nodes.SUPPORTED
-    diffuse_from(nt, out, attr.outputs["Color"])
+    diffuse_from(nt, out, attr.outputs["Fac"])
     d, _, warnings, _ = export_material(m)
     assert d["color"] == pytest.approx([0.8, 0.8, 0.8]) and "nodes" not in d
     assert warnings == ["node not supported (the input it feeds keeps its own value): "
-                        "'Ground': Attribute (Diffuse BSDF Color uses 0.8 grey)"], warnings
+                        "'Ground': Wireframe (Diffuse BSDF Color uses 0.8 grey)"], warnings
     toon = nt.nodes.new("ShaderNodeBsdfToon")
     nt.links.new(toon.outputs[0], out.inputs["Surface"])
     d, _, warnings, _ = export_material(m)

@@ -104,7 +104,7 @@ TEST(HenyeyGreenstein, SamplingMatchesDensityChi2) {
   std::vector<MediumChannels> table = {rgb_channels(a), rgb_channels(b)};
   MediumStack stack(0);
   stack.cross(7, 1, true);
-  const MediumSegment seg(stack, 3, [&](int m) -> const MediumChannels& { return table[m]; });
+  const MediumSegment seg(stack, Ray(), 3, [&](int m) -> const MediumChannels& { return table[m]; });
   const Chi2Result r = phase_chi2([&](float ul, Vec2 u) { return seg.sample_phase(kTravel, ul, u); },
                                   [&](const Vec3& w) { return seg.phase_pdf(dot(kTravel, w)); }, seed++);
   EXPECT_GT(r.p_value, alpha) << "mixture chi2 " << r.statistic << " dof " << r.dof;
@@ -127,7 +127,7 @@ TEST(MediumSegment, FreeFlightWeightsAreUnbiasedPerChannel) {
   m.sigma_s = RGB(0.5f, 1.5f, 0.0f);
   const std::vector<MediumChannels> table = {rgb_channels(m)};
   for (const ChannelValues& weights : {ChannelValues{}, ChannelValues{0.2f, 1.0f, 3.0f}}) {
-    MediumSegment seg(MediumStack(0), 3, [&](int i) -> const MediumChannels& { return table[i]; });
+    MediumSegment seg(MediumStack(0), Ray(), 3, [&](int i) -> const MediumChannels& { return table[i]; });
     seg.set_channel_weights(weights);
     const float t_end = 1.3f;
     double pass[3] = {0, 0, 0}, scat[3] = {0, 0, 0};
@@ -150,7 +150,7 @@ TEST(MediumSegment, FreeFlightWeightsAreUnbiasedPerChannel) {
   Medium ink;
   ink.sigma_a = RGB(0.5f, 1.0f, 2.0f);
   const std::vector<MediumChannels> ink_table = {rgb_channels(ink)};
-  const MediumSegment seg(MediumStack(0), 3, [&](int i) -> const MediumChannels& { return ink_table[i]; });
+  const MediumSegment seg(MediumStack(0), Ray(), 3, [&](int i) -> const MediumChannels& { return ink_table[i]; });
   EXPECT_EQ(seg.sample_distance(0.5f, 0.999f), kInfinity);
   EXPECT_FLOAT_EQ(seg.pass_weight(2.0f)[2], std::exp(-4.0f));
 }
@@ -296,7 +296,11 @@ TEST(MediaMethods, MethodsWithoutMediaSayItOnceNamingThemselves) {
     Params p;
     p.set("seed", 1);
     RenderSession session(scene, m.name, p);
-    if (m.supports.media) {
+    if (m.supports.media && m.error_estimate) {  // ppm, sppm: media rendered, no error estimate
+      ASSERT_EQ(session.feature_report().size(), 1u) << m.name;
+      EXPECT_NE(session.feature_report()[0].find("method '" + m.name + "' estimates no error with participating media"),
+                std::string::npos);
+    } else if (m.supports.media) {
       EXPECT_TRUE(session.feature_report().empty()) << m.name;
     } else {
       ASSERT_EQ(session.feature_report().size(), 1u) << m.name;
@@ -306,7 +310,10 @@ TEST(MediaMethods, MethodsWithoutMediaSayItOnceNamingThemselves) {
   }
   EXPECT_TRUE(find_method("pt").supports.media);
   EXPECT_TRUE(find_method("spt-hero").supports.media);
-  EXPECT_FALSE(find_method("sppm").supports.media);
+  EXPECT_TRUE(find_method("sppm").supports.media);  // photon methods in media: media_photon_test.cpp
+  EXPECT_TRUE(find_method("ppm").supports.media);
+  EXPECT_FALSE(find_method("gpm").supports.media);
+  EXPECT_FALSE(find_method("msppm").supports.media);
 }
 
 }  // namespace

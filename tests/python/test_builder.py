@@ -109,3 +109,24 @@ def test_read_exr_round_trip(tmp_path):
     s.write_exr(path)
     back = _native.read_exr(path)
     np.testing.assert_array_equal(back["combined"], s.develop()["combined"])
+
+
+def test_mesh_attributes_from_arrays_and_their_errors():
+    """add_mesh's attributes (Color Attribute / Attribute nodes): (name, domain, float32 array),
+    the render colour named by default_color; sizes are checked when the scene is finalized,
+    naming the object and the attribute."""
+    p, i = quad()
+    b = builder()
+    b.add_mesh("floor", p, i, ["white"], attributes=[
+        ("Col", "corner", np.ones((6, 4), np.float32)),
+        ("height", "point", np.linspace(0, 1, 4, dtype=np.float32)),
+        ("tint", "face", np.zeros((2, 3), np.float32))], default_color="Col")
+    assert b.finalize().triangle_count == 2
+    b = builder()
+    b.add_mesh("floor", p, i, ["white"], attributes=[("Col", "corner", np.ones((5, 4), np.float32))])
+    with pytest.raises(_native.SceneError, match="'floor'.*attribute 'Col': 20 values for 6 corner"):
+        b.finalize()
+    with pytest.raises(ValueError, match="unknown domain 'edge'"):
+        builder().add_mesh("floor", p, i, ["white"], attributes=[("x", "edge", np.ones(4, np.float32))])
+    with pytest.raises(TypeError, match="float32"):
+        builder().add_mesh("floor", p, i, ["white"], attributes=[("x", "point", np.ones(4))])

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from . import camera, light, material, mesh, motion, skipped, visibility, world
+from . import camera, light, material, mesh, motion, skipped, visibility, volume_object, world
 from .warnings import Warnings
 
 __all__ = ["ExportedScene", "export_scene", "scene_frame_set", "Warnings"]
@@ -56,7 +56,7 @@ class ExportedScene:
                 extra["motion_positions"] = m.motion_positions
             b.add_mesh(m.name, m.positions, m.indices, m.materials, material_ids=m.material_ids,
                        normals=m.normals, uvs=m.uvs, matrices=np.stack(m.matrices), instance_names=m.instance_names,
-                       **extra)
+                       attributes=m.attributes, default_color=m.default_color, **extra)
         return b.finalize()
 
     def to_json(self):
@@ -77,6 +77,8 @@ class ExportedScene:
                     o["normals"] = m.normals.tolist()
                 if m.uvs is not None:
                     o["uvs"] = m.uvs.tolist()
+                if m.attributes:
+                    o["attributes"] = {n: {"domain": d, "values": v.tolist()} for n, d, v in m.attributes}
                 if m.material_ids is None or len(m.materials) == 1:
                     o["material"] = m.materials[0]
                 else:
@@ -122,6 +124,8 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
             # Cycles 3.4 does not blur lights: they move only when Blur Moving Lights asks.
             if sampler is not None and added is not None and getattr(getattr(scene, "gradphoton", None), "motion_blur_lights", False):
                 sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32), added)
+        elif kind == 'VOLUME':
+            volume_object.add_volume_object(out, inst, mats, media, w)
         # cameras, empties, armatures: nothing to render
     if mesh_cache is not None:
         mesh_cache.keep_only(meshes.keys())

@@ -90,10 +90,15 @@ class MaterialExporter:
         self.media = media if media is not None else {}  # name -> scene-format medium (Volume outputs)
         self.w = warnings
         self._textured = set()  # exported materials that read UVs (their meshes need them)
+        self._attributes = {}   # material name -> attribute names its nodes read ("" = render colour)
 
     def needs_uvs(self, mat):
         """True when Blender material `mat` reads the UV map (its meshes must export UVs)."""
         return mat is not None and mat.name in self._textured
+
+    def attributes_read(self, mat):
+        """Names of the mesh attributes Blender material `mat` reads ("" is the render colour)."""
+        return self._attributes.get(mat.name, frozenset()) if mat is not None else frozenset()
 
     def name_for(self, mat, flags=None):
         """The core's material name for a Blender material (None: the default grey), with an
@@ -162,6 +167,7 @@ class MaterialExporter:
             if nodes:
                 part["nodes"] = nodes
                 uv = uv or self.g.reads_uv(nodes)
+                self._attributes[mat.name] = self._attributes.get(mat.name, frozenset()) | self.g.attributes_read(nodes)
         if uv:
             self._textured.add(mat.name)
         return d
@@ -223,14 +229,19 @@ class MaterialExporter:
                 sigma = node.inputs["Sigma"].default_value
             return self._with_normal({"type": "velvet", "color": self._in(node, path, "Color"),
                                       "sigma": min(1.0, max(0.0, sigma))}, node, path)
+        glossy = kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic')
+        # The core's conductor has GGX, Beckmann and Ashikhmin-Shirley (material.h Microfacet).
+        own = {'BECKMANN': "beckmann", 'ASHIKHMIN_SHIRLEY': "ashikhmin_shirley"} if glossy else {}
         if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic', 'ShaderNodeBsdfGlass',
-                    'ShaderNodeBsdfRefraction') and node.distribution not in ('GGX', 'SHARP'):
+                    'ShaderNodeBsdfRefraction') and node.distribution not in {'GGX', 'SHARP'} | set(own):
             self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {self._nid(node, path)} ({node.distribution})")
-        if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic'):
+        if glossy:
             # Cycles' Glossy BSDF: the colour at every angle (no Fresnel).
-            return self._with_normal({"type": "conductor", "color": self._in(node, path, "Color"),
-                                      "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
-                                      "fresnel": False}, node, path)
+            d = {"type": "conductor", "color": self._in(node, path, "Color"),
+                 "roughness": self._square(self._num(node, path, "Roughness"), "alpha"), "fresnel": False}
+            if node.distribution in own:
+                d["distribution"] = own[node.distribution]
+            return self._with_normal(d, node, path)
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
             # Refraction BSDF: glass's refraction lobe alone, without Fresnel (the core's "refraction").
             return self._with_normal({"type": "dielectric" if kind == 'ShaderNodeBsdfGlass' else "refraction",

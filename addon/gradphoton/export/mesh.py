@@ -17,6 +17,11 @@ import numpy as np
 from . import visibility
 
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT'}
+# Attribute data types Cycles 3.4 renders (blender/mesh.cpp, attr_create_generic), by the
+# foreach_get key and component count; byte colours read through `color` arrive scene-linear, as
+# Cycles converts them (sRGB to linear per corner, before interpolation).
+_ATTRIBUTE_READ = {'FLOAT': ("value", 1), 'FLOAT2': ("vector", 2), 'FLOAT_VECTOR': ("vector", 3),
+                   'FLOAT_COLOR': ("color", 4), 'BYTE_COLOR': ("color", 4)}
 
 
 class MeshRecord:
@@ -24,6 +29,8 @@ class MeshRecord:
         self.name = name
         self.geometry_id = None  # the arrays' identity (sync.py): same id, same arrays
         self.positions = self.indices = self.normals = self.uvs = self.material_ids = None
+        self.attributes = None      # [(name, 'corner' | 'face', float32 array)] or None
+        self.default_color = None   # the render colour attribute's name
         self.materials = []
         self.matrices = []
         self.instance_names = []
@@ -89,11 +96,61 @@ def mesh_arrays(me, export_uvs=False):
     return co.reshape(nv, 3)[loop_vert], idx.reshape(nt, 3), normals.reshape(nl, 3), uvs, mat
 
 
+def mesh_attributes(me, names, warnings, owner):
+    """The attributes a material reads by name (Color Attribute / Attribute nodes; "" is the
+    render colour attribute), as [(name, domain, float32 (K,) or (K, c))] over the loop
+    triangles: point and corner data per triangle corner (exact: both interpolate linearly over
+    a triangle), face data per triangle; UV maps by name as float2 corner data. Also returns the
+    render colour's name. Call after mesh_arrays (loop triangles computed)."""
+    tris = me.loop_triangles
+    nt = len(tris)
+    default = me.attributes.default_color_name or None
+    wanted = {default if n == "" else n for n in names} - {None}
+    out = []
+    tri_loops = polys = loop_vert = None
+    for name in sorted(wanted):
+        a = me.attributes.get(name)
+        if a is None:
+            if name in me.uv_layers:  # 3.4 keeps UV maps outside the generic attributes
+                uv = np.empty(len(me.loops) * 2, np.float32)
+                me.uv_layers[name].data.foreach_get("uv", uv)
+                if tri_loops is None:
+                    tri_loops = np.empty(nt * 3, np.uint32)
+                    tris.foreach_get("loops", tri_loops)
+                out.append((name, "corner", np.ascontiguousarray(uv.reshape(-1, 2)[tri_loops])))
+            continue  # missing: the nodes read Cycles' missing-attribute values
+        read = _ATTRIBUTE_READ.get(a.data_type)
+        if read is None or a.domain not in ('POINT', 'CORNER', 'FACE'):
+            warnings.add(f"attribute '{name}' of type {a.data_type} on {a.domain} is not rendered", owner)
+            continue
+        key, c = read
+        values = np.empty(len(a.data) * c, np.float32)
+        a.data.foreach_get(key, values)
+        values = values.reshape(-1, c) if c > 1 else values
+        if a.domain == 'FACE':
+            if polys is None:
+                polys = np.empty(nt, np.uint32)
+                tris.foreach_get("polygon_index", polys)
+            out.append((name, "face", np.ascontiguousarray(values[polys])))
+            continue
+        if tri_loops is None:
+            tri_loops = np.empty(nt * 3, np.uint32)
+            tris.foreach_get("loops", tri_loops)
+        if a.domain == 'POINT':
+            if loop_vert is None:
+                loop_vert = np.empty(len(me.loops), np.uint32)
+                me.loops.foreach_get("vertex_index", loop_vert)
+            values = values[loop_vert]
+        out.append((name, "corner", np.ascontiguousarray(values[tri_loops])))
+    return out, default
+
+
 class MeshCache:
     """Arrays of exported meshes by record key, and which objects used each key."""
 
     def __init__(self):
         self.arrays = {}     # key -> (geometry_id, positions, indices, normals, uvs, material_ids, triangle_count)
+        self.attributes = {}  # key -> (attributes, default_color) (MeshRecord's)
         self.users = {}      # object name -> keys it used
         self._next_id = 0
         self.hits = self.misses = 0  # of the latest export (tests, benchmarks)
@@ -107,11 +164,13 @@ class MeshCache:
         for name in object_names:
             for key in self.users.pop(name, ()):
                 self.arrays.pop(key, None)
+                self.attributes.pop(key, None)
 
     def keep_only(self, keys):
         """Forgets arrays no record of the latest export used."""
         for key in set(self.arrays) - set(keys):
             del self.arrays[key]
+            self.attributes.pop(key, None)
         self.users = {n: k & set(keys) for n, k in self.users.items() if k & set(keys)}
 
 
@@ -131,8 +190,9 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, motion=N
     flags = visibility.surface_flags(ob, warnings, visibility.is_held_out(inst, view_layer))
     names = [mats.name_for(m, flags) for m in slots] or [mats.name_for(None, flags)]
     needs_uvs = export_uvs or any(mats.needs_uvs(m) for m in slots)
+    attr_names = frozenset().union(*(mats.attributes_read(m) for m in slots))
     data_key = ob.data.as_pointer() if (ob.type == 'MESH' and ob.data is not None) else ob.as_pointer()
-    key = (data_key, tuple(names))
+    key = (data_key, tuple(names), tuple(sorted(attr_names)))
     rec = records.get(key)
     if cache is not None:
         cache.users.setdefault(ob.name, set()).add(key)
@@ -140,6 +200,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, motion=N
         rec = MeshRecord(ob.name)
         (rec.geometry_id, rec.positions, rec.indices, rec.normals, rec.uvs, rec.material_ids,
          rec.triangle_count) = cache.arrays[key]
+        rec.attributes, rec.default_color = cache.attributes.get(key, (None, None))
         rec.materials = names
         rec.needs_uvs = needs_uvs
         records[key] = rec
@@ -157,6 +218,8 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, motion=N
                     warnings.add("textured object without a UV map (textures read at uv 0)", ob.name)
                 rec.positions, rec.indices, rec.normals, rec.uvs = pos, idx, nrm, uvs
                 rec.triangle_count = len(idx)
+                if attr_names:
+                    rec.attributes, rec.default_color = mesh_attributes(me, attr_names, warnings, ob.name)
                 if len(names) > 1:
                     np.minimum(mat, len(names) - 1, out=mat)  # Blender clamps slot indices too
                     rec.material_ids = mat
@@ -170,6 +233,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, motion=N
             rec.geometry_id = cache.new_id()
             cache.arrays[key] = (rec.geometry_id, rec.positions, rec.indices, rec.normals, rec.uvs, rec.material_ids,
                                  rec.triangle_count)
+            cache.attributes[key] = (rec.attributes, rec.default_color)
             cache.misses += 1
     rec.matrices.append(matrix)
     n = len(rec.matrices)

@@ -42,7 +42,8 @@ SUPPORTED = frozenset({
     "ShaderNodeBlackbody", "ShaderNodeWavelength", "ShaderNodeFloatCurve", "ShaderNodeVectorCurve",
     # input
     "ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeNewGeometry", "ShaderNodeObjectInfo",
-    "ShaderNodeFresnel", "ShaderNodeLayerWeight", "ShaderNodeLightPath",
+    "ShaderNodeFresnel", "ShaderNodeLayerWeight", "ShaderNodeLightPath", "ShaderNodeVertexColor",
+    "ShaderNodeAttribute",
     # vector
     "ShaderNodeMapping", "ShaderNodeNormalMap", "ShaderNodeBump", "ShaderNodeVectorTransform",
 })
@@ -404,6 +405,20 @@ class NodeGraph:
 
     def reads_uv(self, table):
         return any(n["type"] in READS_UV for n in table.values())
+
+    @staticmethod
+    def attributes_read(table):
+        """Names of the mesh attributes the table's Color Attribute / Attribute (Geometry) nodes
+        read: the meshes export them. "" is the render colour attribute."""
+        out = set()
+        for n in table.values():
+            props = n.get("props", {})
+            if n["type"] == "ShaderNodeVertexColor":
+                out.add(props.get("layer_name", ""))
+            elif n["type"] == "ShaderNodeAttribute" and props.get("attribute_type", "GEOMETRY") == "GEOMETRY":
+                if props.get("attribute_name"):
+                    out.add(props["attribute_name"])
+        return frozenset(out)
 
 
 def _links_in(d):

@@ -10,9 +10,14 @@
   - Add Shader sums, Mix Shader weighs each side by (1 - Fac) and Fac (Cycles multiplies the
     density by the mix weight); Emission (a volume's emission closure) adds Strength x Color.
 Overlapping lobes of different anisotropy become one whose g is their scattering-weighted
-mean (a counted warning). Blackbody emission, attributes (Density / Color / Temperature
-Attribute of a Volume object's grids: the next landing) and linked inputs are warnings, the
-socket's own value used. Negative densities are 0, as in Cycles.
+mean (a counted warning). Linked inputs are warnings, the socket's own value used. Negative
+densities are 0, as in Cycles.
+
+On a Volume object (export/volume_object.py) Principled Volume's Density / Color / Temperature
+Attributes name grids of its OpenVDB file: the medium gets a "grid" (docs/scene-format.md) with
+the node's own values, and its blackbody emission is rendered (per point, from the temperature
+grid or the Temperature socket). On a mesh the attributes find nothing (as in Cycles: a mesh's
+volume is homogeneous), and blackbody emission is a warning.
 """
 import math
 
@@ -31,6 +36,7 @@ class _Medium:
         self.emission = [0.0, 0.0, 0.0]
         self.g_weighted = 0.0  # sum of g x mean sigma_s over the lobes
         self.lobes = []        # g of each scattering lobe
+        self.principled = []   # each Principled Volume's values (what a grid medium needs)
 
     def add_scatter(self, sigma_s, g):
         for k in range(3):
@@ -63,17 +69,28 @@ def volume_socket(tree, output_type):
     return out.inputs["Volume"]
 
 
-def export_volume(socket, owner, warnings, keep_empty=False):
+def export_volume(socket, owner, warnings, keep_empty=False, grids=None):
     """The scene-format medium of what feeds `socket` (a Volume input), or None when it adds
     nothing (unless keep_empty: a volume-only material's boundary stays one, as in Cycles).
-    `owner` names the material or world in warnings ("material 'Smoke'")."""
+    `owner` names the material or world in warnings ("material 'Smoke'"). `grids`: on a Volume
+    object, {"file": path, "names": the file's grid names} (the Principled Volume's attributes
+    look them up); None elsewhere."""
     node, _ = _from(socket)
     m = _Medium()
     if node is not None:
         _add(node, 1.0, m, owner, warnings, 0)
+    elif grids is not None:
+        _default_volume(m)
     if len(set(m.lobes)) > 1:
         warnings.add("volume lobes of different anisotropy merged into one", owner)
     d = m.as_dict()
+    grid = _grid_of(m, grids, owner, warnings)
+    if grid is not None:
+        d["grid"] = grid
+        return d
+    for p in m.principled:
+        if p["blackbody_intensity"] > 0:
+            warnings.add("volume blackbody emission not rendered", f"{owner}: {p['node']}")
     if not any(d["sigma_a"]) and not any(d["sigma_s"]) and "emission" not in d and not keep_empty:
         return None
     return d
@@ -153,5 +170,51 @@ def _principled(node, weight, m, owner, warnings):
         e = _color(node, "Emission Color", owner, warnings)
         for k in range(3):
             m.emission[k] += max(0.0, strength * e[k])
-    if float(_value(node, "Blackbody Intensity", owner, warnings)) > 0:
-        warnings.add("volume blackbody emission not rendered", f"{owner}: {node.name}")
+    m.principled.append({
+        "node": node.name, "density": density, "color": c, "absorption_color": absorption,
+        "blackbody_intensity": min(1.0, max(0.0, float(_value(node, "Blackbody Intensity", owner, warnings)))),
+        "blackbody_tint": _color(node, "Blackbody Tint", owner, warnings),
+        "temperature": max(0.0, float(_value(node, "Temperature", owner, warnings))),
+        "attributes": {key: node.inputs[socket].default_value for key, socket in _ATTRIBUTES}})
+
+
+# Principled Volume's attribute sockets -> the scene format's grid keys.
+_ATTRIBUTES = (("density_grid", "Density Attribute"), ("color_grid", "Color Attribute"),
+               ("temperature_grid", "Temperature Attribute"))
+
+
+def _default_volume(m):
+    """Cycles' default volume shader (a Volume object without a material): Principled Volume
+    with its defaults, reading the "density" grid."""
+    c = [0.5, 0.5, 0.5]
+    m.add_scatter([x for x in c], 0.0)
+    for k in range(3):
+        m.sigma_a[k] += 0.5
+    m.principled.append({
+        "node": "default volume", "density": 1.0, "color": c, "absorption_color": [0.0, 0.0, 0.0],
+        "blackbody_intensity": 0.0, "blackbody_tint": [1.0, 1.0, 1.0], "temperature": 1000.0,
+        "attributes": {"density_grid": "density", "color_grid": "", "temperature_grid": "temperature"}})
+
+
+def _grid_of(m, grids, owner, warnings):
+    """The scene format's "grid" of a Volume object's medium: the grids its Principled Volume's
+    attributes name that the file has (None: none, the medium is homogeneous as in Cycles)."""
+    if grids is None or not m.principled:
+        return None
+    if len(m.principled) > 1:
+        warnings.add("several Principled Volumes on a Volume object: the first one's attributes used", owner)
+    p = m.principled[0]
+    g = {"file": grids["file"]}
+    for key, name in p["attributes"].items():
+        if name and name in grids["names"]:
+            g[key] = name
+    if len(g) == 1:
+        if p["blackbody_intensity"] > 0:
+            return None  # (warned by the caller: no grid to carry it)
+        return None
+    g.update({"density": p["density"], "color": p["color"], "absorption_color": p["absorption_color"],
+              "blackbody_intensity": p["blackbody_intensity"], "blackbody_tint": p["blackbody_tint"],
+              "temperature": p["temperature"]})
+    if "transform" in grids:
+        g["transform"] = grids["transform"]
+    return g

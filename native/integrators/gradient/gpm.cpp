@@ -161,6 +161,7 @@ struct OffsetWalk : EyePathHooks {
       oray[d] = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
       oray[d].camera = next.camera;  // the base's kind of ray: the offset sees what it sees
       oray[d].bounce = next.bounce;
+      oray[d].state = next.state;
       ++rays;
       ohit[d] = scene.intersect(oray[d]);
     }

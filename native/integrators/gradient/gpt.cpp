@@ -137,7 +137,7 @@ struct PathPair {
       if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
       c = split_hit(lights.environment(), Le, lights.pdf_environment(ray.d), nullptr).value_or(beta * Le * w_base);
     } else if (hit->light >= 0) {
-      const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p);
+      const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p, &hit->ray);
       const float pdf_light = depth == 0 ? 0.0f : lights.pdf_area(hit->light, prev_p, hit->p, ray.d);
       if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, pdf_light);
       c = split_hit(hit->light, Le, pdf_light, nullptr).value_or(beta * Le * w_base);
@@ -261,6 +261,9 @@ struct PathPair {
     Ray next_ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
     // Its kind: the lobe sampled, or across a light object (a pass-through surface) the kind it had.
     next_ray.bounce = scene_.material(hit->material).is_pass_through() ? ray.bounce : bs->lobe;
+    next_ray.state = scene_.material(hit->material).is_pass_through()
+                         ? ray.state
+                         : next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     if (split_lobes) {
       prev.beta = beta;
       prev.lobe = bs->lobe;
@@ -327,6 +330,7 @@ struct PathPair {
           wi_o = wi_world;
           o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_o), wi_o);
           o.ray.bounce = next_ray.bounce;
+          o.ray.state = next_ray.state;
           ++rays.closest;
           const auto oh = scene_.intersect(o.ray);
           if (oh) {
@@ -358,6 +362,7 @@ struct PathPair {
       const Vec3 wi_w = ov.frame.to_world(ss.wi);
       o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
       o.ray.bounce = next_ray.bounce;
+      o.ray.state = next_ray.state;
       ++rays.closest;
       o.hit = scene_.intersect(o.ray);
     }

@@ -74,16 +74,17 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     first = nullptr;  // only the camera ray's hit is given
 
     // ---- Participating media along the ray: emission integrated exactly, a free-flight
-    // distance sampled against the channels' mean density (MediumSegment) ----
+    // distance sampled against the channels' mean density (MediumSegment; grid media: by
+    // ratio and delta tracking) ----
     std::optional<MediumSegment> segment;
     float t_scatter = kInfinity;
     if (media && !stack.empty()) {
-      segment.emplace(stack, path.channels(), [&](int m) -> const MediumChannels& { return path.medium_channels(m); });
+      segment.emplace(stack, ray, path.channels(), [&](int m) -> const MediumChannels& { return path.medium_channels(m); });
       const float t_end = hit ? hit->t : kInfinity;
       path.medium_emission(depth, segment->emission_integral(t_end));
       segment->set_channel_weights(path.channel_weights());
       const float u_channel = rng.uniform(), u_distance = rng.uniform();
-      t_scatter = segment->sample_distance(u_channel, u_distance);
+      t_scatter = segment->sample_distance(u_channel, u_distance, t_end);
       if (!(t_scatter < t_end)) t_scatter = kInfinity;
     }
 
@@ -134,7 +135,9 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       ChannelValues ratio = segment->phase(cos_theta);
       for (float& r : ratio) r /= pdf;
       path.medium_scattered(p, pdf, ratio);
+      const RayState state = ray.state.volume_next();
       ray = Ray(p, wi);  // a volume ray: every surface is there for it
+      ray.state = state;
       if (depth + 1 >= s.rr_depth && !path.survive(rng.uniform())) return true;
       continue;
     }
@@ -160,9 +163,11 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       }
       const bool camera = ray.camera;
       const uint8_t bounce = ray.bounce;
+      const RayState state = ray.state;
       ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
       ray.camera = camera;
       ray.bounce = bounce;
+      ray.state = state;
       --depth;
       continue;
     }
@@ -193,8 +198,10 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     // A sample through a surface with an interior medium (glass of murky water) crosses it.
     if (media && material.interior >= 0 && (dot(wi, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
       stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
+    const RayState state = next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     ray.bounce = bs->lobe;  // surfaces hidden from this kind of ray let it through
+    ray.state = state;      // Light Path's view of it (Cycles' path_state_next)
 
     // ---- Russian roulette ----
     if (depth + 1 >= s.rr_depth && !path.survive(rng.uniform())) return true;

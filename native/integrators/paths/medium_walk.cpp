@@ -26,7 +26,12 @@ bool ShadowTest::visible(const Vec3& p, const Vec3* ng, const LightSample& ls, M
   for (int crossing = 0; crossing <= kMaxCrossings; ++crossing) {
     const std::optional<SurfacePoint> hit = scene_.intersect_point(Ray(o, dir, 0.0f, remaining));
     const float d = hit ? hit->t : remaining;
-    for (int i = 0; i < stack.size(); ++i) lengths->add(stack[i].medium, d);
+    for (int i = 0; i < stack.size(); ++i) {
+      const int m = stack[i].medium;
+      if (scene_.media[m].grid) lengths->add_piece(m, o, dir, d);  // ratio tracking, later
+      else lengths->add(m, d);
+    }
+    if (lengths->overflow) return false;
     if (!hit) return true;
     const Material& m = scene_.material(hit->material);
     if (m.casts_shadow) return false;

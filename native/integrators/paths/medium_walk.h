@@ -38,7 +38,9 @@ class ShadowTest {
   Vec3 ng_, ray_d_;
 };
 
-// exp(-sum_m sigma_t,m(c) d_m) per channel: exact Beer-Lambert through homogeneous segments.
+// exp(-sum_m sigma_t,m(c) d_m) per channel: exact Beer-Lambert through homogeneous segments;
+// times, for each stretch through a grid medium, its ratio-tracking estimate (unbiased; its
+// random numbers seeded by the stretch's ray, media/medium.h grid_transmittance).
 template <class F>
 ChannelValues transmittance(const MediumLengths& lengths, int channels, F&& channels_of) {
   ChannelValues tau{};
@@ -49,6 +51,12 @@ ChannelValues transmittance(const MediumLengths& lengths, int channels, F&& chan
   }
   ChannelValues T{};
   for (int k = 0; k < channels; ++k) T[k] = std::exp(-tau[k]);
+  for (int i = 0; i < lengths.n_pieces; ++i) {
+    const MediumLengths::Piece& p = lengths.pieces[i];
+    const ChannelValues Tg =
+        grid_transmittance(channels_of(p.medium), channels, p.o, p.d, 0.0f, p.t, ray_seed(p.o, p.d, 0x5ad0));
+    for (int k = 0; k < channels; ++k) T[k] *= Tg[k];
+  }
   return T;
 }
 

@@ -60,8 +60,13 @@ void SpectraAtWavelengths::evaluate(const Scene& scene, const SceneSpectra& spec
     for (int k = 0; k < count_; ++k) light_[l * count_ + k] = spectra.light[l](wl.lambda[k]);
 }
 
-const BsdfParams* SpectraAtWavelengths::at_point(int m, Vec2 uv, WavelengthParams& local) const {
-  const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], uv, &spectra_->albedo[static_cast<size_t>(m)]);
+const BsdfParams* SpectraAtWavelengths::material(const SurfaceHit& hit, WavelengthParams& local) const {
+  if (!per_point_[static_cast<size_t>(hit.material)]) return &bsdf_[static_cast<size_t>(hit.material) * count_];
+  return at_point(hit.material, scene_->shading_context(hit), local);
+}
+
+const BsdfParams* SpectraAtWavelengths::at_point(int m, const shading::ShadingContext& ctx, WavelengthParams& local) const {
+  const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], ctx, &spectra_->albedo[static_cast<size_t>(m)]);
   BsdfParams* params = local.make();
   for (int k = 0; k < count_; ++k) params[k] = surface.at(wl_.lambda[k]);
   return params;

@@ -70,8 +70,10 @@ class SpectraAtWavelengths {
   // shared ones, or for a textured material those at uv, made in `local`.
   const BsdfParams* material(int m, Vec2 uv, WavelengthParams& local) const {
     if (!per_point_[static_cast<size_t>(m)]) return &bsdf_[static_cast<size_t>(m) * count_];
-    return at_point(m, uv, local);
+    return at_point(m, shading::ShadingContext::at_uv(uv), local);
   }
+  // The same at a hit, a node graph seeing its whole shading context (position, object, ray).
+  const BsdfParams* material(const SurfaceHit& hit, WavelengthParams& local) const;
   // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
   const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
   // The spectral radiance at each wavelength of the set of the RGB `value` light l sends
@@ -86,7 +88,7 @@ class SpectraAtWavelengths {
   std::vector<BsdfParams> bsdf_;
   std::vector<uint8_t> per_point_;  // the material has textures: parameters per point
   std::vector<float> light_;
-  const BsdfParams* at_point(int m, Vec2 uv, WavelengthParams& local) const;
+  const BsdfParams* at_point(int m, const shading::ShadingContext& ctx, WavelengthParams& local) const;
 };
 
 // Spectral radiance of a light sample over its light's spectrum: lights scale their RGB
@@ -103,9 +105,12 @@ float grey_factor(const RGB& value, const RGB& emit);
 // environment whose colour varies with direction (an image, Light Path: Is Camera Ray), `value`
 // itself upsampled as an illuminant, per hit, as textured emission is.
 RgbSpectrum light_spectrum(const SceneSpectra& spectra, const LightSet& lights, int l, const RGB& value);
-// Whether light l is an environment whose colour varies with direction (light_spectrum's case 2).
+// Whether light l is an environment whose colour varies with direction (light_spectrum's case 2),
+// or an area light whose node graph gives its colour per point (and per ray: Light Path): its
+// RGB is upsampled where it is seen.
 inline bool varies_with_direction(const LightSet& lights, int l) {
-  return l == lights.environment() && lights.environment_textured();
+  return (l == lights.environment() && lights.environment_textured()) ||
+         (l >= 0 && lights.lights()[l].emission_graph != nullptr);
 }
 
 }  // namespace gp

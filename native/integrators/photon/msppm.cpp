@@ -125,7 +125,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               path_length += hit->t;
               if (hit->light >= 0) {
                 // ---- Emission hit by the path (technique "hit") ----
-                const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p);
+                const RGB Le = lights.area_radiance(hit->light, -ray.d, hit->p, &hit->ray);
                 if (!Le.is_black()) {
                   PathVertex lv;
                   lv.p = hit->p;
@@ -210,7 +210,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
               const auto bs = bsdf.sample(wo, uc, u);
               if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
               const bool crossed = scene_.material(hit->material).is_pass_through();  // a light object
-              ray = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
+              ray = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, *bs);
               if (!crossed) {
                 kind = bs->lobe;
                 prev_delta = bs->delta;

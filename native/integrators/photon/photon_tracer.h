@@ -30,6 +30,7 @@
 #include "core/rng.h"
 #include "integrators/paths/light_chain.h"
 #include "materials/bsdf.h"
+#include "media/medium.h"
 #include "scene/scene.h"
 
 namespace gp {
@@ -132,6 +133,11 @@ inline float crossing_probability(uint8_t seen_by, bool black, bool last_bounce)
 // between density estimation and path tracing without a classification, thesis §9.6).
 enum class DepositRule { DiffuseForPhotons, NonDelta };
 
+// Replaces `out` by chunks[0 .. n_chunks) in chunk order (so not in thread order), numbering
+// the photons (Photon::index), and clears the chunks (their capacity kept).
+void concatenate_chunks(std::vector<std::vector<Photon>>& chunks, size_t n_chunks, int threads,
+                        std::vector<Photon>& out);
+
 class PhotonTracer {
  public:
   // max_depth: longest photon path in segments; min_deposit_bounce: deposits happen from this
@@ -147,7 +153,7 @@ class PhotonTracer {
   // caller abandons the pass (a million photons would otherwise delay a cancel by a second).
   PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, std::vector<Photon>& out,
                         std::vector<PhotonOrigin>* origins = nullptr, std::vector<PhotonChain>* chains = nullptr,
-                        const std::function<bool()>& cancelled = {});
+                        const std::function<bool()>& cancelled = {}, std::vector<Photon>* volume = nullptr);
 
   // Traces one photon path from the primary samples `u`, appending its deposits to `out`.
   // Returns the closest-hit rays traced; deposits with NaN/Inf power are dropped and counted
@@ -155,9 +161,11 @@ class PhotonTracer {
   // With `record`, the path's vertices and the vertex of every deposit are appended to it;
   // with `origins`, each deposit's previous scattering vertex (GPM's photon shift), and with
   // `chains` (only with `origins`) the specular chain before it (PhotonOrigin::chain indexes it).
+  // With `volume`, the photons scattered in participating media (photon_walk.h); without, they
+  // still scatter there but none is kept. trace() replaces `volume` as it replaces `out`.
   int64_t trace_path(PrimarySamples& u, int min_deposit_bounce, std::vector<Photon>& out, int64_t& invalid,
                      PhotonPathRecord* record = nullptr, std::vector<PhotonOrigin>* origins = nullptr,
-                     std::vector<PhotonChain>* chains = nullptr) const;
+                     std::vector<PhotonChain>* chains = nullptr, std::vector<Photon>* volume = nullptr) const;
   // The walk trace_path and the spectral photons share (photon_walk.h), generic over what the
   // photon carries (`P`: RgbPhoton in photon_tracer.cpp, SpectralPhotonPower in
   // progressive_photon_spectral.cpp), which also receives the deposits.
@@ -167,6 +175,8 @@ class PhotonTracer {
                std::vector<PhotonChain>* chains = nullptr) const;
 
   int max_depth() const { return max_depth_; }
+  // Bytes held by the per-chunk output kept between passes.
+  size_t capacity_bytes() const;
   // Whether a photon arriving at a surface with this BSDF is deposited there.
   bool deposits_at(const Bsdf& bsdf) const {
     return rule_ == DepositRule::NonDelta ? !bsdf.is_delta() : bsdf.is_diffuse_for_photons(threshold_);
@@ -178,6 +188,9 @@ class PhotonTracer {
   // Off by default: GPM's photon shifts (gpm.cpp) and MSPPM's path densities (msppm_weights.cpp)
   // follow the lights' rule.
   void set_world_by_closure_share(bool on) { world_share_ = on; }
+  // Participating media (photon_walk.h): off by default, so methods that do not render media
+  // (MSPPM, GPM) leave them out as their declarations say; PPM and SPPM turn it on.
+  void set_media(bool on) { media_on_ = on && scene_.has_media() && !scene_.has_grid_media(); }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
   // Surfaces hidden from some kinds of ray that one photon segment may cross (trace_path).
@@ -191,9 +204,12 @@ class PhotonTracer {
   int threads_;
   DepositRule rule_;
   bool world_share_ = false;  // set_world_by_closure_share
+  bool media_on_ = false;     // set_media
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
   std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
   std::vector<std::vector<PhotonChain>> chunk_chains_;    // and for `chains`
+  std::vector<std::vector<Photon>> chunk_volume_;         // and for `volume`
+  std::vector<MediumChannels> media_;                     // the scene's media at R, G, B
 };
 
 }  // namespace gp

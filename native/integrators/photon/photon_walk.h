@@ -21,6 +21,29 @@
 //   float max_old() const, max_new() const;     // largest channel before / after scattering
 //   void commit(float p_continue);              // power = pending / p_continue
 //   RGB origin_scale(float denom) const;        // power / denom as RGB (GPM's origins; RGB only)
+//
+// Participating media (issue 32, thesis §5.6), only in scenes that have them and for methods that
+// render them (set_media):
+// the walk keeps the photon's volume stack as the camera path does (a medium inside glass is
+// entered through the glass), samples a free-flight distance on every segment in a medium with
+// the same MediumSegment the path tracers use (paths/medium_walk.h, media/medium.h: whatever
+// medium is behind it, homogeneous or a density grid), deposits a volume photon at every
+// scattering point in a medium and scatters on by the phase function; a segment that reaches its
+// surface takes the free flight's pass weight, so surface photons see the media's transmittance.
+// Per channel of the power (RGB, or its wavelengths):
+//
+//   int channels() const;
+//   const MediumChannels& medium_channels(int medium) const;
+//   ChannelValues channel_weights() const;      // the power per channel (free-flight channel choice)
+//   void medium_weight(const ChannelValues& w); // power *= w
+//   void deposit_volume(const Vec3& p, const Vec3& wi);
+//
+// A volume photon's power is the power after the free flight's scattering weight sigma_s T / pdf:
+// it carries sigma_s(x_p), so the beam radiance estimate (progressive_photon.cpp) does not
+// multiply by it again. Volume photons are deposited from the light's first segment on whatever
+// min_deposit_bounce says: the eye paths take no next-event estimation in media, so the photons
+// carry the media's direct light too. Records, origins and chains (MSPPM, GPM) know no media:
+// those methods declare that they do not render them.
 #pragma once
 
 #include <algorithm>
@@ -31,6 +54,7 @@
 #include "core/parallel.h"
 #include "core/rng.h"
 
+#include "integrators/paths/medium_walk.h"
 #include "integrators/photon/photon_tracer.h"
 
 namespace gp {
@@ -109,9 +133,55 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     lv.start = true;
     record->vertices.push_back(lv);
   }
+  const bool media = media_on_;
+  MediumStack stack = scene_.initial_medium_stack();
   for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
     ++rays;
     const auto hit = scene_.intersect(ray);
+    // ---- Participating media along the segment: free flight (as paths/camera_path.h) ----
+    if (media && !stack.empty()) {
+      // (Homogeneous media: set_media leaves grid media to the path tracers.)
+      MediumSegment segment(stack, ray, power.channels(),
+                            [&](int m) -> const MediumChannels& { return power.medium_channels(m); });
+      segment.set_channel_weights(power.channel_weights());
+      const float u_channel = u.next(), u_distance = u.next();
+      const float t_end = hit ? hit->t : kInfinity;
+      const float t = segment.sample_distance(u_channel, u_distance, t_end);
+      if (t < t_end) {
+        // ---- Scattering in a medium: a volume photon, then the phase function ----
+        const float m_old = power.max_old();
+        power.medium_weight(segment.scatter_weight(t));
+        const Vec3 p = ray.at(t);
+        if (power.finite()) power.deposit_volume(p, -ray.d);
+        else ++invalid;
+        if (bounce + 2 > max_depth_) break;
+        const float u_lobe = u.next();
+        const float v0 = u.next(), v1 = u.next();
+        const Vec3 wi = segment.sample_phase(ray.d, u_lobe, Vec2(v0, v1));
+        const float cos_theta = dot(ray.d, wi);
+        const float pdf = segment.phase_pdf(cos_theta);
+        if (!(pdf > 0)) break;
+        ChannelValues ratio = segment.phase(cos_theta);
+        for (float& r : ratio) r /= pdf;
+        power.medium_weight(ratio);
+        // Russian roulette, as at surfaces: the largest channel kept roughly constant.
+        const float m_new = power.max_old();
+        if (!(m_new > 0) || !(m_old > 0)) break;
+        const float p_continue = std::min(1.0f, m_new / m_old);
+        if (u.next() >= p_continue) break;
+        power.scale(1.0f / p_continue);
+        const RayState state = ray.state.volume_next();
+        ray = Ray(p, wi);  // a volume ray: every surface is there for it
+        ray.state = state;
+        crossed = 0;
+        t_crossed = 0;
+        chain_ok = false;
+        ++scattered;
+        arrive = kAllLobes;
+        continue;
+      }
+      power.medium_weight(segment.pass_weight(t_end));
+    }
     if (!hit) break;
     const Bsdf bsdf = scene_.bsdf(*hit);
     const Material& mat = scene_.material(hit->material);
@@ -159,11 +229,14 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
       if (cross) {
         if (record) record->vertices.back().crossed = true;
         power.scale(1.0f / q);
+        if (media && mat.interior >= 0) stack.cross(hit->mesh, mat.interior, dot(ray.d, hit->ng) < 0);
         arrive = hidden;
         ++crossed;
         t_crossed += hit->t;
         chain_ok = false;  // the chain's segments no longer join its vertices (GPM shifts none)
+        const RayState state = ray.state;
         ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
+        ray.state = state;
         --bounce;  // not a bounce: the path tracer's ray of those kinds does not stop here
         continue;
       }
@@ -222,7 +295,12 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
       }
     }
     power.commit(p_continue);
+    // A sample through a surface with an interior medium (glass of murky water) crosses it.
+    if (media && mat.interior >= 0 && (dot(wi_world, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
+      stack.cross(hit->mesh, mat.interior, dot(ray.d, hit->ng) < 0);
+    const RayState state = next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
+    ray.state = state;  // Light Path at the photon's next vertex (photons start as emission: no flags)
     crossed = 0;
     t_crossed = 0;
     if (!pass_through) {

@@ -21,7 +21,7 @@ namespace gp {
 class Ppm : public ProgressivePhotonMapping {
  public:
   Ppm(const Scene& scene, const Params& params)
-      : ProgressivePhotonMapping(scene, params, {.retrace = false, .nee = false, .adaptive_photons = true}) {
+      : ProgressivePhotonMapping(scene, params, {.retrace = false, .nee = false, .adaptive_photons = true, .media = true}) {
     read_film_transparent(params);
   }
   std::string name() const override { return "ppm"; }

@@ -50,6 +50,12 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   tracer_.set_world_by_closure_share(options.world_by_closure_share);
   if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
     adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
+  // Media with uniform photons only: the adaptive sampler's visibility V(u) knows measurement
+  // points, not camera segments (thesis ch. 8 has no volume form), so sppm-adaptive leaves them out.
+  // Homogeneous media only: the beam gather's transmittance and scattering are closed forms
+  // (a scene with grid media renders its surfaces, said by RenderSession's report).
+  media_ = options.media && scene.has_media() && !scene.has_grid_media() && !adaptive_;
+  tracer_.set_media(media_);
   check_image_size(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});
@@ -72,6 +78,14 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
     vp_beta_.assign(n, SpectralValues{});
     vp_hero_.assign(n, 0);
   }
+  if (media_) {
+    for (const Medium& m : scene.media) media_rgb_.push_back(rgb_channels(m));
+    beams_.assign(n * kMaxBeams, EyeBeam{});
+    n_beams_.assign(n, 0);
+    first_vr_.assign(n, 0.0f);
+    gather_vm_.assign(n, 0.0f);
+    gather_vphi_.assign(n, RGB(0.0f));
+  }
   if (scene.light_set().empty())
     stats_.extra["warning: no lights"] = 1;  // the image is black; reported, never a hang
 }
@@ -83,10 +97,20 @@ void ProgressivePhotonMapping::set_initial_radii() {
       const double r = radius_ > 0 ? radius_ : std::max(first_r_[i], min_r);
       px_[i].r2 = r * r;
     }
+  if (media_ && radius_ > 0)  // the cylinder's first radius: `radius` if given, else volume_gather's
+    for (size_t i = 0; i < px_.size(); ++i)
+      if (px_[i].vr2 == 0 && n_beams_[i] > 0) px_[i].vr2 = radius_ * radius_;
+}
+
+void ProgressivePhotonMapping::store_beams(size_t pixel, const EyeEnd& end, Vec2 half_extent) {
+  if (!media_) return;
+  n_beams_[pixel] = static_cast<uint8_t>(end.n_beams);
+  for (int b = 0; b < end.n_beams; ++b) beams_[pixel * kMaxBeams + b] = end.beams[b];
+  first_vr_[pixel] = end.n_beams > 0 ? footprint_radius(end.beam_length, half_extent) : 0.0f;
 }
 
 RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
-                 const Vec2& u2, int64_t& rays) {
+                 const Vec2& u2, int64_t& rays, const ShadowTest* shadow, const std::vector<MediumChannels>* media) {
   const auto ls = scene.light_set().sample_li(hit.p, u_light, u2);
   if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return RGB(0.0f);
   const Vec3 wi = hit.frame.to_local(ls->wi);
@@ -96,6 +120,12 @@ RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, co
                 std::abs(wi.z);
   if (f.is_black()) return RGB(0.0f);
   ++rays;
+  if (shadow) {  // through volume boundaries, with the media's transmittance
+    MediumLengths lengths;
+    if (!shadow->visible(hit.p, &hit.ng, *ls, &lengths)) return RGB(0.0f);
+    const ChannelValues T = transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; });
+    return f * ls->L / ls->pdf * RGB(T[0], T[1], T[2]);
+  }
   return scene.occluded(hit.p, hit.ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;
 }
 
@@ -118,7 +148,15 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x, ++k) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            EyePath path = trace_eye_path(camera[k], starts[k].rng, rays, none, &hits[k]);
+            RgbEye c;
+            c.media = &media_rgb_;
+            const EyeEnd end = trace_eye(camera[k], starts[k].rng, rays, c, none, &hits[k], false);
+            EyePath path;
+            path.Ld = c.Ld;
+            path.vp = end.vp;
+            path.path_length = end.path_length;
+            path.escaped = end.escaped;
+            store_beams(pixel, end, ext);
             if (!path.Ld.is_finite()) {
               ++invalid;
               path.Ld = RGB(0.0f);
@@ -154,6 +192,10 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   if (spectral_) {
     wl_ = pass_wavelengths(pass);
     pass_spectra_.evaluate(scene_, *spectra_, wl_);
+    if (media_) {
+      pass_media_.clear();
+      for (const MediumSpectra& m : spectra_->media) pass_media_.push_back(m.at(wl_));
+    }
     for (int k = 0; k < wl_.count; ++k) {
       SpectralValues e{};
       e[k] = 1.0f;
@@ -185,7 +227,8 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   } else if (spectral_) {
     ps = spectral_trace(pass, cancelled);
   } else {
-    ps = tracer_.trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, photons_, nullptr, nullptr, cancelled);
+    ps = tracer_.trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, photons_, nullptr, nullptr, cancelled,
+                       media_ ? &volume_photons_ : nullptr);
   }
   stats_.extra["trace seconds"] += seconds_since(t_trace);
   if (sink && sink->cancelled()) return;
@@ -253,6 +296,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       gather_phi_[i] = phi;
     }
   });
+  if (media_) volume_gather(pass, cancelled);
   stats_.extra["lookup seconds"] += seconds_since(t_lookup);
   if (sink && sink->cancelled()) return;  // a partial gather: the pass is abandoned, statistics untouched
 
@@ -280,6 +324,17 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         s.direct[c] += Ld[c];
       }
       s.coverage += pass_covered_[i];
+      if (media_) {  // the beam radiance estimate's radius and flux (thesis eq. 5.39, 5.12)
+        RGB vphi = gather_vphi_[i];
+        if (!vphi.is_finite()) {
+          ++bad;
+          vphi = RGB(0.0f);
+        }
+        const PhotonStatsUpdate v = progressive_update(s.vn, s.vr2, gather_vm_[i], alpha_);
+        for (int c = 0; c < 3; ++c) s.vtau[c] = (s.vtau[c] + vphi[c]) * v.ratio;
+        s.vn = v.n_new;
+        s.vr2 = v.r2_new;
+      }
       s.lap = (s.lap + lap_j) * u.ratio;  // thesis eq. 6.32: derivatives scale like the flux
       s.n = u.n_new;
       s.r2 = u.r2_new;
@@ -299,6 +354,13 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     cut_rays += probe_rays;
   });
   rays += cut_rays;
+  if (media_) {  // the beam radiance estimate's figures (the CLI lists them)
+    double sum_r = 0, n_r = 0;
+    for (const PixelState& s : px_)
+      if (s.vr2 > 0) { sum_r += std::sqrt(s.vr2); n_r += 1; }
+    stats_.extra["volume photons stored"] += static_cast<double>(volume_photons_.size());
+    stats_.extra["average cylinder radius"] = n_r > 0 ? sum_r / n_r : 0.0;
+  }
   end_pass(t_update, ps, rays, invalid + invalid_phi);
   if (adaptive_) {
     stats_.extra["acceptance rate"] = adaptive_->acceptance_rate();
@@ -309,6 +371,16 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     stats_.extra["photon paths traced"] = static_cast<double>(adaptive_->paths_traced());
   }
   stats_.seconds += seconds_since(start);
+}
+
+size_t ProgressivePhotonMapping::memory_bytes() const {
+  size_t b = photons_.capacity() * sizeof(Photon) + volume_photons_.capacity() * sizeof(Photon) +
+             photon_power_.capacity() * sizeof(SpectralValues) + volume_power_.capacity() * sizeof(SpectralValues) +
+             photon_hero_.capacity() + volume_hero_.capacity() + beams_.capacity() * sizeof(EyeBeam) +
+             grid_.capacity_bytes() + volume_grid_.capacity_bytes() + tracer_.capacity_bytes();
+  for (const auto& c : spectral_chunks_) b += c.capacity() * sizeof(SpectralPhoton);
+  for (const auto& c : spectral_volume_chunks_) b += c.capacity() * sizeof(SpectralPhoton);
+  return b;
 }
 
 void ProgressivePhotonMapping::end_pass(std::chrono::steady_clock::time_point t_update, const PhotonPassStats& ps,
@@ -326,7 +398,7 @@ void ProgressivePhotonMapping::end_pass(std::chrono::steady_clock::time_point t_
   stats_.extra["photons stored"] += static_cast<double>(ps.stored);
   stats_.extra["photon rays"] += static_cast<double>(ps.rays);
   stats_.extra["average radius"] = n_r > 0 ? sum_r / n_r : 0.0;
-  stats_.extra["estimated error"] = estimated_error_;
+  stats_.extra["estimated error"] = estimated_error();  // -1 with media: none
 }
 
 DiscShape ProgressivePhotonMapping::disc_shape(const VisiblePoint& vp, double R, Rng& rng, int64_t& rays) const {
@@ -514,7 +586,13 @@ void ProgressivePhotonMapping::update_error_estimate() {
 
 RGB ProgressivePhotonMapping::pixel_radiance(size_t i) const {
   const PixelState& s = px_[i];
-  return progressive_radiance(s.direct, s.tau, s.r2, stats_.passes, emitted_total_, photon_scale());
+  RGB L = progressive_radiance(s.direct, s.tau, s.r2, stats_.passes, emitted_total_, photon_scale());
+  if (media_ && s.vr2 > 0 && emitted_total_ > 0) {
+    // The beam radiance estimate: the cylinder's flux over pi R^2 and the photons emitted (§5.6).
+    const double k = photon_scale() / (static_cast<double>(emitted_total_) * M_PI * s.vr2);
+    for (int c = 0; c < 3; ++c) L[c] += static_cast<float>(s.vtau[c] * k);
+  }
+  return L;
 }
 
 void ProgressivePhotonMapping::develop(Film& film) const {
@@ -528,11 +606,146 @@ void ProgressivePhotonMapping::develop(Film& film) const {
   for (size_t i = 0; i < px_.size(); ++i) {
     const RGB L = pixel_radiance(i);
     for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = L[c];
-    error.data[i] = error_[i];
+    error.data[i] = media_ ? 0.0f : error_[i];  // not available with media (estimated_error)
     radius.data[i] = static_cast<float>(std::sqrt(px_[i].r2));
     count.data[i] = static_cast<float>(px_[i].n);
     if (alpha) alpha->data[i] = static_cast<float>(px_[i].coverage / passes);
   }
+}
+
+}  // namespace gp
+
+namespace gp {
+
+// ---- The beam radiance estimate (Jarosz et al. 2008) with a progressive radius (thesis §5.6) ----
+// A pixel's in-scattered radiance along its camera segments through media is
+//   L_v = 1 / (N_e pi R^2) sum_p beta T(x, x_p) f_p(theta_p) Phi_p
+// over the volume photons p within the cylinder of radius R around each segment (perpendicular
+// distance <= R, between the segment's ends): beta the eye throughput at the segment's start,
+// T the transmittance from it to the photon's foot on the segment, f_p the phase function between
+// the photon's direction of travel and the direction towards the camera, and Phi_p the photon's
+// power, which already carries sigma_s(x_p) (photon_walk.h: the free flight's weight
+// sigma_s T / pdf), so it is not multiplied again. The flux sum (tau) and the count M found here
+// enter the same update as the surface's (eq. 5.37-5.39: N + alpha M photons kept within the
+// shrunk cylinder; tau scaled by the same ratio, eq. 5.12).
+//
+// The photons are found with the hash grid of spheres: the segment is cut into pieces of length
+// 2R, each searched with a sphere of radius sqrt(2) R about its middle (which holds the cylinder's
+// piece), and a photon counts for the piece its foot lies in, so each is counted once.
+void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<bool()>& cancelled) {
+  const size_t n_pixels = px_.size();
+  Bounds3 box;  // the photons' bounds: beams are searched only where photons are
+  for (const Photon& ph : volume_photons_) box.extend(ph.p);
+  // The part of beam b within the photons' bounds grown by R: [t0, t1) (empty: t0 >= t1).
+  auto clip = [](const Bounds3& box, const EyeBeam& b, float R, float& t0, float& t1) {
+    t0 = 0;
+    t1 = b.t_max;
+    for (int a = 0; a < 3; ++a) {
+      const float inv = 1.0f / b.d[a];
+      float ta = (box.lo[a] - R - b.o[a]) * inv, tb = (box.hi[a] + R - b.o[a]) * inv;
+      if (ta > tb) std::swap(ta, tb);
+      if (std::isnan(ta) || std::isnan(tb)) continue;  // parallel to the slab, on its plane
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+    }
+  };
+  // ---- The cylinder's first radius (no `radius` given) ----
+  // The pixel footprint that starts the surface's disc is far too thin for volume photons,
+  // which fill a volume, not a surface: a cylinder of a footprint's radius finds a photon in a
+  // few passes, so its estimate stays noisy and its radius hardly shrinks. Instead the first
+  // radius is the one whose cylinders, along the pixel's segments within the photons' bounds,
+  // would hold kFirstCylinderPhotons photons were this pass's volume photons within the scene's
+  // bounds spread evenly over them (never below the footprint, nor above a tenth of the bounds'
+  // diagonal); where they are denser it shrinks the faster. (The scene's bounds, not the
+  // photons': in a World medium photons wander far from the scene.)
+  constexpr double kFirstCylinderPhotons = 16;
+  Bounds3 region = scene_.bounds();
+  if (region.empty()) region = box;  // no surfaces at all
+  if (!region.empty()) {
+    const float pad = 0.01f * length(region.diagonal()) + 1e-4f;  // a flat scene still has a volume
+    region.lo = region.lo - Vec3(pad);
+    region.hi = region.hi + Vec3(pad);
+  }
+  size_t inside = 0;
+  for (const Photon& ph : volume_photons_)
+    inside += ph.p.x >= region.lo.x && ph.p.y >= region.lo.y && ph.p.z >= region.lo.z && ph.p.x <= region.hi.x &&
+              ph.p.y <= region.hi.y && ph.p.z <= region.hi.z;
+  if (inside > 0 && !region.empty()) {
+    const Vec3 e = region.diagonal();
+    const double volume = static_cast<double>(e.x) * e.y * e.z;
+    const double density = static_cast<double>(inside) / volume;
+    for (size_t i = 0; i < n_pixels; ++i) {
+      if (n_beams_[i] == 0 || px_[i].vr2 > 0) continue;
+      double length = 0;
+      for (int k = 0; k < n_beams_[i]; ++k) {
+        float t0, t1;
+        clip(region, beams_[i * kMaxBeams + k], 0.0f, t0, t1);
+        if (t0 < t1) length += t1 - t0;
+      }
+      if (!(length > 0)) continue;
+      const double r2 = kFirstCylinderPhotons / (M_PI * density * length);
+      const double diag = length_squared(e);
+      px_[i].vr2 = std::clamp(r2, static_cast<double>(first_vr_[i]) * first_vr_[i], 0.01 * diag);
+    }
+  }
+  double max_r2 = 0;
+  for (size_t i = 0; i < n_pixels; ++i)
+    if (n_beams_[i] > 0) max_r2 = std::max(max_r2, px_[i].vr2);
+  const float max_r = static_cast<float>(std::sqrt(max_r2));
+  const bool have = !volume_photons_.empty() && max_r > 0;
+  if (have) {
+    volume_grid_.build(volume_photons_, 2.0f * std::sqrt(2.0f) * max_r, PhotonHashMode::Exact, seed_, pass, threads_,
+                       0, cancelled);
+  }
+  const int C = channels();
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    for (size_t i = lo; i < hi; ++i) {
+      if (i % kCancelPollPixels == 0 && cancelled()) return;  // abandoned pass (iterate checks)
+      gather_vm_[i] = 0;
+      gather_vphi_[i] = RGB(0.0f);
+      if (!have || n_beams_[i] == 0 || !(px_[i].vr2 > 0)) continue;
+      const float R = static_cast<float>(std::sqrt(px_[i].vr2)), R2 = R * R;
+      double m = 0;
+      RGB phi(0.0f);
+      for (int k = 0; k < n_beams_[i]; ++k) {
+        const EyeBeam& b = beams_[i * kMaxBeams + k];
+        MediumStack stack;
+        for (int j = 0; j < b.n_media; ++j) stack.cross(j, b.media[j], true);
+        const MediumSegment segment(stack, Ray(b.o, b.d), C,
+                                    [&](int med) -> const MediumChannels& { return medium_channels(med); });
+        float t0, t1;  // the segment within the photons' bounds grown by R
+        clip(box, b, R, t0, t1);
+        if (!(t0 < t1)) continue;
+        // Pieces counted in integers (a float t += 2R could stall far along a long segment).
+        const double pieces = std::ceil((static_cast<double>(t1) - t0) / (2.0 * R));
+        const int64_t n_pieces = static_cast<int64_t>(std::min(pieces, 1e7));
+        for (int64_t piece = 0; piece < n_pieces; ++piece) {
+          const float t = t0 + static_cast<float>(piece) * 2 * R;
+          volume_grid_.query(b.o + b.d * (t + R), std::sqrt(2.0f) * R, [&](const Photon& ph, float, float) {
+            const Vec3 off = ph.p - b.o;
+            const float tp = dot(off, b.d);
+            if (tp < t || tp >= t + 2 * R || tp < 0 || tp >= b.t_max) return;  // another piece's
+            if (length_squared(off - b.d * tp) > R2) return;                       // outside the cylinder
+            m += 1;
+            const float cos_theta = dot(ph.wi, b.d);  // travel direction -wi, towards the camera -d
+            const ChannelValues T = segment.transmittance(tp);
+            const ChannelValues f = segment.phase(cos_theta);
+            if (spectral_) {
+              const SpectralValues& power = volume_power_[ph.index];
+              SpectralValues c{};
+              for (int w = 0; w < C; ++w) c[w] = b.beta[w] * T[w] * f[w] * power[w];
+              if (volume_hero_[ph.index] && !b.hero_only) c[0] *= static_cast<float>(C);  // C once per full path
+              phi += spectral_to_rgb(c);
+            } else {
+              phi += RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
+            }
+          });
+        }
+      }
+      gather_vm_[i] = static_cast<float>(m);
+      gather_vphi_[i] = phi;
+    }
+  });
 }
 
 }  // namespace gp

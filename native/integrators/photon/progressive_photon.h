@@ -24,6 +24,7 @@
 #include "integrators/photon/error_estimate.h"
 #include "integrators/integrator.h"
 #include "integrators/photon/photon_tracer.h"
+#include "integrators/paths/medium_walk.h"
 #include "integrators/paths/spectral_scene.h"
 #include "core/sampling.h"
 #include "materials/bsdf.h"
@@ -58,8 +59,11 @@ struct EyePathHooks {
 // NEE without MIS (photons cover the rest) from surface point `hit` with a given light sample:
 // f |cos| L / pdf, 0 if blocked (one occlusion ray counted in `rays` when it is traced). SPPM's
 // measurement points and GPM's offset gather points, which reuse the base's sample.
+// With a ShadowTest (media: paths/medium_walk.h), the shadow ray crosses volume boundaries and
+// its transmittance through `media` (the scene's media at R, G, B) multiplies the light.
 RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
-                 const Vec2& u2, int64_t& rays);
+                 const Vec2& u2, int64_t& rays, const ShadowTest* shadow = nullptr,
+                 const std::vector<MediumChannels>* media = nullptr);
 
 // What a photon method built on ProgressivePhotonMapping does; its parameters (and their
 // defaults) are its declarations in methods.cpp.
@@ -78,6 +82,10 @@ struct PhotonMethodOptions {
   // (PhotonTracer::set_world_by_closure_share, lobe_split.h); GPM, whose photon shifts follow
   // the lights' rule, turns it off. Spectral photons keep the lights' rule.
   bool world_by_closure_share = true;
+  // Participating media (issue 32, thesis §5.6): photons scatter in them and are kept as volume
+  // photons, eye paths gather them with the beam radiance estimate (PPM, SPPM; RGB and spectral).
+  // Off, a scene's media are left out, as the method's declaration says (methods.h).
+  bool media = false;
 };
 
 // Photons of pass `pass` when `photons` is 0, SPPM's and GPM's default: 100 000 at first (what
@@ -98,7 +106,8 @@ class ProgressivePhotonMapping : public Integrator {
   ProgressivePhotonMapping(const Scene& scene, const Params& params, const PhotonMethodOptions& options);
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
-  double estimated_error() const override { return estimated_error_; }
+  // None where the scene has media: the bias model of ch. 6 is the surface disc's (docs/photon-mapping.md).
+  double estimated_error() const override { return media_ ? -1.0 : estimated_error_; }
   // Lights', the World's and surfaces' per-kind switches: the camera path's bounce rays pass
   // surfaces hidden from their kind, next-event estimation at the measurement point lights only
   // the lobes that see the light (direct_light), the emission a specular chain finds counts when
@@ -129,6 +138,9 @@ class ProgressivePhotonMapping : public Integrator {
   ErrorTerms error_terms(size_t i) const;
   // True when the passes carry sampled wavelengths (spectral photons).
   bool spectral() const { return spectral_; }
+  // Bytes held by the per-pass photon data (surface and volume photons, their grids, the tracer's
+  // chunks, the camera segments), for the flat-memory test.
+  size_t memory_bytes() const;
 
  protected:
   struct VisiblePoint {
@@ -153,6 +165,9 @@ class ProgressivePhotonMapping : public Integrator {
     double r2_sum = 0;             // sum of the query radii R_j^2 of the passes with a point (eq. 6.18)
     uint32_t photon_passes = 0;    // passes whose gather found photons (phi > 0)
     BoundarySums boundary;         // the passes' disc shapes and boundary photon sums (record_error_sample)
+    // The beam radiance estimate's own statistics (thesis §5.6): the cylinder's radius, the photons
+    // counted in it and their flux, updated as the surface's (eq. 5.39 = eq. 5.9; 5.12).
+    double vr2 = 0, vn = 0, vtau[3] = {0, 0, 0};
   };
   // The part of the query disc (radius R in the tangent plane of the measurement point, axes of
   // boundary_frame) that receives photons, as DiscShape: beyond a surface's edge, behind a wall or
@@ -211,23 +226,40 @@ class ProgressivePhotonMapping : public Integrator {
   // pass), generic over what the path carries (`Colour`: RgbEye here, SpectralEye in
   // progressive_photon_spectral.cpp) with its estimator at the measurement point, at each bounce
   // and at roulette in the eye_nee / eye_scatter / eye_survive overloads.
+  // A camera segment through a scattering medium (media only): where the beam radiance estimate
+  // gathers volume photons, t in [0, t_max) along o + t d; beta the path's throughput at o per
+  // channel (RGB or the pass's wavelengths), the media it is in (MediumSegment rebuilds them).
+  static constexpr int kMaxBeams = 4;       // per camera path; further segments gather nothing
+  static constexpr int kMaxBeamMedia = 4;   // overlapping media per segment kept
+  struct EyeBeam {
+    Vec3 o, d;
+    float t_max = 0;
+    ChannelValues beta{};
+    std::array<int16_t, kMaxBeamMedia> media{};
+    uint8_t n_media = 0;
+    bool hero_only = false;  // spectral: the eye path is hero-only (its beta carries C)
+  };
   struct EyeEnd {
     VisiblePoint vp;        // the measurement point (material -1: none)
     float path_length = 0;  // distance travelled to it (initial radius)
     bool escaped = false;   // the camera ray left the scene with film_transparent: no background
+    int n_beams = 0;        // camera segments through scattering media (media only)
+    std::array<EyeBeam, kMaxBeams> beams;
+    float beam_length = 0;  // distance travelled to the first beam's middle (initial cylinder radius)
   };
   template <class Colour, class Hooks>
   EyeEnd trace_eye(Ray ray, Rng& rng, int64_t& rays, Colour& c, Hooks& hooks, const std::optional<SurfaceHit>* first,
                    bool emission_only) const;
+  // shadow: null without media (Scene::occluded), else the shadow ray's transmittance counts.
   RGB eye_nee(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
-              const Vec2& u2, int64_t& rays) const;
+              const Vec2& u2, int64_t& rays, const ShadowTest* shadow) const;
   std::optional<BsdfSample> eye_scatter(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo,
                                         float uc, Vec2 u) const;
   bool eye_survive(RgbEye& c, float u, float* survival) const;
   void eye_prepare(RgbEye& c, const SurfaceHit& hit) const;
   void eye_prepare(SpectralEye& c, const SurfaceHit& hit) const;  // the materials at the wavelengths
   RGB eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
-              const Vec2& u2, int64_t& rays) const;
+              const Vec2& u2, int64_t& rays, const ShadowTest* shadow) const;
   std::optional<BsdfSample> eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf,
                                         const Vec3& wo, float uc, Vec2 u) const;
   bool eye_survive(SpectralEye& c, float u, float* survival) const;
@@ -268,6 +300,32 @@ class ProgressivePhotonMapping : public Integrator {
   };
   bool spectral_ = false;
   std::unique_ptr<SceneSpectra> spectra_;
+  std::vector<std::vector<SpectralPhoton>> spectral_volume_chunks_;  // volume photons, per chunk
+
+  // ---- Participating media: volume photons and the beam radiance estimate (thesis §5.6) ----
+  // Statistics are kept per pixel, one cylinder radius for all of a pixel's camera segments
+  // through media, as SPPM keeps one disc per pixel (ch. 7's shared statistics): SPPM's camera
+  // path, and so its segments, change every pass, so a per-segment radius would have no history
+  // to shrink from; per pixel, the passes' segments are samples of the pixel's beam as the passes'
+  // measurement points are samples of its surface, and eq. 5.39 holds for any query shape.
+  bool media_ = false;
+  std::vector<MediumChannels> media_rgb_;   // Scene::media at R, G, B
+  std::vector<MediumChannels> pass_media_;  // and at the pass's wavelengths (spectral photons)
+  std::vector<EyeBeam> beams_;              // kMaxBeams per pixel, this pass's (PPM: the first's)
+  std::vector<uint8_t> n_beams_;
+  std::vector<float> first_vr_;             // footprint radius proposed for the cylinder (at the first beam's middle)
+  std::vector<Photon> volume_photons_;      // this pass only, as photons_
+  std::vector<SpectralValues> volume_power_;  // spectral: by volume photon index
+  std::vector<uint8_t> volume_hero_;
+  PhotonHashGrid volume_grid_;
+  std::vector<float> gather_vm_;
+  std::vector<RGB> gather_vphi_;
+  int channels() const { return spectral_ ? wl_.count : 3; }
+  const MediumChannels& medium_channels(int m) const { return spectral_ ? pass_media_[m] : media_rgb_[m]; }
+  // The beam radiance estimate of every pixel's segments from this pass's volume photons.
+  void volume_gather(uint64_t pass, const std::function<bool()>& cancelled);
+  // The eye pass's segments of `pixel` (and its first cylinder radius).
+  void store_beams(size_t pixel, const EyeEnd& end, Vec2 half_extent);
   SampledWavelengths wl_;
   std::array<RGB, kMaxWavelengths> wl_basis_;
   SpectraAtWavelengths pass_spectra_;       // materials and lights at wl_
@@ -338,9 +396,17 @@ class ProgressivePhotonMapping : public Integrator {
 // The RGB eye path (trace_eye's colour): throughput beta, light Ld the path saw itself.
 struct RgbEye {
   RGB beta{1.0f}, Ld{0.0f};
+  const std::vector<MediumChannels>* media = nullptr;  // the scene's media at R, G, B (media only)
   void environment(const RGB& Le, int) { Ld += beta * Le; }
   void area_light(const RGB& Le, int, const LightSet&) { Ld += beta * Le; }
   RGB vp_beta() const { return beta; }
+  // ---- Participating media (trace_eye) ----
+  int channels() const { return 3; }
+  const MediumChannels& medium_channels(int m) const { return (*media)[m]; }
+  ChannelValues channel_weights() const { return {beta.r, beta.g, beta.b}; }
+  void medium_weight(const ChannelValues& w) { beta *= RGB(w[0], w[1], w[2]); }
+  void medium_emission(const ChannelValues& e) { Ld += beta * RGB(e[0], e[1], e[2]); }
+  bool is_hero_only() const { return false; }
 };
 
 template <class Colour, class Hooks>
@@ -353,11 +419,37 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
   // The kind of the ray being traced, for the lights' and the World's Ray Visibility: the camera,
   // then the lobe of the last bounce (a light object crossed keeps it, as in the path tracer).
   uint8_t kind = kRayCamera;
+  // The media the path is in (Cycles' volume stack), only where the method renders media.
+  MediumStack stack = scene_.initial_medium_stack();
+  ShadowTest shadow(scene_, media_ ? &stack : nullptr);
   for (int depth = 0; depth < max_depth_; ++depth) {
     ++rays;
     const std::optional<SurfaceHit> traced = first ? std::nullopt : scene_.intersect(ray);
     const std::optional<SurfaceHit>& hit = first ? *first : traced;
     first = nullptr;
+    // ---- Participating media along the segment: its emission integrated exactly, a beam for
+    // the volume photons (the beam radiance estimate, volume_gather), and its transmittance to
+    // the surface behind it (no free flight: the photons carry the light scattered in it) ----
+    if (media_ && !stack.empty()) {
+      const MediumSegment segment(stack, ray, c.channels(),
+                                  [&](int m) -> const MediumChannels& { return c.medium_channels(m); });
+      const float t_end = hit ? hit->t : kInfinity;
+      c.medium_emission(segment.emission_integral(t_end));
+      if (segment.scatters && out.n_beams < kMaxBeams) {
+        EyeBeam& b = out.beams[out.n_beams++];
+        b.o = ray.o;
+        b.d = ray.d;
+        b.t_max = t_end;
+        b.beta = c.channel_weights();
+        b.hero_only = c.is_hero_only();
+        b.n_media = 0;
+        for (int i = 0; i < stack.size() && b.n_media < kMaxBeamMedia; ++i)
+          b.media[b.n_media++] = static_cast<int16_t>(stack[i].medium);
+        if (out.n_beams == 1)  // the middle of the first beam (of a World medium: within the scene)
+          out.beam_length = out.path_length + 0.5f * std::min(t_end, length(scene_.bounds().diagonal()));
+      }
+      c.medium_weight(segment.transmittance(t_end));
+    }
     // Emission seen along the camera path: only at depth 0 or after specular/glossy bounces,
     // which no photon covers, so nothing is counted twice.
     if (!hit) {
@@ -381,7 +473,8 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
       if (nee_ && !lights.empty()) {
         const float u_light = rng.uniform();
         const Vec2 u2(rng.uniform(), rng.uniform());
-        hooks.nee(u_light, u2, eye_nee(c, *hit, bsdf, wo, u_light, u2, rays));
+        if (media_) shadow.at_surface(hit->mesh, scene_.material(hit->material).interior, hit->ng, ray.d);
+        hooks.nee(u_light, u2, eye_nee(c, *hit, bsdf, wo, u_light, u2, rays, media_ ? &shadow : nullptr));
       }
       out.vp.p = hit->p;
       out.vp.frame = hit->frame;
@@ -399,8 +492,13 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     const Vec2 u(rng.uniform(), rng.uniform());
     const std::optional<BsdfSample> bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
     if (!bs) break;
-    const bool crossed = scene_.material(hit->material).is_pass_through();  // a light object
-    const Ray next = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, bs->lobe);
+    const Material& material = scene_.material(hit->material);
+    const bool crossed = material.is_pass_through();  // a light object, a volume boundary
+    const Vec3 wi_world = hit->frame.to_world(bs->wi);
+    // A sample through a surface with an interior medium (glass of murky water) crosses it.
+    if (media_ && material.interior >= 0 && (dot(wi_world, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
+      stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
+    const Ray next = scattered_ray(hit->p, hit->ng, wi_world, ray, crossed, *bs);
     if (!crossed) kind = bs->lobe;
     hooks.scatter(wo, *bs, next);
     ray = next;
@@ -415,8 +513,9 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
 
 // The RGB eye path's estimator at the measurement point, at a bounce and at roulette.
 inline RGB ProgressivePhotonMapping::eye_nee(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo,
-                                             float u_light, const Vec2& u2, int64_t& rays) const {
-  const RGB d = c.beta * direct_light(scene_, hit, bsdf, wo, u_light, u2, rays);
+                                             float u_light, const Vec2& u2, int64_t& rays,
+                                             const ShadowTest* shadow) const {
+  const RGB d = c.beta * direct_light(scene_, hit, bsdf, wo, u_light, u2, rays, shadow, &media_rgb_);
   c.Ld += d;
   return d;
 }
@@ -438,6 +537,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
                                                                            const std::optional<SurfaceHit>* first,
                                                                            bool emission_only) const {
   RgbEye c;
+  c.media = &media_rgb_;
   const EyeEnd end = trace_eye(ray, rng, rays, c, hooks, first, emission_only);
   EyePath out;
   out.Ld = c.Ld;

@@ -109,10 +109,26 @@ struct SpectralEye {
     add_light(spectra.light(l), grey_factor(Le, lights.lights()[l].emit));
   }
   RGB vp_beta() const { return RGB(1.0f); }  // unused: the spectral throughput is vp_beta_
+  // ---- Participating media (trace_eye), at the pass's wavelengths ----
+  const std::vector<MediumChannels>* media = nullptr;
+  int channels() const { return C; }
+  const MediumChannels& medium_channels(int m) const { return (*media)[m]; }
+  ChannelValues channel_weights() const {
+    ChannelValues w{};
+    for (int k = 0; k < C; ++k) w[k] = beta[k];
+    return w;
+  }
+  void medium_weight(const ChannelValues& w) {
+    for (int k = 0; k < C; ++k) beta[k] *= w[k];
+  }
+  void medium_emission(const ChannelValues& e) {
+    for (int k = 0; k < C; ++k) Ld[k] += beta[k] * e[k];
+  }
+  bool is_hero_only() const { return hero_only; }
 };
 
 RGB ProgressivePhotonMapping::eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf&, const Vec3& wo,
-                                      float u_light, const Vec2& u2, int64_t& rays) const {
+                                      float u_light, const Vec2& u2, int64_t& rays, const ShadowTest* shadow) const {
   const LightSet& lights = scene_.light_set();
   if (auto ls = lights.sample_li(hit.p, u_light, u2); ls && ls->pdf > 0 && !ls->L.is_black()) {
     const Vec3 wi = hit.frame.to_local(ls->wi);
@@ -126,10 +142,15 @@ RGB ProgressivePhotonMapping::eye_nee(SpectralEye& c, const SurfaceHit& hit, con
     }
     if (any) {
       ++rays;
-      const bool blocked = scene_.occluded(hit.p, hit.ng, *ls);
+      MediumLengths lengths;  // with media: through volume boundaries, with their transmittance
+      const bool blocked = shadow ? !shadow->visible(hit.p, &hit.ng, *ls, &lengths) : scene_.occluded(hit.p, hit.ng, *ls);
       if (!blocked) {
         float spec[kMaxWavelengths];
         pass_spectra_.emitted(ls->light, ls->L, spec);
+        if (shadow && lengths.n > 0) {
+          const ChannelValues T = transmittance(lengths, c.C, [&](int m) -> const MediumChannels& { return pass_media_[m]; });
+          for (int k = 0; k < c.C; ++k) spec[k] *= T[k];
+        }
         for (int k = 0; k < c.C; ++k) c.Ld[k] += c.beta[k] * f[k] * spec[k] / ls->pdf;
       }
     }
@@ -149,7 +170,7 @@ std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, 
 }
 
 void ProgressivePhotonMapping::eye_prepare(SpectralEye& c, const SurfaceHit& hit) const {
-  c.mk = pass_spectra_.material(hit.material, hit.uv, c.local);
+  c.mk = pass_spectra_.material(hit, c.local);
 }
 
 bool ProgressivePhotonMapping::eye_survive(SpectralEye& c, float u, float*) const {
@@ -180,7 +201,9 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
           for (int x = tile.x0; x < tile.x1; ++x, ++i) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
             SpectralEye eye(pass_spectra_, C);
+            eye.media = &pass_media_;
             const EyeEnd end = trace_eye(camera[i], starts[i].rng, rays, eye, none, &hits[i], false);
+            store_beams(pixel, end, ext);
             const SpectralValues& Ld = eye.Ld;
             const SpectralValues& beta = eye.beta;
             const bool hero_only = eye.hero_only, escaped = end.escaped;
@@ -220,6 +243,7 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
   const int64_t kChunk = PhotonTracer::kChunk;
   const size_t n_chunks = static_cast<size_t>((count + kChunk - 1) / kChunk);
   if (spectral_chunks_.size() < n_chunks) spectral_chunks_.resize(n_chunks);
+  if (media_ && spectral_volume_chunks_.size() < n_chunks) spectral_volume_chunks_.resize(n_chunks);
 
   // The photon at the pass's wavelengths (photon_walk.h's power type): the hero samples every
   // direction, the others follow with their factors (scatter_factors), as the eye path.
@@ -228,6 +252,8 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
     const SpectraAtWavelengths& spectra;
     const int C;
     std::vector<SpectralPhoton>& dst;
+    std::vector<SpectralPhoton>* volume;        // volume photons (media)
+    const std::vector<MediumChannels>& media;  // the scene's media at the pass's wavelengths
     SpectralValues beta{}, pending{};
     bool hero_only = false;
     WavelengthParams local;
@@ -301,35 +327,59 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
       for (int k = 0; k < C; ++k) beta[k] = pending[k] / p_continue;
     }
     RGB origin_scale(float) const { return RGB(0.0f); }  // GPM's origins: RGB photons only
+    // ---- Participating media (photon_walk.h) ----
+    int channels() const { return C; }
+    const MediumChannels& medium_channels(int m) const { return media[m]; }
+    ChannelValues channel_weights() const {
+      ChannelValues w{};
+      for (int k = 0; k < C; ++k) w[k] = beta[k];
+      return w;
+    }
+    void medium_weight(const ChannelValues& w) {
+      for (int k = 0; k < C; ++k) beta[k] *= w[k];
+    }
+    void deposit_volume(const Vec3& p, const Vec3& wi) {
+      if (volume) volume->push_back(SpectralPhoton{Photon{p, wi, RGB(1.0f), 0, kAllLobes}, beta, hero_only});
+    }
   };
 
   std::atomic<int64_t> rays_total{0}, invalid_total{0};
   if (!lights.empty() && count > 0)
     for_photon_chunks(
         count, seed_ ^ 0x73706870686fULL, pass, threads_, cancelled, rays_total, invalid_total,
-        [&](size_t c) { spectral_chunks_[c].clear(); },
+        [&](size_t c) {
+          spectral_chunks_[c].clear();
+          if (media_) spectral_volume_chunks_[c].clear();
+        },
         [&](size_t c, PrimarySamples& u, int64_t& invalid) {
-          SpectralPhotonPower power{scene_, pass_spectra_, C, spectral_chunks_[c]};
+          SpectralPhotonPower power{scene_, pass_spectra_, C, spectral_chunks_[c],
+                                    media_ ? &spectral_volume_chunks_[c] : nullptr, pass_media_};
           return tracer_.walk(u, min_deposit_bounce, power, invalid);
         });
   // ---- Concatenate in chunk order (independent of the thread count) ----
-  std::vector<size_t> offset(n_chunks + 1, 0);
-  for (size_t c = 0; c < n_chunks; ++c) offset[c + 1] = offset[c] + spectral_chunks_[c].size();
-  const size_t total = offset[n_chunks];
-  photons_.resize(total);
-  photon_power_.resize(total);
-  photon_hero_.resize(total);
-  parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
-    for (size_t c = lo; c < hi; ++c)
-      for (size_t k = offset[c]; k < offset[c + 1]; ++k) {
-        const SpectralPhoton& sp = spectral_chunks_[c][k - offset[c]];
-        photons_[k] = sp.photon;
-        photons_[k].index = static_cast<uint32_t>(k);
-        photon_power_[k] = sp.power;
-        photon_hero_[k] = sp.hero_only ? 1 : 0;
-      }
-  });
-  for (size_t c = 0; c < n_chunks; ++c) spectral_chunks_[c].clear();
+  auto concatenate = [&](std::vector<std::vector<SpectralPhoton>>& chunks, std::vector<Photon>& photons,
+                         std::vector<SpectralValues>& power, std::vector<uint8_t>& hero) {
+    std::vector<size_t> offset(n_chunks + 1, 0);
+    for (size_t c = 0; c < n_chunks; ++c) offset[c + 1] = offset[c] + chunks[c].size();
+    const size_t total = offset[n_chunks];
+    photons.resize(total);
+    power.resize(total);
+    hero.resize(total);
+    parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
+      for (size_t c = lo; c < hi; ++c)
+        for (size_t k = offset[c]; k < offset[c + 1]; ++k) {
+          const SpectralPhoton& sp = chunks[c][k - offset[c]];
+          photons[k] = sp.photon;
+          photons[k].index = static_cast<uint32_t>(k);
+          power[k] = sp.power;
+          hero[k] = sp.hero_only ? 1 : 0;
+        }
+    });
+    for (size_t c = 0; c < n_chunks; ++c) chunks[c].clear();
+    return total;
+  };
+  const size_t total = concatenate(spectral_chunks_, photons_, photon_power_, photon_hero_);
+  if (media_) concatenate(spectral_volume_chunks_, volume_photons_, volume_power_, volume_hero_);
   stats.stored = static_cast<int64_t>(total);
   stats.rays = rays_total;
   stats.invalid = invalid_total;

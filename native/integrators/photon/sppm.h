@@ -35,7 +35,7 @@ class Sppm : public ProgressivePhotonMapping {
   // (methods.cpp, adaptive_photons.h).
   Sppm(const Scene& scene, const Params& params, std::string name)
       : ProgressivePhotonMapping(scene, params, {.retrace = true, .nee = true, .adaptive_photons = true,
-                                                 .spectral_photons = true}),
+                                                 .spectral_photons = true, .media = true}),
         name_(std::move(name)) {
     read_film_transparent(params);
   }

@@ -204,7 +204,7 @@ ChainThroughput throughput(const Scene& scene, const ManifoldChain& c, const Sur
     const Frame frame(ns);
     const Vec3 wo_w = normalize(prev - x.p), wi_w = normalize(next - x.p);
     const Vec3 wo = frame.to_local(wo_w), wi = frame.to_local(wi_w);
-    const Bsdf bsdf = scene.bsdf(scene.meshes[x.mesh].material_ids[x.prim], scene.uv_at(x.mesh, x.prim, x.p));
+    const Bsdf bsdf = scene.bsdf_at(x.mesh, x.prim, x.p, wo_w, ns);
     const float corr = adjoint_shading_correction(wo_w, wi_w, ng, ns);
     if (corr == 0 || wo.z == 0) return out;
     out.correction *= corr;
@@ -334,7 +334,7 @@ PreparedChain prepare_chain(const Scene& scene, const ManifoldChain& chain) {
   if (!half_vectors(chain, surf, h)) return out;
   for (int j = 0; j < chain.count; ++j) {
     const ChainVertex& x = chain.v[j];
-    const Bsdf bsdf = scene.bsdf(scene.meshes[x.mesh].material_ids[x.prim], scene.uv_at(x.mesh, x.prim, x.p));
+    const Bsdf bsdf = scene.bsdf_at(x.mesh, x.prim, x.p, x.ng, x.ng);
     out.chain.target[j] = bsdf.is_delta() ? Vec2(0, 0) : h[j];
   }
   const auto T = tangent_map(scene, chain, surf);

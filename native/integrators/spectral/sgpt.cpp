@@ -426,8 +426,12 @@ void SpectralSample::trace_base(Ray ray) {
     // kind, so both paths of a pair see the same surfaces); a light object keeps the kind.
     v.kind = mat.is_pass_through() ? ray.bounce : bs->lobe;
     const bool camera = ray.camera && mat.is_pass_through();
+    const RayState state = mat.is_pass_through()
+                               ? ray.state
+                               : next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     ray.bounce = v.kind;
+    ray.state = state;
     ray.camera = camera;
     const Scatter s = v.delta ? delta_scatter(b, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(b, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;

@@ -173,14 +173,19 @@ struct SpectralPath {
   }
   void area_light(int depth, const SurfaceHit& hit, const Ray& ray) {
     if (lights.area_radiance(hit.light, -ray.d).is_black()) return;
-    if (depth == 0) return add_emission(spectra.light[hit.light], 0.0f, true);
-    add_bounce_emission(spectra.light[hit.light], lights.lights()[hit.light].visible_lobes,
+    // A graph-driven emission is evaluated at the hit, for the ray that met it (Light Path).
+    std::optional<RgbSpectrum> varying;
+    const RgbSpectrum& spec =
+        light_seen(hit.light, [&] { return lights.area_radiance(hit.light, -ray.d, hit.p, &hit.ray); }, varying);
+    if (depth == 0) return add_emission(spec, 0.0f, true);
+    add_bounce_emission(spec, lights.lights()[hit.light].visible_lobes,
                         specular_bounce ? 0.0f : lights.pdf_area(hit.light, prev_p, hit.p, ray.d));
   }
   bool prepare(const SurfaceHit& hit) {
     const Material& base = scene.material(hit.material);
     dispersive = is_dispersive(base);
-    const SpectralSurface surface(base, hit.uv, &spectra.albedo[hit.material]);  // textures read once
+    // Textures and node graphs read once, at the hit's full shading context.
+    const SpectralSurface surface(base, scene.shading_context(hit), &spectra.albedo[hit.material]);
     for (int k = 0; k < C; ++k) {
       mk[k] = surface.at(wl.lambda[k]);
       bk[k] = scene.bsdf(mk[k], hit);  // with the hit's normals (a normal map's bump shadowing)
@@ -206,7 +211,7 @@ struct SpectralPath {
     ++shadow_rays;
     MediumLengths lengths;
     if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
-    if (lengths.n > 0) {
+    if (!lengths.empty()) {
       const ChannelValues T = transmittance(lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
       for (int k = 0; k < C; ++k) f[k] *= T[k];
     }

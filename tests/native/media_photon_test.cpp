@@ -1,0 +1,157 @@
+// Photon methods in participating media (issue 32, thesis §5.6): volume photons from the one
+// photon walk (photon/photon_walk.h) and SPPM's beam radiance estimate with a progressive
+// cylinder (progressive_photon.cpp volume_gather). Statistical tests at fixed seeds, each with its
+// headroom stated; each was seen failing with the estimator broken (docs/photon-mapping.md lists
+// what was broken and what failed).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "integrators/integrator.h"
+#include "integrators/methods.h"
+#include "integrators/photon/sppm.h"
+#include "render_for_tests.h"
+
+namespace gp {
+namespace {
+
+Params photon_params(uint64_t seed, int64_t photons, double radius, int max_depth = 64) {
+  Params p;
+  p.set("seed", seed);
+  p.set("photons", photons);
+  p.set("radius", radius);  // the cylinder's first radius too (the footprint of a tiny image is large)
+  p.set("max_depth", max_depth);
+  return p;
+}
+
+Film render_pt(const Scene& s, int passes, const std::string& method, uint64_t seed, int max_depth = 64) {
+  Params p;
+  p.set("seed", seed);
+  p.set("max_depth", max_depth);
+  return render(method, s, passes, p);
+}
+
+// A sphere of a scattering-only medium (albedo 1, coloured, anisotropic) in a uniform World: every
+// ray sees the World's radiance (the volumetric white furnace). Only volume photons light the
+// sphere's inside; what the camera sees of it is the beam estimate plus the World behind it seen
+// through the sphere's transmittance.
+TEST(MediaPhotons, AlbedoOneMediumInUniformEnvironmentIsInvisible) {
+  const Scene s = scene_from(R"({"camera": {"position": [0, -4, 0], "look_at": [0, 0, 0], "fov": 30, "width": 16, "height": 16},
+    "media": {"cloud": {"sigma_s": [0.5, 2.0, 4.0], "g": 0.6}},
+    "materials": {"boundary": {"type": "volume", "interior": "cloud"}},
+    "environment": {"color": [0.5, 1.0, 2.0], "strength": 1},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 48, "material": "boundary"}]})");
+  for (const char* method : {"sppm", "ppm"}) {
+    bool finite = false;
+    const RGB m = image_mean(render(method, s, 32, photon_params(3, 50000, 0.01)), &finite);
+    EXPECT_TRUE(finite);
+    std::printf("furnace: %s %.4f %.4f %.4f of the World\n", method, m.r / 0.5, m.g / 1.0, m.b / 2.0);
+    // Measured 1.008, 1.014, 1.014 of the World (sppm); the noise of 32 passes and the
+    // cylinder's remaining bias are about 1 %: 3 % headroom. Seen failing: without the
+    // transmittance to the photon 1.15, 2.3, 4.1; 1 / (pi R) for 1 / (pi R^2) 0.66, 0.36; the
+    // phase pdf dropped from the photons' phase sampling 0.92, 0.60.
+    // PPM keeps its first pass's camera segments: 0.989, 0.970, 1.004, so 4 % for it.
+    const double tol = std::string(method) == "ppm" ? 0.04 : 0.03;
+    EXPECT_NEAR(m.r / 0.5, 1.0, tol) << method;
+    EXPECT_NEAR(m.g / 1.0, 1.0, tol) << method;
+    EXPECT_NEAR(m.b / 2.0, 1.0, tol) << method;
+  }
+}
+
+// A closed room (a two-sided diffuse box with the camera inside, a point light) filled with haze
+// (a World medium that scatters and absorbs, anisotropic), and a denser coloured smoke ball
+// without surface: pt and sppm agree. (Closed, so that pt's reference is quiet: in an open room
+// pt's paths wander off into the World's haze and 512 spp of it were 2.5 % off its own mean.)
+const char* kFogRoom = R"({"camera": {"position": [0, -0.95, 1], "look_at": [0, 0, 0.9], "fov": 60, "width": 24, "height": 18},
+ "media": {"haze": {"sigma_a": 0.05, "sigma_s": 0.35, "g": 0.3},
+           "smoke": {"sigma_a": [0.3, 0.5, 0.8], "sigma_s": [2.0, 1.5, 1.0], "g": 0.5}},
+ "world_medium": "haze",
+ "materials": {"wall": {"type": "diffuse", "color": [0.6, 0.55, 0.5]}, "smoke": {"type": "volume", "interior": "smoke"}},
+ "lights": [{"type": "point", "position": [0.3, -0.2, 1.7], "intensity": 10}],
+ "objects": [{"type": "box", "min": [-1, -1, 0], "max": [1, 1, 2], "material": "wall"},
+             {"type": "sphere", "center": [-0.35, 0.3, 0.6], "radius": 0.4, "segments": 32, "material": "smoke"}]})";
+
+TEST(MediaPhotons, SppmAndPathTracingAgreeInFog) {
+  const Scene s = scene_from(kFogRoom);
+  const RGB pt = image_mean(render_pt(s, 1024, "pt", 5));
+  const RGB sppm = image_mean(render("sppm", s, 48, photon_params(6, 100000, 0.02)));
+  std::printf("fog room: sppm / pt %.4f %.4f %.4f\n", sppm.r / pt.r, sppm.g / pt.g, sppm.b / pt.b);
+  // pt's mean at 1024 spp moved 0.1 % between seeds, sppm's at 48 passes 0.4 % (seeds 7, 8:
+  // 1.0016, 0.9982 of pt): the issue's 1 %.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(sppm[c] / pt[c], 1.0, 0.01) << "channel " << c << ": " << sppm[c] << " vs " << pt[c];
+}
+
+// Murky water in a glass sphere under an area light over a diffuse floor: photons refract into the
+// water, scatter there and leave through the glass (the volume stack through glass); camera
+// segments through the water gather them. (An area light, not a point light: pt finds light
+// through smooth glass only by BSDF sampling, so it cannot be the reference under a delta light.)
+const char* kMurkyGlass = R"({"camera": {"position": [0, -3, 1.2], "look_at": [0, 0, 0.5], "fov": 35, "width": 24, "height": 18},
+    "media": {"water": {"sigma_a": [0.4, 0.15, 0.1], "sigma_s": 1.2, "g": 0.4}},
+    "materials": {"floor": {"type": "diffuse", "color": 0.6},
+                  "lamp": {"type": "emission", "emission": 1, "strength": 8, "two_sided": true},
+                  "glass": {"type": "dielectric", "ior": 1.33, "roughness": 0, "color": [1, 1, 1], "interior": "water"}},
+    "environment": {"color": [0.05, 0.05, 0.08]},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [3, 0, 0], "v": [0, 3, 0], "material": "floor"},
+                {"type": "quad", "center": [0.2, -0.3, 2.4], "u": [0.5, 0, 0], "v": [0, 0.5, 0], "material": "lamp"},
+                {"type": "sphere", "center": [0, 0, 0.6], "radius": 0.55, "segments": 48, "material": "glass"}]})";
+
+TEST(MediaPhotons, AMediumInsideGlassMatchesPathTracing) {
+  const Scene s = scene_from(kMurkyGlass);
+  const RGB pt = image_mean(render_pt(s, 1024, "pt", 7));
+  const RGB sppm = image_mean(render("sppm", s, 48, photon_params(8, 100000, 0.02)));
+  std::printf("murky glass: sppm / pt %.4f %.4f %.4f\n", sppm.r / pt.r, sppm.g / pt.g, sppm.b / pt.b);
+  // pt finds the light through the glass by BSDF sampling only, so its own noise is larger than
+  // in the fog room: 1.5 %.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(sppm[c] / pt[c], 1.0, 0.015) << "channel " << c << ": " << sppm[c] << " vs " << pt[c];
+}
+
+TEST(MediaPhotons, SpectralSppmAndSpectralPathTracingAgreeInFog) {
+  // The photons and eye paths at sampled wavelengths (SpectralPhotonPower, SpectralEye) against spt-hero.
+  const Scene s = scene_from(kFogRoom);
+  Params pt;
+  pt.set("seed", uint64_t{9});
+  pt.set("max_depth", 64);
+  const RGB spt = image_mean(render("spt-hero", s, 1024, pt));
+  Params p = photon_params(10, 100000, 0.02);
+  p.set("spectral", std::string("spectral"));
+  Stats stats;
+  const RGB sppm = image_mean(render("sppm", s, 48, p, &stats));
+  ASSERT_EQ(stats.extra.count("spectral wavelengths"), 1u);  // spectral photons were used
+  std::printf("fog room: spectral sppm / spt-hero %.4f (luminance)\n", sppm.luminance() / spt.luminance());
+  // Colour noise of 4 wavelengths per path on top of the RGB test's: 2 % headroom on luminance.
+  EXPECT_NEAR(sppm.luminance() / spt.luminance(), 1.0, 0.02) << sppm.luminance() << " vs " << spt.luminance();
+}
+
+TEST(MediaPhotons, MemoryStaysFlatOverManyPassesWithVolumePhotons) {
+  Scene s = scene_from(kFogRoom);
+  s.camera.width = 8;
+  s.camera.height = 6;
+  Params p = photon_params(11, 2000, 0.05);
+  auto integ = make_integrator("sppm", s, p);
+  auto* sppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
+  ASSERT_NE(sppm, nullptr);
+  size_t at_100 = 0;
+  for (int pass = 1; pass <= 1000; ++pass) {
+    integ->iterate(nullptr);
+    if (pass == 100) at_100 = sppm->memory_bytes();
+  }
+  const double stored = integ->stats().extra.at("volume photons stored");
+  EXPECT_GT(stored, 1000.0 * 100);  // volume photons every pass
+  // Capacities follow the largest pass so far, not the passes' sum: at most a few per cent more
+  // after 900 further passes (the photon counts of a pass vary), never growing with the count.
+  EXPECT_LE(sppm->memory_bytes(), at_100 * 1.1) << at_100;
+}
+
+TEST(MediaPhotons, ErrorEstimateIsNotAvailableWithMedia) {
+  const Scene s = scene_from(kFogRoom);
+  auto integ = make_integrator("sppm", s, photon_params(12, 2000, 0.05));
+  integ->iterate(nullptr);
+  integ->iterate(nullptr);
+  EXPECT_LT(integ->estimated_error(), 0);  // run_progressive refuses --target-error alone
+  EXPECT_THROW(run_progressive(*integ, StopRule{0, 0, 0.1}, nullptr), ParamError);
+}
+
+}  // namespace
+}  // namespace gp
