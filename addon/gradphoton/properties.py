@@ -360,6 +360,10 @@ class _RenderSettings:
                                               "(Path Tracing shows a first image soonest)")
     viewport_passes: IntProperty(name="Passes", default=1024, min=0,
                                  description="Passes the rendered viewport refines to (0 = no limit)")
+    motion_blur_lights: BoolProperty(name="Blur Moving Lights", default=False,
+                                     description="Lights that move during the shutter blur (light samples and "
+                                                 "photons follow them). Off: each light stays where it is at the "
+                                                 "frame, as in Cycles 3.4, which does not blur lights")
     export_uvs: BoolProperty(name="Export UVs", default=False,
                              description="Export every mesh's UV map, also where no material reads one (for Export "
                                          "Scene): materials with image textures get theirs anyway. Splits "

@@ -266,6 +266,7 @@ class GRADPHOTON_RENDER_PT_motion_blur(GradphotonPanel, bpy.types.Panel):
         if c is not None:
             col.prop(c, "motion_blur_position", text="Position")
         col.prop(rd, "motion_blur_shutter")
+        col.prop(context.scene.gradphoton, "motion_blur_lights")
         if c is not None:
             col.separator()
             col.prop(c, "rolling_shutter_type", text="Rolling Shutter")

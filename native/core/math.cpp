@@ -45,4 +45,25 @@ Transform Transform::rotate(float degrees, const Vec3& axis) {
   return r;
 }
 
+// The inverse of an affine transform (3x3 part by its adjugate; identity where singular).
+Transform invert_affine(const Transform& t) {
+  const auto& m = t.m;
+  const float det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                    m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  Transform r;
+  if (!(std::abs(det) > 0) || !std::isfinite(det)) return r;
+  const float id = 1.0f / det;
+  r.m[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) * id;
+  r.m[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) * id;
+  r.m[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) * id;
+  r.m[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) * id;
+  r.m[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) * id;
+  r.m[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * id;
+  r.m[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) * id;
+  r.m[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) * id;
+  r.m[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * id;
+  for (int i = 0; i < 3; ++i) r.m[i][3] = -(r.m[i][0] * m[0][3] + r.m[i][1] * m[1][3] + r.m[i][2] * m[2][3]);
+  return r;
+}
+
 }  // namespace gp

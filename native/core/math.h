@@ -233,4 +233,7 @@ struct Transform {
   static Transform rotate(float degrees, const Vec3& axis);
 };
 
+// The inverse of an affine transform (3x3 part by its adjugate; identity where singular).
+Transform invert_affine(const Transform& t);
+
 }  // namespace gp

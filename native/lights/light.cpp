@@ -26,6 +26,14 @@ namespace {
 // rigid motion (A constant) and for deformation and animated scale alike (A(t) changes, the pdf
 // with it); its selection probability stays the frame's power, any fixed choice being unbiased.
 const Light& at_shutter_time(const Light& l, std::optional<Light>& moved) {
+  if (l.lamp_motion) {  // a moving lamp: its own point and axis under its transform at that time
+    moved.emplace(l);
+    const Transform m = l.lamp_motion->at(shutter_time());
+    moved->position = m.point(l.local_position);
+    const Vec3 d = m.vector(l.local_direction);
+    if (length_squared(d) > 0) moved->direction = normalize(d);
+    return *moved;
+  }
   if (!l.motion) return l;
   moved.emplace(l);
   Vec3 v[3];
@@ -179,7 +187,8 @@ RGB LightSet::environment_radiance(const Vec3& dir, bool camera_ray) const {
 int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, float* pdf) const {
   int found = -1;
   for (int i : disk_lights_) {
-    const Light& l = lights_[i];
+    std::optional<Light> moved;
+    const Light& l = at_shutter_time(lights_[i], moved);
     const Vec3 to_o = ray.o - l.position;
     const float d2 = length_squared(to_o);
     const float r2 = l.radius * l.radius;
@@ -231,6 +240,8 @@ RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo, const RaySt
   ctx.N = ctx.Ng = ctx.backfacing ? -l.n : l.n;
   ctx.I = wo;
   ctx.object = object;
+  // A light moving with its object: the emission's Object coordinates at the thread's time.
+  if (object && l.motion && !l.motion->transform.empty()) ctx.set_object_at(*object, l.motion->transform.at(shutter_time()));
   ctx.prim = prim;
   ctx.camera = camera;
   if (ray) ctx.ray = *ray;
@@ -260,6 +271,11 @@ RGB LightSet::emitted(int i, const Vec3& d) const {
     case LightType::Environment: return RGB(0.0f);
   }
   return RGB(0.0f);
+}
+
+Vec3 LightSet::position(int i) const {
+  std::optional<Light> moved;
+  return at_shutter_time(lights_[i], moved).position;
 }
 
 void LightSet::emission_pdf(int i, const Vec3& d, float& pdf_pos, float& pdf_dir) const {

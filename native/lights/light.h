@@ -67,6 +67,11 @@ struct Light {
   // the triangle at the thread's shutter time (core/math.h shutter_time).
   std::shared_ptr<const MeshMotion> motion;
   uint32_t tri[3] = {0, 0, 0};
+  // A moving lamp (point, spot, sun; motion blur): its transforms over the shutter place
+  // local_position and local_direction (the lamp's own space) where it is at the thread's
+  // shutter time; position and direction are then the mid-shutter ones (selection, reports).
+  std::shared_ptr<const TransformMotion> lamp_motion;
+  Vec3 local_position, local_direction{0, 0, -1};
   std::shared_ptr<const EmissionGraph> emission_graph;  // area lights of graph-driven emission
   // Line emission spectrum (spectral modes); empty = the smooth spectrum of emit. emit is then
   // the lines' (clipped) RGB times the luminance.
@@ -173,6 +178,8 @@ class LightSet {
   // intensity (spot falloff included); 0 for distant lights. GPM's light-subpath shift
   // reconnects at the light vertex and needs it for the offset direction.
   RGB emitted(int light, const Vec3& d) const;
+  // Where point or spot light `light` is at the thread's shutter time (a moving lamp moves).
+  Vec3 position(int light) const;
   float power(int light) const;
   // Emission sampling for photon tracing: picks a light in proportion to power(), then a
   // point and a direction on it. Area: uniform point, cosine-weighted direction about the

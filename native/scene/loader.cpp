@@ -1030,16 +1030,16 @@ class Loader : private JsonReader {
     if (const json* n = find(l, "name")) light.name = get_string(*n, sub(path, "name"));
     if (type == "point") {
       check_keys(l, path, {"type", "name", "position", "intensity", "power", "color", "spectrum", "radius",
-                           "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission"});
+                           "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission", "motion"});
       light.type = LightType::Point;
-      light.position = get_vec3(need(l, "position", path), sub(path, "position"));
+      light.position = lamp_position(l, path);
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "spot") {
       check_keys(l, path, {"type", "name", "position", "direction", "look_at", "spot_size", "spot_blend", "intensity",
                            "power", "color", "spectrum", "radius", "visible_to_diffuse", "visible_to_glossy",
-                           "visible_to_transmission"});
+                           "visible_to_transmission", "motion"});
       light.type = LightType::Spot;
-      light.position = get_vec3(need(l, "position", path), sub(path, "position"));
+      light.position = lamp_position(l, path);
       const json* d = find(l, "direction");
       const json* at = find(l, "look_at");
       if (d && at) fail(path, "give either 'direction' or 'look_at', not both");
@@ -1049,7 +1049,7 @@ class Loader : private JsonReader {
         const Vec3 to = get_vec3(*at, sub(path, "look_at")) - light.position;
         if (!(length(to) > 0)) fail(sub(path, "look_at"), "look_at equals position");
         light.direction = normalize(to);
-      } else {
+      } else if (!find(l, "motion")) {
         fail(path, "needs 'direction' or 'look_at'");
       }
       float size = 45.0f, blend = 0.15f;  // Blender's defaults
@@ -1063,9 +1063,10 @@ class Loader : private JsonReader {
       light.emit = light_value(l, path, "intensity", "power", kInv4Pi, light);
     } else if (type == "sun") {
       check_keys(l, path, {"type", "name", "direction", "irradiance", "strength", "color", "spectrum", "angle",
-                           "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission"});
+                           "visible_to_diffuse", "visible_to_glossy", "visible_to_transmission", "motion"});
       light.type = LightType::Directional;
-      light.direction = get_direction(need(l, "direction", path), sub(path, "direction"));
+      if (const json* d = find(l, "direction")) light.direction = get_direction(*d, sub(path, "direction"));
+      else if (!find(l, "motion")) need(l, "direction", path);
       if (const json* a = find(l, "angle"))  // full angle in degrees, as Blender's sun
         light.sun_tan_half = std::tan(0.5f * get_in_range(*a, sub(path, "angle"), 0.0f, 179.0f) * kPi / 180.0f);
       light.emit = light_value(l, path, "irradiance", "strength", 1.0f, light);
@@ -1074,7 +1075,38 @@ class Loader : private JsonReader {
     }
     if (const json* r = find(l, "radius")) light.radius = get_nonnegative(*r, sub(path, "radius"));
     light.visible_lobes = load_visible_lobes(l, path);
+    if (const json* m = find(l, "motion")) load_lamp_motion(*m, sub(path, "motion"), light);
     scene_.lights.push_back(std::move(light));
+  }
+
+  // A lamp's position: required, except under "motion" (the lamp's own space, origin by default).
+  Vec3 lamp_position(const json& l, const std::string& path) {
+    if (const json* p = find(l, "position")) return get_vec3(*p, sub(path, "position"));
+    if (find(l, "motion")) return Vec3(0.0f);
+    return get_vec3(need(l, "position", path), sub(path, "position"));
+  }
+
+  // A moving lamp (docs/scene-format.md "Motion blur"): S >= 2 transforms over the shutter, as
+  // objects' "motion", placing the lamp's position and direction (its own space; by default
+  // the origin and -Z, a Blender lamp's) at each time. The frame's are the mid-shutter ones.
+  void load_lamp_motion(const json& m, const std::string& mpath, Light& light) {
+    require_array(m, mpath);
+    if (m.size() < 2)
+      fail(mpath, fmt::format("light '{}': {} transform(s); motion needs at least 2 (shutter open and close)", light.name,
+                              m.size()));
+    std::vector<Transform> steps;
+    for (size_t i = 0; i < m.size(); ++i) {
+      steps.push_back(load_transform(m[i], sub(mpath, i)));
+      if (const std::string bad = check_object_matrix(steps.back()); !bad.empty())
+        fail(sub(mpath, i), fmt::format("light '{}': {}", light.name, bad));
+    }
+    auto motion = std::make_shared<TransformMotion>(steps);
+    light.local_position = light.position;
+    light.local_direction = light.direction;
+    const Transform frame = motion->at(0.5f);
+    light.position = frame.point(light.local_position);
+    light.direction = normalize(frame.vector(light.local_direction));
+    if (!motion->still()) light.lamp_motion = std::move(motion);  // steps all equal: a still lamp
   }
 
   // Keys of one background (docs/scene-format.md, "Environment"), by type.

@@ -75,28 +75,6 @@ void Scene::finalize() {
   moved_meshes_.clear();
 }
 
-namespace {
-// The inverse of an affine transform (3x3 part by its adjugate; identity where singular).
-Transform invert_affine(const Transform& t) {
-  const auto& m = t.m;
-  const float det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                    m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-  Transform r;
-  if (!(std::abs(det) > 0) || !std::isfinite(det)) return r;
-  const float id = 1.0f / det;
-  r.m[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) * id;
-  r.m[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) * id;
-  r.m[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) * id;
-  r.m[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) * id;
-  r.m[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) * id;
-  r.m[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * id;
-  r.m[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) * id;
-  r.m[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) * id;
-  r.m[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * id;
-  for (int i = 0; i < 3; ++i) r.m[i][3] = -(r.m[i][0] * m[0][3] + r.m[i][1] * m[1][3] + r.m[i][2] * m[2][3]);
-  return r;
-}
-}  // namespace
 
 // A mesh's attributes must fit it: one element per vertex (point), triangle corner (corner) or
 // triangle (face), 1-4 finite components, distinct names.
@@ -179,7 +157,13 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
     if (!triangle_dpduv(v[0], v[1], v[2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
                         has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &c.dPdu, &c.dPdv))
       c.dPdu = c.dPdv = Vec3(0.0f);
-    if (static_cast<size_t>(h.mesh) < shading_objects_.size()) c.object = &shading_objects_[h.mesh];
+    if (static_cast<size_t>(h.mesh) < shading_objects_.size()) {
+      c.object = &shading_objects_[h.mesh];
+      // A moving object's Object/Generated coordinates, Object Info and Vector Transform at the
+      // path's time, so that its textures move with it (Cycles: shader_setup_object_transforms
+      // at the ray's time, kernel/geom/shader_data.h).
+      if (m.motion && !m.motion->transform.empty()) c.set_object_at(*c.object, m.motion->transform.at(shutter_time()));
+    }
     c.prim = h.prim;
   }
   return c;
@@ -312,9 +296,11 @@ void Scene::build_lights() {
       }
     }
   }
-  for (const Light& l : lights)
+  for (const Light& l : lights) {
     if (!l.emit.is_finite())
       throw std::runtime_error(fmt::format("{}: light '{}' has a non-finite value", source, l.name));
+    if (l.lamp_motion) moving = true;  // a moving lamp: paths and passes draw a time
+  }
   lights_hidden_from_some_lobes_ = std::any_of(all_lights.begin(), all_lights.end(),
                                                [](const Light& l) { return l.visible_lobes != kAllLobes; });
   surfaces_hidden_from_some_lobes_ = std::any_of(materials.begin(), materials.end(), [](const Material& m) {

@@ -77,6 +77,8 @@ struct ShadingContext {
   Vec3 dPdu, dPdv;   // surface tangents along u and v (zero: unknown; bump picks a frame)
   int prim = -1;     // the hit triangle in its object's mesh (attributes; -1: none)
   const ShadingObject* object = nullptr;
+  // Where `object` is a moving object at the path's time (set_object_at), the copy it points to.
+  std::shared_ptr<const ShadingObject> object_at_time;
   const ShadingCamera* camera = nullptr;  // Texture Coordinate's Camera and Window, Vector Transform
   bool backfacing = false;
   bool surface = true;
@@ -84,6 +86,15 @@ struct ShadingContext {
   // Cycles' path flags and bounce counts). Default: no path's ray (flags 0, depth 0), as a
   // light's emission evaluated for a light sample (Cycles' PATH_RAY_EMISSION).
   RayState ray;
+
+  // `object` placed by `to_world` instead of its frame transform (a moving object at a time).
+  void set_object_at(const ShadingObject& o, const Transform& to_world) {
+    auto placed = std::make_shared<ShadingObject>(o);
+    placed->to_world = to_world;
+    placed->to_object = invert_affine(to_world);
+    object = placed.get();
+    object_at_time = std::move(placed);
+  }
 
   // A context for a direction only (World shaders): P = dir, I = -dir.
   static ShadingContext direction(const Vec3& dir) {

@@ -282,7 +282,7 @@ class _Layout:
 # Render settings that are not method parameters: stop rule, export, the viewport's own settings,
 # Cycles' animated seed and Persistent Data.
 NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "error_time_limit", "export_uvs",
-                  "viewport_method", "viewport_passes", "use_animated_seed"}
+                  "viewport_method", "viewport_passes", "use_animated_seed", "motion_blur_lights"}
 BLENDER_RENDER_SETTINGS = {"use_persistent_data", "use_motion_blur", "motion_blur_shutter"}
 # Cycles' Film and Motion Blur settings gradphoton reads (Film > Exposure, Pixel Filter; Motion
 # Blur > Position, Rolling Shutter): not method parameters.

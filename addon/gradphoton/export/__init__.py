@@ -120,9 +120,10 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
             mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache, sampler,
                               view_layer=depsgraph.view_layer_eval)
         elif kind == 'LIGHT':
-            light.add_light(out, inst, mats, w)
-            if sampler is not None:
-                sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32))
+            added = light.add_light(out, inst, mats, w)
+            # Cycles 3.4 does not blur lights: they move only when Blur Moving Lights asks.
+            if sampler is not None and added is not None and getattr(getattr(scene, "gradphoton", None), "motion_blur_lights", False):
+                sampler.add_light(inst, np.array(inst.matrix_world, dtype=np.float32), added)
         elif kind == 'VOLUME':
             volume_object.add_volume_object(out, inst, mats, media, w)
         # cameras, empties, armatures: nothing to render

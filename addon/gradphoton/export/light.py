@@ -19,6 +19,10 @@ Diffuse/Glossy/Transmission switches become keys of that surface or of a point/s
 spot and sun lights are never hit by rays (next-event estimation only, as the core's delta
 lights): shown to the camera or in a mirror they are a counted warning. Area-light spread is
 not modelled (a counted warning).
+
+Motion blur (export/motion.py): a moving point, spot or sun light gets "motion", its matrices
+over the shutter placing its origin and -Z (docs/scene-format.md "Motion blur"); a moving area
+light's surface moves as a mesh does (its radiance stays the frame's, from the frame's area).
 """
 import math
 
@@ -39,6 +43,8 @@ def _pos(m):
 
 
 def add_light(out, inst, mats, warnings):
+    """Adds the light; returns what it added (the light's dict, or an area light's MeshRecord),
+    which motion blur moves (export/motion.py), or None."""
     ob = inst.object
     la = ob.data
     m = np.array(inst.matrix_world, dtype=np.float64)
@@ -53,14 +59,16 @@ def add_light(out, inst, mats, warnings):
             d.update({"direction": _dir(m), "spot_size": min(180.0, math.degrees(la.spot_size)),
                       "spot_blend": min(1.0, max(0.0, la.spot_blend))})
         out.description["lights"].append(d)
-    elif la.type == 'SUN':
-        out.description["lights"].append(
-            {"type": "sun", "name": name, "direction": _dir(m), "strength": max(0.0, la.energy), "color": color,
-             "angle": min(179.0, math.degrees(la.angle)), **flags})
-    elif la.type == 'AREA':
-        _add_area(out, ob, la, m, name, color, warnings, flags)
-    else:
-        warnings.add("unsupported light type", f"{ob.name} ({la.type})")
+        return d
+    if la.type == 'SUN':
+        d = {"type": "sun", "name": name, "direction": _dir(m), "strength": max(0.0, la.energy), "color": color,
+             "angle": min(179.0, math.degrees(la.angle)), **flags}
+        out.description["lights"].append(d)
+        return d
+    if la.type == 'AREA':
+        return _add_area(out, ob, la, m, name, color, warnings, flags)
+    warnings.add("unsupported light type", f"{ob.name} ({la.type})")
+    return None
 
 
 def _add_area(out, ob, la, m, name, color, warnings, flags):
@@ -68,7 +76,7 @@ def _add_area(out, ob, la, m, name, color, warnings, flags):
     sx = la.size
     sy = la.size_y if la.shape in {'RECTANGLE', 'ELLIPSE'} else la.size
     if sx <= 0 or sy <= 0:
-        return
+        return None
     if abs(getattr(la, "spread", math.pi) - math.pi) > 1e-4:
         warnings.add("area light Spread not modelled: the light spreads over its whole front side, as Spread 180\u00b0",
                      f"{ob.name} (Spread {math.degrees(la.spread):.0f}\u00b0)")
@@ -91,7 +99,7 @@ def _add_area(out, ob, la, m, name, color, warnings, flags):
     scale = float(np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
     area = area_local * scale
     if area <= 0:
-        return
+        return None
     mat_name = f"__light_{name}"
     out.description["materials"][mat_name] = {
         "type": "dielectric", "ior": 1.0, "color": 1.0,  # a pass-through surface, as Cycles' lights
@@ -103,3 +111,4 @@ def _add_area(out, ob, la, m, name, color, warnings, flags):
     rec.matrices.append(m.astype(np.float32))
     rec.instance_names.append(name)
     out.meshes.append(rec)
+    return rec

@@ -19,7 +19,13 @@ object.cpp sync_object_motion_init, sync.cpp sync_motion, mesh.cpp sync_mesh_mot
 The result follows docs/scene-format.md "Motion blur": S samples at t = i/(S-1), t in [0, 1]
 over the shutter; `matrices` / `positions` stay the frame's own.
 
-Lights do not move in the core yet (one warning names them). The shutter curve and the rolling
+Lights: Cycles 3.4 does not blur them (a moving spot renders the same with Motion Blur on and
+off: measured, tests/blender/test_motion_blur.py), and neither do we by default. With Scene >
+gradphoton > Blur Moving Lights (motion_blur_lights) a lamp is sampled as an object (its Steps:
+Cycles shows no Motion Blur panel for lights, so the defaults, 3 samples): a point, spot or sun
+light gets "motion", the lamp's matrices over the shutter (its position and direction keys
+dropped: the origin and -Z of its own space, as Blender's lamp); an area light's surface (a
+MeshRecord) gets the matrices as a mesh instance does. The shutter curve and the rolling
 shutter are not rendered (one warning each, naming the setting). A method that does not render
 motion blur says so itself (the core's feature_report, read from its declaration).
 """
@@ -133,7 +139,7 @@ class MotionSampler:
         self.scene = scene
         self.instances = {}   # instance key -> (steps, [(record, index)]): object-to-world matrices
         self.deforming = {}   # object name -> (steps, record, needs_uvs): positions per step
-        self.lights = {}      # instance key -> (steps, frame matrix, name)
+        self.lights = {}      # instance key -> (steps, frame matrix, name, the light's dict or MeshRecord)
         self.camera_steps = 0
         self.camera_frame = None  # the camera's 16 numbers at the frame
         self.times = set()
@@ -161,11 +167,12 @@ class MotionSampler:
                 self.deforming[ob.name] = (steps, record, record.needs_uvs)
                 record.deform_source = ob.name
 
-    def add_light(self, inst, matrix):
+    def add_light(self, inst, matrix, target):
+        """`target`: what export/light.py added (a light's dict, or an area light's MeshRecord)."""
         parent = inst.parent if inst.is_instance else None
         steps = object_steps(parent, inst.object)
         if steps:
-            self.lights[instance_key(inst)] = (steps, matrix, inst.object.name)
+            self.lights[instance_key(inst)] = (steps, matrix, inst.object.name, target)
             self.times.update(relative_times(steps))
 
     def add_camera(self, cam_ob, frame_matrix):
@@ -231,11 +238,18 @@ class MotionSampler:
                 out.append(rec)
                 continue
             out.extend(_split_by_steps(rec, motions))
-        for key, (steps, frame_m, name) in self.lights.items():
+        for key, (steps, frame_m, name, target) in self.lights.items():
             seen = self.matrices.get(key, {})
-            if any(not np.allclose(m, frame_m, rtol=0, atol=1e-6) for m in seen.values()):
-                warnings.add("lights moving during the shutter are not blurred (rendered where they are at the frame)",
-                             name)
+            if not any(not np.allclose(m, frame_m, rtol=0, atol=1e-6) for m in seen.values()):
+                continue
+            ms = np.stack([seen.get(rel, frame_m) for rel in relative_times(steps)]).astype(np.float32)
+            if isinstance(target, dict):  # point, spot, sun: placed by the matrices alone
+                target.pop("position", None)
+                target.pop("direction", None)
+                target["motion"] = [{"matrix": m.reshape(16).tolist()} for m in ms]
+            else:  # an area light's surface: one instance, moving as a mesh's
+                target.motion = ms[None]
+            moving.setdefault(name)
         if self.camera_steps and description.get("camera") is not None:
             frames = [self.camera.get(rel, self.camera_frame) for rel in relative_times(self.camera_steps)]
             if any(f != frames[0] for f in frames):

@@ -192,8 +192,9 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                         lv.distant = true;
                         lv.dir = -ls->wi;
                       } else {
-                        lv.p = l.type == LightType::Area ? hit->p + ls->wi * ls->dist : l.position;
-                        lv.ng = l.type == LightType::Area ? l.n : Vec3(0, 0, 0);
+                        // Where the light is at the pass's time (a moving lamp or mesh moves).
+                        lv.p = l.type == LightType::Area ? hit->p + ls->wi * ls->dist : lights.position(ls->light);
+                        lv.ng = l.type == LightType::Area ? ls->n : Vec3(0, 0, 0);
                       }
                       y.push_back(lv);
                       Ld += beta * f * ls->L * static_cast<float>(light_weight(y, 1, cy[y.size() - 2], ratio) / ls->pdf);
