@@ -116,8 +116,8 @@ def test_unsupported_node_one_warning_and_still_renders(empty_scene, out_dir):
     small_scene(empty_scene)
     m = bpy.data.materials["Floor"]
     nt = m.node_tree
-    attr = nt.nodes.new("ShaderNodeAttribute")  # vertex colours: not evaluated by the core yet
-    nt.links.new(attr.outputs["Color"], nt.nodes["Diffuse BSDF"].inputs["Color"])
+    wire = nt.nodes.new("ShaderNodeWireframe")  # not evaluated by the core
+    nt.links.new(wire.outputs["Fac"], nt.nodes["Diffuse BSDF"].inputs["Color"])
     toon = bpy.data.materials.new("Toon")
     toon.use_nodes = True
     tn = toon.node_tree
@@ -130,7 +130,7 @@ def test_unsupported_node_one_warning_and_still_renders(empty_scene, out_dir):
     assert r.returncode == 0, r.stderr
     lines = [l for l in (r.stdout + r.stderr).splitlines() if "gradphoton approximated" in l]
     assert len(lines) == 1, lines
-    assert "Attribute" in lines[0]
+    assert "Wireframe" in lines[0]
     assert "Toon" in lines[0]
     assert native.get().read_exr(str(out_dir / "warn_0001.exr"))["ViewLayer.Combined"].mean() > 0.01
 
