@@ -113,4 +113,15 @@ inline bool varies_with_direction(const LightSet& lights, int l) {
          (l >= 0 && lights.lights()[l].emission_graph != nullptr);
 }
 
+// A wavelength bundle's throughput as medium channels (MediumSegment's per-channel weights)
+// and back: the spectral camera path, SPPM's spectral eye and the spectral photon share them.
+inline ChannelValues beta_channels(const SpectralValues& beta, int C) {
+  ChannelValues w{};
+  for (int k = 0; k < C; ++k) w[k] = beta[k];
+  return w;
+}
+inline void scale_by_channels(SpectralValues& beta, const ChannelValues& w, int C) {
+  for (int k = 0; k < C; ++k) beta[k] *= w[k];
+}
+
 }  // namespace gp

@@ -113,14 +113,8 @@ struct SpectralEye {
   const std::vector<MediumChannels>* media = nullptr;
   int channels() const { return C; }
   const MediumChannels& medium_channels(int m) const { return (*media)[m]; }
-  ChannelValues channel_weights() const {
-    ChannelValues w{};
-    for (int k = 0; k < C; ++k) w[k] = beta[k];
-    return w;
-  }
-  void medium_weight(const ChannelValues& w) {
-    for (int k = 0; k < C; ++k) beta[k] *= w[k];
-  }
+  ChannelValues channel_weights() const { return beta_channels(beta, C); }
+  void medium_weight(const ChannelValues& w) { scale_by_channels(beta, w, C); }
   void medium_emission(const ChannelValues& e) {
     for (int k = 0; k < C; ++k) Ld[k] += beta[k] * e[k];
   }
@@ -330,14 +324,8 @@ PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const st
     // ---- Participating media (photon_walk.h) ----
     int channels() const { return C; }
     const MediumChannels& medium_channels(int m) const { return media[m]; }
-    ChannelValues channel_weights() const {
-      ChannelValues w{};
-      for (int k = 0; k < C; ++k) w[k] = beta[k];
-      return w;
-    }
-    void medium_weight(const ChannelValues& w) {
-      for (int k = 0; k < C; ++k) beta[k] *= w[k];
-    }
+    ChannelValues channel_weights() const { return beta_channels(beta, C); }
+    void medium_weight(const ChannelValues& w) { scale_by_channels(beta, w, C); }
     void deposit_volume(const Vec3& p, const Vec3& wi) {
       if (volume) volume->push_back(SpectralPhoton{Photon{p, wi, RGB(1.0f), 0, kAllLobes}, beta, hero_only});
     }

@@ -294,11 +294,7 @@ struct SpectralPath {
   // function's density does not depend on the wavelength either.
   int channels() const { return C; }
   const MediumChannels& medium_channels(int m) const { return media[m]; }
-  ChannelValues channel_weights() const {
-    ChannelValues w{};
-    for (int k = 0; k < C; ++k) w[k] = beta[k];
-    return w;
-  }
+  ChannelValues channel_weights() const { return beta_channels(beta, C); }
   struct Saved {
     SpectralValues beta, prev_beta;
   };
