@@ -306,6 +306,17 @@ def test_camera_motion_with_its_own_switch(blur_scene):
 
 # ---- warnings ----
 
+def test_a_zoom_during_the_shutter_is_one_warning_naming_the_camera(blur_scene):
+    """Cycles blurs a focal-length change over the shutter; the core keeps the frame's lens, so
+    the export says so once, naming the camera (and not when only the camera moves)."""
+    cam = blur_scene.camera
+    linear(cam, "location", [(1, (0, 0, 10)), (11, (10, 0, 10))])
+    assert not any("lens" in l for l in export_final().warnings.lines())
+    linear(cam.data, "lens", [(1, 50.0), (11, 30.0)])
+    lines = [l for l in export_final().warnings.lines() if "lens" in l]
+    assert len(lines) == 1 and cam.name in lines[0], lines
+
+
 def test_shutter_curve_and_rolling_shutter_warn_naming_the_setting(blur_scene):
     sliding_cube(blur_scene)
     assert export_final().warnings.lines() == [] or not any("Shutter" in l for l in export_final().warnings.lines())

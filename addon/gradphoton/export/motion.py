@@ -38,6 +38,16 @@ POSITION_OFFSET = {'START': 0.5, 'CENTER': 0.0, 'END': -0.5}
 MAX_STEPS = 7  # Cycles' motion_steps property range (1..7): S = 2^7 + 1 at most
 
 
+
+def camera_lens(cam_ob):
+    """What of a camera's projection may change during the shutter: focal length, sensor,
+    orthographic scale and shift (None for no camera)."""
+    cam = getattr(cam_ob, "data", None)
+    if cam is None:
+        return None
+    return tuple(round(float(getattr(cam, a, 0.0)), 6)
+                 for a in ("lens", "sensor_width", "sensor_height", "ortho_scale", "shift_x", "shift_y"))
+
 class Shutter:
     """The shutter of one frame: `frame` + `subframe` is the frame's time, `length` the shutter in
     frames, `position` START / CENTER / END."""
@@ -142,6 +152,9 @@ class MotionSampler:
         self.lights = {}      # instance key -> (steps, frame matrix, name, the light's dict or MeshRecord)
         self.camera_steps = 0
         self.camera_frame = None  # the camera's 16 numbers at the frame
+        self.camera_name = None
+        self.camera_lens_frame = None  # its lens at the frame (camera_lens)
+        self.camera_lens = {}  # relative time -> camera_lens there
         self.times = set()
         # results
         self.matrices = {}    # instance key -> {relative time: (4,4) float32}
@@ -178,6 +191,8 @@ class MotionSampler:
     def add_camera(self, cam_ob, frame_matrix):
         self.camera_steps = object_steps(None, cam_ob) if cam_ob is not None else 0
         self.camera_frame = frame_matrix
+        self.camera_name = cam_ob.name if cam_ob is not None else None
+        self.camera_lens_frame = camera_lens(cam_ob)
         if self.camera_steps:
             self.times.update(relative_times(self.camera_steps))
 
@@ -210,6 +225,7 @@ class MotionSampler:
                 cam = depsgraph.scene.camera
                 if self.camera_steps and cam is not None:
                     self.camera[rel] = camera_matrix(cam.evaluated_get(depsgraph))
+                    self.camera_lens[rel] = camera_lens(cam.evaluated_get(depsgraph))
         finally:
             self.frame_set(self.shutter.frame, self.shutter.subframe)
 
@@ -255,6 +271,11 @@ class MotionSampler:
             if any(f != frames[0] for f in frames):
                 description["camera"]["motion"] = [list(map(float, f)) for f in frames]
                 moving.setdefault("camera")
+            # Cycles blurs a zoom too (camera.cpp's fov_pre / fov_post); the core takes the frame's
+            # lens for the whole shutter: said once, naming the camera.
+            if any(lens != self.camera_lens_frame for lens in self.camera_lens.values()):
+                warnings.add("camera lens changing during the shutter not blurred (the frame's lens is used)",
+                             self.camera_name)
         return out, list(moving)
 
     def _deformation(self, rec, warnings, moving):
