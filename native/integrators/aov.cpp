@@ -56,6 +56,12 @@ void AovEstimator::add_pass(const std::function<bool()>& cancelled) {
       for (int x = 0; x < width_; ++x) {
         const size_t i = y * width_ + x;
         Rng rng(seed_ * 0x9E3779B97F4A7C15ull + cam.pixel_key(int(x), int(y)), uint64_t(pass));
+        // Motion blur: each sample at its own shutter time (a stream of its own, so a scene
+        // without motion draws nothing new and keeps its passes bit for bit).
+        const float t = scene_.has_motion()
+                            ? Rng(seed_ * 0x9E3779B97F4A7C15ull + cam.pixel_key(int(x), int(y)), uint64_t(pass) | (1ull << 62)).uniform()
+                            : 0.0f;
+        const ShutterTime at(t);
         Ray ray = cam.generate_ray(Vec2(int(x) + cam.crop_x + rng.uniform(), int(y) + cam.crop_y + rng.uniform()),
                                    Vec2(rng.uniform(), rng.uniform()));
         RGB weight(1.0f);
