@@ -108,9 +108,11 @@ struct RgbPath {
     RGB f = bsdf->eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
     if (f.is_black()) return;
     ++shadow_rays;
-    MediumLengths lengths;
-    if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
-    if (!lengths.empty()) f *= to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
+    std::optional<MediumLengths> lengths;
+    if (shadow.tracks_media()) lengths.emplace();
+    if (!shadow.visible(hit.p, &hit.ng, ls, lengths ? &*lengths : nullptr)) return;
+    if (lengths && !lengths->empty())
+      f *= to_rgb(transmittance(*lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
     const float w = light_weight(ls, [&] { return bsdf->pdf(wo, wi, vis); });
     L += clamped(beta * f * ls.L * (w / ls.pdf), depth == 0);
   }

@@ -209,10 +209,11 @@ struct SpectralPath {
     }
     if (!any) return;
     ++shadow_rays;
-    MediumLengths lengths;
-    if (!shadow.visible(hit.p, &hit.ng, ls, &lengths)) return;
-    if (!lengths.empty()) {
-      const ChannelValues T = transmittance(lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
+    std::optional<MediumLengths> lengths;
+    if (shadow.tracks_media()) lengths.emplace();
+    if (!shadow.visible(hit.p, &hit.ng, ls, lengths ? &*lengths : nullptr)) return;
+    if (lengths && !lengths->empty()) {
+      const ChannelValues T = transmittance(*lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
       for (int k = 0; k < C; ++k) f[k] *= T[k];
     }
     float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
