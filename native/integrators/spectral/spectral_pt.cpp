@@ -305,10 +305,8 @@ struct SpectralPath {
     prev.beta = s.prev_beta;
   }
   void medium_weight(const ChannelValues& w) {
-    for (int k = 0; k < C; ++k) {
-      beta[k] *= w[k];
-      prev.beta[k] *= w[k];
-    }
+    scale_by_channels(beta, w, C);
+    scale_by_channels(prev.beta, w, C);
   }
   // Emission found by the ray only (the BSDF strategy's full weight, as add_emission).
   void medium_emission(int, const ChannelValues& e) {
