@@ -20,34 +20,42 @@ LightSet::LightSet(std::vector<Light> lights, const Bounds3& scene_bounds)
 }
 
 namespace {
-// An area light where it is at the thread's shutter time (core/math.h): itself when it does not
-// move, else a copy in `moved` with its triangle, normal and area at that time. The light is
-// sampled uniformly on the triangle it is at that time, so the area pdf is 1 / A(t): exact for
-// rigid motion (A constant) and for deformation and animated scale alike (A(t) changes, the pdf
-// with it); its selection probability stays the frame's power, any fixed choice being unbiased.
-const Light& at_shutter_time(const Light& l, std::optional<Light>& moved) {
+// A light where it is at the thread's shutter time (core/math.h), for a moving one: a copy with
+// its triangle, normal and area (an emissive triangle of a moving mesh) or its point and axis (a
+// moving lamp) at that time. The light is sampled uniformly on the triangle it is at that time,
+// so the area pdf is 1 / A(t): exact for rigid motion (A constant) and for deformation and
+// animated scale alike (A(t) changes, the pdf with it); its selection probability stays the
+// frame's power, any fixed choice being unbiased. Out of line: still scenes never call it.
+[[gnu::noinline]] Light moved_at_shutter_time(const Light& l) {
+  Light moved = l;
   if (l.lamp_motion) {  // a moving lamp: its own point and axis under its transform at that time
-    moved.emplace(l);
     const Transform m = l.lamp_motion->at(shutter_time());
-    moved->position = m.point(l.local_position);
+    moved.position = m.point(l.local_position);
     const Vec3 d = m.vector(l.local_direction);
-    if (length_squared(d) > 0) moved->direction = normalize(d);
-    return *moved;
+    if (length_squared(d) > 0) moved.direction = normalize(d);
+    return moved;
   }
-  if (!l.motion) return l;
-  moved.emplace(l);
   Vec3 v[3];
   l.motion->triangle(l.tri, shutter_time(), v);
   const Vec3 nc = cross(v[1] - v[0], v[2] - v[0]);
   const float area = 0.5f * length(nc);
-  moved->p0 = v[0];
-  moved->p1 = v[1];
-  moved->p2 = v[2];
+  moved.p0 = v[0];
+  moved.p1 = v[1];
+  moved.p2 = v[2];
   if (area > 0 && std::isfinite(area)) {
-    moved->area = area;
-    moved->n = nc / (2.0f * area);
+    moved.area = area;
+    moved.n = nc / (2.0f * area);
   }
-  return *moved;
+  return moved;
+}
+bool moves(const Light& l) { return l.lamp_motion || l.motion; }
+// f(the light at the thread's shutter time): a still light is passed as it is, with nothing
+// copied or constructed (a still scene's path tracing paid 1-2 % for an optional copy per query).
+template <class F>
+decltype(auto) with_light_at_shutter_time(const Light& l, F&& f) {
+  if (!moves(l)) [[likely]] return f(l);
+  const Light moved = moved_at_shutter_time(l);
+  return f(moved);
 }
 }  // namespace
 
@@ -83,92 +91,92 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
   float u_rest;
   const int i = static_cast<int>(select_.sample(u_select, &u_rest));
   const float pmf = select_.pmf(i);
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[i], moved);
-  LightSample s;
-  s.light = i;
-  switch (l.type) {
-    case LightType::Area: {
-      const Vec2 b = sample_uniform_triangle(u);
-      const Vec3 q = l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
-      const Vec3 d = q - p;
-      const float d2 = length_squared(d);
-      if (d2 <= 0) return std::nullopt;
-      s.dist = std::sqrt(d2);
-      s.wi = d / s.dist;
-      const float cos_l = -dot(l.n, s.wi);
-      if (!l.two_sided && cos_l <= 0) return std::nullopt;
-      if (cos_l == 0) return std::nullopt;
-      s.L = l.emission_graph ? l.emission_graph->at(l, q, -s.wi) : l.emit;
-      s.p = q;
-      s.n = l.n;
-      s.pdf = pmf * d2 / (std::abs(cos_l) * l.area);  // area pdf 1/A to solid angle
-      return s;
-    }
-    case LightType::Point:
-    case LightType::Spot: {
-      Vec3 q = l.position;
-      float cos_l = 1.0f;
-      if (l.radius > 0) {
-        // Cycles' sphere light: a uniform point on the disk of radius r facing p, radiance
-        // I / (pi r^2); divided by the area pdf 1 / (pi r^2) the sample carries I cos_l / d^2.
-        const Vec3 to_p = p - l.position;
-        if (length_squared(to_p) <= 0) return std::nullopt;
-        const Frame f(normalize(to_p));
-        const Vec2 disk = sample_uniform_disk_concentric(u) * l.radius;
-        q = l.position + f.s * disk.x + f.t * disk.y;
-        const Vec3 w = normalize(p - q);
-        cos_l = dot(w, f.n);
-      }
-      const Vec3 d = q - p;
-      const float d2 = length_squared(d);
-      if (d2 <= 0 || cos_l <= 0) return std::nullopt;
-      s.dist = std::sqrt(d2);
-      s.wi = d / s.dist;
-      float scale = cos_l;
-      if (l.type == LightType::Spot) scale *= spot_falloff(l, -s.wi);
-      if (scale <= 0) return std::nullopt;
-      s.L = l.emit * (scale / d2);
-      s.pdf = pmf;
-      s.delta = true;
-      if (l.radius > 0) s.mis_pdf = pmf * d2 / (cos_l * kPi * l.radius * l.radius);
-      return s;
-    }
-    case LightType::Directional:
-      s.wi = -l.direction;
-      if (l.sun_tan_half > 0) {
-        // Cycles' distant light of angle a: a point on the disk of radius tan(a/2) at unit
-        // distance; its pdf and eval_fac are equal, so the sample carries the irradiance.
-        const Frame f(s.wi);
-        const Vec2 disk = sample_uniform_disk_concentric(u) * l.sun_tan_half;
-        s.wi = normalize(s.wi + f.s * disk.x + f.t * disk.y);
-      }
-      s.L = l.emit;
-      s.pdf = pmf;
-      s.delta = true;
-      return s;
-    case LightType::Environment:
-      if (l.map) {  // the map's luminance x sin(theta) distribution (environment_map.h)
-        float pdf_dir = 0;
-        if (!l.map->sample(u, &s.wi, &pdf_dir)) return std::nullopt;
-        s.L = l.map->eval(s.wi);
-        s.pdf = pmf * pdf_dir;
+  return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> std::optional<LightSample> {
+    LightSample s;
+    s.light = i;
+    switch (l.type) {
+      case LightType::Area: {
+        const Vec2 b = sample_uniform_triangle(u);
+        const Vec3 q = l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
+        const Vec3 d = q - p;
+        const float d2 = length_squared(d);
+        if (d2 <= 0) return std::nullopt;
+        s.dist = std::sqrt(d2);
+        s.wi = d / s.dist;
+        const float cos_l = -dot(l.n, s.wi);
+        if (!l.two_sided && cos_l <= 0) return std::nullopt;
+        if (cos_l == 0) return std::nullopt;
+        s.L = l.emission_graph ? l.emission_graph->at(l, q, -s.wi) : l.emit;
+        s.p = q;
+        s.n = l.n;
+        s.pdf = pmf * d2 / (std::abs(cos_l) * l.area);  // area pdf 1/A to solid angle
         return s;
       }
-      s.wi = sample_uniform_sphere(u);
-      s.L = l.emit;
-      s.pdf = pmf * uniform_sphere_pdf();
-      return s;
-  }
-  return std::nullopt;
+      case LightType::Point:
+      case LightType::Spot: {
+        Vec3 q = l.position;
+        float cos_l = 1.0f;
+        if (l.radius > 0) {
+          // Cycles' sphere light: a uniform point on the disk of radius r facing p, radiance
+          // I / (pi r^2); divided by the area pdf 1 / (pi r^2) the sample carries I cos_l / d^2.
+          const Vec3 to_p = p - l.position;
+          if (length_squared(to_p) <= 0) return std::nullopt;
+          const Frame f(normalize(to_p));
+          const Vec2 disk = sample_uniform_disk_concentric(u) * l.radius;
+          q = l.position + f.s * disk.x + f.t * disk.y;
+          const Vec3 w = normalize(p - q);
+          cos_l = dot(w, f.n);
+        }
+        const Vec3 d = q - p;
+        const float d2 = length_squared(d);
+        if (d2 <= 0 || cos_l <= 0) return std::nullopt;
+        s.dist = std::sqrt(d2);
+        s.wi = d / s.dist;
+        float scale = cos_l;
+        if (l.type == LightType::Spot) scale *= spot_falloff(l, -s.wi);
+        if (scale <= 0) return std::nullopt;
+        s.L = l.emit * (scale / d2);
+        s.pdf = pmf;
+        s.delta = true;
+        if (l.radius > 0) s.mis_pdf = pmf * d2 / (cos_l * kPi * l.radius * l.radius);
+        return s;
+      }
+      case LightType::Directional:
+        s.wi = -l.direction;
+        if (l.sun_tan_half > 0) {
+          // Cycles' distant light of angle a: a point on the disk of radius tan(a/2) at unit
+          // distance; its pdf and eval_fac are equal, so the sample carries the irradiance.
+          const Frame f(s.wi);
+          const Vec2 disk = sample_uniform_disk_concentric(u) * l.sun_tan_half;
+          s.wi = normalize(s.wi + f.s * disk.x + f.t * disk.y);
+        }
+        s.L = l.emit;
+        s.pdf = pmf;
+        s.delta = true;
+        return s;
+      case LightType::Environment:
+        if (l.map) {  // the map's luminance x sin(theta) distribution (environment_map.h)
+          float pdf_dir = 0;
+          if (!l.map->sample(u, &s.wi, &pdf_dir)) return std::nullopt;
+          s.L = l.map->eval(s.wi);
+          s.pdf = pmf * pdf_dir;
+          return s;
+        }
+        s.wi = sample_uniform_sphere(u);
+        s.L = l.emit;
+        s.pdf = pmf * uniform_sphere_pdf();
+        return s;
+    }
+    return std::nullopt;
+  });
 }
 
 float LightSet::pdf_area(int i, const Vec3& p, const Vec3& p_light, const Vec3& wi) const {
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[i], moved);
-  const float cos_l = -dot(l.n, wi);
-  if (cos_l == 0 || (!l.two_sided && cos_l < 0)) return 0.0f;
-  return select_.pmf(i) * length_squared(p_light - p) / (std::abs(cos_l) * l.area);
+  return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> float {
+    const float cos_l = -dot(l.n, wi);
+    if (cos_l == 0 || (!l.two_sided && cos_l < 0)) return 0.0f;
+    return select_.pmf(i) * length_squared(p_light - p) / (std::abs(cos_l) * l.area);
+  });
 }
 
 float LightSet::pdf_environment(const Vec3& wi) const {
@@ -187,8 +195,9 @@ RGB LightSet::environment_radiance(const Vec3& dir, bool camera_ray) const {
 int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, float* pdf) const {
   int found = -1;
   for (int i : disk_lights_) {
-    std::optional<Light> moved;
-    const Light& l = at_shutter_time(lights_[i], moved);
+    std::optional<Light> moved;  // a moving disk light's copy at the shutter time
+    if (moves(lights_[i])) moved = moved_at_shutter_time(lights_[i]);
+    const Light& l = moved ? *moved : lights_[i];
     const Vec3 to_o = ray.o - l.position;
     const float d2 = length_squared(to_o);
     const float r2 = l.radius * l.radius;
@@ -212,18 +221,18 @@ int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, f
 }
 
 RGB LightSet::area_radiance(int i, const Vec3& w) const {
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[i], moved);
-  const float c = dot(l.n, w);
-  return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
+  return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> RGB {
+    const float c = dot(l.n, w);
+    return (c > 0 || (l.two_sided && c < 0)) ? l.emit : RGB(0.0f);
+  });
 }
 
 RGB LightSet::area_radiance(int i, const Vec3& w, const Vec3& p, const RayState* ray) const {
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[i], moved);
-  const float c = dot(l.n, w);
-  if (!(c > 0 || (l.two_sided && c < 0))) return RGB(0.0f);
-  return l.emission_graph ? l.emission_graph->at(l, p, w, ray) : l.emit;
+  return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> RGB {
+    const float c = dot(l.n, w);
+    if (!(c > 0 || (l.two_sided && c < 0))) return RGB(0.0f);
+    return l.emission_graph ? l.emission_graph->at(l, p, w, ray) : l.emit;
+  });
 }
 
 RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo, const RayState* ray) const {
@@ -261,53 +270,52 @@ RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo, const RaySt
 }
 
 RGB LightSet::emitted(int i, const Vec3& d) const {
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[i], moved);
-  switch (l.type) {
-    case LightType::Area: return area_radiance(i, d) * std::abs(dot(l.n, d));
-    case LightType::Point: return l.emit;
-    case LightType::Spot: return l.emit * spot_falloff(l, d);
-    case LightType::Directional:
-    case LightType::Environment: return RGB(0.0f);
-  }
-  return RGB(0.0f);
+  return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> RGB {
+    switch (l.type) {
+      case LightType::Area: return area_radiance(i, d) * std::abs(dot(l.n, d));
+      case LightType::Point: return l.emit;
+      case LightType::Spot: return l.emit * spot_falloff(l, d);
+      case LightType::Directional:
+      case LightType::Environment: return RGB(0.0f);
+    }
+    return RGB(0.0f);
+  });
 }
 
 Vec3 LightSet::position(int i) const {
-  std::optional<Light> moved;
-  return at_shutter_time(lights_[i], moved).position;
+  return with_light_at_shutter_time(lights_[i], [](const Light& l) { return l.position; });
 }
 
 void LightSet::emission_pdf(int i, const Vec3& d, float& pdf_pos, float& pdf_dir) const {
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[i], moved);
-  const float pmf = select_.pmf(i);
-  pdf_pos = pdf_dir = 0;
-  switch (l.type) {
-    case LightType::Area: {
-      const float c = dot(l.n, d);
-      if (c == 0 || (!l.two_sided && c < 0)) return;
-      pdf_pos = pmf / l.area;
-      pdf_dir = std::abs(c) * kInvPi * (l.two_sided ? 0.5f : 1.0f);
-      return;
+  return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> void {
+    const float pmf = select_.pmf(i);
+    pdf_pos = pdf_dir = 0;
+    switch (l.type) {
+      case LightType::Area: {
+        const float c = dot(l.n, d);
+        if (c == 0 || (!l.two_sided && c < 0)) return;
+        pdf_pos = pmf / l.area;
+        pdf_dir = std::abs(c) * kInvPi * (l.two_sided ? 0.5f : 1.0f);
+        return;
+      }
+      case LightType::Point:
+        pdf_pos = pmf;
+        pdf_dir = uniform_sphere_pdf();
+        return;
+      case LightType::Spot:
+        pdf_pos = pmf;
+        pdf_dir = dot(d, l.direction) >= l.spot_cos_half ? uniform_cone_pdf(l.spot_cos_half) : 0.0f;
+        return;
+      case LightType::Directional:
+        pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
+        pdf_dir = pmf;
+        return;
+      case LightType::Environment:  // radiance arrives from -d
+        pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
+        pdf_dir = pmf * (l.map ? l.map->pdf(-d) : uniform_sphere_pdf());
+        return;
     }
-    case LightType::Point:
-      pdf_pos = pmf;
-      pdf_dir = uniform_sphere_pdf();
-      return;
-    case LightType::Spot:
-      pdf_pos = pmf;
-      pdf_dir = dot(d, l.direction) >= l.spot_cos_half ? uniform_cone_pdf(l.spot_cos_half) : 0.0f;
-      return;
-    case LightType::Directional:
-      pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
-      pdf_dir = pmf;
-      return;
-    case LightType::Environment:  // radiance arrives from -d
-      pdf_pos = 1.0f / (kPi * scene_radius_ * scene_radius_);
-      pdf_dir = pmf * (l.map ? l.map->pdf(-d) : uniform_sphere_pdf());
-      return;
-  }
+  });
 }
 
 std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Vec2 u_dir) const {
@@ -315,81 +323,81 @@ std::optional<PhotonEmission> LightSet::sample_le(float u_select, Vec2 u_pos, Ve
   const int i = static_cast<int>(select_.sample(u_select));
   const float pmf = select_.pmf(i);
   if (!(pmf > 0)) return std::nullopt;
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[i], moved);
-  PhotonEmission e;
-  e.light = i;
-  switch (l.type) {
-    case LightType::Area: {
-      // Le cos / (pdf_pos * pdf_dir) = Le cos / ((1/A) (cos/pi)) = Le pi A (per side).
-      const Vec2 b = sample_uniform_triangle(u_pos);
-      e.o = l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
-      Vec3 n = l.n;
-      float side_scale = 1.0f;
-      if (l.two_sided) {  // pick a face with probability 1/2, reusing the first direction number
-        if (u_dir.x < 0.5f) {
-          u_dir.x *= 2.0f;
-        } else {
-          u_dir.x = std::min(2.0f * u_dir.x - 1.0f, 0x1.fffffep-1f);
-          n = -n;
+  return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> std::optional<PhotonEmission> {
+    PhotonEmission e;
+    e.light = i;
+    switch (l.type) {
+      case LightType::Area: {
+        // Le cos / (pdf_pos * pdf_dir) = Le cos / ((1/A) (cos/pi)) = Le pi A (per side).
+        const Vec2 b = sample_uniform_triangle(u_pos);
+        e.o = l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
+        Vec3 n = l.n;
+        float side_scale = 1.0f;
+        if (l.two_sided) {  // pick a face with probability 1/2, reusing the first direction number
+          if (u_dir.x < 0.5f) {
+            u_dir.x *= 2.0f;
+          } else {
+            u_dir.x = std::min(2.0f * u_dir.x - 1.0f, 0x1.fffffep-1f);
+            n = -n;
+          }
+          side_scale = 2.0f;
         }
-        side_scale = 2.0f;
+        const Vec3 local = sample_cosine_hemisphere(u_dir);
+        if (local.z <= 0) return std::nullopt;
+        e.d = normalize(Frame(n).to_world(local));
+        e.n = n;
+        e.power = (l.emission_graph ? l.emission_graph->at(l, e.o, e.d) : l.emit) * (kPi * l.area * side_scale / pmf);
+        emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
+        return e;
       }
-      const Vec3 local = sample_cosine_hemisphere(u_dir);
-      if (local.z <= 0) return std::nullopt;
-      e.d = normalize(Frame(n).to_world(local));
-      e.n = n;
-      e.power = (l.emission_graph ? l.emission_graph->at(l, e.o, e.d) : l.emit) * (kPi * l.area * side_scale / pmf);
-      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
-      return e;
-    }
-    case LightType::Point:
-      e.o = l.position;
-      e.d = sample_uniform_sphere(u_dir);
-      e.power = l.emit * (1.0f / (uniform_sphere_pdf() * pmf));
-      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
-      return e;
-    case LightType::Spot: {
-      // Uniform directions in the cone, weighted by the falloff (which includes the cosine
-      // to the axis and the smoothstep blend), exactly the intensity sample_li sees.
-      const Vec3 local = sample_uniform_cone(u_dir, l.spot_cos_half);
-      e.o = l.position;
-      e.d = normalize(Frame(l.direction).to_world(local));
-      const float falloff = spot_falloff(l, e.d);
-      if (!(falloff > 0)) return std::nullopt;
-      e.power = l.emit * (falloff / (uniform_cone_pdf(l.spot_cos_half) * pmf));
-      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
-      return e;
-    }
-    case LightType::Directional:
-    case LightType::Environment: {
-      // Direction of travel, then a point on the disk of radius r perpendicular to it,
-      // centred on the scene and pushed back by r so the whole scene lies ahead of it.
-      const float r = scene_radius_;
-      float dir_pdf = 1.0f;
-      Vec3 d = l.direction;
-      RGB radiance = l.emit;
-      if (l.type == LightType::Environment && l.map) {
-        // The map's own distribution, as next-event estimation draws it (environment_map.h).
-        Vec3 wi;
-        if (!l.map->sample(u_dir, &wi, &dir_pdf)) return std::nullopt;
-        d = -wi;
-        radiance = l.map->eval(wi);
-      } else if (l.type == LightType::Environment) {
-        d = -sample_uniform_sphere(u_dir);  // radiance arrives from -d: any direction
-        dir_pdf = uniform_sphere_pdf();
+      case LightType::Point:
+        e.o = l.position;
+        e.d = sample_uniform_sphere(u_dir);
+        e.power = l.emit * (1.0f / (uniform_sphere_pdf() * pmf));
+        emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
+        return e;
+      case LightType::Spot: {
+        // Uniform directions in the cone, weighted by the falloff (which includes the cosine
+        // to the axis and the smoothstep blend), exactly the intensity sample_li sees.
+        const Vec3 local = sample_uniform_cone(u_dir, l.spot_cos_half);
+        e.o = l.position;
+        e.d = normalize(Frame(l.direction).to_world(local));
+        const float falloff = spot_falloff(l, e.d);
+        if (!(falloff > 0)) return std::nullopt;
+        e.power = l.emit * (falloff / (uniform_cone_pdf(l.spot_cos_half) * pmf));
+        emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
+        return e;
       }
-      const Vec2 disk = sample_uniform_disk_concentric(u_pos) * r;
-      const Frame f(d);
-      e.o = scene_center_ + (f.s * disk.x + f.t * disk.y) - d * r;
-      e.d = d;
-      // Directional: E * (pi r^2). Environment: L * (pi r^2) / pdf_dir.
-      e.power = radiance * (kPi * r * r / (dir_pdf * pmf));
-      emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
-      return e;
+      case LightType::Directional:
+      case LightType::Environment: {
+        // Direction of travel, then a point on the disk of radius r perpendicular to it,
+        // centred on the scene and pushed back by r so the whole scene lies ahead of it.
+        const float r = scene_radius_;
+        float dir_pdf = 1.0f;
+        Vec3 d = l.direction;
+        RGB radiance = l.emit;
+        if (l.type == LightType::Environment && l.map) {
+          // The map's own distribution, as next-event estimation draws it (environment_map.h).
+          Vec3 wi;
+          if (!l.map->sample(u_dir, &wi, &dir_pdf)) return std::nullopt;
+          d = -wi;
+          radiance = l.map->eval(wi);
+        } else if (l.type == LightType::Environment) {
+          d = -sample_uniform_sphere(u_dir);  // radiance arrives from -d: any direction
+          dir_pdf = uniform_sphere_pdf();
+        }
+        const Vec2 disk = sample_uniform_disk_concentric(u_pos) * r;
+        const Frame f(d);
+        e.o = scene_center_ + (f.s * disk.x + f.t * disk.y) - d * r;
+        e.d = d;
+        // Directional: E * (pi r^2). Environment: L * (pi r^2) / pdf_dir.
+        e.power = radiance * (kPi * r * r / (dir_pdf * pmf));
+        emission_pdf(i, e.d, e.pdf_pos, e.pdf_dir);
+        return e;
+      }
     }
-  }
-  return std::nullopt;
+    return std::nullopt;
+  });
 }
 
 }  // namespace gp
