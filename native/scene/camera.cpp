@@ -40,13 +40,10 @@ Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext, float time) const {
     origin = Vec3(lens.x, lens.y, 0);
     dir = focus - origin;
   }
-  Ray ray;
-  if (motion.empty()) {
-    ray = Ray(camera_to_world.point(origin), normalize(camera_to_world.vector(dir)));
-  } else {
-    const Transform to_world = motion.at(time);
-    ray = Ray(to_world.point(origin), normalize(to_world.vector(dir)));
-  }
+  // A still camera uses its matrix as it is (no interpolation, no copy).
+  const Transform moved = motion.empty() ? Transform() : motion.at(time);
+  const Transform& to_world = motion.empty() ? camera_to_world : moved;
+  Ray ray(to_world.point(origin), normalize(to_world.vector(dir)));
   ray.time = time;
   ray.camera = true;
   ray.state = RayState::camera();
