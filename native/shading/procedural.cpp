@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "shading/hash.h"
+
+// The vector lanes of hash.h are inline only (no ABI crosses a call): GCC's note on 32-byte
+// vectors without AVX does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace gp::shading {
 
@@ -27,22 +32,49 @@ float grad1(uint32_t hash, float x) {
   const float g = static_cast<float>(1 + (h & 7));
   return negate_if(g, h & 8) * x;
 }
-float grad2(uint32_t hash, float x, float y) {
-  const uint32_t h = hash & 7;
-  const float u = h < 4 ? x : y, v = 2.0f * (h < 4 ? y : x);
-  return negate_if(u, h & 1) + negate_if(v, h & 2);
+// The corners' hashes and gradients are computed together over vector lanes (hash.h's *_v), as
+// Cycles' SSE/AVX noise does: the same integer operations, selections and sign flips lane by lane
+// and the same one or two float additions per corner, so every value is the scalar formula's
+// bit for bit (tested against a scalar transcription in shading_procedural_test.cpp).
+using u32x4 = uint32_t __attribute__((vector_size(16)));
+using i32x4 = int32_t __attribute__((vector_size(16)));
+using f32x4 = float __attribute__((vector_size(16)));
+
+// All ones where h < k, else zero, for h and k below 2^31 (the gradient indices): by the sign of
+// h - k, as GCC would split a comparison of 8 lanes into scalar ones without AVX.
+template <class U>
+U below(const U& h, uint32_t k) {
+  return U{} - ((h - k) >> 31);
 }
-float grad3(uint32_t hash, float x, float y, float z) {
-  const uint32_t h = hash & 15;
-  const float u = h < 8 ? x : y;
-  const float vt = (h == 12 || h == 14) ? x : z;
-  const float v = h < 4 ? y : vt;
-  return negate_if(u, h & 1) + negate_if(v, h & 2);
+// m ? a : b lane by lane, on the bits (m: all ones or zero per lane).
+template <class U, class F>
+U select_bits(const U& m, const F& a, const F& b) {
+  return (m & (U)a) | (~m & (U)b);
 }
-float grad4(uint32_t hash, float x, float y, float z, float w) {
-  const uint32_t h = hash & 31;
-  const float u = h < 24 ? x : y, v = h < 16 ? y : z, s = h < 8 ? z : w;
-  return negate_if(u, h & 1) + negate_if(v, h & 2) + negate_if(s, h & 4);
+
+// grad2 of noise.h over four corners: u = h < 4 ? x : y, v = 2 (h < 4 ? y : x), signs by h & 1, h & 2.
+f32x4 grad2_v(u32x4 hash, f32x4 x, f32x4 y) {
+  const u32x4 h = hash & 7u;
+  const u32x4 lt4 = below(h, 4);
+  const u32x4 u = select_bits<u32x4>(lt4, x, y);
+  const f32x4 v = 2.0f * (f32x4)select_bits<u32x4>(lt4, y, x);
+  return (f32x4)(u ^ ((h & 1u) << 31)) + (f32x4)((u32x4)v ^ ((h & 2u) << 30));
+}
+// grad3: u = h < 8 ? x : y, v = h < 4 ? y : (h == 12 || h == 14 ? x : z), signs by h & 1, h & 2.
+f32x8 grad3_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z) {
+  const u32x8 h = hash & 15u;
+  const u32x8 u = select_bits<u32x8>(below(h, 8), x, y);
+  const f32x8 vt = (f32x8)select_bits<u32x8>(below(h ^ 12u, 1) | below(h ^ 14u, 1), x, z);
+  const u32x8 v = select_bits<u32x8>(below(h, 4), y, vt);
+  return (f32x8)(u ^ ((h & 1u) << 31)) + (f32x8)(v ^ ((h & 2u) << 30));
+}
+// grad4: u = h < 24 ? x : y, v = h < 16 ? y : z, s = h < 8 ? z : w, signs by h & 1, 2, 4.
+f32x8 grad4_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z, const f32x8& w) {
+  const u32x8 h = hash & 31u;
+  const u32x8 u = select_bits<u32x8>(below(h, 24), x, y);
+  const u32x8 v = select_bits<u32x8>(below(h, 16), y, z);
+  const u32x8 s = select_bits<u32x8>(below(h, 8), z, w);
+  return (f32x8)(u ^ ((h & 1u) << 31)) + (f32x8)(v ^ ((h & 2u) << 30)) + (f32x8)(s ^ ((h & 4u) << 29));
 }
 
 float perlin_1d(float x) {
@@ -59,31 +91,42 @@ float tri_mix(const float* v, float x, float y, float z) {
   return z1 * (y1 * (v[0] * x1 + v[1] * x) + y * (v[2] * x1 + v[3] * x)) +
          z * (y1 * (v[4] * x1 + v[5] * x) + y * (v[6] * x1 + v[7] * x));
 }
+// Corner k of a cell is (k & 1, k >> 1 & 1, k >> 2 & 1, k >> 3 & 1): the order of bi_mix and tri_mix.
+constexpr u32x8 kCornerX = {0, 1, 0, 1, 0, 1, 0, 1}, kCornerY = {0, 0, 1, 1, 0, 0, 1, 1},
+                kCornerZ = {0, 0, 0, 0, 1, 1, 1, 1};
+constexpr f32x8 kCornerXf = {0, 1, 0, 1, 0, 1, 0, 1}, kCornerYf = {0, 0, 1, 1, 0, 0, 1, 1},
+                kCornerZf = {0, 0, 0, 0, 1, 1, 1, 1};
 float perlin_2d(float x, float y) {
   int X, Y;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y);
-  return bi_mix(grad2(hash_uint2(X, Y), fx, fy), grad2(hash_uint2(X + 1, Y), fx - 1.0f, fy),
-                grad2(hash_uint2(X, Y + 1), fx, fy - 1.0f), grad2(hash_uint2(X + 1, Y + 1), fx - 1.0f, fy - 1.0f),
-                fade(fx), fade(fy));
+  const u32x4 dx = {0, 1, 0, 1}, dy = {0, 0, 1, 1};
+  const f32x4 dxf = {0, 1, 0, 1}, dyf = {0, 0, 1, 1};
+  const u32x4 h = hash_uint2_v(static_cast<uint32_t>(X) + dx, static_cast<uint32_t>(Y) + dy);
+  const f32x4 g = grad2_v(h, fx - dxf, fy - dyf);
+  return bi_mix(g[0], g[1], g[2], g[3], fade(fx), fade(fy));
 }
 float perlin_3d(float x, float y, float z) {
   int X, Y, Z;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y), fz = floorfrac(z, &Z);
+  const u32x8 h = hash_uint3_v(static_cast<uint32_t>(X) + kCornerX, static_cast<uint32_t>(Y) + kCornerY,
+                               static_cast<uint32_t>(Z) + kCornerZ);
+  const f32x8 g = grad3_v(h, fx - kCornerXf, fy - kCornerYf, fz - kCornerZf);
   float v[8];
-  for (int k = 0; k < 8; ++k) {
-    const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
-    v[k] = grad3(hash_uint3(X + dx, Y + dy, Z + dz), fx - dx, fy - dy, fz - dz);
-  }
+  std::memcpy(v, &g, sizeof v);
   return tri_mix(v, fade(fx), fade(fy), fade(fz));
 }
 float perlin_4d(float x, float y, float z, float w) {
   int X, Y, Z, W;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y), fz = floorfrac(z, &Z), fw = floorfrac(w, &W);
+  const u32x8 kx = static_cast<uint32_t>(X) + kCornerX, ky = static_cast<uint32_t>(Y) + kCornerY,
+              kz = static_cast<uint32_t>(Z) + kCornerZ;
+  const f32x8 px = fx - kCornerXf, py = fy - kCornerYf, pz = fz - kCornerZf;
   float v[16];
-  for (int k = 0; k < 16; ++k) {
-    const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1, dw = (k >> 3) & 1;
-    v[k] = grad4(hash_uint4(X + dx, Y + dy, Z + dz, W + dw), fx - dx, fy - dy, fz - dz, fw - dw);
-  }
+  const f32x8 g0 = grad4_v(hash_uint4_v(kx, ky, kz, u32x8{} + static_cast<uint32_t>(W)), px, py, pz, f32x8{} + fw);
+  const f32x8 g1 = grad4_v(hash_uint4_v(kx, ky, kz, u32x8{} + (static_cast<uint32_t>(W) + 1u)), px, py, pz,
+                           f32x8{} + (fw - 1.0f));
+  std::memcpy(v, &g0, sizeof g0);
+  std::memcpy(v + 8, &g1, sizeof g1);
   const float u = fade(fx), vv = fade(fy), t = fade(fz);
   return lerp(tri_mix(v, u, vv, t), tri_mix(v + 8, u, vv, t), fade(fw));
 }
@@ -102,7 +145,8 @@ Vec4 added(const Vec4& p, const Vec4& q) {
 }
 
 // noisetex.h's seeds: offsets in [100, 200] that decorrelate the distortion and colour channels.
-Vec4 random_offset(float seed, int dims) {
+// They depend on the seed (0 to 5) and the dimensions alone: computed once.
+Vec4 random_offset_of(float seed, int dims) {
   Vec4 r;
   if (dims == 1) {
     r[0] = 100.0f + hash_float_to_float(seed) * 100.0f;
@@ -111,6 +155,16 @@ Vec4 random_offset(float seed, int dims) {
   }
   return r;
 }
+constexpr int kOffsetSeeds = 6;
+struct RandomOffsets {
+  Vec4 table[5][kOffsetSeeds];
+  RandomOffsets() {
+    for (int dims = 1; dims <= 4; ++dims)
+      for (int seed = 0; seed < kOffsetSeeds; ++seed) table[dims][seed] = random_offset_of(static_cast<float>(seed), dims);
+  }
+};
+const RandomOffsets kRandomOffsets;
+const Vec4& random_offset(int seed, int dims) { return kRandomOffsets.table[dims][seed]; }
 
 }  // namespace
 
@@ -150,15 +204,15 @@ void noise_texture(const Vec4& co, int dims, float detail, float roughness, floa
   Vec4 p = co;
   if (distortion != 0.0f) {
     Vec4 d;
-    for (int i = 0; i < dims; ++i) d[i] = snoise(added(p, random_offset(static_cast<float>(i), dims)), dims) * distortion;
+    for (int i = 0; i < dims; ++i) d[i] = snoise(added(p, random_offset(i, dims)), dims) * distortion;
     p = added(p, d);
   }
   *value = fractal_noise(p, dims, detail, roughness);
   if (want_color) {
     // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
-    const float s = static_cast<float>(dims == 1 ? 1 : dims);
+    const int s = dims == 1 ? 1 : dims;
     *color = Vec3(*value, fractal_noise(added(p, random_offset(s, dims)), dims, detail, roughness),
-                  fractal_noise(added(p, random_offset(s + 1.0f, dims)), dims, detail, roughness));
+                  fractal_noise(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
   }
 }
 
@@ -318,19 +372,71 @@ float metric_distance(const VP<N>& a, const VP<N>& b, VoronoiMetric metric, floa
 
 // Cells offset by -r..r in every dimension, x varying fastest (Cycles' loop nesting: the last
 // dimension outermost), which decides ties and the order smooth F1 blends in.
-template <int N, typename F>
-void for_cells(int r, F&& f) {
-  const int w = 2 * r + 1;
+template <int N>
+constexpr int cell_count(int r) {
   int total = 1;
-  for (int i = 0; i < N; ++i) total *= w;
-  for (int idx = 0; idx < total; ++idx) {
-    VP<N> o;
-    int rest = idx;
-    for (int i = 0; i < N; ++i) {
-      o[i] = static_cast<float>(rest % w - r);
-      rest /= w;
+  for (int i = 0; i < N; ++i) total *= 2 * r + 1;
+  return total;
+}
+// The offsets of the (2R + 1)^N cells, by dimension, padded to whole lanes of 8 (with the last
+// cell again) and computed at compile time.
+template <int N, int R>
+struct CellOffsets {
+  static constexpr int kCount = cell_count<N>(R), kPadded = (kCount + 7) / 8 * 8;
+  float o[N][kPadded] = {};
+  constexpr CellOffsets() {
+    for (int idx = 0; idx < kPadded; ++idx) {
+      int rest = idx < kCount ? idx : kCount - 1;
+      for (int i = 0; i < N; ++i, rest /= 2 * R + 1) o[i][idx] = static_cast<float>(rest % (2 * R + 1) - R);
     }
-    f(o);
+  }
+};
+template <int N, int R>
+constexpr CellOffsets<N, R> kCellOffsets{};
+
+template <int N, int R, typename F>
+void for_cells(F&& f) {
+  constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
+  for (int idx = 0; idx < t.kCount; ++idx) {
+    VP<N> o;
+    for (int i = 0; i < N; ++i) o[i] = t.o[i][idx];
+    f(idx, o);
+  }
+}
+
+// cell_hash of every cell for_cells<N, R> visits around `cell`, in its order, eight cells at a
+// time over vector lanes (hash.h's *_v: the scalar hashes bit for bit; each key is the same
+// float sum cell + offset). out[i][idx]: component i of cell idx.
+template <int N>
+using CellHashTable = float[N][CellOffsets<N, 2>::kPadded];
+template <int N, int R>
+void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
+  constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
+  const u32x8 one = u32x8{} + detail::float_bits(1.0f), two = u32x8{} + detail::float_bits(2.0f);
+  for (int base = 0; base < t.kPadded; base += 8) {
+    u32x8 k[N];
+    for (int i = 0; i < N; ++i) {
+      f32x8 off;
+      std::memcpy(&off, &t.o[i][base], sizeof off);
+      k[i] = float_bits_v(cell[i] + off);
+    }
+    f32x8 h[N];
+    if constexpr (N == 1) {
+      h[0] = uint_to_float_incl_v(hash_uint_v(k[0]));
+    } else if constexpr (N == 2) {  // hash_float2_to_float2
+      h[0] = uint_to_float_incl_v(hash_uint2_v(k[0], k[1]));
+      h[1] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], one));
+    } else if constexpr (N == 3) {  // hash_float3_to_float3
+      h[0] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], k[2]));
+      h[1] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], one));
+      h[2] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], two));
+    } else {  // hash_float4_to_float4
+      h[0] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], k[3]));
+      h[1] = uint_to_float_incl_v(hash_uint4_v(k[3], k[0], k[1], k[2]));
+      h[2] = uint_to_float_incl_v(hash_uint4_v(k[2], k[3], k[0], k[1]));
+      h[3] = uint_to_float_incl_v(hash_uint4_v(k[1], k[2], k[3], k[0]));
+    }
+    for (int i = 0; i < N; ++i) std::memcpy(&out[i][base], &h[i], sizeof h[i]);
   }
 }
 
@@ -350,7 +456,20 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     local[i] = coord[i] - cell[i];
   }
   VoronoiOut out;
-  auto point_in = [&](const VP<N>& offset) { return offset + cell_hash(cell + offset) * randomness; };
+  // The feature points of the 3^N cells around (5^N for smooth F1), hashed together up front.
+  CellHashTable<N> hashes;
+  if (feature == VoronoiFeature::SmoothF1) cell_hashes<N, 2>(cell, hashes);
+  else cell_hashes<N, 1>(cell, hashes);
+  auto point_in = [&](int idx, const VP<N>& offset) {
+    VP<N> h;
+    for (int i = 0; i < N; ++i) h[i] = hashes[i][idx];
+    return offset + h * randomness;
+  };
+  // A cell's colour: for 3D the same hash as its point (hash_float3_to_float3).
+  auto color_of = [&](int idx, const VP<N>& offset) {
+    if constexpr (N == 3) return Vec3(hashes[0][idx], hashes[1][idx], hashes[2][idx]);
+    else return cell_color(cell + offset);
+  };
   auto set_position = [&](const VP<N>& pos) {
     for (int i = 0; i < N; ++i) out.position[i] = pos[i];
   };
@@ -358,13 +477,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     case VoronoiFeature::F1: {
       float min_d = 8.0f;
       VP<N> target_offset{}, target_pos{};
-      for_cells<N>(1, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
+      int target = 0;
+      for_cells<N, 1>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
         const float d = metric_distance(pp, local, metric, exponent);
-        if (d < min_d) target_offset = o, min_d = d, target_pos = pp;
+        if (d < min_d) target_offset = o, min_d = d, target_pos = pp, target = idx;
       });
       out.distance = min_d;
-      out.color = cell_color(cell + target_offset);
+      out.color = color_of(target, target_offset);
       set_position(target_pos + cell);
       break;
     }
@@ -372,14 +492,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
       float smooth_d = 8.0f;
       Vec3 smooth_color;
       VP<N> smooth_pos{};
-      for_cells<N>(2, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
+      for_cells<N, 2>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
         const float d = metric_distance(pp, local, metric, exponent);
         const float h = smoothstep01(0.5f + 0.5f * (smooth_d - d) / smoothness);
         float correction = smoothness * h * (1.0f - h);
         smooth_d = lerp(smooth_d, d, h) - correction;
         correction /= 1.0f + 3.0f * smoothness;
-        const Vec3 c = cell_color(cell + o);
+        const Vec3 c = color_of(idx, o);
         smooth_color = smooth_color * (1.0f - h) + c * h - Vec3(correction);
         VP<N> corr;
         for (int i = 0; i < N; ++i) corr[i] = correction;
@@ -393,17 +513,18 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     case VoronoiFeature::F2: {
       float d1 = 8.0f, d2 = 8.0f;
       VP<N> off1{}, pos1{}, off2{}, pos2{};
-      for_cells<N>(1, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
+      int idx1 = 0, idx2 = 0;
+      for_cells<N, 1>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
         const float d = metric_distance(pp, local, metric, exponent);
         if (d < d1) {
-          d2 = d1, d1 = d, off2 = off1, off1 = o, pos2 = pos1, pos1 = pp;
+          d2 = d1, d1 = d, off2 = off1, off1 = o, pos2 = pos1, pos1 = pp, idx2 = idx1, idx1 = idx;
         } else if (d < d2) {
-          d2 = d, off2 = o, pos2 = pp;
+          d2 = d, off2 = o, pos2 = pp, idx2 = idx;
         }
       });
       out.distance = d2;
-      out.color = cell_color(cell + off2);
+      out.color = color_of(idx2, off2);
       set_position(pos2 + cell);
       break;
     }
@@ -418,14 +539,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
       } else {
         VP<N> to_closest{};
         float min_d = 8.0f;
-        for_cells<N>(1, [&](const VP<N>& o) {
-          const VP<N> v = point_in(o) - local;
+        for_cells<N, 1>([&](int idx, const VP<N>& o) {
+          const VP<N> v = point_in(idx, o) - local;
           const float d = vdot(v, v);
           if (d < min_d) min_d = d, to_closest = v;
         });
         min_d = 8.0f;
-        for_cells<N>(1, [&](const VP<N>& o) {
-          const VP<N> v = point_in(o) - local;
+        for_cells<N, 1>([&](int idx, const VP<N>& o) {
+          const VP<N> v = point_in(idx, o) - local;
           const VP<N> perp = v - to_closest;
           if (vdot(perp, perp) > 0.0001f) {
             const float d = vdot((to_closest + v) * 0.5f, perp * (1.0f / vlen(perp)));
@@ -439,14 +560,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     case VoronoiFeature::NSphereRadius: {
       VP<N> closest{}, closest_offset{};
       float min_d = 8.0f;
-      for_cells<N>(1, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
+      for_cells<N, 1>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
         const float d = vlen(pp - local);
         if (d < min_d) min_d = d, closest = pp, closest_offset = o;
       });
       min_d = 8.0f;
       VP<N> closest_to_closest{};
-      for_cells<N>(1, [&](const VP<N>& o) {
+      for_cells<N, 1>([&](int, const VP<N>& o) {
         bool centre = true;
         for (int i = 0; i < N; ++i) centre = centre && o[i] == 0.0f;
         if (centre) return;
