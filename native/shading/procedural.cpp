@@ -56,17 +56,19 @@ using f32x4 = float __attribute__((vector_size(16)));
 // All ones where h < k, else zero, for h and k below 2^31 (the gradient indices): by the sign of
 // h - k, as GCC would split a comparison of 8 lanes into scalar ones without AVX.
 template <class U>
-U below(const U& h, uint32_t k) {
+GP_INLINE U below(const U& h, uint32_t k) {
   return U{} - ((h - k) >> 31);
 }
+// All ones where a < b (floats; Chebychev's max as std::max takes it).
+GP_INLINE u32x8 below_f(const f32x8& a, const f32x8& b) { return (u32x8)(a < b); }
 // m ? a : b lane by lane, on the bits (m: all ones or zero per lane).
 template <class U, class F>
-U select_bits(const U& m, const F& a, const F& b) {
+GP_INLINE U select_bits(const U& m, const F& a, const F& b) {
   return (m & (U)a) | (~m & (U)b);
 }
 
 // grad2 of noise.h over four corners: u = h < 4 ? x : y, v = 2 (h < 4 ? y : x), signs by h & 1, h & 2.
-f32x4 grad2_v(u32x4 hash, f32x4 x, f32x4 y) {
+GP_INLINE f32x4 grad2_v(u32x4 hash, f32x4 x, f32x4 y) {
   const u32x4 h = hash & 7u;
   const u32x4 lt4 = below(h, 4);
   const u32x4 u = select_bits<u32x4>(lt4, x, y);
@@ -74,7 +76,7 @@ f32x4 grad2_v(u32x4 hash, f32x4 x, f32x4 y) {
   return (f32x4)(u ^ ((h & 1u) << 31)) + (f32x4)((u32x4)v ^ ((h & 2u) << 30));
 }
 // grad3: u = h < 8 ? x : y, v = h < 4 ? y : (h == 12 || h == 14 ? x : z), signs by h & 1, h & 2.
-f32x8 grad3_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z) {
+GP_INLINE f32x8 grad3_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z) {
   const u32x8 h = hash & 15u;
   const u32x8 u = select_bits<u32x8>(below(h, 8), x, y);
   const f32x8 vt = (f32x8)select_bits<u32x8>(below(h ^ 12u, 1) | below(h ^ 14u, 1), x, z);
@@ -82,7 +84,7 @@ f32x8 grad3_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z)
   return (f32x8)(u ^ ((h & 1u) << 31)) + (f32x8)(v ^ ((h & 2u) << 30));
 }
 // grad4: u = h < 24 ? x : y, v = h < 16 ? y : z, s = h < 8 ? z : w, signs by h & 1, 2, 4.
-f32x8 grad4_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z, const f32x8& w) {
+GP_INLINE f32x8 grad4_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z, const f32x8& w) {
   const u32x8 h = hash & 31u;
   const u32x8 u = select_bits<u32x8>(below(h, 24), x, y);
   const u32x8 v = select_bits<u32x8>(below(h, 16), y, z);
@@ -408,7 +410,7 @@ template <int N, int R>
 constexpr CellOffsets<N, R> kCellOffsets{};
 
 template <int N, int R, typename F>
-void for_cells(F&& f) {
+GP_INLINE void for_cells(F&& f) {
   constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
   for (int idx = 0; idx < t.kCount; ++idx) {
     VP<N> o;
@@ -423,7 +425,7 @@ void for_cells(F&& f) {
 template <int N>
 using CellHashTable = float[N][CellOffsets<N, 2>::kPadded];
 template <int N, int R>
-void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
+GP_INLINE void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
   constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
   const u32x8 one = u32x8{} + detail::float_bits(1.0f), two = u32x8{} + detail::float_bits(2.0f);
   for (int base = 0; base < t.kPadded; base += 8) {
@@ -453,6 +455,44 @@ void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
   }
 }
 
+// The feature points offset + hash * randomness of those cells and their metric_distance to
+// `local`, eight cells at a time: the same float operations in the same order per lane (a
+// distance's sum starts at 0 and adds each dimension's term), so the same bits. Minkowski's
+// powers stay one cell at a time.
+template <int N, int R>
+GP_INLINE void cell_points(const CellHashTable<N>& hashes, const VP<N>& local, float randomness, VoronoiMetric metric,
+                 float exponent, CellHashTable<N>& points, float* dist) {
+  constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
+  const u32x8 abs_mask = u32x8{} + 0x7FFFFFFFu;
+  for (int base = 0; base < t.kPadded; base += 8) {
+    f32x8 sum = f32x8{};
+    for (int i = 0; i < N; ++i) {
+      f32x8 off, h;
+      std::memcpy(&off, &t.o[i][base], sizeof off);
+      std::memcpy(&h, &hashes[i][base], sizeof h);
+      const f32x8 p = off + h * randomness;
+      std::memcpy(&points[i][base], &p, sizeof p);
+      // metric_distance(p, local): N = 1 reads |local - p|, else p - local per dimension.
+      const f32x8 d = N == 1 ? local[0] - p : p - local[i];
+      const f32x8 ad = (f32x8)((u32x8)d & abs_mask);
+      if (N == 1 || metric == VoronoiMetric::Manhattan) sum = sum + ad;
+      else if (metric == VoronoiMetric::Euclidean) sum = sum + d * d;
+      else if (metric == VoronoiMetric::Chebychev) sum = (f32x8)select_bits<u32x8>(below_f(sum, ad), ad, sum);
+    }
+    if (N == 1 || metric == VoronoiMetric::Manhattan || metric == VoronoiMetric::Chebychev) {
+      std::memcpy(&dist[base], &sum, sizeof sum);
+    } else if (metric == VoronoiMetric::Euclidean) {
+      for (int l = 0; l < 8; ++l) dist[base + l] = std::sqrt(sum[l]);
+    } else {
+      for (int l = 0; l < 8; ++l) {
+        VP<N> pp;
+        for (int i = 0; i < N; ++i) pp[i] = points[i][base + l];
+        dist[base + l] = metric_distance(pp, local, metric, exponent);
+      }
+    }
+  }
+}
+
 float smoothstep01(float x) {  // Cycles' smoothstep(0, 1, x)
   if (x < 0.0f) return 0.0f;
   if (x >= 1.0f) return 1.0f;
@@ -473,10 +513,15 @@ GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, con
   CellHashTable<N> hashes;
   if (feature == VoronoiFeature::SmoothF1) cell_hashes<N, 2>(cell, hashes);
   else cell_hashes<N, 1>(cell, hashes);
-  auto point_in = [&](int idx, const VP<N>& offset) {
-    VP<N> h;
-    for (int i = 0; i < N; ++i) h[i] = hashes[i][idx];
-    return offset + h * randomness;
+  CellHashTable<N> points;
+  float dist[CellOffsets<N, 2>::kPadded];
+  if (feature == VoronoiFeature::SmoothF1) cell_points<N, 2>(hashes, local, randomness, metric, exponent, points, dist);
+  else cell_points<N, 1>(hashes, local, randomness, metric, exponent, points, dist);
+  // (offset + cell_hash(cell + offset) * randomness)
+  auto point_in = [&](int idx, const VP<N>&) {
+    VP<N> pp;
+    for (int i = 0; i < N; ++i) pp[i] = points[i][idx];
+    return pp;
   };
   // A cell's colour: for 3D the same hash as its point (hash_float3_to_float3).
   auto color_of = [&](int idx, const VP<N>& offset) {
@@ -493,7 +538,7 @@ GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, con
       int target = 0;
       for_cells<N, 1>([&](int idx, const VP<N>& o) {
         const VP<N> pp = point_in(idx, o);
-        const float d = metric_distance(pp, local, metric, exponent);
+        const float d = dist[idx];  // metric_distance(pp, local, metric, exponent)
         if (d < min_d) target_offset = o, min_d = d, target_pos = pp, target = idx;
       });
       out.distance = min_d;
@@ -507,7 +552,7 @@ GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, con
       VP<N> smooth_pos{};
       for_cells<N, 2>([&](int idx, const VP<N>& o) {
         const VP<N> pp = point_in(idx, o);
-        const float d = metric_distance(pp, local, metric, exponent);
+        const float d = dist[idx];  // metric_distance(pp, local, metric, exponent)
         const float h = smoothstep01(0.5f + 0.5f * (smooth_d - d) / smoothness);
         float correction = smoothness * h * (1.0f - h);
         smooth_d = lerp(smooth_d, d, h) - correction;
@@ -529,7 +574,7 @@ GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, con
       int idx1 = 0, idx2 = 0;
       for_cells<N, 1>([&](int idx, const VP<N>& o) {
         const VP<N> pp = point_in(idx, o);
-        const float d = metric_distance(pp, local, metric, exponent);
+        const float d = dist[idx];  // metric_distance(pp, local, metric, exponent)
         if (d < d1) {
           d2 = d1, d1 = d, off2 = off1, off1 = o, pos2 = pos1, pos1 = pp, idx2 = idx1, idx1 = idx;
         } else if (d < d2) {

@@ -6,6 +6,7 @@
 // Also the hash against lookup3 as written in util/hash.h, recomputed independently in Python.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -117,9 +118,10 @@ TEST(ShadingProcedural, PerlinBitForBitAsTheScalarFormulas) {
     }
 }
 
-// Voronoi F1 (Euclidean) bit for bit against voronoi.h's loop with each cell hashed on its own:
-// procedural.cpp hashes the neighbourhood over vector lanes and reuses a 3D cell's hash as its
-// colour (both hash_float3_to_float3).
+// Voronoi F1 and F2 (Euclidean, Manhattan, Chebychev) bit for bit against voronoi.h's loop with
+// each cell hashed and measured on its own: procedural.cpp hashes the neighbourhood and measures
+// its distances over vector lanes, and reuses a 3D cell's hash as its colour (both
+// hash_float3_to_float3).
 TEST(ShadingProcedural, VoronoiCellHashesAsTheScalarLoop) {
   uint64_t state = 777;
   auto next = [&] {
@@ -131,9 +133,12 @@ TEST(ShadingProcedural, VoronoiCellHashesAsTheScalarLoop) {
       Vec4 p;
       for (int k = 0; k < dims; ++k) p[k] = (next() - 0.5f) * 40.0f;
       const float randomness = i % 2 ? 1.0f : 0.7f;
+      const VoronoiMetric metric = static_cast<VoronoiMetric>(i % 3);
+      const VoronoiFeature feature = i % 4 == 3 ? VoronoiFeature::F2 : VoronoiFeature::F1;
       float cell[4], local[4];
       for (int k = 0; k < 4; ++k) cell[k] = std::floor(p[k]), local[k] = p[k] - cell[k];
       float best = 8.0f, best_pos[4] = {0, 0, 0, 0}, best_key[4] = {0, 0, 0, 0};
+      float second = 8.0f, second_pos[4] = {0, 0, 0, 0}, second_key[4] = {0, 0, 0, 0};
       const int total = dims == 2 ? 9 : dims == 3 ? 27 : 81;
       for (int idx = 0; idx < total; ++idx) {
         float o[4] = {0, 0, 0, 0}, key[4], h[4], pp[4];
@@ -150,21 +155,35 @@ TEST(ShadingProcedural, VoronoiCellHashesAsTheScalarLoop) {
           h[2] = hash_float4_to_float(key[2], key[3], key[0], key[1]);
           h[3] = hash_float4_to_float(key[1], key[2], key[3], key[0]);
         }
-        float d2 = 0.0f;
+        float sum = 0.0f;
         for (int k = 0; k < dims; ++k) {
           pp[k] = o[k] + h[k] * randomness;
-          d2 += (pp[k] - local[k]) * (pp[k] - local[k]);
+          const float t = pp[k] - local[k];
+          if (metric == VoronoiMetric::Euclidean) sum += t * t;
+          else if (metric == VoronoiMetric::Manhattan) sum += std::abs(t);
+          else sum = std::max(sum, std::abs(t));
         }
-        const float d = std::sqrt(d2);
+        const float d = metric == VoronoiMetric::Euclidean ? std::sqrt(sum) : sum;
         if (d < best) {
+          second = best;
+          std::copy(best_pos, best_pos + 4, second_pos);
+          std::copy(best_key, best_key + 4, second_key);
           best = d;
           for (int k = 0; k < dims; ++k) best_pos[k] = pp[k] + cell[k], best_key[k] = key[k];
+        } else if (d < second) {
+          second = d;
+          for (int k = 0; k < dims; ++k) second_pos[k] = pp[k] + cell[k], second_key[k] = key[k];
         }
+      }
+      if (feature == VoronoiFeature::F2) {
+        best = second;
+        std::copy(second_pos, second_pos + 4, best_pos);
+        std::copy(second_key, second_key + 4, best_key);
       }
       const Vec3 color = dims == 2   ? hash_float2_to_float3(best_key[0], best_key[1])
                          : dims == 3 ? hash_float3_to_float3(Vec3(best_key[0], best_key[1], best_key[2]))
                                      : hash_float4_to_float3(best_key[0], best_key[1], best_key[2], best_key[3]);
-      const VoronoiOut o = voronoi(VoronoiFeature::F1, VoronoiMetric::Euclidean, p, dims, 0.0f, 0.5f, randomness);
+      const VoronoiOut o = voronoi(feature, metric, p, dims, 0.0f, 0.5f, randomness);
       ASSERT_EQ(o.distance, best) << dims << "D Voronoi at point " << i;
       for (int k = 0; k < 3; ++k) ASSERT_EQ(o.color[k], color[k]) << dims << "D Voronoi colour at point " << i;
       for (int k = 0; k < dims; ++k) ASSERT_EQ(o.position[k], best_pos[k]) << dims << "D Voronoi position at point " << i;
