@@ -183,7 +183,8 @@ const Vec4& random_offset(int seed, int dims) { return kRandomOffsets.table[dims
 
 }  // namespace
 
-GP_AVX2_CLONES float snoise(const Vec4& p, int dims) {
+namespace {
+GP_INLINE float snoise_in(const Vec4& p, int dims) {
   switch (dims) {
     case 1: return 0.2500f * ensure_finite(perlin_1d(p[0]));
     case 2: return 0.6616f * ensure_finite(perlin_2d(p[0], p[1]));
@@ -191,15 +192,16 @@ GP_AVX2_CLONES float snoise(const Vec4& p, int dims) {
     default: return 0.8344f * ensure_finite(perlin_4d(p[0], p[1], p[2], p[3]));
   }
 }
+GP_INLINE float unoise_in(const Vec4& p, int dims) { return 0.5f * snoise_in(p, dims) + 0.5f; }  // unoise
 
 // Cycles 3.4's fractal_noise_Nd: octaves clamped to [0, 16], roughness to [0, 1].
-float fractal_noise(const Vec4& p, int dims, float octaves, float roughness) {
+GP_INLINE float fractal_noise_in(const Vec4& p, int dims, float octaves, float roughness) {
   float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
   octaves = std::clamp(octaves, 0.0f, 16.0f);
   roughness = std::clamp(roughness, 0.0f, 1.0f);
   const int n = static_cast<int>(octaves);
   for (int i = 0; i <= n; ++i) {
-    const float t = unoise(scaled(p, fscale), dims);
+    const float t = unoise_in(scaled(p, fscale), dims);
     sum += t * amp;
     maxamp += amp;
     amp *= roughness;
@@ -207,31 +209,38 @@ float fractal_noise(const Vec4& p, int dims, float octaves, float roughness) {
   }
   const float rmd = octaves - std::floor(octaves);
   if (rmd != 0.0f) {
-    const float t = unoise(scaled(p, fscale), dims);
+    const float t = unoise_in(scaled(p, fscale), dims);
     const float sum2 = (sum + t * amp) / (maxamp + amp);
     return (1.0f - rmd) * (sum / maxamp) + rmd * sum2;
   }
   return sum / maxamp;
 }
+}  // namespace
 
-void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
+GP_AVX2_CLONES float snoise(const Vec4& p, int dims) { return snoise_in(p, dims); }
+
+GP_AVX2_CLONES float fractal_noise(const Vec4& p, int dims, float octaves, float roughness) {
+  return fractal_noise_in(p, dims, octaves, roughness);
+}
+
+GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
                    float* value, Vec3* color) {
   Vec4 p = co;
   if (distortion != 0.0f) {
     Vec4 d;
-    for (int i = 0; i < dims; ++i) d[i] = snoise(added(p, random_offset(i, dims)), dims) * distortion;
+    for (int i = 0; i < dims; ++i) d[i] = snoise_in(added(p, random_offset(i, dims)), dims) * distortion;
     p = added(p, d);
   }
-  *value = fractal_noise(p, dims, detail, roughness);
+  *value = fractal_noise_in(p, dims, detail, roughness);
   if (want_color) {
     // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
     const int s = dims == 1 ? 1 : dims;
-    *color = Vec3(*value, fractal_noise(added(p, random_offset(s, dims)), dims, detail, roughness),
-                  fractal_noise(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
+    *color = Vec3(*value, fractal_noise_in(added(p, random_offset(s, dims)), dims, detail, roughness),
+                  fractal_noise_in(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
   }
 }
 
-float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacunarity, float octaves, float offset,
+GP_AVX2_CLONES float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacunarity, float octaves, float offset,
                float gain) {
   Vec4 p = co;
   const float pwHL = std::pow(lacunarity, -H);
@@ -241,43 +250,43 @@ float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacun
     case MusgraveType::FBM: {
       float value = 0.0f, pwr = 1.0f;
       for (int i = 0; i < n; ++i) {
-        value += snoise(p, dims) * pwr;
+        value += snoise_in(p, dims) * pwr;
         pwr *= pwHL;
         p = scaled(p, lacunarity);
       }
-      if (rmd != 0.0f) value += rmd * snoise(p, dims) * pwr;
+      if (rmd != 0.0f) value += rmd * snoise_in(p, dims) * pwr;
       return value;
     }
     case MusgraveType::MultiFractal: {
       float value = 1.0f, pwr = 1.0f;
       for (int i = 0; i < n; ++i) {
-        value *= (pwr * snoise(p, dims) + 1.0f);
+        value *= (pwr * snoise_in(p, dims) + 1.0f);
         pwr *= pwHL;
         p = scaled(p, lacunarity);
       }
-      if (rmd != 0.0f) value *= (rmd * pwr * snoise(p, dims) + 1.0f);
+      if (rmd != 0.0f) value *= (rmd * pwr * snoise_in(p, dims) + 1.0f);
       return value;
     }
     case MusgraveType::HeteroTerrain: {
       float pwr = pwHL;
-      float value = offset + snoise(p, dims);
+      float value = offset + snoise_in(p, dims);
       p = scaled(p, lacunarity);
       for (int i = 1; i < n; ++i) {
-        value += (snoise(p, dims) + offset) * pwr * value;
+        value += (snoise_in(p, dims) + offset) * pwr * value;
         pwr *= pwHL;
         p = scaled(p, lacunarity);
       }
-      if (rmd != 0.0f) value += rmd * ((snoise(p, dims) + offset) * pwr * value);
+      if (rmd != 0.0f) value += rmd * ((snoise_in(p, dims) + offset) * pwr * value);
       return value;
     }
     case MusgraveType::HybridMultiFractal: {
       float pwr = pwHL;
-      float value = snoise(p, dims) + offset;
+      float value = snoise_in(p, dims) + offset;
       float weight = gain * value;
       p = scaled(p, lacunarity);
       for (int i = 1; weight > 0.001f && i < n; ++i) {
         weight = std::min(weight, 1.0f);
-        const float signal = (snoise(p, dims) + offset) * pwr;
+        const float signal = (snoise_in(p, dims) + offset) * pwr;
         pwr *= pwHL;
         value += weight * signal;
         weight *= gain * signal;
@@ -285,19 +294,19 @@ float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacun
       }
       if (rmd != 0.0f && weight > 0.001f) {
         weight = std::min(weight, 1.0f);
-        value += rmd * weight * ((snoise(p, dims) + offset) * pwr);
+        value += rmd * weight * ((snoise_in(p, dims) + offset) * pwr);
       }
       return value;
     }
     case MusgraveType::RidgedMultiFractal: {
       float pwr = pwHL;
-      float signal = offset - std::abs(snoise(p, dims));
+      float signal = offset - std::abs(snoise_in(p, dims));
       signal *= signal;
       float value = signal;
       for (int i = 1; i < n; ++i) {
         p = scaled(p, lacunarity);
         const float weight = std::clamp(signal * gain, 0.0f, 1.0f);
-        signal = offset - std::abs(snoise(p, dims));
+        signal = offset - std::abs(snoise_in(p, dims));
         signal *= signal;
         signal *= weight;
         value += signal * pwr;
