@@ -15,8 +15,10 @@
 // instruction instead of two SSE2 ones. AVX2 brings no FMA (nothing is contracted), so each float
 // operation is the same IEEE single one in either build: the same bits. What they call is
 // inlined into them (GP_INLINE), so that it is built for the clone's target too.
+// (-DGRADPHOTON_NO_TARGET_CLONES builds the default lanes alone: how the SSE2 path is tested on
+// an AVX2 machine, docs/benchmarks.md.)
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(__SANITIZE_ADDRESS__)
+    !defined(__SANITIZE_ADDRESS__) && !defined(GRADPHOTON_NO_TARGET_CLONES)
 #define GP_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define GP_AVX2_CLONES
