@@ -8,6 +8,8 @@
 
 #include "core/math.h"
 
+#define GP_VECTOR_INLINE inline __attribute__((always_inline))
+
 namespace gp::shading {
 
 namespace detail {
@@ -104,6 +106,91 @@ inline Vec3 hash_float3_to_float3(const Vec3& k) {
 inline Vec3 hash_float4_to_float3(float x, float y, float z, float w) {
   return {hash_float4_to_float(x, y, z, w), hash_float4_to_float(z, x, w, y), hash_float4_to_float(w, z, y, x)};
 }
+
+// ---- Several keys at once ----
+// The same lookup3 lines over GCC/Clang vector types (U: uint32_t lanes), so a Perlin cell's
+// eight corners or a Voronoi neighbourhood's cells hash together (Cycles' SSE/AVX noise does the
+// same, kernel/svm/noise.h). Integer operations lane by lane: bit for bit the scalar hashes.
+// Always inlined: a vector of 32 bytes passed or returned by value has no common ABI between
+// an AVX2 caller (procedural.cpp's target clones) and code built without AVX.
+// (Inline only: 32-byte vectors by value have no fixed ABI without AVX, which GCC warns of.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+using u32x8 = uint32_t __attribute__((vector_size(32)));
+using i32x8 = int32_t __attribute__((vector_size(32)));
+using f32x8 = float __attribute__((vector_size(32)));
+
+namespace detail {
+template <class U>
+GP_VECTOR_INLINE U rot_v(const U& x, int k) {
+  return (x << k) | (x >> (32 - k));
+}
+template <class U>
+GP_VECTOR_INLINE void jenkins_mix_v(U& a, U& b, U& c) {
+  a -= c; a ^= rot_v(c, 4); c += b;
+  b -= a; b ^= rot_v(a, 6); a += c;
+  c -= b; c ^= rot_v(b, 8); b += a;
+  a -= c; a ^= rot_v(c, 16); c += b;
+  b -= a; b ^= rot_v(a, 19); a += c;
+  c -= b; c ^= rot_v(b, 4); b += a;
+}
+template <class U>
+GP_VECTOR_INLINE void jenkins_final_v(U& a, U& b, U& c) {
+  c ^= b; c -= rot_v(b, 14);
+  a ^= c; a -= rot_v(c, 11);
+  b ^= a; b -= rot_v(a, 25);
+  c ^= b; c -= rot_v(b, 16);
+  a ^= c; a -= rot_v(c, 4);
+  b ^= a; b -= rot_v(a, 14);
+  c ^= b; c -= rot_v(b, 24);
+}
+}  // namespace detail
+
+template <class U>
+GP_VECTOR_INLINE U hash_uint_v(const U& kx) {
+  U a = U{} + (0xdeadbeefu + (1u << 2) + 13u), b = a, c = a;
+  a += kx;
+  detail::jenkins_final_v(a, b, c);
+  return c;
+}
+template <class U>
+GP_VECTOR_INLINE U hash_uint2_v(const U& kx, const U& ky) {
+  U a = U{} + (0xdeadbeefu + (2u << 2) + 13u), b = a, c = a;
+  b += ky;
+  a += kx;
+  detail::jenkins_final_v(a, b, c);
+  return c;
+}
+template <class U>
+GP_VECTOR_INLINE U hash_uint3_v(const U& kx, const U& ky, const U& kz) {
+  U a = U{} + (0xdeadbeefu + (3u << 2) + 13u), b = a, c = a;
+  c += kz;
+  b += ky;
+  a += kx;
+  detail::jenkins_final_v(a, b, c);
+  return c;
+}
+template <class U>
+GP_VECTOR_INLINE U hash_uint4_v(const U& kx, const U& ky, const U& kz, const U& kw) {
+  U a = U{} + (0xdeadbeefu + (4u << 2) + 13u), b = a, c = a;
+  a += kx;
+  b += ky;
+  c += kz;
+  detail::jenkins_mix_v(a, b, c);
+  a += kw;
+  detail::jenkins_final_v(a, b, c);
+  return c;
+}
+// uint_to_float_incl lane by lane: the high and low 16 bits convert exactly and their sum is
+// rounded once, so each lane is static_cast<float>(n) (correctly rounded) as in the scalar one.
+GP_VECTOR_INLINE f32x8 uint_to_float_incl_v(const u32x8& n) {
+  const f32x8 hi = __builtin_convertvector((i32x8)(n >> 16), f32x8) * 65536.0f;
+  const f32x8 lo = __builtin_convertvector((i32x8)(n & 0xFFFFu), f32x8);
+  return (hi + lo) * (1.0f / static_cast<float>(0xFFFFFFFFu));
+}
+// The bits of each float lane (float_bits).
+GP_VECTOR_INLINE u32x8 float_bits_v(const f32x8& f) { return (u32x8)f; }
+#pragma GCC diagnostic pop
 
 // Blender's BLI_hash_string (x31: h = h * 31 + c), which names an object's random number.
 inline uint32_t hash_string_x31(const char* s) {

@@ -2,8 +2,28 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "shading/hash.h"
+
+// The vector lanes of hash.h are inline only (no ABI crosses a call): GCC's note on 32-byte
+// vectors without AVX does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+// The entry points of the lane-parallel textures (snoise, voronoi) are also built for AVX2 and
+// chosen when the program loads (GCC's target_clones, an ifunc): the eight lanes of a cell in one
+// instruction instead of two SSE2 ones. AVX2 brings no FMA (nothing is contracted), so each float
+// operation is the same IEEE single one in either build: the same bits. What they call is
+// inlined into them (GP_INLINE), so that it is built for the clone's target too.
+// (-DGRADPHOTON_NO_TARGET_CLONES builds the default lanes alone: how the SSE2 path is tested on
+// an AVX2 machine, docs/benchmarks.md.)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(__SANITIZE_ADDRESS__) && !defined(GRADPHOTON_NO_TARGET_CLONES)
+#define GP_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define GP_AVX2_CLONES
+#endif
+#define GP_INLINE inline __attribute__((always_inline))
 
 namespace gp::shading {
 
@@ -27,22 +47,51 @@ float grad1(uint32_t hash, float x) {
   const float g = static_cast<float>(1 + (h & 7));
   return negate_if(g, h & 8) * x;
 }
-float grad2(uint32_t hash, float x, float y) {
-  const uint32_t h = hash & 7;
-  const float u = h < 4 ? x : y, v = 2.0f * (h < 4 ? y : x);
-  return negate_if(u, h & 1) + negate_if(v, h & 2);
+// The corners' hashes and gradients are computed together over vector lanes (hash.h's *_v), as
+// Cycles' SSE/AVX noise does: the same integer operations, selections and sign flips lane by lane
+// and the same one or two float additions per corner, so every value is the scalar formula's
+// bit for bit (tested against a scalar transcription in shading_procedural_test.cpp).
+using u32x4 = uint32_t __attribute__((vector_size(16)));
+using i32x4 = int32_t __attribute__((vector_size(16)));
+using f32x4 = float __attribute__((vector_size(16)));
+
+// All ones where h < k, else zero, for h and k below 2^31 (the gradient indices): by the sign of
+// h - k, as GCC would split a comparison of 8 lanes into scalar ones without AVX.
+template <class U>
+GP_INLINE U below(const U& h, uint32_t k) {
+  return U{} - ((h - k) >> 31);
 }
-float grad3(uint32_t hash, float x, float y, float z) {
-  const uint32_t h = hash & 15;
-  const float u = h < 8 ? x : y;
-  const float vt = (h == 12 || h == 14) ? x : z;
-  const float v = h < 4 ? y : vt;
-  return negate_if(u, h & 1) + negate_if(v, h & 2);
+// All ones where a < b (floats; Chebychev's max as std::max takes it).
+GP_INLINE u32x8 below_f(const f32x8& a, const f32x8& b) { return (u32x8)(a < b); }
+// m ? a : b lane by lane, on the bits (m: all ones or zero per lane).
+template <class U, class F>
+GP_INLINE U select_bits(const U& m, const F& a, const F& b) {
+  return (m & (U)a) | (~m & (U)b);
 }
-float grad4(uint32_t hash, float x, float y, float z, float w) {
-  const uint32_t h = hash & 31;
-  const float u = h < 24 ? x : y, v = h < 16 ? y : z, s = h < 8 ? z : w;
-  return negate_if(u, h & 1) + negate_if(v, h & 2) + negate_if(s, h & 4);
+
+// grad2 of noise.h over four corners: u = h < 4 ? x : y, v = 2 (h < 4 ? y : x), signs by h & 1, h & 2.
+GP_INLINE f32x4 grad2_v(u32x4 hash, f32x4 x, f32x4 y) {
+  const u32x4 h = hash & 7u;
+  const u32x4 lt4 = below(h, 4);
+  const u32x4 u = select_bits<u32x4>(lt4, x, y);
+  const f32x4 v = 2.0f * (f32x4)select_bits<u32x4>(lt4, y, x);
+  return (f32x4)(u ^ ((h & 1u) << 31)) + (f32x4)((u32x4)v ^ ((h & 2u) << 30));
+}
+// grad3: u = h < 8 ? x : y, v = h < 4 ? y : (h == 12 || h == 14 ? x : z), signs by h & 1, h & 2.
+GP_INLINE f32x8 grad3_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z) {
+  const u32x8 h = hash & 15u;
+  const u32x8 u = select_bits<u32x8>(below(h, 8), x, y);
+  const f32x8 vt = (f32x8)select_bits<u32x8>(below(h ^ 12u, 1) | below(h ^ 14u, 1), x, z);
+  const u32x8 v = select_bits<u32x8>(below(h, 4), y, vt);
+  return (f32x8)(u ^ ((h & 1u) << 31)) + (f32x8)(v ^ ((h & 2u) << 30));
+}
+// grad4: u = h < 24 ? x : y, v = h < 16 ? y : z, s = h < 8 ? z : w, signs by h & 1, 2, 4.
+GP_INLINE f32x8 grad4_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z, const f32x8& w) {
+  const u32x8 h = hash & 31u;
+  const u32x8 u = select_bits<u32x8>(below(h, 24), x, y);
+  const u32x8 v = select_bits<u32x8>(below(h, 16), y, z);
+  const u32x8 s = select_bits<u32x8>(below(h, 8), z, w);
+  return (f32x8)(u ^ ((h & 1u) << 31)) + (f32x8)(v ^ ((h & 2u) << 30)) + (f32x8)(s ^ ((h & 4u) << 29));
 }
 
 float perlin_1d(float x) {
@@ -59,31 +108,42 @@ float tri_mix(const float* v, float x, float y, float z) {
   return z1 * (y1 * (v[0] * x1 + v[1] * x) + y * (v[2] * x1 + v[3] * x)) +
          z * (y1 * (v[4] * x1 + v[5] * x) + y * (v[6] * x1 + v[7] * x));
 }
-float perlin_2d(float x, float y) {
+// Corner k of a cell is (k & 1, k >> 1 & 1, k >> 2 & 1, k >> 3 & 1): the order of bi_mix and tri_mix.
+constexpr u32x8 kCornerX = {0, 1, 0, 1, 0, 1, 0, 1}, kCornerY = {0, 0, 1, 1, 0, 0, 1, 1},
+                kCornerZ = {0, 0, 0, 0, 1, 1, 1, 1};
+constexpr f32x8 kCornerXf = {0, 1, 0, 1, 0, 1, 0, 1}, kCornerYf = {0, 0, 1, 1, 0, 0, 1, 1},
+                kCornerZf = {0, 0, 0, 0, 1, 1, 1, 1};
+GP_INLINE float perlin_2d(float x, float y) {
   int X, Y;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y);
-  return bi_mix(grad2(hash_uint2(X, Y), fx, fy), grad2(hash_uint2(X + 1, Y), fx - 1.0f, fy),
-                grad2(hash_uint2(X, Y + 1), fx, fy - 1.0f), grad2(hash_uint2(X + 1, Y + 1), fx - 1.0f, fy - 1.0f),
-                fade(fx), fade(fy));
+  const u32x4 dx = {0, 1, 0, 1}, dy = {0, 0, 1, 1};
+  const f32x4 dxf = {0, 1, 0, 1}, dyf = {0, 0, 1, 1};
+  const u32x4 h = hash_uint2_v(static_cast<uint32_t>(X) + dx, static_cast<uint32_t>(Y) + dy);
+  const f32x4 g = grad2_v(h, fx - dxf, fy - dyf);
+  return bi_mix(g[0], g[1], g[2], g[3], fade(fx), fade(fy));
 }
-float perlin_3d(float x, float y, float z) {
+GP_INLINE float perlin_3d(float x, float y, float z) {
   int X, Y, Z;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y), fz = floorfrac(z, &Z);
+  const u32x8 h = hash_uint3_v(static_cast<uint32_t>(X) + kCornerX, static_cast<uint32_t>(Y) + kCornerY,
+                               static_cast<uint32_t>(Z) + kCornerZ);
+  const f32x8 g = grad3_v(h, fx - kCornerXf, fy - kCornerYf, fz - kCornerZf);
   float v[8];
-  for (int k = 0; k < 8; ++k) {
-    const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
-    v[k] = grad3(hash_uint3(X + dx, Y + dy, Z + dz), fx - dx, fy - dy, fz - dz);
-  }
+  std::memcpy(v, &g, sizeof v);
   return tri_mix(v, fade(fx), fade(fy), fade(fz));
 }
-float perlin_4d(float x, float y, float z, float w) {
+GP_INLINE float perlin_4d(float x, float y, float z, float w) {
   int X, Y, Z, W;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y), fz = floorfrac(z, &Z), fw = floorfrac(w, &W);
+  const u32x8 kx = static_cast<uint32_t>(X) + kCornerX, ky = static_cast<uint32_t>(Y) + kCornerY,
+              kz = static_cast<uint32_t>(Z) + kCornerZ;
+  const f32x8 px = fx - kCornerXf, py = fy - kCornerYf, pz = fz - kCornerZf;
   float v[16];
-  for (int k = 0; k < 16; ++k) {
-    const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1, dw = (k >> 3) & 1;
-    v[k] = grad4(hash_uint4(X + dx, Y + dy, Z + dz, W + dw), fx - dx, fy - dy, fz - dz, fw - dw);
-  }
+  const f32x8 g0 = grad4_v(hash_uint4_v(kx, ky, kz, u32x8{} + static_cast<uint32_t>(W)), px, py, pz, f32x8{} + fw);
+  const f32x8 g1 = grad4_v(hash_uint4_v(kx, ky, kz, u32x8{} + (static_cast<uint32_t>(W) + 1u)), px, py, pz,
+                           f32x8{} + (fw - 1.0f));
+  std::memcpy(v, &g0, sizeof g0);
+  std::memcpy(v + 8, &g1, sizeof g1);
   const float u = fade(fx), vv = fade(fy), t = fade(fz);
   return lerp(tri_mix(v, u, vv, t), tri_mix(v + 8, u, vv, t), fade(fw));
 }
@@ -102,7 +162,8 @@ Vec4 added(const Vec4& p, const Vec4& q) {
 }
 
 // noisetex.h's seeds: offsets in [100, 200] that decorrelate the distortion and colour channels.
-Vec4 random_offset(float seed, int dims) {
+// They depend on the seed (0 to 5) and the dimensions alone: computed once.
+Vec4 random_offset_of(float seed, int dims) {
   Vec4 r;
   if (dims == 1) {
     r[0] = 100.0f + hash_float_to_float(seed) * 100.0f;
@@ -111,10 +172,21 @@ Vec4 random_offset(float seed, int dims) {
   }
   return r;
 }
+constexpr int kOffsetSeeds = 6;
+struct RandomOffsets {
+  Vec4 table[5][kOffsetSeeds];
+  RandomOffsets() {
+    for (int dims = 1; dims <= 4; ++dims)
+      for (int seed = 0; seed < kOffsetSeeds; ++seed) table[dims][seed] = random_offset_of(static_cast<float>(seed), dims);
+  }
+};
+const RandomOffsets kRandomOffsets;
+const Vec4& random_offset(int seed, int dims) { return kRandomOffsets.table[dims][seed]; }
 
 }  // namespace
 
-float snoise(const Vec4& p, int dims) {
+namespace {
+GP_INLINE float snoise_in(const Vec4& p, int dims) {
   switch (dims) {
     case 1: return 0.2500f * ensure_finite(perlin_1d(p[0]));
     case 2: return 0.6616f * ensure_finite(perlin_2d(p[0], p[1]));
@@ -122,15 +194,16 @@ float snoise(const Vec4& p, int dims) {
     default: return 0.8344f * ensure_finite(perlin_4d(p[0], p[1], p[2], p[3]));
   }
 }
+GP_INLINE float unoise_in(const Vec4& p, int dims) { return 0.5f * snoise_in(p, dims) + 0.5f; }  // unoise
 
 // Cycles 3.4's fractal_noise_Nd: octaves clamped to [0, 16], roughness to [0, 1].
-float fractal_noise(const Vec4& p, int dims, float octaves, float roughness) {
+GP_INLINE float fractal_noise_in(const Vec4& p, int dims, float octaves, float roughness) {
   float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
   octaves = std::clamp(octaves, 0.0f, 16.0f);
   roughness = std::clamp(roughness, 0.0f, 1.0f);
   const int n = static_cast<int>(octaves);
   for (int i = 0; i <= n; ++i) {
-    const float t = unoise(scaled(p, fscale), dims);
+    const float t = unoise_in(scaled(p, fscale), dims);
     sum += t * amp;
     maxamp += amp;
     amp *= roughness;
@@ -138,31 +211,38 @@ float fractal_noise(const Vec4& p, int dims, float octaves, float roughness) {
   }
   const float rmd = octaves - std::floor(octaves);
   if (rmd != 0.0f) {
-    const float t = unoise(scaled(p, fscale), dims);
+    const float t = unoise_in(scaled(p, fscale), dims);
     const float sum2 = (sum + t * amp) / (maxamp + amp);
     return (1.0f - rmd) * (sum / maxamp) + rmd * sum2;
   }
   return sum / maxamp;
 }
+}  // namespace
 
-void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
+GP_AVX2_CLONES float snoise(const Vec4& p, int dims) { return snoise_in(p, dims); }
+
+GP_AVX2_CLONES float fractal_noise(const Vec4& p, int dims, float octaves, float roughness) {
+  return fractal_noise_in(p, dims, octaves, roughness);
+}
+
+GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
                    float* value, Vec3* color) {
   Vec4 p = co;
   if (distortion != 0.0f) {
     Vec4 d;
-    for (int i = 0; i < dims; ++i) d[i] = snoise(added(p, random_offset(static_cast<float>(i), dims)), dims) * distortion;
+    for (int i = 0; i < dims; ++i) d[i] = snoise_in(added(p, random_offset(i, dims)), dims) * distortion;
     p = added(p, d);
   }
-  *value = fractal_noise(p, dims, detail, roughness);
+  *value = fractal_noise_in(p, dims, detail, roughness);
   if (want_color) {
     // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
-    const float s = static_cast<float>(dims == 1 ? 1 : dims);
-    *color = Vec3(*value, fractal_noise(added(p, random_offset(s, dims)), dims, detail, roughness),
-                  fractal_noise(added(p, random_offset(s + 1.0f, dims)), dims, detail, roughness));
+    const int s = dims == 1 ? 1 : dims;
+    *color = Vec3(*value, fractal_noise_in(added(p, random_offset(s, dims)), dims, detail, roughness),
+                  fractal_noise_in(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
   }
 }
 
-float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacunarity, float octaves, float offset,
+GP_AVX2_CLONES float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacunarity, float octaves, float offset,
                float gain) {
   Vec4 p = co;
   const float pwHL = std::pow(lacunarity, -H);
@@ -172,43 +252,43 @@ float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacun
     case MusgraveType::FBM: {
       float value = 0.0f, pwr = 1.0f;
       for (int i = 0; i < n; ++i) {
-        value += snoise(p, dims) * pwr;
+        value += snoise_in(p, dims) * pwr;
         pwr *= pwHL;
         p = scaled(p, lacunarity);
       }
-      if (rmd != 0.0f) value += rmd * snoise(p, dims) * pwr;
+      if (rmd != 0.0f) value += rmd * snoise_in(p, dims) * pwr;
       return value;
     }
     case MusgraveType::MultiFractal: {
       float value = 1.0f, pwr = 1.0f;
       for (int i = 0; i < n; ++i) {
-        value *= (pwr * snoise(p, dims) + 1.0f);
+        value *= (pwr * snoise_in(p, dims) + 1.0f);
         pwr *= pwHL;
         p = scaled(p, lacunarity);
       }
-      if (rmd != 0.0f) value *= (rmd * pwr * snoise(p, dims) + 1.0f);
+      if (rmd != 0.0f) value *= (rmd * pwr * snoise_in(p, dims) + 1.0f);
       return value;
     }
     case MusgraveType::HeteroTerrain: {
       float pwr = pwHL;
-      float value = offset + snoise(p, dims);
+      float value = offset + snoise_in(p, dims);
       p = scaled(p, lacunarity);
       for (int i = 1; i < n; ++i) {
-        value += (snoise(p, dims) + offset) * pwr * value;
+        value += (snoise_in(p, dims) + offset) * pwr * value;
         pwr *= pwHL;
         p = scaled(p, lacunarity);
       }
-      if (rmd != 0.0f) value += rmd * ((snoise(p, dims) + offset) * pwr * value);
+      if (rmd != 0.0f) value += rmd * ((snoise_in(p, dims) + offset) * pwr * value);
       return value;
     }
     case MusgraveType::HybridMultiFractal: {
       float pwr = pwHL;
-      float value = snoise(p, dims) + offset;
+      float value = snoise_in(p, dims) + offset;
       float weight = gain * value;
       p = scaled(p, lacunarity);
       for (int i = 1; weight > 0.001f && i < n; ++i) {
         weight = std::min(weight, 1.0f);
-        const float signal = (snoise(p, dims) + offset) * pwr;
+        const float signal = (snoise_in(p, dims) + offset) * pwr;
         pwr *= pwHL;
         value += weight * signal;
         weight *= gain * signal;
@@ -216,19 +296,19 @@ float musgrave(MusgraveType type, const Vec4& co, int dims, float H, float lacun
       }
       if (rmd != 0.0f && weight > 0.001f) {
         weight = std::min(weight, 1.0f);
-        value += rmd * weight * ((snoise(p, dims) + offset) * pwr);
+        value += rmd * weight * ((snoise_in(p, dims) + offset) * pwr);
       }
       return value;
     }
     case MusgraveType::RidgedMultiFractal: {
       float pwr = pwHL;
-      float signal = offset - std::abs(snoise(p, dims));
+      float signal = offset - std::abs(snoise_in(p, dims));
       signal *= signal;
       float value = signal;
       for (int i = 1; i < n; ++i) {
         p = scaled(p, lacunarity);
         const float weight = std::clamp(signal * gain, 0.0f, 1.0f);
-        signal = offset - std::abs(snoise(p, dims));
+        signal = offset - std::abs(snoise_in(p, dims));
         signal *= signal;
         signal *= weight;
         value += signal * pwr;
@@ -291,7 +371,7 @@ Vec3 cell_color(const VP<N>& k) {
   else return hash_float4_to_float3(k[0], k[1], k[2], k[3]);
 }
 template <int N>
-float metric_distance(const VP<N>& a, const VP<N>& b, VoronoiMetric metric, float exponent) {
+GP_INLINE float metric_distance(const VP<N>& a, const VP<N>& b, VoronoiMetric metric, float exponent) {
   if constexpr (N == 1) return std::abs(b[0] - a[0]);
   else {
     switch (metric) {
@@ -318,19 +398,109 @@ float metric_distance(const VP<N>& a, const VP<N>& b, VoronoiMetric metric, floa
 
 // Cells offset by -r..r in every dimension, x varying fastest (Cycles' loop nesting: the last
 // dimension outermost), which decides ties and the order smooth F1 blends in.
-template <int N, typename F>
-void for_cells(int r, F&& f) {
-  const int w = 2 * r + 1;
+template <int N>
+constexpr int cell_count(int r) {
   int total = 1;
-  for (int i = 0; i < N; ++i) total *= w;
-  for (int idx = 0; idx < total; ++idx) {
-    VP<N> o;
-    int rest = idx;
-    for (int i = 0; i < N; ++i) {
-      o[i] = static_cast<float>(rest % w - r);
-      rest /= w;
+  for (int i = 0; i < N; ++i) total *= 2 * r + 1;
+  return total;
+}
+// The offsets of the (2R + 1)^N cells, by dimension, padded to whole lanes of 8 (with the last
+// cell again) and computed at compile time.
+template <int N, int R>
+struct CellOffsets {
+  static constexpr int kCount = cell_count<N>(R), kPadded = (kCount + 7) / 8 * 8;
+  float o[N][kPadded] = {};
+  constexpr CellOffsets() {
+    for (int idx = 0; idx < kPadded; ++idx) {
+      int rest = idx < kCount ? idx : kCount - 1;
+      for (int i = 0; i < N; ++i, rest /= 2 * R + 1) o[i][idx] = static_cast<float>(rest % (2 * R + 1) - R);
     }
-    f(o);
+  }
+};
+template <int N, int R>
+constexpr CellOffsets<N, R> kCellOffsets{};
+
+template <int N, int R, typename F>
+GP_INLINE void for_cells(F&& f) {
+  constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
+  for (int idx = 0; idx < t.kCount; ++idx) {
+    VP<N> o;
+    for (int i = 0; i < N; ++i) o[i] = t.o[i][idx];
+    f(idx, o);
+  }
+}
+
+// cell_hash of every cell for_cells<N, R> visits around `cell`, in its order, eight cells at a
+// time over vector lanes (hash.h's *_v: the scalar hashes bit for bit; each key is the same
+// float sum cell + offset). out[i][idx]: component i of cell idx.
+template <int N>
+using CellHashTable = float[N][CellOffsets<N, 2>::kPadded];
+template <int N, int R>
+GP_INLINE void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
+  constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
+  const u32x8 one = u32x8{} + detail::float_bits(1.0f), two = u32x8{} + detail::float_bits(2.0f);
+  for (int base = 0; base < t.kPadded; base += 8) {
+    u32x8 k[N];
+    for (int i = 0; i < N; ++i) {
+      f32x8 off;
+      std::memcpy(&off, &t.o[i][base], sizeof off);
+      k[i] = float_bits_v(cell[i] + off);
+    }
+    f32x8 h[N];
+    if constexpr (N == 1) {
+      h[0] = uint_to_float_incl_v(hash_uint_v(k[0]));
+    } else if constexpr (N == 2) {  // hash_float2_to_float2
+      h[0] = uint_to_float_incl_v(hash_uint2_v(k[0], k[1]));
+      h[1] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], one));
+    } else if constexpr (N == 3) {  // hash_float3_to_float3
+      h[0] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], k[2]));
+      h[1] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], one));
+      h[2] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], two));
+    } else {  // hash_float4_to_float4
+      h[0] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], k[3]));
+      h[1] = uint_to_float_incl_v(hash_uint4_v(k[3], k[0], k[1], k[2]));
+      h[2] = uint_to_float_incl_v(hash_uint4_v(k[2], k[3], k[0], k[1]));
+      h[3] = uint_to_float_incl_v(hash_uint4_v(k[1], k[2], k[3], k[0]));
+    }
+    for (int i = 0; i < N; ++i) std::memcpy(&out[i][base], &h[i], sizeof h[i]);
+  }
+}
+
+// The feature points offset + hash * randomness of those cells and their metric_distance to
+// `local`, eight cells at a time: the same float operations in the same order per lane (a
+// distance's sum starts at 0 and adds each dimension's term), so the same bits. Minkowski's
+// powers stay one cell at a time.
+template <int N, int R>
+GP_INLINE void cell_points(const CellHashTable<N>& hashes, const VP<N>& local, float randomness, VoronoiMetric metric,
+                 float exponent, CellHashTable<N>& points, float* dist) {
+  constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
+  const u32x8 abs_mask = u32x8{} + 0x7FFFFFFFu;
+  for (int base = 0; base < t.kPadded; base += 8) {
+    f32x8 sum = f32x8{};
+    for (int i = 0; i < N; ++i) {
+      f32x8 off, h;
+      std::memcpy(&off, &t.o[i][base], sizeof off);
+      std::memcpy(&h, &hashes[i][base], sizeof h);
+      const f32x8 p = off + h * randomness;
+      std::memcpy(&points[i][base], &p, sizeof p);
+      // metric_distance(p, local): N = 1 reads |local - p|, else p - local per dimension.
+      const f32x8 d = N == 1 ? local[0] - p : p - local[i];
+      const f32x8 ad = (f32x8)((u32x8)d & abs_mask);
+      if (N == 1 || metric == VoronoiMetric::Manhattan) sum = sum + ad;
+      else if (metric == VoronoiMetric::Euclidean) sum = sum + d * d;
+      else if (metric == VoronoiMetric::Chebychev) sum = (f32x8)select_bits<u32x8>(below_f(sum, ad), ad, sum);
+    }
+    if (N == 1 || metric == VoronoiMetric::Manhattan || metric == VoronoiMetric::Chebychev) {
+      std::memcpy(&dist[base], &sum, sizeof sum);
+    } else if (metric == VoronoiMetric::Euclidean) {
+      for (int l = 0; l < 8; ++l) dist[base + l] = std::sqrt(sum[l]);
+    } else {
+      for (int l = 0; l < 8; ++l) {
+        VP<N> pp;
+        for (int i = 0; i < N; ++i) pp[i] = points[i][base + l];
+        dist[base + l] = metric_distance(pp, local, metric, exponent);
+      }
+    }
   }
 }
 
@@ -341,7 +511,7 @@ float smoothstep01(float x) {  // Cycles' smoothstep(0, 1, x)
 }
 
 template <int N>
-VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p4, float smoothness, float exponent,
+GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p4, float smoothness, float exponent,
                      float randomness) {
   VP<N> coord, cell, local;
   for (int i = 0; i < N; ++i) {
@@ -350,7 +520,25 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     local[i] = coord[i] - cell[i];
   }
   VoronoiOut out;
-  auto point_in = [&](const VP<N>& offset) { return offset + cell_hash(cell + offset) * randomness; };
+  // The feature points of the 3^N cells around (5^N for smooth F1), hashed together up front.
+  CellHashTable<N> hashes;
+  if (feature == VoronoiFeature::SmoothF1) cell_hashes<N, 2>(cell, hashes);
+  else cell_hashes<N, 1>(cell, hashes);
+  CellHashTable<N> points;
+  float dist[CellOffsets<N, 2>::kPadded];
+  if (feature == VoronoiFeature::SmoothF1) cell_points<N, 2>(hashes, local, randomness, metric, exponent, points, dist);
+  else cell_points<N, 1>(hashes, local, randomness, metric, exponent, points, dist);
+  // (offset + cell_hash(cell + offset) * randomness)
+  auto point_in = [&](int idx, const VP<N>&) {
+    VP<N> pp;
+    for (int i = 0; i < N; ++i) pp[i] = points[i][idx];
+    return pp;
+  };
+  // A cell's colour: for 3D the same hash as its point (hash_float3_to_float3).
+  auto color_of = [&](int idx, const VP<N>& offset) {
+    if constexpr (N == 3) return Vec3(hashes[0][idx], hashes[1][idx], hashes[2][idx]);
+    else return cell_color(cell + offset);
+  };
   auto set_position = [&](const VP<N>& pos) {
     for (int i = 0; i < N; ++i) out.position[i] = pos[i];
   };
@@ -358,13 +546,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     case VoronoiFeature::F1: {
       float min_d = 8.0f;
       VP<N> target_offset{}, target_pos{};
-      for_cells<N>(1, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
-        const float d = metric_distance(pp, local, metric, exponent);
-        if (d < min_d) target_offset = o, min_d = d, target_pos = pp;
+      int target = 0;
+      for_cells<N, 1>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
+        const float d = dist[idx];  // metric_distance(pp, local, metric, exponent)
+        if (d < min_d) target_offset = o, min_d = d, target_pos = pp, target = idx;
       });
       out.distance = min_d;
-      out.color = cell_color(cell + target_offset);
+      out.color = color_of(target, target_offset);
       set_position(target_pos + cell);
       break;
     }
@@ -372,14 +561,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
       float smooth_d = 8.0f;
       Vec3 smooth_color;
       VP<N> smooth_pos{};
-      for_cells<N>(2, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
-        const float d = metric_distance(pp, local, metric, exponent);
+      for_cells<N, 2>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
+        const float d = dist[idx];  // metric_distance(pp, local, metric, exponent)
         const float h = smoothstep01(0.5f + 0.5f * (smooth_d - d) / smoothness);
         float correction = smoothness * h * (1.0f - h);
         smooth_d = lerp(smooth_d, d, h) - correction;
         correction /= 1.0f + 3.0f * smoothness;
-        const Vec3 c = cell_color(cell + o);
+        const Vec3 c = color_of(idx, o);
         smooth_color = smooth_color * (1.0f - h) + c * h - Vec3(correction);
         VP<N> corr;
         for (int i = 0; i < N; ++i) corr[i] = correction;
@@ -393,17 +582,18 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     case VoronoiFeature::F2: {
       float d1 = 8.0f, d2 = 8.0f;
       VP<N> off1{}, pos1{}, off2{}, pos2{};
-      for_cells<N>(1, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
-        const float d = metric_distance(pp, local, metric, exponent);
+      int idx1 = 0, idx2 = 0;
+      for_cells<N, 1>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
+        const float d = dist[idx];  // metric_distance(pp, local, metric, exponent)
         if (d < d1) {
-          d2 = d1, d1 = d, off2 = off1, off1 = o, pos2 = pos1, pos1 = pp;
+          d2 = d1, d1 = d, off2 = off1, off1 = o, pos2 = pos1, pos1 = pp, idx2 = idx1, idx1 = idx;
         } else if (d < d2) {
-          d2 = d, off2 = o, pos2 = pp;
+          d2 = d, off2 = o, pos2 = pp, idx2 = idx;
         }
       });
       out.distance = d2;
-      out.color = cell_color(cell + off2);
+      out.color = color_of(idx2, off2);
       set_position(pos2 + cell);
       break;
     }
@@ -418,14 +608,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
       } else {
         VP<N> to_closest{};
         float min_d = 8.0f;
-        for_cells<N>(1, [&](const VP<N>& o) {
-          const VP<N> v = point_in(o) - local;
+        for_cells<N, 1>([&](int idx, const VP<N>& o) {
+          const VP<N> v = point_in(idx, o) - local;
           const float d = vdot(v, v);
           if (d < min_d) min_d = d, to_closest = v;
         });
         min_d = 8.0f;
-        for_cells<N>(1, [&](const VP<N>& o) {
-          const VP<N> v = point_in(o) - local;
+        for_cells<N, 1>([&](int idx, const VP<N>& o) {
+          const VP<N> v = point_in(idx, o) - local;
           const VP<N> perp = v - to_closest;
           if (vdot(perp, perp) > 0.0001f) {
             const float d = vdot((to_closest + v) * 0.5f, perp * (1.0f / vlen(perp)));
@@ -439,14 +629,14 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
     case VoronoiFeature::NSphereRadius: {
       VP<N> closest{}, closest_offset{};
       float min_d = 8.0f;
-      for_cells<N>(1, [&](const VP<N>& o) {
-        const VP<N> pp = point_in(o);
+      for_cells<N, 1>([&](int idx, const VP<N>& o) {
+        const VP<N> pp = point_in(idx, o);
         const float d = vlen(pp - local);
         if (d < min_d) min_d = d, closest = pp, closest_offset = o;
       });
       min_d = 8.0f;
       VP<N> closest_to_closest{};
-      for_cells<N>(1, [&](const VP<N>& o) {
+      for_cells<N, 1>([&](int, const VP<N>& o) {
         bool centre = true;
         for (int i = 0; i < N; ++i) centre = centre && o[i] == 0.0f;
         if (centre) return;
@@ -464,7 +654,7 @@ VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p
 
 }  // namespace
 
-VoronoiOut voronoi(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p, int dims, float smoothness,
+GP_AVX2_CLONES VoronoiOut voronoi(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p, int dims, float smoothness,
                    float exponent, float randomness) {
   switch (dims) {
     case 1: return voronoi_n<1>(feature, metric, p, smoothness, exponent, randomness);

@@ -6,10 +6,17 @@
 // Also the hash against lookup3 as written in util/hash.h, recomputed independently in Python.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "shading/hash.h"
+
+// The vector lanes of hash.h are inline only (no ABI crosses a call): GCC's note on 32-byte
+// vectors without AVX does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
 #include "shading/procedural.h"
 #include "shading_test_util.h"
 
@@ -29,6 +36,178 @@ TEST(ShadingHash, Lookup3FinalOfKnownKeys) {
   EXPECT_EQ(hash_float_to_float(0.0f), uint_to_float_incl(hash_uint(0u)));
   EXPECT_NE(hash_uint2(1u, 2u), hash_uint2(2u, 1u));
   EXPECT_NE(hash_uint4(1u, 2u, 3u, 4u), hash_uint4(1u, 2u, 3u, 5u));
+}
+
+// ---- Perlin noise bit for bit against a scalar transcription of kernel/svm/noise.h ----
+// procedural.cpp hashes and grades a cell's corners over vector lanes; these are the non-SSE
+// formulas one corner at a time. Any difference in a hash, a gradient's selection or sign, or
+// the order of the additions changes some bits of some of the points below.
+namespace ref {
+float negate_if(float v, uint32_t c) { return c ? -v : v; }
+float fade(float t) { return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f); }
+float floorfrac(float x, int* i) {
+  const float f = std::floor(x);
+  *i = static_cast<int>(f);
+  return x - f;
+}
+float grad2(uint32_t hash, float x, float y) {
+  const uint32_t h = hash & 7;
+  const float u = h < 4 ? x : y, v = 2.0f * (h < 4 ? y : x);
+  return negate_if(u, h & 1) + negate_if(v, h & 2);
+}
+float grad3(uint32_t hash, float x, float y, float z) {
+  const uint32_t h = hash & 15;
+  const float u = h < 8 ? x : y;
+  const float vt = (h == 12 || h == 14) ? x : z;
+  const float v = h < 4 ? y : vt;
+  return negate_if(u, h & 1) + negate_if(v, h & 2);
+}
+float grad4(uint32_t hash, float x, float y, float z, float w) {
+  const uint32_t h = hash & 31;
+  const float u = h < 24 ? x : y, v = h < 16 ? y : z, s = h < 8 ? z : w;
+  return negate_if(u, h & 1) + negate_if(v, h & 2) + negate_if(s, h & 4);
+}
+float tri_mix(const float* v, float x, float y, float z) {
+  const float x1 = 1.0f - x, y1 = 1.0f - y, z1 = 1.0f - z;
+  return z1 * (y1 * (v[0] * x1 + v[1] * x) + y * (v[2] * x1 + v[3] * x)) +
+         z * (y1 * (v[4] * x1 + v[5] * x) + y * (v[6] * x1 + v[7] * x));
+}
+float perlin(const Vec4& p, int dims) {
+  int X, Y, Z, W;
+  const float fx = floorfrac(p[0], &X), fy = floorfrac(p[1], &Y), fz = floorfrac(p[2], &Z), fw = floorfrac(p[3], &W);
+  if (dims == 2) {
+    const float v0 = grad2(hash_uint2(X, Y), fx, fy), v1 = grad2(hash_uint2(X + 1, Y), fx - 1.0f, fy);
+    const float v2 = grad2(hash_uint2(X, Y + 1), fx, fy - 1.0f);
+    const float v3 = grad2(hash_uint2(X + 1, Y + 1), fx - 1.0f, fy - 1.0f);
+    const float x = fade(fx), y = fade(fy), x1 = 1.0f - x;
+    return (1.0f - y) * (v0 * x1 + v1 * x) + y * (v2 * x1 + v3 * x);
+  }
+  float v[16];
+  for (int k = 0; k < (dims == 3 ? 8 : 16); ++k) {
+    const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1, dw = (k >> 3) & 1;
+    v[k] = dims == 3 ? grad3(hash_uint3(X + dx, Y + dy, Z + dz), fx - dx, fy - dy, fz - dz)
+                     : grad4(hash_uint4(X + dx, Y + dy, Z + dz, W + dw), fx - dx, fy - dy, fz - dz, fw - dw);
+  }
+  if (dims == 3) return tri_mix(v, fade(fx), fade(fy), fade(fz));
+  const float t = fade(fw);
+  return (1.0f - t) * tri_mix(v, fade(fx), fade(fy), fade(fz)) + t * tri_mix(v + 8, fade(fx), fade(fy), fade(fz));
+}
+}  // namespace ref
+
+TEST(ShadingProcedural, PerlinBitForBitAsTheScalarFormulas) {
+  // Points over [-300, 300] (negative cells, every gradient index) and near lattice planes.
+  uint64_t state = 12345;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(state >> 40) / static_cast<float>(1 << 24);
+  };
+  const float scales[3] = {600.0f, 6.0f, 1e-3f};
+  const float factors[5] = {0, 0, 0.6616f, 0.9820f, 0.8344f};  // snoise_Nd's
+  for (int dims = 2; dims <= 4; ++dims)
+    for (int i = 0; i < 30000; ++i) {
+      Vec4 p;
+      const float s = scales[i % 3];
+      for (int k = 0; k < dims; ++k) p[k] = (next() - 0.5f) * s + (i % 3 == 2 ? std::round(next() * 20.0f) : 0.0f);
+      const float expected = factors[dims] * ref::perlin(p, dims);
+      const float got = snoise(p, dims);
+      uint32_t a, b;
+      std::memcpy(&a, &expected, 4);
+      std::memcpy(&b, &got, 4);
+      ASSERT_EQ(a, b) << dims << "D noise at (" << p[0] << ", " << p[1] << ", " << p[2] << ", " << p[3] << "): "
+                      << got << " against " << expected;
+    }
+}
+
+// Voronoi F1 and F2 (Euclidean, Manhattan, Chebychev) bit for bit against voronoi.h's loop with
+// each cell hashed and measured on its own: procedural.cpp hashes the neighbourhood and measures
+// its distances over vector lanes, and reuses a 3D cell's hash as its colour (both
+// hash_float3_to_float3).
+TEST(ShadingProcedural, VoronoiCellHashesAsTheScalarLoop) {
+  uint64_t state = 777;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(state >> 40) / static_cast<float>(1 << 24);
+  };
+  for (int dims = 2; dims <= 4; ++dims)
+    for (int i = 0; i < 3000; ++i) {
+      Vec4 p;
+      for (int k = 0; k < dims; ++k) p[k] = (next() - 0.5f) * 40.0f;
+      const float randomness = i % 2 ? 1.0f : 0.7f;
+      const VoronoiMetric metric = static_cast<VoronoiMetric>(i % 3);
+      const VoronoiFeature feature = i % 4 == 3 ? VoronoiFeature::F2 : VoronoiFeature::F1;
+      float cell[4], local[4];
+      for (int k = 0; k < 4; ++k) cell[k] = std::floor(p[k]), local[k] = p[k] - cell[k];
+      float best = 8.0f, best_pos[4] = {0, 0, 0, 0}, best_key[4] = {0, 0, 0, 0};
+      float second = 8.0f, second_pos[4] = {0, 0, 0, 0}, second_key[4] = {0, 0, 0, 0};
+      const int total = dims == 2 ? 9 : dims == 3 ? 27 : 81;
+      for (int idx = 0; idx < total; ++idx) {
+        float o[4] = {0, 0, 0, 0}, key[4], h[4], pp[4];
+        for (int k = 0, rest = idx; k < dims; ++k, rest /= 3) o[k] = static_cast<float>(rest % 3 - 1);
+        for (int k = 0; k < dims; ++k) key[k] = cell[k] + o[k];
+        if (dims == 2) {
+          h[0] = hash_float2_to_float(key[0], key[1]), h[1] = hash_float3_to_float(key[0], key[1], 1.0f);
+        } else if (dims == 3) {
+          const Vec3 c = hash_float3_to_float3(Vec3(key[0], key[1], key[2]));
+          h[0] = c.x, h[1] = c.y, h[2] = c.z;
+        } else {
+          h[0] = hash_float4_to_float(key[0], key[1], key[2], key[3]);
+          h[1] = hash_float4_to_float(key[3], key[0], key[1], key[2]);
+          h[2] = hash_float4_to_float(key[2], key[3], key[0], key[1]);
+          h[3] = hash_float4_to_float(key[1], key[2], key[3], key[0]);
+        }
+        float sum = 0.0f;
+        for (int k = 0; k < dims; ++k) {
+          pp[k] = o[k] + h[k] * randomness;
+          const float t = pp[k] - local[k];
+          if (metric == VoronoiMetric::Euclidean) sum += t * t;
+          else if (metric == VoronoiMetric::Manhattan) sum += std::abs(t);
+          else sum = std::max(sum, std::abs(t));
+        }
+        const float d = metric == VoronoiMetric::Euclidean ? std::sqrt(sum) : sum;
+        if (d < best) {
+          second = best;
+          std::copy(best_pos, best_pos + 4, second_pos);
+          std::copy(best_key, best_key + 4, second_key);
+          best = d;
+          for (int k = 0; k < dims; ++k) best_pos[k] = pp[k] + cell[k], best_key[k] = key[k];
+        } else if (d < second) {
+          second = d;
+          for (int k = 0; k < dims; ++k) second_pos[k] = pp[k] + cell[k], second_key[k] = key[k];
+        }
+      }
+      if (feature == VoronoiFeature::F2) {
+        best = second;
+        std::copy(second_pos, second_pos + 4, best_pos);
+        std::copy(second_key, second_key + 4, best_key);
+      }
+      const Vec3 color = dims == 2   ? hash_float2_to_float3(best_key[0], best_key[1])
+                         : dims == 3 ? hash_float3_to_float3(Vec3(best_key[0], best_key[1], best_key[2]))
+                                     : hash_float4_to_float3(best_key[0], best_key[1], best_key[2], best_key[3]);
+      const VoronoiOut o = voronoi(feature, metric, p, dims, 0.0f, 0.5f, randomness);
+      ASSERT_EQ(o.distance, best) << dims << "D Voronoi at point " << i;
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(o.color[k], color[k]) << dims << "D Voronoi colour at point " << i;
+      for (int k = 0; k < dims; ++k) ASSERT_EQ(o.position[k], best_pos[k]) << dims << "D Voronoi position at point " << i;
+    }
+}
+
+TEST(ShadingHash, VectorLanesAreTheScalarHashes) {
+  u32x8 k[4];
+  for (int j = 0; j < 4; ++j)
+    for (int l = 0; l < 8; ++l) k[j][l] = 0x9E3779B9u * (8 * j + l + 1) ^ (l << 28);
+  const u32x8 h1 = hash_uint_v(k[0]), h2 = hash_uint2_v(k[0], k[1]), h3 = hash_uint3_v(k[0], k[1], k[2]);
+  const u32x8 h4 = hash_uint4_v(k[0], k[1], k[2], k[3]);
+  const f32x8 f = uint_to_float_incl_v(h4);
+  for (int l = 0; l < 8; ++l) {
+    EXPECT_EQ(h1[l], hash_uint(k[0][l]));
+    EXPECT_EQ(h2[l], hash_uint2(k[0][l], k[1][l]));
+    EXPECT_EQ(h3[l], hash_uint3(k[0][l], k[1][l], k[2][l]));
+    EXPECT_EQ(h4[l], hash_uint4(k[0][l], k[1][l], k[2][l], k[3][l]));
+    EXPECT_EQ(f[l], uint_to_float_incl(h4[l]));  // the conversion's rounding too
+  }
+  // Conversions that round (more than 24 significant bits) and the ends.
+  const u32x8 edge = {0u, 1u, 0xFFFFFFFFu, 0xFFFFFF7Fu, 0xFFFFFF80u, 0x80000001u, 0x01000001u, 0x7FFFFFC0u};
+  const f32x8 fe = uint_to_float_incl_v(edge);
+  for (int l = 0; l < 8; ++l) EXPECT_EQ(fe[l], uint_to_float_incl(edge[l])) << edge[l];
 }
 
 TEST(ShadingProcedural, MatchesCyclesRenders) {
