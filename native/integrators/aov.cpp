@@ -8,8 +8,10 @@
 
 namespace gp {
 
-RGB material_albedo(const Material& material, Vec2 uv) {
-  const BsdfParams m = bsdf_params(material, uv);
+// The albedo of the BSDF as the hit evaluated it (its node graph at the hit's full shading
+// context: Object, Generated and normal-driven textures included; a mix's parts likewise).
+RGB bsdf_albedo(const Bsdf& bsdf) {
+  const BsdfParams& m = bsdf.params();
   switch (m.type) {
     case MaterialType::Emission: return RGB(0.0f);
     case MaterialType::Principled: return m.color + RGB(sqr((m.ior - 1.0f) / (m.ior + 1.0f)));  // lobes added
@@ -20,7 +22,7 @@ RGB material_albedo(const Material& material, Vec2 uv) {
     case MaterialType::Mix:
       if (m.mix_a && m.mix_b) {
         const float wa = m.mix_add ? 1.0f : 1.0f - m.mix_factor, wb = m.mix_add ? 1.0f : m.mix_factor;
-        return material_albedo(*m.mix_a, uv) * wa + material_albedo(*m.mix_b, uv) * wb;
+        return bsdf_albedo(bsdf.component(m.mix_a)) * wa + bsdf_albedo(bsdf.component(m.mix_b)) * wb;
       }
       return m.color;
     default: return m.color;
@@ -79,7 +81,7 @@ void AovEstimator::add_pass(const std::function<bool()>& cancelled) {
           if (depth == kNoHitDepth) depth = dot(hit->p - eye, forward);
           const Bsdf bsdf = scene_.bsdf(*hit);
           if (!bsdf.is_delta()) {
-            const RGB a = weight * material_albedo(m, hit->uv);
+            const RGB a = weight * bsdf_albedo(bsdf);
             for (int k = 0; k < 3; ++k) {
               albedo[3 * i + k] = a[k];
               normal[3 * i + k] = hit->ns[k];

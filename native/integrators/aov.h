@@ -18,14 +18,15 @@
 #include <vector>
 
 #include "core/film.h"
+#include "materials/bsdf.h"
 #include "scene/scene.h"
 
 namespace gp {
 
 // A surface's reflectance for the albedo pass: the colour of diffuse, conductor and glass;
 // a plastic's base seen through its coat plus the coat's normal-incidence reflectance; the
-// weighted albedo of a mix's parts; 0 for emission only.
-RGB material_albedo(const Material& m, Vec2 uv);
+// weighted albedo of a mix's parts; 0 for emission only. Of the BSDF the hit evaluated.
+RGB bsdf_albedo(const Bsdf& bsdf);
 
 class AovEstimator {
  public:

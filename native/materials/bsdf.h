@@ -108,10 +108,10 @@ class Bsdf {
   }
   // The parameters it evaluates (type, IOR, colour at this point).
   const BsdfParams& params() const { return p_; }
+  Bsdf component(const Material* m) const;  // a mix's part, with the surface's normals
 
  private:
   MaterialType kind() const;
-  Bsdf component(const Material* m) const;  // a mix's part, with the surface's normals
   BsdfParams p_;
   shading::ShadingContext ctx_;  // where a mix's components read their inputs
   Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)

@@ -53,5 +53,25 @@ TEST(Aov, MirrorPassesNormalAndAlbedoOnWeightedByItsReflectance) {
   EXPECT_NEAR(centre(film, pass::kAlbedo).g, 0.5f, 1e-3f);  // white mirror: F = 1
 }
 
+TEST(Aov, AlbedoOfANodeGraphIsEvaluatedAtTheHit) {
+  // A floor whose Diffuse colour is the Geometry node's Position: the albedo pass at the centre
+  // pixel is the point the camera sees there, (0.3, 0.6, 0), as in the image. (The albedo was
+  // once re-evaluated from the hit's uv alone: position, normals and object coordinates read 0.)
+  const Scene s = load_scene_from_string(R"({
+    "camera": {"position": [0.3, 0.6, 2], "look_at": [0.3, 0.6, 0], "up": [0, 1, 0], "fov": 1, "width": 9, "height": 9},
+    "materials": {"positional": {"type": "diffuse", "color": {"link": "geo", "output": "Position"},
+                                 "nodes": {"geo": {"type": "ShaderNodeNewGeometry"}}}},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "positional"}]})",
+                                         ".", "aov.json");
+  AovEstimator aov(s, 1, 1);
+  aov.add_pass();
+  Film film(9, 9);
+  aov.develop(film);
+  const RGB a = centre(film, pass::kAlbedo);
+  EXPECT_NEAR(a.r, 0.3f, 2e-3f);
+  EXPECT_NEAR(a.g, 0.6f, 2e-3f);
+  EXPECT_NEAR(a.b, 0.0f, 1e-4f);
+}
+
 }  // namespace
 }  // namespace gp
