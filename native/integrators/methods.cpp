@@ -232,8 +232,8 @@ std::vector<Method> make_methods() {
                      common()}),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Ppm>(s, p); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .supports = {.media = true},
-               .holdout = true});  // media with photon_sampler uniform (progressive_photon.cpp)
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .supports = {.media = true, .grid_media = true},
+               .holdout = true});
   auto sppm_params = [&](const char* sampler, ParamDecl photons) {
     return join({photon_common(std::move(photons), 0.7, "thesis eq. 7.2", 2.0, "thesis §7.4"),
                  {photon_sampler(sampler), chains(64, "Photons", adaptive_only), max_depth(32), rr_depth(),
@@ -250,7 +250,7 @@ std::vector<Method> make_methods() {
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm"); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
                .merge = {.keeps_bias = true}, .stats = adaptive_stats(),  // with photon_sampler adaptive
-               .supports = {.media = true, .motion_blur = true},  // media: photon_sampler uniform, RGB and spectral
+               .supports = {.media = true, .motion_blur = true, .grid_media = true},  // media: RGB and spectral photons, uniform and adaptive
                .holdout = true});
   m.push_back({.name = "sppm-adaptive", .label = "SPPM Adaptive",
                .summary = "SPPM with adaptive MCMC photon paths, for light the view hardly sees (thesis ch. 8)",
@@ -260,8 +260,8 @@ std::vector<Method> make_methods() {
                .params = sppm_params("adaptive", photons(100000)),
                .make = [](const Scene& s, const Params& p) { return std::make_unique<Sppm>(s, p, "sppm-adaptive"); },
                .passes = concat(photon_passes(), {alpha_pass()}), .error_estimate = true,
-               .merge = {.keeps_bias = true}, .stats = adaptive_stats(), .supports = {.motion_blur = true},
-               .holdout = true});
+               .merge = {.keeps_bias = true}, .stats = adaptive_stats(),
+               .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
   m.push_back({.name = "msppm", .label = "Multisampled PPM",
                .summary = "multisampled PPM: path tracing and SPPM combined per path by MIS (thesis ch. 9)",
                .tooltip = "Path tracing and photons combined per pixel, each where it is better (multiple "

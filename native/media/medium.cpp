@@ -1,6 +1,8 @@
 #include "media/medium.h"
 
+#include <algorithm>
 #include <cstring>
+#include <vector>
 
 #include "core/rng.h"
 
@@ -140,8 +142,13 @@ namespace {
 constexpr int kMaxCollisions = 1 << 16;  // per tracking: beyond, the walk counts as absorbed (no hang)
 }
 
-ChannelValues grid_transmittance(const MediumChannels& c, int n, const Vec3& o, const Vec3& d, float t0, float t1,
-                                 uint64_t seed) {
+namespace {
+// Ratio tracking (Novak et al. 2014) of grid medium `c` along o + t d over [t0, t1): at every
+// tentative collision s the running product T *= 1 - sigma_t(s) / majorant, then
+// at_collision(s, T). Returns T at t1 (0 when a channel-wide zero or too many collisions ended it).
+template <class F>
+ChannelValues ratio_track(const MediumChannels& c, int n, const Vec3& o, const Vec3& d, float t0, float t1,
+                          uint64_t seed, F&& at_collision) {
   ChannelValues T{};
   for (int k = 0; k < n; ++k) T[k] = 1.0f;
   const GridMedium& g = *c.grid;
@@ -169,13 +176,41 @@ ChannelValues grid_transmittance(const MediumChannels& c, int n, const Vec3& o, 
         T[k] *= std::max(0.0f, 1.0f - pc.sigma_t[k] / maj);
         sum += T[k];
       }
-      if (!(sum > 0) || ++events > kMaxCollisions) alive = false;
+      if (!(sum > 0) || ++events > kMaxCollisions) {
+        alive = false;
+        if (events > kMaxCollisions)
+          for (int k = 0; k < n; ++k) T[k] = 0.0f;
+      }
+      at_collision(t, T);
     }
     return false;
   });
-  if (!alive)
-    for (int k = 0; k < n; ++k) T[k] = events > kMaxCollisions ? 0.0f : T[k];
   return T;
+}
+}  // namespace
+
+ChannelValues grid_transmittance(const MediumChannels& c, int n, const Vec3& o, const Vec3& d, float t0, float t1,
+                                 uint64_t seed) {
+  return ratio_track(c, n, o, d, t0, t1, seed, [](float, const ChannelValues&) {});
+}
+
+void TransmittanceSteps::track(const MediumChannels& c, int n, const Vec3& o, const Vec3& d, float t1, uint64_t seed) {
+  t_.clear();
+  T_.clear();
+  n_ = n;
+  ratio_track(c, n, o, d, 0.0f, t1, seed, [&](float t, const ChannelValues& T) {
+    t_.push_back(t);
+    T_.push_back(T);
+  });
+}
+
+ChannelValues TransmittanceSteps::at(float t) const {
+  // The last collision before t (the product over collisions in [0, t)).
+  const size_t i = static_cast<size_t>(std::lower_bound(t_.begin(), t_.end(), t) - t_.begin());
+  if (i > 0) return T_[i - 1];
+  ChannelValues one{};
+  for (int k = 0; k < n_; ++k) one[k] = 1.0f;
+  return one;
 }
 
 // ---- Heterogeneous segments ----
@@ -361,6 +396,10 @@ float MediumSegment::sample_distance(float u_channel, float u, float t_max) cons
 ChannelValues MediumSegment::transmittance(float t) const {
   ChannelValues T{};
   for (int k = 0; k < n; ++k) T[k] = beer_lambert(sigma_t[k], t);
+  for (int i = 0; i < n_grids; ++i) {  // (sigma_t above: the homogeneous media's sum only)
+    const ChannelValues Tg = grid_transmittance(*grids[i].c, n, ray.o, ray.d, 0.0f, t, ray_seed(ray.o, ray.d, 0x7a11 + i));
+    for (int k = 0; k < n; ++k) T[k] *= Tg[k];
+  }
   return T;
 }
 
@@ -395,8 +434,8 @@ ChannelValues MediumSegment::pass_weight(float t) const {
 ChannelValues MediumSegment::phase(float cos_theta) const {
   const Lobe* lobes = heterogeneous() ? point_lobes_.data() : this->lobes.data();
   ChannelValues f{};
-  if (n_lobes == 1) {
-    const float v = henyey_greenstein(cos_theta, lobes[0].g);
+  if (n_lobes == 1) {  // (this->lobes: one medium's g holds at any point, tracked or not)
+    const float v = henyey_greenstein(cos_theta, this->lobes[0].g);
     for (int k = 0; k < n; ++k) f[k] = v;
     return f;
   }
@@ -417,7 +456,7 @@ ChannelValues MediumSegment::phase(float cos_theta) const {
 
 float MediumSegment::phase_pdf(float cos_theta) const {
   const Lobe* lobes = heterogeneous() ? point_lobes_.data() : this->lobes.data();
-  if (n_lobes == 1) return henyey_greenstein(cos_theta, lobes[0].g);
+  if (n_lobes == 1) return henyey_greenstein(cos_theta, this->lobes[0].g);
   float p = 0;
   for (int l = 0; l < n_lobes; ++l) p += lobes[l].weight * henyey_greenstein(cos_theta, lobes[l].g);
   return p;

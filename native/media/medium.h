@@ -18,6 +18,7 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/color.h"
 #include "core/frame.h"
@@ -174,6 +175,22 @@ bool grid_emits(const MediumChannels& c, int n, const GridMedium::Bound& b);
 // shadow test has no random numbers of its own).
 ChannelValues grid_transmittance(const MediumChannels& c, int n, const Vec3& o, const Vec3& d, float t0, float t1,
                                  uint64_t seed);
+// Ratio tracking's transmittance along one ray as a step function of the distance: the running
+// product of one walk (grid_transmittance's) is, at every distance s, an unbiased estimate of
+// T(0, s), so the transmittance to many points along one ray (the beam radiance estimate's
+// photons) costs one walk. The scratch is kept between tracks (capacity).
+class TransmittanceSteps {
+ public:
+  // Grid medium `c` (c.grid set) along o + t d over [0, t1).
+  void track(const MediumChannels& c, int n, const Vec3& o, const Vec3& d, float t1, uint64_t seed);
+  // The estimate of T(0, t), t <= t1.
+  ChannelValues at(float t) const;
+
+ private:
+  std::vector<float> t_;  // the tentative collisions, increasing
+  std::vector<ChannelValues> T_;  // the product after each
+  int n_ = 0;
+};
 // A seed from a ray's bits (and a salt).
 uint64_t ray_seed(const Vec3& o, const Vec3& d, uint64_t salt);
 // Medium `m` at the three RGB channels.
@@ -283,8 +300,15 @@ struct MediumSegment {
   // The factor of passing beyond distance t (no scattering before it): T(t) / P(t_s > t);
   // T(t) itself when nothing scatters (heterogeneous: the tracking's weight at t).
   ChannelValues pass_weight(float t) const;
-  // Transmittance per channel over distance t (homogeneous media).
+  // Transmittance per channel over distance t: exact for homogeneous media; times, for each grid
+  // medium, a ratio-tracking estimate (unbiased) seeded by the ray (grid_transmittance).
   ChannelValues transmittance(float t) const;
+  // The phase mixture (phase, phase_pdf, sample_phase) at world point p of a heterogeneous
+  // segment: each medium's share of the scattering there (the beam gather's photons).
+  void set_point(const Vec3& p) const {
+    PointCoefficients pc;
+    if (heterogeneous()) at_point(p, false, pc, true);
+  }
 
   // ---- The phase function of the mixture: sum_m sigma_s,m HG_m / sigma_s, per channel ----
   // (Heterogeneous: the media's scattering at the last scattering point sample_distance found.)

@@ -19,14 +19,125 @@ void init_openvdb() {
   std::call_once(once, [] { openvdb::initialize(); });
 }
 
+// ---- A bounded look at the archive before OpenVDB reads it ----
+// OpenVDB's readers trust the lengths in a file: readString (util/Name.h) builds a std::string
+// of a 32-bit length read from it, filled, before reading its bytes, so one corrupt length in a
+// 10 KB file had the loader touch 4 GB and take seconds before failing. Every string and
+// metadata value stands in the file itself, so each length is checked against the bytes left,
+// through the header, the file's metadata, the grid descriptors and each grid's metadata and
+// transform type (what precedes its tree), following the archive layout of OpenVDB 10
+// (io/Archive.cc readHeader, io/GridDescriptor.cc, math/Transform.cc; version.h's file versions).
+// Files older than file version 222 (OpenVDB 3) are left to OpenVDB as they are.
+class ArchiveScan {
+ public:
+  ArchiveScan(std::istream& in, const std::string& label) : in_(in), label_(label) {
+    in_.seekg(0, std::ios::end);
+    size_ = static_cast<int64_t>(in_.tellg());
+    in_.seekg(0);
+  }
+  void run() {
+    if (u64() != 0x56444220ULL) return;  // not a VDB: OpenVDB says so
+    const uint32_t version = u32();
+    if (version < 222) return;
+    u32();  // library major
+    u32();  // minor
+    const bool offsets = u8() != 0;
+    skip(36);  // UUID as text
+    meta_map("the file's metadata");
+    const int32_t count = static_cast<int32_t>(u32());
+    if (count < 0 || count > left() / 36) fail(fmt::format("a grid count of {}", count));
+    for (int32_t g = 0; g < count; ++g) {
+      const std::string name = string("a grid name");
+      string("a grid type");
+      string("a grid's instance parent");
+      const int64_t grid = i64(), block = i64(), end = i64();
+      const int64_t here = pos();
+      if (!offsets) {  // grids follow their descriptors: only the first can be found
+        grid_head(name);
+        return;
+      }
+      if (!(here <= grid && grid <= block && block <= end && end <= size_))
+        fail(fmt::format("grid '{}' placed at bytes {}..{} (block {}) of {}", name, grid, end, block, size_));
+      seek(grid);
+      grid_head(name);
+      seek(end);
+    }
+  }
+
+ private:
+  // What precedes a grid's tree: its compression flags, metadata and transform type.
+  void grid_head(const std::string& name) {
+    u32();
+    meta_map(fmt::format("grid '{}''s metadata", name));
+    string(fmt::format("grid '{}''s transform type", name));
+  }
+  void meta_map(const std::string& what) {
+    const uint32_t n = u32();
+    if (n > static_cast<uint64_t>(left()) / 12) fail(fmt::format("{} claims {} entries", what, n));
+    for (uint32_t i = 0; i < n; ++i) {
+      string(what + " (a name)");
+      string(what + " (a type)");
+      string(what + " (a value)");  // Metadata::read: a 32-bit size, then the value's bytes
+    }
+  }
+  std::string string(const std::string& what) {
+    const uint32_t n = u32();
+    if (n > left()) fail(fmt::format("{} of {} bytes at byte {}, past the end of its {} bytes", what, n, pos(), size_));
+    if (n <= 256) {
+      std::string s(n, ' ');
+      read(s.data(), n);
+      return s;
+    }
+    skip(n);
+    return std::string();
+  }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw VdbError(fmt::format("{}: corrupt OpenVDB file ({})", label_, what));
+  }
+  int64_t pos() { return static_cast<int64_t>(in_.tellg()); }
+  int64_t left() { return size_ - pos(); }
+  void seek(int64_t p) { in_.seekg(p); }
+  void skip(int64_t n) {
+    if (n > left()) fail(fmt::format("{} bytes expected at byte {} of {}", n, pos(), size_));
+    in_.seekg(n, std::ios::cur);
+  }
+  void read(char* p, int64_t n) {
+    if (n > left()) fail(fmt::format("the file ends at byte {}", size_));
+    in_.read(p, n);
+  }
+  uint8_t u8() {
+    char c;
+    read(&c, 1);
+    return static_cast<uint8_t>(c);
+  }
+  uint32_t u32() {
+    uint32_t v;
+    read(reinterpret_cast<char*>(&v), 4);
+    return v;
+  }
+  uint64_t u64() {
+    uint64_t v;
+    read(reinterpret_cast<char*>(&v), 8);
+    return v;
+  }
+  int64_t i64() { return static_cast<int64_t>(u64()); }
+
+  std::istream& in_;
+  const std::string& label_;
+  int64_t size_ = 0;
+};
+
 // One parser for files and memory: OpenVDB's stream reader (a .vdb file is an archive it reads
-// front to back), every grid loaded (no delayed loading: nothing stays mapped).
+// front to back), every grid loaded (no delayed loading: nothing stays mapped), after the bounded
+// scan above.
 openvdb::GridPtrVecPtr read_archive(std::istream& in, const std::string& label) {
   init_openvdb();
   try {
     // A read past the end throws: OpenVDB's readers loop on counts read from the file without
     // testing the stream (a corrupt tile count read past the end for ever: fuzz/corpus/vdb).
     in.exceptions(std::ios::failbit | std::ios::badbit);
+    ArchiveScan(in, label).run();
+    in.seekg(0);
     openvdb::io::Stream stream(in, /*delayLoad=*/false);
     openvdb::GridPtrVecPtr grids = stream.getGrids();
     if (!grids) throw VdbError(fmt::format("{}: not an OpenVDB file (no grids)", label));

@@ -34,11 +34,6 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
     feature_report_.push_back(fmt::format("method '{}' does not render grid (OpenVDB) media yet: the scene's media "
                                           "are left out and only its surfaces render ({} render them)",
                                           method, fmt::join(with_grids, ", ")));
-  } else if (scene_->has_media() &&
-             params_.get<std::string>("photon_sampler", "") == "adaptive") {  // progressive_photon.cpp: media_
-    feature_report_.push_back(fmt::format("method '{}' leaves participating media out with photon_sampler adaptive "
-                                          "(its visibility knows no camera segments): photon_sampler uniform renders them",
-                                          method));
   } else if (scene_->has_media() && find_method(method).error_estimate) {
     // The error model of thesis ch. 6 is the surface disc's; the beam estimate has none yet.
     feature_report_.push_back(fmt::format("method '{}' estimates no error with participating media: its error pass "

@@ -63,8 +63,11 @@ TEST(Cancel, EveryMethodStopsAPassCancelledAtItsFirstPoll) {
 TEST(Cancel, PhotonMethodsAbandonAPassCancelledMidway) {
   // A sink that cancels a quarter of the way through a pass's polls (counted on a full pass:
   // eye tiles, photon chunks, gather blocks): the pass is abandoned, the count stays.
-  const Scene scene = test_scene("cornell-glass", 24, 16);
+  // Also in a medium (volume photons, beams, their gather and the adaptive sampler's beam
+  // visibility between the polls).
+  for (const char* name : {"cornell-glass", "volumetric-caustic"})
   for (const char* method : {"ppm", "sppm", "sppm-adaptive"}) {
+    const Scene scene = test_scene(name, 24, 16);
     auto probe = make_integrator(method, scene, photon_params(200000, 1, 2));
     CancelAfter count_only(int64_t(1) << 60);
     probe->iterate(&count_only);
@@ -73,7 +76,7 @@ TEST(Cancel, PhotonMethodsAbandonAPassCancelledMidway) {
     integ->iterate(nullptr);  // PPM traces its eye pass once: start from the second pass
     CancelAfter mid(full_polls / 4);
     integ->iterate(&mid);
-    EXPECT_EQ(integ->stats().passes, 1) << method << ": the pass cancelled in the middle was counted";
+    EXPECT_EQ(integ->stats().passes, 1) << method << " on " << name << ": the pass cancelled in the middle was counted";
   }
 }
 

@@ -6,7 +6,10 @@
 // blackbody emission from a temperature grid.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -127,6 +130,65 @@ TEST(VdbFile, MissingCorruptAndWrongGridsAreErrorsNamingTheFile) {
     EXPECT_NE(w.find("/media/smoke/grid/density_grid"), std::string::npos) << w;
     EXPECT_NE(w.find("no-such-file.vdb"), std::string::npos) << w;
   }
+}
+
+TEST(VdbFile, HostileLengthsAreErrorsWithoutGiantAllocations) {
+  // Lengths and counts in the archive's header, descriptors and a grid's metadata set far beyond
+  // the file: each a VdbError naming the file and what was wrong, before OpenVDB allocates for
+  // it (a name length of 0xF0000000 had the loader fill 4 GB: util/Name.h readString).
+  VoxelGrid d = box_grid("density", 8, 1.0f);
+  fill(d, [](int i, int j, int k) { return 1.0f + i + j + k; });
+  const std::string good = temp_path("hostile-source.vdb"), bad = temp_path("hostile.vdb");
+  write_vdb(good, {&d});
+  std::string bytes;
+  {
+    std::ifstream in(good, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  // The layout write_vdb gives (file version 224, grid offsets): header and UUID to byte 57, the
+  // file's metadata count at 57, the grid count at 61, the name's length at 65, the type's at 76,
+  // the instance parent's at 96, the grid's, block's and end's positions at 100, 108, 116; the
+  // grid at 124: its compression flags, then its metadata count at 128 and first name at 132.
+  auto u32_at = [&](size_t at) {
+    uint32_t v;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+  };
+  ASSERT_EQ(u32_at(61), 1u);
+  ASSERT_EQ(u32_at(65), 7u);                          // "density"
+  ASSERT_EQ(bytes.substr(69, 7), "density");
+  ASSERT_EQ(u32_at(100), 124u);                       // (low half of the grid's position)
+  ASSERT_GT(u32_at(128), 0u);                         // the grid's metadata entries
+  struct Patch {
+    size_t at;
+    uint64_t value;
+    int width;
+    const char* says;
+  };
+  const Patch patches[] = {{65, 0xF0000000u, 4, "a grid name of 4026531840 bytes"},
+                           {61, 0x40000000u, 4, "a grid count of 1073741824"},
+                           {57, 0xFFFFFFF0u, 4, "the file's metadata claims 4294967280 entries"},
+                           {100, bytes.size() + 100, 8, "grid 'density' placed at bytes"},
+                           {132, 0xF0000000u, 4, "grid 'density''s metadata (a name) of 4026531840 bytes"}};
+  rusage before{};
+  getrusage(RUSAGE_SELF, &before);
+  for (const Patch& p : patches) {
+    std::string b = bytes;
+    std::memcpy(b.data() + p.at, &p.value, p.width);
+    std::ofstream(bad, std::ios::binary | std::ios::trunc) << b;
+    try {
+      read_vdb_grid(bad, "density");
+      ADD_FAILURE() << "no error for " << p.says;
+    } catch (const VdbError& e) {
+      const std::string w = e.what();
+      EXPECT_NE(w.find("hostile.vdb"), std::string::npos) << w;
+      EXPECT_NE(w.find(p.says), std::string::npos) << w;
+    }
+  }
+  rusage after{};
+  getrusage(RUSAGE_SELF, &after);
+  // The peak resident set grew by less than 256 MB (ru_maxrss in kB); it was 4 GB.
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024);
 }
 
 // ---- The majorant grid ----

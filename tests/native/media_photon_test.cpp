@@ -7,11 +7,16 @@
 
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
+#include <filesystem>
+#include <vector>
 #include <string>
 
 #include "integrators/integrator.h"
 #include "integrators/methods.h"
 #include "integrators/photon/sppm.h"
+#include "media/grid.h"
+#include "media/vdb_file.h"
 #include "render_for_tests.h"
 
 namespace gp {
@@ -124,24 +129,134 @@ TEST(MediaPhotons, SpectralSppmAndSpectralPathTracingAgreeInFog) {
   EXPECT_NEAR(sppm.luminance() / spt.luminance(), 1.0, 0.02) << sppm.luminance() << " vs " << spt.luminance();
 }
 
-TEST(MediaPhotons, MemoryStaysFlatOverManyPassesWithVolumePhotons) {
-  Scene s = scene_from(kFogRoom);
-  s.camera.width = 8;
-  s.camera.height = 6;
-  Params p = photon_params(11, 2000, 0.05);
-  auto integ = make_integrator("sppm", s, p);
-  auto* sppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
-  ASSERT_NE(sppm, nullptr);
-  size_t at_100 = 0;
-  for (int pass = 1; pass <= 1000; ++pass) {
-    integ->iterate(nullptr);
-    if (pass == 100) at_100 = sppm->memory_bytes();
+// ---- Adaptive Markov chain photons (thesis ch. 8) in media ----
+// A lit cloud that only media show: a point light above a sphere of anisotropic fog, a black
+// World and a floor out of the camera's view (a light inside a medium's mesh would not start
+// in its medium: scene-format.md, as a camera). No measurement point sees any photon, so every
+// pixel is the beam radiance estimate; a visibility V(u) of the measurement points alone finds
+// no visible path at all (a black image), one blind to the floor's photons' scattering on into
+// the cloud leaves that light out.
+const char* kLitCloud = R"({"camera": {"position": [0, -4, 1.2], "look_at": [0, 0, 1.2], "fov": 40, "width": 20, "height": 16},
+  "media": {"fog": {"sigma_a": [0.1, 0.15, 0.2], "sigma_s": [0.8, 0.6, 0.4], "g": 0.3}},
+  "materials": {"floor": {"type": "diffuse", "color": 0.7}, "fog": {"type": "volume", "interior": "fog"}},
+  "lights": [{"type": "point", "position": [0.3, 0, 2.6], "intensity": 20}],
+  "objects": [{"type": "quad", "center": [0, 2, -3], "u": [6, 0, 0], "v": [0, 6, 0], "material": "floor"},
+              {"type": "sphere", "center": [0, 0, 1.2], "radius": 1, "segments": 32, "material": "fog"}]})";
+
+TEST(MediaPhotons, AdaptivePhotonsSeeTheVolumePhotons) {
+  const Scene s = scene_from(kLitCloud);
+  const RGB pt = image_mean(render_pt(s, 512, "pt", 15));
+  Stats stats;
+  bool finite = false;
+  Params p = photon_params(16, 20000, 0.03);
+  p.set("chains", 16);
+  const RGB ad = image_mean(render("sppm-adaptive", s, 48, p, &stats), &finite);
+  EXPECT_TRUE(finite);
+  ASSERT_GT(stats.extra.at("volume photons stored"), 0.0);
+  std::printf("lit cloud: sppm-adaptive / pt %.4f %.4f %.4f (V_c %.3f)\n", ad.r / pt.r, ad.g / pt.g, ad.b / pt.b,
+              stats.extra.at("V_c"));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(ad[c] / pt[c], 1.0, 0.03) << "channel " << c << ": " << ad[c] << " vs " << pt[c];
+}
+
+// ---- Grid (OpenVDB) media ----
+// A smoke blob of varying density (zero at its box's faces) in a 16^3 grid filling the box
+// [-h, h]^3 about `centre`, written to a temporary .vdb.
+std::string blob_vdb(const std::string& name, float h, const Vec3& centre) {
+  const auto dir = std::filesystem::temp_directory_path() / "gradphoton_media_photon_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / name).string();
+  VoxelGrid d;
+  d.name = "density";
+  const int n = 16;
+  d.size = {n, n, n};
+  const float v = 2 * h / n;
+  for (int i = 0; i < 3; ++i) {
+    d.index_to_object.m[i][i] = v;
+    d.index_to_object.m[i][3] = centre[i] - h;
   }
-  const double stored = integ->stats().extra.at("volume photons stored");
-  EXPECT_GT(stored, 1000.0 * 100);  // volume photons every pass
-  // Capacities follow the largest pass so far, not the passes' sum: at most a few per cent more
-  // after 900 further passes (the photon counts of a pass vary), never growing with the count.
-  EXPECT_LE(sppm->memory_bytes(), at_100 * 1.1) << at_100;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const float x = (i - 7.5f) / 8, y = (j - 7.5f) / 8, z = (k - 7.5f) / 8;
+        d.data.push_back(std::max(0.0f, 4.0f * (1 - (x * x + y * y + z * z)) * (0.6f + 0.4f * std::sin(9.0f * x))));
+      }
+  write_vdb(path, {&d});
+  return path;
+}
+
+// The fog room's smoke ball as a grid: a blob of coloured smoke (the grid's density times sigma)
+// and, overlapping part of it, a ball of homogeneous mist: camera segments through the grid alone,
+// through the mist alone, and through both (a mixture: the phase at a photon is the media's
+// shares of the scattering at its point).
+std::string grid_fog_room() {
+  const std::string file = blob_vdb("blob.vdb", 0.45f, Vec3(-0.35f, 0.3f, 0.6f));
+  return std::string("{") + R"("camera": {"position": [0, -0.95, 1], "look_at": [0, 0, 0.9], "fov": 60, "width": 24, "height": 18},
+ "media": {"mist": {"sigma_a": 0.1, "sigma_s": 0.8, "g": 0.5},
+           "smoke": {"sigma_a": [0.3, 0.5, 0.8], "sigma_s": [2.0, 1.5, 1.0], "g": -0.4,
+                     "grid": {"file": ")" + file + R"(", "density_grid": "density"}}},
+ "materials": {"wall": {"type": "diffuse", "color": [0.6, 0.55, 0.5]}, "smoke": {"type": "volume", "interior": "smoke"},
+               "mist": {"type": "volume", "interior": "mist"}},
+ "lights": [{"type": "point", "position": [0.3, -0.2, 1.7], "intensity": 10}],
+ "objects": [{"type": "box", "min": [-1, -1, 0], "max": [1, 1, 2], "material": "wall"},
+             {"type": "box", "min": [-0.8, -0.15, 0.15], "max": [0.1, 0.75, 1.05], "material": "smoke"},
+             {"type": "sphere", "center": [0.1, 0.3, 0.9], "radius": 0.45, "segments": 32, "material": "mist"}]})";
+}
+
+TEST(MediaPhotons, SppmAndPathTracingAgreeInAGridMedium) {
+  // Photons fly through the grid by delta tracking, surface photons and NEE take its
+  // transmittance, eye segments through it gather volume photons weighted by the ratio-tracked
+  // transmittance to each and by the phase mixture at the photon.
+  const Scene s = scene_from(grid_fog_room());
+  ASSERT_TRUE(s.has_grid_media());
+  // pt's reference: the median of 5 runs' means (256 spp each). Its delta-tracked coloured smoke
+  // has rare fireflies: one run of 1024 spp (seed 13) came out 5.5 % above three others (seeds
+  // 3, 21, 22, which agree within 0.5 %); the median of means is robust to one such run.
+  std::vector<RGB> runs;
+  for (uint64_t seed : {31, 32, 33, 34, 35}) runs.push_back(image_mean(render_pt(s, 256, "pt", seed)));
+  RGB pt;
+  for (int c = 0; c < 3; ++c) {
+    std::vector<float> v;
+    for (const RGB& r : runs) v.push_back(r[c]);
+    std::nth_element(v.begin(), v.begin() + 2, v.end());
+    pt[c] = v[2];
+  }
+  Stats stats;
+  bool finite = false;
+  const RGB sppm = image_mean(render("sppm", s, 48, photon_params(14, 100000, 0.02), &stats), &finite);
+  EXPECT_TRUE(finite);
+  EXPECT_GT(stats.extra.at("volume photons stored"), 0.0);
+  std::printf("grid fog room: sppm / pt %.4f %.4f %.4f\n", sppm.r / pt.r, sppm.g / pt.g, sppm.b / pt.b);
+  // The issue asks for 1 % on homogeneous media (the fog room above); the grid adds the noise of
+  // the tracking estimators to both: 2 % headroom.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(sppm[c] / pt[c], 1.0, 0.02) << "channel " << c << ": " << sppm[c] << " vs " << pt[c];
+}
+
+TEST(MediaPhotons, MemoryStaysFlatOverManyPassesWithVolumePhotons) {
+  // Homogeneous media with uniform photons, a grid medium, and the adaptive sampler's chains
+  // (their pools of volume photons counted in memory_bytes).
+  struct Case {
+    std::string scene, method;
+  };
+  for (const Case& c : {Case{kFogRoom, "sppm"}, Case{grid_fog_room(), "sppm"}, Case{kFogRoom, "sppm-adaptive"}}) {
+    Scene s = scene_from(c.scene);
+    s.camera.width = 8;
+    s.camera.height = 6;
+    Params p = photon_params(11, 2000, 0.05);
+    if (c.method == "sppm-adaptive") p.set("chains", 8);
+    auto integ = make_integrator(c.method, s, p);
+    auto* sppm = dynamic_cast<ProgressivePhotonMapping*>(integ.get());
+    ASSERT_NE(sppm, nullptr);
+    size_t at_100 = 0;
+    for (int pass = 1; pass <= 1000; ++pass) {
+      integ->iterate(nullptr);
+      if (pass == 100) at_100 = sppm->memory_bytes();
+    }
+    const double stored = integ->stats().extra.at("volume photons stored");
+    EXPECT_GT(stored, 1000.0 * 100) << c.method << (s.has_grid_media() ? " (grid)" : "");  // volume photons every pass
+    // Capacities follow the largest pass so far, not the passes' sum: at most a few per cent more
+    // after 900 further passes (the photon counts of a pass vary), never growing with the count.
+    EXPECT_LE(sppm->memory_bytes(), at_100 * 1.1) << c.method << (s.has_grid_media() ? " (grid)" : "") << ": " << at_100;
+  }
 }
 
 TEST(MediaPhotons, ErrorEstimateIsNotAvailableWithMedia) {

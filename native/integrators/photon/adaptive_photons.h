@@ -25,6 +25,13 @@
 // visible under the new measurement points; otherwise it searches for a visible uniform path
 // (at most `count` tries per pass, all counted in V_c), as the initialisation of Fig. 8.2.
 //
+// Participating media (issue 32, thesis §5.6 with ch. 8): a path is visible too when one of its
+// volume photons lands near a camera segment through a medium (BeamVisibility: cells within the
+// largest cylinder radius of the segments, a superset of the beam radiance estimate's cylinders).
+// V(u) is then 1 wherever the path contributes to some pixel, surface or beam (a superset is
+// enough: F = V / V_c stays a density on the paths that matter, and V_c normalises it), so
+// the chains are not biased against light that reaches the camera only through a medium.
+//
 // Used by ProgressivePhotonMapping when the parameter photon_sampler = "adaptive" (sppm and ppm;
 // method alias "sppm-adaptive"). Parameters (defaults):
 //   photon_sampler  uniform  uniform | adaptive
@@ -73,6 +80,34 @@ class VisibilityGrid {
   float max_r_ = 0;
 };
 
+// V for volume photons (media): does a photon land within the largest cylinder radius of some
+// camera segment through a medium? Answered by a coarse occupancy grid (at most 64 cells an axis)
+// over the region of the segments: the cells the segments pass through, dilated by that radius
+// in cells, a superset of every cylinder (so V is never 0 where a beam gathers the photon).
+// A point outside the grid counts as visible when some segment leaves it or a cylinder reaches
+// its border (a World medium's segments run off to infinity).
+class BeamVisibility {
+ public:
+  // Starts a pass's grid over `region` for cylinders up to `max_r`.
+  void begin(const Bounds3& region, float max_r);
+  // A segment o + t d, t in [0, t_max) (t_max may be infinite).
+  void add(const Vec3& o, const Vec3& d, float t_max);
+  // Dilates the marked cells (after the last add).
+  void finish();
+  bool splats(const Photon& ph) const;
+  bool any_splats(const Photon* begin, const Photon* end) const;
+  bool empty() const { return !any_; }
+
+ private:
+  bool cell_of(const Vec3& p, int c[3]) const;
+  Bounds3 region_;
+  int n_[3] = {0, 0, 0};
+  float h_ = 1, max_r_ = 0;
+  std::vector<uint8_t> cells_;
+  std::vector<uint32_t> prefix_;  // finish()'s scratch
+  bool any_ = false, outside_ = false;
+};
+
 class AdaptivePhotonSampler {
  public:
   static constexpr double kTargetAcceptance = 0.234;  // A*, thesis §8.3.1 (Roberts et al.)
@@ -84,8 +119,11 @@ class AdaptivePhotonSampler {
   // splatted photons of every iteration go to `out` (replaced). stats.emitted is the number of
   // iterations that splatted a visible state (N_e of the estimator, to be scaled by vc()).
   // `cancelled` is polled every kCancelPoll iterations of each chain (PhotonTracer::trace).
+  // With media: `vis_volume` the balls about the camera segments, `out_volume` the splatted
+  // volume photons (both null: surfaces only).
   PhotonPassStats trace(int64_t count, uint64_t pass, int min_deposit_bounce, const VisibilityGrid& vis,
-                        std::vector<Photon>& out, const std::function<bool()>& cancelled = {});
+                        std::vector<Photon>& out, const std::function<bool()>& cancelled = {},
+                        const BeamVisibility* vis_volume = nullptr, std::vector<Photon>* out_volume = nullptr);
   static constexpr int64_t kCancelPoll = 1024;
 
   double vc() const;                 // eq. 8.11 (1 until a uniform path has been traced)
@@ -94,6 +132,8 @@ class AdaptivePhotonSampler {
   int64_t uniform_count() const { return uniform_total_; }
   int64_t visible_count() const { return uniform_visible_; }
   int64_t paths_traced() const { return paths_traced_; }
+  // Bytes held by the chains' states and pools (kept between passes for their capacity).
+  size_t capacity_bytes() const;
 
   // Mutation of eq. 8.4 applied to one coordinate (exposed for tests).
   static float mutate(float u, double theta, float xi0, float xi1);
@@ -101,19 +141,21 @@ class AdaptivePhotonSampler {
  private:
   struct Run {
     uint32_t first, size, repeats;  // pool[first, first + size) splatted `repeats` times
+    uint32_t vfirst = 0, vsize = 0;  // and pool_volume[vfirst, vfirst + vsize)
   };
   struct Chain {
     std::vector<float> u;            // current state (primary samples); empty = none yet
     std::vector<Photon> photons;     // its deposits, splatted every iteration
+    std::vector<Photon> volume;      // and its volume photons (media)
     double theta = 1.0;              // adaptive mutation size, theta_1 = 1 (§8.3.2)
     int64_t mutated = 0, accepted = 0;
     // Scratch of one pass, kept for its capacity.
     std::vector<float> cand_u;
-    std::vector<Photon> cand_photons;
+    std::vector<Photon> cand_photons, cand_volume;
     // This pass's splats as runs of one state's photons (each state's photons stored once, in
     // `pool`): a copy per iteration made each chain's buffer follow its largest pass so far, a
     // creep of the resident set over thousands of passes (docs/reliability.md).
-    std::vector<Photon> pool;
+    std::vector<Photon> pool, pool_volume;
     std::vector<Run> runs;
     bool state_changed = true;
     int64_t uniform = 0, visible = 0, iterations = 0, rays = 0, invalid = 0, paths = 0;

@@ -190,7 +190,7 @@ class PhotonTracer {
   void set_world_by_closure_share(bool on) { world_share_ = on; }
   // Participating media (photon_walk.h): off by default, so methods that do not render media
   // (MSPPM, GPM) leave them out as their declarations say; PPM and SPPM turn it on.
-  void set_media(bool on) { media_on_ = on && scene_.has_media() && !scene_.has_grid_media(); }
+  void set_media(bool on) { media_on_ = on && scene_.has_media(); }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
   // Surfaces hidden from some kinds of ray that one photon segment may cross (trace_path).

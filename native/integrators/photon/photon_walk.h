@@ -140,7 +140,7 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     const auto hit = scene_.intersect(ray);
     // ---- Participating media along the segment: free flight (as paths/camera_path.h) ----
     if (media && !stack.empty()) {
-      // (Homogeneous media: set_media leaves grid media to the path tracers.)
+      // (Grid media: delta tracking against the majorant grid, its weight carrying sigma_s(x).)
       MediumSegment segment(stack, ray, power.channels(),
                             [&](int m) -> const MediumChannels& { return power.medium_channels(m); });
       segment.set_channel_weights(power.channel_weights());

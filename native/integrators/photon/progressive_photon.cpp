@@ -50,11 +50,11 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   tracer_.set_world_by_closure_share(options.world_by_closure_share);
   if (options.adaptive_photons && params.get<std::string>("photon_sampler") == "adaptive")
     adaptive_ = std::make_unique<AdaptivePhotonSampler>(tracer_, params.get<int>("chains"), seed_);
-  // Media with uniform photons only: the adaptive sampler's visibility V(u) knows measurement
-  // points, not camera segments (thesis ch. 8 has no volume form), so sppm-adaptive leaves them out.
-  // Homogeneous media only: the beam gather's transmittance and scattering are closed forms
-  // (a scene with grid media renders its surfaces, said by RenderSession's report).
-  media_ = options.media && scene.has_media() && !scene.has_grid_media() && !adaptive_;
+  // With the adaptive sampler, V(u) sees volume photons near the camera segments too
+  // (BeamVisibility, adaptive_photons.h). Grid media too: photons fly through them by delta tracking (photon_walk.h), the eye segments
+  // take their transmittance by ratio tracking (MediumSegment::transmittance), and the beam
+  // gather reads it at each photon (volume_gather).
+  media_ = options.media && scene.has_media();
   tracer_.set_media(media_);
   check_image_size(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
@@ -100,6 +100,32 @@ void ProgressivePhotonMapping::set_initial_radii() {
   if (media_ && radius_ > 0)  // the cylinder's first radius: `radius` if given, else volume_gather's
     for (size_t i = 0; i < px_.size(); ++i)
       if (px_[i].vr2 == 0 && n_beams_[i] > 0) px_[i].vr2 = radius_ * radius_;
+}
+
+void ProgressivePhotonMapping::build_beam_visibility(const std::function<bool()>& cancelled) {
+  // The cylinders' radii: each pixel's, or before volume_gather has set it (the first pass) the
+  // largest it may set there: its footprint or a tenth of the scene's diagonal.
+  Bounds3 region = scene_.bounds();
+  const float diag = region.empty() ? 0.0f : length(region.diagonal());
+  float max_r = 0;
+  for (size_t i = 0; i < px_.size(); ++i)
+    if (n_beams_[i] > 0)
+      max_r = std::max(max_r, px_[i].vr2 > 0 ? static_cast<float>(std::sqrt(px_[i].vr2))
+                                             : std::max(first_vr_[i], 0.1f * diag));
+  if (!region.empty()) {
+    const float pad = 0.01f * diag + 1e-4f;
+    region.lo = region.lo - Vec3(pad);
+    region.hi = region.hi + Vec3(pad);
+  }
+  beam_visibility_.begin(region, max_r);
+  for (size_t i = 0; i < px_.size(); ++i) {
+    if (i % kCancelPollPixels == 0 && cancelled()) return;  // abandoned pass (iterate checks)
+    for (int k = 0; k < n_beams_[i]; ++k) {
+      const EyeBeam& b = beams_[i * kMaxBeams + k];
+      beam_visibility_.add(b.o, b.d, b.t_max);
+    }
+  }
+  beam_visibility_.finish();
 }
 
 void ProgressivePhotonMapping::store_beams(size_t pixel, const EyeEnd& end, Vec2 half_extent) {
@@ -223,7 +249,10 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
     visibility_.build(visibility_points_, threads_, cancelled);
     if (cancelled()) return;  // the grid of 2 M points at 1080p takes a few hundred ms
-    ps = adaptive_->trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, visibility_, photons_, cancelled);
+    if (media_) build_beam_visibility(cancelled);
+    if (cancelled()) return;
+    ps = adaptive_->trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, visibility_, photons_, cancelled,
+                          media_ ? &beam_visibility_ : nullptr, media_ ? &volume_photons_ : nullptr);
   } else if (spectral_) {
     ps = spectral_trace(pass, cancelled);
   } else {
@@ -377,7 +406,8 @@ size_t ProgressivePhotonMapping::memory_bytes() const {
   size_t b = photons_.capacity() * sizeof(Photon) + volume_photons_.capacity() * sizeof(Photon) +
              photon_power_.capacity() * sizeof(SpectralValues) + volume_power_.capacity() * sizeof(SpectralValues) +
              photon_hero_.capacity() + volume_hero_.capacity() + beams_.capacity() * sizeof(EyeBeam) +
-             grid_.capacity_bytes() + volume_grid_.capacity_bytes() + tracer_.capacity_bytes();
+             grid_.capacity_bytes() + volume_grid_.capacity_bytes() + tracer_.capacity_bytes() +
+             (adaptive_ ? adaptive_->capacity_bytes() : 0);
   for (const auto& c : spectral_chunks_) b += c.capacity() * sizeof(SpectralPhoton);
   for (const auto& c : spectral_volume_chunks_) b += c.capacity() * sizeof(SpectralPhoton);
   return b;
@@ -699,6 +729,9 @@ void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<
   }
   const int C = channels();
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    // Grid media: the transmittance along a beam by one ratio-tracking walk per grid medium, read
+    // at every photon's foot (TransmittanceSteps); kept for their capacity.
+    std::array<TransmittanceSteps, kMaxBeamMedia> steps;
     for (size_t i = lo; i < hi; ++i) {
       if (i % kCancelPollPixels == 0 && cancelled()) return;  // abandoned pass (iterate checks)
       gather_vm_[i] = 0;
@@ -716,6 +749,21 @@ void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<
         float t0, t1;  // the segment within the photons' bounds grown by R
         clip(box, b, R, t0, t1);
         if (!(t0 < t1)) continue;
+        // Every photon's foot lies within [t0, t1] (the photon is in the box, its foot within R).
+        for (int g = 0; g < segment.n_grids; ++g)
+          steps[g].track(*segment.grids[g].c, C, b.o, b.d, std::min(t1, b.t_max), ray_seed(b.o, b.d, 0xbea0 + pass + g));
+        const bool mixture = segment.heterogeneous() && segment.n_lobes > 1;
+        // T(x, x_p): the homogeneous media's exactly, the grids' by their walks.
+        auto transmittance = [&](float tp) {
+          if (!segment.heterogeneous()) return segment.transmittance(tp);
+          ChannelValues T{};
+          for (int w = 0; w < C; ++w) T[w] = segment.sigma_t[w] > 0 ? std::exp(-segment.sigma_t[w] * tp) : 1.0f;
+          for (int g = 0; g < segment.n_grids; ++g) {
+            const ChannelValues Tg = steps[g].at(tp);
+            for (int w = 0; w < C; ++w) T[w] *= Tg[w];
+          }
+          return T;
+        };
         // Pieces counted in integers (a float t += 2R could stall far along a long segment).
         const double pieces = std::ceil((static_cast<double>(t1) - t0) / (2.0 * R));
         const int64_t n_pieces = static_cast<int64_t>(std::min(pieces, 1e7));
@@ -728,7 +776,8 @@ void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<
             if (length_squared(off - b.d * tp) > R2) return;                       // outside the cylinder
             m += 1;
             const float cos_theta = dot(ph.wi, b.d);  // travel direction -wi, towards the camera -d
-            const ChannelValues T = segment.transmittance(tp);
+            const ChannelValues T = transmittance(tp);
+            if (mixture) segment.set_point(ph.p);  // the media's shares of the scattering at the photon
             const ChannelValues f = segment.phase(cos_theta);
             if (spectral_) {
               const SpectralValues& power = volume_power_[ph.index];

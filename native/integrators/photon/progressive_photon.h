@@ -324,6 +324,9 @@ class ProgressivePhotonMapping : public Integrator {
   const MediumChannels& medium_channels(int m) const { return spectral_ ? pass_media_[m] : media_rgb_[m]; }
   // The beam radiance estimate of every pixel's segments from this pass's volume photons.
   void volume_gather(uint64_t pass, const std::function<bool()>& cancelled);
+  // V(u) of the adaptive sampler for volume photons: near this pass's segments.
+  BeamVisibility beam_visibility_;
+  void build_beam_visibility(const std::function<bool()>& cancelled);
   // The eye pass's segments of `pixel` (and its first cylinder radius).
   void store_beams(size_t pixel, const EyeEnd& end, Vec2 half_extent);
   SampledWavelengths wl_;
