@@ -240,13 +240,15 @@ def test_vdb_volume_object_at_cycles_brightness(empty_scene, out_dir):
     assert abs(ratio_mid - 1) < 0.01, ratio_mid
 
 
-@pytest.mark.skip(reason="pt's variance on a spot light's shaft in fog (no equiangular sampling) is "
-                         "above 1 % at a few seconds: 0.925 at 512 spp, 0.971 at 2048 spp (FOG_SPP, FOG_DENSITY 0.3)")
+@pytest.mark.skip(reason="a systematic 2-3 % under Cycles remains in World fog with equiangular sampling: "
+                         "0.9655 (256 spp), 0.9744 (2048 spp, volume bounces 0), point light 0.9809 (1024 spp, "
+                         "volume bounces 0), the shaft's pixels 0.96-0.97 each; the analytic single-scattering "
+                         "tests (tests/native/media_equiangular_test.cpp) match within 0.2 %: cause open")
 def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir):
     """The World's Volume output (Volume Scatter fog) lit by a spot light over a floor: a light
-    shaft; the image mean within 1 % of Cycles'. Skipped: pt samples the shaft by free flights
-    and next-event estimation only (Cycles adds equiangular sampling for point-like lights), so
-    at a few seconds its mean is not within 1 %; FOG_SPP=... runs it longer."""
+    shaft; the image mean within 1 % of Cycles'. pt samples the shaft by equiangular distances
+    toward the spot, MIS with free flights (paths/camera_path.h), as Cycles does. FOG_SPP=...
+    runs it longer, FOG_VOLUME_BOUNCES=0 single scattering only, FOG_LIGHT=POINT a point light."""
     scene = empty_scene
     scenes.add_plane(scene, "Floor", 12.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
     w = scene.world
@@ -256,14 +258,17 @@ def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir)
     fog.inputs["Anisotropy"].default_value = 0.3
     w.node_tree.links.new(fog.outputs[0], w.node_tree.nodes["World Output"].inputs["Volume"])
     w.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    spot = scenes.add_light(scene, "Spot", 'SPOT', None, 800.0,
-                            {"spot_size": math.radians(40), "spot_blend": 0.2, "shadow_soft_size": 0.0}, (1, 0, 4))
+    kind = os.environ.get("FOG_LIGHT", "SPOT")
+    extra = {"shadow_soft_size": 0.0}
+    if kind == "SPOT":
+        extra.update({"spot_size": math.radians(40), "spot_blend": 0.2})
+    spot = scenes.add_light(scene, "Spot", kind, None, 800.0, extra, (1, 0, 4))
     scenes.look_at(spot, (0, 0, 0))
     scenes.add_camera(scene, (0, -7, 2), (0, 0, 1.2), lens=35.0)
     scene.render.resolution_x, scene.render.resolution_y = 40, 30
     samples, bounces = int(os.environ.get('FOG_SPP', 256)), 8
     scenes.configure_cycles(scene, samples, bounces)
-    scene.cycles.volume_bounces = bounces
+    scene.cycles.volume_bounces = int(os.environ.get('FOG_VOLUME_BOUNCES', bounces))
     cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
     scene.render.engine = 'GRADPHOTON'
     g = scene.gradphoton
@@ -271,6 +276,35 @@ def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir)
     ours = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "g.exr")))["combined"]
     a, b = ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
     ratio = a.sum() / b.sum()
-    print(f"VOLUME world fog, spot: gradphoton/cycles = {ratio:.4f}; "
+    print(f"VOLUME world fog, spot (volume bounces {scene.cycles.volume_bounces}, {samples} spp): gradphoton/cycles = {ratio:.4f}; "
           f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
     assert abs(ratio - 1) < 0.01, ratio
+
+
+def test_volume_bounces_are_read_as_cycles_reads_them(empty_scene, out_dir):
+    """Light Paths > Volume bounces 0 (Blender's default: single scattering) on the Principled
+    Volume cube: exported as the scene's volume_bounces, and the image within 1 % of Cycles' at
+    the same setting, which is darker than with 8 volume bounces."""
+    volume_cube_scene(empty_scene)
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 48, 36
+    samples, bounces = 256, 8
+    scenes.configure_cycles(empty_scene, samples, bounces)
+    empty_scene.cycles.volume_bounces = 0
+    assert export_current().description["volume_bounces"] == 0
+    cycles = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "c.exr")))["combined"]
+    empty_scene.render.engine = 'GRADPHOTON'
+    g = empty_scene.gradphoton
+    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
+    ours = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g.exr")))["combined"]
+    empty_scene.cycles.volume_bounces = 8
+    assert export_current().description["volume_bounces"] == 8
+    more = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g8.exr")))["combined"]
+    a, b, c = (x[..., :3].astype(np.float64) for x in (ours, cycles, more))
+    h, w = a.shape[:2]
+    mid = (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))
+    ratio, ratio_mid, gain = a.sum() / b.sum(), a[mid].sum() / b[mid].sum(), c[mid].sum() / a[mid].sum()
+    print(f"VOLUME bounces 0: gradphoton/cycles = {ratio:.4f} (cube window {ratio_mid:.4f}); "
+          f"8 bounces / 0 over the cube {gain:.4f}")
+    assert abs(ratio - 1) < 0.01, ratio
+    assert abs(ratio_mid - 1) < 0.01, ratio_mid
+    assert gain > 1.03, gain  # the setting is read: multiple scattering adds light
