@@ -171,6 +171,26 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
   });
 }
 
+std::optional<Vec3> LightSet::sample_position(float u_select, Vec2 u, int* light) const {
+  *light = -1;
+  if (select_.empty()) return std::nullopt;
+  float u_rest;
+  *light = static_cast<int>(select_.sample(u_select, &u_rest));
+  std::optional<Light> moved;
+  const Light& l = at_shutter_time(lights_[*light], moved);
+  switch (l.type) {
+    case LightType::Area: {
+      const Vec2 b = sample_uniform_triangle(u);
+      return l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
+    }
+    case LightType::Point:
+    case LightType::Spot:
+      return l.position;
+    default:
+      return std::nullopt;
+  }
+}
+
 float LightSet::pdf_area(int i, const Vec3& p, const Vec3& p_light, const Vec3& wi) const {
   return with_light_at_shutter_time(lights_[i], [&](const Light& l) -> float {
     const float cos_l = -dot(l.n, wi);

@@ -149,6 +149,11 @@ class LightSet {
   float selection_pmf(int light) const { return select_.empty() ? 0.0f : select_.pmf(light); }
 
   std::optional<LightSample> sample_li(const Vec3& p, float u_select, Vec2 u) const;
+  // The light sample_li picks with u_select (in *light) and the point it aims at, neither
+  // depending on the reference point: an area light's point drawn from u as sample_li draws it,
+  // a point or spot light's centre; nullopt for distant lights. The centre of equiangular
+  // sampling in media (paths/camera_path.h).
+  std::optional<Vec3> sample_position(float u_select, Vec2 u, int* light) const;
   // Solid-angle pdf (selection included) that sample_li would pick the point `p_light` of
   // area light `light` as seen from `p` along unit wi (MIS weight when a BSDF ray hits it).
   float pdf_area(int light, const Vec3& p, const Vec3& p_light, const Vec3& wi) const;

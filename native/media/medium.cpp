@@ -403,6 +403,13 @@ ChannelValues MediumSegment::transmittance(float t) const {
   return T;
 }
 
+float MediumSegment::distance_pdf(float t) const {
+  const ChannelValues T = transmittance(t);
+  float pdf = 0;
+  for (int k = 0; k < n; ++k) pdf += q[k] * sigma_t[k] * T[k];
+  return pdf;
+}
+
 ChannelValues MediumSegment::scatter_weight(float t) const {
   if (heterogeneous()) return w_found_;  // the tracking's, at t_found_ == t
   const ChannelValues T = transmittance(t);
@@ -470,6 +477,36 @@ Vec3 MediumSegment::sample_phase(const Vec3& d, float u_lobe, Vec2 u) const {
     if (u_lobe < acc) break;
   }
   return sample_henyey_greenstein(d, lobes[l].g, u);
+}
+
+// ---- Equiangular sampling ----
+
+Equiangular::Equiangular(const Vec3& o, const Vec3& d, const Vec3& c, float t_max_) : t_max(t_max_) {
+  // In double: theta near pi/2 on an unbounded ray, and D small against |c - o|.
+  const double ox = c.x - o.x, oy = c.y - o.y, oz = c.z - o.z;
+  delta = ox * d.x + oy * d.y + oz * d.z;
+  const double px = ox - delta * d.x, py = oy - delta * d.y, pz = oz - delta * d.z;
+  D = std::sqrt(px * px + py * py + pz * pz);
+  const double dist = std::sqrt(ox * ox + oy * oy + oz * oz);
+  if (!(D > 1e-6 * dist) || !(t_max > 0) || !std::isfinite(D)) return;
+  theta_a = std::atan2(-delta, D);
+  theta_b = std::isinf(t_max) ? 0.5 * 3.14159265358979323846 : std::atan2(double(t_max) - delta, D);
+  valid = theta_b > theta_a;
+}
+
+float Equiangular::sample(float u) const {
+  const double theta = theta_a + double(u) * (theta_b - theta_a);
+  double t = delta + D * std::tan(theta);
+  // Round-off at the ends: kept inside [0, t_max).
+  t = std::max(t, 0.0);
+  if (!(t < double(t_max))) t = std::nextafter(t_max, 0.0f);
+  return std::min(float(t), std::nextafter(t_max, 0.0f));
+}
+
+float Equiangular::pdf(float t) const {
+  if (!valid || !(t >= 0) || !(t < t_max)) return 0.0f;
+  const double x = double(t) - delta;
+  return float(D / ((theta_b - theta_a) * (D * D + x * x)));
 }
 
 }  // namespace gp

@@ -68,6 +68,25 @@ inline Vec3 sample_henyey_greenstein(const Vec3& d, float g, Vec2 u) {
   return Frame(d).to_world(Vec3(sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta));
 }
 
+// ---- Equiangular sampling (Kulla & Fajardo 2012, "Importance sampling techniques for path
+// tracing in participating media", §3) ----
+// Distances t in [0, t_max) along a ray o + t d (unit d) with density proportional to the
+// inverse square distance to a point c (a light): with delta = (c - o) . d the foot of c's
+// perpendicular on the ray and D its length, t = delta + D tan(theta), theta uniform between
+// the angles theta_a, theta_b under which c sees the ray's ends, so that
+// pdf(t) = D / ((theta_b - theta_a) (D^2 + (t - delta)^2)) (their eqs. 6-8; Cycles 3.4:
+// kernel/integrator/shade_volume.h volume_equiangular_sample/pdf). t_max may be infinite
+// (theta_b = pi/2). A centre on the ray's line (D = 0) is not valid: pdf 0 everywhere.
+struct Equiangular {
+  double delta = 0, D = 0, theta_a = 0, theta_b = 0;
+  float t_max = 0;
+  bool valid = false;
+  Equiangular() = default;
+  Equiangular(const Vec3& o, const Vec3& d, const Vec3& c, float t_max);
+  float sample(float u) const;  // in [0, t_max)
+  float pdf(float t) const;
+};
+
 // ---- The media a path is in ----
 // Cycles' rule (volume_stack.h): a ray that crosses a surface whose material has an interior
 // medium enters it through the front face (against the geometric normal) and leaves it through
@@ -309,6 +328,9 @@ struct MediumSegment {
     PointCoefficients pc;
     if (heterogeneous()) at_point(p, false, pc, true);
   }
+  // The density of sample_distance's distance at t (homogeneous, scattering media):
+  // sum_c q_c sigma_t,c T_c(t), the other strategy of equiangular sampling's MIS.
+  float distance_pdf(float t) const;
 
   // ---- The phase function of the mixture: sum_m sigma_s,m HG_m / sigma_s, per channel ----
   // (Heterogeneous: the media's scattering at the last scattering point sample_distance found.)

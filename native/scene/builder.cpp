@@ -160,6 +160,7 @@ void update_description(Scene& scene, const std::string& json_text) {
   scene.lights = std::move(next.lights);
   scene.media = std::move(next.media);  // the materials' interiors index the update's media
   scene.world_medium = next.world_medium;
+  scene.volume_bounces = next.volume_bounces;
   if (has_camera) scene.camera = next.camera;
   scene.warnings = std::move(next.warnings);
   for (size_t mi = 0; mi < scene.meshes.size(); ++mi)

@@ -157,6 +157,9 @@ class Scene {
   // interior (Material::interior), and the World's (-1: none).
   std::vector<Medium> media;
   int world_medium = -1;
+  // Light Paths > Volume bounces: scattering events in media a path may have beyond the first
+  // (0: single scattering; -1: no limit but the method's bounces), camera_path.h.
+  int volume_bounces = -1;
   Camera camera;
   std::string source;         // file the scene came from (for messages)
   Warnings warnings;          // counted load warnings

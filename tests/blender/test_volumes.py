@@ -240,15 +240,18 @@ def test_vdb_volume_object_at_cycles_brightness(empty_scene, out_dir):
     assert abs(ratio_mid - 1) < 0.01, ratio_mid
 
 
-@pytest.mark.skip(reason="pt's variance on a spot light's shaft in fog (no equiangular sampling) is "
-                         "above 1 % at a few seconds: 0.925 at 512 spp, 0.971 at 2048 spp (FOG_SPP, FOG_DENSITY 0.3)")
+@pytest.mark.skip(reason="Cycles 3.4 itself is ~2 % above the exact integral here: gradphoton/cycles 0.9655 "
+                         "(256 spp), 0.9744 (2048 spp, volume bounces 0), 0.9818 without the floor under a point "
+                         "light, where gradphoton is 1.001 of the exact single scattering and Cycles 1.019 "
+                         "(test_world_fog_point_light_shaft_is_the_exact_single_scattering)")
 def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir):
     """The World's Volume output (Volume Scatter fog) lit by a spot light over a floor: a light
-    shaft; the image mean within 1 % of Cycles'. Skipped: pt samples the shaft by free flights
-    and next-event estimation only (Cycles adds equiangular sampling for point-like lights), so
-    at a few seconds its mean is not within 1 %; FOG_SPP=... runs it longer."""
+    shaft; the image mean within 1 % of Cycles'. pt samples the shaft by equiangular distances
+    toward the spot, MIS with free flights (paths/camera_path.h), as Cycles does. FOG_SPP=...
+    runs it longer, FOG_VOLUME_BOUNCES=0 single scattering only, FOG_LIGHT=POINT a point light."""
     scene = empty_scene
-    scenes.add_plane(scene, "Floor", 12.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
+    if os.environ.get("FOG_FLOOR", "1") != "0":
+        scenes.add_plane(scene, "Floor", 12.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
     w = scene.world
     w.use_nodes = True
     fog = w.node_tree.nodes.new("ShaderNodeVolumeScatter")
@@ -256,14 +259,17 @@ def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir)
     fog.inputs["Anisotropy"].default_value = 0.3
     w.node_tree.links.new(fog.outputs[0], w.node_tree.nodes["World Output"].inputs["Volume"])
     w.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    spot = scenes.add_light(scene, "Spot", 'SPOT', None, 800.0,
-                            {"spot_size": math.radians(40), "spot_blend": 0.2, "shadow_soft_size": 0.0}, (1, 0, 4))
+    kind = os.environ.get("FOG_LIGHT", "SPOT")
+    extra = {"shadow_soft_size": 0.0}
+    if kind == "SPOT":
+        extra.update({"spot_size": math.radians(40), "spot_blend": 0.2})
+    spot = scenes.add_light(scene, "Spot", kind, None, 800.0, extra, (1, 0, 4))
     scenes.look_at(spot, (0, 0, 0))
     scenes.add_camera(scene, (0, -7, 2), (0, 0, 1.2), lens=35.0)
     scene.render.resolution_x, scene.render.resolution_y = 40, 30
     samples, bounces = int(os.environ.get('FOG_SPP', 256)), 8
     scenes.configure_cycles(scene, samples, bounces)
-    scene.cycles.volume_bounces = bounces
+    scene.cycles.volume_bounces = int(os.environ.get('FOG_VOLUME_BOUNCES', bounces))
     cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
     scene.render.engine = 'GRADPHOTON'
     g = scene.gradphoton
@@ -271,6 +277,101 @@ def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir)
     ours = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "g.exr")))["combined"]
     a, b = ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
     ratio = a.sum() / b.sum()
-    print(f"VOLUME world fog, spot: gradphoton/cycles = {ratio:.4f}; "
+    print(f"VOLUME world fog, spot (volume bounces {scene.cycles.volume_bounces}, {samples} spp): gradphoton/cycles = {ratio:.4f}; "
           f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
+    assert abs(ratio - 1) < 0.01, ratio
+
+
+def test_volume_bounces_are_read_as_cycles_reads_them(empty_scene, out_dir):
+    """Light Paths > Volume bounces 0 (Blender's default: single scattering) on the Principled
+    Volume cube: exported as the scene's volume_bounces, and the image within 1 % of Cycles' at
+    the same setting, which is darker than with 8 volume bounces."""
+    volume_cube_scene(empty_scene)
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 48, 36
+    samples, bounces = 256, 8
+    scenes.configure_cycles(empty_scene, samples, bounces)
+    empty_scene.cycles.volume_bounces = 0
+    assert export_current().description["volume_bounces"] == 0
+    cycles = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "c.exr")))["combined"]
+    empty_scene.render.engine = 'GRADPHOTON'
+    g = empty_scene.gradphoton
+    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
+    ours = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g.exr")))["combined"]
+    empty_scene.cycles.volume_bounces = 8
+    assert export_current().description["volume_bounces"] == 8
+    more = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g8.exr")))["combined"]
+    a, b, c = (x[..., :3].astype(np.float64) for x in (ours, cycles, more))
+    h, w = a.shape[:2]
+    mid = (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))
+    ratio, ratio_mid, gain = a.sum() / b.sum(), a[mid].sum() / b[mid].sum(), c[mid].sum() / a[mid].sum()
+    print(f"VOLUME bounces 0: gradphoton/cycles = {ratio:.4f} (cube window {ratio_mid:.4f}); "
+          f"8 bounces / 0 over the cube {gain:.4f}")
+    assert abs(ratio - 1) < 0.01, ratio
+    assert abs(ratio_mid - 1) < 0.01, ratio_mid
+    assert gain > 1.03, gain  # the setting is read: multiple scattering adds light
+
+
+def _fog_single_scattering(cam, target, lens, light, power, sigma_s, g, w, h, sub=2, n_theta=2000):
+    """Image mean of single scattering in unbounded fog (no absorption) under a point light, the
+    exact integral per pixel: along a ray o + t d, t = delta + D tan(theta) turns
+    dt / r^2 into dtheta / D (the equiangular substitution), integrated by the midpoint rule; a
+    Blender camera (sensor 36 mm, horizontal fit), sub x sub rays a pixel."""
+    cam, target, light = (np.array(v, dtype=np.float64) for v in (cam, target, light))
+    f = target - cam
+    f /= np.linalg.norm(f)
+    r = np.cross(f, [0.0, 0.0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    i = (np.arange(w * sub) + 0.5) / (w * sub) - 0.5
+    j = 0.5 - (np.arange(h * sub) + 0.5) / (h * sub)
+    x, y = np.meshgrid(i * 36.0 / lens, j * 36.0 * h / w / lens)
+    d = f + x[..., None] * r + y[..., None] * u
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    oc = light - cam
+    delta = d @ oc
+    D = np.linalg.norm(oc - delta[..., None] * d, axis=-1)
+    ta = np.arctan2(-delta, D)
+    k = (np.arange(n_theta) + 0.5) / n_theta
+    th = ta[..., None] + k * (np.pi / 2 - ta)[..., None]
+    t = delta[..., None] + D[..., None] * np.tan(th)
+    rr = D[..., None] / np.cos(th)
+    # cos between the ray's direction and the direction to the light: (delta - t) / r.
+    c = (delta[..., None] - t) / rr
+    den = 1 + g * g - 2 * g * c
+    hg = (1 - g * g) / (4 * np.pi * den * np.sqrt(den))
+    val = np.exp(-sigma_s * (t + rr)) * sigma_s * hg * (power / (4 * np.pi)) / D[..., None]
+    return float((val.mean(-1) * (np.pi / 2 - ta)).mean())
+
+
+def test_world_fog_point_light_shaft_is_the_exact_single_scattering(empty_scene, out_dir):
+    """World fog (Volume Scatter) under a point light, nothing else, Volume bounces 0 (Blender's
+    default): the image mean is the exact single-scattering integral (computed here per pixel)
+    within 1 %. Equiangular sampling (paths/camera_path.h) is what gets it there at 256 passes.
+    Cycles at 1024 samples is printed beside it: it sits ~2 % above the integral in this scene."""
+    scene = empty_scene
+    w = scene.world
+    w.use_nodes = True
+    fog = w.node_tree.nodes.new("ShaderNodeVolumeScatter")
+    fog.inputs["Density"].default_value = 0.3
+    fog.inputs["Anisotropy"].default_value = 0.3
+    w.node_tree.links.new(fog.outputs[0], w.node_tree.nodes["World Output"].inputs["Volume"])
+    w.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scenes.add_light(scene, "Point", 'POINT', None, 800.0, {"shadow_soft_size": 0.0}, (1, 0, 4))
+    scenes.add_camera(scene, (0, -7, 2), (0, 0, 1.2), lens=35.0)
+    scene.render.resolution_x, scene.render.resolution_y = 40, 30
+    samples = int(os.environ.get('FOG_SPP', 256))
+    scenes.configure_cycles(scene, samples, 8)
+    scene.cycles.volume_bounces = 0
+    exact = _fog_single_scattering((0, -7, 2), (0, 0, 1.2), 35.0, (1, 0, 4), 800.0, 0.3 * 0.8, 0.3, 40, 30)
+    scene.render.engine = 'GRADPHOTON'
+    g = scene.gradphoton
+    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, 8
+    ours = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "g.exr")))["combined"]
+    ratio = float(ours[..., :3].astype(np.float64).mean()) / exact
+    line = f"VOLUME world fog, point light, single scattering: gradphoton/exact = {ratio:.4f}"
+    if os.environ.get("FOG_CYCLES"):
+        scene.render.engine = 'CYCLES'
+        cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
+        line += f", cycles/exact = {float(cycles[..., :3].astype(np.float64).mean()) / exact:.4f}"
+    print(line)
     assert abs(ratio - 1) < 0.01, ratio

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from . import camera, light, material, mesh, motion, skipped, visibility, volume_object, world
+from . import camera, fluid, light, material, mesh, motion, skipped, visibility, volume_object, world
 from .warnings import Warnings
 
 __all__ = ["ExportedScene", "export_scene", "scene_frame_set", "Warnings"]
@@ -116,7 +116,10 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
             continue
         kind = ob.type
         skipped.check_object(ob, kind, w)
-        if kind in mesh.GEOMETRY_TYPES:
+        if kind == 'MESH' and fluid.gas_domain(ob) is not None:
+            # A smoke domain: its baked grids, not its mesh (export/fluid.py).
+            fluid.add_smoke_domain(out, inst, mats, media, w, scene.frame_current)
+        elif kind in mesh.GEOMETRY_TYPES:
             mesh.add_instance(meshes, inst, mats, w, export_uvs, mesh_cache, sampler,
                               view_layer=depsgraph.view_layer_eval)
         elif kind == 'LIGHT':
@@ -141,6 +144,11 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
         out.description["world_medium"] = world.WORLD_MEDIUM
     if media:
         out.description["media"] = media
+        # Light Paths > Volume bounces, as Cycles reads it (0: single scattering; the core's
+        # camera path and photon walk, docs/scene-format.md).
+        cycles = getattr(scene, "cycles", None)
+        if cycles is not None:
+            out.description["volume_bounces"] = int(cycles.volume_bounces)
     method = method or (settings.method if settings else "pt")
     visibility.check_method(out.description, method, w)
     if sampler is not None:  # last: every other read is of the frame itself

@@ -50,6 +50,74 @@ struct CameraPathSettings {
   bool film_transparent = false;  // a camera ray that leaves the scene sees no background
 };
 
+// ---- Equiangular sampling in homogeneous media (Kulla & Fajardo 2012; media/medium.h
+// Equiangular) ----
+// Next-event estimation at a scattering point is estimated along each medium segment by two
+// strategies, both drawing the light l and the point c it aims at from
+// LightSet::sample_position's distribution (independent of the point): the free flight's
+// distance (density p_f(t) = MediumSegment::distance_pdf) and an equiangular distance toward c
+// (p_e(t)), weighed by the power heuristic in t (the light-versus-phase MIS at the point is
+// inside each). Cycles 3.4 does the same for point, spot and area lights (shade_volume.h, one
+// sample of either strategy); distant lights and the World keep the free flight alone.
+inline std::optional<Vec3> equiangular_centre(const LightSet& lights, const LightSample& ls) {
+  if (ls.light < 0) return std::nullopt;
+  const LightType type = lights.lights()[ls.light].type;
+  if (type == LightType::Area) return ls.p;  // sample_position's point, drawn alike
+  if (type == LightType::Point || type == LightType::Spot) return lights.position(ls.light);
+  return std::nullopt;
+}
+inline ChannelValues uniform_channels(float w) {
+  ChannelValues v;
+  v.fill(w);
+  return v;
+}
+// The free flight's MIS weight of next-event estimation toward `ls` from distance t on the segment
+// along `ray` ending at t_end.
+inline float free_flight_weight(const LightSet& lights, const LightSample& ls, const Ray& ray, float t_end,
+                                const MediumSegment& segment, float t) {
+  const std::optional<Vec3> c = equiangular_centre(lights, ls);
+  if (!c) return 1.0f;
+  const float p_e = Equiangular(ray.o, ray.d, *c, t_end).pdf(t), p_f = segment.distance_pdf(t);
+  return p_f * p_f / (p_f * p_f + p_e * p_e);
+}
+// The equiangular strategy on one segment: its light and point, its distance, and next-event
+// estimation there with weight sigma_s T(t) / p_e(t) times its MIS weight; the path's throughput
+// is left as it was.
+template <class P>
+void equiangular_next_event(const LightSet& lights, const Ray& ray, float t_end, const MediumSegment& segment,
+                            ShadowTest& shadow, Rng& rng, int depth, P& path) {
+  const float u_light = rng.uniform();
+  const Vec2 u2(rng.uniform(), rng.uniform());
+  const float u_t = rng.uniform();
+  int light;
+  const std::optional<Vec3> c = lights.sample_position(u_light, u2, &light);
+  if (!c) return;
+  const Equiangular eq(ray.o, ray.d, *c, t_end);
+  if (!eq.valid) return;
+  const float t = eq.sample(u_t), p_e = eq.pdf(t);
+  if (!(p_e > 0)) return;
+  const float p_f = segment.distance_pdf(t);
+  const float w = p_e / (p_e * p_e + p_f * p_f);  // power heuristic / p_e
+  ChannelValues f = segment.transmittance(t);
+  bool any = false;
+  for (int k = 0; k < segment.n; ++k) {
+    f[k] *= segment.sigma_s[k] * w;
+    any = any || f[k] > 0;
+  }
+  if (!any || !std::isfinite(w)) return;
+  const Vec3 p = ray.at(t);
+  const std::optional<LightSample> ls = lights.sample_li(p, u_light, u2);  // the same light and point
+  if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return;
+  const float cos_theta = dot(ray.d, ls->wi);
+  MediumLengths lengths;
+  shadow.in_medium();
+  if (!shadow.visible(p, nullptr, *ls, &lengths)) return;
+  const auto saved = path.save();
+  path.medium_weight(f);
+  path.medium_next_event(depth, *ls, segment.phase(cos_theta), segment.phase_pdf(cos_theta), lengths);
+  path.restore(saved);
+}
+
 // Follows `ray` from the camera (its closest hit `first`, when given, already traced); returns
 // false when the camera ray escaped with a transparent film or met a holdout (Ray::held_out: the
 // pixel's sample is then uncovered and black), true otherwise.
@@ -67,6 +135,13 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
   const bool media = scene.has_media();
   MediumStack stack = scene.initial_medium_stack();
   ShadowTest shadow(scene, media ? &stack : nullptr);
+  // Light Paths > Volume bounces (Scene::volume_bounces; -1: only max_depth bounds them), as
+  // Cycles 3.4 counts them apart from Max Bounces (path_state_next, max_volume_bounce =
+  // volume_bounces + 1): after the (volume_bounces + 1)-th scattering in a medium (0: single
+  // scattering) the path only passes through media (transmittance, emission) and ends at the
+  // next surface that is not a pass-through one, with that surface's emission.
+  int volume_scatters = 0;
+  bool volume_done = false;
   for (int depth = 0;; ++depth) {
     ++rays.closest;
     const std::optional<SurfaceHit> traced = first ? std::nullopt : scene.intersect(ray);
@@ -78,14 +153,22 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     // ratio and delta tracking) ----
     std::optional<MediumSegment> segment;
     float t_scatter = kInfinity;
+    bool use_equiangular = false;
     if (media && !stack.empty()) {
       segment.emplace(stack, ray, path.channels(), [&](int m) -> const MediumChannels& { return path.medium_channels(m); });
+      if (volume_done) segment->scatters = false;  // transmittance only
       const float t_end = hit ? hit->t : kInfinity;
       path.medium_emission(depth, segment->emission_integral(t_end));
       segment->set_channel_weights(path.channel_weights());
       const float u_channel = rng.uniform(), u_distance = rng.uniform();
       t_scatter = segment->sample_distance(u_channel, u_distance, t_end);
       if (!(t_scatter < t_end)) t_scatter = kInfinity;
+      // Homogeneous media: next-event estimation also from an equiangular distance toward a
+      // point-like light, MIS with the free flight's (grid media keep free flights only).
+      if (!segment->heterogeneous() && segment->scatters && !lights.empty() && depth + 1 < s.max_depth) {
+        equiangular_next_event(lights, ray, t_end, *segment, shadow, rng, depth, path);
+        use_equiangular = true;
+      }
     }
 
     // Cycles' point and spot lights of radius > 0: disks that BSDF rays may hit (MIS with
@@ -122,8 +205,14 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
           const float cos_theta = dot(ray.d, ls->wi);
           MediumLengths lengths;
           shadow.in_medium();
-          if (shadow.visible(p, nullptr, *ls, &lengths))
+          if (shadow.visible(p, nullptr, *ls, &lengths)) {
+            // The free flight's share of the MIS with equiangular sampling toward this light.
+            const float w = use_equiangular ? free_flight_weight(lights, *ls, ray, hit ? hit->t : kInfinity, *segment, t_scatter) : 1.0f;
+            const auto saved = path.save();
+            if (w < 1) path.medium_weight(uniform_channels(w));
             path.medium_next_event(depth, *ls, segment->phase(cos_theta), segment->phase_pdf(cos_theta), lengths);
+            path.restore(saved);
+          }
         }
       }
       const float u_lobe = rng.uniform();
@@ -135,6 +224,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       ChannelValues ratio = segment->phase(cos_theta);
       for (float& r : ratio) r /= pdf;
       path.medium_scattered(p, pdf, ratio);
+      if (scene.volume_bounces >= 0 && ++volume_scatters > scene.volume_bounces) volume_done = true;
       const RayState state = ray.state.volume_next();
       ray = Ray(p, wi);  // a volume ray: every surface is there for it
       ray.state = state;
@@ -171,7 +261,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       --depth;
       continue;
     }
-    if (depth + 1 >= s.max_depth) return true;
+    if (depth + 1 >= s.max_depth || volume_done) return true;
     if (!path.prepare(*hit)) return true;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) return true;

@@ -135,6 +135,13 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
   }
   const bool media = media_on_;
   MediumStack stack = scene_.initial_medium_stack();
+  // Light Paths > Volume bounces (Scene::volume_bounces, -1: none): Cycles' camera path has at
+  // most volume_bounces + 1 scatterings in media, the last of them (the one nearest the light)
+  // joined to the light with no surface between (paths/camera_path.h). In the photon's order:
+  // its k-th scattering in a medium is allowed while k <= volume_bounces + 1, the last one only
+  // if no surface scattered the photon before its first.
+  int volume_scatters = 0;
+  bool surface_first = false;
   for (int bounce = 0; bounce + 1 <= max_depth_; ++bounce) {
     ++rays;
     const auto hit = scene_.intersect(ray);
@@ -149,6 +156,10 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
       const float t = segment.sample_distance(u_channel, u_distance, t_end);
       if (t < t_end) {
         // ---- Scattering in a medium: a volume photon, then the phase function ----
+        if (const int vb = scene_.volume_bounces; vb >= 0) {
+          ++volume_scatters;
+          if (volume_scatters > vb + 1 || (volume_scatters == vb + 1 && surface_first)) break;
+        }
         const float m_old = power.max_old();
         power.medium_weight(segment.scatter_weight(t));
         const Vec3 p = ray.at(t);
@@ -306,6 +317,7 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     if (!pass_through) {
       ++scattered;
       arrive = seen_by;
+      surface_first = surface_first || volume_scatters == 0;
     }
   }
   return rays;
