@@ -207,3 +207,28 @@ def test_world_graph_lighting_matches_cycles(empty_scene, out_dir, kind):
     _ball_on_floor(empty_scene)
     ratio = _compare_means(empty_scene, out_dir, f"graph_{kind}")
     assert np.all(np.abs(ratio - 1) < 0.01)
+
+
+def test_window_coordinates_in_the_world_match_cycles(empty_scene, out_dir):
+    """Texture Coordinate's Window in the World (the direction's place in the frame, Cycles'
+    camera_world_to_ndc): a Gradient of it through a Mapping as the Background's colour, per
+    pixel at the pixels' centres."""
+    w = empty_scene.world
+    w.use_nodes = True
+    nt = w.node_tree
+    grad = nt.nodes.new("ShaderNodeTexGradient")
+    grad.gradient_type = 'QUADRATIC_SPHERE'
+    mapping_into(nt, grad.inputs["Vector"], rotation_deg=(0, 0, 20), location=(-0.5, -0.4, 0.0), coord="Window")
+    ramp = nt.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.1, 0.3, 0.8, 1)
+    ramp.color_ramp.elements[1].color = (1.0, 0.6, 0.2, 1)
+    nt.links.new(grad.outputs["Fac"], ramp.inputs["Fac"])
+    nt.links.new(ramp.outputs["Color"], nt.nodes.get("Background").inputs["Color"])
+    assert exported_env()["type"] == "graph"
+    scenes.add_camera(empty_scene, (0, 0, 0), (1, 0.3, 0.15), lens=30.0)
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 48, 32
+    ratio, rel = _compare_pixels(empty_scene, out_dir, "window")
+    print(f"WINDOW: means gradphoton/Cycles {np.round(ratio, 4)}, per pixel median {np.median(rel):.4f}, "
+          f"99th percentile {np.percentile(rel, 99):.4f}")
+    assert np.all(np.abs(ratio - 1) < 0.01)
+    assert np.percentile(rel, 99) < 0.01
