@@ -232,3 +232,35 @@ def test_window_coordinates_in_the_world_match_cycles(empty_scene, out_dir):
           f"99th percentile {np.percentile(rel, 99):.4f}")
     assert np.all(np.abs(ratio - 1) < 0.01)
     assert np.percentile(rel, 99) < 0.01
+
+
+def test_is_glossy_ray_world_matches_cycles(empty_scene, out_dir):
+    """Is Glossy Ray as a Mix's Fac: glossy bounce rays that leave the scene see an orange sky,
+    every other ray (and next-event estimation, which Cycles evaluates with no path flags) the
+    HDRI; a rough metal ball and a diffuse floor, image means."""
+    w = empty_scene.world
+    w.use_nodes = True
+    nt = w.node_tree
+    hdri = nt.nodes.get("Background")
+    env = nt.nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(os.path.join(HDRI_DIR, "forest.exr"), check_existing=True)
+    nt.links.new(env.outputs["Color"], hdri.inputs["Color"])
+    other = nt.nodes.new("ShaderNodeBackground")
+    other.inputs["Color"].default_value = (1.0, 0.5, 0.1, 1)
+    other.inputs["Strength"].default_value = 1.5
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    lp = nt.nodes.new("ShaderNodeLightPath")
+    nt.links.new(lp.outputs["Is Glossy Ray"], mix.inputs["Fac"])
+    nt.links.new(hdri.outputs[0], mix.inputs[1])
+    nt.links.new(other.outputs[0], mix.inputs[2])
+    nt.links.new(mix.outputs[0], nt.nodes.get("World Output").inputs["Surface"])
+    assert exported_env()["type"] == "graph"
+    scenes.add_plane(empty_scene, "Floor", 6.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(0, 0, 0.7), segments=32, ring_count=16)
+    ball = bpy.context.active_object
+    ball.data.materials.append(scenes.principled_material("Metal", (0.9, 0.9, 0.9), roughness=0.4, metallic=1.0))
+    bpy.ops.object.shade_smooth()
+    scenes.add_camera(empty_scene, (0, -5, 2.5), (0, 0, 0.5), lens=45.0)
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 48, 36
+    ratio = _compare_means(empty_scene, out_dir, "glossy_ray", 256)
+    assert np.all(np.abs(ratio - 1) < 0.01)
