@@ -74,7 +74,7 @@ void WorldGraph::bake(int width) {
   // W x W/2 equirectangular cells (environment_map.h's orientation), each the mean of S x S
   // evaluations as a light sample sees the World (2 x 2 up to 1024 columns: a small bright
   // feature, a sky's sun, is less likely to fall between them).
-  const int W = std::clamp(width, 4, 16384), H = std::max(2, W / 2);
+  const int W = std::clamp(width, 4, 8192), H = std::max(2, W / 2);
   const int S = W <= 1024 ? 2 : 1;
   std::vector<float> f(size_t(W) * H);
   std::vector<RGB> rows(H, RGB(0.0f));

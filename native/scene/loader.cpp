@@ -1344,7 +1344,7 @@ class Loader : private JsonReader {
       if (r->is_string()) {
         if (get_string(*r, rpath) != "auto") fail(rpath, "expected \"auto\" or a number of columns (Manual)");
       } else {
-        width = static_cast<int>(get_int(*r, rpath, 4, 16384));
+        width = static_cast<int>(get_int(*r, rpath, 4, 8192));  // each cell is 1 to 4 graph evaluations: bounded
       }
     }
     const shading::ShadingCamera camera = make_shading_camera(scene_.camera);
