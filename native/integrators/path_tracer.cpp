@@ -71,7 +71,7 @@ struct RgbPath {
   void environment(int depth, const Ray& ray) {
     const int env = lights.environment();
     if (env < 0 || !(depth > 0 || lights.lights()[env].visible_to_camera)) return;
-    const RGB Le = lights.environment_radiance(ray.d, ray.camera);
+    const RGB Le = lights.environment_radiance(ray);
     const Light& world = lights.lights()[env];
     // A World lit only by BSDF rays is not sampled by next-event estimation: a phase-sampled
     // ray finds it with full weight.

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <stdexcept>
 
 namespace gp {
@@ -20,6 +21,70 @@ std::string ScaledBackground::identity() const {
   return fmt::format("{} x ({} {} {})", term_->identity(), scale_.r, scale_.g, scale_.b);
 }
 
+TransformedBackground::TransformedBackground(std::shared_ptr<const BackgroundTerm> term, const float a[3][3])
+    : term_(std::move(term)) {
+  if (!term_) throw std::invalid_argument("a transformed background without a background");
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(a[r][c])) throw std::invalid_argument("the sky's vector transform is not finite");
+      m_[r][c] = a[r][c];
+    }
+  const double det = double(a[0][0]) * (double(a[1][1]) * a[2][2] - double(a[1][2]) * a[2][1]) -
+                     double(a[0][1]) * (double(a[1][0]) * a[2][2] - double(a[1][2]) * a[2][0]) +
+                     double(a[0][2]) * (double(a[1][0]) * a[2][1] - double(a[1][1]) * a[2][0]);
+  if (!(std::abs(det) > 1e-12)) throw std::invalid_argument("the sky's vector transform is singular (zero scale?)");
+  det_ = static_cast<float>(std::abs(det));
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {  // inverse = adjugate / det
+      const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+      inv_[r][c] = static_cast<float>((double(a[r1][c1]) * a[r2][c2] - double(a[r1][c2]) * a[r2][c1]) / det);
+    }
+}
+
+Vec3 TransformedBackground::to_term(const Vec3& d) const {
+  return {m_[0][0] * d.x + m_[0][1] * d.y + m_[0][2] * d.z, m_[1][0] * d.x + m_[1][1] * d.y + m_[1][2] * d.z,
+          m_[2][0] * d.x + m_[2][1] * d.y + m_[2][2] * d.z};
+}
+
+RGB TransformedBackground::eval(const Vec3& dir) const {
+  const Vec3 v = to_term(dir);
+  const float len = length(v);
+  return len > 0 && std::isfinite(len) ? term_->eval(v / len) : RGB(0.0f);
+}
+
+RGB TransformedBackground::eval(const Vec3& dir, const RayState& ray) const {
+  const Vec3 v = to_term(dir);
+  const float len = length(v);
+  return len > 0 && std::isfinite(len) ? term_->eval(v / len, ray) : RGB(0.0f);
+}
+
+bool TransformedBackground::sample(Vec2 u, Vec3* dir, float* pdf) const {
+  Vec3 v;
+  float p = 0;
+  if (!term_->sample(u, &v, &p)) return false;
+  const Vec3 w(inv_[0][0] * v.x + inv_[0][1] * v.y + inv_[0][2] * v.z, inv_[1][0] * v.x + inv_[1][1] * v.y + inv_[1][2] * v.z,
+               inv_[2][0] * v.x + inv_[2][1] * v.y + inv_[2][2] * v.z);
+  const float len = length(w);
+  if (!(len > 0) || !std::isfinite(len)) return false;
+  *dir = w / len;
+  // |M d| = 1 / |M^-1 v| for d = M^-1 v / |M^-1 v|.
+  *pdf = p * det_ * len * len * len;
+  return std::isfinite(*pdf) && *pdf > 0;
+}
+
+float TransformedBackground::pdf(const Vec3& dir) const {
+  const Vec3 v = to_term(dir);
+  const float len = length(v);
+  if (!(len > 0) || !std::isfinite(len)) return 0.0f;
+  const float p = term_->pdf(v / len) * det_ / (len * len * len);
+  return std::isfinite(p) ? p : 0.0f;
+}
+
+std::string TransformedBackground::identity() const {
+  return fmt::format("{} along [{} {} {}; {} {} {}; {} {} {}]", term_->identity(), m_[0][0], m_[0][1], m_[0][2], m_[1][0],
+                     m_[1][1], m_[1][2], m_[2][0], m_[2][1], m_[2][2]);
+}
+
 BackgroundSum::BackgroundSum(std::vector<std::shared_ptr<const BackgroundTerm>> terms) {
   std::vector<float> weights;
   for (auto& t : terms) {
@@ -36,6 +101,12 @@ BackgroundSum::BackgroundSum(std::vector<std::shared_ptr<const BackgroundTerm>> 
 RGB BackgroundSum::eval(const Vec3& dir) const {
   RGB L(0.0f);
   for (const auto& t : terms_) L += t->eval(dir);
+  return L;
+}
+
+RGB BackgroundSum::eval(const Vec3& dir, const RayState& ray) const {
+  RGB L(0.0f);
+  for (const auto& t : terms_) L += t->eval(dir, ray);
   return L;
 }
 

@@ -24,6 +24,9 @@ class BackgroundTerm {
   virtual ~BackgroundTerm() = default;
   // Radiance arriving from unit world direction `dir` (strength included).
   virtual RGB eval(const Vec3& dir) const = 0;
+  // Radiance seen by a path's ray of state `ray` leaving the scene along `dir`: the same but
+  // for a World whose graph reads Light Path (world_graph.h).
+  virtual RGB eval(const Vec3& dir, const RayState& ray) const { (void)ray; return eval(dir); }
   // A unit direction towards the World and its density per solid angle (> 0), or false.
   virtual bool sample(Vec2 u, Vec3* dir, float* pdf) const = 0;
   // The density sample() gives `dir`, per solid angle.
@@ -56,6 +59,7 @@ class ScaledBackground final : public BackgroundTerm {
  public:
   ScaledBackground(std::shared_ptr<const BackgroundTerm> term, RGB scale) : term_(std::move(term)), scale_(scale) {}
   RGB eval(const Vec3& dir) const override { return term_->eval(dir) * scale_; }
+  RGB eval(const Vec3& dir, const RayState& ray) const override { return term_->eval(dir, ray) * scale_; }
   bool sample(Vec2 u, Vec3* dir, float* pdf) const override { return term_->sample(u, dir, pdf); }
   float pdf(const Vec3& dir) const override { return term_->pdf(dir); }
   RGB integral() const override { return term_->integral() * scale_; }
@@ -67,12 +71,37 @@ class ScaledBackground final : public BackgroundTerm {
   RGB scale_;
 };
 
+// A background looked up along a linear transform of the direction: the texture's Vector
+// from a Texture Coordinate -> Mapping chain (a Sky Texture turned by a Mapping). The term sees
+// normalize(M d) (Cycles' sky reads a unit vector: its spherical angles); a direction drawn from
+// the term, v, is d = normalize(M^-1 v), its density the term's times the Jacobian of
+// d -> normalize(M d) on the sphere, |det M| / |M d|^3.
+class TransformedBackground final : public BackgroundTerm {
+ public:
+  // Throws std::invalid_argument for a singular or non-finite matrix.
+  TransformedBackground(std::shared_ptr<const BackgroundTerm> term, const float to_term[3][3]);
+  RGB eval(const Vec3& dir) const override;
+  RGB eval(const Vec3& dir, const RayState& ray) const override;
+  bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
+  float pdf(const Vec3& dir) const override;
+  // The term's (exact for a rotation; a selection weight otherwise, as EnvironmentMap's).
+  RGB integral() const override { return term_->integral(); }
+  std::string identity() const override;
+
+ private:
+  Vec3 to_term(const Vec3& d) const;
+  std::shared_ptr<const BackgroundTerm> term_;
+  float m_[3][3], inv_[3][3];
+  float det_ = 1.0f;
+};
+
 // The sum of several backgrounds (each already scaled by its Mix factor and strength).
 class BackgroundSum final : public BackgroundTerm {
  public:
   // Terms whose integral is black are dropped; throws std::invalid_argument when none is left.
   explicit BackgroundSum(std::vector<std::shared_ptr<const BackgroundTerm>> terms);
   RGB eval(const Vec3& dir) const override;
+  RGB eval(const Vec3& dir, const RayState& ray) const override;
   bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
   float pdf(const Vec3& dir) const override;
   RGB integral() const override;

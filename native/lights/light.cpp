@@ -209,7 +209,17 @@ RGB LightSet::environment_radiance(const Vec3& dir, bool camera_ray) const {
   if (environment_ < 0) return RGB(0.0f);
   const Light& l = lights_[environment_];
   if (camera_ray && l.camera_override) return l.camera_map ? l.camera_map->eval(dir) : l.camera_emit;
-  return l.map ? l.map->eval(dir) : l.emit;
+  if (!l.map) return l.emit;
+  return camera_ray ? l.map->eval(dir, RayState::camera()) : l.map->eval(dir);  // a World graph's Light Path
+}
+
+RGB LightSet::environment_radiance(const Ray& ray) const {
+  if (environment_ < 0) return RGB(0.0f);
+  const Light& l = lights_[environment_];
+  RayState state = ray.state;
+  if (ray.camera) state.flags |= kPathCamera;
+  if (ray.camera && l.camera_override) return l.camera_map ? l.camera_map->eval(ray.d, state) : l.camera_emit;
+  return l.map ? l.map->eval(ray.d, state) : l.emit;
 }
 
 int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, float* pdf) const {

@@ -162,6 +162,9 @@ class LightSet {
   // Radiance seen along a ray that leaves the scene; `camera_ray` (Ray::camera) selects the
   // background camera rays see where the World tells them apart (Light Path: Is Camera Ray).
   RGB environment_radiance(const Vec3& dir, bool camera_ray = false) const;
+  // The same for a path's ray leaving the scene: a World graph (world_graph.h) sees its Light
+  // Path state (Ray::state; a camera ray is one whatever its state says).
+  RGB environment_radiance(const Ray& ray) const;
   // True when the environment's radiance depends on direction (an image or sky): the spectral
   // methods then upsample each value they find instead of one spectrum for the light.
   bool environment_textured() const { return environment_ >= 0 && (lights_[environment_].map || lights_[environment_].camera_map); }

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <initializer_list>
 #include <limits>
 #include <map>
@@ -28,6 +29,7 @@
 #include "core/memory.h"
 #include "shading/graph.h"
 #include "lights/sky.h"
+#include "lights/world_graph.h"
 #include "scene/json_reader.h"
 #include "scene/obj_mesh.h"
 #include "scene/shapes.h"
@@ -1117,7 +1119,7 @@ class Loader : private JsonReader {
                                              "sun_rotation", "altitude", "air_density", "dust_density", "ozone_density",
                                              "sun_direction", "turbidity"};
   static std::vector<std::string_view> background_keys() {
-    std::vector<std::string_view> k{"type", "color", "strength", "backgrounds"};
+    std::vector<std::string_view> k{"type", "color", "strength", "backgrounds", "nodes", "surface"};
     for (const char* m : kMapKeys) k.push_back(m);
     for (const char* m : kSkyKeys) k.push_back(m);
     return k;
@@ -1156,13 +1158,19 @@ class Loader : private JsonReader {
   void load_background(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const BackgroundTerm>& map) {
     std::string type = "color";
     if (const json* t = find(e, "type")) type = get_string(*t, sub(path, "type"));
-    if (type != "color" && type != "map" && type != "sky" && type != "sum")
-      fail(sub(path, "type"), fmt::format("unknown environment type '{}' (known: color, map, sky, sum)", type));
+    if (type != "color" && type != "map" && type != "sky" && type != "sum" && type != "graph")
+      fail(sub(path, "type"), fmt::format("unknown environment type '{}' (known: color, map, sky, sum, graph)", type));
     auto only = [&](const char* key, const char* owner) {
       if (find(e, key)) fail(sub(path, key), fmt::format("only an environment of \"type\": \"{}\" takes it", owner));
     };
     if (type != "map")
-      for (const char* k : kMapKeys) only(k, "map");
+      for (const char* k : kMapKeys) {
+        const std::string_view key = k;
+        if ((key == "transform" && type == "sky") || (key == "sampling_resolution" && type == "graph")) continue;
+        only(k, "map");
+      }
+    if (type != "graph")
+      for (const char* k : {"nodes", "surface"}) only(k, "graph");
     if (type != "sky")
       for (const char* k : kSkyKeys) only(k, "sky");
     if (type != "sum") only("backgrounds", "sum");
@@ -1170,6 +1178,12 @@ class Loader : private JsonReader {
       for (const char* k : {"color", "strength"})
         if (find(e, k)) fail(sub(path, k), "a sum takes its terms' colours and strengths (put them in \"backgrounds\")");
       load_background_sum(e, path, emit, map);
+      return;
+    }
+    if (type == "graph") {
+      for (const char* k : {"color", "strength"})
+        if (find(e, k)) fail(sub(path, k), "a graph takes its colours and strengths from its \"surface\"");
+      load_world_graph(e, path, emit, map);
       return;
     }
     RGB color(1.0f);
@@ -1211,20 +1225,7 @@ class Loader : private JsonReader {
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) o.to_map[i][j] = r.m[i][j];
     }
-    if (tr) {  // world direction -> texture vector, row-major 3x3 (or 4x4: its linear part)
-      const std::string tpath = sub(path, "transform");
-      if (!tr->is_array() || (tr->size() != 3 && tr->size() != 4))
-        fail(tpath, fmt::format("expected a 3x3 or 4x4 matrix (rows), got {}", describe(*tr)));
-      const size_t n = tr->size();
-      for (size_t i = 0; i < n; ++i) {
-        const json& row = (*tr)[i];
-        if (!row.is_array() || row.size() != n) fail(sub(tpath, i), fmt::format("expected {} numbers, got {}", n, describe(row)));
-        for (size_t j = 0; j < n; ++j) {
-          const float v = get_float(row[j], sub(sub(tpath, i), j));
-          if (i < 3 && j < 3) o.to_map[i][j] = v;
-        }
-      }
-    }
+    if (tr) read_matrix3(*tr, sub(path, "transform"), o.to_map);
     if (const json* r = find(e, "sampling_resolution")) {
       const std::string rpath = sub(path, "sampling_resolution");
       if (r->is_string()) {
@@ -1239,6 +1240,120 @@ class Loader : private JsonReader {
       map = std::make_shared<const EnvironmentMap>(loaded.image, o);
     } catch (const std::invalid_argument& ex) {
       fail(tr ? sub(path, "transform") : path, ex.what());
+    }
+    emit = map->integral() * kInv4Pi;
+  }
+
+  // World direction -> texture vector, row-major 3x3 (or 4x4: its linear part).
+  void read_matrix3(const json& tr, const std::string& tpath, float out[3][3]) {
+    if (!tr.is_array() || (tr.size() != 3 && tr.size() != 4))
+      fail(tpath, fmt::format("expected a 3x3 or 4x4 matrix (rows), got {}", describe(tr)));
+    const size_t n = tr.size();
+    for (size_t i = 0; i < n; ++i) {
+      const json& row = tr[i];
+      if (!row.is_array() || row.size() != n) fail(sub(tpath, i), fmt::format("expected {} numbers, got {}", n, describe(row)));
+      for (size_t j = 0; j < n; ++j) {
+        const float v = get_float(row[j], sub(sub(tpath, i), j));
+        if (i < 3 && j < 3) out[i][j] = v;
+      }
+    }
+  }
+
+  // The World's node graph (lights/world_graph.h): `surface` a tree of closures
+  // ({"type": "background", "color", "strength"}, {"type": "mix", "factor", "a", "b"},
+  // {"type": "add", "a", "b"}) whose inputs are constants or links into `nodes`.
+  void load_world_graph(const json& e, const std::string& path, RGB& emit, std::shared_ptr<const BackgroundTerm>& map) {
+    const json& nodes = need(e, "nodes", path);
+    const std::string npath = sub(path, "nodes");
+    require_object(nodes, npath);
+    int widest = 0;  // Auto sampling resolution: the widest image the graph reads (Cycles: its Environment Textures')
+    std::vector<WorldClosure> closures;
+    std::shared_ptr<const shading::ShaderProgram> program;
+    try {
+      shading::GraphCompiler g("World", nodes, [&](const std::string& file, const std::string& colorspace,
+                                                   std::string* warning) {
+        std::filesystem::path f = file;
+        if (f.is_relative() && !base_dir_.empty()) f = std::filesystem::path(base_dir_) / f;
+        TextureLoad loaded = load_texture(f.string(), colorspace);
+        *warning = loaded.warning;
+        if (loaded.image && !loaded.image->missing) widest = std::max(widest, loaded.image->width);
+        return loaded.image;
+      });
+      // (closure index, input: 0 color, 1 strength, 2 factor, compiled root): filled after compiling.
+      struct Root {
+        size_t closure;
+        int input, root;
+      };
+      std::vector<Root> roots;
+      auto input = [&](const json& c, const std::string& cpath, const char* key, int which, shading::SocketType type,
+                       bool& linked) -> const json* {
+        const json* v = find(c, key);
+        if (v && shading::is_link(*v)) {
+          try {
+            roots.push_back({closures.size(), which, g.link(*v, type)});  // this closure is pushed next
+          } catch (const shading::GraphError& ex) {
+            fail(sub(cpath, key), ex.what());
+          }
+          linked = true;
+          return nullptr;
+        }
+        return v;
+      };
+      // Children first (WorldGraph's order), depth bounded: an untrusted file cannot recurse forever.
+      std::function<int(const json&, const std::string&, int)> closure = [&](const json& c, const std::string& cpath,
+                                                                            int depth) -> int {
+        if (depth > 64) fail(cpath, "closures nested deeper than 64");
+        if (closures.size() >= 1024) fail(cpath, "more than 1024 closures");
+        require_object(c, cpath);
+        const std::string type = get_string(need(c, "type", cpath), sub(cpath, "type"));
+        WorldClosure w;
+        if (type == "background") {
+          check_keys(c, cpath, {"type", "color", "strength"});
+          w.kind = WorldClosure::Kind::Background;
+          if (const json* v = input(c, cpath, "color", 0, shading::SocketType::Color, w.color_linked))
+            w.color_constant = get_color(*v, sub(cpath, "color"));
+          if (const json* v = input(c, cpath, "strength", 1, shading::SocketType::Float, w.strength_linked))
+            w.strength_constant = get_float(*v, sub(cpath, "strength"));
+        } else if (type == "mix" || type == "add") {
+          check_keys(c, cpath, type == "mix" ? std::vector<std::string_view>{"type", "factor", "a", "b"}
+                                             : std::vector<std::string_view>{"type", "a", "b"});
+          w.kind = type == "mix" ? WorldClosure::Kind::Mix : WorldClosure::Kind::Add;
+          w.a = closure(need(c, "a", cpath), sub(cpath, "a"), depth + 1);
+          w.b = closure(need(c, "b", cpath), sub(cpath, "b"), depth + 1);
+          if (type == "mix")  // after the children: this closure is the next one pushed
+            if (const json* v = input(c, cpath, "factor", 2, shading::SocketType::Float, w.fac_linked))
+              w.fac_constant = get_float(*v, sub(cpath, "factor"));
+        } else {
+          fail(sub(cpath, "type"), fmt::format("unknown World closure '{}' (known: background, mix, add)", type));
+        }
+        closures.push_back(w);
+        return static_cast<int>(closures.size()) - 1;
+      };
+      closure(need(e, "surface", path), sub(path, "surface"), 0);
+      program = g.compile();
+      for (const Root& r : roots) {
+        WorldClosure& w = closures[r.closure];
+        (r.input == 0 ? w.color : r.input == 1 ? w.strength : w.fac) = g.source(r.root);
+      }
+      for (const std::string& w : g.warnings()) scene_.warnings.add("node graph approximated", fmt::format("{}: {}", file_, w));
+    } catch (const shading::GraphError& ex) {
+      fail(npath, ex.what());
+    }
+    int width = widest;
+    if (const json* r = find(e, "sampling_resolution")) {
+      const std::string rpath = sub(path, "sampling_resolution");
+      if (r->is_string()) {
+        if (get_string(*r, rpath) != "auto") fail(rpath, "expected \"auto\" or a number of columns (Manual)");
+      } else {
+        width = static_cast<int>(get_int(*r, rpath, 4, 8192));  // each cell is 1 to 4 graph evaluations: bounded
+      }
+    }
+    const shading::ShadingCamera camera = make_shading_camera(scene_.camera);
+    try {
+      map = std::make_shared<const WorldGraph>(program, std::move(closures), width, &camera,
+                                               fmt::format("graph {:016x}", std::hash<std::string>()(e.dump())));
+    } catch (const std::invalid_argument& ex) {
+      fail(path, ex.what());
     }
     emit = map->integral() * kInv4Pi;
   }
@@ -1281,7 +1396,18 @@ class Loader : private JsonReader {
     if (const json* v = find(e, "sun_direction")) o.sun_direction = get_vec3(*v, sub(path, "sun_direction"));
     o.scale = RGB(1.0f);  // the sky is shared (World edits reuse it), the Background's colour x strength on top
     try {
-      map = std::make_shared<const ScaledBackground>(shared_sky(o), emit);
+      std::shared_ptr<const BackgroundTerm> sky = shared_sky(o);
+      // The Sky Texture's Vector through Texture Coordinate -> Mapping (a turned sun or sky).
+      if (const json* tr = find(e, "transform")) {
+        float m[3][3];
+        read_matrix3(*tr, sub(path, "transform"), m);
+        try {
+          sky = std::make_shared<const TransformedBackground>(sky, m);
+        } catch (const std::invalid_argument& ex) {
+          fail(sub(path, "transform"), ex.what());
+        }
+      }
+      map = std::make_shared<const ScaledBackground>(sky, emit);
     } catch (const std::invalid_argument& ex) {
       fail(path, ex.what());
     }

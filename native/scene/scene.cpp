@@ -102,8 +102,10 @@ static void check_attributes(const shading::MeshAttributes& attrs, const Mesh& m
                                          attrs.list.size()));
 }
 
-void Scene::build_shading_camera() {
-  shading::ShadingCamera& c = *shading_camera_;
+void Scene::build_shading_camera() { *shading_camera_ = make_shading_camera(camera); }
+
+shading::ShadingCamera make_shading_camera(const Camera& camera) {
+  shading::ShadingCamera c;
   // Cycles' camera space is Blender's camera space with z negated (z towards the view).
   c.camera_to_world = camera.camera_to_world;
   for (int r = 0; r < 3; ++r) c.camera_to_world.m[r][2] = -c.camera_to_world.m[r][2];
@@ -112,6 +114,7 @@ void Scene::build_shading_camera() {
   c.ext = camera.half_extent();
   const float s = 2.0f * std::max(c.ext.x, c.ext.y);  // as Camera::generate_ray's shift
   c.shift = Vec2(camera.shift.x * s, camera.shift.y * s);
+  return c;
 }
 
 void Scene::build_shading_objects() {

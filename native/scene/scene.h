@@ -124,6 +124,8 @@ struct CameraRays {
     hold_out_camera_rays(scene, n, rays.data(), hits.data());
   }
 };
+// The camera as shading sees it (Texture Coordinate's Camera and Window; the World graph's copy).
+shading::ShadingCamera make_shading_camera(const Camera& camera);
 // The pixels of `tile`, row by row, started for `pass` (start_pixel_in_pass: the photon methods',
 // whose camera rays take their pass's shutter time): what its camera rays need.
 std::vector<PixelStart> tile_pixel_starts(const Camera& camera, uint64_t seed, uint64_t pass, const Tile& tile);

@@ -11,6 +11,10 @@
 
 #include "shading/graph.h"
 
+namespace gp {
+class SkyTexture;  // lights/sky.h
+}
+
 namespace gp::shading {
 
 // What an unlinked input without a value of its own reads (Cycles' SocketType::LINK_*).
@@ -38,6 +42,7 @@ struct NodeData {
   std::shared_ptr<const TextureImage> image;
   float blend = 0.0f;           // Image's projection_blend
   std::string name;             // Color Attribute's layer_name, Attribute's attribute_name
+  std::shared_ptr<const SkyTexture> sky;  // Sky Texture: the precomputed sky (shared)
 };
 
 class PropReader {

@@ -6,6 +6,8 @@
 #include <map>
 
 #include "core/spectrum.h"
+#include "lights/environment_map.h"
+#include "lights/sky.h"
 #include "shading/node_types.h"
 #include "shading/procedural.h"
 
@@ -564,6 +566,83 @@ void eval_tex_brick(EvalArgs& a) {  // svm/brick.h
 }
 
 void parse_white_noise(const PropReader& r, NodeProps& p) { parse_dims(r, p, "noise_dimensions"); }
+// ---- The World's textures (lights/world_graph.h evaluates the World's graph) ----
+
+// Environment Texture (svm/image.h, svm_node_tex_environment): the vector normalised, projected
+// as Cycles (environment_map.h), looked up with the image's filter and Repeat, as EnvironmentMap.
+void parse_tex_environment(const PropReader& r, NodeProps& p) {
+  auto d = std::make_shared<NodeData>();
+  const std::string path = r.string("image", "");
+  if (path.empty()) {
+    r.warn("no image: magenta, as Cycles renders a missing image");
+  } else if (r.images() && *r.images()) {
+    std::string warning;
+    d->image = (*r.images())(path, r.string("colorspace", ""), &warning);
+    if (!warning.empty()) r.warn(warning);
+  }
+  p.mode = r.choice("interpolation", {"Linear", "Closest", "Cubic", "Smart"}, 0);
+  p.mode2 = r.choice("projection", {"EQUIRECTANGULAR", "MIRROR_BALL"}, 0);
+  p.data = d;
+}
+void eval_tex_environment(EvalArgs& a) {
+  const NodeData& d = *a.op.props.data;
+  if (!d.image || d.image->missing) {
+    a.out(0, Vec3(1, 0, 1));  // Cycles' missing-image magenta
+    a.out(1, 1.0f);
+    return;
+  }
+  const Vec3 v = a.v(0);
+  const float len = length(v);
+  const Vec3 m = len > 0 && std::isfinite(len) ? v / len : Vec3(0.0f);
+  const Vec2 uv = a.op.props.mode2 == 0 ? EnvironmentMap::equirectangular_uv(m) : EnvironmentMap::mirror_ball_uv(m);
+  static constexpr TextureFilter kFilter[] = {TextureFilter::Linear, TextureFilter::Closest, TextureFilter::Cubic,
+                                              TextureFilter::Cubic};  // Smart: Cubic, as Cycles' CPU kernel
+  const RGBA t = d.image->lookup(uv, TextureWrap::Repeat, kFilter[a.op.props.mode]);
+  a.out(0, Vec3(t.rgb.r, t.rgb.g, t.rgb.b));
+  a.out(1, t.a);
+}
+
+// Sky Texture (svm/sky.h): the sky of lights/sky.h (precomputed once, shared) along the
+// normalised vector (the model reads its spherical angles). Blender's properties in radians.
+void parse_tex_sky(const PropReader& r, NodeProps& p) {
+  SkyOptions o;
+  const int type = r.choice("sky_type", {"PREETHAM", "HOSEK_WILKIE", "NISHITA"}, 2);
+  o.model = type == 2 ? SkyModel::Nishita : SkyModel::Preetham;
+  if (type == 1) r.warn("Hosek-Wilkie sky rendered as Preetham (its fitted tables are not available)");
+  o.sun_disc = r.boolean("sun_disc", true);
+  o.sun_size = std::max(0.0f, r.number("sun_size", o.sun_size));
+  o.sun_intensity = std::max(0.0f, r.number("sun_intensity", o.sun_intensity));
+  o.sun_elevation = r.number("sun_elevation", o.sun_elevation);
+  o.sun_rotation = r.number("sun_rotation", o.sun_rotation);
+  o.altitude = std::max(0.0f, r.number("altitude", o.altitude));
+  o.air_density = std::max(0.0f, r.number("air_density", o.air_density));
+  o.dust_density = std::max(0.0f, r.number("dust_density", o.dust_density));
+  o.ozone_density = std::max(0.0f, r.number("ozone_density", o.ozone_density));
+  o.turbidity = std::max(0.0f, r.number("turbidity", o.turbidity));
+  if (const nlohmann::json* j = r.get("sun_direction")) {
+    if (!j->is_array() || j->size() != 3 || !(*j)[0].is_number() || !(*j)[1].is_number() || !(*j)[2].is_number())
+      r.fail("sun_direction: expected [x, y, z]");
+    o.sun_direction = Vec3((*j)[0].get<float>(), (*j)[1].get<float>(), (*j)[2].get<float>());
+  }
+  auto d = std::make_shared<NodeData>();
+  try {
+    d->sky = shared_sky(o);
+  } catch (const std::invalid_argument& e) {
+    r.fail(e.what());
+  }
+  p.data = d;
+}
+void eval_tex_sky(EvalArgs& a) {
+  const Vec3 v = a.v(0);
+  const float len = length(v);
+  if (!(len > 0) || !std::isfinite(len)) {
+    a.out(0, kZero);
+    return;
+  }
+  const RGB c = a.op.props.data->sky->radiance(v / len, true);
+  a.out(0, Vec3(c.r, c.g, c.b));
+}
+
 void eval_tex_white_noise(EvalArgs& a) {  // svm/white_noise.h
   float value;
   Vec3 color;
@@ -1497,6 +1576,9 @@ std::vector<NodeType> make_types() {
                                in_f("Mortar Smooth", 0.1f), in_f("Bias", 0.0f), in_f("Brick Width", 0.5f),
                                in_f("Row Height", 0.25f)}, {out_c("Color"), out_f("Fac")}, parse_brick,
        eval_tex_brick});
+  add({"ShaderNodeTexEnvironment", {gen}, {out_c("Color"), out_f("Alpha")}, parse_tex_environment,
+       eval_tex_environment});
+  add({"ShaderNodeTexSky", {gen}, {out_c("Color")}, parse_tex_sky, eval_tex_sky});
   add({"ShaderNodeTexWhiteNoise", {in_imp("Vector", Implicit::Position), in_f("W", 0.0f)},
        {out_f("Value"), out_c("Color")}, parse_white_noise, eval_tex_white_noise});
   // Colour

@@ -284,11 +284,12 @@ def test_world_warning_names_the_node_and_the_value_used(empty_scene):
     world.use_nodes = True
     bg = world.node_tree.nodes["Background"]
     bg.inputs["Color"].default_value = (0.05, 0.1, 0.2, 1)
-    noise = world.node_tree.nodes.new("ShaderNodeTexNoise")  # the Sky Texture is read now (test_world_sky)
-    world.node_tree.links.new(noise.outputs["Color"], bg.inputs["Color"])
+    # A node the core does not evaluate (supported ones make the World a graph: test_world_graph).
+    node = world.node_tree.nodes.new("ShaderNodeTexPointDensity")
+    world.node_tree.links.new(node.outputs["Color"], bg.inputs["Color"])
     w = Warnings()
     world_export.export_world(world, w)
-    assert any("node 'Noise Texture' into Background: Color (rendered as (0.05, 0.1, 0.2))" in line
+    assert any("node 'Point Density' into Background: Color (rendered as (0.05, 0.1, 0.2))" in line
                for line in w.lines()), w.lines()
 
 

@@ -430,7 +430,7 @@ def test_every_supported_node_exports_and_the_core_accepts_it(empty_scene):
     for kind in sorted(export_nodes.SUPPORTED):
         m, nt, out = node_material(kind)
         n = nt.nodes.new(kind)
-        if kind == "ShaderNodeTexImage":
+        if kind in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
             n.image = bpy.data.images.new("generated", 4, 4)
         diffuse_from(nt, out, next(s for s in n.outputs if s.enabled))
         scenes.add_plane(empty_scene, kind, 1.0, m)

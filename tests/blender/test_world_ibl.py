@@ -79,7 +79,8 @@ def test_export_is_camera_ray_and_unsupported_nodes(empty_scene):
     nt.links.new(cam_bg.outputs[0], mix.inputs[2])
     out = nt.nodes.get("World Output")
     nt.links.new(mix.outputs[0], out.inputs["Surface"])
-    noise = nt.nodes.new("ShaderNodeTexNoise")
+    # A node the core does not evaluate (a supported one makes the World a graph: test_world_graph).
+    noise = nt.nodes.new("ShaderNodeTexPointDensity")
     nt.links.new(noise.outputs["Color"], cam_bg.inputs["Color"])
     ex = export.export_scene(bpy.context.evaluated_depsgraph_get())
     env = ex.description["environment"]

@@ -31,7 +31,7 @@ SUPPORTED = frozenset({
     # textures
     "ShaderNodeTexImage", "ShaderNodeTexChecker", "ShaderNodeTexNoise", "ShaderNodeTexVoronoi",
     "ShaderNodeTexMusgrave", "ShaderNodeTexWave", "ShaderNodeTexGradient", "ShaderNodeTexMagic",
-    "ShaderNodeTexBrick", "ShaderNodeTexWhiteNoise",
+    "ShaderNodeTexBrick", "ShaderNodeTexWhiteNoise", "ShaderNodeTexEnvironment", "ShaderNodeTexSky",
     # colour
     "ShaderNodeMixRGB", "ShaderNodeMix", "ShaderNodeValToRGB", "ShaderNodeRGBCurve", "ShaderNodeHueSaturation",
     "ShaderNodeInvert", "ShaderNodeGamma", "ShaderNodeBrightContrast", "ShaderNodeRGBToBW",

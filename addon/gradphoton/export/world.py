@@ -15,10 +15,16 @@ What is read, until the core's node evaluator drives the World (branch nodes-cor
   - a Mix Shader whose factor is Light Path "Is Camera Ray" between two such backgrounds:
     camera rays see the second, everything else is lit by the first (the core's "camera");
   - World > Settings > Sampling: Auto (the image's size) or Manual (map resolution).
+Anything these shapes cannot say -- a Mix Shader's Fac linked to anything but a top-level "Is
+Camera Ray", Light Path anywhere else, a linked Strength, a Color from another node, a texture
+Vector through a Mapping with a location, Window or Camera coordinates -- exports the World's
+whole tree as a graph (the core evaluates it per direction and ray, lights/world_graph.h): the
+closures (Background, Mix, Add) over the node table nodes.py writes, as materials.
 Anything else is one warning naming the node, and the socket's own value.
 """
 import math
 
+from . import nodes as node_graph
 from . import texture, visibility, volume
 from .links import linked_from as _from
 
@@ -58,6 +64,8 @@ def _environment(world, warnings):
     node, _ = _from(out.inputs["Surface"])
     if node is None:
         return None
+    if _needs_graph(node, top=True):
+        return _graph(world, out, warnings)
     if node.bl_idname == 'ShaderNodeMixShader' and _is_camera_ray(node.inputs["Fac"]):
         lit = _backgrounds(world, _from(node.inputs[1])[0], warnings)
         seen = _backgrounds(world, _from(node.inputs[2])[0], warnings)
@@ -65,6 +73,78 @@ def _environment(world, warnings):
         env["camera"] = seen or {"color": [0.0, 0.0, 0.0]}
         return env
     return _backgrounds(world, node, warnings)
+
+
+def _needs_graph(node, top=False):
+    """Whether the closure tree under `node` needs the core's graph (see the module's note)."""
+    if node is None:
+        return False
+    t = node.bl_idname
+    if t == 'ShaderNodeAddShader':
+        return any(_needs_graph(_from(node.inputs[i])[0]) for i in (0, 1))
+    if t == 'ShaderNodeMixShader':
+        fac = node.inputs["Fac"]
+        if fac.is_linked and not (top and _is_camera_ray(fac)):
+            return True
+        return any(_needs_graph(_from(node.inputs[i])[0]) for i in (1, 2))
+    if t != 'ShaderNodeBackground':
+        return False
+    if node.inputs["Strength"].is_linked:
+        return True
+    src, out = _from(node.inputs["Color"])
+    if src is None:
+        return False
+    if src.bl_idname not in ('ShaderNodeTexEnvironment', 'ShaderNodeTexSky') or out.name != "Color":
+        return src.bl_idname in node_graph.SUPPORTED
+    return src.inputs["Vector"].enabled and not _linear_vector(src.inputs["Vector"])
+
+
+def _linear_vector(socket):
+    """Whether a texture's Vector is the direction through a chain the simple route writes as a
+    3x3 matrix: Mapping nodes (inputs unlinked, no location on Point / Texture) over a Texture
+    Coordinate's Generated or Object output, or unlinked."""
+    node, out = _from(socket)
+    while node is not None:
+        if node.bl_idname == 'ShaderNodeMapping':
+            if any(node.inputs[n].is_linked for n in ("Location", "Rotation", "Scale")):
+                return False
+            if node.vector_type in ('POINT', 'TEXTURE') and any(abs(v) > 1e-9 for v in node.inputs["Location"].default_value):
+                return False
+            node, out = _from(node.inputs["Vector"])
+            continue
+        return node.bl_idname == 'ShaderNodeTexCoord' and out.name in ("Generated", "Object")
+    return True
+
+
+def _graph(world, out, warnings):
+    """The World's tree as {"type": "graph", "nodes", "surface"} (docs/scene-format.md)."""
+    g = node_graph.NodeGraph(f"world {world.name}", warnings)
+
+    def closure(socket, depth=0):
+        node, _ = _from(socket)
+        if node is None or depth > 64:
+            return {"type": "background", "color": [0.0, 0.0, 0.0], "strength": 0.0}
+        t = node.bl_idname
+        if t == 'ShaderNodeAddShader':
+            return {"type": "add", "a": closure(node.inputs[0], depth + 1), "b": closure(node.inputs[1], depth + 1)}
+        if t == 'ShaderNodeMixShader':
+            fac = g.value(node.inputs["Fac"], (), f"{node.name} Fac")
+            return {"type": "mix", "factor": 0.5 if fac is None else fac,
+                    "a": closure(node.inputs[1], depth + 1), "b": closure(node.inputs[2], depth + 1)}
+        if t != 'ShaderNodeBackground':
+            warnings.add("unsupported world shader (black environment)", f"world '{world.name}': node '{node.name}'")
+            return {"type": "background", "color": [0.0, 0.0, 0.0], "strength": 0.0}
+        color = g.value(node.inputs["Color"], (), f"{node.name} Color")
+        strength = g.value(node.inputs["Strength"], (), f"{node.name} Strength")
+        return {"type": "background", "color": [1.0, 1.0, 1.0] if color is None else color,
+                "strength": 1.0 if strength is None else strength}
+
+    env = {"type": "graph", "surface": closure(out.inputs["Surface"])}
+    env["nodes"] = g.nodes
+    settings = getattr(world, "cycles", None)
+    if settings is not None and getattr(settings, "sampling_method", 'AUTOMATIC') == 'MANUAL':
+        env["sampling_resolution"] = int(settings.sample_map_resolution)
+    return env
 
 
 def _is_camera_ray(socket):
@@ -146,9 +226,14 @@ def _sky_texture(world, node, warnings):
     """A Sky Texture's settings in the scene format's units (degrees, metres); the core
     precomputes it as Cycles 3.4 does (lights/sky.h)."""
     where = f"world '{world.name}': node '{node.name}'"
-    if node.inputs["Vector"].is_linked:
-        warnings.add("unsupported world node (direction used)", f"{where}: Vector linked (the sky is not turned)")
     sky = {"type": "sky", "sky_type": _SKY_TYPES.get(node.sky_type, "nishita")}
+    # Blender 3.4 makes the Vector socket unavailable for Nishita with its sun disc (what feeds it
+    # is ignored, as Cycles does); otherwise a Mapping turns the sky (the core normalises the
+    # vector, as the sky reads its angles).
+    if node.inputs["Vector"].enabled:
+        m = _vector_transform(world, node.inputs["Vector"], warnings)
+        if m is not None:
+            sky["transform"] = m
     if node.sky_type == 'HOSEK_WILKIE':
         # The model's fitted tables are not available to the core: Preetham with the same sun
         # direction and turbidity (ground albedo unused), one warning naming the node.

@@ -133,7 +133,7 @@ struct PathPair {
     if (!hit) {
       // The World's Camera switch (its sky seen by camera rays; directly seen light has no
       // gradient offsets here, direct_only below).
-      const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray.d, ray.camera);
+      const RGB Le = depth == 0 && !lights.environment_visible_to_camera() ? RGB(0.0f) : lights.environment_radiance(ray);
       if (!(depth == 0 || specular_bounce)) w_base = power_heuristic(prev_pdf, lights.pdf_environment(ray.d));
       c = split_hit(lights.environment(), Le, lights.pdf_environment(ray.d), nullptr).value_or(beta * Le * w_base);
     } else if (hit->light >= 0) {
@@ -155,7 +155,7 @@ struct PathPair {
               .value_or(o.beta * Le * (specular_bounce ? 1.0f : power_heuristic(o.prev_pdf, pdf_light)));
         };
         if (o.link == Link::Connected) {  // same vertices and last segment, own MIS pdf
-          if (!hit) c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
+          if (!hit) c_off[d] = found(lights.environment(), lights.environment_radiance(ray), lights.pdf_environment(ray.d));
           else if (hit->light >= 0)
             c_off[d] = found(hit->light, lights.area_radiance(hit->light, -ray.d),
                              lights.pdf_area(hit->light, prev_p, hit->p, ray.d));
@@ -164,7 +164,7 @@ struct PathPair {
             c_off[d] = found(hit->light, lights.area_radiance(hit->light, o.wo),
                              lights.pdf_area(hit->light, o.prev_p, hit->p, -o.wo));
           } else if (!hit) {  // reconnected at infinity: same direction
-            c_off[d] = found(lights.environment(), lights.environment_radiance(ray.d, ray.camera), lights.pdf_environment(ray.d));
+            c_off[d] = found(lights.environment(), lights.environment_radiance(ray), lights.pdf_environment(ray.d));
           }
         } else {  // own vertex
           if (!o.hit) {
@@ -172,7 +172,7 @@ struct PathPair {
               fail(o, ShiftFailure::Missed);
               continue;
             }
-            c_off[d] = found(lights.environment(), lights.environment_radiance(o.ray.d, o.ray.camera), lights.pdf_environment(o.ray.d));
+            c_off[d] = found(lights.environment(), lights.environment_radiance(o.ray), lights.pdf_environment(o.ray.d));
           } else if (!hit) {
             fail(o, ShiftFailure::Occluded);  // the base escaped, the offset did not
             continue;

@@ -116,7 +116,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                   lv.distant = true;
                   lv.dir = -ray.d;
                   y.push_back(lv);
-                  Ld += found(lights.environment_radiance(ray.d, ray.camera), lv.light) *
+                  Ld += found(lights.environment_radiance(ray), lv.light) *
                         static_cast<float>(light_weight(y, 0, cy[y.size() - 2], ratio));
                   y.pop_back();
                 }

@@ -458,7 +458,7 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     if (!hit) {
       const int env = lights.environment();
       if (depth == 0 && (film_transparent_ || ray.held_out)) out.escaped = true;  // a holdout: black
-      else if (env >= 0 && lights.lights()[env].visible_to(kind)) c.environment(lights.environment_radiance(ray.d, ray.camera), env);
+      else if (env >= 0 && lights.lights()[env].visible_to(kind)) c.environment(lights.environment_radiance(ray), env);
       break;
     }
     out.path_length += hit->t;

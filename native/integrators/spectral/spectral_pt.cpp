@@ -161,7 +161,7 @@ struct SpectralPath {
     if (env < 0) return;
     const Light& e = lights.lights()[env];  // the World's Ray Visibility
     std::optional<RgbSpectrum> varying;
-    const RgbSpectrum& spec = light_seen(env, [&] { return lights.environment_radiance(ray.d, ray.camera); }, varying);
+    const RgbSpectrum& spec = light_seen(env, [&] { return lights.environment_radiance(ray); }, varying);
     if (depth == 0) {
       if (e.visible_to_camera) add_emission(spec, 0.0f, true);
     } else if (e.lit_by_bsdf_rays_only()) {  // Cycles' rule for the World (lobe_split.h): full weight
