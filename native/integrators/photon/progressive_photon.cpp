@@ -61,7 +61,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});
   pass_direct_.assign(n, RGB(0.0f));
-  pass_covered_.assign(n, 1);
+  pass_covered_.assign(n, 1.0f);
   first_r_.assign(n, 0.0f);
   gather_m_.assign(n, 0.0f);
   gather_lap_.assign(n, 0.0f);
@@ -166,7 +166,7 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
               path.vp.material = -1;
             }
             pass_direct_[pixel] = path.Ld;
-            pass_covered_[pixel] = path.escaped ? 0 : 1;
+            pass_covered_[pixel] = path.escaped ? 0.0f : first.coverage[k];  // a Holdout in a mix: 1 - weight
             vp_[pixel] = path.vp;
             first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length, ext) : 0.0f;
           }

@@ -366,7 +366,7 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<Photon> photons_;        // this pass only; cleared (capacity kept) every pass
   std::vector<VisiblePoint> vp_;
   std::vector<RGB> pass_direct_;       // this pass's eye-path light per pixel
-  std::vector<uint8_t> pass_covered_;  // this pass's camera ray hit the scene (1) or escaped (0)
+  std::vector<float> pass_covered_;  // this pass's camera ray hit the scene (1; 1 - a mixed holdout's weight) or escaped (0)
   bool film_transparent_ = false;
   std::vector<float> first_r_;         // footprint radius proposed by the eye pass
   std::vector<PixelState> px_;

@@ -215,7 +215,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               vp.material = -1;
             }
             pass_direct_[pixel] = Lrgb;
-            pass_covered_[pixel] = escaped ? 0 : 1;
+            pass_covered_[pixel] = escaped ? 0.0f : first.coverage[i];  // a Holdout in a mix: 1 - weight
             vp_[pixel] = vp;
             vp_beta_[pixel] = beta;
             vp_hero_[pixel] = hero_only ? 1 : 0;
