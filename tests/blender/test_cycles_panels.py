@@ -423,6 +423,18 @@ def test_images_reach_blender_as_often_as_cycles_sends_them():
     assert session.display_interval(9.9) == 1.0 and session.display_interval(10.0) == 2.0
 
 
+def test_previews_for_the_methods_whose_pass_cost_follows_the_pixels():
+    """Reduced-resolution first passes where a smaller image is quicker: camera paths or mutations
+    per pixel, Multisampled PPM's Auto photons (one per pixel); not a fixed photon count, nor the
+    photon methods that pause their first pass instead."""
+    for method in ("pt", "spt", "gpt", "sgpt", "gdmlt"):
+        assert session.previews_help(method, {}), method
+    assert session.previews_help("msppm", {"photons": 0})
+    assert not session.previews_help("msppm", {"photons": 50000})
+    for method in ("ppm", "sppm", "sppm-adaptive", "gpm"):
+        assert not session.previews_help(method, {}), method
+
+
 def test_first_images_at_reduced_resolution_leave_the_render_unchanged(empty_scene, out_dir):
     """A time-limited F12 render shows smaller first passes (progressive resolution) before its
     full-size passes; the image it ends with is the full-size passes' alone, bit for bit the
