@@ -101,11 +101,17 @@ TEST(Holdout, OtherRaysSeeTheSurfaceAsItIs) {
 TEST(Holdout, AWeightedHoldoutCoversItsPixelsByOneMinusTheWeight) {
   std::vector<int> held, clear;
   card_pixels(&held, &clear);
+  // The weight as a number, and as a link into the node graph (a Mix Shader's Fac from nodes).
   const Scene weighted = card_scene(R"(, "holdout": 0.7)");
+  const Scene linked = card_scene(R"(, "holdout": {"link": "w", "output": "Value"},
+      "nodes": {"w": {"type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+                      "inputs": {"Value": 0.35, "Value_001": 2.0}}})");
   const Scene plain = card_scene("");
   for (const Method& m : methods()) {
     if (!m.holdout || !m.find("film_transparent")) continue;
     const Params p = small_params(m, true);
+    const Film l = render(m.name, linked, 2, p);
+    for (int i : held) EXPECT_NEAR(l.pass(pass::kAlpha).data[i], 0.3f, 1e-6f) << m.name << " (linked) pixel " << i;
     const Film f = render(m.name, weighted, 2, p);
     const Film g = render(m.name, plain, 2, p);
     for (int i : held) {
