@@ -669,7 +669,7 @@ void ProgressivePhotonMapping::develop(Film& film) const {
   Pass& count = film.add_pass(pass::kPhotonCount, 1);
   Pass* alpha = film_transparent_ ? &film.add_pass(pass::kAlpha, 1) : nullptr;
   const double passes = static_cast<double>(std::max<int64_t>(stats_.passes, 1));
-  if (stats_.passes == 0) {
+  if (stats_.passes == 0 && (stage_ != Stage::Eye || !eye_tile_done_.empty())) {
     // The first pass paused before its end (iterate, ProgressSink::pause): a preview, the light
     // its camera paths have seen themselves (emission, and direct light where the method adds it
     // by next-event estimation), at the pixels they reached; nothing is left of it after the pass.
