@@ -31,7 +31,9 @@ POLL_SECONDS = 0.02
 # rendering, 0.5 s to 4 s, 1 s to 10 s; 2 s after, as its final renders), at the pass end nearest
 # each interval. A pass is the smallest step, except for the methods whose pass can pause at a
 # tile (pt, spt, spt-hero: the core's ProgressSink::pause): their pass stops when the next image
-# is due and goes on after it, so a long pass (1920x1080) still refreshes on Cycles' ladder.
+# is due and goes on after it, so a long pass (1920x1080) still refreshes on Cycles' ladder; and
+# the photon methods (ppm, sppm, sppm-adaptive), whose first pass pauses between its camera-path
+# tiles and its stages, showing the direct light its camera paths saw until it ends.
 DISPLAY_INTERVAL = ((2.0, 0.25), (4.0, 0.5), (10.0, 1.0), (math.inf, 2.0))  # (until, interval), seconds
 # Passes Film > Exposure scales, as Cycles scales its light passes (not data: error, radius,
 # counts, alpha, albedo, normal, depth).
@@ -154,10 +156,17 @@ def to_blender_pixels(img, channels, window=None, alpha=None):
     return out.reshape(-1, channels)
 
 
-def previews_help(method):
+def previews_help(method, params=None):
     """Whether smaller first passes give earlier images: methods whose pass cost follows the pixel
-    count (not photon passes, whose photons cost the same at any size, nor Metropolis chains)."""
-    return not any(d["name"] in ("photons", "mutations") for d in declared(method))
+    count: camera paths per pixel (pt, spt, gpt, sgpt), Metropolis mutations per pixel (gdmlt), and
+    photons when their count is one per pixel (Multisampled PPM's Auto: the declaration's 0). Not
+    SPPM's or GPM's photons (Auto: 100 000 or more at any size) nor a count the user set; PPM, SPPM
+    and SPPM Adaptive pause their first pass instead (ProgressivePhotonMapping::iterate)."""
+    for d in declared(method):
+        if d["name"] == "photons":
+            per_pixel = (d.get("zero_means") or "").startswith("one per pixel")
+            return per_pixel and not (params or {}).get("photons")
+    return True
 
 
 def enlarged(img, height, width):
@@ -372,16 +381,18 @@ class RenderSession:
         n = 0
         previewed = False
         try:
-            if window is None and previews_help(settings.method) and progress.rule != 'PASSES':
+            if window is None and previews_help(settings.method, params) and progress.rule != 'PASSES':
                 previewed = self._previews(N, nscene, exported.description["camera"], settings.method, params,
                                            result, passes, progress)
                 if previewed:
                     last_update = progress.elapsed()
             while True:
-                # After the first whole pass, until the next image is due (a method whose pass
-                # cannot pause ignores it); the first pass runs whole (every pixel a sample).
+                # Until the next image is due (a method whose pass cannot pause ignores it). The
+                # first pass of a method with reduced-resolution previews runs whole (every pixel
+                # a sample); a photon method's first pause shows its camera paths' direct light.
                 due = max(POLL_SECONDS, last_update + display_interval(progress.elapsed()) - progress.elapsed())
-                whole = self.session.stats.get("passes", 0) < 1 or not math.isfinite(due)
+                whole = (self.session.stats.get("passes", 0) < 1 and previews_help(settings.method, params)) \
+                    or not math.isfinite(due)
                 cancelled_at = self._iterate_cancellable(0.0 if whole else due)
                 stats = self.session.stats
                 n = stats.get("passes", n + 1)

@@ -144,7 +144,10 @@ class PixelEstimate {
     run_pass_tiles(seed, tile_size, threads, sink, stats,
                    [&](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
                      CameraRays first(scene, starts, n);
-                     for (size_t i = 0; i < n; ++i) out[i] = sample(first.rays[i], starts[i].rng, rays, &first.hits[i]);
+                     for (size_t i = 0; i < n; ++i) {
+                       out[i] = sample(first.rays[i], starts[i].rng, rays, &first.hits[i]);
+                       out[i].alpha *= first.coverage[i];  // a Holdout weighted in a mix
+                     }
                    });
   }
 

@@ -100,6 +100,13 @@ struct Material {
   // Cycles' holdout (object Mask > Holdout, the Holdout shader): a camera ray that meets this
   // surface ends there with no colour and alpha 0 (CameraRays); other rays see it as it is.
   bool holdout = false;
+  // A Holdout closure weighted inside a Mix / Add Shader (Cycles 3.4: svm_node_closure_holdout
+  // allocates it with its mix weight, shader_holdout_apply sums those weights, and
+  // integrate_surface_holdout adds weight x throughput to the pixel's transparency): a camera ray
+  // that meets the surface covers its pixel by 1 - weight (CameraRays::coverage) and goes on; the
+  // colour is the mix's other closures', which the holdout's black component already scales.
+  // holdout_in: the weight from the node graph (clamped to [0, 1]).
+  float holdout_weight = 0.0f;
   // Cycles' Diffuse / Glossy / Transmission switches: the kinds of bounce ray (kRay* bits of
   // the lobe that sampled them) that see this surface, and whose lobes its emission lights by
   // next-event estimation. Honoured by the path tracer (docs/blender.md).
@@ -132,13 +139,14 @@ struct Material {
   // ---- Node graph (shading/graph.h): the program compiled from the material's `nodes`, and
   // the inputs linked into it (read per shading point by bsdf_params and the scene) ----
   std::shared_ptr<const shading::ShaderProgram> graph;
-  GraphInput color_in, roughness_in, factor_in, ior_in, alpha_in, normal_in, emission_in, strength_in;
+  GraphInput color_in, roughness_in, factor_in, ior_in, alpha_in, normal_in, emission_in, strength_in, holdout_in;
 
   bool has_bsdf_textures() const {
     return color_tex || roughness_tex || factor_tex || color_in || roughness_in || factor_in || ior_in ||
            (mix_a && mix_a->has_bsdf_textures()) || (mix_b && mix_b->has_bsdf_textures());
   }
   bool perturbs_normal() const { return normal_tex || bump_tex || normal_in; }
+  bool holds_out_partly() const { return !holdout && (holdout_weight > 0.0f || holdout_in); }
   bool has_coverage() const { return alpha < 1.0f || alpha_tex || alpha_in; }
   bool emission_from_graph() const { return emission_in || strength_in; }
 

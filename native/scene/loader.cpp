@@ -212,7 +212,13 @@ class Loader : private JsonReader {
       if (const json* t = find(m, "two_sided")) mat.two_sided = get_bool(*t, sub(mpath, "two_sided"));
       if (const json* v = find(m, "visible_to_camera")) mat.visible_to_camera = get_bool(*v, sub(mpath, "visible_to_camera"));
       if (const json* v = find(m, "casts_shadow")) mat.casts_shadow = get_bool(*v, sub(mpath, "casts_shadow"));
-      if (const json* v = find(m, "holdout")) mat.holdout = get_bool(*v, sub(mpath, "holdout"));
+      // true (the whole surface), a weight in [0, 1] (a Holdout closure in a mix; 1 is true) or a
+      // link into the node graph (holdout_in).
+      if (const json* v = find(m, "holdout"); v && !shading::is_link(*v)) {
+        if (v->is_boolean()) mat.holdout = get_bool(*v, sub(mpath, "holdout"));
+        else mat.holdout_weight = get_in_range(*v, sub(mpath, "holdout"), 0.0f, 1.0f);
+        if (mat.holdout_weight >= 1.0f) mat.holdout = true;
+      }
       if (const json* i = find(m, "interior")) mat.interior = medium_by_name(*i, sub(mpath, "interior"));
       mat.visible_lobes = load_visible_lobes(m, mpath);
       if (mat.type != MaterialType::Emission && !find(m, "emission")) mat.emission = RGB(0.0f);
@@ -244,7 +250,8 @@ class Loader : private JsonReader {
     const Want wants[] = {{"color", SocketType::Color, &mat.color_in},       {"roughness", SocketType::Float, &mat.roughness_in},
                           {"factor", SocketType::Float, &mat.factor_in},     {"ior", SocketType::Float, &mat.ior_in},
                           {"alpha", SocketType::Float, &mat.alpha_in},       {"normal", SocketType::Vector, &mat.normal_in},
-                          {"emission", SocketType::Color, &mat.emission_in}, {"strength", SocketType::Float, &mat.strength_in}};
+                          {"emission", SocketType::Color, &mat.emission_in}, {"strength", SocketType::Float, &mat.strength_in},
+                          {"holdout", SocketType::Float, &mat.holdout_in}};
     const json* nodes = find(m, "nodes");
     bool any = false;
     for (const Want& w : wants)

@@ -526,14 +526,30 @@ void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, R
   scene.intersect_coherent(rays, n, hits);
 }
 
-void hold_out_camera_rays(const Scene& scene, size_t n, Ray* rays, std::optional<SurfaceHit>* hits) {
+void hold_out_camera_rays(const Scene& scene, size_t n, Ray* rays, std::optional<SurfaceHit>* hits, float* coverage) {
   // Cycles ends a camera path at a holdout with its throughput as transparency
-  // (integrator/shade_surface.h, integrate_surface_holdout): no colour, alpha 0.
-  for (size_t i = 0; i < n; ++i)
-    if (hits[i] && scene.material(hits[i]->material).holdout) {
+  // (integrator/shade_surface.h, integrate_surface_holdout): no colour, alpha 0. A holdout
+  // weighted in a mix adds weight x throughput (1 at the camera's first hit) to the
+  // transparency and the path goes on with the other closures (shader_holdout_apply).
+  for (size_t i = 0; i < n; ++i) {
+    if (!hits[i]) continue;
+    const Material& m = scene.material(hits[i]->material);
+    if (m.holdout) {
       hits[i].reset();
       rays[i].held_out = true;
+    } else if (coverage && m.holds_out_partly()) {
+      float w = m.holdout_weight;
+      if (m.holdout_in && m.graph) {
+        const ShutterTime at_time(rays[i].time);  // a moving mesh's shading frame at the ray's time
+        const SurfaceHit& h = *hits[i];
+        thread_local std::vector<Vec3> regs;
+        regs.resize(m.graph->num_registers());
+        m.graph->run(scene.shading_context(h, h.wo, h.n_smooth), regs.data());
+        w = shading::as_float(regs[m.holdout_in.source.reg], m.holdout_in.source.conv);
+      }
+      coverage[i] = std::isfinite(w) ? 1.0f - std::clamp(w, 0.0f, 1.0f) : 1.0f;
     }
+  }
 }
 
 void Scene::surface_point(const RawHit& raw, SurfacePoint& h) const {

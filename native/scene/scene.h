@@ -112,16 +112,22 @@ class Scene;
 void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
                        std::optional<SurfaceHit>* hits);
 // Camera rays whose closest hit is a holdout surface (Material::holdout) lose the hit and are
-// marked Ray::held_out: their paths see neither the surface nor the background behind it.
-void hold_out_camera_rays(const Scene& scene, size_t n, Ray* rays, std::optional<SurfaceHit>* hits);
+// marked Ray::held_out: their paths see neither the surface nor the background behind it. A hit
+// on a surface held out by a weight (Material::holds_out_partly) stays, and `coverage` (n values,
+// or null) gets 1 - weight there, 1 elsewhere: what the pixel's alpha takes from that sample.
+void hold_out_camera_rays(const Scene& scene, size_t n, Ray* rays, std::optional<SurfaceHit>* hits,
+                          float* coverage = nullptr);
 // The same, held: n pixels' camera rays and closest hits, holdouts applied. The paths of the
 // methods that start from here honour Holdout (Method::holdout).
 struct CameraRays {
   std::vector<Ray> rays;
   std::vector<std::optional<SurfaceHit>> hits;
-  CameraRays(const Scene& scene, const PixelStart* starts, size_t n) : rays(n), hits(n) {
+  // Each sample's share of its pixel's alpha before the path's own (0 when it escapes to a
+  // transparent film or is held out whole): 1 - the holdout weight of a Holdout in a mix.
+  std::vector<float> coverage;
+  CameraRays(const Scene& scene, const PixelStart* starts, size_t n) : rays(n), hits(n), coverage(n, 1.0f) {
     trace_camera_rays(scene, starts, n, rays.data(), hits.data());
-    hold_out_camera_rays(scene, n, rays.data(), hits.data());
+    hold_out_camera_rays(scene, n, rays.data(), hits.data(), coverage.data());
   }
 };
 // The camera as shading sees it (Texture Coordinate's Camera and Window; the World graph's copy).

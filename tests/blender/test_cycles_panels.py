@@ -142,6 +142,65 @@ def test_holdout_shader_is_cut_out_as_mask_holdout(empty_scene, out_dir):
     assert np.abs(rgb[held]).max() == 0.0
 
 
+def _mixed_holdout_scene(scene, fac):
+    """A box whose surface is a Mix Shader (Fac `fac`) of a Holdout (first) and a Diffuse BSDF,
+    on a floor, lit by a sun and a blue world; Film > Transparent."""
+    scenes.add_plane(scene, "Floor", 20.0, scenes.diffuse_material("Floor"))
+    m, nt, out = scenes._node_material("HalfHeld")
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = fac
+    d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    d.inputs["Color"].default_value = (0.8, 0.5, 0.2, 1)
+    nt.links.new(nt.nodes.new("ShaderNodeHoldout").outputs[0], mix.inputs[1])
+    nt.links.new(d.outputs[0], mix.inputs[2])
+    nt.links.new(mix.outputs[0], out.inputs["Surface"])
+    s = 0.9
+    v = [(x, y, z) for x in (-s, s) for y in (-s, s) for z in (0.1, 0.1 + 2 * s)]
+    f = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    scenes.add_mesh_object(scene, "Box", v, f, m).rotation_euler = (0, 0, 0.5)
+    la = bpy.data.lights.new("Sun", 'SUN')
+    la.energy = 3.0
+    sun = bpy.data.objects.new("Sun", la)
+    scene.collection.objects.link(sun)
+    sun.rotation_euler = (0.5, 0.3, 0)
+    scenes.add_camera(scene, (0, -6, 3), (0, 0, 0.8))
+    scenes.set_world(scene, (0.2, 0.4, 1.0), 1.0)
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    scene.render.film_transparent = True
+
+
+@pytest.mark.parametrize("method", ["pt", "sppm"])
+def test_holdout_in_a_mix_is_weighted_as_cycles(empty_scene, out_dir, method):
+    """A Mix Shader (Fac 0.3) of a Holdout and a Diffuse BSDF on a box: Cycles gives the box alpha
+    1 - 0.7 = 0.3 and 0.3 of the diffuse colour (svm_node_closure_holdout: the holdout closure
+    weighted by the mix; integrate_surface_holdout: that weight becomes transparency). gradphoton
+    matches its alpha and colour over the box within 2 % (seeded; measured: see the print).
+    Seen failing with the weight ignored (alpha 0 or 1 over the box)."""
+    _mixed_holdout_scene(empty_scene, 0.3)
+    try:
+        scenes.configure_cycles(empty_scene, 64, 4)
+        c_rgb, c_a = _rgba(empty_scene, out_dir, "mixed_holdout_cycles")
+        empty_scene.render.engine = 'GRADPHOTON'
+        g = empty_scene.gradphoton
+        g.method, g.stop_rule, g.passes = method, 'PASSES', 64
+        if method == "sppm":
+            g.sppm.use_auto_photons, g.sppm.photons = False, 20000
+        else:
+            g.pt.max_bounces = 4
+        rgb, a = _rgba(empty_scene, out_dir, f"mixed_holdout_{method}")
+    finally:
+        empty_scene.render.film_transparent = False
+    box = (c_a > 0.2) & (c_a < 0.4)  # the box's pixels in Cycles (its edges left out)
+    assert box.sum() > 150, box.sum()
+    alpha, c_alpha = a[box].mean(), c_a[box].mean()
+    colour, c_colour = rgb[box].mean(axis=0), c_rgb[box].mean(axis=0)
+    print(f"MIXED HOLDOUT {method}: alpha {alpha:.4f} (Cycles {c_alpha:.4f}), colour {colour.round(4)} "
+          f"(Cycles {c_colour.round(4)}) over {box.sum()} pixels")
+    assert abs(alpha - c_alpha) < 0.02 * c_alpha
+    assert np.all(np.abs(colour - c_colour) < 0.02 * c_colour)
+    assert not any("Holdout" in m for _, m in session.REPORTS), session.REPORTS
+
+
 def test_holdout_in_a_method_without_it_is_a_warning_naming_method_and_material(empty_scene):
     monkey = _holdout_scene(empty_scene, "gpt")
     monkey.is_holdout = True
@@ -363,6 +422,18 @@ def test_export_warnings_reach_the_status_bar_when_the_render_ends(empty_scene):
 def test_images_reach_blender_as_often_as_cycles_sends_them():
     assert session.display_interval(0.0) == 0.25 and session.display_interval(3.0) == 0.5
     assert session.display_interval(9.9) == 1.0 and session.display_interval(10.0) == 2.0
+
+
+def test_previews_for_the_methods_whose_pass_cost_follows_the_pixels():
+    """Reduced-resolution first passes where a smaller image is quicker: camera paths or mutations
+    per pixel, Multisampled PPM's Auto photons (one per pixel); not a fixed photon count, nor the
+    photon methods that pause their first pass instead."""
+    for method in ("pt", "spt", "gpt", "sgpt", "gdmlt"):
+        assert session.previews_help(method, {}), method
+    assert session.previews_help("msppm", {"photons": 0})
+    assert not session.previews_help("msppm", {"photons": 50000})
+    for method in ("ppm", "sppm", "sppm-adaptive", "gpm"):
+        assert not session.previews_help(method, {}), method
 
 
 def test_first_images_at_reduced_resolution_leave_the_render_unchanged(empty_scene, out_dir):

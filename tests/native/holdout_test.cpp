@@ -95,13 +95,53 @@ TEST(Holdout, OtherRaysSeeTheSurfaceAsItIs) {
   EXPECT_GT(gone_held / held.size(), 0.05);
 }
 
-TEST(Holdout, SceneFileKeyIsABoolean) {
-  try {
-    card_scene(R"(, "holdout": 1)");
-    FAIL() << "accepted a number";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("holdout"), std::string::npos) << e.what();
+// A holdout weighted by a mix (Cycles' Holdout closure in a Mix Shader; the exporter writes the
+// mix with a black part and "holdout": its weight): camera rays go on to the surface, whose colour
+// is its material's (the mix already scales it), and each covers its pixel by 1 - weight.
+TEST(Holdout, AWeightedHoldoutCoversItsPixelsByOneMinusTheWeight) {
+  std::vector<int> held, clear;
+  card_pixels(&held, &clear);
+  // The weight as a number, and as a link into the node graph (a Mix Shader's Fac from nodes).
+  const Scene weighted = card_scene(R"(, "holdout": 0.7)");
+  const Scene linked = card_scene(R"(, "holdout": {"link": "w", "output": "Value"},
+      "nodes": {"w": {"type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+                      "inputs": {"Value": 0.35, "Value_001": 2.0}}})");
+  const Scene plain = card_scene("");
+  for (const Method& m : methods()) {
+    if (!m.holdout || !m.find("film_transparent")) continue;
+    const Params p = small_params(m, true);
+    const Film l = render(m.name, linked, 2, p);
+    for (int i : held) EXPECT_NEAR(l.pass(pass::kAlpha).data[i], 0.3f, 1e-6f) << m.name << " (linked) pixel " << i;
+    const Film f = render(m.name, weighted, 2, p);
+    const Film g = render(m.name, plain, 2, p);
+    for (int i : held) {
+      EXPECT_NEAR(f.pass(pass::kAlpha).data[i], 0.3f, 1e-6f) << m.name << " pixel " << i;
+      EXPECT_EQ(luminance_at(f, i % f.width(), i / f.width()), luminance_at(g, i % g.width(), i / g.width()))
+          << m.name << ": the colour is the surface's, pixel " << i;
+    }
+    for (int i : clear) EXPECT_EQ(f.pass(pass::kAlpha).data[i], 1.0f) << m.name << " pixel " << i;
   }
+}
+
+TEST(Holdout, SceneFileKeyIsABooleanOrAWeight) {
+  for (const char* bad : {R"(, "holdout": 1.5)", R"(, "holdout": -0.1)", R"(, "holdout": "yes")"}) {
+    try {
+      card_scene(bad);
+      FAIL() << "accepted " << bad;
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("holdout"), std::string::npos) << e.what();
+    }
+  }
+  const auto card = [](const Scene& s) {
+    for (const Material& m : s.materials)
+      if (m.name == "card") return m;
+    ADD_FAILURE() << "no card";
+    return Material{};
+  };
+  EXPECT_TRUE(card(card_scene(R"(, "holdout": 1)")).holdout);  // weight 1: the whole surface
+  const Material quarter = card(card_scene(R"(, "holdout": 0.25)"));
+  EXPECT_FALSE(quarter.holdout);
+  EXPECT_EQ(quarter.holdout_weight, 0.25f);
 }
 
 }  // namespace

@@ -65,10 +65,40 @@ def test_a_pass_paused_at_a_tile_goes_on_to_the_same_image(method):
         assert calls < 1000
     assert calls == 2 * 8 * 6  # one tile a call: 48 tiles a pass
     np.testing.assert_array_equal(paused.develop()["combined"], whole.develop()["combined"])
-    # Photon and gradient passes are one whole: they never pause.
-    sppm = _native.Session(scene, "sppm", {"seed": 5, "threads": 1, "photons": 2000})
-    sppm.iterate(seconds=1e-9)
-    assert sppm.stats["passes"] == 1
+    # Gradient passes are one whole: they never pause (photon methods: the test below).
+    gpt = _native.Session(scene, "gpt", {"seed": 5, "threads": 1})
+    gpt.iterate(seconds=1e-9)
+    assert gpt.stats["passes"] == 1
+
+
+@pytest.mark.parametrize("method", ["sppm", "ppm"])
+def test_a_photon_methods_first_pass_pauses_and_goes_on_to_the_same_image(method):
+    """iterate(seconds): a photon method's first pass returns early between its camera-path
+    tiles and between its stages (photons, gather), so Blender publishes images within it: the
+    camera paths' own light at the tiles they reached. Its later passes are one whole each (a
+    pause there would show the same image), and the image is bit for bit that of whole passes."""
+    scene = _native.load_scene(CORNELL)
+    scene.width, scene.height = 64, 48
+    params = {"seed": 5, "threads": 1, "tile_size": 8, "photons": 2000}
+    whole = _native.Session(scene, method, params)
+    whole.run(passes=2)
+    paused = _native.Session(scene, method, params)
+    calls, lit = 0, []
+    while paused.stats.get("passes", 0) < 1:
+        paused.iterate(seconds=1e-9)  # pause at the first chance: one eye tile a call
+        calls += 1
+        img = paused.develop()["combined"]
+        assert np.isfinite(img).all()
+        if paused.stats.get("passes", 0) == 0:
+            lit.append(int((img > 0).any(axis=2).sum()))
+        assert calls < 1000
+    # 48 eye tiles, then a pause after the eye pass and one after the photons: 50 images.
+    assert calls == 8 * 6 + 2
+    assert 0 < lit[4] < lit[40] < 64 * 48 or method == "ppm" and lit[4] <= lit[40]
+    paused.iterate(seconds=1e-9)  # the second pass: whole
+    assert paused.stats["passes"] == 2
+    for name in ("combined", "error", "radius"):
+        np.testing.assert_array_equal(paused.develop()[name], whole.develop()[name])
 
 
 def test_bad_input_raises_clear_errors(tmp_path):

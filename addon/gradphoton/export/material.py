@@ -42,7 +42,7 @@ Normal Map or Bump node, or any vector output).
 Approximations, each one counted warning naming the material and the node:
   - a node the core does not evaluate (export/nodes.py SUPPORTED): the input it feeds keeps its
     own value;
-  - a closure the core lacks (Toon, Hair, Holdout, Subsurface Scattering, ...): 0.8 grey diffuse.
+  - a closure the core lacks (Toon, Hair, Subsurface Scattering, ...): 0.8 grey diffuse.
 Dispersion comes from the material's gradphoton panel.
 """
 
@@ -251,10 +251,8 @@ class MaterialExporter:
                                      node, path)
         if kind == 'ShaderNodeHoldout':
             # Cycles' Holdout closure: the surface is cut out of the image (no colour, alpha 0) where
-            # the camera sees it. The core holds out whole materials: inside a Mix or Add the whole
-            # material is held out (a warning; Cycles weighs a holdout by the mix).
-            if depth > 0:
-                self.w.add("Holdout inside a mix holds out the whole surface", f"'{mat.name}': {self._nid(node, path)}")
+            # the camera sees it. Inside a Mix or Add it is a black part weighted by the mix, and
+            # its weight becomes the material's `holdout` (_mix): alpha 1 - weight.
             return {"type": "emission", "strength": 0.0, "holdout": True}
         if kind == 'ShaderNodeEmission':
             return {"type": "emission", "emission": self._in(node, path, "Color"),
@@ -302,6 +300,7 @@ class MaterialExporter:
             if cut_out is not None:
                 return cut_out
         parts = [self._sub(p, depth) for p in pairs]
+        holdout = self._holdout_weight(parts, weights)
         lifted = {}
         for d in parts:
             for key in SURFACE_KEYS:
@@ -324,7 +323,25 @@ class MaterialExporter:
         if emission is not None and _positive(emission):
             out.update({"emission": emission, "strength": 1.0, "two_sided": True})
         out.update(lifted)
+        if holdout is not None:
+            out["holdout"] = holdout
         return out
+
+    def _holdout_weight(self, parts, weights):
+        """The holdout weight of a Mix / Add Shader, taken out of its parts: each part's (True: 1)
+        times its weight, summed, as Cycles sums its holdout closures' weights (svm_node_closure_holdout
+        allocates one with the mix weight; shader_holdout_apply adds them). True for a constant 1
+        or more (the whole surface), a number in (0, 1), a link (the core clamps it), None for none."""
+        total = None
+        for d, w in zip(parts, weights):
+            h = d.pop("holdout", None)
+            if h is None or h is False:
+                continue
+            term = w if h is True else h if w == 1.0 else self.g.math("MULTIPLY", h, w, hint="holdout")
+            total = term if total is None else self.g.math("ADD", total, term, hint="holdout")
+        if total is None or _is_link(total):
+            return total
+        return True if total >= 1.0 else total if total > 0.0 else None
 
     def _transparent_mix(self, pairs, t, depth):
         """Mix Shader of a Transparent BSDF (white) and one other shader: that shader with

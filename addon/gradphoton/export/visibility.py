@@ -122,8 +122,8 @@ def check_method(description, method, warnings, honoured=None):
     # Held-out surfaces are material variants "<material> [holdout=True, ...]" (material.py's name_for).
     holdouts = sorted({name.split(" [")[0] for name, d in description["materials"].items() if d.get("holdout")})
     if holdouts and not (info.get("holdout", True) if info is not None else honoured.get("holdout", True)):
-        warnings.add(f"Holdout not rendered by {method}: objects set to Mask > Holdout render as plain surfaces "
-                     f"({', '.join(holdout_methods())} hold them out)",
+        warnings.add(f"Holdout not rendered by {method}: objects set to Mask > Holdout and Holdout shaders "
+                     f"render as plain surfaces ({', '.join(holdout_methods())} hold them out)",
                      ", ".join(f"material '{m}'" for m in holdouts))
     if honoured is None:
         honoured = info.get("lobe_visibility") or {}

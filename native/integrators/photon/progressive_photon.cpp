@@ -61,7 +61,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   px_.assign(n, PixelState{});
   vp_.assign(n, VisiblePoint{});
   pass_direct_.assign(n, RGB(0.0f));
-  pass_covered_.assign(n, 1);
+  pass_covered_.assign(n, 1.0f);
   first_r_.assign(n, 0.0f);
   gather_m_.assign(n, 0.0f);
   gather_lap_.assign(n, 0.0f);
@@ -155,11 +155,47 @@ RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, co
   return scene.occluded(hit.p, hit.ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;
 }
 
-// ---- Eye pass: one camera path per pixel to its measurement point ----
-void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
-                                        std::atomic<int64_t>& invalid_out) {
+bool ProgressivePhotonMapping::eye_tiles(ProgressSink* sink, bool may_pause, const std::function<void(const Tile&)>& fn) {
+  const int tiles_x = (width_ + tile_size_ - 1) / tile_size_;
+  const size_t n_tiles = static_cast<size_t>(tiles_x) * ((height_ + tile_size_ - 1) / tile_size_);
+  if (eye_tile_done_.empty()) eye_tile_done_.assign(n_tiles, 0);  // a new eye pass
+  std::atomic<bool> paused{false};
+  std::atomic<size_t> tiles_now{0};  // tiles this call did
   parallel_for_tiles(
       width_, height_, tile_size_, threads_,
+      [&](const Tile& tile) {
+        const size_t index = static_cast<size_t>(tile.y0 / tile_size_) * tiles_x + tile.x0 / tile_size_;
+        if (index < n_tiles && eye_tile_done_[index]) return;  // done before a pause
+        fn(tile);
+        if (index < n_tiles) eye_tile_done_[index] = 1;
+        tiles_now.fetch_add(1, std::memory_order_relaxed);
+      },
+      [&] {
+        if (!sink) return false;
+        if (sink->cancelled() || paused.load(std::memory_order_relaxed)) return true;
+        // At least one tile a call, as PixelEstimate::run_pass_tiles, so a caller pausing early moves on.
+        if (!may_pause || tiles_now.load(std::memory_order_relaxed) == 0 || !sink->pause()) return false;
+        paused = true;
+        return true;
+      });
+  // A call that did not pause did every tile left (or was cancelled: the pass is abandoned).
+  const bool done = !paused.load() || (sink && sink->cancelled());
+  if (done) eye_tile_done_.clear();
+  return done;
+}
+
+bool ProgressivePhotonMapping::eye_tile_done(size_t pixel) const {
+  if (eye_tile_done_.empty()) return false;
+  const int tiles_x = (width_ + tile_size_ - 1) / tile_size_;
+  const int x = static_cast<int>(pixel % width_), y = static_cast<int>(pixel / width_);
+  return eye_tile_done_[static_cast<size_t>(y / tile_size_) * tiles_x + x / tile_size_] != 0;
+}
+
+// ---- Eye pass: one camera path per pixel to its measurement point ----
+bool ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause,
+                                        std::atomic<int64_t>& rays_out, std::atomic<int64_t>& invalid_out) {
+  return eye_tiles(
+      sink, may_pause,
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         EyePathHooks none;
@@ -192,14 +228,13 @@ void ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, std::
               path.vp.material = -1;
             }
             pass_direct_[pixel] = path.Ld;
-            pass_covered_[pixel] = path.escaped ? 0 : 1;
+            pass_covered_[pixel] = path.escaped ? 0.0f : first.coverage[k];  // a Holdout in a mix: 1 - weight
             vp_[pixel] = path.vp;
             first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length, ext) : 0.0f;
           }
         rays_out += rays;
         invalid_out += invalid;
-      },
-      [sink] { return sink && sink->cancelled(); });
+      });
 }
 
 void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
@@ -211,56 +246,87 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   // first pass: its passes all take that pass's time (no blur; Method::supports says so). ----
   const ShutterTime at_time(scene_.pass_shutter_time(seed_, retrace_ ? pass : 0));
   const size_t n_pixels = px_.size();
-  std::atomic<int64_t> rays{0}, invalid{0};
-
-  // ---- Measurement points (every pass for SPPM, once for PPM) ----
-  const auto t_eye = clock_type::now();
-  if (spectral_) {
-    wl_ = pass_wavelengths(pass);
-    pass_spectra_.evaluate(scene_, *spectra_, wl_);
-    if (media_) {
-      pass_media_.clear();
-      for (const MediumSpectra& m : spectra_->media) pass_media_.push_back(m.at(wl_));
-    }
-    for (int k = 0; k < wl_.count; ++k) {
-      SpectralValues e{};
-      e[k] = 1.0f;
-      wl_basis_[k] = sample_to_rgb(e, wl_);
-    }
-  }
-  if (retrace_ || !have_points_) {
-    if (spectral_) spectral_eye_pass(pass, sink, rays, invalid);
-    else eye_pass(pass, sink, rays, invalid);
-    if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
-    have_points_ = true;
-    set_initial_radii();
-  }
-  stats_.extra["eye seconds"] += seconds_since(t_eye);
-
-  // ---- Photon pass ----
-  const auto t_trace = clock_type::now();
-  const std::function<bool()> cancelled = [sink] { return sink && sink->cancelled(); };
+  // The first pass stops between eye tiles and between its stages when the sink asks
+  // (ProgressSink::pause: Blender's F12 window shows what it has, develop()'s preview); the next
+  // call goes on where it stopped, with the same random numbers, so the pass is a whole one's.
+  const bool may_pause = sink && stats_.passes == 0;
+  std::atomic<int64_t> rays{open_rays_}, invalid{open_invalid_};
+  const auto leave_open = [&] {  // the pass stays open for the next call
+    open_rays_ = rays;
+    open_invalid_ = invalid;
+    stats_.seconds += seconds_since(start);
+  };
+  const auto pause_here = [&] {
+    if (!may_pause || !sink->pause()) return false;
+    leave_open();
+    return true;
+  };
   PhotonPassStats ps;
-  if (adaptive_) {
-    // ---- Adaptive MCMC photon tracing (thesis ch. 8): V(u) against this pass's points ----
-    visibility_points_.clear();
-    for (size_t i = 0; i < n_pixels; ++i)
-      if (vp_[i].material >= 0)
-        visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
-    visibility_.build(visibility_points_, threads_, cancelled);
-    if (cancelled()) return;  // the grid of 2 M points at 1080p takes a few hundred ms
-    if (media_) build_beam_visibility(cancelled);
-    if (cancelled()) return;
-    ps = adaptive_->trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, visibility_, photons_, cancelled,
-                          media_ ? &beam_visibility_ : nullptr, media_ ? &volume_photons_ : nullptr);
-  } else if (spectral_) {
-    ps = spectral_trace(pass, cancelled);
-  } else {
-    ps = tracer_.trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, photons_, nullptr, nullptr, cancelled,
-                       media_ ? &volume_photons_ : nullptr);
+  if (stage_ == Stage::Eye) {
+    // ---- Measurement points (every pass for SPPM, once for PPM) ----
+    const auto t_eye = clock_type::now();
+    if (spectral_) {
+      wl_ = pass_wavelengths(pass);
+      pass_spectra_.evaluate(scene_, *spectra_, wl_);
+      if (media_) {
+        pass_media_.clear();
+        for (const MediumSpectra& m : spectra_->media) pass_media_.push_back(m.at(wl_));
+      }
+      for (int k = 0; k < wl_.count; ++k) {
+        SpectralValues e{};
+        e[k] = 1.0f;
+        wl_basis_[k] = sample_to_rgb(e, wl_);
+      }
+    }
+    if (retrace_ || !have_points_) {
+      const bool done = spectral_ ? spectral_eye_pass(pass, sink, may_pause, rays, invalid)
+                                  : eye_pass(pass, sink, may_pause, rays, invalid);
+      if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
+      stats_.extra["eye seconds"] += seconds_since(t_eye);
+      if (!done) {  // paused between tiles (the sink asked)
+        leave_open();
+        return;
+      }
+      have_points_ = true;
+      set_initial_radii();
+    } else {
+      stats_.extra["eye seconds"] += seconds_since(t_eye);
+    }
+    stage_ = Stage::Photons;
+    if (pause_here()) return;
   }
-  stats_.extra["trace seconds"] += seconds_since(t_trace);
-  if (sink && sink->cancelled()) return;
+
+  const std::function<bool()> cancelled = [sink] { return sink && sink->cancelled(); };
+  if (stage_ == Stage::Photons) {
+    // ---- Photon pass ----
+    const auto t_trace = clock_type::now();
+    if (adaptive_) {
+      // ---- Adaptive MCMC photon tracing (thesis ch. 8): V(u) against this pass's points ----
+      visibility_points_.clear();
+      for (size_t i = 0; i < n_pixels; ++i)
+        if (vp_[i].material >= 0)
+          visibility_points_.push_back({vp_[i].p, vp_[i].frame.n, vp_[i].wo.z, static_cast<float>(std::sqrt(px_[i].r2))});
+      visibility_.build(visibility_points_, threads_, cancelled);
+      if (cancelled()) return;  // the grid of 2 M points at 1080p takes a few hundred ms
+      if (media_) build_beam_visibility(cancelled);
+      if (cancelled()) return;
+      ps = adaptive_->trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, visibility_, photons_, cancelled,
+                            media_ ? &beam_visibility_ : nullptr, media_ ? &volume_photons_ : nullptr);
+    } else if (spectral_) {
+      ps = spectral_trace(pass, cancelled);
+    } else {
+      ps = tracer_.trace(photons_for_pass(pass), pass, nee_ ? 1 : 0, photons_, nullptr, nullptr, cancelled,
+                         media_ ? &volume_photons_ : nullptr);
+    }
+    stats_.extra["trace seconds"] += seconds_since(t_trace);
+    if (sink && sink->cancelled()) return;
+    open_ps_ = ps;
+    stage_ = Stage::Gather;
+    if (pause_here()) return;
+  }
+  ps = open_ps_;
+  stage_ = Stage::Eye;  // this call ends the pass (or a cancel abandons it)
+  open_rays_ = open_invalid_ = 0;
 
   // ---- Lookup: hash grid of this pass's photons, gathered by every measurement point ----
   const auto t_lookup = clock_type::now();
@@ -633,6 +699,19 @@ void ProgressivePhotonMapping::develop(Film& film) const {
   Pass& count = film.add_pass(pass::kPhotonCount, 1);
   Pass* alpha = film_transparent_ ? &film.add_pass(pass::kAlpha, 1) : nullptr;
   const double passes = static_cast<double>(std::max<int64_t>(stats_.passes, 1));
+  if (stats_.passes == 0 && (stage_ != Stage::Eye || !eye_tile_done_.empty())) {
+    // The first pass paused before its end (iterate, ProgressSink::pause): a preview, the light
+    // its camera paths have seen themselves (emission, and direct light where the method adds it
+    // by next-event estimation), at the pixels they reached; nothing is left of it after the pass.
+    const bool eye_done = stage_ != Stage::Eye;
+    for (size_t i = 0; i < px_.size(); ++i) {
+      const bool seen = eye_done || eye_tile_done(i);
+      for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = seen ? pass_direct_[i][c] : 0.0f;
+      error.data[i] = radius.data[i] = count.data[i] = 0.0f;
+      if (alpha) alpha->data[i] = seen ? pass_covered_[i] : 0.0f;
+    }
+    return;
+  }
   for (size_t i = 0; i < px_.size(); ++i) {
     const RGB L = pixel_radiance(i);
     for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = L[c];

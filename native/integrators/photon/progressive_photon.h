@@ -204,7 +204,14 @@ class ProgressivePhotonMapping : public Integrator {
   void record_error_sample(PixelState& s, double Ld, double phi, double lap_j, double r2_query, double ne_pass,
                            const PassBoundary* boundary = nullptr) const;
 
-  void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+  // The eye pass over the tiles it has not done (eye_tiles); false when it paused first.
+  bool eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::atomic<int64_t>& rays,
+                std::atomic<int64_t>& invalid);
+  // fn over the open eye pass's tiles not done yet. With `may_pause`, it stops handing out tiles
+  // once the sink asks (ProgressSink::pause) after at least one, and returns false: the next call
+  // goes on with the others, so the pass is the same as a whole one. True when the pass is done.
+  bool eye_tiles(ProgressSink* sink, bool may_pause, const std::function<void(const Tile&)>& fn);
+  bool eye_tile_done(size_t pixel) const;
 
   // ---- One camera path of the eye pass (shared with GPM, whose offsets follow it) ----
   struct EyePath {
@@ -282,7 +289,8 @@ class ProgressivePhotonMapping : public Integrator {
   // ---- Spectral photons (progressive_photon_spectral.cpp) ----
   // One set of wavelengths per pass, shared by its eye paths and photons.
   SampledWavelengths pass_wavelengths(uint64_t pass) const;
-  void spectral_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+  bool spectral_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::atomic<int64_t>& rays,
+                         std::atomic<int64_t>& invalid);
   PhotonPassStats spectral_trace(uint64_t pass, const std::function<bool()>& cancelled);
   // The gathers poll the cancel check every this many pixels (2 M at 1080p).
   static constexpr size_t kCancelPollPixels = 4096;
@@ -369,7 +377,7 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<Photon> photons_;        // this pass only; cleared (capacity kept) every pass
   std::vector<VisiblePoint> vp_;
   std::vector<RGB> pass_direct_;       // this pass's eye-path light per pixel
-  std::vector<uint8_t> pass_covered_;  // this pass's camera ray hit the scene (1) or escaped (0)
+  std::vector<float> pass_covered_;  // this pass's camera ray hit the scene (1; 1 - a mixed holdout's weight) or escaped (0)
   bool film_transparent_ = false;
   std::vector<float> first_r_;         // footprint radius proposed by the eye pass
   std::vector<PixelState> px_;
@@ -377,6 +385,13 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<std::array<float, 3>> gather_boundary_;  // other surfaces' flux, own flux's first moment (u, v)
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
+  // ---- The open pass, between calls of iterate() that paused (only before the first pass
+  // ends: a pause in a later pass would show the image of the passes before it again) ----
+  enum class Stage { Eye, Photons, Gather };
+  Stage stage_ = Stage::Eye;           // what the open pass does next
+  std::vector<uint8_t> eye_tile_done_;  // the open eye pass's tiles (row-major); empty: none done
+  PhotonPassStats open_ps_;            // its photons' figures, from Photons to Gather
+  int64_t open_rays_ = 0, open_invalid_ = 0;
   double estimated_error_ = INFINITY;
   double t_quantile_ = INFINITY;       // t(dof, 1 - beta/2) of the last pass (eq. 6.10)
   // error_bound = "thesis": eq. 6.12 as written (E_i + |B'_i|, B' with R_i^2 (eq. 6.19), t with

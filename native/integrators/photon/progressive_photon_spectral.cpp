@@ -176,11 +176,11 @@ bool ProgressivePhotonMapping::eye_survive(SpectralEye& c, float u, float*) cons
   return true;
 }
 
-void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
-                                                 std::atomic<int64_t>& invalid_out) {
+bool ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause,
+                                                 std::atomic<int64_t>& rays_out, std::atomic<int64_t>& invalid_out) {
   const int C = wl_.count;
-  parallel_for_tiles(
-      width_, height_, tile_size_, threads_,
+  return eye_tiles(
+      sink, may_pause,
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         // The tile's camera rays are traced together (as in eye_pass).
@@ -215,7 +215,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               vp.material = -1;
             }
             pass_direct_[pixel] = Lrgb;
-            pass_covered_[pixel] = escaped ? 0 : 1;
+            pass_covered_[pixel] = escaped ? 0.0f : first.coverage[i];  // a Holdout in a mix: 1 - weight
             vp_[pixel] = vp;
             vp_beta_[pixel] = beta;
             vp_hero_[pixel] = hero_only ? 1 : 0;
@@ -223,8 +223,7 @@ void ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
           }
         rays_out += rays;
         invalid_out += invalid;
-      },
-      [sink] { return sink && sink->cancelled(); });
+      });
 }
 
 PhotonPassStats ProgressivePhotonMapping::spectral_trace(uint64_t pass, const std::function<bool()>& cancelled) {
