@@ -701,24 +701,67 @@ float burley_diffuse(float r, const Vec3& wo, const Vec3& wi) {
   return (1.0f - 0.5f * fl) * (1.0f - 0.5f * fv) + rr * (fl + fv + fl * fv * (rr - 1.0f));
 }
 
+// Cycles' hue-only colour of a tint t (svm_closure.h): mix(1, color / lum, t), 1 for a black
+// colour. `lum` is the RGB colour's luminance (BsdfParams::*_tint_lum).
+RGB tint_color(const RGB& color, float lum, float t) {
+  const RGB hue = lum > 0.0f ? color / lum : RGB(1.0f);
+  return RGB(1.0f - t) + hue * t;
+}
+
+// The specular lobe's Fresnel factor at cos_h. With Specular Tint t, Cycles' principled v1
+// Fresnel (bsdf_util.h interpolate_fresnel_color) with cspec0 = saturate(F0 mix(1, hue, t)),
+// F0 = F_d(1, ior) = 0.08 Specular: F = cspec0 (1 - FH) + FH, FH = (F_d(cos_h) - F0) / (1 - F0);
+// untinted that is F_d(cos_h) itself.
+RGB principled_spec_fresnel(const BsdfParams& m, float cos_h) {
+  const float fd = fresnel_dielectric(cos_h, m.ior);
+  if (m.specular_tint <= 0.0f) return RGB(fd);
+  const float f0 = fresnel_dielectric(1.0f, m.ior);
+  if (!(f0 < 1.0f)) return RGB(1.0f);
+  const RGB c = tint_color(m.color, m.specular_tint_lum, m.specular_tint) * f0;
+  const RGB cspec0(clamp(c.r, 0.0f, 1.0f), clamp(c.g, 0.0f, 1.0f), clamp(c.b, 0.0f, 1.0f));
+  const float fh = (fd - f0) / (1.0f - f0);
+  return cspec0 * (1.0f - fh) + RGB(fh);
+}
+
 RGB principled_spec_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (m.roughness < kSmoothAlpha || !same_hemisphere(wo, wi)) return RGB(0.0f);
   float cos_h = 0;
   const float f = microfacet_reflection(m.roughness, wo, wi, &cos_h);
-  return RGB(fresnel_dielectric(cos_h, m.ior) * f);
+  return principled_spec_fresnel(m, cos_h) * f;
+}
+
+// Cycles 3.4's Principled sheen (bsdf_principled_sheen.h, after Burley 2012 §5.4): f = Sheen x
+// mix(1, hue, Sheen Tint) x (1 - wi.h)^5, no 1 / pi (Burley's Fsheen is added to the diffuse
+// term outside its 1 / pi), h = normalize(wi + wo); a diffuse closure, cosine-sampled, so the
+// diffuse lobe's sampler covers it.
+RGB principled_sheen_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  if (!(m.sheen > 0.0f)) return RGB(0.0f);
+  const Vec3 h = wo + wi;
+  if (length_squared(h) == 0) return RGB(0.0f);
+  return tint_color(m.color, m.sheen_tint_lum, m.sheen_tint) * (m.sheen * pow5(1.0f - absdot(wi, normalize(h))));
 }
 
 RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f, uint8_t lobes = kAllLobes) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
   RGB f(0.0f);
-  if (lobes & kRayDiffuse) f += m.color * (kInvPi * burley_diffuse(std::sqrt(std::max(0.0f, m.roughness)), wo, wi) * g);
+  if (lobes & kRayDiffuse) {
+    f += m.color * (kInvPi * burley_diffuse(std::sqrt(std::max(0.0f, m.roughness)), wo, wi) * g);
+    if (m.sheen > 0.0f) f += principled_sheen_eval(m, wo, wi) * g;
+  }
   if (lobes & kRayGlossy) f += principled_spec_eval(m, wo, wi);
   return f;
 }
 
 float principled_spec_probability(const BsdfParams& m, const Vec3& wo) {
-  const float F = fresnel_dielectric(abs_cos_theta(wo), m.ior);
-  return clamp(F / (F + std::max(0.0f, m.color.average()) + 1e-6f), 0.1f, 0.9f);
+  const float F = m.specular_tint > 0.0f ? principled_spec_fresnel(m, abs_cos_theta(wo)).average()
+                                         : fresnel_dielectric(abs_cos_theta(wo), m.ior);
+  float diffuse = std::max(0.0f, m.color.average());
+  // The sheen's share of the diffuse side: Cycles' sample weight of it, Sheen x colour x
+  // (1 - cos_o)^5 (calculate_avg_principled_sheen_brdf without its cosine).
+  if (m.sheen > 0.0f)
+    diffuse += m.sheen * std::max(0.0f, tint_color(m.color, m.sheen_tint_lum, m.sheen_tint).average()) *
+               pow5(1.0f - abs_cos_theta(wo));
+  return clamp(F / (F + diffuse + 1e-6f), 0.1f, 0.9f);
 }
 
 float principled_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) {
@@ -738,7 +781,7 @@ std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo,
   if (!lobe) return std::nullopt;
   lobe->lobe = uc < ps ? kRayGlossy : kRayDiffuse;
   if (lobe->delta) {  // a smooth specular lobe: its Dirac weight F / |cos|, chosen with probability ps
-    lobe->f = RGB(fresnel_dielectric(abs_cos_theta(wo), m.ior) / abs_cos_theta(wo));
+    lobe->f = principled_spec_fresnel(m, abs_cos_theta(wo)) / abs_cos_theta(wo);
     lobe->pdf *= ps;
     return lobe;
   }
@@ -746,6 +789,77 @@ std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo,
   lobe->pdf = principled_pdf(m, wo, lobe->wi);
   if (!valid_sample(lobe->f, lobe->pdf)) return std::nullopt;
   return lobe;
+}
+
+// ---- Clearcoat: Cycles 3.4's Principled clearcoat closure ----
+//
+// kernel/closure/bsdf_microfacet.h, CLOSURE_BSDF_MICROFACET_GGX_CLEARCOAT_ID, as svm_closure.h
+// sets it up (IOR 1.5, cspec0 0.04, alpha = Clearcoat Roughness^2 saturated):
+//   f = 0.25 clearcoat F(wo.h) D(h) G1(wo) G1(wi) / (4 cos_o cos_i),
+// D Burley's GTR1 (Burley 2012, appendix B.2: (a^2 - 1) / (pi ln(a^2) (1 + (a^2 - 1) cos^2_h)),
+// 1 / pi for a >= 1), G1 the separable Smith GGX masking of a fixed alpha 0.25 ([Walter07]
+// eq. 34), F the dielectric Fresnel of IOR 1.5 (Cycles' interpolated Fresnel with cspec0 = F0
+// is exactly that). Sampled by GTR1's own half-vector density D cos_h (Burley 2012, B.2:
+// cos^2_h = (1 - a^2^(1 - u)) / (1 - a^2)), an exact pdf; Cycles draws GGX visible normals of
+// the same alpha but reports GTR1's density, which only its BSDF-sampled estimates see.
+// A Dirac mirror below Cycles' own smoothness test, alpha^2 <= 1e-7 (Clearcoat Roughness below
+// about 0.018), not kSmoothAlpha: GTR1's long tails keep a third of its microfacets beyond
+// 6 degrees even at Blender's default alpha 0.0009.
+
+constexpr float kClearcoatIor = 1.5f, kClearcoatG1Alpha = 0.25f;
+
+bool clearcoat_is_smooth(const BsdfParams& m) { return m.roughness * m.roughness <= 1e-7f; }
+
+float gtr1_D(float alpha, float cos_h) {
+  const float a2 = alpha * alpha;
+  if (a2 >= 1.0f) return kInvPi;
+  const float t = 1.0f + (a2 - 1.0f) * cos_h * cos_h;
+  return (a2 - 1.0f) / (kPi * std::log(a2) * t);
+}
+
+float clearcoat_G1(const Vec3& w) { return Ggx{kClearcoatG1Alpha}.G1(w); }
+
+float clearcoat_weight(const BsdfParams& m) { return 0.25f * std::max(0.0f, m.clearcoat); }
+
+// f and the sampling density of wi for a pair on one side (0 otherwise).
+float clearcoat_f(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float* pdf) {
+  *pdf = 0.0f;
+  if (clearcoat_is_smooth(m) || !same_hemisphere(wo, wi)) return 0.0f;
+  const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
+  if (cos_o == 0 || cos_i == 0) return 0.0f;
+  Vec3 h = wo + wi;
+  if (length_squared(h) == 0) return 0.0f;
+  h = normalize(h);
+  const float cos_h = abs_cos_theta(h), wo_dot_h = absdot(wo, h);
+  if (wo_dot_h == 0) return 0.0f;
+  const float D = gtr1_D(m.roughness, cos_h);
+  *pdf = D * cos_h / (4.0f * wo_dot_h);  // [Walter07] eq. 14
+  return clearcoat_weight(m) * fresnel_dielectric(wo_dot_h, kClearcoatIor) * D * clearcoat_G1(wo) *
+         clearcoat_G1(wi) / (4.0f * cos_o * cos_i);
+}
+
+std::optional<BsdfSample> clearcoat_sample(const BsdfParams& m, const Vec3& wo, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  BsdfSample s;
+  if (clearcoat_is_smooth(m)) {  // Cycles' singular branch: weight F(cos_o) x 0.25 clearcoat
+    s.wi = mirror_z(wo);
+    s.f = RGB(clearcoat_weight(m) * fresnel_dielectric(abs_cos_theta(wo), kClearcoatIor) / abs_cos_theta(wo));
+    s.pdf = 1.0f;
+    s.delta = true;
+    return s;
+  }
+  const float a2 = m.roughness * m.roughness;
+  const float cos2 = a2 >= 1.0f ? u.x : (1.0f - std::pow(a2, 1.0f - u.x)) / (1.0f - a2);
+  const float cos_t = std::sqrt(clamp(cos2, 0.0f, 1.0f)), sin_t = safe_sqrt(1.0f - cos_t * cos_t);
+  const float phi = 2.0f * kPi * u.y;
+  Vec3 h(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
+  if (wo.z < 0) h = -h;
+  const Vec3 wi = reflect(wo, h);
+  if (!same_hemisphere(wo, wi)) return std::nullopt;
+  s.wi = wi;
+  s.f = RGB(clearcoat_f(m, wo, wi, &s.pdf));
+  if (!valid_sample(s.f, s.pdf)) return std::nullopt;
+  return s;
 }
 
 }  // namespace
@@ -857,6 +971,10 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
   p.conductor_fresnel = m.conductor_fresnel;
   p.distribution = m.distribution;
   p.ior = m.ior;
+  p.specular_tint = m.specular_tint;
+  p.sheen = m.sheen;
+  p.sheen_tint = m.sheen_tint;
+  p.clearcoat = m.clearcoat;
   p.refraction_only = m.refraction_only;
   p.coat_albedo = m.coat_albedo.get();
   p.mix_factor = m.factor_tex ? m.factor_tex.value(uv) : m.mix_factor;
@@ -877,6 +995,16 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
     if (m.roughness_in) p.roughness = clamp(finite_or(value(m.roughness_in), 0.0f), 0.0f, 1.0f);
     if (m.factor_in) p.mix_factor = clamp(finite_or(value(m.factor_in), 0.0f), 0.0f, 1.0f);
     if (m.ior_in) p.ior = std::max(finite_or(value(m.ior_in), 1.0f), 1e-3f);
+    if (m.specular_tint_in) p.specular_tint = clamp(finite_or(value(m.specular_tint_in), 0.0f), 0.0f, 1.0f);
+    if (m.sheen_in) p.sheen = std::max(finite_or(value(m.sheen_in), 0.0f), 0.0f);
+    if (m.sheen_tint_in) p.sheen_tint = clamp(finite_or(value(m.sheen_tint_in), 0.0f), 0.0f, 1.0f);
+    if (m.clearcoat_in) p.clearcoat = std::max(finite_or(value(m.clearcoat_in), 0.0f), 0.0f);
+  }
+  if (p.type == MaterialType::Principled && (p.specular_tint > 0.0f || p.sheen > 0.0f)) {
+    // svm_closure.h: "luminance approx." for the specular tint, linear_rgb_to_gray (the scene's
+    // linear Rec. 709 Y) for the sheen's.
+    p.specular_tint_lum = 0.3f * p.color.r + 0.6f * p.color.g + 0.1f * p.color.b;
+    p.sheen_tint_lum = 0.2126729f * p.color.r + 0.7151522f * p.color.g + 0.0721750f * p.color.b;
   }
   return p;
 }
@@ -914,6 +1042,10 @@ RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t
     case MaterialType::Velvet: return (lobes & kRayDiffuse) ? velvet_eval(p_, wo, wi) : RGB(0.0f);
     case MaterialType::Plastic: return plastic_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
     case MaterialType::Principled: return principled_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
+    case MaterialType::Clearcoat: {
+      float pdf;
+      return (lobes & kRayGlossy) ? RGB(clearcoat_f(p_, wo, wi, &pdf)) : RGB(0.0f);
+    }
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       RGB f(0.0f);
@@ -936,6 +1068,11 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
     case MaterialType::Velvet: return (lobes & kRayDiffuse) ? velvet_pdf(wo, wi) : 0.0f;
     case MaterialType::Plastic: return plastic_pdf(p_, wo, wi, lobes);
     case MaterialType::Principled: return principled_pdf(p_, wo, wi, lobes);
+    case MaterialType::Clearcoat: {
+      float pdf;
+      clearcoat_f(p_, wo, wi, &pdf);
+      return (lobes & kRayGlossy) ? pdf : 0.0f;
+    }
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       float pdf = 0;
@@ -955,6 +1092,9 @@ namespace {
 float closure_weight(const Material& m, const shading::ShadingContext& uv) {
   const BsdfParams p = bsdf_params(m, uv);
   if (p.type == MaterialType::Emission) return 0.0f;
+  // Cycles' clearcoat sample weight is 0.25 clearcoat x its Fresnel at wo (unknown here): at
+  // normal incidence, 0.04.
+  if (p.type == MaterialType::Clearcoat) return 0.04f * clearcoat_weight(p);
   if (p.type != MaterialType::Mix || !p.mix_a || !p.mix_b) return std::abs(p.color.average());
   const MixParts s = mix_parts(p);
   return s.scale_a * closure_weight(*p.mix_a, uv) + s.scale_b * closure_weight(*p.mix_b, uv);
@@ -1001,6 +1141,11 @@ std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, T
     }
     case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u, mode);
     case MaterialType::Principled: return principled_sample(p_, wo, uc, u, mode);
+    case MaterialType::Clearcoat: {
+      auto s = clearcoat_sample(p_, wo, u);
+      if (s) s->lobe = kRayGlossy;
+      return s;
+    }
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       const bool pick_b = uc < p.prob_b;
@@ -1027,6 +1172,7 @@ bool Bsdf::is_delta() const {
   switch (kind()) {
     case MaterialType::Conductor: return p_.roughness < kSmoothAlpha;
     case MaterialType::Dielectric: return dielectric_is_smooth(p_);
+    case MaterialType::Clearcoat: return clearcoat_is_smooth(p_);
     case MaterialType::Mix: return component(p_.mix_a).is_delta() && component(p_.mix_b).is_delta();
     default: return false;
   }
@@ -1040,6 +1186,7 @@ bool Bsdf::is_black() const {
     case MaterialType::Translucent:
     case MaterialType::Velvet:
     case MaterialType::Dielectric: return p_.color.is_black();
+    case MaterialType::Clearcoat: return !(p_.clearcoat > 0.0f);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       return (p.scale_a == 0 || component(p_.mix_a).is_black()) && (p.scale_b == 0 || component(p_.mix_b).is_black());
@@ -1054,7 +1201,8 @@ bool Bsdf::is_diffuse_for_photons(float threshold) const {
     case MaterialType::Translucent:
     case MaterialType::Velvet: return true;
     case MaterialType::Conductor:
-    case MaterialType::Dielectric: return p_.roughness > threshold;
+    case MaterialType::Dielectric:
+    case MaterialType::Clearcoat: return p_.roughness > threshold;
     case MaterialType::Emission: return false;
     case MaterialType::Plastic:
     case MaterialType::Principled: return true;  // its diffuse lobe stores photons

@@ -20,7 +20,10 @@ nodes resolved, as Cycles reads the tree). Closures:
       Transmission t mixes that with glass: mix(..., glass, (1 - m) t).
     The metal's Fresnel is Cycles': the base colour blended toward white by the dielectric
     Fresnel of the Specular IOR (the core's conductor with "fresnel": "principled").
-    Specular Tint, sheen, clearcoat and subsurface are dropped (a counted warning each).
+    Specular Tint, Sheen and Sheen Tint are the non-metal part's (`specular_tint`, `sheen`,
+    `sheen_tint`); Clearcoat is Cycles' clearcoat closure (the core's `clearcoat`: GTR1 of alpha
+    Clearcoat Roughness^2, its own Clearcoat Normal) added to the rest: add(..., clearcoat).
+    Subsurface is dropped and Multiscatter GGX renders as GGX (a counted warning each).
 
 Where a closure input needs arithmetic on linked values (roughness r -> GGX alpha r^2, the glass
 layer's (1 - m) t, the Specular IOR, a Mix's clamped factor and its emission weights) the exporter
@@ -366,10 +369,20 @@ class MaterialExporter:
         ior = g.math("DIVIDE", g.math("ADD", 1.0, sf0, hint="specular"), g.math("SUBTRACT", 1.0, sf0, hint="specular"),
                      hint="specular")
         d = self._with_normal({"type": "principled", "color": base, "roughness": alpha, "ior": ior}, node, path)
-        for name in ("Specular Tint", "Subsurface", "Sheen", "Clearcoat"):
-            s = node.inputs.get(name)
-            if s is not None and _positive(self._num(node, path, name)):
-                self.w.add(f"Principled BSDF {name} dropped", f"'{mat.name}': {nid}")
+        # Cycles' Specular Tint and Sheen (+ Sheen Tint) belong to the non-metal part: the tint of
+        # its specular lobe and a sheen lobe weighted like its diffuse one (svm_closure.h).
+        spec_tint = self._clamp01(self._num(node, path, "Specular Tint"), "specular_tint")
+        if _positive(spec_tint):
+            d["specular_tint"] = spec_tint
+        sheen = g.math("MAXIMUM", self._num(node, path, "Sheen"), 0.0, hint="sheen")
+        if _positive(sheen):
+            d["sheen"] = sheen
+            d["sheen_tint"] = self._clamp01(self._num(node, path, "Sheen Tint"), "sheen_tint")
+        s = node.inputs.get("Subsurface")
+        if s is not None and _positive(self._num(node, path, "Subsurface")):
+            self.w.add("Principled BSDF Subsurface dropped", f"'{mat.name}': {nid}")
+        if node.distribution == 'MULTI_GGX':
+            self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {nid} (MULTI_GGX)")
         # Cycles' one specular closure of the metal: cspec0 = base colour, interpolated toward white
         # by the dielectric Fresnel of the same Specular-derived IOR (bsdf_util.h).
         metal = self._with_normal({"type": "conductor", "color": base, "roughness": alpha, "fresnel": "principled",
@@ -388,6 +401,16 @@ class MaterialExporter:
         elif _positive(t_glass):
             d = {"type": "mix", "a": self._part(d, node, path, "opaque"), "b": self._part(glass, node, path, "glass"),
                  "factor": t_glass}
+        # Clearcoat: Cycles' own closure, weighted by the closure weight alone (not by Metallic or
+        # Transmission), with its own normal: added to the rest.
+        clearcoat = g.math("MAXIMUM", self._num(node, path, "Clearcoat"), 0.0, hint="clearcoat")
+        if _positive(clearcoat):
+            coat = {"type": "clearcoat", "clearcoat": clearcoat,
+                    "roughness": self._square(self._num(node, path, "Clearcoat Roughness"), "alpha")}
+            n = self._in(node, path, "Clearcoat Normal")
+            if _is_link(n):
+                coat["normal"] = n
+            d = {"type": "add", "a": self._part(d, node, path, "base"), "b": self._part(coat, node, path, "clearcoat")}
         emission = self._in(node, path, "Emission")
         strength = self._num(node, path, "Emission Strength")
         if _positive(strength) and _positive(emission):
