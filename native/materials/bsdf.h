@@ -47,6 +47,7 @@ struct BsdfParams {
   // Rec. 709 Y for the sheen), so a spectral `color` (one wavelength's grey) tints as its RGB.
   float specular_tint = 0.0f, sheen = 0.0f, sheen_tint = 0.5f, clearcoat = 0.0f;
   float specular_tint_lum = 0.0f, sheen_tint_lum = 0.0f;
+  float anisotropy = 0.0f;  // Material::anisotropy (local x is the tangent)
   bool refraction_only = false;  // Material::refraction_only
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
   float mix_factor = 0.5f;

@@ -79,6 +79,14 @@ struct Material {
   float specular_tint = 0.0f, sheen = 0.0f, sheen_tint = 0.5f;
   // Clearcoat: Blender's Clearcoat input (the lobe's weight is 0.25 clearcoat x Fresnel).
   float clearcoat = 0.0f;
+  // Conductor and principled (their GGX or Beckmann lobe): Cycles 3.4's Anisotropic BSDF
+  // Anisotropy an in [-0.99, 0.99] (svm_closure.h): alpha_x = alpha (1 - an), alpha_y = alpha /
+  // (1 - an) for an >= 0, alpha_x = alpha / (1 + an), alpha_y = alpha (1 + an) below, alpha_x
+  // along the tangent; the exporter writes Principled's Anisotropic in this convention. The
+  // tangent (`tangent_in`, else Cycles' default: the radial tangent about the object's Z axis)
+  // turned by `rotation` x 2 pi about the normal is the shading frame's first axis
+  // (Scene::surface_hit), so the BSDF sees it as local x.
+  float anisotropy = 0.0f, rotation = 0.0f;
   float cauchy_b = 0.0f;  // Cauchy B in um^2: n(lambda) = A + B / lambda^2 (spectral mode)
   // Dielectric: only the refraction lobe, without Fresnel weighting (Cycles 3.4's Refraction
   // BSDF: all light refracts, none reflects; total internal reflection absorbs).
@@ -143,11 +151,21 @@ struct Material {
   std::shared_ptr<const shading::ShaderProgram> graph;
   GraphInput color_in, roughness_in, factor_in, ior_in, alpha_in, normal_in, emission_in, strength_in;
   GraphInput specular_tint_in, sheen_in, sheen_tint_in, clearcoat_in;  // principled / clearcoat
+  GraphInput anisotropy_in, rotation_in, tangent_in;  // anisotropic lobes
 
   bool has_bsdf_textures() const {
     return color_tex || roughness_tex || factor_tex || color_in || roughness_in || factor_in || ior_in ||
-           specular_tint_in || sheen_in || sheen_tint_in || clearcoat_in ||
+           specular_tint_in || sheen_in || sheen_tint_in || clearcoat_in || anisotropy_in ||
            (mix_a && mix_a->has_bsdf_textures()) || (mix_b && mix_b->has_bsdf_textures());
+  }
+  // The part of the material whose tangent orients the shading frame: itself, or the first
+  // anisotropic component of a mix (null: isotropic everywhere).
+  const Material* anisotropic_part() const {
+    if ((type == MaterialType::Conductor || type == MaterialType::Principled) && (anisotropy != 0.0f || anisotropy_in))
+      return this;
+    if (type != MaterialType::Mix) return nullptr;
+    if (const Material* a = mix_a ? mix_a->anisotropic_part() : nullptr) return a;
+    return mix_b ? mix_b->anisotropic_part() : nullptr;
   }
   bool perturbs_normal() const { return normal_tex || bump_tex || normal_in; }
   bool has_coverage() const { return alpha < 1.0f || alpha_tex || alpha_in; }

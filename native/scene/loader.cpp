@@ -174,6 +174,15 @@ class Loader : private JsonReader {
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
                          "principled, clearcoat, mix, add, transparent, refraction, translucent, velvet, volume)", type));
       }
+      if (type == "conductor" || type == "principled") {
+        // Anisotropy (Cycles' Anisotropic BSDF convention), its rotation (turns) and tangent.
+        keys.insert(keys.end(), {"anisotropy", "rotation", "tangent"});
+        if (const json* v = find(m, "anisotropy"); v && !shading::is_link(*v))
+          mat.anisotropy = std::clamp(get_in_range(*v, sub(mpath, "anisotropy"), -1.0f, 1.0f), -0.99f, 0.99f);
+        if (const json* v = find(m, "rotation"); v && !shading::is_link(*v)) mat.rotation = get_float(*v, sub(mpath, "rotation"));
+        if (const json* t = find(m, "tangent"); t && !shading::is_link(*t))
+          fail(sub(mpath, "tangent"), "expected a link into 'nodes' (a Tangent node's output, or any vector)");
+      }
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
           scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(mpath, k.key())));
@@ -262,7 +271,9 @@ class Loader : private JsonReader {
                           {"alpha", SocketType::Float, &mat.alpha_in},       {"normal", SocketType::Vector, &mat.normal_in},
                           {"emission", SocketType::Color, &mat.emission_in}, {"strength", SocketType::Float, &mat.strength_in},
                           {"specular_tint", SocketType::Float, &mat.specular_tint_in}, {"sheen", SocketType::Float, &mat.sheen_in},
-                          {"sheen_tint", SocketType::Float, &mat.sheen_tint_in},     {"clearcoat", SocketType::Float, &mat.clearcoat_in}};
+                          {"sheen_tint", SocketType::Float, &mat.sheen_tint_in},     {"clearcoat", SocketType::Float, &mat.clearcoat_in},
+                          {"anisotropy", SocketType::Float, &mat.anisotropy_in},     {"rotation", SocketType::Float, &mat.rotation_in},
+                          {"tangent", SocketType::Vector, &mat.tangent_in}};
     const json* nodes = find(m, "nodes");
     bool any = false;
     for (const Want& w : wants)

@@ -23,6 +23,10 @@ nodes resolved, as Cycles reads the tree). Closures:
     Specular Tint, Sheen and Sheen Tint are the non-metal part's (`specular_tint`, `sheen`,
     `sheen_tint`); Clearcoat is Cycles' clearcoat closure (the core's `clearcoat`: GTR1 of alpha
     Clearcoat Roughness^2, its own Clearcoat Normal) added to the rest: add(..., clearcoat).
+    Anisotropic / Anisotropic Rotation / Tangent make the specular lobes (principled, metal)
+    anisotropic: `anisotropy` = sqrt(1 - 0.9 a) - 1 in the Anisotropic BSDF's convention, which
+    the Anisotropic BSDF node writes as it is (GGX and Beckmann; Ashikhmin-Shirley stays isotropic
+    with a counted warning); an unlinked Tangent is Cycles' radial one about the object's Z axis.
     Subsurface is dropped and Multiscatter GGX renders as GGX (a counted warning each).
 
 Where a closure input needs arithmetic on linked values (roughness r -> GGX alpha r^2, the glass
@@ -244,6 +248,8 @@ class MaterialExporter:
                  "roughness": self._square(self._num(node, path, "Roughness"), "alpha"), "fresnel": False}
             if node.distribution in own:
                 d["distribution"] = own[node.distribution]
+            if "Anisotropy" in node.inputs:  # the Anisotropic BSDF (Cycles' convention, the core's)
+                self._anisotropy(d, node, path, self._num(node, path, "Anisotropy"), "Rotation")
             return self._with_normal(d, node, path)
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
             # Refraction BSDF: glass's refraction lobe alone, without Fresnel (the core's "refraction").
@@ -267,6 +273,21 @@ class MaterialExporter:
             return self._mix(node, path, depth)
         self.w.add("closure not supported (rendered as 0.8 grey diffuse)", f"'{mat.name}': {self._nid(node, path)}")
         return dict(GREY)
+
+    def _anisotropy(self, d, node, path, anisotropy, rotation_name):
+        """Anisotropy (Cycles' Anisotropic BSDF convention), its Rotation and Tangent on `d`."""
+        if not _positive(anisotropy) and not (isinstance(anisotropy, (int, float)) and anisotropy < 0):
+            return
+        if d.get("distribution") == "ashikhmin_shirley":
+            self.w.add("anisotropic Ashikhmin-Shirley rendered isotropic", f"'{self.mat.name}': {self._nid(node, path)}")
+            return
+        d["anisotropy"] = anisotropy
+        rotation = self._num(node, path, rotation_name)
+        if _is_link(rotation) or rotation != 0.0:
+            d["rotation"] = rotation
+        tangent = self._in(node, path, "Tangent")
+        if _is_link(tangent):
+            d["tangent"] = tangent
 
     def _shader_in(self, socket, path):
         """The closure node feeding a shader socket, as (node, path), or None."""
@@ -387,6 +408,15 @@ class MaterialExporter:
         # by the dielectric Fresnel of the same Specular-derived IOR (bsdf_util.h).
         metal = self._with_normal({"type": "conductor", "color": base, "roughness": alpha, "fresnel": "principled",
                                    "ior": ior}, node, path)
+        # Anisotropic a: Cycles' aspect sqrt(1 - 0.9 a) gives alpha_x = alpha / aspect, alpha_y =
+        # alpha aspect, which is the Anisotropic BSDF's convention with anisotropy aspect - 1.
+        aniso = self._num(node, path, "Anisotropic")
+        if _positive(aniso):
+            a = self._clamp01(aniso, "anisotropy")
+            aniso = g.math("SUBTRACT", g.math("SQRT", g.math("SUBTRACT", 1.0, g.math("MULTIPLY", a, 0.9, hint="anisotropy"),
+                                                             hint="anisotropy"), hint="anisotropy"), 1.0, hint="anisotropy")
+            for part in (d, metal):
+                self._anisotropy(part, node, path, aniso, "Anisotropic Rotation")
         if not _is_link(metallic) and metallic >= 1.0:
             d = metal
         elif _positive(metallic):
