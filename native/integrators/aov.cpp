@@ -15,6 +15,7 @@ RGB bsdf_albedo(const Bsdf& bsdf) {
   switch (m.type) {
     case MaterialType::Emission: return RGB(0.0f);
     case MaterialType::Principled: return m.color + RGB(sqr((m.ior - 1.0f) / (m.ior + 1.0f)));  // lobes added
+    case MaterialType::Clearcoat: return RGB(0.25f * 0.04f * m.clearcoat);  // its weight at normal incidence
     case MaterialType::Plastic: {
       const float f0 = sqr((m.ior - 1.0f) / (m.ior + 1.0f));
       return m.color * (1.0f - f0) + RGB(f0);

@@ -36,14 +36,21 @@ namespace {
 
 // ---- GGX (Trowbridge–Reitz) microfacet distribution, isotropic ----
 
+// Anisotropic (alpha_y >= 0: alpha along local x, alpha_y along y) by [Heitz14] eq. 85 / 86 and
+// [Heitz18]'s stretch by (alpha_x, alpha_y); isotropic (alpha_y < 0) by the forms below.
 struct Ggx {
   float alpha;
+  float alpha_y = -1.0f;
 
   // Normal distribution, [Walter07] eq. 33, written as alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2)
   // with sin^2 = x^2 + y^2 so that it stays accurate near the pole (1 - z^2 would cancel).
   // wm must be unit length and face +z (the chi+ factor).
   float D(const Vec3& wm) const {
     if (wm.z <= 0) return 0;
+    if (alpha_y >= 0) {  // [Heitz14] eq. 85: 1 / (pi ax ay (x^2 / ax^2 + y^2 / ay^2 + z^2)^2)
+      const float d = sqr(wm.x / alpha) + sqr(wm.y / alpha_y) + wm.z * wm.z;
+      return d > 0 ? 1.0f / (kPi * alpha * alpha_y * d * d) : 0.0f;
+    }
     const float a2 = alpha * alpha;
     const float d = wm.x * wm.x + wm.y * wm.y + a2 * wm.z * wm.z;
     if (d <= 0) return 0;
@@ -54,7 +61,9 @@ struct Ggx {
   float lambda(const Vec3& w) const {
     const float z2 = w.z * w.z;
     if (z2 == 0) return kInfinity;
-    const float a2_tan2 = alpha * alpha * (w.x * w.x + w.y * w.y) / z2;
+    // Anisotropic: alpha^2 tan^2 becomes (ax^2 x^2 + ay^2 y^2) / z^2 ([Heitz14] eq. 86).
+    const float a2_tan2 = alpha_y >= 0 ? (sqr(alpha * w.x) + sqr(alpha_y * w.y)) / z2
+                                       : alpha * alpha * (w.x * w.x + w.y * w.y) / z2;
     // Rewritten as a2_tan2 / (2 (1 + sqrt(1 + a2_tan2))) to avoid cancellation for small alpha.
     return a2_tan2 / (2.0f * (1.0f + std::sqrt(1.0f + a2_tan2)));
   }
@@ -62,8 +71,13 @@ struct Ggx {
   // Smith masking, [Heitz14] eq. 43.
   float G1(const Vec3& w) const { return 1.0f / (1.0f + lambda(w)); }
 
-  // Height-correlated masking-shadowing, [Heitz14] eq. 99.
-  float G(const Vec3& wo, const Vec3& wi) const { return 1.0f / (1.0f + lambda(wo) + lambda(wi)); }
+  // Height-correlated masking-shadowing, [Heitz14] eq. 99; anisotropic, the separable
+  // G1(wo) G1(wi) of Cycles 3.4's anisotropic branch (bsdf_microfacet.h eval_reflect), which a
+  // strongly stretched lobe tells apart (alpha_y 0.8: 3.5 % brighter correlated).
+  float G(const Vec3& wo, const Vec3& wi) const {
+    if (alpha_y >= 0) return G1(wo) * G1(wi);
+    return 1.0f / (1.0f + lambda(wo) + lambda(wi));
+  }
 
   // Distribution of normals visible from w, [Heitz14] eq. 38 / [Heitz18] eq. 2:
   // D_w(wm) = G1(w) max(0, w.wm) D(wm) / cos(w). Two-sided: w below the surface is mirrored.
@@ -77,7 +91,8 @@ struct Ggx {
   Vec3 sample_visible(Vec3 w, Vec2 u) const {
     if (w.z < 0) w = -w;  // two-sided: sample the normals visible from the mirrored direction
     // §3.2: stretch the view direction into the hemisphere configuration.
-    const Vec3 wh = normalize(Vec3(alpha * w.x, alpha * w.y, w.z));
+    const float ay = alpha_y >= 0 ? alpha_y : alpha;
+    const Vec3 wh = normalize(Vec3(alpha * w.x, ay * w.y, w.z));
     // §4.1: orthonormal basis around wh (any T1 when wh is the pole).
     const float len2 = wh.x * wh.x + wh.y * wh.y;
     const Vec3 t1 = len2 > 0 ? Vec3(-wh.y, wh.x, 0) / std::sqrt(len2) : Vec3(1, 0, 0);
@@ -92,9 +107,30 @@ struct Ggx {
     // §4.3: reproject onto the hemisphere.
     const Vec3 nh = t1 * p1 + t2 * p2 + wh * safe_sqrt(1.0f - p1 * p1 - p2 * p2);
     // §3.4: unstretch. z is kept off 0 (as pbrt-v4) so wm never lies in the tangent plane.
-    return normalize(Vec3(alpha * nh.x, alpha * nh.y, std::max(1e-6f, nh.z)));
+    return normalize(Vec3(alpha * nh.x, ay * nh.y, std::max(1e-6f, nh.z)));
   }
 };
+
+// Cycles 3.4's Anisotropic BSDF roughness (svm_closure.h): alpha_x = alpha (1 - an), alpha_y =
+// alpha / (1 - an) for an >= 0, alpha_x = alpha / (1 + an), alpha_y = alpha (1 + an) below, an
+// clamped to [-0.99, 0.99]; alpha_x alpha_y = alpha^2 either way. Both saturated, as Cycles'
+// setup does.
+void anisotropic_alphas(float alpha, float an, float* ax, float* ay) {
+  an = clamp(an, -0.99f, 0.99f);
+  if (an < 0) *ax = alpha / (1.0f + an), *ay = alpha * (1.0f + an);
+  else *ax = alpha * (1.0f - an), *ay = alpha / (1.0f - an);
+  *ax = clamp(*ax, 0.0f, 1.0f), *ay = clamp(*ay, 0.0f, 1.0f);
+}
+// Cycles' isotropic case: |an| <= 1e-4 (or alpha 0: a mirror either way).
+bool is_anisotropic(const BsdfParams& m) { return std::abs(m.anisotropy) > 1e-4f && m.roughness > 0.0f; }
+
+// The GGX distribution of a conductor's or principled's lobe.
+Ggx ggx_of(const BsdfParams& m) {
+  if (!is_anisotropic(m)) return Ggx{m.roughness};
+  Ggx g{m.roughness};
+  anisotropic_alphas(m.roughness, m.anisotropy, &g.alpha, &g.alpha_y);
+  return g;
+}
 
 // ---- Fresnel ----
 
@@ -282,14 +318,13 @@ RGB conductor_fresnel(const BsdfParams& m, float cos_i) {
 // The Cook–Torrance microfacet BRDF without its Fresnel factor, D G / (4 |cos_i| |cos_o|)
 // ([Walter07] eq. 20), of a pair on one side; *cos_h gets |wo . wm| for the Fresnel factor.
 // 0 where the pair has no half vector.
-float microfacet_reflection(float roughness, const Vec3& wo, const Vec3& wi, float* cos_h) {
+float microfacet_reflection(const Ggx& ggx, const Vec3& wo, const Vec3& wi, float* cos_h) {
   const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
   if (cos_o == 0 || cos_i == 0) return 0.0f;
   Vec3 wm = wi + wo;
   if (length_squared(wm) == 0) return 0.0f;
   wm = normalize(wm);
   if (wm.z < 0) wm = -wm;
-  const Ggx ggx{roughness};
   *cos_h = absdot(wo, wm);
   return ggx.D(wm) * ggx.G(wo, wi) / (4.0f * cos_i * cos_o);
 }
@@ -322,9 +357,34 @@ float ashikhmin_shirley_exponent(float alpha) {
   return 2.0f / (a * a) - 2.0f;
 }
 
+// Anisotropic Beckmann as Cycles 3.4 (bsdf_microfacet.h): D = exp(-(sx^2 + sy^2)) / (pi ax ay
+// cos^4), slopes s = -(x / (z ax), y / (z ay)); G1 by the same rational fit of the projected
+// alpha^2 = (cos^2_phi ax^2 + sin^2_phi ay^2) / (cos^2_phi + sin^2_phi) (bsdf_beckmann_aniso_G1).
+float beckmann_aniso_D(float ax, float ay, const Vec3& wm) {
+  if (wm.z <= 0) return 0.0f;
+  const float sx = wm.x / (wm.z * ax), sy = wm.y / (wm.z * ay), c2 = wm.z * wm.z;
+  return std::exp(-sx * sx - sy * sy) / (kPi * ax * ay * c2 * c2);
+}
+float beckmann_aniso_G1(float ax, float ay, const Vec3& w) {
+  const float c2 = w.z * w.z, r2 = w.x * w.x + w.y * w.y;
+  if (!(c2 > 0)) return 0.0f;
+  const float a2 = r2 > 0 ? (w.x * w.x * ax * ax + w.y * w.y * ay * ay) / r2 : ax * ay;
+  const float inv_a = std::sqrt(std::max(0.0f, a2 * r2 / c2));
+  if (inv_a < 0.625f) return 1.0f;
+  const float a = 1.0f / inv_a;
+  return ((2.181f * a + 3.535f) * a) / ((2.577f * a + 2.276f) * a + 1.0f);
+}
+
 // The BRDF (no Fresnel) of a pair in the upper hemisphere and the half vector's density p_h.
 float other_microfacet_f(const BsdfParams& m, const Vec3& wo, const Vec3& wi, const Vec3& wm, float* p_h) {
   const float cos_o = wo.z, cos_i = wi.z;
+  if (m.distribution == Microfacet::Beckmann && is_anisotropic(m)) {
+    float ax, ay;
+    anisotropic_alphas(m.roughness, m.anisotropy, &ax, &ay);
+    const float d = beckmann_aniso_D(ax, ay, wm);
+    *p_h = d * wm.z;
+    return d * beckmann_aniso_G1(ax, ay, wo) * beckmann_aniso_G1(ax, ay, wi) / (4.0f * cos_i * cos_o);
+  }
   if (m.distribution == Microfacet::Beckmann) {
     const float d = beckmann_D(m.roughness, wm);
     *p_h = d * wm.z;
@@ -358,6 +418,14 @@ RGB other_conductor(const BsdfParams& m, Vec3 wo, Vec3 wi, float* pdf) {
 
 // A half vector from p_h.
 Vec3 other_half_vector(const BsdfParams& m, Vec2 u) {
+  if (m.distribution == Microfacet::Beckmann && is_anisotropic(m)) {
+    // The slopes of anisotropic Beckmann are Gaussian of deviations ax / sqrt 2, ay / sqrt 2:
+    // half vectors of density D(wm) cos(wm) (the isotropic draw below with the slope stretched).
+    float ax, ay;
+    anisotropic_alphas(m.roughness, m.anisotropy, &ax, &ay);
+    const float r = std::sqrt(-std::log(std::max(1.0f - u.x, 1e-30f))), phi = 2.0f * kPi * u.y;
+    return normalize(Vec3(ax * r * std::cos(phi), ay * r * std::sin(phi), 1.0f));
+  }
   float cos_t;
   if (m.distribution == Microfacet::Beckmann) {
     const float tan2 = -m.roughness * m.roughness * std::log(std::max(1.0f - u.x, 1e-30f));  // [Walter07] eq. 28
@@ -376,7 +444,7 @@ RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
     return other_conductor(m, wo, wi, &pdf);
   }
   float cos_h = 0;
-  const float f = microfacet_reflection(m.roughness, wo, wi, &cos_h);
+  const float f = microfacet_reflection(ggx_of(m), wo, wi, &cos_h);
   if (f == 0) return RGB(0.0f);
   return conductor_fresnel(m, cos_h) * f;
 }
@@ -396,7 +464,7 @@ float conductor_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (wo_dot_wm == 0) return 0.0f;
   // Visible-normal density times the reflection Jacobian dwm/dwi = 1 / (4 |wo.wm|),
   // [Walter07] eq. 14.
-  return Ggx{m.roughness}.D_visible(wo, wm) / (4.0f * wo_dot_wm);
+  return ggx_of(m).D_visible(wo, wm) / (4.0f * wo_dot_wm);
 }
 
 std::optional<BsdfSample> conductor_sample(const BsdfParams& m, const Vec3& wo, Vec2 u) {
@@ -421,7 +489,7 @@ std::optional<BsdfSample> conductor_sample(const BsdfParams& m, const Vec3& wo, 
     if (!valid_sample(s.f, s.pdf)) return std::nullopt;
     return s;
   }
-  const Ggx ggx{m.roughness};
+  const Ggx ggx = ggx_of(m);
   const Vec3 wm = ggx.sample_visible(wo, u);
   const Vec3 wi = reflect(wo, wm);
   if (!same_hemisphere(wo, wi)) return std::nullopt;  // reflected below the horizon
@@ -701,24 +769,67 @@ float burley_diffuse(float r, const Vec3& wo, const Vec3& wi) {
   return (1.0f - 0.5f * fl) * (1.0f - 0.5f * fv) + rr * (fl + fv + fl * fv * (rr - 1.0f));
 }
 
+// Cycles' hue-only colour of a tint t (svm_closure.h): mix(1, color / lum, t), 1 for a black
+// colour. `lum` is the RGB colour's luminance (BsdfParams::*_tint_lum).
+RGB tint_color(const RGB& color, float lum, float t) {
+  const RGB hue = lum > 0.0f ? color / lum : RGB(1.0f);
+  return RGB(1.0f - t) + hue * t;
+}
+
+// The specular lobe's Fresnel factor at cos_h. With Specular Tint t, Cycles' principled v1
+// Fresnel (bsdf_util.h interpolate_fresnel_color) with cspec0 = saturate(F0 mix(1, hue, t)),
+// F0 = F_d(1, ior) = 0.08 Specular: F = cspec0 (1 - FH) + FH, FH = (F_d(cos_h) - F0) / (1 - F0);
+// untinted that is F_d(cos_h) itself.
+RGB principled_spec_fresnel(const BsdfParams& m, float cos_h) {
+  const float fd = fresnel_dielectric(cos_h, m.ior);
+  if (m.specular_tint <= 0.0f) return RGB(fd);
+  const float f0 = fresnel_dielectric(1.0f, m.ior);
+  if (!(f0 < 1.0f)) return RGB(1.0f);
+  const RGB c = tint_color(m.color, m.specular_tint_lum, m.specular_tint) * f0;
+  const RGB cspec0(clamp(c.r, 0.0f, 1.0f), clamp(c.g, 0.0f, 1.0f), clamp(c.b, 0.0f, 1.0f));
+  const float fh = (fd - f0) / (1.0f - f0);
+  return cspec0 * (1.0f - fh) + RGB(fh);
+}
+
 RGB principled_spec_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (m.roughness < kSmoothAlpha || !same_hemisphere(wo, wi)) return RGB(0.0f);
   float cos_h = 0;
-  const float f = microfacet_reflection(m.roughness, wo, wi, &cos_h);
-  return RGB(fresnel_dielectric(cos_h, m.ior) * f);
+  const float f = microfacet_reflection(ggx_of(m), wo, wi, &cos_h);
+  return principled_spec_fresnel(m, cos_h) * f;
+}
+
+// Cycles 3.4's Principled sheen (bsdf_principled_sheen.h, after Burley 2012 §5.4): f = Sheen x
+// mix(1, hue, Sheen Tint) x (1 - wi.h)^5, no 1 / pi (Burley's Fsheen is added to the diffuse
+// term outside its 1 / pi), h = normalize(wi + wo); a diffuse closure, cosine-sampled, so the
+// diffuse lobe's sampler covers it.
+RGB principled_sheen_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  if (!(m.sheen > 0.0f)) return RGB(0.0f);
+  const Vec3 h = wo + wi;
+  if (length_squared(h) == 0) return RGB(0.0f);
+  return tint_color(m.color, m.sheen_tint_lum, m.sheen_tint) * (m.sheen * pow5(1.0f - absdot(wi, normalize(h))));
 }
 
 RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g = 1.0f, uint8_t lobes = kAllLobes) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
   RGB f(0.0f);
-  if (lobes & kRayDiffuse) f += m.color * (kInvPi * burley_diffuse(std::sqrt(std::max(0.0f, m.roughness)), wo, wi) * g);
+  if (lobes & kRayDiffuse) {
+    f += m.color * (kInvPi * burley_diffuse(std::sqrt(std::max(0.0f, m.roughness)), wo, wi) * g);
+    if (m.sheen > 0.0f) f += principled_sheen_eval(m, wo, wi) * g;
+  }
   if (lobes & kRayGlossy) f += principled_spec_eval(m, wo, wi);
   return f;
 }
 
 float principled_spec_probability(const BsdfParams& m, const Vec3& wo) {
-  const float F = fresnel_dielectric(abs_cos_theta(wo), m.ior);
-  return clamp(F / (F + std::max(0.0f, m.color.average()) + 1e-6f), 0.1f, 0.9f);
+  const float F = m.specular_tint > 0.0f ? principled_spec_fresnel(m, abs_cos_theta(wo)).average()
+                                         : fresnel_dielectric(abs_cos_theta(wo), m.ior);
+  float diffuse = std::max(0.0f, m.color.average());
+  // The sheen's share of the diffuse side: Cycles' sample weight of it, Sheen x colour x
+  // (1 - cos_o)^5 (calculate_avg_principled_sheen_brdf without its cosine).
+  if (m.sheen > 0.0f)
+    diffuse += m.sheen * std::max(0.0f, tint_color(m.color, m.sheen_tint_lum, m.sheen_tint).average()) *
+               pow5(1.0f - abs_cos_theta(wo));
+  return clamp(F / (F + diffuse + 1e-6f), 0.1f, 0.9f);
 }
 
 float principled_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi, uint8_t lobes = kAllLobes) {
@@ -738,7 +849,7 @@ std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo,
   if (!lobe) return std::nullopt;
   lobe->lobe = uc < ps ? kRayGlossy : kRayDiffuse;
   if (lobe->delta) {  // a smooth specular lobe: its Dirac weight F / |cos|, chosen with probability ps
-    lobe->f = RGB(fresnel_dielectric(abs_cos_theta(wo), m.ior) / abs_cos_theta(wo));
+    lobe->f = principled_spec_fresnel(m, abs_cos_theta(wo)) / abs_cos_theta(wo);
     lobe->pdf *= ps;
     return lobe;
   }
@@ -746,6 +857,77 @@ std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo,
   lobe->pdf = principled_pdf(m, wo, lobe->wi);
   if (!valid_sample(lobe->f, lobe->pdf)) return std::nullopt;
   return lobe;
+}
+
+// ---- Clearcoat: Cycles 3.4's Principled clearcoat closure ----
+//
+// kernel/closure/bsdf_microfacet.h, CLOSURE_BSDF_MICROFACET_GGX_CLEARCOAT_ID, as svm_closure.h
+// sets it up (IOR 1.5, cspec0 0.04, alpha = Clearcoat Roughness^2 saturated):
+//   f = 0.25 clearcoat F(wo.h) D(h) G1(wo) G1(wi) / (4 cos_o cos_i),
+// D Burley's GTR1 (Burley 2012, appendix B.2: (a^2 - 1) / (pi ln(a^2) (1 + (a^2 - 1) cos^2_h)),
+// 1 / pi for a >= 1), G1 the separable Smith GGX masking of a fixed alpha 0.25 ([Walter07]
+// eq. 34), F the dielectric Fresnel of IOR 1.5 (Cycles' interpolated Fresnel with cspec0 = F0
+// is exactly that). Sampled by GTR1's own half-vector density D cos_h (Burley 2012, B.2:
+// cos^2_h = (1 - a^2^(1 - u)) / (1 - a^2)), an exact pdf; Cycles draws GGX visible normals of
+// the same alpha but reports GTR1's density, which only its BSDF-sampled estimates see.
+// A Dirac mirror below Cycles' own smoothness test, alpha^2 <= 1e-7 (Clearcoat Roughness below
+// about 0.018), not kSmoothAlpha: GTR1's long tails keep a third of its microfacets beyond
+// 6 degrees even at Blender's default alpha 0.0009.
+
+constexpr float kClearcoatIor = 1.5f, kClearcoatG1Alpha = 0.25f;
+
+bool clearcoat_is_smooth(const BsdfParams& m) { return m.roughness * m.roughness <= 1e-7f; }
+
+float gtr1_D(float alpha, float cos_h) {
+  const float a2 = alpha * alpha;
+  if (a2 >= 1.0f) return kInvPi;
+  const float t = 1.0f + (a2 - 1.0f) * cos_h * cos_h;
+  return (a2 - 1.0f) / (kPi * std::log(a2) * t);
+}
+
+float clearcoat_G1(const Vec3& w) { return Ggx{kClearcoatG1Alpha}.G1(w); }
+
+float clearcoat_weight(const BsdfParams& m) { return 0.25f * std::max(0.0f, m.clearcoat); }
+
+// f and the sampling density of wi for a pair on one side (0 otherwise).
+float clearcoat_f(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float* pdf) {
+  *pdf = 0.0f;
+  if (clearcoat_is_smooth(m) || !same_hemisphere(wo, wi)) return 0.0f;
+  const float cos_o = abs_cos_theta(wo), cos_i = abs_cos_theta(wi);
+  if (cos_o == 0 || cos_i == 0) return 0.0f;
+  Vec3 h = wo + wi;
+  if (length_squared(h) == 0) return 0.0f;
+  h = normalize(h);
+  const float cos_h = abs_cos_theta(h), wo_dot_h = absdot(wo, h);
+  if (wo_dot_h == 0) return 0.0f;
+  const float D = gtr1_D(m.roughness, cos_h);
+  *pdf = D * cos_h / (4.0f * wo_dot_h);  // [Walter07] eq. 14
+  return clearcoat_weight(m) * fresnel_dielectric(wo_dot_h, kClearcoatIor) * D * clearcoat_G1(wo) *
+         clearcoat_G1(wi) / (4.0f * cos_o * cos_i);
+}
+
+std::optional<BsdfSample> clearcoat_sample(const BsdfParams& m, const Vec3& wo, Vec2 u) {
+  if (wo.z == 0) return std::nullopt;
+  BsdfSample s;
+  if (clearcoat_is_smooth(m)) {  // Cycles' singular branch: weight F(cos_o) x 0.25 clearcoat
+    s.wi = mirror_z(wo);
+    s.f = RGB(clearcoat_weight(m) * fresnel_dielectric(abs_cos_theta(wo), kClearcoatIor) / abs_cos_theta(wo));
+    s.pdf = 1.0f;
+    s.delta = true;
+    return s;
+  }
+  const float a2 = m.roughness * m.roughness;
+  const float cos2 = a2 >= 1.0f ? u.x : (1.0f - std::pow(a2, 1.0f - u.x)) / (1.0f - a2);
+  const float cos_t = std::sqrt(clamp(cos2, 0.0f, 1.0f)), sin_t = safe_sqrt(1.0f - cos_t * cos_t);
+  const float phi = 2.0f * kPi * u.y;
+  Vec3 h(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
+  if (wo.z < 0) h = -h;
+  const Vec3 wi = reflect(wo, h);
+  if (!same_hemisphere(wo, wi)) return std::nullopt;
+  s.wi = wi;
+  s.f = RGB(clearcoat_f(m, wo, wi, &s.pdf));
+  if (!valid_sample(s.f, s.pdf)) return std::nullopt;
+  return s;
 }
 
 }  // namespace
@@ -857,6 +1039,11 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
   p.conductor_fresnel = m.conductor_fresnel;
   p.distribution = m.distribution;
   p.ior = m.ior;
+  p.specular_tint = m.specular_tint;
+  p.sheen = m.sheen;
+  p.sheen_tint = m.sheen_tint;
+  p.clearcoat = m.clearcoat;
+  p.anisotropy = m.anisotropy;
   p.refraction_only = m.refraction_only;
   p.coat_albedo = m.coat_albedo.get();
   p.mix_factor = m.factor_tex ? m.factor_tex.value(uv) : m.mix_factor;
@@ -877,6 +1064,17 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
     if (m.roughness_in) p.roughness = clamp(finite_or(value(m.roughness_in), 0.0f), 0.0f, 1.0f);
     if (m.factor_in) p.mix_factor = clamp(finite_or(value(m.factor_in), 0.0f), 0.0f, 1.0f);
     if (m.ior_in) p.ior = std::max(finite_or(value(m.ior_in), 1.0f), 1e-3f);
+    if (m.specular_tint_in) p.specular_tint = clamp(finite_or(value(m.specular_tint_in), 0.0f), 0.0f, 1.0f);
+    if (m.sheen_in) p.sheen = std::max(finite_or(value(m.sheen_in), 0.0f), 0.0f);
+    if (m.sheen_tint_in) p.sheen_tint = clamp(finite_or(value(m.sheen_tint_in), 0.0f), 0.0f, 1.0f);
+    if (m.clearcoat_in) p.clearcoat = std::max(finite_or(value(m.clearcoat_in), 0.0f), 0.0f);
+    if (m.anisotropy_in) p.anisotropy = clamp(finite_or(value(m.anisotropy_in), 0.0f), -0.99f, 0.99f);
+  }
+  if (p.type == MaterialType::Principled && (p.specular_tint > 0.0f || p.sheen > 0.0f)) {
+    // svm_closure.h: "luminance approx." for the specular tint, linear_rgb_to_gray (the scene's
+    // linear Rec. 709 Y) for the sheen's.
+    p.specular_tint_lum = 0.3f * p.color.r + 0.6f * p.color.g + 0.1f * p.color.b;
+    p.sheen_tint_lum = 0.2126729f * p.color.r + 0.7151522f * p.color.g + 0.0721750f * p.color.b;
   }
   return p;
 }
@@ -914,6 +1112,10 @@ RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t
     case MaterialType::Velvet: return (lobes & kRayDiffuse) ? velvet_eval(p_, wo, wi) : RGB(0.0f);
     case MaterialType::Plastic: return plastic_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
     case MaterialType::Principled: return principled_eval(p_, wo, wi, bump_shadowing(p_, wo, wi, mode), lobes);
+    case MaterialType::Clearcoat: {
+      float pdf;
+      return (lobes & kRayGlossy) ? RGB(clearcoat_f(p_, wo, wi, &pdf)) : RGB(0.0f);
+    }
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       RGB f(0.0f);
@@ -936,6 +1138,11 @@ float Bsdf::pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
     case MaterialType::Velvet: return (lobes & kRayDiffuse) ? velvet_pdf(wo, wi) : 0.0f;
     case MaterialType::Plastic: return plastic_pdf(p_, wo, wi, lobes);
     case MaterialType::Principled: return principled_pdf(p_, wo, wi, lobes);
+    case MaterialType::Clearcoat: {
+      float pdf;
+      clearcoat_f(p_, wo, wi, &pdf);
+      return (lobes & kRayGlossy) ? pdf : 0.0f;
+    }
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       float pdf = 0;
@@ -955,6 +1162,9 @@ namespace {
 float closure_weight(const Material& m, const shading::ShadingContext& uv) {
   const BsdfParams p = bsdf_params(m, uv);
   if (p.type == MaterialType::Emission) return 0.0f;
+  // Cycles' clearcoat sample weight is 0.25 clearcoat x its Fresnel at wo (unknown here): at
+  // normal incidence, 0.04.
+  if (p.type == MaterialType::Clearcoat) return 0.04f * clearcoat_weight(p);
   if (p.type != MaterialType::Mix || !p.mix_a || !p.mix_b) return std::abs(p.color.average());
   const MixParts s = mix_parts(p);
   return s.scale_a * closure_weight(*p.mix_a, uv) + s.scale_b * closure_weight(*p.mix_b, uv);
@@ -1001,6 +1211,11 @@ std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, T
     }
     case MaterialType::Plastic: return plastic_sample(p_, wo, uc, u, mode);
     case MaterialType::Principled: return principled_sample(p_, wo, uc, u, mode);
+    case MaterialType::Clearcoat: {
+      auto s = clearcoat_sample(p_, wo, u);
+      if (s) s->lobe = kRayGlossy;
+      return s;
+    }
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       const bool pick_b = uc < p.prob_b;
@@ -1027,6 +1242,7 @@ bool Bsdf::is_delta() const {
   switch (kind()) {
     case MaterialType::Conductor: return p_.roughness < kSmoothAlpha;
     case MaterialType::Dielectric: return dielectric_is_smooth(p_);
+    case MaterialType::Clearcoat: return clearcoat_is_smooth(p_);
     case MaterialType::Mix: return component(p_.mix_a).is_delta() && component(p_.mix_b).is_delta();
     default: return false;
   }
@@ -1040,6 +1256,7 @@ bool Bsdf::is_black() const {
     case MaterialType::Translucent:
     case MaterialType::Velvet:
     case MaterialType::Dielectric: return p_.color.is_black();
+    case MaterialType::Clearcoat: return !(p_.clearcoat > 0.0f);
     case MaterialType::Mix: {
       const MixParts p = mix_parts(p_);
       return (p.scale_a == 0 || component(p_.mix_a).is_black()) && (p.scale_b == 0 || component(p_.mix_b).is_black());
@@ -1054,7 +1271,8 @@ bool Bsdf::is_diffuse_for_photons(float threshold) const {
     case MaterialType::Translucent:
     case MaterialType::Velvet: return true;
     case MaterialType::Conductor:
-    case MaterialType::Dielectric: return p_.roughness > threshold;
+    case MaterialType::Dielectric:
+    case MaterialType::Clearcoat: return p_.roughness > threshold;
     case MaterialType::Emission: return false;
     case MaterialType::Plastic:
     case MaterialType::Principled: return true;  // its diffuse lobe stores photons

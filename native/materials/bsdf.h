@@ -42,6 +42,12 @@ struct BsdfParams {
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   Microfacet distribution = Microfacet::GGX;  // conductor (Material::distribution)
   float ior = 1.5f;
+  // Principled and clearcoat (Material's fields of the same names). The tints take the RGB base
+  // colour's luminances, Cycles' two (0.3, 0.6, 0.1 for the specular tint; the scene's linear
+  // Rec. 709 Y for the sheen), so a spectral `color` (one wavelength's grey) tints as its RGB.
+  float specular_tint = 0.0f, sheen = 0.0f, sheen_tint = 0.5f, clearcoat = 0.0f;
+  float specular_tint_lum = 0.0f, sheen_tint_lum = 0.0f;
+  float anisotropy = 0.0f;  // Material::anisotropy (local x is the tangent)
   bool refraction_only = false;  // Material::refraction_only
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
   float mix_factor = 0.5f;

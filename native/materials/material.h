@@ -29,7 +29,10 @@ struct GraphInput {
 // (Ashikhmin's velvet, sigma in `roughness`). Blender's Transparent BSDF is a Dielectric of IOR 1
 // (a tinted pass-through: the loader's "transparent"), its Refraction BSDF a Dielectric with
 // `refraction_only`.
-enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Principled, Mix, Translucent, Velvet };
+// Clearcoat: Cycles 3.4's Principled clearcoat closure on its own (kernel/closure/bsdf_microfacet.h,
+// CLOSURE_BSDF_MICROFACET_GGX_CLEARCOAT_ID), which the exporter adds to the rest of a Principled
+// BSDF with its own normal: `clearcoat` its Clearcoat input, `roughness` its GTR1 alpha.
+enum class MaterialType { Diffuse, Conductor, Dielectric, Emission, Plastic, Principled, Mix, Translucent, Velvet, Clearcoat };
 
 // A conductor's Fresnel factor F(cos_h) at the microfacet:
 //   None:       the colour at every angle (Blender's Glossy BSDF);
@@ -70,6 +73,20 @@ struct Material {
   // the specular lobe's (from Blender's Specular s: F0 = 0.08 s).
   // Conductor with Principled Fresnel: the IOR of the dielectric Fresnel it interpolates with.
   float ior = 1.5f;       // dielectric: interior IOR (Cauchy A) over an outside of 1
+  // Principled (Cycles 3.4's svm_closure.h, CLOSURE_BSDF_PRINCIPLED_ID): Specular Tint tints
+  // the specular lobe's normal-incidence reflectance toward the base colour's hue; Sheen adds
+  // Burley's sheen lobe of colour mix(1, hue, Sheen Tint) (bsdf_principled_sheen.h).
+  float specular_tint = 0.0f, sheen = 0.0f, sheen_tint = 0.5f;
+  // Clearcoat: Blender's Clearcoat input (the lobe's weight is 0.25 clearcoat x Fresnel).
+  float clearcoat = 0.0f;
+  // Conductor and principled (their GGX or Beckmann lobe): Cycles 3.4's Anisotropic BSDF
+  // Anisotropy an in [-0.99, 0.99] (svm_closure.h): alpha_x = alpha (1 - an), alpha_y = alpha /
+  // (1 - an) for an >= 0, alpha_x = alpha / (1 + an), alpha_y = alpha (1 + an) below, alpha_x
+  // along the tangent; the exporter writes Principled's Anisotropic in this convention. The
+  // tangent (`tangent_in`, else Cycles' default: the radial tangent about the object's Z axis)
+  // turned by `rotation` x 2 pi about the normal is the shading frame's first axis
+  // (Scene::surface_hit), so the BSDF sees it as local x.
+  float anisotropy = 0.0f, rotation = 0.0f;
   float cauchy_b = 0.0f;  // Cauchy B in um^2: n(lambda) = A + B / lambda^2 (spectral mode)
   // Dielectric: only the refraction lobe, without Fresnel weighting (Cycles 3.4's Refraction
   // BSDF: all light refracts, none reflects; total internal reflection absorbs).
@@ -140,10 +157,22 @@ struct Material {
   // the inputs linked into it (read per shading point by bsdf_params and the scene) ----
   std::shared_ptr<const shading::ShaderProgram> graph;
   GraphInput color_in, roughness_in, factor_in, ior_in, alpha_in, normal_in, emission_in, strength_in, holdout_in;
+  GraphInput specular_tint_in, sheen_in, sheen_tint_in, clearcoat_in;  // principled / clearcoat
+  GraphInput anisotropy_in, rotation_in, tangent_in;  // anisotropic lobes
 
   bool has_bsdf_textures() const {
     return color_tex || roughness_tex || factor_tex || color_in || roughness_in || factor_in || ior_in ||
+           specular_tint_in || sheen_in || sheen_tint_in || clearcoat_in || anisotropy_in ||
            (mix_a && mix_a->has_bsdf_textures()) || (mix_b && mix_b->has_bsdf_textures());
+  }
+  // The part of the material whose tangent orients the shading frame: itself, or the first
+  // anisotropic component of a mix (null: isotropic everywhere).
+  const Material* anisotropic_part() const {
+    if ((type == MaterialType::Conductor || type == MaterialType::Principled) && (anisotropy != 0.0f || anisotropy_in))
+      return this;
+    if (type != MaterialType::Mix) return nullptr;
+    if (const Material* a = mix_a ? mix_a->anisotropic_part() : nullptr) return a;
+    return mix_b ? mix_b->anisotropic_part() : nullptr;
   }
   bool perturbs_normal() const { return normal_tex || bump_tex || normal_in; }
   bool holds_out_partly() const { return !holdout && (holdout_weight > 0.0f || holdout_in); }
@@ -172,6 +201,7 @@ inline const char* to_string(MaterialType t) {
     case MaterialType::Mix: return "mix";
     case MaterialType::Translucent: return "translucent";
     case MaterialType::Velvet: return "velvet";
+    case MaterialType::Clearcoat: return "clearcoat";
   }
   return "?";
 }

@@ -141,6 +141,25 @@ class Loader : private JsonReader {
       } else if (type == "plastic" || type == "principled") {
         mat.type = type == "plastic" ? MaterialType::Plastic : MaterialType::Principled;
         keys.insert(keys.end(), {"color", "roughness", "ior"});
+        if (type == "principled") {
+          // Cycles' Specular Tint, Sheen and Sheen Tint (constants here; links: load_graph_inputs).
+          keys.insert(keys.end(), {"specular_tint", "sheen", "sheen_tint"});
+          if (const json* v = find(m, "specular_tint"); v && !shading::is_link(*v))
+            mat.specular_tint = get_in_range(*v, sub(mpath, "specular_tint"), 0.0f, 1.0f);
+          if (const json* v = find(m, "sheen"); v && !shading::is_link(*v))
+            mat.sheen = get_nonnegative(*v, sub(mpath, "sheen"));
+          if (const json* v = find(m, "sheen_tint"); v && !shading::is_link(*v))
+            mat.sheen_tint = get_in_range(*v, sub(mpath, "sheen_tint"), 0.0f, 1.0f);
+        }
+      } else if (type == "clearcoat") {
+        // Cycles' Principled clearcoat closure: "clearcoat" its weight input, "roughness" its
+        // GTR1 alpha (Blender's Clearcoat Roughness squared).
+        mat.type = MaterialType::Clearcoat;
+        mat.color = RGB(1.0f);
+        mat.clearcoat = 1.0f;
+        keys.insert(keys.end(), {"clearcoat", "roughness"});
+        if (const json* v = find(m, "clearcoat"); v && !shading::is_link(*v))
+          mat.clearcoat = get_nonnegative(*v, sub(mpath, "clearcoat"));
       } else if (type == "mix" || type == "add") {
         mat.type = MaterialType::Mix;
         mat.mix_add = type == "add";
@@ -156,7 +175,16 @@ class Loader : private JsonReader {
       } else {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
-                         "principled, mix, add, transparent, refraction, translucent, velvet, volume)", type));
+                         "principled, clearcoat, mix, add, transparent, refraction, translucent, velvet, volume)", type));
+      }
+      if (type == "conductor" || type == "principled") {
+        // Anisotropy (Cycles' Anisotropic BSDF convention), its rotation (turns) and tangent.
+        keys.insert(keys.end(), {"anisotropy", "rotation", "tangent"});
+        if (const json* v = find(m, "anisotropy"); v && !shading::is_link(*v))
+          mat.anisotropy = std::clamp(get_in_range(*v, sub(mpath, "anisotropy"), -1.0f, 1.0f), -0.99f, 0.99f);
+        if (const json* v = find(m, "rotation"); v && !shading::is_link(*v)) mat.rotation = get_float(*v, sub(mpath, "rotation"));
+        if (const json* t = find(m, "tangent"); t && !shading::is_link(*t))
+          fail(sub(mpath, "tangent"), "expected a link into 'nodes' (a Tangent node's output, or any vector)");
       }
       for (auto k = m.begin(); k != m.end(); ++k)
         if (std::find(keys.begin(), keys.end(), std::string_view(k.key())) == keys.end())
@@ -251,7 +279,11 @@ class Loader : private JsonReader {
                           {"factor", SocketType::Float, &mat.factor_in},     {"ior", SocketType::Float, &mat.ior_in},
                           {"alpha", SocketType::Float, &mat.alpha_in},       {"normal", SocketType::Vector, &mat.normal_in},
                           {"emission", SocketType::Color, &mat.emission_in}, {"strength", SocketType::Float, &mat.strength_in},
-                          {"holdout", SocketType::Float, &mat.holdout_in}};
+                          {"holdout", SocketType::Float, &mat.holdout_in},
+                          {"specular_tint", SocketType::Float, &mat.specular_tint_in}, {"sheen", SocketType::Float, &mat.sheen_in},
+                          {"sheen_tint", SocketType::Float, &mat.sheen_tint_in},     {"clearcoat", SocketType::Float, &mat.clearcoat_in},
+                          {"anisotropy", SocketType::Float, &mat.anisotropy_in},     {"rotation", SocketType::Float, &mat.rotation_in},
+                          {"tangent", SocketType::Vector, &mat.tangent_in}};
     const json* nodes = find(m, "nodes");
     bool any = false;
     for (const Want& w : wants)

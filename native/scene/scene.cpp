@@ -630,8 +630,45 @@ std::optional<SurfaceHit> Scene::surface_hit(const RawHit& raw, const Ray& ray) 
     }
   }
   h.frame = Frame(h.ns);
+  if (const Material* a = materials[h.material].anisotropic_part()) h.frame = tangent_frame(*a, h);
   h.light = triangle_light_[raw.geom][raw.prim];
   return out;
+}
+
+// An anisotropic material's shading frame: its first axis the tangent Cycles 3.4 gives the lobe
+// (svm_closure.h): the linked Tangent, else the default of ShaderGraph::default_inputs (a
+// Tangent node, radial about the object's Z axis: the Geometry node's Tangent output), turned by
+// rotation x 2 pi about the normal (rotate_around_axis), projected into the shading plane.
+// Where it degenerates (along the normal, on the axis) the plain frame stays.
+Frame Scene::tangent_frame(const Material& a, const SurfaceHit& h) const {
+  const shading::ShadingContext ctx = shading_context(h);
+  Vec3 t(0.0f);
+  if (a.tangent_in && a.graph) {
+    t = a.graph->evaluate(ctx, a.tangent_in.source);
+  } else if (ctx.object) {
+    const Vec3 o = ctx.object->to_object.point(ctx.P);
+    // Generated coordinates: the point in the object's bounds, 0 on a flat axis (as the node).
+    Vec3 g = o;
+    if (!ctx.object->bounds.empty()) {
+      const Vec3 d = ctx.object->bounds.diagonal(), q = o - ctx.object->bounds.lo;
+      g = Vec3(d.x != 0 ? q.x / d.x : 0.0f, d.y != 0 ? q.y / d.y : 0.0f, d.z != 0 ? q.z / d.z : 0.0f);
+    }
+    t = ctx.object->to_world.vector(Vec3(-(g.y - 0.5f), g.x - 0.5f, 0.0f));
+  }
+  float rotation = a.rotation;
+  if (a.rotation_in && a.graph) rotation = shading::as_float(a.graph->evaluate(ctx, a.rotation_in.source), a.rotation_in.source.conv);
+  Vec3 s = t - h.ns * dot(t, h.ns);
+  if (!is_finite(s) || !(length_squared(s) > 1e-12f)) return h.frame;
+  s = normalize(s);
+  if (rotation != 0.0f && std::isfinite(rotation)) {
+    const float phi = rotation * 2.0f * kPi;  // Rodrigues about ns (s is perpendicular to it)
+    s = s * std::cos(phi) + cross(h.ns, s) * std::sin(phi);
+  }
+  Frame f;
+  f.n = h.ns;
+  f.s = s;
+  f.t = cross(h.ns, s);
+  return f;
 }
 
 void Scene::triangle_at(int mesh, int prim, float time, Vec3 out[3]) const {

@@ -339,6 +339,7 @@ class Scene {
   const Accelerator& accelerator() const { return *accel_; }
 
  private:
+  Frame tangent_frame(const Material& anisotropic, const SurfaceHit& h) const;  // scene.cpp
   std::unique_ptr<Accelerator> accel_;
   std::vector<shading::ShadingObject> shading_objects_;
   void build_shading_objects();

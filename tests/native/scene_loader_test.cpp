@@ -710,5 +710,39 @@ TEST(SceneLoader, CyclesClosureTypesAndDiffuseRoughness) {
   EXPECT_NE(unknown.find("translucent"), std::string::npos) << unknown;
 }
 
+TEST(SceneLoader, PrincipledLobesAndClearcoat) {
+  const Scene s = from_text(R"({"camera": {"position": [0, -5, 1], "look_at": [0, 0, 1], "width": 8, "height": 8},
+    "materials": {
+      "p": {"type": "principled", "color": [0.6, 0.3, 0.1], "specular_tint": 0.5, "sheen": 2, "sheen_tint": 0.25},
+      "p0": {"type": "principled"},
+      "cc": {"type": "clearcoat", "clearcoat": 0.7, "roughness": 0.01},
+      "cc0": {"type": "clearcoat"},
+      "linked": {"type": "clearcoat", "clearcoat": {"link": "v", "output": "Value"},
+                 "nodes": {"v": {"type": "ShaderNodeValue", "inputs": {"Value": 0.3}}}},
+      "coated": {"type": "add", "a": "p", "b": "cc"}},
+    "objects": [{"type": "sphere", "center": [0, 0, 1], "radius": 1, "material": "coated"}]})");
+  auto m = [&](const std::string& name) -> const Material& {
+    for (const Material& x : s.materials)
+      if (x.name == name) return x;
+    throw std::runtime_error("no material " + name);
+  };
+  EXPECT_FLOAT_EQ(m("p").specular_tint, 0.5f);
+  EXPECT_FLOAT_EQ(m("p").sheen, 2.0f);
+  EXPECT_FLOAT_EQ(m("p").sheen_tint, 0.25f);
+  EXPECT_EQ(m("p0").sheen, 0.0f);  // Blender's defaults: no sheen, Sheen Tint 0.5, no tint
+  EXPECT_EQ(m("p0").sheen_tint, 0.5f);
+  EXPECT_EQ(m("p0").specular_tint, 0.0f);
+  EXPECT_EQ(m("cc").type, MaterialType::Clearcoat);
+  EXPECT_FLOAT_EQ(m("cc").clearcoat, 0.7f);
+  EXPECT_FLOAT_EQ(m("cc").roughness, 0.01f);
+  EXPECT_FLOAT_EQ(m("cc0").clearcoat, 1.0f);
+  EXPECT_FLOAT_EQ(bsdf_params(m("linked"), Vec2()).clearcoat, 0.3f);  // from its node graph
+  EXPECT_EQ(s.warnings.count("unknown key"), 0u);
+  const std::string err = scene_error([] {
+    from_text(R"({"materials": {"x": {"type": "principled", "specular_tint": 2}}})");
+  });
+  EXPECT_NE(err.find("specular_tint"), std::string::npos) << err;
+}
+
 }  // namespace
 }  // namespace gp

@@ -20,7 +20,14 @@ nodes resolved, as Cycles reads the tree). Closures:
       Transmission t mixes that with glass: mix(..., glass, (1 - m) t).
     The metal's Fresnel is Cycles': the base colour blended toward white by the dielectric
     Fresnel of the Specular IOR (the core's conductor with "fresnel": "principled").
-    Specular Tint, sheen, clearcoat and subsurface are dropped (a counted warning each).
+    Specular Tint, Sheen and Sheen Tint are the non-metal part's (`specular_tint`, `sheen`,
+    `sheen_tint`); Clearcoat is Cycles' clearcoat closure (the core's `clearcoat`: GTR1 of alpha
+    Clearcoat Roughness^2, its own Clearcoat Normal) added to the rest: add(..., clearcoat).
+    Anisotropic / Anisotropic Rotation / Tangent make the specular lobes (principled, metal)
+    anisotropic: `anisotropy` = sqrt(1 - 0.9 a) - 1 in the Anisotropic BSDF's convention, which
+    the Anisotropic BSDF node writes as it is (GGX and Beckmann; Ashikhmin-Shirley stays isotropic
+    with a counted warning); an unlinked Tangent is Cycles' radial one about the object's Z axis.
+    Subsurface is dropped and Multiscatter GGX renders as GGX (a counted warning each).
 
 Where a closure input needs arithmetic on linked values (roughness r -> GGX alpha r^2, the glass
 layer's (1 - m) t, the Specular IOR, a Mix's clamped factor and its emission weights) the exporter
@@ -241,6 +248,8 @@ class MaterialExporter:
                  "roughness": self._square(self._num(node, path, "Roughness"), "alpha"), "fresnel": False}
             if node.distribution in own:
                 d["distribution"] = own[node.distribution]
+            if "Anisotropy" in node.inputs:  # the Anisotropic BSDF (Cycles' convention, the core's)
+                self._anisotropy(d, node, path, self._num(node, path, "Anisotropy"), "Rotation")
             return self._with_normal(d, node, path)
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
             # Refraction BSDF: glass's refraction lobe alone, without Fresnel (the core's "refraction").
@@ -262,6 +271,21 @@ class MaterialExporter:
             return self._mix(node, path, depth)
         self.w.add("closure not supported (rendered as 0.8 grey diffuse)", f"'{mat.name}': {self._nid(node, path)}")
         return dict(GREY)
+
+    def _anisotropy(self, d, node, path, anisotropy, rotation_name):
+        """Anisotropy (Cycles' Anisotropic BSDF convention), its Rotation and Tangent on `d`."""
+        if not _positive(anisotropy) and not (isinstance(anisotropy, (int, float)) and anisotropy < 0):
+            return
+        if d.get("distribution") == "ashikhmin_shirley":
+            self.w.add("anisotropic Ashikhmin-Shirley rendered isotropic", f"'{self.mat.name}': {self._nid(node, path)}")
+            return
+        d["anisotropy"] = anisotropy
+        rotation = self._num(node, path, rotation_name)
+        if _is_link(rotation) or rotation != 0.0:
+            d["rotation"] = rotation
+        tangent = self._in(node, path, "Tangent")
+        if _is_link(tangent):
+            d["tangent"] = tangent
 
     def _shader_in(self, socket, path):
         """The closure node feeding a shader socket, as (node, path), or None."""
@@ -383,14 +407,33 @@ class MaterialExporter:
         ior = g.math("DIVIDE", g.math("ADD", 1.0, sf0, hint="specular"), g.math("SUBTRACT", 1.0, sf0, hint="specular"),
                      hint="specular")
         d = self._with_normal({"type": "principled", "color": base, "roughness": alpha, "ior": ior}, node, path)
-        for name in ("Specular Tint", "Subsurface", "Sheen", "Clearcoat"):
-            s = node.inputs.get(name)
-            if s is not None and _positive(self._num(node, path, name)):
-                self.w.add(f"Principled BSDF {name} dropped", f"'{mat.name}': {nid}")
+        # Cycles' Specular Tint and Sheen (+ Sheen Tint) belong to the non-metal part: the tint of
+        # its specular lobe and a sheen lobe weighted like its diffuse one (svm_closure.h).
+        spec_tint = self._clamp01(self._num(node, path, "Specular Tint"), "specular_tint")
+        if _positive(spec_tint):
+            d["specular_tint"] = spec_tint
+        sheen = g.math("MAXIMUM", self._num(node, path, "Sheen"), 0.0, hint="sheen")
+        if _positive(sheen):
+            d["sheen"] = sheen
+            d["sheen_tint"] = self._clamp01(self._num(node, path, "Sheen Tint"), "sheen_tint")
+        s = node.inputs.get("Subsurface")
+        if s is not None and _positive(self._num(node, path, "Subsurface")):
+            self.w.add("Principled BSDF Subsurface dropped", f"'{mat.name}': {nid}")
+        if node.distribution == 'MULTI_GGX':
+            self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {nid} (MULTI_GGX)")
         # Cycles' one specular closure of the metal: cspec0 = base colour, interpolated toward white
         # by the dielectric Fresnel of the same Specular-derived IOR (bsdf_util.h).
         metal = self._with_normal({"type": "conductor", "color": base, "roughness": alpha, "fresnel": "principled",
                                    "ior": ior}, node, path)
+        # Anisotropic a: Cycles' aspect sqrt(1 - 0.9 a) gives alpha_x = alpha / aspect, alpha_y =
+        # alpha aspect, which is the Anisotropic BSDF's convention with anisotropy aspect - 1.
+        aniso = self._num(node, path, "Anisotropic")
+        if _positive(aniso):
+            a = self._clamp01(aniso, "anisotropy")
+            aniso = g.math("SUBTRACT", g.math("SQRT", g.math("SUBTRACT", 1.0, g.math("MULTIPLY", a, 0.9, hint="anisotropy"),
+                                                             hint="anisotropy"), hint="anisotropy"), 1.0, hint="anisotropy")
+            for part in (d, metal):
+                self._anisotropy(part, node, path, aniso, "Anisotropic Rotation")
         if not _is_link(metallic) and metallic >= 1.0:
             d = metal
         elif _positive(metallic):
@@ -405,6 +448,16 @@ class MaterialExporter:
         elif _positive(t_glass):
             d = {"type": "mix", "a": self._part(d, node, path, "opaque"), "b": self._part(glass, node, path, "glass"),
                  "factor": t_glass}
+        # Clearcoat: Cycles' own closure, weighted by the closure weight alone (not by Metallic or
+        # Transmission), with its own normal: added to the rest.
+        clearcoat = g.math("MAXIMUM", self._num(node, path, "Clearcoat"), 0.0, hint="clearcoat")
+        if _positive(clearcoat):
+            coat = {"type": "clearcoat", "clearcoat": clearcoat,
+                    "roughness": self._square(self._num(node, path, "Clearcoat Roughness"), "alpha")}
+            n = self._in(node, path, "Clearcoat Normal")
+            if _is_link(n):
+                coat["normal"] = n
+            d = {"type": "add", "a": self._part(d, node, path, "base"), "b": self._part(coat, node, path, "clearcoat")}
         emission = self._in(node, path, "Emission")
         strength = self._num(node, path, "Emission Strength")
         if _positive(strength) and _positive(emission):

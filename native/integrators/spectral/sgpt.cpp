@@ -160,7 +160,8 @@ bool connectable(const Material& m) {
     case MaterialType::Principled:
     case MaterialType::Translucent:
     case MaterialType::Velvet: return true;  // a diffuse lobe (the other lobe may be smooth)
-    case MaterialType::Conductor: return m.roughness >= kDefaultSpecularThreshold;
+    case MaterialType::Conductor:
+    case MaterialType::Clearcoat: return m.roughness >= kDefaultSpecularThreshold;
     case MaterialType::Dielectric: return !is_dispersive(m) && m.roughness >= kDefaultSpecularThreshold;
     case MaterialType::Mix:
       // By its parts' lobes (a mix made by hand, without parts, is diffuse: Bsdf::kind).
