@@ -176,19 +176,19 @@ std::optional<Vec3> LightSet::sample_position(float u_select, Vec2 u, int* light
   if (select_.empty()) return std::nullopt;
   float u_rest;
   *light = static_cast<int>(select_.sample(u_select, &u_rest));
-  std::optional<Light> moved;
-  const Light& l = at_shutter_time(lights_[*light], moved);
-  switch (l.type) {
-    case LightType::Area: {
-      const Vec2 b = sample_uniform_triangle(u);
-      return l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
+  return with_light_at_shutter_time(lights_[*light], [&](const Light& l) -> std::optional<Vec3> {
+    switch (l.type) {
+      case LightType::Area: {
+        const Vec2 b = sample_uniform_triangle(u);
+        return l.p0 * b.x + l.p1 * b.y + l.p2 * (1.0f - b.x - b.y);
+      }
+      case LightType::Point:
+      case LightType::Spot:
+        return l.position;
+      default:
+        return std::nullopt;
     }
-    case LightType::Point:
-    case LightType::Spot:
-      return l.position;
-    default:
-      return std::nullopt;
-  }
+  });
 }
 
 float LightSet::pdf_area(int i, const Vec3& p, const Vec3& p_light, const Vec3& wi) const {
