@@ -71,6 +71,9 @@ struct OffsetWalk : EyePathHooks {
   std::array<OffsetPoint, 4> off;
   Ray oray[4];
   std::optional<SurfaceHit> ohit[4];
+  // Each offset vertex's BSDF, built once in vertex() and used by nee() or scatter() at the same
+  // vertex (with a node graph each build runs the material's program).
+  std::optional<Bsdf> obsdf[4];
   RGB nee_base{0.0f};
   std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
   bool scattered = false;  // the base path went through a specular or glossy vertex
@@ -94,15 +97,15 @@ struct OffsetWalk : EyePathHooks {
     }
   }
   // Offset vertices: same kind, or the shift is not invertible (§4.3).
-  void vertex(const SurfaceHit& hit, const Vec3&) {
-    const VertexKind kind = classify_vertex(scene.bsdf(hit), threshold);
+  void vertex(const SurfaceHit&, const Vec3&, const Bsdf& bsdf) {
+    const VertexKind kind = classify_vertex(bsdf, threshold);
     for (int d = 0; d < 4; ++d) {
       if (!off[d].ok()) continue;
       if (!ohit[d]) {
         fail(d, ShiftFailure::Missed);
         continue;
       }
-      const Bsdf ob = scene.bsdf(*ohit[d]);
+      const Bsdf& ob = obsdf[d].emplace(scene.bsdf(*ohit[d]));
       if (classify_vertex(ob, threshold) != kind || ob.is_black()) {
         fail(d, ShiftFailure::NotInvertible);
         continue;
@@ -121,7 +124,7 @@ struct OffsetWalk : EyePathHooks {
       float w = 1.0f;  // failed sensor shift: offset 0, weight 1
       if (off[d].ok()) {
         const SurfaceHit& ov = *ohit[d];
-        c_off = off[d].beta * direct_light(scene, ov, scene.bsdf(ov), ov.frame.to_local(-oray[d].d),
+        c_off = off[d].beta * direct_light(scene, ov, *obsdf[d], ov.frame.to_local(-oray[d].d),
                                            u_light, u2, rays);
         w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
       }
@@ -148,7 +151,7 @@ struct OffsetWalk : EyePathHooks {
       if (!o.ok()) continue;
       const SurfaceHit& ov = *ohit[d];
       const Vec3 owo = ov.frame.to_local(-oray[d].d);
-      const ScatterShift ss = shift_scatter(scene.bsdf(ov), wo, bs.wi, bs.delta, bs.transmission, owo);
+      const ScatterShift ss = shift_scatter(*obsdf[d], wo, bs.wi, bs.delta, bs.transmission, owo);
       if (!ss.ok()) {
         fail(d, ss.failure);
         continue;
