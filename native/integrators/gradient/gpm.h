@@ -179,10 +179,16 @@ class Gpm : public ProgressivePhotonMapping {
   struct WalkStats {
     int64_t walks = 0, iterations = 0;
   };
-  // Step 1 (eq. 5-6) and the DD reconnection of step 2.
-  // org_bsdf: y_{s-1}'s BSDF, built on the first call for the photon and kept for its other offsets.
+  // Step 1 (eq. 5-6) and the DD reconnection of step 2; s1: step 1 traced (the four offsets of
+  // a photon together, gpm.cpp). org_bsdf: y_{s-1}'s BSDF, built on the first call for the
+  // photon and kept for its other offsets.
+ public:
+  struct Step1;
+
+ private:
   PhotonShift shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                              const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf, int64_t& rays) const;
+                              const PhotonOrigin& org, const Step1& s1, std::optional<Bsdf>& org_bsdf,
+                              int64_t& rays) const;
   // Step 1 and the manifold walk of step 2 for specular and glossy chains (eq. 7-10).
   PhotonShift shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                                  const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
