@@ -791,9 +791,9 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto t_update = clock_type::now();
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
-  std::atomic<int64_t> invalid_phi{0};
+  std::atomic<int64_t> invalid_phi{0}, further_paths{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    int64_t bad = 0;
+    int64_t bad = 0, further = 0;
     for (size_t i = lo; i < hi; ++i) {
       PixelState& s = px_[i];
       GradState& g = grad_[i];
@@ -826,6 +826,7 @@ void Gpm::iterate(ProgressSink* sink) {
       g.emission_lum += pass_emission_[i].lum;
       g.emission_lum2 += pass_emission_[i].lum2;
       g.emission_paths += pass_emission_[i].paths;
+      further += pass_emission_[i].paths - 1;  // besides the gather path (finite ones)
       g.scattered = g.scattered || pass_emission_[i].scattered;
       s.lap = (s.lap + lap_j) * u.ratio;
       s.n = u.n_new;
@@ -836,8 +837,10 @@ void Gpm::iterate(ProgressSink* sink) {
       record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, r2_query, ne_pass);  // eq. 6.22
     }
     invalid_phi += bad;
+    further_paths += further;
   });
   end_pass(t_update, ps, rays + shift_rays, invalid + invalid_phi);  // SPPM's end of a pass
+  stats_.extra["further camera paths"] += static_cast<double>(further_paths);  // what `emission_samples` costs
   stats_.extra["photon shifts"] += static_cast<double>(shifts);
   stats_.extra["photon shift rays"] += static_cast<double>(shift_rays);
   stats_.extra["manifold walks"] += static_cast<double>(walks);

@@ -64,8 +64,9 @@
 //
 // Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
 // (`gradphoton methods gpm`, docs/methods.md#gpm).
-// alpha, photons and the primal's initial radius are SPPM's, so that the primal pass is SPPM's
-// image with both methods' defaults; why each default: docs/methods.md#gpm.
+// alpha, photons and the primal's initial radius mean what they mean in SPPM, so that the primal
+// pass is SPPM's image at the same parameters; GPM may default to its own photons per pass
+// (issue 34: methods.cpp gpm_photons); why each default: docs/methods.md#gpm.
 //
 // Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image for the same
 // seed and parameters), gradient_x,
