@@ -321,10 +321,6 @@ Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, int x, int y, const Vec2
 
 // ---- Light-subpath shifts (§4.2) ----
 
-namespace {
-
-}  // namespace
-
 // Step 1 of a DD ending (eq. 5): the candidate y*_s, and y'_s = trace(y_{s-1} -> y*_s), which
 // must be a surface a photon could be stored on (chains: project_candidate below).
 struct Gpm::Step1 {

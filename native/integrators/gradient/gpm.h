@@ -117,6 +117,9 @@ class Gpm : public ProgressivePhotonMapping {
     Vec3 n_smooth;  // the interpolated normal before a normal map (bump shadowing, bent cosine)
     bool ok() const { return exists && failure == ShiftFailure::None; }
   };
+  // Step 1 of a DD photon's shift to one offset (eq. 5): its candidate and where it landed
+  // (gpm.cpp; public for the file's helpers).
+  struct Step1;
 
  private:
   // The gradients' own progressive statistics: they gather with their own radius (the paper's
@@ -183,10 +186,6 @@ class Gpm : public ProgressivePhotonMapping {
   // Step 1 (eq. 5-6) and the DD reconnection of step 2; s1: step 1 traced (the four offsets of
   // a photon together, gpm.cpp). org_bsdf: y_{s-1}'s BSDF, built on the first call for the
   // photon and kept for its other offsets.
- public:
-  struct Step1;
-
- private:
   PhotonShift shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                               const PhotonOrigin& org, const Step1& s1, std::optional<Bsdf>& org_bsdf,
                               int64_t& rays) const;
