@@ -124,7 +124,7 @@ class Gpm : public ProgressivePhotonMapping {
  private:
   // The gradients' own progressive statistics: they gather with their own radius (the paper's
   // one pixel, §5), reduced by their own photon count (thesis eq. 7.2-7.3), while the primal
-  // keeps SPPM's (PixelState: two pixels), so that `primal` is SPPM's image with the defaults.
+  // keeps SPPM's (PixelState: two pixels), so that `primal` is SPPM's image at the same parameters.
   struct GradState {
     double r2 = 0;                 // the gradients' R_i^2 (0 until the primal's is set)
     bool sized = false;            // widened (or not) after the pixel's first gather (gpm.cpp)
