@@ -516,23 +516,6 @@ void Scene::intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceH
   }
 }
 
-void Scene::intersect_points_coherent(const Ray* rays, size_t n, std::optional<SurfacePoint>* points) const {
-  RawHit raw[4];
-  bool found[4];
-  for (size_t lo = 0; lo < n; lo += 4) {
-    const size_t m = std::min<size_t>(4, n - lo);
-    accel_->intersect_stream(rays + lo, m, raw, found, true);
-    for (size_t i = 0; i < m; ++i) {
-      if (!found[i]) {
-        points[lo + i].reset();
-        continue;
-      }
-      points[lo + i].emplace();
-      surface_point(raw[i], *points[lo + i]);
-    }
-  }
-}
-
 void trace_camera_rays(const Scene& scene, const PixelStart* starts, size_t n, Ray* rays,
                        std::optional<SurfaceHit>* hits) {
   const Vec2 ext = scene.camera.half_extent();  // a tan: once, not per ray

@@ -220,9 +220,6 @@ class Scene {
   // (one tile's camera rays): Embree traces them as packets, several times faster than one by
   // one on this project's scenes, with the same answers (`gradphoton bench` checks that).
   void intersect_coherent(const Ray* rays, size_t n, std::optional<SurfaceHit>* hits) const;
-  // points[i] = intersect_point(rays[i]) for a few rays from one point towards nearby targets
-  // (GPM's step-1 rays of one photon): traced as one packet.
-  void intersect_points_coherent(const Ray* rays, size_t n, std::optional<SurfacePoint>* points) const;
   bool occluded(const Ray& ray) const;
   // Shadow ray between two surface points, both pushed off their surfaces.
   bool occluded_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const Vec3& n1) const;

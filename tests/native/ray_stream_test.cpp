@@ -4,7 +4,6 @@
 // images identical when they trace a tile's camera rays as packets.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <optional>
 #include <string>
 #include <vector>
@@ -111,32 +110,6 @@ TEST(RayStreams, CoherentHitsAreTheSingleRayHits) {
     EXPECT_EQ(a.material, b.material);
     EXPECT_EQ(a.light, b.light);
   }
-}
-
-// GPM's step-1 rays: groups of up to four rays from one point towards nearby targets (a run of
-// 1003 rays in groups of 1 to 7, which it splits into packets of four). Seen failing
-// with the last ray of each group of four left untraced.
-TEST(RayStreams, PointPacketsAreTheSingleRayPoints) {
-  const Scene scene = filtered_scene();
-  const std::vector<Ray> rays = random_rays(1003);
-  std::vector<std::optional<SurfacePoint>> points(rays.size());
-  for (size_t lo = 0, n = 1; lo < rays.size(); lo += n, n = n % 7 + 1)
-    scene.intersect_points_coherent(rays.data() + lo, std::min(n, rays.size() - lo), points.data() + lo);
-  int found = 0;
-  for (size_t i = 0; i < rays.size(); ++i) {
-    const auto one = scene.intersect_point(rays[i]);
-    ASSERT_EQ(points[i].has_value(), one.has_value()) << "ray " << i;
-    if (!one) continue;
-    ++found;
-    for (int k = 0; k < 3; ++k) {
-      EXPECT_EQ(points[i]->p[k], one->p[k]) << "ray " << i;
-      EXPECT_EQ(points[i]->ng[k], one->ng[k]);
-    }
-    EXPECT_EQ(points[i]->uv.x, one->uv.x);
-    EXPECT_EQ(points[i]->uv.y, one->uv.y);
-    EXPECT_EQ(points[i]->material, one->material);
-  }
-  EXPECT_GT(found, 500);
 }
 
 TEST(RayStreams, PathFromATracedFirstHitIsThePathItself) {

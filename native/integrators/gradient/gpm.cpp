@@ -321,14 +321,18 @@ Gpm::EmissionSeen Gpm::emission_seen(PixelStart& start, int x, int y, const Vec2
 
 // ---- Light-subpath shifts (§4.2) ----
 
+namespace {
+
 // Step 1 of a DD ending (eq. 5): the candidate y*_s, and y'_s = trace(y_{s-1} -> y*_s), which
 // must be a surface a photon could be stored on (chains: project_candidate below).
-struct Gpm::Step1 {
+struct Step1 {
   ShiftFailure failure = ShiftFailure::None;
   Vec3 y_star, wi_prev;  // candidate, and the unit direction from y_{s-1} towards it
   float len_star = 0;
   SurfacePoint hit;
 };
+
+}  // namespace
 
 // A ray from a surface point towards a target, aimed from its actual origin (pushed off the
 // surface by offset_ray_origin): aimed from the point itself, the ray's line is moved by that
@@ -383,11 +387,10 @@ static bool lands_partly_hidden(const Scene& scene, const Photon& ph, int materi
   return (ph.lobes & ~scene.material(material).visible_lobes & kAllLobes) != 0;
 }
 
-// Step 1's candidate and the ray from y_{s-1} towards it, to be traced (the four offsets' rays
-// of a photon go as one packet: Gpm::iterate) and landed by photon_step1_land.
-static Gpm::Step1 photon_step1_aim(const Vec3& z, const Frame& frame_z, const Vec3& z_off, const Frame& frame_off,
-                                   const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev, Ray& ray) {
-  Gpm::Step1 s;
+static Step1 photon_step1(const Scene& scene, float threshold, const Vec3& z, const Frame& frame_z, const Vec3& z_off,
+                          const Frame& frame_off, const Vec3& y, const Vec3& y_prev, const Vec3& ng_prev,
+                          int64_t& rays) {
+  Step1 s;
   s.y_star = photon_offset_candidate(z, frame_z, z_off, frame_off, y);
   const Vec3 dir = s.y_star - y_prev;
   s.len_star = length(dir);
@@ -396,15 +399,13 @@ static Gpm::Step1 photon_step1_aim(const Vec3& z, const Frame& frame_z, const Ve
     return s;
   }
   s.wi_prev = dir / s.len_star;
-  ray = aimed_ray(y_prev, ng_prev, s.y_star);
-  return s;
-}
-static void photon_step1_land(const Scene& scene, float threshold, const std::optional<SurfacePoint>& h,
-                              Gpm::Step1& s) {
+  ++rays;
+  const auto h = scene.intersect_point(aimed_ray(y_prev, ng_prev, s.y_star));
   if (!h) s.failure = ShiftFailure::Missed;
   else if (!scene.bsdf(h->material, h->uv).is_diffuse_for_photons(threshold))
     s.failure = ShiftFailure::NotInvertible;  // a photon could not be stored there
   else s.hit = *h;
+  return s;
 }
 
 // Reversibility of a DD ending (§4.3): the inverse shift of y'_s (eq. 5 from z'_t back to z_t),
@@ -420,8 +421,7 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
 }
 
 Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                                      const PhotonOrigin& org, const Step1& s1, std::optional<Bsdf>& org_bsdf,
-                                      int64_t& rays) const {
+                                      const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf, int64_t& rays) const {
   PhotonShift out;
   // Per-kind switches: a last segment where the photon tracer chose between crossing a surface
   // and scattering there (a surface hidden from some of the segment's kinds) is not shifted, on
@@ -431,6 +431,7 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
     out.failure = ShiftFailure::NotInvertible;
     return out;
   }
+  const Step1 s1 = photon_step1(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, org.p, org.ng, rays);
   if (s1.failure != ShiftFailure::None) {
     out.failure = s1.failure;
     return out;
@@ -720,23 +721,6 @@ void Gpm::iterate(ProgressSink* sink) {
         ChainBase local_base;
         const ChainBase* base = nullptr;  // evaluated on the first offset that needs it
         std::optional<Bsdf> org_bsdf;     // y_{s-1}'s BSDF, likewise (DD endings)
-        // DD endings: the step-1 rays of the four offsets leave y_{s-1} towards nearby
-        // candidates, traced as one packet (the same closest hits as one by one).
-        std::array<Step1, 4> step1;
-        if (!chain && !org.branched) {
-          Ray step_rays[4];
-          int dirs[4];
-          size_t k = 0;
-          for (int d = 0; d < 4; ++d) {
-            if (!off[d].ok()) continue;
-            step1[d] = photon_step1_aim(vp.p, vp.frame, off[d].p, off[d].frame, ph.p, org.p, org.ng, step_rays[k]);
-            if (step1[d].failure == ShiftFailure::None) dirs[k++] = d;
-          }
-          std::optional<SurfacePoint> landed[4];
-          scene_.intersect_points_coherent(step_rays, k, landed);
-          local_rays += static_cast<int64_t>(k);
-          for (size_t j = 0; j < k; ++j) photon_step1_land(scene_, threshold_, landed[j], step1[dirs[j]]);
-        }
         for (int d = 0; d < 4; ++d) {
           const OffsetPoint& o = off[d];
           if (!o.exists) continue;
@@ -746,7 +730,7 @@ void Gpm::iterate(ProgressSink* sink) {
             ++local_shifts;
             if (chain && !base) base = &chain_base(ph, org, local_base);
             const PhotonShift sh = chain ? shift_chain_photon(vp, o, R, ph, org, *chain, *base, local_rays, walk_stats)
-                                         : shift_dd_photon(vp, o, R, ph, org, step1[d], org_bsdf, local_rays);
+                                         : shift_dd_photon(vp, o, R, ph, org, org_bsdf, local_rays);
             if (sh.failure != ShiftFailure::None) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {

@@ -117,9 +117,6 @@ class Gpm : public ProgressivePhotonMapping {
     Vec3 n_smooth;  // the interpolated normal before a normal map (bump shadowing, bent cosine)
     bool ok() const { return exists && failure == ShiftFailure::None; }
   };
-  // Step 1 of a DD photon's shift to one offset (eq. 5): its candidate and where it landed
-  // (gpm.cpp; public for the file's helpers).
-  struct Step1;
 
  private:
   // The gradients' own progressive statistics: they gather with their own radius (the paper's
@@ -183,12 +180,10 @@ class Gpm : public ProgressivePhotonMapping {
   struct WalkStats {
     int64_t walks = 0, iterations = 0;
   };
-  // Step 1 (eq. 5-6) and the DD reconnection of step 2; s1: step 1 traced (the four offsets of
-  // a photon together, gpm.cpp). org_bsdf: y_{s-1}'s BSDF, built on the first call for the
-  // photon and kept for its other offsets.
+  // Step 1 (eq. 5-6) and the DD reconnection of step 2.
+  // org_bsdf: y_{s-1}'s BSDF, built on the first call for the photon and kept for its other offsets.
   PhotonShift shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                              const PhotonOrigin& org, const Step1& s1, std::optional<Bsdf>& org_bsdf,
-                              int64_t& rays) const;
+                              const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf, int64_t& rays) const;
   // Step 1 and the manifold walk of step 2 for specular and glossy chains (eq. 7-10).
   PhotonShift shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
                                  const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
