@@ -89,6 +89,11 @@ ParamDecl photons(int64_t d, std::string zero_means = {}) {
 ParamDecl photons_ramp() {
   return photons(0, "100 000, doubling every 8 passes up to two per pixel (at most 1 000 000)");
 }
+// GPM's own photons per pass (issue 34): its primal is SPPM's image at the same parameters, not
+// necessarily at both methods' defaults. 0: SPPM's ramp, until the equal-time sweep of
+// `scripts/bench_gpm.py error` (docs/gradient.md "Photons per pass") sets a count here.
+constexpr int64_t kGpmPhotonsPerPass = 0;
+ParamDecl gpm_photons() { return kGpmPhotonsPerPass > 0 ? photons(kGpmPhotonsPerPass) : photons_ramp(); }
 ParamDecl alpha(double d, const char* reference) {
   return {.name = "alpha", .type = ParamType::Float, .default_value = d, .min = 0, .max = 1, .min_open = true,
           .max_open = true, .label = "Alpha",
@@ -295,8 +300,8 @@ std::vector<Method> make_methods() {
                .summary = "gradient-domain photon density estimation: photon gradients by shifts (Hua et al. 2017)",
                .tooltip = "Photon mapping of image gradients: smooth caustics in fewer passes (gradient-domain "
                           "photon density estimation, Hua et al. 2017)",
-               .params = join({photon_common(photons_ramp(), 0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
-                                   "thesis §7.4, as sppm: the primal is SPPM's image"),
+               .params = join({photon_common(gpm_photons(), 0.7, "thesis eq. 7.2 (the paper: 0.9)", 2.0,
+                                   "thesis §7.4, as sppm: the primal is SPPM's image at the same parameters"),
                      {{.name = "gradient_footprint", .type = ParamType::Float, .default_value = 1.0, .min = 0,
                        .min_open = true, .label = "Gradient Footprint",
                        .description = "size of the first gradient gathers, in pixels: larger gives smoother gradients and "

@@ -71,6 +71,9 @@ struct OffsetWalk : EyePathHooks {
   std::array<OffsetPoint, 4> off;
   Ray oray[4];
   std::optional<SurfaceHit> ohit[4];
+  // Each offset vertex's BSDF, built once in vertex() and used by nee() or scatter() at the same
+  // vertex (with a node graph each build runs the material's program).
+  std::optional<Bsdf> obsdf[4];
   RGB nee_base{0.0f};
   std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
   bool scattered = false;  // the base path went through a specular or glossy vertex
@@ -94,15 +97,15 @@ struct OffsetWalk : EyePathHooks {
     }
   }
   // Offset vertices: same kind, or the shift is not invertible (§4.3).
-  void vertex(const SurfaceHit& hit, const Vec3&) {
-    const VertexKind kind = classify_vertex(scene.bsdf(hit), threshold);
+  void vertex(const SurfaceHit&, const Vec3&, const Bsdf& bsdf) {
+    const VertexKind kind = classify_vertex(bsdf, threshold);
     for (int d = 0; d < 4; ++d) {
       if (!off[d].ok()) continue;
       if (!ohit[d]) {
         fail(d, ShiftFailure::Missed);
         continue;
       }
-      const Bsdf ob = scene.bsdf(*ohit[d]);
+      const Bsdf& ob = obsdf[d].emplace(scene.bsdf(*ohit[d]));
       if (classify_vertex(ob, threshold) != kind || ob.is_black()) {
         fail(d, ShiftFailure::NotInvertible);
         continue;
@@ -121,7 +124,7 @@ struct OffsetWalk : EyePathHooks {
       float w = 1.0f;  // failed sensor shift: offset 0, weight 1
       if (off[d].ok()) {
         const SurfaceHit& ov = *ohit[d];
-        c_off = off[d].beta * direct_light(scene, ov, scene.bsdf(ov), ov.frame.to_local(-oray[d].d),
+        c_off = off[d].beta * direct_light(scene, ov, *obsdf[d], ov.frame.to_local(-oray[d].d),
                                            u_light, u2, rays);
         w = static_cast<float>(1.0 / (1.0 + off[d].ratio));  // eq. 11 (z only)
       }
@@ -148,7 +151,7 @@ struct OffsetWalk : EyePathHooks {
       if (!o.ok()) continue;
       const SurfaceHit& ov = *ohit[d];
       const Vec3 owo = ov.frame.to_local(-oray[d].d);
-      const ScatterShift ss = shift_scatter(scene.bsdf(ov), wo, bs.wi, bs.delta, bs.transmission, owo);
+      const ScatterShift ss = shift_scatter(*obsdf[d], wo, bs.wi, bs.delta, bs.transmission, owo);
       if (!ss.ok()) {
         fail(d, ss.failure);
         continue;
@@ -768,9 +771,9 @@ void Gpm::iterate(ProgressSink* sink) {
   const auto t_update = clock_type::now();
   emitted_total_ += ps.emitted;
   const double ne_pass = static_cast<double>(ps.emitted);
-  std::atomic<int64_t> invalid_phi{0};
+  std::atomic<int64_t> invalid_phi{0}, further_paths{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    int64_t bad = 0;
+    int64_t bad = 0, further = 0;
     for (size_t i = lo; i < hi; ++i) {
       PixelState& s = px_[i];
       GradState& g = grad_[i];
@@ -803,6 +806,7 @@ void Gpm::iterate(ProgressSink* sink) {
       g.emission_lum += pass_emission_[i].lum;
       g.emission_lum2 += pass_emission_[i].lum2;
       g.emission_paths += pass_emission_[i].paths;
+      further += pass_emission_[i].paths - 1;  // besides the gather path (finite ones)
       g.scattered = g.scattered || pass_emission_[i].scattered;
       s.lap = (s.lap + lap_j) * u.ratio;
       s.n = u.n_new;
@@ -813,8 +817,10 @@ void Gpm::iterate(ProgressSink* sink) {
       record_error_sample(s, Ld.luminance(), phi.luminance(), lap_j, r2_query, ne_pass);  // eq. 6.22
     }
     invalid_phi += bad;
+    further_paths += further;
   });
   end_pass(t_update, ps, rays + shift_rays, invalid + invalid_phi);  // SPPM's end of a pass
+  stats_.extra["further camera paths"] += static_cast<double>(further_paths);  // what `emission_samples` costs
   stats_.extra["photon shifts"] += static_cast<double>(shifts);
   stats_.extra["photon shift rays"] += static_cast<double>(shift_rays);
   stats_.extra["manifold walks"] += static_cast<double>(walks);

@@ -64,8 +64,9 @@
 //
 // Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
 // (`gradphoton methods gpm`, docs/methods.md#gpm).
-// alpha, photons and the primal's initial radius are SPPM's, so that the primal pass is SPPM's
-// image with both methods' defaults; why each default: docs/methods.md#gpm.
+// alpha, photons and the primal's initial radius mean what they mean in SPPM, so that the primal
+// pass is SPPM's image at the same parameters; GPM may default to its own photons per pass
+// (issue 34: methods.cpp gpm_photons); why each default: docs/methods.md#gpm.
 //
 // Passes: combined (reconstruction + primal-domain part), primal (= SPPM's image for the same
 // seed and parameters), gradient_x,
@@ -120,7 +121,7 @@ class Gpm : public ProgressivePhotonMapping {
  private:
   // The gradients' own progressive statistics: they gather with their own radius (the paper's
   // one pixel, §5), reduced by their own photon count (thesis eq. 7.2-7.3), while the primal
-  // keeps SPPM's (PixelState: two pixels), so that `primal` is SPPM's image with the defaults.
+  // keeps SPPM's (PixelState: two pixels), so that `primal` is SPPM's image at the same parameters.
   struct GradState {
     double r2 = 0;                 // the gradients' R_i^2 (0 until the primal's is set)
     bool sized = false;            // widened (or not) after the pixel's first gather (gpm.cpp)

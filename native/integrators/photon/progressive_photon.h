@@ -47,7 +47,8 @@ inline PhotonStatsUpdate progressive_update(double n, double r2, double m, doubl
 // Observers of ProgressivePhotonMapping::trace_eye_path (one SPPM camera path), called in path
 // order; GPM's offset paths are one (gpm.cpp). The default observes nothing.
 struct EyePathHooks {
-  void vertex(const SurfaceHit&, const Vec3& /*wo*/) {}  // every surface the path scatters at
+  // Every surface the path scatters at, with its BSDF there (the walk's own, not rebuilt).
+  void vertex(const SurfaceHit&, const Vec3& /*wo*/, const Bsdf&) {}
   // NEE at the measurement point with light sample (u_light, u2); c its weighted contribution.
   void nee(float /*u_light*/, const Vec2& /*u2*/, const RGB& /*c*/) {}
   void gather(const SurfaceHit&) {}                       // the measurement point
@@ -484,7 +485,7 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
     eye_prepare(c, *hit);
-    hooks.vertex(*hit, wo);
+    hooks.vertex(*hit, wo, bsdf);
     if (bsdf.is_diffuse_for_photons(threshold_)) {
       if (emission_only) break;
       // ---- Measurement point; direct light by NEE when photons skip it ----
