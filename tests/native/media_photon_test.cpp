@@ -115,17 +115,26 @@ TEST(MediaPhotons, AMediumInsideGlassMatchesPathTracing) {
 TEST(MediaPhotons, SpectralSppmAndSpectralPathTracingAgreeInFog) {
   // The photons and eye paths at sampled wavelengths (SpectralPhotonPower, SpectralEye) against spt-hero.
   const Scene s = scene_from(kFogRoom);
-  Params pt;
-  pt.set("seed", uint64_t{9});
-  pt.set("max_depth", 64);
-  const RGB spt = image_mean(render("spt-hero", s, 1024, pt));
+  // The reference: the median luminance of four spt-hero runs of 256 passes (seeds 9-12). The
+  // chromatic smoke gives spt-hero rare bright samples (one blue firefly moved a single 1024-pass
+  // run by 2 %); a median of runs is robust to one such run and costs the same.
+  std::vector<RGB> runs;
+  for (uint64_t seed = 9; seed < 13; ++seed) {
+    Params pt;
+    pt.set("seed", seed);
+    pt.set("max_depth", 64);
+    runs.push_back(image_mean(render("spt-hero", s, 256, pt)));
+  }
+  std::sort(runs.begin(), runs.end(), [](const RGB& a, const RGB& b) { return a.luminance() < b.luminance(); });
+  const RGB spt = (runs[1] + runs[2]) * 0.5f;
   Params p = photon_params(10, 100000, 0.02);
   p.set("spectral", std::string("spectral"));
   Stats stats;
-  const RGB sppm = image_mean(render("sppm", s, 48, p, &stats));
+  const RGB sppm = image_mean(render("sppm", s, 96, p, &stats));
   ASSERT_EQ(stats.extra.count("spectral wavelengths"), 1u);  // spectral photons were used
   std::printf("fog room: spectral sppm / spt-hero %.4f (luminance)\n", sppm.luminance() / spt.luminance());
   // Colour noise of 4 wavelengths per path on top of the RGB test's: 2 % headroom on luminance.
+  // SPPM's radius bias still shows at 48 passes (0.979 of the median reference; 96: 0.986).
   EXPECT_NEAR(sppm.luminance() / spt.luminance(), 1.0, 0.02) << sppm.luminance() << " vs " << spt.luminance();
 }
 
