@@ -23,6 +23,8 @@ import subprocess
 import sys
 import tempfile
 
+from convergence import method_args  # noqa: E402  (scripts/ is on the path when run)
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 CONFIGS = [("sppm", ["--method", "sppm"]),
            ("gpm, no walk", ["--method", "gpm", "--param", "manifold_iterations=0"]),
@@ -104,15 +106,6 @@ def scene_size(spec):
         return name, 256, 256  # the issue's size: the public code's torus
     cam = json.loads((ROOT / "scenes" / f"{name}.json").read_text()).get("camera", {})
     return name, int(cam.get("width", 256)), int(cam.get("height", 256))
-
-
-def method_args(spec):
-    """'gpm:recon=l2,photons=250000' -> ['--method', 'gpm', '--param', 'recon=l2', ...] (convergence.py)."""
-    name, _, params = spec.partition(":")
-    out = ["--method", name]
-    for kv in filter(None, params.split(",")):
-        out += ["--param", kv]
-    return out
 
 
 def tag(text):

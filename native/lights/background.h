@@ -9,6 +9,7 @@
 // one mixture density).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,6 +19,17 @@
 #include "core/sampling.h"
 
 namespace gp {
+
+// A direction function baked for importance sampling: W x H equirectangular cells (Cycles'
+// projection, environment_map.h), each the mean of S x S evaluations of `radiance`; the
+// sampling density is each cell's luminance times sin(theta) (the standard construction),
+// floored at 1e-3 of its mean so that every cell lit in part has density (uniform when all is
+// black); `integral` is the radiance integrated over the sphere (W sr^-1 m^-2 x sr) per channel.
+struct BakedDirections {
+  PiecewiseConstant2D grid;
+  RGB integral{0.0f};
+};
+BakedDirections bake_directions(int W, int H, int S, int threads, const std::function<RGB(const Vec3&)>& radiance);
 
 class BackgroundTerm {
  public:

@@ -360,41 +360,9 @@ void SkyTexture::build_sampling() {
   // 512 x 256 equirectangular cells (Cycles' projection, environment_map.h), each the mean of
   // 2 x 2 evaluations of the sky without its sun.
   const int W = 512, H = 256, S = 2;
-  std::vector<float> f(size_t(W) * H);
-  std::vector<RGB> rows(H, RGB(0.0f));
-  parallel_for(static_cast<size_t>(H), 1, [&](size_t j0, size_t j1) {
-    for (size_t j = j0; j != j1; ++j) {
-      RGB row(0.0f);
-      for (int i = 0; i < W; ++i) {
-        RGB c(0.0f);
-        for (int sj = 0; sj < S; ++sj)
-          for (int si = 0; si < S; ++si)
-            c += radiance(EnvironmentMap::equirectangular_direction(
-                              Vec2((i + (si + 0.5f) / S) / W, (j + (sj + 0.5f) / S) / H)),
-                          false);
-        c = c * (1.0f / (S * S));
-        row += c;
-        f[j * W + i] = c.luminance();
-      }
-      rows[j] = row;
-    }
-  });
-  double mean = 0, sky[3] = {0, 0, 0};
-  for (int j = 0; j < H; ++j) {
-    const double band = std::abs(std::cos(M_PI * j / H) - std::cos(M_PI * (j + 1) / H));  // solid angle / 2pi
-    for (int k = 0; k < 3; ++k) sky[k] += rows[j][k] * 2.0 * M_PI * band / W;
-    const float st = std::sin(kPi * (j + 0.5f) / H);
-    for (int i = 0; i < W; ++i) {
-      f[j * W + i] *= st;
-      mean += f[j * W + i];
-    }
-  }
-  mean /= double(W) * H;
-  // A floor, so that every cell the sky lights (in part) has density.
-  for (float& v : f) v = std::max(v, static_cast<float>(1e-3 * mean));
-  if (!(mean > 0)) std::fill(f.begin(), f.end(), 1.0f);
-  grid_ = PiecewiseConstant2D(f.data(), W, H);
-  sky_integral_ = RGB(float(sky[0]), float(sky[1]), float(sky[2]));
+  BakedDirections baked = bake_directions(W, H, S, 1, [this](const Vec3& d) { return radiance(d, false); });
+  grid_ = std::move(baked.grid);
+  sky_integral_ = baked.integral;
   // The sun disc's power: its mean radiance over a stratified grid of the cone.
   sun_integral_ = RGB(0.0f);
   if (options_.model == SkyModel::Nishita && options_.sun_disc && sun_one_minus_cos_ > 0) {

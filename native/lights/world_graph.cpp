@@ -76,38 +76,9 @@ void WorldGraph::bake(int width) {
   // feature, a sky's sun, is less likely to fall between them).
   const int W = std::clamp(width, 4, 8192), H = std::max(2, W / 2);
   const int S = W <= 1024 ? 2 : 1;
-  std::vector<float> f(size_t(W) * H);
-  std::vector<RGB> rows(H, RGB(0.0f));
-  parallel_for(static_cast<size_t>(H), 0, [&](size_t j0, size_t j1) {
-    for (size_t j = j0; j != j1; ++j) {
-      RGB row(0.0f);
-      for (int i = 0; i < W; ++i) {
-        RGB c(0.0f);
-        for (int sj = 0; sj < S; ++sj)
-          for (int si = 0; si < S; ++si)
-            c += eval(EnvironmentMap::equirectangular_direction(Vec2((i + (si + 0.5f) / S) / W, (j + (sj + 0.5f) / S) / H)));
-        c = c * (1.0f / float(S * S));
-        row += c;
-        f[j * W + i] = c.luminance();
-      }
-      rows[j] = row;
-    }
-  });
-  double mean = 0, sum[3] = {0, 0, 0};
-  for (int j = 0; j < H; ++j) {
-    const double band = std::abs(std::cos(M_PI * j / H) - std::cos(M_PI * (j + 1) / H));  // solid angle / 2pi
-    for (int k = 0; k < 3; ++k) sum[k] += rows[j][k] * 2.0 * M_PI * band / W;
-    const float st = std::sin(kPi * (j + 0.5f) / H);
-    for (int i = 0; i < W; ++i) {
-      f[j * W + i] *= st;
-      mean += f[j * W + i];
-    }
-  }
-  mean /= double(W) * H;
-  for (float& v : f) v = std::max(v, static_cast<float>(1e-3 * mean));
-  if (!(mean > 0)) std::fill(f.begin(), f.end(), 1.0f);  // black to light samples: uniform
-  grid_ = PiecewiseConstant2D(f.data(), W, H);
-  integral_ = RGB(float(sum[0]), float(sum[1]), float(sum[2]));
+  BakedDirections baked = bake_directions(W, H, S, 0, [this](const Vec3& d) { return eval(d); });
+  grid_ = std::move(baked.grid);
+  integral_ = baked.integral;
 }
 
 bool WorldGraph::sample(Vec2 u, Vec3* dir, float* pdf) const {
