@@ -404,7 +404,9 @@ class RenderSession:
                 if previewed and stats.get("passes", 0) == 0:
                     pass  # stopped before a full pass: the preview stays, not an empty image
                 elif done or now - last_update + half_pass >= display_interval(now):
-                    self._write(result, passes)
+                    # Display quality until the end; after Esc too (an L1 solve at 1080p would
+                    # hold the cancel for many seconds).
+                    self._write(result, passes, display=not done or cancelled_at is not None)
                     engine.update_result(result)
                     self.updates.append((now, n))
                     last_update = now
@@ -464,7 +466,7 @@ class RenderSession:
                 if self._iterate_cancellable() is not None:
                     break
                 seconds = time.perf_counter() - t0
-                images = {k: enlarged(v, H, W) for k, v in self.session.develop().items()
+                images = {k: enlarged(v, H, W) for k, v in self.session.develop(display=True).items()
                           if k in ("combined", "alpha")}
                 self._write(result, [p for p in passes if p[0] == "combined"], images)
                 self.engine.update_result(result)
@@ -495,11 +497,13 @@ class RenderSession:
                 self.session.cancel()
         return fired
 
-    def _write(self, result, passes, images=None):
+    def _write(self, result, passes, images=None, display=False):
         """Every enabled pass into the result (a border render's images are already the
-        border: the core traced only its pixels); `images` instead of the session's own."""
+        border: the core traced only its pixels); `images` instead of the session's own.
+        display: an image shown while the render goes on (Session.develop's display: a gradient
+        method's L1 solve replaced by L2); the last image is the method's own."""
         if images is None:
-            images = self.session.develop()
+            images = self.session.develop(display=display)
         layer = result.layers[0]
         alpha = images.get("alpha") if self.transparent else None
         for name, bl_name, channels, _, _ in passes:

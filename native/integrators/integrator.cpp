@@ -2,6 +2,13 @@
 
 namespace gp {
 
+namespace {
+thread_local bool t_display_develop = false;
+}
+DisplayDevelop::DisplayDevelop() : saved_(t_display_develop) { t_display_develop = true; }
+DisplayDevelop::~DisplayDevelop() { t_display_develop = saved_; }
+bool DisplayDevelop::active() { return t_display_develop; }
+
 void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink) {
   if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0)
     throw ParamError("no stop rule: give a time budget, a pass count or a target error");

@@ -192,11 +192,11 @@ class Session {
   void cancel() { sink_.cancel_flag = true; }
   bool cancelled() { return sink_.cancel_flag; }
   // Every pass as a float32 array of shape (height, width, channels), row 0 at the top.
-  py::dict develop() {
+  py::dict develop(bool display) {
     Film film;
     {
       py::gil_scoped_release release;
-      film = session_.develop();
+      film = session_.develop(display);
     }
     py::dict out;
     for (const auto& [name, p] : film.passes()) {
@@ -720,7 +720,9 @@ void bind_session(py::module_& m) {
            "Render until the time budget or pass count is reached, or cancel() is called")
       .def("cancel", &Session::cancel, "Ask the current pass to stop (thread-safe)")
       .def_property_readonly("cancelled", &Session::cancelled)
-      .def("develop", &Session::develop, "Current passes as {name: float32 array (H, W, C)}")
+      .def("develop", &Session::develop, py::arg("display") = false,
+           "Current passes as {name: float32 array (H, W, C)}; display=True: an image to show while the "
+           "render runs, which a gradient method reconstructs by L2 (one linear solve) instead of L1")
       .def("set_aux_passes", &Session::set_aux_passes, py::arg("on"),
            "Whether to make the albedo, normal and depth passes (on by default)")
       .def("write_exr", &Session::write_exr_file, py::arg("path"), "Write every pass, with run_info in the header")

@@ -1,5 +1,6 @@
 #include "session/render_session.h"
 
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -92,9 +93,11 @@ void RenderSession::run(const StopRule& stop, ProgressSink* sink) {
   run_progressive(*integrator_, stop, &both);
 }
 
-Film RenderSession::develop() const {
+Film RenderSession::develop(bool for_display) const {
   Scene::RenderGuard guard(*scene_);
   Film film;
+  std::optional<DisplayDevelop> display;
+  if (for_display) display.emplace();
   integrator_->develop(film);
   // Before a whole auxiliary pass there is nothing to show (Blender keeps them zero): this keeps
   // the image sent after an early Esc as cheap as before.

@@ -36,7 +36,8 @@ class RenderSession {
   bool aux_passes() const { return aux_; }
 
   // Every pass of the current estimate: the method's, and the auxiliary ones once there is one.
-  Film develop() const;
+  // for_display: an image to show while the render runs (integrators/integrator.h DisplayDevelop).
+  Film develop(bool for_display = false) const;
   // develop() written as a multi-layer EXR with run_record() in its header.
   void write_exr(const std::string& path) const;
   // The run's record (distributed/run_info.h) as EXR header attributes.

@@ -1,5 +1,7 @@
 #include "integrators/gradient/gradient_passes.h"
 
+#include "integrators/integrator.h"
+
 namespace gp {
 
 // The defaults (methods.cpp): L1 for gpm and gdmlt, lower relMSE than L2 at equal time on every
@@ -16,7 +18,9 @@ void develop_gradient_passes(Film& film, const std::vector<double>& primal, cons
                              const std::vector<double>& gy, const std::vector<double>& kept_out, int width,
                              int height, const ReconOptions& recon, const std::vector<double>* kept_out_combined) {
   const std::vector<double>& kept_comb = kept_out_combined ? *kept_out_combined : kept_out;
-  const std::vector<double> rec = screened_poisson(primal, gx, gy, width, height, 3, recon);  // eq. 3
+  ReconOptions r = recon;
+  if (DisplayDevelop::active()) r.norm = ReconNorm::L2;  // an image for display only (integrator.h)
+  const std::vector<double> rec = screened_poisson(primal, gx, gy, width, height, 3, r);  // eq. 3
   std::vector<double> dx, dy;
   forward_differences(kept_out, width, height, 3, &dx, &dy);
   Pass& comb = film.add_pass(pass::kCombined, 3);
