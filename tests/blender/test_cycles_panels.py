@@ -412,7 +412,7 @@ def test_export_warnings_reach_the_status_bar_when_the_render_ends(empty_scene):
             raise AttributeError
 
     s = session.RenderSession(Engine())
-    s._write = lambda result, passes: None
+    s._write = lambda result, passes, **kwargs: None
     s.render(bpy.context.evaluated_depsgraph_get())
     kinds = [k for k, m in events if k != "report" or "renders with shadows" in m]
     assert kinds.index("end") < kinds.index("report"), events

@@ -9,7 +9,7 @@ import numpy as np
 import scenes
 from gradphoton import native
 from gradphoton.export import export_scene
-from test_volumes import volume_material
+from test_volumes import cycles_then_pt, volume_material, window_ratios
 
 
 def export_current():
@@ -104,15 +104,8 @@ def test_smoke_domain_at_cycles_brightness(empty_scene, out_dir):
     scenes.configure_cycles(scene, samples, bounces)
     scene.cycles.volume_bounces = bounces
     scene.cycles.volume_step_rate = 0.25  # fine ray marching: Cycles' own bias well under 1 %
-    cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
-    scene.render.engine = 'GRADPHOTON'
-    g = scene.gradphoton
-    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
-    ours = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "g.exr")))["combined"]
-    a, b = ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
-    h, w = a.shape[:2]
-    mid = (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))
-    ratio, ratio_mid = a.sum() / b.sum(), a[mid].sum() / b[mid].sum()
+    a, b = cycles_then_pt(scene, out_dir, samples, bounces)
+    ratio, ratio_mid = window_ratios(a, b)
     # How much the smoke darkens its window against the same view without it (the test's power).
     print(f"VOLUME smoke domain: gradphoton/cycles = {ratio:.4f} (plume window {ratio_mid:.4f}); "
           f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")

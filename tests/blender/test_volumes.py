@@ -26,6 +26,24 @@ def volume_material(name, kind, **inputs):
     nt.links.new(v.outputs[0], out.inputs["Volume"])
     return m
 
+def cycles_then_pt(scene, out_dir, samples, bounces):
+    """The scene rendered by Cycles as configured, then by gradphoton pt at `samples` passes and
+    `bounces`: (gradphoton, cycles) RGB as float64 arrays."""
+    cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
+    scene.render.engine = 'GRADPHOTON'
+    g = scene.gradphoton
+    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
+    ours = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "g.exr")))["combined"]
+    return ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
+
+
+def window_ratios(a, b):
+    """a / b over the image and over its middle window (where the tests' volumes are seen)."""
+    h, w = a.shape[:2]
+    mid = (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))
+    return a.sum() / b.sum(), a[mid].sum() / b[mid].sum()
+
+
 
 def add_cube(scene, name, size, material, location=(0, 0, 0)):
     s = size / 2
@@ -124,17 +142,8 @@ def test_principled_volume_cube_at_cycles_brightness(empty_scene, out_dir):
     samples, bounces = 256, 8
     scenes.configure_cycles(empty_scene, samples, bounces)
     empty_scene.cycles.volume_bounces = bounces
-    cycles = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "c.exr")))["combined"]
-    empty_scene.render.engine = 'GRADPHOTON'
-    g = empty_scene.gradphoton
-    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
-    ours = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g.exr")))["combined"]
-    a, b = ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
-    ratio = a.sum() / b.sum()
-    # The cube's own pixels: where the medium is seen (middle of the image).
-    h, w = a.shape[:2]
-    mid = (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))
-    ratio_mid = a[mid].sum() / b[mid].sum()
+    a, b = cycles_then_pt(empty_scene, out_dir, samples, bounces)
+    ratio, ratio_mid = window_ratios(a, b)  # the window: the cube's own pixels
     print(f"VOLUME principled cube: gradphoton/cycles = {ratio:.4f} (cube window {ratio_mid:.4f}); "
           f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
     # Measured: 1.0000 over the image, 0.9986 over the cube (1024 samples); 1 % is the issue's bound.
@@ -225,15 +234,8 @@ def test_vdb_volume_object_at_cycles_brightness(empty_scene, out_dir):
     scenes.configure_cycles(scene, samples, bounces)
     scene.cycles.volume_bounces = bounces
     scene.cycles.volume_step_rate = 0.25  # fine ray marching: Cycles' own bias well under 1 %
-    cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
-    scene.render.engine = 'GRADPHOTON'
-    g = scene.gradphoton
-    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
-    ours = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "g.exr")))["combined"]
-    a, b = ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
-    h, w = a.shape[:2]
-    mid = (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))
-    ratio, ratio_mid = a.sum() / b.sum(), a[mid].sum() / b[mid].sum()
+    a, b = cycles_then_pt(scene, out_dir, samples, bounces)
+    ratio, ratio_mid = window_ratios(a, b)
     print(f"VOLUME vdb object: gradphoton/cycles = {ratio:.4f} (blob window {ratio_mid:.4f}); "
           f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
     assert abs(ratio - 1) < 0.01, ratio
@@ -292,18 +294,13 @@ def test_volume_bounces_are_read_as_cycles_reads_them(empty_scene, out_dir):
     scenes.configure_cycles(empty_scene, samples, bounces)
     empty_scene.cycles.volume_bounces = 0
     assert export_current().description["volume_bounces"] == 0
-    cycles = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "c.exr")))["combined"]
-    empty_scene.render.engine = 'GRADPHOTON'
-    g = empty_scene.gradphoton
-    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
-    ours = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g.exr")))["combined"]
+    a, b = cycles_then_pt(empty_scene, out_dir, samples, bounces)
     empty_scene.cycles.volume_bounces = 8
     assert export_current().description["volume_bounces"] == 8
     more = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g8.exr")))["combined"]
-    a, b, c = (x[..., :3].astype(np.float64) for x in (ours, cycles, more))
-    h, w = a.shape[:2]
-    mid = (slice(h // 4, 3 * h // 4), slice(w // 3, 2 * w // 3))
-    ratio, ratio_mid, gain = a.sum() / b.sum(), a[mid].sum() / b[mid].sum(), c[mid].sum() / a[mid].sum()
+    c = more[..., :3].astype(np.float64)
+    ratio, ratio_mid = window_ratios(a, b)
+    gain = window_ratios(c, a)[1]
     print(f"VOLUME bounces 0: gradphoton/cycles = {ratio:.4f} (cube window {ratio_mid:.4f}); "
           f"8 bounces / 0 over the cube {gain:.4f}")
     assert abs(ratio - 1) < 0.01, ratio
