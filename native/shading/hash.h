@@ -13,26 +13,36 @@
 namespace gp::shading {
 
 namespace detail {
-inline uint32_t rot(uint32_t x, int k) { return (x << k) | (x >> (32 - k)); }
-// lookup3's mix(a, b, c).
-inline void jenkins_mix(uint32_t& a, uint32_t& b, uint32_t& c) {
-  a -= c; a ^= rot(c, 4); c += b;
-  b -= a; b ^= rot(a, 6); a += c;
-  c -= b; c ^= rot(b, 8); b += a;
-  a -= c; a ^= rot(c, 16); c += b;
-  b -= a; b ^= rot(a, 19); a += c;
-  c -= b; c ^= rot(b, 4); b += a;
+// lookup3's rot, mix(a, b, c) and final(a, b, c), written once for a 32-bit key (U = uint32_t)
+// and for vectors of them (U = u32x8 below: several keys at once, lane by lane the same bits).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"  // always inlined: no vector crosses a call (below)
+template <class U>
+GP_VECTOR_INLINE U rot_v(const U& x, int k) {
+  return (x << k) | (x >> (32 - k));
 }
-// lookup3's final(a, b, c).
-inline void jenkins_final(uint32_t& a, uint32_t& b, uint32_t& c) {
-  c ^= b; c -= rot(b, 14);
-  a ^= c; a -= rot(c, 11);
-  b ^= a; b -= rot(a, 25);
-  c ^= b; c -= rot(b, 16);
-  a ^= c; a -= rot(c, 4);
-  b ^= a; b -= rot(a, 14);
-  c ^= b; c -= rot(b, 24);
+template <class U>
+GP_VECTOR_INLINE void jenkins_mix_v(U& a, U& b, U& c) {
+  a -= c; a ^= rot_v(c, 4); c += b;
+  b -= a; b ^= rot_v(a, 6); a += c;
+  c -= b; c ^= rot_v(b, 8); b += a;
+  a -= c; a ^= rot_v(c, 16); c += b;
+  b -= a; b ^= rot_v(a, 19); a += c;
+  c -= b; c ^= rot_v(b, 4); b += a;
 }
+template <class U>
+GP_VECTOR_INLINE void jenkins_final_v(U& a, U& b, U& c) {
+  c ^= b; c -= rot_v(b, 14);
+  a ^= c; a -= rot_v(c, 11);
+  b ^= a; b -= rot_v(a, 25);
+  c ^= b; c -= rot_v(b, 16);
+  a ^= c; a -= rot_v(c, 4);
+  b ^= a; b -= rot_v(a, 14);
+  c ^= b; c -= rot_v(b, 24);
+}
+#pragma GCC diagnostic pop
+inline void jenkins_mix(uint32_t& a, uint32_t& b, uint32_t& c) { jenkins_mix_v(a, b, c); }
+inline void jenkins_final(uint32_t& a, uint32_t& b, uint32_t& c) { jenkins_final_v(a, b, c); }
 inline uint32_t float_bits(float f) {
   uint32_t u;
   std::memcpy(&u, &f, sizeof u);
@@ -119,32 +129,6 @@ inline Vec3 hash_float4_to_float3(float x, float y, float z, float w) {
 using u32x8 = uint32_t __attribute__((vector_size(32)));
 using i32x8 = int32_t __attribute__((vector_size(32)));
 using f32x8 = float __attribute__((vector_size(32)));
-
-namespace detail {
-template <class U>
-GP_VECTOR_INLINE U rot_v(const U& x, int k) {
-  return (x << k) | (x >> (32 - k));
-}
-template <class U>
-GP_VECTOR_INLINE void jenkins_mix_v(U& a, U& b, U& c) {
-  a -= c; a ^= rot_v(c, 4); c += b;
-  b -= a; b ^= rot_v(a, 6); a += c;
-  c -= b; c ^= rot_v(b, 8); b += a;
-  a -= c; a ^= rot_v(c, 16); c += b;
-  b -= a; b ^= rot_v(a, 19); a += c;
-  c -= b; c ^= rot_v(b, 4); b += a;
-}
-template <class U>
-GP_VECTOR_INLINE void jenkins_final_v(U& a, U& b, U& c) {
-  c ^= b; c -= rot_v(b, 14);
-  a ^= c; a -= rot_v(c, 11);
-  b ^= a; b -= rot_v(a, 25);
-  c ^= b; c -= rot_v(b, 16);
-  a ^= c; a -= rot_v(c, 4);
-  b ^= a; b -= rot_v(a, 14);
-  c ^= b; c -= rot_v(b, 24);
-}
-}  // namespace detail
 
 template <class U>
 GP_VECTOR_INLINE U hash_uint_v(const U& kx) {
