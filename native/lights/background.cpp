@@ -45,6 +45,19 @@ BakedDirections bake_directions(int W, int H, int S, int threads, const std::fun
   return {PiecewiseConstant2D(f.data(), W, H), RGB(float(sum[0]), float(sum[1]), float(sum[2]))};
 }
 
+bool BakedDirections::sample(Vec2 u, Vec3* dir) const {
+  float pdf_uv = 0;
+  const Vec2 uv = grid.sample(u, &pdf_uv);
+  if (!(pdf_uv > 0)) return false;
+  *dir = EnvironmentMap::equirectangular_direction(uv);
+  return true;
+}
+
+float BakedDirections::density(const Vec3& dir) const {
+  const float st = std::sqrt(std::max(0.0f, 1.0f - dir.z * dir.z));
+  return st > 0 ? grid.pdf(EnvironmentMap::equirectangular_uv(dir)) / (2.0f * kPi * kPi * st) : 0.0f;
+}
+
 bool ConstantBackground::sample(Vec2 u, Vec3* dir, float* pdf) const {
   *dir = sample_uniform_sphere(u);
   *pdf = uniform_sphere_pdf();

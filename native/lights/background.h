@@ -28,6 +28,11 @@ namespace gp {
 struct BakedDirections {
   PiecewiseConstant2D grid;
   RGB integral{0.0f};
+  // A direction by the grid (false: none); its solid-angle density is density().
+  bool sample(Vec2 u, Vec3* dir) const;
+  // The grid's solid-angle density at a unit direction: its uv density over the equirectangular
+  // map's Jacobian 2 pi^2 sin(theta); 0 at the poles (not checked for finiteness).
+  float density(const Vec3& dir) const;
 };
 BakedDirections bake_directions(int W, int H, int S, int threads, const std::function<RGB(const Vec3&)>& radiance);
 

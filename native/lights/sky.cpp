@@ -360,9 +360,7 @@ void SkyTexture::build_sampling() {
   // 512 x 256 equirectangular cells (Cycles' projection, environment_map.h), each the mean of
   // 2 x 2 evaluations of the sky without its sun.
   const int W = 512, H = 256, S = 2;
-  BakedDirections baked = bake_directions(W, H, S, 1, [this](const Vec3& d) { return radiance(d, false); });
-  grid_ = std::move(baked.grid);
-  sky_integral_ = baked.integral;
+  sky_ = bake_directions(W, H, S, 1, [this](const Vec3& d) { return radiance(d, false); });
   // The sun disc's power: its mean radiance over a stratified grid of the cone.
   sun_integral_ = RGB(0.0f);
   if (options_.model == SkyModel::Nishita && options_.sun_disc && sun_one_minus_cos_ > 0) {
@@ -371,7 +369,7 @@ void SkyTexture::build_sampling() {
     for (int a = 0; a < n; ++a)
       for (int b = 0; b < n; ++b) sum += radiance(sample_sun(Vec2((a + 0.5f) / n, (b + 0.5f) / n)), true);
     sun_integral_ = sum * static_cast<float>(2.0 * M_PI * sun_one_minus_cos_ / (n * n));
-    const float ps = sun_integral_.average(), pk = sky_integral_.average();
+    const float ps = sun_integral_.average(), pk = sky_.integral.average();
     p_sun_ = ps > 0 ? ps / (ps + std::max(pk, 0.0f)) : 0.0f;
   }
 }
@@ -390,19 +388,14 @@ bool SkyTexture::sample(Vec2 u, Vec3* dir, float* pdf) const {
     *dir = sample_sun(Vec2(std::min(u.x / p_sun_, 0x1.fffffep-1f), u.y));
   } else {
     if (p_sun_ > 0) u.x = std::min((u.x - p_sun_) / (1.0f - p_sun_), 0x1.fffffep-1f);
-    float pdf_uv = 0;
-    const Vec2 uv = grid_.sample(u, &pdf_uv);
-    if (!(pdf_uv > 0)) return false;
-    *dir = EnvironmentMap::equirectangular_direction(uv);
+    if (!sky_.sample(u, dir)) return false;
   }
   *pdf = this->pdf(*dir);
   return std::isfinite(*pdf) && *pdf > 0;
 }
 
 float SkyTexture::pdf(const Vec3& dir) const {
-  const float st = std::sqrt(std::max(0.0f, 1.0f - dir.z * dir.z));
-  float p = 0;
-  if (st > 0) p = grid_.pdf(EnvironmentMap::equirectangular_uv(dir)) / (2.0f * kPi * kPi * st);
+  float p = sky_.density(dir);
   if (p_sun_ > 0) {
     p *= 1.0f - p_sun_;
     if (precise_angle(dir, sun_dir_) <= 0.5 * options_.sun_size)

@@ -57,7 +57,7 @@ class SkyTexture final : public BackgroundTerm {
   RGB eval(const Vec3& dir) const override;
   bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
   float pdf(const Vec3& dir) const override;
-  RGB integral() const override { return (sky_integral_ + sun_integral_) * options_.scale; }
+  RGB integral() const override { return (sky_.integral + sun_integral_) * options_.scale; }
   std::string identity() const override;
   // Options with Cycles' clamps applied, and as text (the shared cache's key).
   static SkyOptions normalized(SkyOptions options);
@@ -95,9 +95,9 @@ class SkyTexture final : public BackgroundTerm {
   float zenith_[3] = {};
   float sun_theta_ = 0, sun_phi_ = 0;
   // Sampling
-  PiecewiseConstant2D grid_;
+  BakedDirections sky_;  // the sky without its sun: its grid and integral
   float p_sun_ = 0;
-  RGB sky_integral_, sun_integral_;
+  RGB sun_integral_;
 };
 
 // The sky of `options` (its scale ignored: wrap it in a ScaledBackground), built once and shared

@@ -76,24 +76,17 @@ void WorldGraph::bake(int width) {
   // feature, a sky's sun, is less likely to fall between them).
   const int W = std::clamp(width, 4, 8192), H = std::max(2, W / 2);
   const int S = W <= 1024 ? 2 : 1;
-  BakedDirections baked = bake_directions(W, H, S, 0, [this](const Vec3& d) { return eval(d); });
-  grid_ = std::move(baked.grid);
-  integral_ = baked.integral;
+  baked_ = bake_directions(W, H, S, 0, [this](const Vec3& d) { return eval(d); });
 }
 
 bool WorldGraph::sample(Vec2 u, Vec3* dir, float* pdf) const {
-  float pdf_uv = 0;
-  const Vec2 uv = grid_.sample(u, &pdf_uv);
-  if (!(pdf_uv > 0)) return false;
-  *dir = EnvironmentMap::equirectangular_direction(uv);
+  if (!baked_.sample(u, dir)) return false;
   *pdf = this->pdf(*dir);
   return std::isfinite(*pdf) && *pdf > 0;
 }
 
 float WorldGraph::pdf(const Vec3& dir) const {
-  const float st = std::sqrt(std::max(0.0f, 1.0f - dir.z * dir.z));
-  if (!(st > 0)) return 0.0f;
-  const float p = grid_.pdf(EnvironmentMap::equirectangular_uv(dir)) / (2.0f * kPi * kPi * st);
+  const float p = baked_.density(dir);
   return std::isfinite(p) ? p : 0.0f;
 }
 

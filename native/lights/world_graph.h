@@ -55,10 +55,10 @@ class WorldGraph final : public BackgroundTerm {
   RGB eval(const Vec3& dir, const RayState& ray) const override;
   bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
   float pdf(const Vec3& dir) const override;
-  RGB integral() const override { return integral_; }
+  RGB integral() const override { return baked_.integral; }
   std::string identity() const override { return identity_; }
-  int sampling_width() const { return grid_.nu(); }
-  int sampling_height() const { return grid_.nv(); }
+  int sampling_width() const { return baked_.grid.nu(); }
+  int sampling_height() const { return baked_.grid.nv(); }
 
  private:
   RGB closure(int i, const Vec3* regs) const;
@@ -68,8 +68,7 @@ class WorldGraph final : public BackgroundTerm {
   shading::ShadingCamera camera_;
   bool has_camera_ = false;
   std::string identity_;
-  PiecewiseConstant2D grid_;
-  RGB integral_{0.0f};
+  BakedDirections baked_;  // the sampling grid, as light samples see the World
 };
 
 }  // namespace gp
