@@ -5,12 +5,14 @@ long Cycles reference: image means and relMSE.
 
     blender -b --factory-startup --python scripts/bench_hdri.py -- \
         [--size 320] [--seconds 60] [--ref-samples 16384] [--bounces 8] [--threads 2] \
-        [--hdri /path/other.exr] [--out /tmp/bench_hdri]
+        [--hdri /path/other.exr] [--out /tmp/bench_hdri] [--reference /path/ref.exr [--reference-only]]
 
 relMSE = mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01). The target (issue 31):
 gradphoton's relMSE at 60 s within 1.5x of Cycles' at 60 s, image means within 1 %. Run it on
 a quiet machine (load average printed) at full size; `--size 64 --seconds 5 --ref-samples 512`
-is a smoke run. Cycles renders to a time limit (Render > Performance > Time Limit), gradphoton to
+is a smoke run. `--reference F` reuses the reference F when it exists (else renders it to F), so the
+long reference can be rendered once, at any time (its time does not matter), and the timed renders
+later on a quiet machine. Cycles renders to a time limit (Render > Performance > Time Limit), gradphoton to
 its Stop rule "Time", both with `--threads` threads, no denoising, no adaptive sampling, no
 clamping, equal bounce limits (Cycles max_bounces B, gradphoton max_depth B + 1)."""
 import os
@@ -36,6 +38,7 @@ SIZE, SECONDS, REF = arg("--size", 320), arg("--seconds", 60.0, float), arg("--r
 BOUNCES, THREADS = arg("--bounces", 8), arg("--threads", 2)
 HDRI = arg("--hdri", "", str)
 OUT = arg("--out", "/tmp/bench_hdri", str)
+REF_FILE = arg("--reference", "", str)
 os.makedirs(OUT, exist_ok=True)
 addon_utils.enable("gradphoton", default_set=False)
 import scenes  # noqa: E402
@@ -94,7 +97,17 @@ def rel_mse(x, ref):
 
 print(f"BENCH HDRI {os.path.basename(HDRI)} {scene.render.resolution_x}x{scene.render.resolution_y}, "
       f"{THREADS} threads, {BOUNCES} bounces, load average {os.getloadavg()[0]:.2f} (a shared machine skews times)")
-ref, t_ref = render("reference", "CYCLES", samples=REF)
+if REF_FILE and os.path.exists(REF_FILE):
+    ref, t_ref = native.get().read_exr(REF_FILE)["combined"][..., :3].astype(np.float64), float("nan")
+    print(f"BENCH reference read from {REF_FILE}")
+else:
+    ref, t_ref = render("reference", "CYCLES", samples=REF)
+    if REF_FILE:
+        import shutil
+        shutil.copyfile(os.path.join(OUT, "reference.exr"), REF_FILE)
+if "--reference-only" in args:
+    print(f"BENCH reference: Cycles {REF} spp in {t_ref:.1f} s")
+    sys.exit(0)
 cyc, t_cyc = render("cycles", "CYCLES", seconds=SECONDS)
 ours, t_ours = render("gradphoton", "GRADPHOTON", seconds=SECONDS)
 m_ref = ref.reshape(-1, 3).mean(0)
