@@ -639,7 +639,8 @@ void eval_tex_sky(EvalArgs& a) {
     a.out(0, kZero);
     return;
   }
-  const RGB c = a.op.props.data->sky->radiance(v / len, true);
+  // (Without its disc while a World graph bakes the grid its sun's cone complements.)
+  const RGB c = a.op.props.data->sky->radiance(v / len, !SkySunDiscsOff::active());
   a.out(0, Vec3(c.r, c.g, c.b));
 }
 
