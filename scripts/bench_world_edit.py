@@ -63,4 +63,4 @@ for name, make in edits.items():
         t0 = time.perf_counter()
         scene.update_description(d)
         best = min(best, time.perf_counter() - t0)
-    print(f"{name}: {best:.4f} s (best of {a.repeat})")
+    print(f"{name}: {best * 1e3:.3f} ms (best of {a.repeat})")
