@@ -36,6 +36,13 @@ const std::set<std::string>& direction_free_nodes() {
   return s;
 }
 
+// A node's or closure's "type" ("" when absent or not a string: never a json exception).
+std::string type_of(const json& n) {
+  if (!n.is_object()) return "";
+  auto it = n.find("type");
+  return it != n.end() && it->is_string() ? it->get<std::string>() : "";
+}
+
 bool is_link_to(const json& v, const std::string& id) {
   return v.is_object() && v.contains("link") && v["link"].is_string() && v["link"].get<std::string>() == id;
 }
@@ -124,7 +131,7 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
   int mappings = 0, texcoords = 0;
   if (nodes)
     for (const auto& [id, n] : nodes->items()) {
-      const std::string type = n.is_object() && n.contains("type") && n["type"].is_string() ? n["type"].get<std::string>() : "";
+      const std::string type = type_of(n);
       if (type == "ShaderNodeMapping") mapping = id, ++mappings;
       if (type == "ShaderNodeTexCoord") texcoord = id, ++texcoords;
     }
@@ -165,7 +172,7 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
   if (separable)
     for (const auto& [id, n] : nodes->items()) {
       if (id == mapping || id == texcoord) continue;
-      const std::string type = n.is_object() ? n.value("type", std::string()) : std::string();
+      const std::string type = type_of(n);
       if (type == "ShaderNodeTexEnvironment" || type == "ShaderNodeTexSky") {
         const json* tv = input_of(n, "Vector");
         if (!tv || !is_link_to(*tv, mapping)) separable = false;
@@ -178,12 +185,13 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
     }
   if (separable) {
     canon["nodes"][mapping]["inputs"].erase("Rotation");
-    std::memcpy(f.frame, F, sizeof F);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) f.frame[i][j] = F[i][j];
   }
   // The root's strength, when the root is a Background of constant positive strength.
   if (env.is_object() && env.contains("surface") && env["surface"].is_object()) {
     const json& root = env["surface"];
-    if (root.value("type", std::string()) == "background") {
+    if (type_of(root) == "background") {
       const auto it = root.find("strength");
       const float s = it == root.end() ? 1.0f : it->is_number() ? it->get<float>() : -1.0f;
       if (s > 0.0f && std::isfinite(s)) {
@@ -198,7 +206,7 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
   f.suns_complete = true;
   if (nodes)
     for (const auto& [id, n] : nodes->items()) {
-      if (!n.is_object() || n.value("type", std::string()) != "ShaderNodeTexSky") continue;
+      if (type_of(n) != "ShaderNodeTexSky") continue;
       if (prop_string(n, "sky_type", "NISHITA") != "NISHITA" || !prop_bool(n, "sun_disc", true)) continue;
       const json* v = input_of(n, "Vector");
       float M[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -207,7 +215,8 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
                                  ((*v)["output"] == "Generated" || (*v)["output"] == "Object") &&
                                  !prop_has(*nodes, texcoord, "object_matrix"));
       if (v && turned && is_link_to(*v, mapping)) {
-        std::memcpy(M, F, sizeof M);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) M[i][j] = F[i][j];
         sg = sign;
       } else if (!direct) {
         f.suns_complete = false;  // a vector this cannot follow: the grid keeps that disc
@@ -374,7 +383,8 @@ RGB WorldGraph::eval(const Vec3& dir, const RayState& ray) const {
 
 std::shared_ptr<const WorldBake> WorldGraph::bake(int width, const WorldGraphFrame& frame) const {
   auto b = std::make_shared<WorldBake>();
-  std::memcpy(b->frame, frame.frame, sizeof b->frame);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) b->frame[i][j] = frame.frame[i][j];
   b->strength = frame.strength;
   // W x W/2 equirectangular cells (environment_map.h's orientation), each the mean of S x S
   // evaluations as a light sample sees the World (2 x 2 up to 1024 columns: a small bright
