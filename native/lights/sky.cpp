@@ -235,7 +235,7 @@ float perez(const float* l, float theta, float gamma) {
 
 }  // namespace
 
-SkyTexture::SkyTexture(const SkyOptions& o) : options_(normalized(o)) {
+SkyTexture::SkyTexture(const SkyOptions& o, int threads) : options_(normalized(o)) {
   for (float v : {o.sun_size, o.sun_intensity, o.sun_elevation, o.sun_rotation, o.altitude, o.air_density, o.dust_density,
                   o.ozone_density, o.turbidity, o.sun_direction.x, o.sun_direction.y, o.sun_direction.z, o.scale.r, o.scale.g,
                   o.scale.b})
@@ -250,7 +250,8 @@ SkyTexture::SkyTexture(const SkyOptions& o) : options_(normalized(o)) {
     const int W = kNishitaWidth, H = kNishitaHeight;
     texels_.assign(size_t(W) * H, RGB(0.0f));
     const double lat_step = 0.5 * M_PI / H, lon_step = 2.0 * M_PI / W;
-    parallel_for(static_cast<size_t>(H), 1, [&](size_t y0, size_t y1) {
+    // Rows on every thread: each texel is computed alone, so the image is the same bit for bit.
+    parallel_for(static_cast<size_t>(H), threads, [&](size_t y0, size_t y1) {
       for (size_t y = y0; y != y1; ++y) {
         const double t = double(y) / H, lat = (0.5 * M_PI + 0.5 * lat_step) * t * t;
         for (int x = 0; x < W / 2; ++x) {
@@ -265,8 +266,7 @@ SkyTexture::SkyTexture(const SkyOptions& o) : options_(normalized(o)) {
     sun_top_ = xyz_to_scene_linear(sun_radiance(geographic(std::max(e + half, 0.0), 0.0), alt, o.air_density, o.dust_density, solid_angle));
     // The sun's direction as Blender 3.4 renders it (measured with Cycles' equirectangular
     // camera): elevation e, azimuth `rotation` from +Y towards +X.
-    const double rot = options_.sun_rotation;
-    sun_dir_ = Vec3(float(std::cos(e) * std::sin(rot)), float(std::cos(e) * std::cos(rot)), float(std::sin(e)));
+    sun_dir_ = nishita_sun_direction(options_.sun_elevation, options_.sun_rotation);
     sun_cos_half_ = std::cos(half);
     sun_one_minus_cos_ = 2.0 * std::sin(0.5 * half) * std::sin(0.5 * half);
   } else {
@@ -291,7 +291,7 @@ SkyTexture::SkyTexture(const SkyOptions& o) : options_(normalized(o)) {
       zenith_[k] /= perez(perez_[k], 0.0f, th);  // value at the zenith: F(0, theta_s)
     }
   }
-  build_sampling();
+  build_sampling(threads);
 }
 
 RGB SkyTexture::lookup(float x, float y) const {
@@ -356,11 +356,11 @@ RGB SkyTexture::eval(const Vec3& dir) const { return clipped(radiance(dir, true)
 
 // ---- Sampling ----
 
-void SkyTexture::build_sampling() {
+void SkyTexture::build_sampling(int threads) {
   // 512 x 256 equirectangular cells (Cycles' projection, environment_map.h), each the mean of
   // 2 x 2 evaluations of the sky without its sun.
   const int W = 512, H = 256, S = 2;
-  sky_ = bake_directions(W, H, S, 1, [this](const Vec3& d) { return radiance(d, false); });
+  sky_ = bake_directions(W, H, S, threads, [this](const Vec3& d) { return radiance(d, false); });
   // The sun disc's power: its mean radiance over a stratified grid of the cone.
   sun_integral_ = RGB(0.0f);
   if (options_.model == SkyModel::Nishita && options_.sun_disc && sun_one_minus_cos_ > 0) {
@@ -406,6 +406,18 @@ float SkyTexture::pdf(const Vec3& dir) const {
 
 std::string SkyTexture::identity() const { return describe(options_); }
 
+Vec3 SkyTexture::nishita_sun_direction(float elevation, float rotation) {
+  const double e = elevation, rot = rotation;
+  return Vec3(float(std::cos(e) * std::sin(rot)), float(std::cos(e) * std::cos(rot)), float(std::sin(e)));
+}
+
+namespace {
+thread_local bool t_sun_discs_off = false;
+}
+SkySunDiscsOff::SkySunDiscsOff() : previous_(t_sun_discs_off) { t_sun_discs_off = true; }
+SkySunDiscsOff::~SkySunDiscsOff() { t_sun_discs_off = previous_; }
+bool SkySunDiscsOff::active() { return t_sun_discs_off; }
+
 SkyOptions SkyTexture::normalized(SkyOptions o) {
   if (o.model == SkyModel::Nishita) {
     // Cycles' clamps (scene/shader_nodes.cpp): altitude to [1 m, 59 999 m], the sun's size to
@@ -431,12 +443,20 @@ std::map<std::string, std::weak_ptr<const SkyTexture>> g_skies;
 std::shared_ptr<const SkyTexture> shared_sky(SkyOptions options) {
   options.scale = RGB(1.0f);
   const std::string key = SkyTexture::describe(SkyTexture::normalized(options));
-  std::lock_guard lock(g_sky_mutex);
-  if (auto it = g_skies.find(key); it != g_skies.end())
-    if (auto s = it->second.lock()) return s;
+  {
+    std::lock_guard lock(g_sky_mutex);
+    if (auto it = g_skies.find(key); it != g_skies.end())
+      if (auto s = it->second.lock()) return s;
+  }
+  // Built outside the lock: the build runs parallel work, and a thread waiting in it may pick
+  // up a task that asks for a sky (a lock held here would then deadlock it). Two threads asking
+  // for the same new sky at once both build it; the first one stored is kept.
   auto s = std::make_shared<const SkyTexture>(options);
+  std::lock_guard lock(g_sky_mutex);
+  auto& slot = g_skies[key];
+  if (auto other = slot.lock()) return other;
+  slot = s;
   for (auto it = g_skies.begin(); it != g_skies.end();) it = it->second.expired() ? g_skies.erase(it) : std::next(it);
-  g_skies[key] = s;
   return s;
 }
 

@@ -52,8 +52,9 @@ struct SkyOptions {
 
 class SkyTexture final : public BackgroundTerm {
  public:
-  // Throws std::invalid_argument for settings that are not finite.
-  explicit SkyTexture(const SkyOptions& options);
+  // Throws std::invalid_argument for settings that are not finite. `threads` (0: all) builds
+  // the image and grid; any count gives the same bits (each texel and cell is computed alone).
+  explicit SkyTexture(const SkyOptions& options, int threads = 0);
   RGB eval(const Vec3& dir) const override;
   bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
   float pdf(const Vec3& dir) const override;
@@ -61,6 +62,9 @@ class SkyTexture final : public BackgroundTerm {
   std::string identity() const override;
   // Options with Cycles' clamps applied, and as text (the shared cache's key).
   static SkyOptions normalized(SkyOptions options);
+  // Nishita's sun direction as Blender 3.4 renders it: elevation e, azimuth `rotation` from +Y
+  // towards +X (radians).
+  static Vec3 nishita_sun_direction(float elevation, float rotation);
   static std::string describe(const SkyOptions& options);
   const SkyOptions& options() const { return options_; }
 
@@ -82,7 +86,7 @@ class SkyTexture final : public BackgroundTerm {
   RGB lookup(float x, float y) const;  // bilinear, clamped to the edge (Cycles' EXTENSION_EXTEND)
   bool in_sun(const Vec3& dir) const;
   Vec3 sample_sun(Vec2 u) const;  // uniform over the sun's cone
-  void build_sampling();
+  void build_sampling(int threads);
 
   SkyOptions options_;
   // Nishita
@@ -98,6 +102,21 @@ class SkyTexture final : public BackgroundTerm {
   BakedDirections sky_;  // the sky without its sun: its grid and integral
   float p_sun_ = 0;
   RGB sun_integral_;
+};
+
+// While one lives on a thread, Sky Textures evaluated in a node graph there leave out their sun
+// disc (shading/nodes.cpp): a World graph bakes its grid without the discs it samples by their
+// cones (world_graph.h).
+class SkySunDiscsOff {
+ public:
+  SkySunDiscsOff();
+  ~SkySunDiscsOff();
+  SkySunDiscsOff(const SkySunDiscsOff&) = delete;
+  SkySunDiscsOff& operator=(const SkySunDiscsOff&) = delete;
+  static bool active();
+
+ private:
+  bool previous_;
 };
 
 // The sky of `options` (its scale ignored: wrap it in a ScaledBackground), built once and shared

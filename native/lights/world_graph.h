@@ -17,11 +17,27 @@
 // sampled by a piecewise-constant distribution over luminance x sin(theta), floored at 1e-3 of
 // the mean so that every direction the World lights has density. eval() is the graph itself,
 // exact; only the density is the baked one.
+//
+// A Nishita Sky Texture with its sun disc in the graph (its Vector the direction, or through
+// the rotation described below) gets its own sample: the grid is baked without the disc and the
+// sun's cone is sampled uniformly, mixed with the grid in proportion to their power (one-sample
+// MIS, as SkyTexture does for a World that is only a sky; the density is the mixture's, so BSDF
+// rays and light samples meet it by MIS in every method).
+//
+// Edits in place (the rendered viewport, Persistent Data): a bake is shared by every graph with
+// the same key (WorldGraphFrame). A graph whose radiance is strength x g(F d) -- one Mapping
+// turning the direction (Texture Coordinate Generated/Object) in front of every texture that
+// reads it, the root a Background of constant strength -- keys without F and the strength, so
+// turning the HDRI or changing the strength reuses the grid: its frame turned by F0^T F1, its
+// integral scaled by s1 / s0. Any other edit bakes again (the images stay loaded: the texture
+// store shares them while the previous scene holds them).
 #pragma once
 
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/color.h"
 #include "core/math.h"
@@ -42,33 +58,72 @@ struct WorldClosure {
   int a = -1, b = -1;  // children (Mix, Add), indices into the closure list
 };
 
+// What a World graph's bake depends on, read from its JSON (world_graph_frame): `key` names the
+// bake (the graph, less the turning Mapping's rotation and the root's strength where those are
+// separable); the radiance is strength x g(frame d) for the g that `key` names. `suns` are the
+// Nishita sun discs the graph reads along frame d (their direction and angular diameter in the
+// sky's own frame), sampled by their cones; `suns_complete` when every sun disc of the graph is
+// among them (only then is the grid baked without the discs).
+struct WorldGraphFrame {
+  std::string key;
+  float frame[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  float strength = 1.0f;
+  struct Sun {
+    Vec3 direction;
+    float size = 0;
+  };
+  std::vector<Sun> suns;
+  bool suns_complete = false;
+};
+// The frame of the World graph `env` ({"type": "graph", "nodes", "surface"}); `images`
+// identifies the images its nodes read (their content is part of the key).
+WorldGraphFrame world_graph_frame(const nlohmann::json& env, const std::string& images);
+
+// A bake shared by the World graphs of one key (world_graph.cpp's cache).
+struct WorldBake;
+
 class WorldGraph final : public BackgroundTerm {
  public:
   // `closures` with the root last; `program` may be null (all constants). sampling_width 0:
-  // Auto. `camera` (may be null) is copied: Texture Coordinate's Camera and Window.
+  // Auto. `camera` (may be null) is copied: Texture Coordinate's Camera and Window. `frame`
+  // (may be null: a bake of its own) shares the bake of an equal key (see above).
   // Throws std::invalid_argument for a malformed closure list.
   WorldGraph(std::shared_ptr<const shading::ShaderProgram> program, std::vector<WorldClosure> closures,
-             int sampling_width, const shading::ShadingCamera* camera, std::string identity);
+             int sampling_width, const shading::ShadingCamera* camera, std::string identity,
+             const WorldGraphFrame* frame = nullptr);
+  ~WorldGraph() override;
   // As a light sample and photons see it (no path flags).
   RGB eval(const Vec3& dir) const override { return eval(dir, RayState()); }
   // As a ray of state `ray` that left the scene sees it (Light Path).
   RGB eval(const Vec3& dir, const RayState& ray) const override;
   bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
   float pdf(const Vec3& dir) const override;
-  RGB integral() const override { return baked_.integral; }
+  RGB integral() const override;
   std::string identity() const override { return identity_; }
-  int sampling_width() const { return baked_.grid.nu(); }
-  int sampling_height() const { return baked_.grid.nv(); }
+  int sampling_width() const;
+  int sampling_height() const;
+  // Whether this graph reuses a bake made for another (an edit in place), and the probability
+  // that sample() draws from a sun's cone (0 without one).
+  bool reused_bake() const { return reused_; }
+  float sun_probability() const;
 
  private:
   RGB closure(int i, const Vec3* regs) const;
-  void bake(int width);
+  std::shared_ptr<const WorldBake> bake(int width, const WorldGraphFrame& frame) const;
+  Vec3 to_bake(const Vec3& d) const;    // world direction -> the bake's world (q_ d)
+  Vec3 from_bake(const Vec3& v) const;  // q_^T v
   std::shared_ptr<const shading::ShaderProgram> program_;
   std::vector<WorldClosure> closures_;
   shading::ShadingCamera camera_;
   bool has_camera_ = false;
   std::string identity_;
-  BakedDirections baked_;  // the sampling grid, as light samples see the World
+  std::shared_ptr<const WorldBake> baked_;  // the sampling grid and sun cones, as light samples see the World
+  float q_[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};  // F_bake^T F_this: a rotation
+  float scale_ = 1.0f;                                 // strength / the bake's strength
+  bool reused_ = false;
 };
+
+// Number of World bakes alive in the shared cache (tests: "baked once").
+size_t world_bake_cache_size();
 
 }  // namespace gp

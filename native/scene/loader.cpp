@@ -1306,6 +1306,7 @@ class Loader : private JsonReader {
     const std::string npath = sub(path, "nodes");
     require_object(nodes, npath);
     int widest = 0;  // Auto sampling resolution: the widest image the graph reads (Cycles: its Environment Textures')
+    std::string images;  // which images (while alive, one address per file and colour space)
     std::vector<WorldClosure> closures;
     std::shared_ptr<const shading::ShaderProgram> program;
     try {
@@ -1316,6 +1317,7 @@ class Loader : private JsonReader {
         TextureLoad loaded = load_texture(f.string(), colorspace);
         *warning = loaded.warning;
         if (loaded.image && !loaded.image->missing) widest = std::max(widest, loaded.image->width);
+        images += fmt::format("{} {}\n", file, static_cast<const void*>(loaded.image.get()));  // the bake's key
         return loaded.image;
       });
       // (closure index, input: 0 color, 1 strength, 2 factor, compiled root): filled after compiling.
@@ -1388,9 +1390,11 @@ class Loader : private JsonReader {
       }
     }
     const shading::ShadingCamera camera = make_shading_camera(scene_.camera);
+    // A rotation or strength edit reuses the bake of the graph it was made from (world_graph.h).
+    const WorldGraphFrame frame = world_graph_frame(e, images);
     try {
       map = std::make_shared<const WorldGraph>(program, std::move(closures), width, &camera,
-                                               fmt::format("graph {:016x}", std::hash<std::string>()(e.dump())));
+                                               fmt::format("graph {:016x}", std::hash<std::string>()(e.dump())), &frame);
     } catch (const std::invalid_argument& ex) {
       fail(path, ex.what());
     }

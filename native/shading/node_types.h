@@ -43,6 +43,7 @@ struct NodeData {
   float blend = 0.0f;           // Image's projection_blend
   std::string name;             // Color Attribute's layer_name, Attribute's attribute_name
   std::shared_ptr<const SkyTexture> sky;  // Sky Texture: the precomputed sky (shared)
+  Transform transform;          // Texture Coordinate with an object: the inverse of its matrix
 };
 
 class PropReader {

@@ -280,12 +280,47 @@ void eval_implicit(EvalArgs& a) {
   }
 }
 
+// Texture Coordinate's `object` (exported as that object's matrix_world, `object_matrix`, rows of
+// 4 numbers): Object is then the shading point through the inverse of that matrix, translation
+// included, on a surface and in the World, where the point is the ray direction (svm/tex_coord.h
+// NODE_TEXCO_OBJECT with use_transform: transform_point by the inverse matrix; Blender's
+// blender/shader.cpp sets it from the object's matrix_world).
+void parse_tex_coord(const PropReader& r, NodeProps& p) {
+  const nlohmann::json* m = r.get("object_matrix");
+  if (!m) return;
+  if (!m->is_array() || (m->size() != 3 && m->size() != 4)) r.fail("object_matrix: expected 3 or 4 rows of 4 numbers");
+  Transform t;
+  for (size_t i = 0; i < m->size(); ++i) {
+    const nlohmann::json& row = (*m)[i];
+    if (!row.is_array() || row.size() != 4) r.fail("object_matrix: expected 3 or 4 rows of 4 numbers");
+    for (size_t j = 0; j < 4; ++j) {
+      if (!row[j].is_number()) r.fail("object_matrix: expected 3 or 4 rows of 4 numbers");
+      t.m[i][j] = row[j].get<float>();
+      if (!std::isfinite(t.m[i][j])) r.fail("object_matrix: not finite");
+    }
+  }
+  const float det = t.m[0][0] * (t.m[1][1] * t.m[2][2] - t.m[1][2] * t.m[2][1]) -
+                    t.m[0][1] * (t.m[1][0] * t.m[2][2] - t.m[1][2] * t.m[2][0]) +
+                    t.m[0][2] * (t.m[1][0] * t.m[2][1] - t.m[1][1] * t.m[2][0]);
+  auto d = std::make_shared<NodeData>();
+  // A singular matrix (a zero scale): Cycles' transform_inverse gives zeros; so does this.
+  if (std::abs(det) > 0 && std::isfinite(det)) {
+    d->transform = invert_affine(t);
+  } else {
+    for (auto& row : d->transform.m)
+      for (float& v : row) v = 0.0f;
+  }
+  p.flag = true;
+  p.data = d;
+}
+
 void eval_tex_coord(EvalArgs& a) {  // svm/tex_coord.h
   const ShadingContext& c = a.ctx;
   if (a.used(0)) a.out(0, generated(c));
   if (a.used(1)) a.out(1, c.surface ? normal_object(c) : c.N);
   if (a.used(2)) a.out(2, Vec3(c.uv.x, c.uv.y, 0.0f));
-  if (a.used(3)) a.out(3, c.surface ? object_point(c, c.P) : c.P);
+  if (a.used(3))
+    a.out(3, a.op.props.flag ? a.op.props.data->transform.point(c.P) : c.surface ? object_point(c, c.P) : c.P);
   // Camera: the point (the World: its direction) in Cycles' camera space; Window: its place
   // in the frame (svm/tex_coord.h, camera_world_to_ndc).
   if (a.used(4))
@@ -639,7 +674,8 @@ void eval_tex_sky(EvalArgs& a) {
     a.out(0, kZero);
     return;
   }
-  const RGB c = a.op.props.data->sky->radiance(v / len, true);
+  // (Without its disc while a World graph bakes the grid its sun's cone complements.)
+  const RGB c = a.op.props.data->sky->radiance(v / len, !SkySunDiscsOff::active());
   a.out(0, Vec3(c.r, c.g, c.b));
 }
 
@@ -1528,7 +1564,7 @@ std::vector<NodeType> make_types() {
   const SocketDesc gen = in_imp("Vector", Implicit::Generated);
   // Input
   add({"ShaderNodeTexCoord", {}, {out_v("Generated"), out_v("Normal"), out_v("UV"), out_v("Object"), out_v("Camera"),
-                                   out_v("Window"), out_v("Reflection")}, nullptr, eval_tex_coord, true});
+                                   out_v("Window"), out_v("Reflection")}, parse_tex_coord, eval_tex_coord, true});
   add({"ShaderNodeUVMap", {}, {out_v("UV")}, nullptr, eval_uv_map, true});
   add({"ShaderNodeVertexColor", {}, {out_c("Color"), out_f("Alpha")}, parse_color_attribute, eval_color_attribute,
        true});

@@ -426,6 +426,21 @@ TEST(Background, CausticOfAGlassBallUnderAMapSun) {
 namespace gp {
 namespace {
 
+TEST(Sky, NishitaIsTheSameOnAnyNumberOfThreads) {
+  // The image and the grid built on one thread and on every thread (at least 2 here), bit for
+  // bit: each texel and each cell is computed alone.
+  const SkyTexture one(nishita(20, 30), 1), all(nishita(20, 30), 0);
+  ASSERT_EQ(one.nishita_texels().size(), all.nishita_texels().size());
+  for (size_t i = 0; i < one.nishita_texels().size(); ++i)
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(one.nishita_texels()[i][k], all.nishita_texels()[i][k]) << i;
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(one.integral()[k], all.integral()[k]);
+  Rng rng(2, 0);
+  for (int i = 0; i < 1000; ++i) {
+    const Vec3 d = sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform()));
+    ASSERT_EQ(one.pdf(d), all.pdf(d));
+  }
+}
+
 // Not a test: the time to build a sky (Nishita's precomputed image and sun, the sampling grid;
 // Preetham's grid), docs/benchmarks.md. Run with --gtest_also_run_disabled_tests
 // --gtest_filter='*SkyCost*'.

@@ -332,8 +332,9 @@ class NodeGraph:
             elif k == "mapping" and p.type == 'POINTER' and node.mapping is not None:
                 out[k] = _curve_mapping(node.mapping)
             elif k == "object" and node.object is not None:
-                self.w.add("Texture Coordinate's Object read as the shaded object",
-                           f"'{self.owner}': {node.name} ({node.object.name})")
+                # Object then reads through this object's inverse matrix (Cycles'
+                # TextureCoordinateNode use_transform); the core inverts it.
+                out["object_matrix"] = [list(row) for row in node.object.matrix_world]
         if node.bl_idname in ('ShaderNodeTexImage', 'ShaderNodeTexEnvironment'):
             img = node.image
             path, _ = image_file(img)

@@ -17,7 +17,9 @@ What is read, until the core's node evaluator drives the World (branch nodes-cor
   - World > Settings > Sampling: Auto (the image's size) or Manual (map resolution).
 Anything these shapes cannot say -- a Mix Shader's Fac linked to anything but a top-level "Is
 Camera Ray", Light Path anywhere else, a linked Strength, a Color from another node, a texture
-Vector through a Mapping with a location, Window or Camera coordinates -- exports the World's
+Vector through a Mapping with a location or a Texture Coordinate's Object of an object placed off
+the origin (Cycles moves the direction by its translation too), Window or Camera coordinates --
+exports the World's
 whole tree as a graph (the core evaluates it per direction and ray, lights/world_graph.h): the
 closures (Background, Mix, Add) over the node table nodes.py writes, as materials.
 Anything else is one warning naming the node, and the socket's own value.
@@ -112,7 +114,12 @@ def _linear_vector(socket):
                 return False
             node, out = _from(node.inputs["Vector"])
             continue
-        return node.bl_idname == 'ShaderNodeTexCoord' and out.name in ("Generated", "Object")
+        if node.bl_idname != 'ShaderNodeTexCoord' or out.name not in ("Generated", "Object"):
+            return False
+        # Object with an object: Cycles moves the direction by the inverse matrix as a point,
+        # translation included (svm/tex_coord.h): not a 3x3 matrix, the graph says it.
+        return not (out.name == "Object" and node.object is not None
+                    and any(abs(node.object.matrix_world[i][3]) > 1e-9 for i in range(3)))
     return True
 
 
