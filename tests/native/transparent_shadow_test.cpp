@@ -84,13 +84,14 @@ TEST(TransparentShadow, PhotonsThatOnlyCrossedThePaneAreNotStored) {
 }
 
 TEST(TransparentShadow, SpectralMethodsUpsampleTheColourPerWavelength) {
-  // spt and spt-hero: the pane's red upsampled at each wavelength (Jakob-Hanika), whose image
-  // is the red back within the upsampling's round trip (3 %).
+  // spt, spt-hero and sgpt (its offsets at their own wavelengths): the pane's red upsampled at
+  // each wavelength (Jakob-Hanika), whose image is the red back within the upsampling's round
+  // trip (3 %).
   const Scene open = scene_from(pane_scene(red_pane(false)));
   const Scene shadowed = scene_from(pane_scene(red_pane(true)));
-  for (const char* method : {"spt", "spt-hero"}) {
+  for (const char* method : {"spt", "spt-hero", "sgpt"}) {
     Params p = seeded();
-    p.set("spectral", std::string("spectral"));
+    if (std::string(method) != "sgpt") p.set("spectral", std::string("spectral"));
     const RGB a = image_mean(render(method, shadowed, 16, p));
     const RGB b = image_mean(render(method, open, 16, p));
     expect_ratio(a, b, RGB(1.0f, 0.2f, 0.1f), 0.03f, method);
