@@ -119,7 +119,7 @@ struct RgbPath {
   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u) {
     auto bs = bsdf->sample(wo, uc, u);
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) return std::nullopt;
-    if (is_transparent_pass(*bs) && scene.has_transparent_shadows()) {
+    if (is_transparent_pass(*bs) && scene.material(hit.material).transparent_shadow()) {
       // Through a Transparent BSDF: the MIS state of the vertex before it stays (next-event
       // estimation from there passed this surface too).
       beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);

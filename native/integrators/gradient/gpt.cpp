@@ -291,7 +291,7 @@ struct PathPair {
     const bool can_reconnect = kind == VertexKind::Diffuse && next_diffuse;
     // Through a Transparent BSDF (shadow rays pass it, paths/medium_walk.h): the base and its
     // offsets keep the MIS state of the vertex before (as the path tracer, camera_path.h).
-    const bool transparent = is_transparent_pass(*bs) && scene_.has_transparent_shadows();
+    const bool transparent = is_transparent_pass(*bs) && scene_.material(hit->material).transparent_shadow();
     float kept_pdf[4];
     Vec3 kept_p[4];
     for (int d = 0; d < 4; ++d) {

@@ -23,9 +23,11 @@
 // Transparent BSDFs the ray crosses, per channel of the path, which it says with
 //
 //   ShadowChannels shadow_channels(const RayState& state) const;  // at a vertex of that ray state
-// Participating
-// media (media/medium.h) add, only in scenes that have them (Scene::has_media), per channel of
-// the path (RGB, or its wavelengths):
+//
+// A BSDF sample through a Transparent BSDF that shadow rays pass is not a bounce for MIS: `scatter`
+// keeps the vertex before's state (Cycles keeps mis_ray_pdf over a transparent bounce).
+// Participating media (media/medium.h) add, only in scenes that have them (Scene::has_media),
+// per channel of the path (RGB, or its wavelengths):
 //
 //   int channels() const;                                  // 3, or the path's wavelengths
 //   const MediumChannels& medium_channels(int medium);     // a medium's coefficients at them

@@ -316,7 +316,7 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     t_crossed = 0;
     // A pass through a Transparent BSDF is not a scattering either where shadow rays pass it
     // (paths/medium_walk.h): a photon that only passed such surfaces is direct light too.
-    if (!pass_through && !(is_transparent_pass(*bs) && scene_.has_transparent_shadows())) {
+    if (!pass_through && !(is_transparent_pass(*bs) && mat.transparent_shadow())) {
       ++scattered;
       arrive = seen_by;
       surface_first = surface_first || volume_scatters == 0;

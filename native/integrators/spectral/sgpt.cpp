@@ -435,7 +435,7 @@ void SpectralSample::trace_base(Ray ray) {
     v.delta = bs->delta;
     v.transmission = bs->transmission;
     v.pdf = bs->pdf;
-    v.transparent = is_transparent_pass(*bs) && scene.has_transparent_shadows();
+    v.transparent = is_transparent_pass(*bs) && mat.transparent_shadow();
     const Vec3 wi = hit->frame.to_world(bs->wi);
     // Surfaces hidden from a kind of ray let it through (the offsets' rays take the base's
     // kind, so both paths of a pair see the same surfaces); a light object keeps the kind.

@@ -226,7 +226,7 @@ struct SpectralPath {
     const auto bs = bk[0]->sample(wo, uc, u);
     if (!bs || bs->pdf <= 0) return std::nullopt;
     // Through a Transparent BSDF: the MIS state of the vertex before it stays (as RgbPath).
-    const bool transparent = is_transparent_pass(*bs) && scene.has_transparent_shadows();
+    const bool transparent = is_transparent_pass(*bs) && scene.material(hit.material).transparent_shadow();
     if (split_lobes && !transparent) {
       prev.beta = beta;
       prev.r_u = r_u;
