@@ -38,7 +38,9 @@ struct RgbPath {
   float clamp_direct, clamp_indirect;
   bool split_lobes;
   RGB L{0.0f}, beta{1.0f};
-  bool specular_bounce = false;
+  // The last bounce was smooth: emission found next takes full weight. True for the camera ray
+  // (Cycles' PATH_RAY_MIS_SKIP), which only a transparent pass carries past depth 0.
+  bool specular_bounce = true;
   float prev_pdf = 0;  // solid-angle pdf of the BSDF sample that produced the ray
   Vec3 prev_p;
   LobeSplit prev;      // the previous vertex's lobes, where some light is hidden from some kinds
@@ -108,17 +110,22 @@ struct RgbPath {
     RGB f = bsdf->eval(wo, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
     if (f.is_black()) return;
     ++shadow_rays;
-    std::optional<MediumLengths> lengths;
-    if (shadow.tracks_media()) lengths.emplace();
-    if (!shadow.visible(hit.p, &hit.ng, ls, lengths ? &*lengths : nullptr)) return;
-    if (lengths && !lengths->empty())
-      f *= to_rgb(transmittance(*lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
+    const ChannelValues T = shadow.transmittance(hit.p, &hit.ng, ls, shadow_channels(hit.ray));
+    if (is_blocked(T, 3)) return;
+    f *= to_rgb(T);  // media and transparent surfaces (1 where there are none)
     const float w = light_weight(ls, [&] { return bsdf->pdf(wo, wi, vis); });
     L += clamped(beta * f * ls.L * (w / ls.pdf), depth == 0);
   }
   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u) {
     auto bs = bsdf->sample(wo, uc, u);
     if (!bs || bs->pdf <= 0 || bs->f.is_black()) return std::nullopt;
+    if (is_transparent_pass(*bs) && scene.material(hit.material).transparent_shadow()) {
+      // Through a Transparent BSDF: the MIS state of the vertex before it stays (next-event
+      // estimation from there passed this surface too).
+      beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+      if (split_lobes) prev.beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+      return bs;
+    }
     if (split_lobes) {
       prev.beta = beta;
       prev.lobe = bs->lobe;
@@ -143,6 +150,9 @@ struct RgbPath {
   static RGB to_rgb(const ChannelValues& v) { return {v[0], v[1], v[2]}; }
   int channels() const { return 3; }
   const MediumChannels& medium_channels(int m) const { return (*media)[m]; }
+  ShadowChannels shadow_channels(const RayState& state) const {
+    return {.count = 3, .media = media->empty() ? nullptr : media->data(), .state = state};
+  }
   ChannelValues channel_weights() const { return {beta.r, beta.g, beta.b}; }
   struct Saved {
     RGB beta, prev_beta;
@@ -164,9 +174,9 @@ struct RgbPath {
     if (e[0] > 0 || e[1] > 0 || e[2] > 0) L += clamped(beta * to_rgb(e), depth <= 1);
   }
   void medium_next_event(int depth, const LightSample& ls, const ChannelValues& phase, float phase_pdf,
-                         const MediumLengths& lengths) {
+                         const ChannelValues& transmittance) {
     ++shadow_rays;  // counted as the loop traced it
-    const RGB T = to_rgb(transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; }));
+    const RGB T = to_rgb(transmittance);
     const float w = light_weight(ls, [&] { return phase_pdf; });
     L += clamped(beta * to_rgb(phase) * T * ls.L * (w / ls.pdf), depth == 0);
   }

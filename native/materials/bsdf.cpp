@@ -1265,6 +1265,20 @@ bool Bsdf::is_black() const {
   }
 }
 
+RGB Bsdf::transparency() const {
+  switch (kind()) {
+    case MaterialType::Dielectric:  // the Transparent BSDF: smooth, IOR 1, its colour the weight
+      return p_.ior == 1.0f && p_.roughness == 0.0f && !p_.refraction_only ? p_.color : RGB(0.0f);
+    case MaterialType::Mix: {  // svm_node_mix_closure's weights: (1 - f) a + f b; Add: a + b
+      const MixParts p = mix_parts(p_);
+      const RGB a = p.scale_a > 0 ? component(p_.mix_a).transparency() : RGB(0.0f);
+      const RGB b = p.scale_b > 0 ? component(p_.mix_b).transparency() : RGB(0.0f);
+      return a * p.scale_a + b * p.scale_b;
+    }
+    default: return RGB(0.0f);
+  }
+}
+
 bool Bsdf::is_diffuse_for_photons(float threshold) const {
   switch (kind()) {
     case MaterialType::Diffuse:

@@ -33,6 +33,12 @@ struct BsdfSample {
   uint8_t lobe = 0;
 };
 
+// Whether a sample passes straight through a Transparent BSDF (smooth, IOR 1: Cycles'
+// LABEL_TRANSPARENT). Shadow rays pass those surfaces (paths/medium_walk.h), so a path keeps its
+// MIS state across such a pass, as Cycles keeps mis_ray_pdf over transparent bounces
+// (integrate_surface_bsdf_bssrdf_bounce), and photons that only passed them are direct light.
+inline bool is_transparent_pass(const BsdfSample& bs) { return bs.delta && bs.transmission && bs.eta == 1.0f; }
+
 // A material's BSDF parameters at one surface point: its constants, with the inputs an image
 // texture drives looked up there. Plain values, cheap to make per hit.
 struct BsdfParams {
@@ -100,6 +106,11 @@ class Bsdf {
   bool is_delta() const;
   // True when the BSDF scatters nothing (emission-only material).
   bool is_black() const;
+  // Cycles' shader_bsdf_transparency: the summed weights of the material's Transparent BSDF
+  // closures (Material::has_transparent_closure) at this point, mix factors included; black
+  // for every other closure. What a shadow ray keeps of its light through the surface (in the
+  // spectral methods the one wavelength's value, grey).
+  RGB transparency() const;
   // Photon-method classification: diffuse when roughness > threshold (GPM §4.3).
   bool is_diffuse_for_photons(float threshold = kDefaultSpecularThreshold) const;
   // Where a normal or bump map bent the shading normal: the geometric normal and the smooth

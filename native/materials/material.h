@@ -188,6 +188,18 @@ struct Material {
            color.g == 1.0f && color.b == 1.0f;
   }
   bool is_emissive() const { return !radiance().is_black(); }
+  // Whether a Transparent BSDF closure (a smooth dielectric of IOR 1, any colour) is part of the
+  // material, alone or in a Mix / Add: shadow rays then pass through it, filtered by the
+  // closure's weight at the hit (Cycles' SD_HAS_TRANSPARENT_SHADOW; Bsdf::transparency,
+  // paths/medium_walk.h ShadowTest). A light object's pass-through casts no shadow at all.
+  bool has_transparent_closure() const {
+    if (type == MaterialType::Dielectric)
+      return ior == 1.0f && roughness == 0.0f && !refraction_only && cauchy_b == 0.0f && !ior_in && !roughness_tex &&
+             !roughness_in;
+    return type == MaterialType::Mix &&
+           ((mix_a && mix_a->has_transparent_closure()) || (mix_b && mix_b->has_transparent_closure()));
+  }
+  bool transparent_shadow() const { return casts_shadow && has_transparent_closure(); }
 };
 
 inline const char* to_string(MaterialType t) {

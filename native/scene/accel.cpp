@@ -32,7 +32,8 @@ void Accelerator::record_rays(RayRecorder* recorder) { g_recorder.store(recorder
 
 // Per-triangle ray visibility of one mesh, for its filter functions.
 struct TriangleVisibility {
-  std::vector<uint8_t> flags;  // kHiddenFromCamera | kNoShadow | kPartial | kHiddenFrom<lobe> per triangle
+  // kHiddenFromCamera | kNoShadow | kPartial | kHiddenFrom<lobe> | kTransparentShadow per triangle
+  std::vector<uint8_t> flags;
   // kPartial triangles: their material's coverage (Material::alpha / alpha_tex) at the hit's
   // uv, with the mesh's uvs and indices (copies: the accelerator owns what its filters read).
   std::vector<uint32_t> material_ids, indices;
@@ -47,6 +48,9 @@ constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2, kPartial = 4;
 // Hidden from bounce rays of a kind: the Ray::bounce bit shifted past the flags above.
 constexpr int kLobeShift = 2;  // kRayDiffuse (2) -> 8, kRayGlossy (4) -> 16, kRayTransmission (8) -> 32
 constexpr uint8_t kHiddenFromLobes = kAllLobes << kLobeShift;
+// A Transparent BSDF in the material (Material::transparent_shadow): opaque to occluded(), let
+// through and noted by occluded_opaque().
+constexpr uint8_t kTransparentShadow = 64;
 
 // An intersect context that says which flag hides a triangle from the ray (camera rays:
 // kHiddenFromCamera; bounce rays of a kind: that kind's; else none). Embree passes the context
@@ -54,6 +58,14 @@ constexpr uint8_t kHiddenFromLobes = kAllLobes << kLobeShift;
 struct VisibilityContext {
   RTCIntersectContext ctx;
   uint8_t hidden;
+};
+// The context of shadow queries (occluded filters): which flags let the ray through (kNoShadow,
+// and kTransparentShadow for occluded_opaque), and whether a kTransparentShadow triangle was
+// crossed.
+struct ShadowContext {
+  RTCIntersectContext ctx;
+  uint8_t through;
+  bool crossed;
 };
 uint8_t hidden_flag(const Ray& ray) {
   return ray.camera ? kHiddenFromCamera : static_cast<uint8_t>((ray.bounce & kAllLobes) << kLobeShift);
@@ -142,7 +154,21 @@ void reject_where(const RTCFilterFunctionNArguments* args, uint8_t flag) {
 void intersect_filter(const RTCFilterFunctionNArguments* args) {
   reject_where(args, reinterpret_cast<const VisibilityContext*>(args->context)->hidden);
 }
-void shadow_filter(const RTCFilterFunctionNArguments* args) { reject_where(args, kNoShadow); }
+void shadow_filter(const RTCFilterFunctionNArguments* args) {
+  auto* c = reinterpret_cast<ShadowContext*>(args->context);
+  const auto* vis = static_cast<const TriangleVisibility*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    const uint8_t f = vis->flags[prim];
+    if ((f & kNoShadow) || ((f & kPartial) && !covered(*vis, args, i, prim))) {
+      args->valid[i] = 0;
+    } else if (f & c->through & kTransparentShadow) {
+      args->valid[i] = 0;
+      c->crossed = true;
+    }
+  }
+}
 }  // namespace
 
 // Embree is C: never throw through it. Errors are polled after each build step instead.
@@ -221,7 +247,7 @@ RTCGeometry make_geometry(RTCDevice device, const std::vector<const std::vector<
     for (size_t t = 0; t < m.triangle_count() && t < m.material_ids.size(); ++t) {
       const Material& mat = (*materials)[m.material_ids[t]];
       vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow) |
-                      (mat.has_coverage() ? kPartial : 0) |
+                      (mat.has_coverage() ? kPartial : 0) | (mat.transparent_shadow() ? kTransparentShadow : 0) |
                       static_cast<uint8_t>((~mat.visible_lobes & kAllLobes) << kLobeShift);
       any |= vis->flags[t];
     }
@@ -239,7 +265,8 @@ RTCGeometry make_geometry(RTCDevice device, const std::vector<const std::vector<
     if (any) {
       rtcSetGeometryUserData(g, vis.get());
       if (any & (kHiddenFromCamera | kPartial | kHiddenFromLobes)) rtcSetGeometryIntersectFilterFunction(g, intersect_filter);
-      if (any & (kNoShadow | kPartial)) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
+      // (Only meshes with such triangles pay for a filter: a scene without them traces as before.)
+      if (any & (kNoShadow | kPartial | kTransparentShadow)) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
       keep = std::move(vis);
     }
   }
@@ -433,12 +460,38 @@ bool Accelerator::intersect(const Ray& ray, RawHit& hit) const {
 
 bool Accelerator::occluded(const Ray& ray) const {
   record(ray, true);
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
+  ShadowContext sctx;
+  rtcInitIntersectContext(&sctx.ctx);
+  sctx.through = kNoShadow;
   RTCRay r;
   to_embree(ray, r);
-  rtcOccluded1(impl_->scene, &ctx, &r);
+  rtcOccluded1(impl_->scene, &sctx.ctx, &r);
   return r.tfar < 0;  // Embree sets tfar = -inf on a hit
+}
+
+bool Accelerator::occluded_opaque(const Ray& ray, bool* crossed) const {
+  record(ray, true);
+  ShadowContext sctx;
+  rtcInitIntersectContext(&sctx.ctx);
+  sctx.through = kNoShadow | kTransparentShadow;
+  sctx.crossed = false;
+  RTCRay r;
+  to_embree(ray, r);
+  rtcOccluded1(impl_->scene, &sctx.ctx, &r);
+  *crossed = sctx.crossed;
+  return r.tfar < 0;
+}
+
+bool Accelerator::intersect_shadow(const Ray& ray, RawHit& hit) const {
+  VisibilityContext vctx;
+  rtcInitIntersectContext(&vctx.ctx);
+  vctx.hidden = kNoShadow;
+  RTCRayHit rh;
+  to_embree(ray, rh.ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &vctx.ctx, &rh);
+  return from_embree(rh, hit);
 }
 
 namespace {
@@ -477,10 +530,11 @@ void Accelerator::occluded_stream(const Ray* rays, size_t n, bool* blocked, bool
     record(rays[i], true);
     to_embree(rays[i], t_rays[i]);
   }
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  rtcOccluded1M(impl_->scene, &ctx, t_rays.data(), static_cast<unsigned>(n), sizeof(RTCRay));
+  ShadowContext sctx;
+  rtcInitIntersectContext(&sctx.ctx);
+  sctx.through = kNoShadow;
+  if (coherent) sctx.ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcOccluded1M(impl_->scene, &sctx.ctx, t_rays.data(), static_cast<unsigned>(n), sizeof(RTCRay));
   for (size_t i = 0; i < n; ++i) blocked[i] = t_rays[i].tfar < 0;
 }
 

@@ -150,7 +150,8 @@ void update_description(Scene& scene, const std::string& json_text) {
     const Material& n = next.materials[it->second];
     visibility_changed[i] = n.visible_to_camera != materials[i].visible_to_camera ||
                             n.casts_shadow != materials[i].casts_shadow ||
-                            n.visible_lobes != materials[i].visible_lobes;
+                            n.visible_lobes != materials[i].visible_lobes ||
+                            n.transparent_shadow() != materials[i].transparent_shadow();
     materials[i] = n;
     index.erase(it);
   }
@@ -161,6 +162,7 @@ void update_description(Scene& scene, const std::string& json_text) {
   scene.media = std::move(next.media);  // the materials' interiors index the update's media
   scene.world_medium = next.world_medium;
   scene.volume_bounces = next.volume_bounces;
+  scene.transparent_bounces = next.transparent_bounces;
   if (has_camera) scene.camera = next.camera;
   scene.warnings = std::move(next.warnings);
   for (size_t mi = 0; mi < scene.meshes.size(); ++mi)

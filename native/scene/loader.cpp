@@ -53,11 +53,14 @@ class Loader : private JsonReader {
   void load(const json& root) {
     if (!root.is_object()) fail("", fmt::format("the scene must be a JSON object, not {}", root.type_name()));
     check_keys(root, "", {"description", "camera", "media", "materials", "objects", "lights", "environment",
-                          "world_medium", "volume_bounces"});
+                          "world_medium", "volume_bounces", "transparent_bounces"});
     if (const json* d = find(root, "description")) get_string(*d, "/description");
     if (const json* m = find(root, "media")) load_media(*m, "/media");
     if (const json* w = find(root, "world_medium")) scene_.world_medium = medium_by_name(*w, "/world_medium");
     if (const json* v = find(root, "volume_bounces")) scene_.volume_bounces = int(get_int(*v, "/volume_bounces", 0, 1 << 20));
+    // Light Paths > Max Bounces > Transparent (Blender's range 0-1024; Cycles' default 8).
+    if (const json* v = find(root, "transparent_bounces"))
+      scene_.transparent_bounces = int(get_int(*v, "/transparent_bounces", 0, 1024));
     if (const json* m = find(root, "materials")) load_materials(*m, "/materials");
     if (const json* c = find(root, "camera")) load_camera(*c, "/camera");
     if (const json* o = find(root, "objects")) {

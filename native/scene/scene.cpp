@@ -324,6 +324,10 @@ void Scene::build_lights() {
       throw std::runtime_error(fmt::format("{}: medium '{}' has a negative or non-finite coefficient", source, m.name));
   has_media_ = world_medium >= 0 || std::any_of(materials.begin(), materials.end(),
                                                 [](const Material& m) { return m.interior >= 0; });
+  has_transparent_shadows_ =
+      std::any_of(materials.begin(), materials.end(), [](const Material& m) { return m.transparent_shadow(); });
+  if (transparent_bounces < 0)
+    throw std::runtime_error(fmt::format("{}: transparent_bounces is {} (at least 0)", source, transparent_bounces));
   auto grid = [&](int m) { return m >= 0 && m < static_cast<int>(media.size()) && !media[m].is_homogeneous(); };
   has_grid_media_ = grid(world_medium) ||
                     std::any_of(materials.begin(), materials.end(), [&](const Material& m) { return grid(m.interior); });
@@ -730,10 +734,28 @@ bool Scene::hides_between(const Vec3& p0, const Vec3& n0, const Vec3& p1, const 
 }
 
 bool Scene::occluded(const Vec3& p, const Vec3& ng, const LightSample& ls) const {
-  if (ls.light >= 0 && light_set_.lights()[ls.light].type == LightType::Area)
-    return occluded_between(p, ng, ls.p, ls.n);
+  return accel_->occluded(shadow_ray(p, ng, ls));
+}
+
+Ray Scene::shadow_ray(const Vec3& p, const Vec3& ng, const LightSample& ls) const {
+  if (ls.light >= 0 && light_set_.lights()[ls.light].type == LightType::Area) {
+    // As occluded_between: both ends pushed off, the segment t in (0, 1) short of its end.
+    const Vec3 o = offset_ray_origin(p, ng, ls.p - p);
+    const Vec3 e = offset_ray_origin(ls.p, ls.n, p - ls.p);
+    return Ray(o, e - o, 0.0f, 1.0f - 1e-4f);
+  }
   const float tmax = std::isinf(ls.dist) ? kInfinity : ls.dist * (1.0f - 1e-4f);
-  return accel_->occluded(Ray(offset_ray_origin(p, ng, ls.wi), ls.wi, 0.0f, tmax));
+  return Ray(offset_ray_origin(p, ng, ls.wi), ls.wi, 0.0f, tmax);
+}
+
+bool Scene::occluded_opaque(const Ray& ray, bool* crossed) const { return accel_->occluded_opaque(ray, crossed); }
+
+std::optional<SurfaceHit> Scene::shadow_hit(const Ray& ray) const {
+  RawHit raw;
+  if (!accel_->intersect_shadow(ray, raw)) return std::nullopt;
+  std::optional<SurfaceHit> h = surface_hit(raw, ray);
+  h->ray.flags = kPathShadow;  // Cycles shades a shadow ray's surfaces with PATH_RAY_SHADOW (shade_shadow.h)
+  return h;
 }
 
 }  // namespace gp

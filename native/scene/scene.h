@@ -168,6 +168,11 @@ class Scene {
   // Light Paths > Volume bounces: scattering events in media a path may have beyond the first
   // (0: single scattering; -1: no limit but the method's bounces), camera_path.h.
   int volume_bounces = -1;
+  // Light Paths > Max Bounces > Transparent (Cycles' transparent_max_bounce, 8 by default): a
+  // shadow ray passes at most max(transparent_bounces - the path's transparent bounces - 1, 0)
+  // transparent surfaces (intersect_shadow.h, integrate_shadow_max_transparent_hits); beyond,
+  // it is blocked (paths/medium_walk.h ShadowTest).
+  int transparent_bounces = 8;
   Camera camera;
   std::string source;         // file the scene came from (for messages)
   Warnings warnings;          // counted load warnings
@@ -242,6 +247,17 @@ class Scene {
   // Shadow ray from surface point p (geometric normal ng) to a light sample: to its point for
   // area lights, else along wi up to just short of the light (or to infinity).
   bool occluded(const Vec3& p, const Vec3& ng, const LightSample& ls) const;
+  // The ray occluded(p, ng, ls) traces.
+  Ray shadow_ray(const Vec3& p, const Vec3& ng, const LightSample& ls) const;
+  // Cycles' transparent shadows, for ShadowTest (paths/medium_walk.h): whether a surface that is
+  // not transparent to shadows blocks `ray` (*crossed: it met a transparent one), and the
+  // closest surface a shadow ray meets (those casting no shadow let through), shaded as a
+  // shadow ray sees it (Light Path: Is Shadow Ray).
+  bool occluded_opaque(const Ray& ray, bool* crossed) const;
+  std::optional<SurfaceHit> shadow_hit(const Ray& ray) const;
+  // True when some material that casts shadows has a Transparent BSDF (Material::
+  // transparent_shadow; set by finalize() and commit()): only then do shadow rays look for them.
+  bool has_transparent_shadows() const { return has_transparent_shadows_; }
 
   const LightSet& light_set() const { return light_set_; }
   // True when some light (or emissive surface) is hidden from some kind of bounce ray
@@ -354,7 +370,7 @@ class Scene {
   uint64_t generation_ = 0;
   bool lights_hidden_from_some_lobes_ = false;
   bool surfaces_hidden_from_some_lobes_ = false;
-  bool has_media_ = false, has_grid_media_ = false;
+  bool has_media_ = false, has_grid_media_ = false, has_transparent_shadows_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 

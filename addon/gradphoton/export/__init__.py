@@ -149,6 +149,11 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
         cycles = getattr(scene, "cycles", None)
         if cycles is not None:
             out.description["volume_bounces"] = int(cycles.volume_bounces)
+    # Light Paths > Max Bounces > Transparent: the transparent surfaces a shadow ray may cross
+    # (Cycles' transparent_max_bounces; the core's default is Cycles' 8, docs/scene-format.md).
+    cycles = getattr(scene, "cycles", None)
+    if cycles is not None and hasattr(cycles, "transparent_max_bounces"):
+        out.description["transparent_bounces"] = int(cycles.transparent_max_bounces)
     method = method or (settings.method if settings else "pt")
     visibility.check_method(out.description, method, w)
     if sampler is not None:  # last: every other read is of the frame itself

@@ -40,8 +40,8 @@ links resolve against the table of the material object they appear in).
 
 A Mix Shader with a white Transparent BSDF on one side is the other side with coverage `alpha` =
 the mix's factor (Transparent first) or 1 - factor: the core's stochastic cut-out, which shadow
-rays see too (a tinted Transparent BSDF is the `transparent` closure, whose shadows are not
-tinted yet).
+rays see too (a tinted Transparent BSDF is the `transparent` closure, through which shadow rays
+pass filtered by its weight, up to Light Paths > Transparent bounces).
 Coverage (alpha) belongs to the whole material (lifted out of mix parts; the first found wins).
 Normals are per closure, as Cycles' closures each have their own (the `normal` key: a link to a
 Normal Map or Bump node, or any vector output).

@@ -9,6 +9,7 @@
 #include "core/sampling.h"
 #include "integrators/shift/shift.h"
 #include "integrators/lobe_split.h"
+#include "integrators/paths/medium_walk.h"
 #include "materials/bsdf.h"
 
 namespace gp {
@@ -63,7 +64,7 @@ struct PathPair {
   Offset off[4];
   Ray ray;
   RGB beta{1.0f};
-  bool specular_bounce = false, all_delta = true;
+  bool specular_bounce = true, all_delta = true;  // the camera ray: MIS skipped (Cycles), carried on only by a transparent pass
   float prev_pdf = 0;
   Vec3 prev_p;
   std::optional<SurfaceHit> hit;
@@ -208,9 +209,12 @@ struct PathPair {
       RGB c(0.0f), c_off[4];
       double ratio[4];
       // Radiance through one vertex from the light sample drawn with (u_light, u2), with its
-      // NEE/BSDF MIS weight; 0 if blocked. `visible` skips the shadow ray when it is known.
-      int base_visible = -1;  // unknown
-      auto nee = [&](const SurfaceHit& v, const Bsdf& b, const Vec3& wo_l, int* visible) -> RGB {
+      // NEE/BSDF MIS weight; 0 if blocked. `visible` holds the shadow ray's transmittance
+      // (transparent surfaces filter it: paths/medium_walk.h) once known, and skips the ray
+      // then: an offset at the base's vertex and light point gets the base's factor, so the
+      // shift stays consistent.
+      std::optional<RGB> base_visible;  // unknown
+      auto nee = [&](const SurfaceHit& v, const Bsdf& b, const Vec3& wo_l, std::optional<RGB>* visible) -> RGB {
         auto ls = lights.sample_li(v.p, u_light, u2);
         if (!ls || ls->pdf <= 0 || ls->L.is_black()) return RGB(0.0f);
         if (ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only()) return RGB(0.0f);  // BSDF rays find it
@@ -219,16 +223,18 @@ struct PathPair {
         const Vec3 wi = v.frame.to_local(ls->wi);
         const RGB f = b.eval(wo_l, wi, TransportMode::Radiance, vis) * std::abs(wi.z);
         if (f.is_black()) return RGB(0.0f);
-        if (!visible || *visible < 0) {
+        RGB T;
+        if (!visible || !*visible) {
           ++rays.shadow;
-          const bool blocked = scene_.occluded(v.p, v.ng, *ls);
-          if (visible) *visible = blocked ? 0 : 1;
-          if (blocked) return RGB(0.0f);
-        } else if (*visible == 0) {
-          return RGB(0.0f);
+          const ChannelValues t = ShadowTest(scene_, nullptr).transmittance(v.p, &v.ng, *ls, {.state = v.ray});
+          T = RGB(t[0], t[1], t[2]);
+          if (visible) *visible = T;
+        } else {
+          T = **visible;
         }
+        if (T.is_black()) return RGB(0.0f);
         const float w = ls->delta ? 1.0f : power_heuristic(ls->pdf, b.pdf(wo_l, wi, vis));
-        return f * ls->L * (w / ls->pdf);
+        return f * T * ls->L * (w / ls->pdf);
       };
       const RGB L_base = nee(*hit, bsdf, wo, &base_visible);
       c = beta * L_base;
@@ -283,6 +289,15 @@ struct PathPair {
     const bool next_diffuse =
         !next || next->light >= 0 || classify_vertex(scene_.bsdf(*next)) == VertexKind::Diffuse;
     const bool can_reconnect = kind == VertexKind::Diffuse && next_diffuse;
+    // Through a Transparent BSDF (shadow rays pass it, paths/medium_walk.h): the base and its
+    // offsets keep the MIS state of the vertex before (as the path tracer, camera_path.h).
+    const bool transparent = is_transparent_pass(*bs) && scene_.material(hit->material).transparent_shadow();
+    float kept_pdf[4];
+    Vec3 kept_p[4];
+    for (int d = 0; d < 4; ++d) {
+      kept_pdf[d] = off[d].prev_pdf;
+      kept_p[d] = off[d].prev_p;
+    }
 
     for (int d = 0; d < 4; ++d) {
       Offset& o = off[d];
@@ -368,10 +383,17 @@ struct PathPair {
     }
 
     beta *= base_factor;
-    specular_bounce = bs->delta;
+    if (transparent) {
+      for (int d = 0; d < 4; ++d) {
+        off[d].prev_pdf = kept_pdf[d];
+        off[d].prev_p = kept_p[d];
+      }
+    } else {
+      specular_bounce = bs->delta;
+      prev_pdf = bs->pdf;
+      prev_p = hit->p;
+    }
     all_delta = all_delta && bs->delta;
-    prev_pdf = bs->pdf;
-    prev_p = hit->p;
     ray = next_ray;
     hit = next;
     return true;

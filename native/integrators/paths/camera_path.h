@@ -19,9 +19,15 @@
 //   bool survive(float u);                      // Russian roulette: false ends the path
 //
 // next_event's shadow ray goes through a ShadowTest (paths/medium_walk.h): Scene::occluded in a
-// scene without media, transmittance through the media the ray crosses otherwise. Participating
-// media (media/medium.h) add, only in scenes that have them (Scene::has_media), per channel of
-// the path (RGB, or its wavelengths):
+// scene without media or transparent surfaces, else the transmittance through the media and the
+// Transparent BSDFs the ray crosses, per channel of the path, which it says with
+//
+//   ShadowChannels shadow_channels(const RayState& state) const;  // at a vertex of that ray state
+//
+// A BSDF sample through a Transparent BSDF that shadow rays pass is not a bounce for MIS: `scatter`
+// keeps the vertex before's state (Cycles keeps mis_ray_pdf over a transparent bounce).
+// Participating media (media/medium.h) add, only in scenes that have them (Scene::has_media),
+// per channel of the path (RGB, or its wavelengths):
 //
 //   int channels() const;                                  // 3, or the path's wavelengths
 //   const MediumChannels& medium_channels(int medium);     // a medium's coefficients at them
@@ -30,7 +36,7 @@
 //   void medium_weight(const ChannelValues& w);            // throughput *= w (free flight)
 //   void medium_emission(int depth, const ChannelValues& e);  // L += throughput * e
 //   void medium_next_event(int depth, const LightSample& ls, const ChannelValues& phase,
-//                          float phase_pdf, const MediumLengths& lengths);
+//                          float phase_pdf, const ChannelValues& transmittance);
 //   void medium_scattered(const Vec3& p, float phase_pdf, const ChannelValues& ratio);
 //                                               // a phase-sampled direction (ratio: phase / pdf)
 #pragma once
@@ -109,12 +115,12 @@ void equiangular_next_event(const LightSet& lights, const Ray& ray, float t_end,
   const std::optional<LightSample> ls = lights.sample_li(p, u_light, u2);  // the same light and point
   if (!ls || !(ls->pdf > 0) || ls->L.is_black()) return;
   const float cos_theta = dot(ray.d, ls->wi);
-  MediumLengths lengths;
   shadow.in_medium();
-  if (!shadow.visible(p, nullptr, *ls, &lengths)) return;
+  const ChannelValues T = shadow.transmittance(p, nullptr, *ls, path.shadow_channels(ray.state));
+  if (is_blocked(T, segment.n)) return;
   const auto saved = path.save();
   path.medium_weight(f);
-  path.medium_next_event(depth, *ls, segment.phase(cos_theta), segment.phase_pdf(cos_theta), lengths);
+  path.medium_next_event(depth, *ls, segment.phase(cos_theta), segment.phase_pdf(cos_theta), T);
   path.restore(saved);
 }
 
@@ -203,14 +209,14 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
             ls && ls->pdf > 0 && !ls->L.is_black() &&
             !(ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only())) {
           const float cos_theta = dot(ray.d, ls->wi);
-          MediumLengths lengths;
           shadow.in_medium();
-          if (shadow.visible(p, nullptr, *ls, &lengths)) {
+          if (const ChannelValues T = shadow.transmittance(p, nullptr, *ls, path.shadow_channels(ray.state));
+              !is_blocked(T, path.channels())) {
             // The free flight's share of the MIS with equiangular sampling toward this light.
             const float w = use_equiangular ? free_flight_weight(lights, *ls, ray, hit ? hit->t : kInfinity, *segment, t_scatter) : 1.0f;
             const auto saved = path.save();
             if (w < 1) path.medium_weight(uniform_channels(w));
-            path.medium_next_event(depth, *ls, segment->phase(cos_theta), segment->phase_pdf(cos_theta), lengths);
+            path.medium_next_event(depth, *ls, segment->phase(cos_theta), segment->phase_pdf(cos_theta), T);
             path.restore(saved);
           }
         }

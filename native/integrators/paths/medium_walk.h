@@ -8,10 +8,25 @@
 
 namespace gp {
 
-// The shadow test of next-event estimation. Without media (stack null) it is Scene::occluded,
-// unchanged. With media it follows the ray through surfaces that cast no shadow (light objects,
-// volume boundaries), tracking the media it is in from the path's stack, and sums the length
-// travelled in each medium; any other surface blocks it.
+// What a shadow ray's transmittance is counted in: RGB, or a path's wavelengths (each
+// surface's colour upsampled per hit, as textured inputs are), with the scene's media at them.
+struct ShadowChannels {
+  int count = 3;
+  const float* lambda = nullptr;          // the wavelengths (nm), count of them; null: RGB
+  const MediumChannels* media = nullptr;  // Scene::media at these channels (scenes with media)
+  RayState state;                         // the path's ray at the vertex (its transparent bounces)
+};
+
+// The shadow test of next-event estimation: the per-channel transmittance from a vertex to a
+// light sample, 0 where something blocks it. Without media (stack null) and without transparent
+// surfaces it is Scene::occluded, unchanged (all ones or all zeros). With media it follows the
+// ray through surfaces that cast no shadow (light objects, volume boundaries), tracking the
+// media it is in from the path's stack, and multiplies in their transmittance. Surfaces with a
+// Transparent BSDF (Material::transparent_shadow) let it through filtered by the closure's
+// weight at the hit (Cycles' transparent shadows: kernel/integrator/intersect_shadow.h,
+// shade_shadow.h, shader_bsdf_transparency), at most max(transparent_bounces - the path's
+// transparent bounces - 1, 0) of them (integrate_shadow_max_transparent_hits); any other
+// surface, or one transparent surface too many, blocks it.
 class ShadowTest {
  public:
   ShadowTest(const Scene& scene, const MediumStack* stack) : scene_(scene), stack_(stack) {}
@@ -27,20 +42,28 @@ class ShadowTest {
   }
   void in_medium() { interior_ = -1; }
 
-  // False when occluded. p: the vertex, ng: its geometric normal (null for a point in a medium:
-  // no offset). `lengths` receives the distances travelled in each medium (with media).
-  bool visible(const Vec3& p, const Vec3* ng, const LightSample& ls, MediumLengths* lengths) const;
-  // Whether visible() tracks media (the scene has some): only then does it need `lengths`, which
-  // callers then construct (a MediumLengths is about 1.2 KB: zeroing one per shadow ray cost a
-  // still scene's path tracing 2 %).
+  // The transmittance in ch's channels (entries past ch.count are 0). p: the vertex, ng: its
+  // geometric normal (null for a point in a medium: no offset).
+  ChannelValues transmittance(const Vec3& p, const Vec3* ng, const LightSample& ls, const ShadowChannels& ch) const;
+  // Whether the shadow test tracks media (the scene has some).
   bool tracks_media() const { return stack_ != nullptr; }
 
  private:
+  // Multiplies T by the transparency of the surface at `hit`; false when that leaves nothing.
+  bool filter(const SurfaceHit& hit, const ShadowChannels& ch, ChannelValues& T) const;
+
   const Scene& scene_;
   const MediumStack* stack_;
   int mesh_ = -1, interior_ = -1;
   Vec3 ng_, ray_d_;
 };
+
+// Whether a transmittance from ShadowTest leaves nothing in its first `count` channels.
+inline bool is_blocked(const ChannelValues& T, int count) {
+  for (int k = 0; k < count; ++k)
+    if (T[k] > 0) return false;
+  return true;
+}
 
 // exp(-sum_m sigma_t,m(c) d_m) per channel: exact Beer-Lambert through homogeneous segments;
 // times, for each stretch through a grid medium, its ratio-tracking estimate (unbiased; its

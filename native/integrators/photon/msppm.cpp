@@ -184,6 +184,9 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
                   if (!f.is_black()) {
                     ++rays;
                     const Light& l = lights.lights()[ls->light];
+                    // A Transparent BSDF blocks this shadow ray: MSPPM's path-space MIS keeps
+                    // such a surface a delta vertex of its paths (its photons and BSDF rays carry
+                    // the light through it), not Cycles' transparent shadow (paths/medium_walk.h).
                     const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
                     if (!blocked) {
                       PathVertex lv;

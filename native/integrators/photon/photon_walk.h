@@ -314,7 +314,9 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     ray.state = state;  // Light Path at the photon's next vertex (photons start as emission: no flags)
     crossed = 0;
     t_crossed = 0;
-    if (!pass_through) {
+    // A pass through a Transparent BSDF is not a scattering either where shadow rays pass it
+    // (paths/medium_walk.h): a photon that only passed such surfaces is direct light too.
+    if (!pass_through && !(is_transparent_pass(*bs) && mat.transparent_shadow())) {
       ++scattered;
       arrive = seen_by;
       surface_first = surface_first || volume_scatters == 0;

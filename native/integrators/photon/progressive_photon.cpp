@@ -146,13 +146,13 @@ RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, co
                 std::abs(wi.z);
   if (f.is_black()) return RGB(0.0f);
   ++rays;
-  if (shadow) {  // through volume boundaries, with the media's transmittance
-    MediumLengths lengths;
-    if (!shadow->visible(hit.p, &hit.ng, *ls, &lengths)) return RGB(0.0f);
-    const ChannelValues T = transmittance(lengths, 3, [&](int m) -> const MediumChannels& { return (*media)[m]; });
-    return f * ls->L / ls->pdf * RGB(T[0], T[1], T[2]);
-  }
-  return scene.occluded(hit.p, hit.ng, *ls) ? RGB(0.0f) : f * ls->L / ls->pdf;
+  // With media (shadow given): through volume boundaries, with the media's transmittance; and
+  // through transparent surfaces, filtered (paths/medium_walk.h).
+  const ShadowTest plain(scene, nullptr);
+  const ChannelValues T = (shadow ? *shadow : plain).transmittance(
+      hit.p, &hit.ng, *ls, {.count = 3, .media = media && !media->empty() ? media->data() : nullptr, .state = hit.ray});
+  if (is_blocked(T, 3)) return RGB(0.0f);
+  return f * ls->L / ls->pdf * RGB(T[0], T[1], T[2]);
 }
 
 bool ProgressivePhotonMapping::eye_tiles(ProgressSink* sink, bool may_pause, const std::function<void(const Tile&)>& fn) {

@@ -60,8 +60,9 @@ struct EyePathHooks {
 // NEE without MIS (photons cover the rest) from surface point `hit` with a given light sample:
 // f |cos| L / pdf, 0 if blocked (one occlusion ray counted in `rays` when it is traced). SPPM's
 // measurement points and GPM's offset gather points, which reuse the base's sample.
-// With a ShadowTest (media: paths/medium_walk.h), the shadow ray crosses volume boundaries and
-// its transmittance through `media` (the scene's media at R, G, B) multiplies the light.
+// The shadow ray's transmittance (paths/medium_walk.h ShadowTest: transparent surfaces, and with
+// a ShadowTest of media, volume boundaries and `media`, the scene's media at R, G, B) multiplies
+// the light.
 RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
                  const Vec2& u2, int64_t& rays, const ShadowTest* shadow = nullptr,
                  const std::vector<MediumChannels>* media = nullptr);

@@ -136,15 +136,17 @@ RGB ProgressivePhotonMapping::eye_nee(SpectralEye& c, const SurfaceHit& hit, con
     }
     if (any) {
       ++rays;
-      MediumLengths lengths;  // with media: through volume boundaries, with their transmittance
-      const bool blocked = shadow ? !shadow->visible(hit.p, &hit.ng, *ls, &lengths) : scene_.occluded(hit.p, hit.ng, *ls);
-      if (!blocked) {
+      // With media: through volume boundaries, with their transmittance; transparent surfaces
+      // filter it at the pass's wavelengths (paths/medium_walk.h).
+      const ShadowTest plain(scene_, nullptr);
+      const ChannelValues T = (shadow ? *shadow : plain).transmittance(
+          hit.p, &hit.ng, *ls,
+          {.count = c.C, .lambda = wl_.lambda.data(), .media = pass_media_.empty() ? nullptr : pass_media_.data(),
+           .state = hit.ray});
+      if (!is_blocked(T, c.C)) {
         float spec[kMaxWavelengths];
         pass_spectra_.emitted(ls->light, ls->L, spec);
-        if (shadow && lengths.n > 0) {
-          const ChannelValues T = transmittance(lengths, c.C, [&](int m) -> const MediumChannels& { return pass_media_[m]; });
-          for (int k = 0; k < c.C; ++k) spec[k] *= T[k];
-        }
+        for (int k = 0; k < c.C; ++k) spec[k] *= T[k];
         for (int k = 0; k < c.C; ++k) c.Ld[k] += c.beta[k] * f[k] * spec[k] / ls->pdf;
       }
     }

@@ -10,6 +10,7 @@
 #include "core/frame.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "integrators/paths/medium_walk.h"
 #include "integrators/shift/spectral_shift.h"
 #include "materials/bsdf.h"
 
@@ -35,6 +36,13 @@ struct BaseVertex {
   bool nee_eligible = false;  // NEE was possible here (non-delta BSDF, a light, depth left)
   bool nee = false;           // ... and drew a light sample ls
   bool nee_visible = false;   // ls is unoccluded from x_k
+  // The BSDF sample passed straight through a Transparent BSDF, which shadow rays pass too
+  // (paths/medium_walk.h): crossed like a light object for MIS (the vertex before competes with
+  // NEE for what the ray finds), its factor and density folded into the throughput.
+  bool transparent = false;
+  // The shadow ray's transmittance at the path's wavelengths (transparent surfaces filter it,
+  // paths/medium_walk.h); 1 where it is visible and crosses none.
+  ChannelValues nee_T{};
   float u_light = 0;
   Vec2 u_light2;
   LightSample ls;
@@ -357,6 +365,10 @@ class SpectralSample {
   const SampleSetup& s_;
   const LightSet& lights_;
   const int C;
+  // What the shadow test counts in: the C wavelengths at `lambda` (the base's or an offset's).
+  ShadowChannels shadow_channels(const RayState& state, const float* lambda) const {
+    return {.count = C, .lambda = lambda, .state = state};
+  }
   const double bin_width_;
   Rng& rng_;
   RayCounts& rays_;
@@ -409,7 +421,8 @@ void SpectralSample::trace_base(Ray ray) {
         v.ls = *ls;
         v.nee = true;
         ++rays_.shadow;
-        v.nee_visible = !scene.occluded(hit->p, hit->ng, *ls);
+        v.nee_T = ShadowTest(scene, nullptr).transmittance(hit->p, &hit->ng, *ls, shadow_channels(hit->ray, wl_.lambda.data()));
+        v.nee_visible = !is_blocked(v.nee_T, C);
       }
     }
     // ---- BSDF sampling ----
@@ -422,6 +435,7 @@ void SpectralSample::trace_base(Ray ray) {
     v.delta = bs->delta;
     v.transmission = bs->transmission;
     v.pdf = bs->pdf;
+    v.transparent = is_transparent_pass(*bs) && mat.transparent_shadow();
     const Vec3 wi = hit->frame.to_world(bs->wi);
     // Surfaces hidden from a kind of ray let it through (the offsets' rays take the base's
     // kind, so both paths of a pair see the same surfaces); a light object keeps the kind.
@@ -493,7 +507,7 @@ void SpectralSample::base_events() {
       Values Ls{};
       for (int j = 0; j < C; ++j) {
         const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, wi, false, false, 0, {}, j == 0);
-        Ls[j] = v.nee_visible ? spec(wl.lambda[j]) : 0.0f;
+        Ls[j] = v.nee_visible ? spec(wl.lambda[j]) * v.nee_T[j] : 0.0f;
         n.f[j] = F[j] * s.f_cos * Ls[j];
         n.p_light[j] = P[j] * v.ls.pdf;
         n.p_bsdf[j] = v.ls.delta ? 0.0f : P[j] * s.pdf;
@@ -516,7 +530,7 @@ void SpectralSample::base_events() {
       }
     }
     if (!v.scattered) break;
-    const bool crossing = s_.scene.material(v.hit.material).is_pass_through();
+    const bool crossing = s_.scene.material(v.hit.material).is_pass_through() || v.transparent;
     if (!crossing) {
       from = &v;
       P_prev = P;
@@ -532,8 +546,12 @@ void SpectralSample::base_events() {
     float f0 = 0, p0 = 0;
     for (int j = 0; j < C; ++j) {
       const Scatter s = scatter_at(v.hit, wl.lambda[j], v.wo, v.wi, v.delta, v.transmission, v.uc, v.u, j == 0);
-      F[j] *= s.f_cos;
-      P[j] *= s.pdf * v.rr;
+      if (v.transparent) {  // the densities stay those of the vertex before (as NEE's from there)
+        F[j] *= s.pdf > 0 ? s.f_cos / (s.pdf * v.rr) : 0.0f;
+      } else {
+        F[j] *= s.f_cos;
+        P[j] *= s.pdf * v.rr;
+      }
       if (j == 0) f0 = s.f_cos, p0 = s.pdf;
       if (split_lobes_ && v.delta && v.kind != 0) {  // a Dirac pair is all its lobe's
         last.f[lobe_index(v.kind)][j] = s.f_cos;
@@ -690,12 +708,25 @@ struct OffsetPath {
     if (v.y_nee && needed) {
       std::optional<LightSample> ls = x.ls;
       bool visible = x.nee_visible;
+      // The offset's transmittance at its own wavelengths: through the base's shadow ray while
+      // the paths share their vertices (its transparent surfaces' colours seen at lambda2; the
+      // base's visibility where the scene has none), along its own after they diverge.
+      ChannelValues T{};
+      const ShadowTest shadow(s.s_.scene, nullptr);
+      if (visible && state != State::Diverged) {
+        if (s.s_.scene.has_transparent_shadows())
+          T = shadow.transmittance(yh.p, &yh.ng, *ls, s.shadow_channels(yh.ray, lambda2.data()));
+        else
+          T.fill(1.0f);
+        visible = !is_blocked(T, C);
+      }
       if (state == State::Diverged) {
         ls = lights.sample_li(yh.p, x.u_light, x.u_light2);  // same u: same point / direction
         visible = false;
         if (ls && ls->pdf > 0 && !ls->L.is_black()) {
           ++s.rays_.shadow;
-          visible = !s.s_.scene.occluded(yh.p, yh.ng, *ls);
+          T = shadow.transmittance(yh.p, &yh.ng, *ls, s.shadow_channels(yh.ray, lambda2.data()));
+          visible = !is_blocked(T, C);
           if (lights.lights()[ls->light].type == LightType::Area)
             Jz = reconnection_jacobian<float>(x.hit.p, yh.p, ls->p, ls->n);
         }
@@ -708,7 +739,7 @@ struct OffsetPath {
         for (int j = 0; j < C; ++j) {
           const Scatter sc = s.scatter_at(yh, lambda2[j], wo_y, wi, false, false, 0, {}, j == 0);
           if (j == 0) s0 = sc;
-          Ls[j] = spec(lambda2[j]);
+          Ls[j] = spec(lambda2[j]) * T[j];
           ey.f[j] = F2[j] * sc.f_cos * Ls[j];
           ey.p_light[j] = P2[j] * ls->pdf;
           ey.p_bsdf[j] = ls->delta ? 0.0f : P2[j] * sc.pdf;
@@ -810,9 +841,12 @@ struct OffsetPath {
     // The offset's own roulette survival (eq. 10-11 need its density as a base path).
     beta2 *= s2[0].f_cos / s2[0].pdf;
     const bool crossing = v.mat_y.is_pass_through();  // a light object: as the base, no roulette
+    // Through a Transparent BSDF where the base passed one (the same surface while the paths
+    // share vertices): crossed for MIS as the base's (BaseVertex::transparent).
+    const bool transparent = x.transparent && delta_y && x.transmission;
     const float rr2 = crossing ? 1.0f : s.survival(k, beta2);
     beta2 /= rr2;
-    if (s.split_lobes_ && !crossing) {  // along the base's lobe, from the offset's own vertex
+    if (s.split_lobes_ && !crossing && !transparent) {  // along the base's lobe, from the offset's own vertex
       y_last = LobeScatter{};
       y_last.F = F2;
       y_last.P = P2;
@@ -827,14 +861,18 @@ struct OffsetPath {
         }
       }
     }
-    if (!crossing) {  // the vertex whose BSDF ray the next events come from (as the base's `from`)
+    if (!crossing && !transparent) {  // the vertex whose BSDF ray the next events come from (as the base's `from`)
       P2_prev = P2;
       y_prev_p = yh.p;
       y_prev_nee = v.y_nee && !delta_y;  // as nee_competes in base_events
     }
     for (int j = 0; j < C; ++j) {
-      F2[j] *= s2[j].f_cos;
-      P2[j] *= s2[j].pdf * rr2;
+      if (transparent) {
+        F2[j] *= s2[j].pdf > 0 ? s2[j].f_cos / (s2[j].pdf * rr2) : 0.0f;
+      } else {
+        F2[j] *= s2[j].f_cos;
+        P2[j] *= s2[j].pdf * rr2;
+      }
     }
     if (state == State::Reconnected) state = State::Same;
     // ---- Next offset vertex ----

@@ -105,7 +105,7 @@ struct SpectralPath {
   const int C;
   const bool split_lobes;
   SpectralValues L{}, beta{}, r_u{}, r_l{};
-  bool specular_bounce = false;
+  bool specular_bounce = true;  // as RgbPath: the camera ray's (only a transparent pass carries it on)
   Vec3 prev_p;
   std::array<BsdfParams, kMaxWavelengths> mk;
   std::array<std::optional<Bsdf>, kMaxWavelengths> bk;  // mk's BSDFs at the hit
@@ -209,13 +209,9 @@ struct SpectralPath {
     }
     if (!any) return;
     ++shadow_rays;
-    std::optional<MediumLengths> lengths;
-    if (shadow.tracks_media()) lengths.emplace();
-    if (!shadow.visible(hit.p, &hit.ng, ls, lengths ? &*lengths : nullptr)) return;
-    if (lengths && !lengths->empty()) {
-      const ChannelValues T = transmittance(*lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
-      for (int k = 0; k < C; ++k) f[k] *= T[k];
-    }
+    const ChannelValues T = shadow.transmittance(hit.p, &hit.ng, ls, shadow_channels(hit.ray));
+    if (is_blocked(T, C)) return;
+    for (int k = 0; k < C; ++k) f[k] *= T[k];  // media and transparent surfaces (1 where there are none)
     float denom = 0;  // mean over wavelengths of (light + BSDF strategy) pdf ratios
     for (int k = 0; k < C; ++k) denom += r_u[k] * (ls.pdf + (ls.delta ? 0.0f : pdf[k]));
     denom /= C;
@@ -229,7 +225,9 @@ struct SpectralPath {
   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u) {
     const auto bs = bk[0]->sample(wo, uc, u);
     if (!bs || bs->pdf <= 0) return std::nullopt;
-    if (split_lobes) {
+    // Through a Transparent BSDF: the MIS state of the vertex before it stays (as RgbPath).
+    const bool transparent = is_transparent_pass(*bs) && scene.material(hit.material).transparent_shadow();
+    if (split_lobes && !transparent) {
       prev.beta = beta;
       prev.r_u = r_u;
       prev.lobe = bs->lobe;
@@ -264,12 +262,19 @@ struct SpectralPath {
     }
     bool alive = false;
     for (int k = 0; k < C; ++k) {
-      beta[k] *= f[k] * std::abs(bs->wi.z) / bs->pdf;
-      r_l[k] = r_u[k] / bs->pdf;
+      const float w = f[k] * std::abs(bs->wi.z) / bs->pdf;
+      beta[k] *= w;
+      if (transparent) {
+        if (split_lobes) prev.beta[k] *= w;
+        r_l[k] *= pdf[k] / bs->pdf;  // the light strategy's ratio as it was, over this pass
+      } else {
+        r_l[k] = r_u[k] / bs->pdf;
+      }
       r_u[k] *= pdf[k] / bs->pdf;
       alive |= beta[k] > 0;
     }
     if (!alive) return std::nullopt;
+    if (transparent) return bs;
     specular_bounce = bs->delta;
     medium_vertex = false;
     prev_p = hit.p;
@@ -295,6 +300,9 @@ struct SpectralPath {
   // function's density does not depend on the wavelength either.
   int channels() const { return C; }
   const MediumChannels& medium_channels(int m) const { return media[m]; }
+  ShadowChannels shadow_channels(const RayState& state) const {
+    return {.count = C, .lambda = wl.lambda.data(), .media = media.empty() ? nullptr : media.data(), .state = state};
+  }
   ChannelValues channel_weights() const { return beta_channels(beta, C); }
   struct Saved {
     SpectralValues beta, prev_beta;
@@ -315,9 +323,8 @@ struct SpectralPath {
     for (int j = 0; j < C; ++j) L[j] += beta[j] * e[j] / ru;
   }
   void medium_next_event(int, const LightSample& ls, const ChannelValues& phase, float phase_pdf,
-                         const MediumLengths& lengths) {
+                         const ChannelValues& T) {
     ++shadow_rays;
-    const ChannelValues T = transmittance(lengths, C, [&](int m) -> const MediumChannels& { return media[m]; });
     float denom = 0;  // as next_event, the phase function in the BSDF's place
     for (int k = 0; k < C; ++k) denom += r_u[k] * (ls.pdf + (ls.delta ? 0.0f : phase_pdf));
     denom /= C;
