@@ -550,6 +550,8 @@ void bind_scene(py::module_& m) {
         d["height"] = c.height;
         d["aperture_radius"] = c.aperture_radius;
         d["focus_distance"] = c.focus_distance;
+        d["clip_start"] = c.clip_start;
+        d["clip_end"] = c.clip_end;  // inf: no far clip
         d["type"] = c.projection == Projection::Orthographic ? "orthographic" : "perspective";
         d["ortho_scale"] = c.ortho_scale;
         d["shift"] = py::make_tuple(c.shift.x, c.shift.y);

@@ -44,6 +44,15 @@ Ray Camera::generate_ray(Vec2 film, Vec2 u_lens, Vec2 ext, float time) const {
   const Transform moved = motion.empty() ? Transform() : motion.at(time);
   const Transform& to_world = motion.empty() ? camera_to_world : moved;
   Ray ray(to_world.point(origin), normalize(to_world.vector(dir)));
+  if (clip_start > 0 || clip_end < kInfinity) {
+    // Cycles' clipping: distances along the ray to the planes z = -clip_start and -clip_end,
+    // from the pinhole direction through the film point (z_inv = 1 / cos of its angle to the
+    // view axis; 1 for an orthographic camera), the thin lens's ray moved along its own direction.
+    const float z_inv = projection == Projection::Orthographic ? 1.0f : length(Vec3(sx, sy, -1.0f));
+    const float near = clip_start * z_inv;
+    ray.o = ray.o + ray.d * near;
+    ray.tmax = (clip_end - clip_start) * z_inv;
+  }
   ray.time = time;
   ray.camera = true;
   ray.state = RayState::camera();
@@ -61,6 +70,8 @@ std::string Camera::check() const {
       return "a camera motion matrix is not finite or is singular";
   if (width < 1 || height < 1) return fmt::format("the image is {}x{} pixels", width, height);
   if (!(std::isfinite(shift.x) && std::isfinite(shift.y))) return "the camera shift is not finite";
+  if (!(clip_start >= 0 && std::isfinite(clip_start)) || !(clip_end > clip_start))
+    return fmt::format("the camera's clip start {} and end {} must be 0 <= start < end", clip_start, clip_end);
   if (projection == Projection::Orthographic ? !(ortho_scale > 0 && std::isfinite(ortho_scale))
                                              : !(fov_degrees > 0 && fov_degrees < 180))
     return "the field of view must be above 0 (and below 180 degrees)";

@@ -26,6 +26,11 @@ struct Camera {
   Vec2 shift{0.0f, 0.0f};
   float aperture_radius = 0.0f;  // metres; 0 = pinhole (perspective only)
   float focus_distance = 1.0f;   // metres along the view axis
+  // Blender's Clip Start / Clip End (metres along the view axis), as Cycles clips camera rays
+  // (kernel/camera/camera.h camera_sample_perspective): a ray starts on the near clip plane and
+  // ends on the far one, so nothing nearer than clip_start is seen, and no medium in front of it
+  // (World fog between the camera and the plane is skipped). 0 and infinity: no clipping.
+  float clip_start = 0.0f, clip_end = kInfinity;
   // Film > Pixel Filter (core/pixel_filter.h): each camera ray's film offset is drawn from it.
   PixelFilter filter;
   // Crop window in pixels of the whole image (0,0 = top-left corner); crop_width 0 = none.

@@ -554,7 +554,8 @@ class Loader : private JsonReader {
   void load_camera(const json& c, const std::string& path) {
     require_object(c, path);
     check_keys(c, path, {"position", "look_at", "up", "matrix", "type", "fov", "ortho_scale", "sensor_fit", "width",
-                         "height", "shift", "crop", "aperture_radius", "focus_distance", "pixel_filter", "motion"});
+                         "height", "shift", "crop", "aperture_radius", "focus_distance", "pixel_filter", "motion",
+                         "clip_start", "clip_end"});
     Camera cam;
     if (const json* m = find(c, "matrix")) {
       if (find(c, "position") || find(c, "look_at") || find(c, "up"))
@@ -601,6 +602,13 @@ class Loader : private JsonReader {
       else fail(sub(path, "type"), fmt::format("unknown camera type '{}' (known: perspective, orthographic)", type));
     }
     if (const json* o = find(c, "ortho_scale")) cam.ortho_scale = get_positive(*o, sub(path, "ortho_scale"));
+    // Blender's Clip Start / End, as Cycles clips camera rays (Camera::clip_start).
+    if (const json* n = find(c, "clip_start")) cam.clip_start = get_nonnegative(*n, sub(path, "clip_start"));
+    if (const json* f = find(c, "clip_end")) {
+      cam.clip_end = get_positive(*f, sub(path, "clip_end"));
+      if (!(cam.clip_end > cam.clip_start))
+        fail(sub(path, "clip_end"), fmt::format("must be beyond clip_start ({} <= {})", cam.clip_end, cam.clip_start));
+    }
     if (const json* s = find(c, "shift")) cam.shift = get_vec2(*s, sub(path, "shift"));
     if (const json* w = find(c, "crop")) {
       const std::string wpath = sub(path, "crop");

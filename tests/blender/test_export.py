@@ -67,6 +67,7 @@ def test_every_light_type_and_camera(empty_scene):
     cam.data.dof.use_dof = True
     cam.data.dof.aperture_fstop = 2.8
     cam.data.dof.focus_distance = 4.0
+    cam.data.clip_start, cam.data.clip_end = 0.25, 80.0
     empty_scene.render.resolution_x, empty_scene.render.resolution_y = 200, 100
     empty_scene.render.resolution_percentage = 50
     lights = {}
@@ -98,10 +99,12 @@ def test_every_light_type_and_camera(empty_scene):
     assert c["fov"] == pytest.approx(math.degrees(2 * math.atan(18 / 35)))
     assert c["aperture_radius"] == pytest.approx(0.035 / (2 * 2.8))
     assert c["focus_distance"] == pytest.approx(4.0)
+    assert (c["clip_start"], c["clip_end"]) == pytest.approx((0.25, 80.0))  # Cycles clips camera rays
     assert c["matrix"][3] == pytest.approx(0) and c["matrix"][7] == pytest.approx(-5)
     assert d["environment"] == {"color": pytest.approx([0.1, 0.2, 0.3]), "strength": 2.0}
     scene = ex.build(native.get())
     assert scene.light_count == 3 + 2 + 64 + 64 + 2 + 1  # delta lights, area triangles, environment
+    assert (scene.camera()["clip_start"], scene.camera()["clip_end"]) == pytest.approx((0.25, 80.0))
 
 
 def test_materials_map_onto_the_closed_set(empty_scene):

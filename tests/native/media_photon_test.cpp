@@ -14,6 +14,7 @@
 
 #include "integrators/integrator.h"
 #include "integrators/methods.h"
+#include "integrators/paths/medium_stack.h"
 #include "integrators/photon/sppm.h"
 #include "media/grid.h"
 #include "media/vdb_file.h"
@@ -138,10 +139,92 @@ TEST(MediaPhotons, SpectralSppmAndSpectralPathTracingAgreeInFog) {
   EXPECT_NEAR(sppm.luminance() / spt.luminance(), 1.0, 0.02) << sppm.luminance() << " vs " << spt.luminance();
 }
 
+// ---- Lights inside a mesh's medium ----
+// The media around a point (paths/medium_stack.h): a glass sphere of water inside a fog box,
+// both closed; a point light in the water is inside both, and so are its photons' first segments.
+TEST(MediaPhotons, TheMediaAroundAPointAreFoundByRays) {
+  const Scene s = scene_from(R"({"camera": {"position": [0, -5, 1], "look_at": [0, 0, 1], "width": 8, "height": 8},
+    "media": {"fog": {"sigma_s": 0.5}, "water": {"sigma_a": 0.3}, "haze": {"sigma_s": 0.01}},
+    "world_medium": "haze",
+    "materials": {"fog": {"type": "volume", "interior": "fog"},
+                  "glass": {"type": "dielectric", "ior": 1.33, "interior": "water"}},
+    "lights": [{"type": "point", "position": [0, 0, 1], "intensity": 5},
+               {"type": "point", "position": [0.9, 0, 1], "intensity": 5},
+               {"type": "point", "position": [3, 0, 1], "intensity": 5}],
+    "objects": [{"type": "box", "min": [-1, -1, 0], "max": [1, 1, 2], "material": "fog"},
+                {"type": "sphere", "center": [0, 0, 1], "radius": 0.5, "segments": 32, "material": "glass"}]})");
+  const auto media_of = [](const MediumStack& st) {
+    std::vector<int> m;
+    for (int i = 0; i < st.size(); ++i) m.push_back(st[i].medium);
+    std::sort(m.begin(), m.end());
+    return m;
+  };
+  const int fog = 0, water = 1, haze = 2;
+  EXPECT_EQ(media_of(medium_stack_at(s, Vec3(0, 0, 1))), (std::vector<int>{fog, water, haze}));
+  EXPECT_EQ(media_of(medium_stack_at(s, Vec3(0.9f, 0, 1))), (std::vector<int>{fog, haze}));
+  EXPECT_EQ(media_of(medium_stack_at(s, Vec3(3, 0, 1))), (std::vector<int>{haze}));
+  // Once per light (LightSet order: the scene's lights as given).
+  const LightMedia lights(s);
+  EXPECT_EQ(media_of(lights.of(0)), (std::vector<int>{fog, water, haze}));
+  EXPECT_EQ(media_of(lights.of(1)), (std::vector<int>{fog, haze}));
+  EXPECT_EQ(media_of(lights.of(2)), (std::vector<int>{haze}));
+}
+
+// A point light inside a box of murky ink (sigma_a 0.3, sigma_s 0.7) 2 m above a diffuse floor
+// (albedo 0.6), the box's bottom 1.5 m below the light; the camera under the box looks down at
+// the floor. Direct light under the light: L = (a / pi) (I / h^2) exp(-sigma_t 1.5), pt's shadow
+// rays entering the box through its bottom. The light the ink scatters onto the floor is what
+// sppm's photons carry (its direct light is next-event estimation's): they must start in the box.
+const char* kLampInInk = R"({"camera": {"position": [0, 0, 0.45], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": %s, "width": 16, "height": 16},
+    "media": {"ink": {"sigma_a": 0.3, "sigma_s": 0.7}},
+    "materials": {"floor": {"type": "diffuse", "color": 0.6}, "ink": {"type": "volume", "interior": "ink"}},
+    "lights": [{"type": "point", "position": [0, 0, 2], "intensity": 8}],
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [8, 0, 0], "v": [0, 8, 0], "material": "floor"},
+                {"type": "box", "min": [-1.5, -1.5, 0.5], "max": [1.5, 1.5, 3], "material": "ink"}]})";
+
+std::string lamp_in_ink(const char* fov) {
+  std::string s = kLampInInk;
+  s.replace(s.find("%s"), 2, fov);
+  return s;
+}
+
+TEST(MediaPhotons, ALightInsideAMediumStartsItsPhotonsThere) {
+  // pt's direct light under the light (a 2 degree field, max_depth 2): the analytic value.
+  const RGB centre = image_mean(render_pt(scene_from(lamp_in_ink("2")), 4, "pt", 1, 2));
+  const double exact = 0.6 / M_PI * 8.0 / 4.0 * std::exp(-1.0 * 1.5);
+  EXPECT_NEAR(centre.g / exact, 1.0, 0.005) << centre.g << " vs " << exact;
+  // sppm against pt over a wide field (the floor within 0.45 m of the centre), all bounces.
+  const Scene s = scene_from(lamp_in_ink("90"));
+  const RGB pt = image_mean(render_pt(s, 512, "pt", 2));
+  const RGB sppm = image_mean(render("sppm", s, 32, photon_params(3, 100000, 0.05)));
+  std::printf("lamp in ink: pt direct / exact %.4f; sppm / pt %.4f\n", centre.g / exact, sppm.g / pt.g);
+  // Measured 0.992 (1.003 against pt at another seed); photons started in the World's medium
+  // (the bug): 0.452, the light the ink scatters onto the floor missing.
+  EXPECT_NEAR(sppm.g / pt.g, 1.0, 0.015);
+}
+
+// An emissive quad inside a fog-filled Volume box over a floor: photons start in the fog, scatter
+// there and light the floor through it; sppm against pt (a long reference).
+TEST(MediaPhotons, AnEmitterInsideAVolumeBoxMatchesPathTracing) {
+  const Scene s = scene_from(R"({"camera": {"position": [0, -4, 1.3], "look_at": [0, 0, 0.8], "fov": 40, "width": 24, "height": 18},
+    "media": {"murk": {"sigma_a": [0.2, 0.1, 0.05], "sigma_s": 1.2, "g": 0.3}},
+    "materials": {"floor": {"type": "diffuse", "color": 0.6}, "murk": {"type": "volume", "interior": "murk"},
+                  "lamp": {"type": "emission", "emission": 1, "strength": 8, "two_sided": true}},
+    "environment": {"color": [0.02, 0.02, 0.03]},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [6, 0, 0], "v": [0, 6, 0], "material": "floor"},
+                {"type": "box", "min": [-0.6, -0.6, 0.3], "max": [0.6, 0.6, 1.5], "material": "murk"},
+                {"type": "quad", "center": [0.1, 0.0, 0.9], "u": [0.4, 0, 0], "v": [0, 0.4, 0], "material": "lamp"}]})");
+  const RGB pt = image_mean(render_pt(s, 2048, "pt", 3));
+  const RGB sppm = image_mean(render("sppm", s, 48, photon_params(2, 100000, 0.02)));
+  std::printf("emitter in a volume box: sppm / pt %.4f %.4f %.4f\n", sppm.r / pt.r, sppm.g / pt.g, sppm.b / pt.b);
+  // Measured against pt at 4096 passes: 1.003 (seeds 2 and 7); pt at 1024 passes moves 0.9 %
+  // between seeds: 1.5 %.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(sppm[c] / pt[c], 1.0, 0.015) << "channel " << c << ": " << sppm[c] << " vs " << pt[c];
+}
+
 // ---- Adaptive Markov chain photons (thesis ch. 8) in media ----
 // A lit cloud that only media show: a point light above a sphere of anisotropic fog, a black
-// World and a floor out of the camera's view (a light inside a medium's mesh would not start
-// in its medium: scene-format.md, as a camera). No measurement point sees any photon, so every
+// World and a floor out of the camera's view. No measurement point sees any photon, so every
 // pixel is the beam radiance estimate; a visibility V(u) of the measurement points alone finds
 // no visible path at all (a black image), one blind to the floor's photons' scattering on into
 // the cloud leaves that light out.

@@ -5,7 +5,9 @@
 // scene format's media and its errors, and the warning of methods that do not render media.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -155,6 +157,41 @@ TEST(MediumSegment, FreeFlightWeightsAreUnbiasedPerChannel) {
   EXPECT_FLOAT_EQ(seg.pass_weight(2.0f)[2], std::exp(-4.0f));
 }
 
+TEST(MediumSegment, SpectralFreeFlightWeightsCannotGrowTheThroughput) {
+  // The free flight of a path at C wavelengths in a strongly chromatic medium (scattering at the
+  // first wavelength 10x the last): with the channel picked in proportion to the throughput and
+  // the distance's density the mixture sum_c q_c sigma_t,c T_c (spectral MIS, the one-sample
+  // balance heuristic over the wavelengths), sum_k beta_k w_k <= sum_k beta_k for every sample,
+  // scattered or passed. Sampling with the hero's sigma_t alone (q = (1, 0, ...)) carries the
+  // others by T_k / T_hero, which grows without bound with the distance: it fails here.
+  constexpr int C = 4;
+  MediumChannels c;
+  const float s_s[C] = {2.0f, 0.9f, 0.45f, 0.2f}, s_a[C] = {0.05f, 0.05f, 0.05f, 0.05f};
+  for (int k = 0; k < C; ++k) {
+    c.sigma_s[k] = s_s[k];
+    c.sigma_a[k] = s_a[k];
+    c.sigma_t[k] = s_s[k] + s_a[k];
+  }
+  const std::vector<MediumChannels> table = {c};
+  Rng rng = Rng::for_key(11, 0, 2);
+  double worst = 0;
+  for (int i = 0; i < 200000; ++i) {
+    MediumSegment seg(MediumStack(0), Ray(), C, [&](int m) -> const MediumChannels& { return table[m]; });
+    ChannelValues beta{};
+    double sum = 0;
+    for (int k = 0; k < C; ++k) sum += beta[k] = 0.05f + rng.uniform();
+    seg.set_channel_weights(beta);
+    const float t_end = 8.0f * rng.uniform();
+    const float t = seg.sample_distance(rng.uniform(), rng.uniform());
+    const ChannelValues w = t < t_end ? seg.scatter_weight(t) : seg.pass_weight(t_end);
+    double after = 0;
+    for (int k = 0; k < C; ++k) after += beta[k] * w[k];
+    worst = std::max(worst, after / sum);
+  }
+  // Measured 1.0000 (the bound is exact up to float rounding); hero-only sampling: above 100.
+  EXPECT_LE(worst, 1.0 + 1e-4);
+}
+
 // ---- Whole paths ----
 
 Film render_pt(const Scene& s, int passes, const std::string& method = "pt", uint64_t seed = 1, int max_depth = 256) {
@@ -242,6 +279,44 @@ TEST(MediaPathTracing, RgbAndHeroWavelengthsAgreeOnAMediumScene) {
   EXPECT_NEAR(b.luminance() / a.luminance(), 1.0, 0.02) << a.luminance() << " vs " << b.luminance();
 }
 
+TEST(MediaPathTracing, HeroWavelengthsInChromaticFogMatchRgbWithoutFireflies) {
+  // A fog box scattering red 10x blue (sigma_s 2.0, 0.6, 0.2) over a diffuse floor and wall under
+  // an area light. spt-hero samples its free flights by the one-sample MIS over its 4 wavelengths
+  // (MediumSegment: the density sum_c q_c sigma_t,c T_c): its luminance matches pt's, and its
+  // noise is that of a grey medium. Measured (spt-hero 512 passes, seeds 4-6, against pt at
+  // 1024): luminance 1.0048, 1.0039, 1.0079; relMSE of the luminance 0.0024-0.0028; the brightest
+  // pixel 4.4-4.7x the mean. Seen failing with the hero's sigma_t alone for the distance
+  // (q = (1, 0, 0, 0)): relMSE 0.032. Per channel spt-hero is spectral, not RGB: its red is 3 %
+  // above pt's (a chromatic medium's spectral product differs from the RGB one) and within 1 %
+  // of spt's; so luminance is compared here.
+  const Scene s = scene_from(R"({"camera": {"position": [0, -4, 1.2], "look_at": [0, 0, 1.0], "fov": 40, "width": 16, "height": 12},
+    "media": {"fog": {"sigma_a": 0.05, "sigma_s": [2.0, 0.6, 0.2], "g": 0.3}},
+    "materials": {"wall": {"type": "diffuse", "color": 0.6}, "fog": {"type": "volume", "interior": "fog"},
+                  "lamp": {"type": "emission", "emission": 1, "strength": 6, "two_sided": true}},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [4, 0, 0], "v": [0, 4, 0], "material": "wall"},
+                {"type": "quad", "center": [0, 1.5, 1.5], "u": [4, 0, 0], "v": [0, 0, 3], "material": "wall"},
+                {"type": "box", "min": [-0.8, -0.8, 0.2], "max": [0.8, 0.8, 1.8], "material": "fog"},
+                {"type": "quad", "center": [0.4, -0.3, 2.5], "u": [0.8, 0, 0], "v": [0, 0.8, 0], "material": "lamp"}]})");
+  const Film ref = render_pt(s, 1024, "pt", 1, 32);
+  const Film hero = render_pt(s, 512, "spt-hero", 4, 32);
+  double sum_ref = 0, sum_hero = 0, rel = 0, brightest = 0;
+  for (int y = 0; y < ref.height(); ++y)
+    for (int x = 0; x < ref.width(); ++x) {
+      const double a = ref.rgb(pass::kCombined, x, y).luminance(), b = hero.rgb(pass::kCombined, x, y).luminance();
+      sum_ref += a;
+      sum_hero += b;
+      rel += (b - a) * (b - a) / (a * a + 1e-4);
+      brightest = std::max(brightest, double(hero.rgb(pass::kCombined, x, y).max_component()));
+    }
+  const double n = double(ref.width()) * ref.height();
+  rel /= n;
+  std::printf("chromatic fog: spt-hero / pt luminance %.4f, relMSE %.5f, brightest pixel %.2f x the mean\n",
+              sum_hero / sum_ref, rel, brightest / (sum_ref / n));
+  EXPECT_NEAR(sum_hero / sum_ref, 1.0, 0.01);  // the issue's 1 %; measured within 0.8 %
+  EXPECT_LT(rel, 0.008);                       // 3x the measured; hero-only sampling 4x above it
+  EXPECT_LT(brightest / (sum_ref / n), 7.0);   // measured 4.4-4.7
+}
+
 TEST(MediaPathTracing, AMediumInsideGlassIsEnteredThroughTheGlass) {
   // Murky water in glass: a box of clear glass of IOR 1 whose interior absorbs, in front of an
   // emitter; seen straight on, L = exp(-sigma_a d) (no refraction at IOR 1, no reflection).
@@ -268,6 +343,27 @@ TEST(MediaPathTracing, SceneWithoutMediaHasNoMediaAndWorldMediumFillsTheOpen) {
 
 // ---- Scene format and front ends ----
 
+TEST(MediaPathTracing, CameraClipStartSkipsTheFogInFrontOfIt) {
+  // An emitter of radiance 1 seen 2 m away through absorbing World fog (sigma_a 0.5), a grey
+  // quad 0.05 m in front of the camera. Camera rays start on the near clip plane, as Cycles'
+  // (camera_sample_perspective: Clip Start): with clip_start 0.3 the quad is not seen and only
+  // 1.7 m of fog dims the emitter (exp(-0.85)); a far clip before the emitter sees nothing.
+  // (Blender's World fog under a spot light read 2.6 % darker than Cycles without this.)
+  auto scene = [](const std::string& clip) {
+    return scene_from(std::string(R"({"camera": {"position": [0, 0, 2], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 2,
+      "width": 8, "height": 8)") + clip + R"(},
+      "media": {"ink": {"sigma_a": 0.5}}, "world_medium": "ink",
+      "materials": {"light": {"type": "emission", "emission": 1, "strength": 1}, "grey": {"type": "diffuse", "color": 0.5}},
+      "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "light"},
+                  {"type": "quad", "center": [0, 0, 1.95], "u": [1, 0, 0], "v": [0, 1, 0], "material": "grey"}]})");
+  };
+  EXPECT_NEAR(image_mean(render_pt(scene(""), 4)).g, 0.0, 1e-6);  // the grey quad, unlit
+  const RGB clipped = image_mean(render_pt(scene(R"(, "clip_start": 0.3)"), 4));
+  EXPECT_NEAR(clipped.g, std::exp(-0.5 * 1.7), 2e-3);  // cos of the rays' angles within 1.4 degrees: 3e-4
+  EXPECT_NEAR(image_mean(render_pt(scene(R"(, "clip_start": 0.3, "clip_end": 1.5)"), 4)).g, 0.0, 1e-6);
+  EXPECT_THROW(scene(R"(, "clip_start": 0.3, "clip_end": 0.2)"), std::exception);
+}
+
 TEST(MediaSceneFormat, ErrorsNameTheFileAndTheKey) {
   auto error_of = [](const std::string& json) -> std::string {
     try {
@@ -286,6 +382,9 @@ TEST(MediaSceneFormat, ErrorsNameTheFileAndTheKey) {
             std::string::npos);
   EXPECT_NE(error_of(R"({"media": {"fog": {"g": 2}}})").find("/media/fog/g: must be in [-1, 1]"), std::string::npos);
   EXPECT_NE(error_of(R"({"world_medium": "fog"})").find("/world_medium: unknown medium 'fog' (known: none defined)"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "clip_start": 2, "clip_end": 1}})")
+                .find("/camera/clip_end: must be beyond clip_start"),
             std::string::npos);
 }
 

@@ -2,7 +2,7 @@
 of view on the fitted axis). Resolution with percentage; border as the core's crop window (only
 its pixels are traced); depth of field as Cycles: aperture radius = focal length / (2 f-stop),
 focus distance from the focus object (along the view axis) or the distance field; lens shift and
-orthographic cameras as Blender's; Film > Pixel Filter (box, Gaussian, Blackman-Harris and its width)
+orthographic cameras as Blender's; Clip Start / End as Cycles clips camera rays; Film > Pixel Filter (box, Gaussian, Blackman-Harris and its width)
 as Cycles' settings say. Panoramic cameras are approximated (a counted warning)."""
 import math
 
@@ -64,6 +64,11 @@ def export_camera(scene, warnings):
         d["ortho_scale"] = cam.ortho_scale
     elif cam.type != 'PERSP':
         warnings.add("panoramic camera (rendered as perspective)", f"{ob.name} ({cam.type})")
+    # Clip Start / End: Cycles starts camera rays on the near clip plane (nothing nearer is seen,
+    # no fog in front of it) and ends them on the far one (kernel/camera/camera.h).
+    d["clip_start"] = float(cam.clip_start)
+    if cam.clip_end > cam.clip_start:
+        d["clip_end"] = float(cam.clip_end)
     if cam.shift_x != 0 or cam.shift_y != 0:
         d["shift"] = [cam.shift_x, cam.shift_y]
     fit = cam.sensor_fit

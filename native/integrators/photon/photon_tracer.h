@@ -29,6 +29,7 @@
 #include "core/math.h"
 #include "core/rng.h"
 #include "integrators/paths/light_chain.h"
+#include "integrators/paths/medium_stack.h"
 #include "materials/bsdf.h"
 #include "media/medium.h"
 #include "scene/scene.h"
@@ -190,7 +191,11 @@ class PhotonTracer {
   void set_world_by_closure_share(bool on) { world_share_ = on; }
   // Participating media (photon_walk.h): off by default, so methods that do not render media
   // (MSPPM, GPM) leave them out as their declarations say; PPM and SPPM turn it on.
-  void set_media(bool on) { media_on_ = on && scene_.has_media(); }
+  // Each light's photons start in the media around it (LightMedia, found here once).
+  void set_media(bool on) {
+    media_on_ = on && scene_.has_media();
+    light_media_ = media_on_ ? LightMedia(scene_) : LightMedia();
+  }
 
   static constexpr int64_t kChunk = 4096;  // photons per random stream / work item
   // Surfaces hidden from some kinds of ray that one photon segment may cross (trace_path).
@@ -205,6 +210,7 @@ class PhotonTracer {
   DepositRule rule_;
   bool world_share_ = false;  // set_world_by_closure_share
   bool media_on_ = false;     // set_media
+  LightMedia light_media_;    // set_media: the media around each light
   std::vector<std::vector<Photon>> chunks_;  // per-chunk output, capacity kept between passes
   std::vector<std::vector<PhotonOrigin>> chunk_origins_;  // the same, for `origins`
   std::vector<std::vector<PhotonChain>> chunk_chains_;    // and for `chains`

@@ -134,7 +134,8 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
     record->vertices.push_back(lv);
   }
   const bool media = media_on_;
-  MediumStack stack = scene_.initial_medium_stack();
+  // It starts in the media around its light (a lamp inside a glass of murky water: LightMedia).
+  MediumStack stack = media ? light_media_.of(em->light) : scene_.initial_medium_stack();
   // Light Paths > Volume bounces (Scene::volume_bounces, -1: none): Cycles' camera path has at
   // most volume_bounces + 1 scatterings in media, the last of them (the one nearest the light)
   // joined to the light with no surface between (paths/camera_path.h). In the photon's order:
