@@ -281,7 +281,10 @@ class RenderSession:
         self.engine = engine
         self.test_break = test_break or engine.test_break
         self.session = None
-        self.transparent = False    # Combined's Alpha from the core's alpha pass (Film > Transparent)
+        # Combined's Alpha from the core's alpha pass: with Film > Transparent, and on a scene that
+        # holds out whatever the film (Cycles 3.4 gives held-out pixels alpha 0 either way; the
+        # method declares it: Session.passes, integrators/integrator.h writes_alpha).
+        self.transparent = False
         self.cancel_latency = None  # seconds from test_break() to the loop's end
         self.updates = []           # (seconds, passes) of every image sent to Blender
         self.break_at = None        # wall clock (time.time()) when test_break() first fired
@@ -368,8 +371,7 @@ class RenderSession:
             self.report('WARNING', f"gradphoton: {self.session.method} has no transparent film: "
                                    "the background stays opaque", defer=True)
         self.exposure = film_exposure(scene)
-        self.transparent = (scene.render.film_transparent and FILM_TRANSPARENT in params
-                            and FILM_TRANSPARENT not in self.session.unused_params)
+        self.transparent = "alpha" in self.session.passes
         W, H = exported.width, exported.height
         window = exported.border
         rw, rh = (window[2], window[3]) if window else (W, H)

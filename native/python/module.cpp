@@ -227,6 +227,7 @@ class Session {
   bool stale() const { return session_.stale(); }
   const std::vector<std::string>& unused_report() const { return session_.unused_report(); }
   const std::vector<std::string>& feature_report() const { return session_.feature_report(); }
+  const std::vector<std::string>& passes() const { return session_.passes(); }
   std::string method() const { return session_.integrator().name(); }
   double estimated_error() const { return session_.integrator().estimated_error(); }
   // The terms of every pixel's error bound (ProgressivePhotonMapping::ErrorTerms), as
@@ -276,7 +277,7 @@ py::dict method_description(const std::string& name) {
   d["summary"] = m.summary;
   d["tooltip"] = m.tooltip;
   py::list passes;
-  for (const PassDecl& p : m.passes) passes.append(py::make_tuple(std::string(p.name), p.when_param));
+  for (const PassDecl& p : m.passes) passes.append(py::make_tuple(std::string(p.name), p.when_param, p.or_holdout));
   d["passes"] = passes;
   d["error_estimate"] = m.error_estimate;
   d["merge"] = py::dict(py::arg("keeps_bias") = m.merge.keeps_bias, py::arg("reconstructs") = m.merge.reconstructs);
@@ -333,7 +334,7 @@ void bind_methods(py::module_& m) {
         "One line on what the method computes and its paper");
   m.def("method_description", &method_description, py::arg("method"),
         "The method as it declares itself: {'name', 'label', 'summary', 'tooltip', 'passes': [(name, "
-        "when_param)], 'error_estimate', 'merge': {'keeps_bias', 'reconstructs'}, 'stats': [(key, label, "
+        "when_param, or_holdout: also on a scene that holds out)], 'error_estimate', 'merge': {'keeps_bias', 'reconstructs'}, 'stats': [(key, label, "
         "format)] (a key with '*' sums the keys it matches), 'supports': {'media', 'motion_blur', 'grid_media', "
         "'environment_map'}, 'lobe_visibility', 'per_pixel'}");
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
@@ -738,6 +739,10 @@ void bind_session(py::module_& m) {
                              "One line per scene feature the method leaves out (participating media), naming it")
       .def_property_readonly("method", &Session::method,
                              "The method that runs (pt becomes spt-hero in spectral mode)")
+      .def_property_readonly("passes", &Session::passes,
+                             "The passes develop() writes, as the method declares them for these params on this "
+                             "scene ('alpha' with Film > Transparent or a holdout in the scene), the auxiliary "
+                             "albedo/normal/depth aside")
       .def("error_terms", &Session::error_terms,
            "Photon methods: the terms of each pixel's error bound (radiance, bias, bias_sd, noise_sd, sigma, "
            "bound, radius; luminance) as {name: float64 array (H, W)}")

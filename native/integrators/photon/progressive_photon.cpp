@@ -697,7 +697,7 @@ void ProgressivePhotonMapping::develop(Film& film) const {
   Pass& error = film.add_pass(pass::kError, 1);
   Pass& radius = film.add_pass(pass::kRadius, 1);
   Pass& count = film.add_pass(pass::kPhotonCount, 1);
-  Pass* alpha = film_transparent_ ? &film.add_pass(pass::kAlpha, 1) : nullptr;
+  Pass* alpha = writes_alpha_ ? &film.add_pass(pass::kAlpha, 1) : nullptr;
   const double passes = static_cast<double>(std::max<int64_t>(stats_.passes, 1));
   if (stats_.passes == 0 && (stage_ != Stage::Eye || !eye_tile_done_.empty())) {
     // The first pass paused before its end (iterate, ProgressSink::pause): a preview, the light

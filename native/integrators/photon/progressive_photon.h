@@ -284,8 +284,11 @@ class ProgressivePhotonMapping : public Integrator {
   // cut, edge_bias and edge_bias_sd of pixel k into e (e.radiance set).
   void edge_bias(size_t k, ErrorTerms& e) const;
   // Reads parameter film_transparent (PPM, SPPM: their eye passes, RGB and spectral, write
-  // the alpha pass).
-  void read_film_transparent(const Params& params) { film_transparent_ = params.get<bool>("film_transparent"); }
+  // the alpha pass with it, and on a scene that holds out: writes_alpha).
+  void read_film_transparent(const Params& params) {
+    film_transparent_ = params.get<bool>("film_transparent");
+    writes_alpha_ = writes_alpha(film_transparent_, scene_);
+  }
 
   // ---- Spectral photons (progressive_photon_spectral.cpp) ----
   // One set of wavelengths per pass, shared by its eye paths and photons.
@@ -384,6 +387,7 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<PixelState> px_;
   std::vector<float> gather_m_, gather_lap_;
   std::vector<std::array<float, 3>> gather_boundary_;  // other surfaces' flux, own flux's first moment (u, v)
+  bool writes_alpha_ = false;  // develop() writes pass alpha (read_film_transparent)
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
   // ---- The open pass, between calls of iterate() that paused (only before the first pass
