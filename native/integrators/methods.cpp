@@ -371,7 +371,7 @@ std::vector<Method> make_methods() {
                .merge = {.reconstructs = true},
                .stats = {{"acceptance rate", "accept", "{:.3f}"}, {"large-step share", "large", "{:.3f}"},
                          {"chains", "chains", "{:.0f}"}, shift_failures()},
-               .supports = {.motion_blur = true}, .per_pixel = false});
+               .supports = {.motion_blur = true}, .per_pixel = false, .paused_pass_covers_image = true});
   auto spt = [](bool hero) {
     return [hero](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
       require_spectral(hero ? "spt-hero" : "spt", p);

@@ -82,6 +82,10 @@ struct Method {
   // Pixels are traced independently (each from its own random stream): `render --pixel`
   // renders one pixel's samples as the full render does. False: global Markov chains (gdmlt).
   bool per_pixel = true;
+  // A pass paused part-way (ProgressSink::pause) develops to an image of every pixel (gdmlt: the
+  // chains' splats so far over the whole film), not of the tiles it reached with the rest black
+  // (pt): so front ends may pause its first full pass too, after their reduced-size previews.
+  bool paused_pass_covers_image = false;
 
   const ParamDecl* find(const std::string& param) const;
   // `params` checked and bound to this method's declarations (Params::bound), for building one

@@ -22,6 +22,7 @@
 #include "core/rng.h"
 #include "integrators/photon/adaptive_photons.h"
 #include "integrators/photon/error_estimate.h"
+#include "integrators/photon/pausable_tiles.h"
 #include "integrators/integrator.h"
 #include "integrators/photon/photon_tracer.h"
 #include "integrators/paths/medium_walk.h"
@@ -213,6 +214,9 @@ class ProgressivePhotonMapping : public Integrator {
   // goes on with the others, so the pass is the same as a whole one. True when the pass is done.
   bool eye_tiles(ProgressSink* sink, bool may_pause, const std::function<void(const Tile&)>& fn);
   bool eye_tile_done(size_t pixel) const;
+  // The first pass paused before its end (iterate, ProgressSink::pause): develop() shows its
+  // preview, the light its camera paths saw themselves at the tiles they reached.
+  bool first_pass_open() const { return stats_.passes == 0 && (stage_ != Stage::Eye || eye_tiles_.open()); }
 
   // ---- One camera path of the eye pass (shared with GPM, whose offsets follow it) ----
   struct EyePath {
@@ -383,18 +387,18 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<RGB> pass_direct_;       // this pass's eye-path light per pixel
   std::vector<float> pass_covered_;  // this pass's camera ray hit the scene (1; 1 - a mixed holdout's weight) or escaped (0)
   bool film_transparent_ = false;
+  bool writes_alpha_ = false;  // develop() writes pass alpha (read_film_transparent)
   std::vector<float> first_r_;         // footprint radius proposed by the eye pass
   std::vector<PixelState> px_;
   std::vector<float> gather_m_, gather_lap_;
   std::vector<std::array<float, 3>> gather_boundary_;  // other surfaces' flux, own flux's first moment (u, v)
-  bool writes_alpha_ = false;  // develop() writes pass alpha (read_film_transparent)
   std::vector<RGB> gather_phi_;
   bool have_points_ = false;
   // ---- The open pass, between calls of iterate() that paused (only before the first pass
   // ends: a pause in a later pass would show the image of the passes before it again) ----
   enum class Stage { Eye, Photons, Gather };
   Stage stage_ = Stage::Eye;           // what the open pass does next
-  std::vector<uint8_t> eye_tile_done_;  // the open eye pass's tiles (row-major); empty: none done
+  PausableTiles eye_tiles_;             // the open eye pass's tiles
   PhotonPassStats open_ps_;            // its photons' figures, from Photons to Gather
   int64_t open_rays_ = 0, open_invalid_ = 0;
   double estimated_error_ = INFINITY;
