@@ -31,7 +31,9 @@ import bpy
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import addon_utils  # noqa: E402
+from f12_images import mark_images  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 
@@ -51,7 +53,6 @@ addon_utils.enable("gradphoton", default_set=False)
 from gradphoton import export, session  # noqa: E402
 
 marks = {}  # phase -> (wall start, wall end, cpu seconds of the whole process), this render's first
-images = []  # wall time at the end of every develop + copy (an image sent to Blender)
 
 
 def timed(name, fn):
@@ -72,17 +73,8 @@ if whole_passes:
     def _iterate(self, seconds=0.0, _inner=_iterate):
         return _inner(self, 0.0)
 session.RenderSession._iterate_cancellable = timed("first pass", _iterate)
-_write = timed("develop + copy", session.RenderSession._write)
-
-
-def write_and_mark(*a, **kw):
-    try:
-        return _write(*a, **kw)
-    finally:
-        images.append(time.perf_counter())
-
-
-session.RenderSession._write = write_and_mark
+# Wall time at the end of every develop + copy (an image sent to Blender).
+images = mark_images(session, lambda write: timed("develop + copy", write))
 
 scene = bpy.context.scene
 scene.render.engine = 'GRADPHOTON'

@@ -31,7 +31,9 @@ import bpy
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import addon_utils  # noqa: E402
+from f12_images import mark_images  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 
@@ -49,18 +51,7 @@ size = arg("--size", "")
 addon_utils.enable("gradphoton", default_set=False)
 from gradphoton import session  # noqa: E402
 
-images = []  # gradphoton: perf_counter at the end of each develop + copy
-_write = session.RenderSession._write
-
-
-def write_and_mark(*a, **kw):
-    try:
-        return _write(*a, **kw)
-    finally:
-        images.append(time.perf_counter())
-
-
-session.RenderSession._write = write_and_mark
+images = mark_images(session)  # gradphoton: perf_counter at the end of each develop + copy
 
 scene = bpy.context.scene
 scene.render.engine = engine

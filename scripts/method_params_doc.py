@@ -46,7 +46,11 @@ HEADER = ["| parameter | default | allowed | meaning | paper |", "| --- | --- | 
 
 
 def _passes(d):
-    return ", ".join(f"`{name}`" + (f" (with `{when}`)" if when else "") for name, when in d["passes"])
+    def condition(when, or_holdout):
+        if not when:
+            return ""
+        return f" (with `{when}`" + (" or a holdout in the scene)" if or_holdout else ")")
+    return ", ".join(f"`{name}`" + condition(when, or_holdout) for name, when, or_holdout in d["passes"])
 
 
 def _merge(d):

@@ -31,9 +31,12 @@ POLL_SECONDS = 0.02
 # rendering, 0.5 s to 4 s, 1 s to 10 s; 2 s after, as its final renders), at the pass end nearest
 # each interval. A pass is the smallest step, except for the methods whose pass can pause at a
 # tile (pt, spt, spt-hero: the core's ProgressSink::pause): their pass stops when the next image
-# is due and goes on after it, so a long pass (1920x1080) still refreshes on Cycles' ladder; and
-# the photon methods (ppm, sppm, sppm-adaptive), whose first pass pauses between its camera-path
-# tiles and its stages, showing the direct light its camera paths saw until it ends.
+# is due and goes on after it, so a long pass (1920x1080) still refreshes on Cycles' ladder; the
+# photon methods (ppm, sppm, sppm-adaptive, gpm, msppm), whose first pass pauses between its
+# camera-path tiles and its stages, showing the light its camera paths saw until it ends; and gdmlt,
+# whose every pass pauses with an image of its chains' splats so far (Method's
+# paused_pass_covers_image: its first full pass too, once it holds as many mutations as the
+# last reduced-size preview).
 DISPLAY_INTERVAL = ((2.0, 0.25), (4.0, 0.5), (10.0, 1.0), (math.inf, 2.0))  # (until, interval), seconds
 # Passes Film > Exposure scales, as Cycles scales its light passes (not data: error, radius,
 # counts, alpha, albedo, normal, depth).
@@ -158,15 +161,12 @@ def to_blender_pixels(img, channels, window=None, alpha=None):
 
 def previews_help(method, params=None):
     """Whether smaller first passes give earlier images: methods whose pass cost follows the pixel
-    count: camera paths per pixel (pt, spt, gpt, sgpt), Metropolis mutations per pixel (gdmlt), and
-    photons when their count is one per pixel (Multisampled PPM's Auto: the declaration's 0). Not
-    SPPM's or GPM's photons (Auto: 100 000 or more at any size) nor a count the user set; PPM, SPPM
-    and SPPM Adaptive pause their first pass instead (ProgressivePhotonMapping::iterate)."""
-    for d in declared(method):
-        if d["name"] == "photons":
-            per_pixel = (d.get("zero_means") or "").startswith("one per pixel")
-            return per_pixel and not (params or {}).get("photons")
-    return True
+    count: camera paths per pixel (pt, spt, gpt, sgpt), Metropolis mutations per pixel (gdmlt).
+    Not the photon methods (a `photons` parameter: PPM, SPPM, SPPM Adaptive, Gradient Photons,
+    Multisampled PPM), which pause their first pass between its camera-path tiles instead and
+    show what those paths saw (ProgressivePhotonMapping::iterate, Msppm::iterate: PausableTiles);
+    Multisampled PPM had previews while its first pass ran whole (17 s at 1920 x 1080)."""
+    return not any(d["name"] == "photons" for d in declared(method))
 
 
 def enlarged(img, height, width):
@@ -281,7 +281,10 @@ class RenderSession:
         self.engine = engine
         self.test_break = test_break or engine.test_break
         self.session = None
-        self.transparent = False    # Combined's Alpha from the core's alpha pass (Film > Transparent)
+        # Combined's Alpha from the core's alpha pass: with Film > Transparent, and on a scene that
+        # holds out whatever the film (Cycles 3.4 gives held-out pixels alpha 0 either way; the
+        # method declares it: Session.passes, integrators/integrator.h writes_alpha).
+        self.transparent = False
         self.cancel_latency = None  # seconds from test_break() to the loop's end
         self.updates = []           # (seconds, passes) of every image sent to Blender
         self.break_at = None        # wall clock (time.time()) when test_break() first fired
@@ -290,6 +293,7 @@ class RenderSession:
         self.exposure = 1.0         # Film > Exposure
         self.reports = REPORTS      # what this render reported, also shown in the Last Render panel
         self.deferred = []          # warnings for Blender's status bar, sent when the render ends
+        self.preview_seconds = 0.0  # how long the last reduced-size preview pass took (_previews)
         REPORTS.clear()
         global LAST
         LAST = self
@@ -368,8 +372,7 @@ class RenderSession:
             self.report('WARNING', f"gradphoton: {self.session.method} has no transparent film: "
                                    "the background stays opaque", defer=True)
         self.exposure = film_exposure(scene)
-        self.transparent = (scene.render.film_transparent and FILM_TRANSPARENT in params
-                            and FILM_TRANSPARENT not in self.session.unused_params)
+        self.transparent = "alpha" in self.session.passes
         W, H = exported.width, exported.height
         window = exported.border
         rw, rh = (window[2], window[3]) if window else (W, H)
@@ -380,19 +383,23 @@ class RenderSession:
         last_update = -math.inf
         n = 0
         previewed = False
+        # A pass paused part-way shows every pixel (gdmlt): its first full pass may pause too.
+        covers = bool((native.method_description(settings.method) or {}).get("paused_pass_covers_image"))
+        full_from = 0.0  # when the full-size passes began
         try:
             if window is None and previews_help(settings.method, params) and progress.rule != 'PASSES':
                 previewed = self._previews(N, nscene, exported.description["camera"], settings.method, params,
                                            result, passes, progress)
                 if previewed:
-                    last_update = progress.elapsed()
+                    last_update = full_from = progress.elapsed()
             while True:
                 # Until the next image is due (a method whose pass cannot pause ignores it). The
                 # first pass of a method with reduced-resolution previews runs whole (every pixel
-                # a sample); a photon method's first pause shows its camera paths' direct light.
+                # a sample), but gdmlt's (`covers`); a photon method's first pause shows its
+                # camera paths' direct light.
                 due = max(POLL_SECONDS, last_update + display_interval(progress.elapsed()) - progress.elapsed())
-                whole = (self.session.stats.get("passes", 0) < 1 and previews_help(settings.method, params)) \
-                    or not math.isfinite(due)
+                whole = (self.session.stats.get("passes", 0) < 1 and previews_help(settings.method, params)
+                         and not covers) or not math.isfinite(due)
                 cancelled_at = self._iterate_cancellable(0.0 if whole else due)
                 stats = self.session.stats
                 n = stats.get("passes", n + 1)
@@ -401,8 +408,12 @@ class RenderSession:
                 now = progress.elapsed()
                 # The pass end nearest the interval: half a pass early rather than a whole one late.
                 half_pass = 0.5 * now / max(1, n)
-                if previewed and stats.get("passes", 0) == 0:
-                    pass  # stopped before a full pass: the preview stays, not an empty image
+                if previewed and stats.get("passes", 0) == 0 and not (
+                        covers and now - full_from >= self.preview_seconds):
+                    # Stopped before a full pass: the preview stays, not an empty image (a method
+                    # whose paused pass covers the image: until it has run as long as the last
+                    # preview, so holds about as many samples, spread over the full size).
+                    pass
                 elif done or now - last_update + half_pass >= display_interval(now):
                     # Display quality until the end; after Esc too (an L1 solve at 1080p would
                     # hold the cancel for many seconds).
@@ -473,6 +484,7 @@ class RenderSession:
                 self.updates.append((progress.elapsed(), 0))
                 shown = True
                 last = (d, seconds)
+                self.preview_seconds = seconds
                 if seconds * d * d <= PREVIEW_FULL_PASS:
                     break  # a full pass will be about as quick: no smaller one is needed
         finally:

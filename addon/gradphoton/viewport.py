@@ -421,7 +421,8 @@ class ViewportSession:
         h, w = rgb.shape[:2]
         out = np.empty((h, w, 4), np.float32)
         out[..., :3] = rgb[::-1]
-        alpha = images.get("alpha") if self.config[1].get(FILM_TRANSPARENT) else None
+        # The core writes alpha with a transparent film or a holdout in the scene (Session.passes).
+        alpha = images.get("alpha") if "alpha" in session.passes else None
         out[..., 3] = alpha[::-1, :, 0] if alpha is not None else 1.0
         np.nan_to_num(out, copy=False, nan=0.0, posinf=0.0, neginf=0.0)  # never drawn
         stats = session.stats

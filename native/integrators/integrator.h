@@ -62,6 +62,12 @@ struct StopRule {
 // to a larger total.
 void run_progressive(Integrator& integrator, const StopRule& stop, ProgressSink* sink);
 
+// Whether a method that honours Holdout (Method::holdout) writes pass alpha, Combined's Alpha:
+// with a transparent film, and on a scene that holds out whatever the film, as Cycles 3.4 gives
+// held-out pixels alpha 0 with Film > Transparent off too (the world seen stays alpha 1; measured
+// in Blender: tests/blender/test_cycles_panels.py). Method::passes_with declares the same.
+inline bool writes_alpha(bool film_transparent, const Scene& scene) { return film_transparent || scene.has_holdout(); }
+
 // Throws ParamError unless the image is at least 1x1 (parameters are checked by their
 // declarations, methods.h, before an integrator is built).
 void check_image_size(int width, int height);

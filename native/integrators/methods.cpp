@@ -189,7 +189,8 @@ void require_spectral(const std::string& method, const Params& p) {
 
 // ---- What the methods write and report (Method::passes, ::stats) ----
 PassDecl always(std::string_view name) { return {name, ""}; }
-PassDecl alpha_pass() { return {pass::kAlpha, "film_transparent"}; }
+// Combined's Alpha: with a transparent film, and on a scene that holds out (writes_alpha).
+PassDecl alpha_pass() { return {pass::kAlpha, "film_transparent", true}; }
 std::vector<PassDecl> photon_passes() {
   return {always(pass::kCombined), always(pass::kError), always(pass::kRadius), always(pass::kPhotonCount)};
 }
@@ -370,7 +371,7 @@ std::vector<Method> make_methods() {
                .merge = {.reconstructs = true},
                .stats = {{"acceptance rate", "accept", "{:.3f}"}, {"large-step share", "large", "{:.3f}"},
                          {"chains", "chains", "{:.0f}"}, shift_failures()},
-               .supports = {.motion_blur = true}, .per_pixel = false});
+               .supports = {.motion_blur = true}, .per_pixel = false, .paused_pass_covers_image = true});
   auto spt = [](bool hero) {
     return [hero](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
       require_spectral(hero ? "spt-hero" : "spt", p);
@@ -438,10 +439,11 @@ const ParamDecl* Method::find(const std::string& param) const {
   return nullptr;
 }
 
-std::vector<std::string> Method::passes_with(const Params& bound) const {
+std::vector<std::string> Method::passes_with(const Params& bound, const Scene* scene) const {
   std::vector<std::string> out;
   for (const PassDecl& p : passes)
-    if (p.when_param.empty() || bound.get<bool>(p.when_param)) out.emplace_back(p.name);
+    if (p.when_param.empty() || bound.get<bool>(p.when_param) || (p.or_holdout && scene && scene->has_holdout()))
+      out.emplace_back(p.name);
   return out;
 }
 

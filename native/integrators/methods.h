@@ -29,10 +29,12 @@ struct MergeRule {
 };
 
 // A pass a method's develop() writes (core/film.h pass::kAll), or writes only when parameter
-// `when_param` is true (film_transparent's alpha). Checked against develop() by methods_test.
+// `when_param` is true (film_transparent's alpha), or also when the scene holds out
+// (`or_holdout`: Scene::has_holdout, alpha: writes_alpha). Checked against develop() by methods_test.
 struct PassDecl {
   std::string_view name;
   std::string when_param;  // empty: always
+  bool or_holdout = false;
 };
 
 // A statistic a method reports in Stats::extra, by its key (lower-case words, units last:
@@ -80,13 +82,18 @@ struct Method {
   // Pixels are traced independently (each from its own random stream): `render --pixel`
   // renders one pixel's samples as the full render does. False: global Markov chains (gdmlt).
   bool per_pixel = true;
+  // A pass paused part-way (ProgressSink::pause) develops to an image of every pixel (gdmlt: the
+  // chains' splats so far over the whole film), not of the tiles it reached with the rest black
+  // (pt): so front ends may pause its first full pass too, after their reduced-size previews.
+  bool paused_pass_covers_image = false;
 
   const ParamDecl* find(const std::string& param) const;
   // `params` checked and bound to this method's declarations (Params::bound), for building one
   // of its classes directly (tests).
   Params bind(const Params& params = Params()) const { return params.bound(name, this->params); }
-  // The passes develop() writes with `params` (bound: every declared parameter has its value).
-  std::vector<std::string> passes_with(const Params& bound) const;
+  // The passes develop() writes with `params` (bound: every declared parameter has its value)
+  // on `scene` (its features: Scene::has_holdout); without a scene, on one with no holdout.
+  std::vector<std::string> passes_with(const Params& bound, const Scene* scene = nullptr) const;
 };
 
 // Every method, in the order front ends list them.

@@ -207,7 +207,7 @@ void PathTracer::iterate(ProgressSink* sink) {
 
 void PathTracer::develop(Film& film) const {
   estimate_.develop(film, pass::kCombined);
-  if (settings_.film_transparent) estimate_.develop_alpha(film);
+  if (writes_alpha(settings_.film_transparent, scene_)) estimate_.develop_alpha(film);
 }
 
 }  // namespace gp

@@ -227,6 +227,7 @@ class Session {
   bool stale() const { return session_.stale(); }
   const std::vector<std::string>& unused_report() const { return session_.unused_report(); }
   const std::vector<std::string>& feature_report() const { return session_.feature_report(); }
+  const std::vector<std::string>& passes() const { return session_.passes(); }
   std::string method() const { return session_.integrator().name(); }
   double estimated_error() const { return session_.integrator().estimated_error(); }
   // The terms of every pixel's error bound (ProgressivePhotonMapping::ErrorTerms), as
@@ -276,7 +277,7 @@ py::dict method_description(const std::string& name) {
   d["summary"] = m.summary;
   d["tooltip"] = m.tooltip;
   py::list passes;
-  for (const PassDecl& p : m.passes) passes.append(py::make_tuple(std::string(p.name), p.when_param));
+  for (const PassDecl& p : m.passes) passes.append(py::make_tuple(std::string(p.name), p.when_param, p.or_holdout));
   d["passes"] = passes;
   d["error_estimate"] = m.error_estimate;
   d["merge"] = py::dict(py::arg("keeps_bias") = m.merge.keeps_bias, py::arg("reconstructs") = m.merge.reconstructs);
@@ -289,6 +290,7 @@ py::dict method_description(const std::string& name) {
   d["lobe_visibility"] = py::dict(py::arg("surfaces") = m.lobe_visibility.surfaces,
                                   py::arg("lights") = m.lobe_visibility.lights);
   d["per_pixel"] = m.per_pixel;
+  d["paused_pass_covers_image"] = m.paused_pass_covers_image;
   return d;
 }
 
@@ -333,9 +335,10 @@ void bind_methods(py::module_& m) {
         "One line on what the method computes and its paper");
   m.def("method_description", &method_description, py::arg("method"),
         "The method as it declares itself: {'name', 'label', 'summary', 'tooltip', 'passes': [(name, "
-        "when_param)], 'error_estimate', 'merge': {'keeps_bias', 'reconstructs'}, 'stats': [(key, label, "
+        "when_param, or_holdout: also on a scene that holds out)], 'error_estimate', 'merge': {'keeps_bias', 'reconstructs'}, 'stats': [(key, label, "
         "format)] (a key with '*' sums the keys it matches), 'supports': {'media', 'motion_blur', 'grid_media', "
-        "'environment_map'}, 'lobe_visibility', 'per_pixel'}");
+        "'environment_map'}, 'lobe_visibility', 'per_pixel', 'paused_pass_covers_image' (a pass paused part-way "
+        "develops to an image of every pixel)}");
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
         "What a method writes with these params, from its declaration: {'passes': names its develop() writes, "
         "'error_estimate': whether it estimates its error (target-error stop), 'unused': params it does not read, "
@@ -738,6 +741,10 @@ void bind_session(py::module_& m) {
                              "with these settings")
       .def_property_readonly("feature_report", &Session::feature_report,
                              "One line per scene feature the method leaves out (participating media), naming it")
+      .def_property_readonly("passes", &Session::passes,
+                             "The passes develop() writes, as the method declares them for these params on this "
+                             "scene ('alpha' with Film > Transparent or a holdout in the scene), the auxiliary "
+                             "albedo/normal/depth aside")
       .def_property_readonly("method", &Session::method,
                              "The method that runs (pt becomes spt-hero in spectral mode)")
       .def("error_terms", &Session::error_terms,

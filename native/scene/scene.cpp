@@ -309,6 +309,8 @@ void Scene::build_lights() {
   surfaces_hidden_from_some_lobes_ = std::any_of(materials.begin(), materials.end(), [](const Material& m) {
     return m.visible_lobes != kAllLobes && !m.is_pass_through();
   });
+  has_holdout_ = std::any_of(materials.begin(), materials.end(),
+                             [](const Material& m) { return m.holdout || m.holds_out_partly(); });
   // Media: indices in range, coefficients finite and non-negative (a Python caller may set them).
   const auto check_medium = [&](int m, const std::string& who) {
     if (m < -1 || m >= static_cast<int>(media.size()))

@@ -268,6 +268,10 @@ class Scene {
   // True when some material has an interior medium or the World has one (set by finalize()
   // and commit()): the path tracers then track media; without, they run as before, bit for bit.
   bool has_media() const { return has_media_; }
+  // True when some material holds out, wholly or weighted in a mix (Material::holdout,
+  // holds_out_partly; set by finalize() and commit()): the methods that honour Holdout then
+  // write pass alpha with an opaque film too (writes_alpha, integrators/integrator.h).
+  bool has_holdout() const { return has_holdout_; }
   // Whether a medium in use is heterogeneous (grid, OpenVDB): the photon methods leave media
   // out then (SceneFeatures::grid_media says who renders them).
   bool has_grid_media() const { return has_grid_media_; }
@@ -371,6 +375,7 @@ class Scene {
   bool lights_hidden_from_some_lobes_ = false;
   bool surfaces_hidden_from_some_lobes_ = false;
   bool has_media_ = false, has_grid_media_ = false, has_transparent_shadows_ = false;
+  bool has_holdout_ = false;
   // Renders holding the scene (> 0), an update (-1) or neither (0).
   std::unique_ptr<std::atomic<int>> state_ = std::make_unique<std::atomic<int>>(0);
 

@@ -20,6 +20,8 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
   integrator_ = make_integrator(method, *scene_, params_);
   unused_ = params_.unused();
   unused_report_ = unused_parameter_report(method, params_);
+  // Bound as `method` reads them; declared by what runs (pt may run as spt-hero).
+  passes_ = find_method(integrator_->name()).passes_with(find_method(method).bind(params_), scene_.get());
   // Scene features the method does not render: said once, naming it; the rest still renders.
   if (scene_->has_media() && !find_method(method).supports.media) {
     std::vector<std::string> with_media;  // as the methods declare (Method::supports)

@@ -53,6 +53,9 @@ class RenderSession {
   // Warnings on scene features the method leaves out ("method 'sppm' does not render
   // participating media yet: ..."), for every front end to show.
   const std::vector<std::string>& feature_report() const { return feature_report_; }
+  // The passes the method's develop() writes with these parameters on this scene, as it declares
+  // them (Method::passes_with: alpha with a transparent film or a holdout), the auxiliary ones aside.
+  const std::vector<std::string>& passes() const { return passes_; }
   const Scene& scene() const { return *scene_; }
   // A scene update (Scene::commit, set_camera) since the session was made leaves the integrator
   // with what it derived from the old scene: it must not render (make a new session).
@@ -65,7 +68,7 @@ class RenderSession {
   std::unique_ptr<AovEstimator> aov_;
   bool aux_ = true;
   uint64_t generation_ = 0;
-  std::vector<std::string> unused_, unused_report_, feature_report_;
+  std::vector<std::string> unused_, unused_report_, feature_report_, passes_;
 
   void check_fresh() const;
   void aux_pass(ProgressSink* sink);  // one auxiliary pass if they are fewer than the method's

@@ -3,6 +3,7 @@
 // honour it each declares (Method::holdout); the declaration is checked against what it renders.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -120,6 +121,39 @@ TEST(Holdout, AWeightedHoldoutCoversItsPixelsByOneMinusTheWeight) {
           << m.name << ": the colour is the surface's, pixel " << i;
     }
     for (int i : clear) EXPECT_EQ(f.pass(pass::kAlpha).data[i], 1.0f) << m.name << " pixel " << i;
+  }
+}
+
+// Cycles 3.4 gives held-out pixels alpha 0 with Film > Transparent off too, and the World it
+// shows alpha 1 (measured in Blender: tests/blender/test_cycles_panels.py). So the methods that
+// honour Holdout write alpha on a scene that holds out whatever the film (writes_alpha), and
+// declare it (Method::passes_with with the scene); a scene without a holdout keeps no alpha.
+TEST(Holdout, AnOpaqueFilmGetsAlphaZeroWhereHeldOutAndOneElsewhere) {
+  std::vector<int> held, clear;
+  card_pixels(&held, &clear);
+  // The same view lifted: the top rows see the sky, which an opaque film covers.
+  const std::string lifted = R"({"camera": {"position": [0, -3, 2.5], "look_at": [0, 0, 0.9], "up": [0, 0, 1],
+      "fov": 40, "width": 16, "height": 12},
+    "materials": {"floor": {"type": "diffuse", "color": 0.5}, "card": {"type": "diffuse", "color": 0.6, "holdout": true}},
+    "environment": {"color": 1, "strength": 1},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [6, 0, 0], "v": [0, 6, 0], "material": "floor"},
+                {"type": "quad", "center": [-0.6, -0.5, 0.5], "u": [0.5, 0, 0], "v": [0, 0, 0.5], "material": "card"}]})";
+  const Scene sky = scene_from(lifted), holdout = card_scene(R"(, "holdout": true)"), plain = card_scene("");
+  ASSERT_TRUE(holdout.has_holdout() && sky.has_holdout() && card_scene(R"(, "holdout": 0.3)").has_holdout());
+  ASSERT_FALSE(plain.has_holdout());
+  for (const Method& m : methods()) {
+    const Params p = small_params(m, false);
+    const Film f = render(m.name, holdout, 2, p);
+    EXPECT_EQ(f.has_pass(pass::kAlpha), m.holdout) << m.name;
+    const std::vector<std::string> declared = m.passes_with(m.bind(p), &holdout);
+    EXPECT_EQ(std::count(declared.begin(), declared.end(), pass::kAlpha), m.holdout ? 1 : 0) << m.name;
+    EXPECT_FALSE(render(m.name, plain, 1, p).has_pass(pass::kAlpha)) << m.name << ": no holdout, no alpha";
+    if (!m.holdout) continue;
+    for (int i : held) EXPECT_EQ(f.pass(pass::kAlpha).data[i], 0.0f) << m.name << " pixel " << i;
+    for (int i : clear) EXPECT_EQ(f.pass(pass::kAlpha).data[i], 1.0f) << m.name << " pixel " << i;
+    const Film s = render(m.name, sky, 2, p);
+    for (int x = 0; x < s.width(); ++x)  // the top row: sky
+      EXPECT_EQ(s.pass(pass::kAlpha).data[x], 1.0f) << m.name << ": the World seen is covered, pixel " << x;
   }
 }
 

@@ -179,7 +179,7 @@ TEST(Methods, DeclarationIsWhatTheMethodRenders) {
         integ->develop(film);
         std::vector<std::string> written;
         for (const auto& [name, pass] : film.passes()) written.push_back(name);
-        std::vector<std::string> declared = find_method(integ->name()).passes_with(m.bind(given));
+        std::vector<std::string> declared = find_method(integ->name()).passes_with(m.bind(given), s);
         std::sort(written.begin(), written.end());
         std::sort(declared.begin(), declared.end());
         const std::string what = m.name + " as " + integ->name() + (transparent ? ", transparent" : "") + " on " +

@@ -71,12 +71,13 @@ def test_a_pass_paused_at_a_tile_goes_on_to_the_same_image(method):
     assert gpt.stats["passes"] == 1
 
 
-@pytest.mark.parametrize("method", ["sppm", "ppm"])
+@pytest.mark.parametrize("method", ["sppm", "ppm", "gpm", "msppm"])
 def test_a_photon_methods_first_pass_pauses_and_goes_on_to_the_same_image(method):
     """iterate(seconds): a photon method's first pass returns early between its camera-path
     tiles and between its stages (photons, gather), so Blender publishes images within it: the
-    camera paths' own light at the tiles they reached. Its later passes are one whole each (a
-    pause there would show the same image), and the image is bit for bit that of whole passes."""
+    camera paths' own light at the tiles they reached (GPM: its gather paths', before any
+    gradient; MSPPM: its first eye pass's path tracing, before the radii weigh it). Its later passes are one whole each (a pause there would show the same image), and
+    the image is bit for bit that of whole passes."""
     scene = _native.load_scene(CORNELL)
     scene.width, scene.height = 64, 48
     params = {"seed": 5, "threads": 1, "tile_size": 8, "photons": 2000}
@@ -87,18 +88,56 @@ def test_a_photon_methods_first_pass_pauses_and_goes_on_to_the_same_image(method
     while paused.stats.get("passes", 0) < 1:
         paused.iterate(seconds=1e-9)  # pause at the first chance: one eye tile a call
         calls += 1
-        img = paused.develop()["combined"]
+        images = paused.develop()
+        img = images["combined"]
         assert np.isfinite(img).all()
+        assert set(whole.develop()) - set(images) <= {"albedo", "normal", "depth"}  # the method's passes throughout
         if paused.stats.get("passes", 0) == 0:
             lit.append(int((img > 0).any(axis=2).sum()))
         assert calls < 1000
-    # 48 eye tiles, then a pause after the eye pass and one after the photons: 50 images.
-    assert calls == 8 * 6 + 2
+    # 48 eye tiles, then a pause after the eye pass and one after the photons: 50 images (MSPPM
+    # traces its first pass's camera paths twice, the first time for its radii: 98).
+    assert calls == (2 if method == "msppm" else 1) * 8 * 6 + 2
     assert 0 < lit[4] < lit[40] < 64 * 48 or method == "ppm" and lit[4] <= lit[40]
     paused.iterate(seconds=1e-9)  # the second pass: whole
     assert paused.stats["passes"] == 2
-    for name in ("combined", "error", "radius"):
-        np.testing.assert_array_equal(paused.develop()[name], whole.develop()[name])
+    counts = lambda st: {k: v for k, v in st.items() if "seconds" not in k}  # noqa: E731
+    assert counts(paused.stats) == counts(whole.stats)  # rays, paths, shift failures: a whole pass's
+    for name, image in whole.develop().items():
+        np.testing.assert_array_equal(paused.develop()[name], image, err_msg=name)
+
+
+def test_a_metropolis_pass_pauses_with_every_splat_so_far_and_goes_on_to_the_same_image():
+    """iterate(seconds): gdmlt's passes (62 s at 1920 x 1080) stop at a chain's cancel poll when
+    asked, so Blender publishes images within them; develop() then shows every chain's splats so
+    far, the open pass's too, over the whole film (Method.paused_pass_covers_image); the next
+    call goes on with the same chains, so the passes and the image are bit for bit whole ones'."""
+    scene = _native.load_scene(CORNELL)
+    scene.width, scene.height = 64, 48
+    # 2 chains of 3072 mutations a pass: cancel polls before their 1024th, 2048th and 3072nd.
+    params = {"seed": 5, "threads": 1, "chains": 2, "mutations": 2}
+    assert _native.method_description("gdmlt")["paused_pass_covers_image"]
+    assert not _native.method_description("pt")["paused_pass_covers_image"]
+    whole = _native.Session(scene, "gdmlt", params)
+    whole.run(passes=2)
+    paused = _native.Session(scene, "gdmlt", params)
+    calls, lit = 0, []
+    while paused.stats.get("passes", 0) < 2:
+        paused.iterate(seconds=1e-9)  # pause at the first chance
+        calls += 1
+        images = paused.develop()
+        assert set(whole.develop()) - set(images) <= {"albedo", "normal", "depth"}  # (after a pass)
+        assert all(np.isfinite(v).all() for v in images.values())
+        if paused.stats["passes"] == 0:
+            lit.append(int((images["sample_density"] > 0).sum()))
+        assert calls < 100
+    # Per pass: 1023 mutations a call (chain 0's polls, then chain 1's), the last call the rest.
+    assert calls == 2 * 7
+    assert 0 < lit[0] < lit[1] < lit[3]  # the open pass's chain states, more at each image
+    counts = lambda st: {k: v for k, v in st.items() if "seconds" not in k}  # noqa: E731
+    assert counts(paused.stats) == counts(whole.stats)
+    for name, image in whole.develop().items():
+        np.testing.assert_array_equal(paused.develop()[name], image, err_msg=name)
 
 
 def test_bad_input_raises_clear_errors(tmp_path):

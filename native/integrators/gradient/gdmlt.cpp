@@ -38,8 +38,10 @@ struct Splat {
   GradientPathTracer::Sample sample;
 };
 
+}  // namespace
+
 // What one chain did in one pass, merged in chain order.
-struct ChainResult {
+struct GdmltChainResult {
   std::vector<Splat> splats;
   std::vector<int> visits;  // pixel of the chain's state after each mutation
   std::vector<std::pair<int, RGB>> direct;  // delta-only light of the large-step proposals
@@ -48,8 +50,37 @@ struct ChainResult {
   RayCounts rays;
   std::map<std::string, double> failures;
 };
+using ChainResult = GdmltChainResult;
+
+namespace {
+
+// r's splats added to the per-pixel sums, each times `scale` (iterate: 1, into the accumulators;
+// develop: the image's scale, into an open pass's image), and its large steps' delta-only light
+// times `direct_scale` (with direct = "uniform"; else the splats carry it).
+void add_chain_result(const ChainResult& r, int width, bool direct_uniform, double scale, double direct_scale,
+                      double* primal, double* direct, double* gx, double* gy, double* density) {
+  for (const Splat& s : r.splats) {
+    const size_t p = static_cast<size_t>(s.pixel);
+    const auto& g = s.sample;
+    const double w = s.scale * scale;
+    for (int c = 0; c < 3; ++c) {
+      primal[3 * p + c] += g.primal[c] * w;
+      if (!direct_uniform) direct[3 * p + c] += g.direct[c] * w;
+      // Each forward difference from both of its pixels (their MIS weights sum to one).
+      if (g.has[GradientPathTracer::kRight]) gx[3 * p + c] += g.diff[GradientPathTracer::kRight][c] * w;
+      if (g.has[GradientPathTracer::kLeft]) gx[3 * (p - 1) + c] += g.diff[GradientPathTracer::kLeft][c] * w;
+      if (g.has[GradientPathTracer::kDown]) gy[3 * p + c] += g.diff[GradientPathTracer::kDown][c] * w;
+      if (g.has[GradientPathTracer::kUp]) gy[3 * (p - width) + c] += g.diff[GradientPathTracer::kUp][c] * w;
+    }
+  }
+  for (int p : r.visits) density[p] += 1;
+  for (const auto& [p, c] : r.direct)
+    for (int k = 0; k < 3; ++k) direct[3 * static_cast<size_t>(p) + k] += c[k] * direct_scale;
+}
 
 }  // namespace
+
+GradientDomainMlt::~GradientDomainMlt() = default;
 
 // ---- Lazily mutated primary sample vector (pbrt-v3, MLTSampler::EnsureReady / Reject) ----
 
@@ -212,21 +243,39 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
   const auto start = std::chrono::steady_clock::now();
   if (!started_ && !bootstrap(sink)) return;
   const int64_t total = static_cast<int64_t>(mutations_) * width_ * height_;
-  std::vector<ChainResult> results(chain_count_);
-  // Brightness estimate so far (bootstrap and earlier large steps): the large-step MIS weights
-  // need T / b at splat time.
-  const double b_now = b_count_ && b_sum_ > 0 ? b_sum_ / b_count_ : 1.0;
+  if (!open_) {  // a new pass
+    open_ = std::make_unique<OpenPass>();
+    open_->results.resize(chain_count_);
+    // Brightness estimate so far (bootstrap and earlier large steps): the large-step MIS weights
+    // need T / b at splat time.
+    open_->b_now = b_count_ && b_sum_ > 0 ? b_sum_ / b_count_ : 1.0;
+  }
+  std::vector<ChainResult>& results = open_->results;
+  const double b_now = open_->b_now;
+  std::atomic<bool> paused{false};
   parallel_for(static_cast<size_t>(chain_count_), threads_, [&](size_t begin, size_t end) {
     for (size_t c = begin; c < end; ++c) {
-      if (sink && sink->cancelled()) return;
+      if ((sink && sink->cancelled()) || paused) return;
       Chain& chain = chains_[c];
       ChainResult& r = results[c];
       const int64_t count = total / chain_count_ + (static_cast<int64_t>(c) < total % chain_count_ ? 1 : 0);
-      r.splats.reserve(2 * count);
-      r.visits.reserve(count);
-      for (int64_t k = 0; k < count; ++k) {
+      if (r.mutations == 0) {
+        r.splats.reserve(2 * count);
+        r.visits.reserve(count);
+      }
+      // From where a pause left the chain (r.mutations: its mutations this pass so far).
+      const int64_t resumed_at = r.mutations;
+      for (int64_t k = resumed_at; k < count; ++k) {
         // A chain stopped early is merged as it is: develop() divides by the mutations done.
-        if (k % kCancelPoll == kCancelPoll - 1 && sink && sink->cancelled()) break;
+        if (k % kCancelPoll == kCancelPoll - 1 && sink) {
+          if (sink->cancelled()) break;
+          // The pass stays open: the next call goes on from here (after a mutation at least, so
+          // that a caller pausing at once still moves on).
+          if (paused || (k > resumed_at && sink->pause())) {
+            paused = true;
+            break;
+          }
+        }
         // ---- Propose: large step (uniform) or small step (perturbation) ----
         chain.sampler.start_iteration();
         const bool large = chain.sampler.large_step();
@@ -267,25 +316,16 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
     }
   });
 
+  if (paused && !sink->cancelled()) {
+    stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return;
+  }
+
   // ---- Merge in chain order (independent of the thread count) ----
   RayCounts rays;
   for (const ChainResult& r : results) {
-    for (const Splat& s : r.splats) {
-      const size_t p = static_cast<size_t>(s.pixel);
-      const auto& g = s.sample;
-      for (int c = 0; c < 3; ++c) {
-        primal_[3 * p + c] += g.primal[c] * s.scale;
-        if (!direct_uniform_) direct_[3 * p + c] += g.direct[c] * s.scale;
-        // Each forward difference from both of its pixels (their MIS weights sum to one).
-        if (g.has[GradientPathTracer::kRight]) gx_[3 * p + c] += g.diff[GradientPathTracer::kRight][c] * s.scale;
-        if (g.has[GradientPathTracer::kLeft]) gx_[3 * (p - 1) + c] += g.diff[GradientPathTracer::kLeft][c] * s.scale;
-        if (g.has[GradientPathTracer::kDown]) gy_[3 * p + c] += g.diff[GradientPathTracer::kDown][c] * s.scale;
-        if (g.has[GradientPathTracer::kUp]) gy_[3 * (p - width_) + c] += g.diff[GradientPathTracer::kUp][c] * s.scale;
-      }
-    }
-    for (int p : r.visits) density_[p] += 1;
-    for (const auto& [p, c] : r.direct)
-      for (int k = 0; k < 3; ++k) direct_[3 * static_cast<size_t>(p) + k] += c[k];
+    add_chain_result(r, width_, direct_uniform_, 1.0, 1.0, primal_.data(), direct_.data(), gx_.data(), gy_.data(),
+                     density_.data());
     if (direct_uniform_) uniform_count_ += r.b_count;
     mutations_done_ += r.mutations;
     accepted_ += r.accepted;
@@ -298,6 +338,7 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
     stats_.paths += r.mutations;
     for (const auto& [k, v] : r.failures) stats_.extra[k] += v;
   }
+  open_.reset();
   stats_.passes += 1;
   stats_.rays += rays.closest + rays.shadow;
   stats_.shadow_rays += rays.shadow;
@@ -312,26 +353,41 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
 void GradientDomainMlt::develop(Film& film) const {
   if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
+  // A paused pass's chains so far count with the passes before (OpenPass).
+  int64_t mutations = mutations_done_, b_count = b_count_, uniform_count = uniform_count_;
+  double b_sum = b_sum_;
+  if (open_)
+    for (const ChainResult& r : open_->results) {
+      mutations += r.mutations;
+      b_sum += r.b_sum;
+      b_count += r.b_count;
+      if (direct_uniform_) uniform_count += r.b_count;
+    }
   // E_u[g / T] under the chain's law is (1 / b) E_uniform[g]; a pixel's value is its integral
   // over the film (area 1 / n of primary sample space) times n.
-  const double b = b_count_ ? b_sum_ / b_count_ : 0.0;
+  const double b = b_count ? b_sum / b_count : 0.0;
   // With large-step MIS the splats already carry b (weights 1 / (T / b + p_large)).
-  const double scale = mutations_done_ ? static_cast<double>(n) * (large_step_mis_ ? 1.0 : b) /
-                                             static_cast<double>(mutations_done_)
-                                       : 0.0;
-  std::vector<double> primal(3 * n), direct(3 * n), gx(3 * n), gy(3 * n);
+  const double scale = mutations ? static_cast<double>(n) * (large_step_mis_ ? 1.0 : b) /
+                                       static_cast<double>(mutations)
+                                 : 0.0;
+  // Direct light: a plain Monte Carlo estimate from the uniform samples (n / count each), or,
+  // with direct = "chain", from the chains' splats like the rest.
+  const double direct_scale = direct_uniform_ ? (uniform_count ? static_cast<double>(n) / uniform_count : 0.0) : scale;
+  std::vector<double> primal(3 * n), direct(3 * n), gx(3 * n), gy(3 * n), density(density_);
   for (size_t k = 0; k < 3 * n; ++k) {
     primal[k] = primal_[k] * scale;
-    // Direct light: a plain Monte Carlo estimate from the uniform samples (n / count each), or,
-    // with direct = "chain", from the chains' splats like the rest.
-    direct[k] = direct_uniform_ ? (uniform_count_ ? direct_[k] * static_cast<double>(n) / uniform_count_ : 0.0)
-                                : direct_[k] * scale;
+    direct[k] = direct_uniform_ ? (uniform_count ? direct_[k] * static_cast<double>(n) / uniform_count : 0.0)
+                                : direct_[k] * scale;  // direct_scale, rounded as before
     gx[k] = gx_[k] * scale;
     gy[k] = gy_[k] * scale;
   }
+  if (open_)
+    for (const ChainResult& r : open_->results)
+      add_chain_result(r, width_, direct_uniform_, scale, direct_scale, primal.data(), direct.data(), gx.data(),
+                       gy.data(), density.data());
   develop_gradient_passes(film, primal, gx, gy, direct, width_, height_, recon_);
   Pass& dens = film.add_pass(pass::kSampleDensity, 1);
-  for (size_t i = 0; i < n; ++i) dens.data[i] = static_cast<float>(density_[i]);
+  for (size_t i = 0; i < n; ++i) dens.data[i] = static_cast<float>(density[i]);
 }
 
 }  // namespace gp

@@ -2,6 +2,7 @@
 #include "integrators/gradient/gpm.h"
 #include "integrators/gradient/gradient_passes.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 
@@ -176,10 +177,10 @@ struct OffsetWalk : EyePathHooks {
 
 }  // namespace
 
-void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
+bool Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::atomic<int64_t>& rays_out,
                        std::atomic<int64_t>& invalid_out, std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures) {
-  parallel_for_tiles(
-      width_, height_, tile_size_, threads_,
+  return eye_tiles(
+      sink, may_pause,
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         int64_t fail_count[kShiftFailureCount] = {};
@@ -255,8 +256,7 @@ void Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& 
         rays_out += rays;
         invalid_out += invalid;
         for (int k = 0; k < kShiftFailureCount; ++k) failures[k] += fail_count[k];
-      },
-      [sink] { return sink && sink->cancelled(); });
+      });
 }
 
 // Where further camera paths go: every pixel in the first pass; afterwards pixels whose light seen
@@ -635,25 +635,60 @@ void Gpm::iterate(ProgressSink* sink) {
   // Motion blur (thesis ch. 7): one shutter time per pass, shared by its eye paths and photons.
   const ShutterTime at_time(scene_.pass_shutter_time(seed_, pass));
   const size_t n_pixels = px_.size();
-  std::atomic<int64_t> rays{0}, invalid{0}, shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0};
+  // As SPPM's (ProgressivePhotonMapping::iterate), the first pass stops between eye tiles and
+  // between its stages when the sink asks (Blender's F12 window then shows develop()'s preview:
+  // the light the gather paths saw, at the tiles they reached); the next call goes on with the
+  // same random numbers, so the pass is a whole one's. At 1920 x 1080 it took 7 s before its
+  // first image (docs/blender.md).
+  const bool may_pause = sink && stats_.passes == 0;
+  std::atomic<int64_t> rays{open_rays_}, invalid{open_invalid_}, shift_rays{0}, shifts{0}, walks{0},
+      walk_iterations{0};
   std::array<std::atomic<int64_t>, 2 * kShiftFailureCount> failures;
   for (auto& f : failures) f = 0;
+  for (int k = 0; k < kShiftFailureCount; ++k) failures[k] = open_failures_[k];
+  const auto leave_open = [&] {  // the pass stays open for the next call
+    open_rays_ = rays;
+    open_invalid_ = invalid;
+    for (int k = 0; k < kShiftFailureCount; ++k) open_failures_[k] = failures[k];
+    stats_.seconds += seconds_since(start);
+  };
+  const auto pause_here = [&] {
+    if (!may_pause || !sink->pause()) return false;
+    leave_open();
+    return true;
+  };
 
-  // ---- Gather points and their offsets ----
-  const auto t_eye = clock_type::now();
-  gpm_eye_pass(pass, sink, rays, invalid, failures);
-  if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
-  set_initial_radii();
-  const double scale2 = gradient_radius_scale_ * gradient_radius_scale_;
-  for (size_t i = 0; i < n_pixels; ++i)
-    if (grad_[i].r2 == 0 && px_[i].r2 > 0) grad_[i].r2 = px_[i].r2 * scale2;  // set in the same pass
-  stats_.extra["eye seconds"] += seconds_since(t_eye);
+  if (stage_ == Stage::Eye) {
+    // ---- Gather points and their offsets ----
+    const auto t_eye = clock_type::now();
+    const bool done = gpm_eye_pass(pass, sink, may_pause, rays, invalid, failures);
+    if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
+    stats_.extra["eye seconds"] += seconds_since(t_eye);
+    if (!done) {  // paused between tiles
+      leave_open();
+      return;
+    }
+    set_initial_radii();
+    const double scale2 = gradient_radius_scale_ * gradient_radius_scale_;
+    for (size_t i = 0; i < n_pixels; ++i)
+      if (grad_[i].r2 == 0 && px_[i].r2 > 0) grad_[i].r2 = px_[i].r2 * scale2;  // set in the same pass
+    stage_ = Stage::Photons;
+    if (pause_here()) return;
+  }
 
-  // ---- Photon pass (SPPM's, with each photon's previous vertex) ----
-  const auto t_trace = clock_type::now();
-  const PhotonPassStats ps = tracer_.trace(photons_for_pass(pass), pass, 1, photons_, &origins_, &chains_);
-  stats_.extra["trace seconds"] += seconds_since(t_trace);
-  if (sink && sink->cancelled()) return;
+  if (stage_ == Stage::Photons) {
+    // ---- Photon pass (SPPM's, with each photon's previous vertex) ----
+    const auto t_trace = clock_type::now();
+    open_ps_ = tracer_.trace(photons_for_pass(pass), pass, 1, photons_, &origins_, &chains_);
+    stats_.extra["trace seconds"] += seconds_since(t_trace);
+    if (sink && sink->cancelled()) return;
+    stage_ = Stage::Gather;
+    if (pause_here()) return;
+  }
+  const PhotonPassStats ps = open_ps_;
+  stage_ = Stage::Eye;  // this call ends the pass (or a cancel abandons it)
+  open_rays_ = open_invalid_ = 0;
+  open_failures_ = {};
 
   // ---- Gather at base points; shift every photon to the four offset gather points ----
   const auto t_lookup = clock_type::now();
@@ -835,6 +870,17 @@ void Gpm::iterate(ProgressSink* sink) {
 
 void Gpm::develop(Film& film) const {
   ProgressivePhotonMapping::develop(film);  // combined (SPPM's, overwritten below), error, radius, count
+  if (first_pass_open()) {
+    // The first pass's preview (ProgressivePhotonMapping::develop wrote it into combined): no
+    // gradients yet; primal, gradient_x and gradient_y are written, 0, so the passes are the
+    // method's whole set (Method::passes).
+    film.add_pass(pass::kPrimal, 3).data = film.pass(pass::kCombined).data;
+    for (std::string_view g : {pass::kGradientX, pass::kGradientY}) {
+      Pass& p = film.add_pass(g, 3);
+      std::fill(p.data.begin(), p.data.end(), 0.0f);
+    }
+    return;
+  }
   const size_t n = px_.size();
   const double passes = static_cast<double>(stats_.passes);
   const double ne = static_cast<double>(emitted_total_);

@@ -157,8 +157,10 @@ class Gpm : public ProgressivePhotonMapping {
   // outside it).
   EmissionSeen emission_seen(PixelStart& start, int x, int y, const Vec2& ext, const RGB& gather_path, int further,
                              int64_t& rays, int64_t& invalid) const;
-  void gpm_eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid,
-                    std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures);
+  // The eye pass over the tiles not done yet (eye_tiles: with `may_pause`, it stops when the sink
+  // asks and returns false; the next call goes on, with the same random numbers).
+  bool gpm_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::atomic<int64_t>& rays,
+                    std::atomic<int64_t>& invalid, std::array<std::atomic<int64_t>, 2 * kShiftFailureCount>& failures);
 
   // One photon's offset for one neighbour (§4.2): where it lands relative to the offset gather
   // point and what it carries there.
@@ -213,6 +215,8 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
   int emission_samples_ = 0;                        // further camera paths per pixel and pass
   std::vector<EmissionSeen> pass_emission_;         // this pass's per pixel
+  // The first pass's sensor shift failures while it is open (paused: first_pass_open).
+  std::array<int64_t, kShiftFailureCount> open_failures_{};
 };
 
 }  // namespace gp

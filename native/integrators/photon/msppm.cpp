@@ -63,12 +63,12 @@ double Msppm::n_pm(size_t pixel) const {
 // the pass's random numbers are drawn (from the pixel's earlier passes, see path_samples()), so
 // that the counts in the weights are those of the samples actually taken and do not depend on
 // this pass's samples.
-void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays_out,
+bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::atomic<int64_t>& rays_out,
                      std::atomic<int64_t>& invalid_out) {
   const LightSet& lights = scene_.light_set();
   const bool split_lobes = scene_.lights_hidden_from_some_lobes();
-  parallel_for_tiles(
-      width_, height_, tile_size_, threads_,
+  return eye_tiles_.run(
+      width_, height_, tile_size_, threads_, sink, may_pause,
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         std::vector<PathVertex> y;
@@ -270,8 +270,7 @@ void Msppm::eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& ra
           }
         rays_out += rays;
         invalid_out += invalid;
-      },
-      [sink] { return sink && sink->cancelled(); });
+      });
 }
 
 // ---- Photon pass with whole paths recorded, chunked as PhotonTracer::trace ----
@@ -319,12 +318,25 @@ void Msppm::iterate(ProgressSink* sink) {
   // Motion blur (thesis ch. 7): one shutter time per pass, shared by its eye paths and photons.
   const ShutterTime at_time(scene_.pass_shutter_time(seed_, pass));
   const size_t n_pixels = px_.size();
-  std::atomic<int64_t> rays{0}, invalid{0};
+  // The first pass stops between eye tiles and between its stages when the sink asks (Msppm.h).
+  const bool may_pause = sink && stats_.passes == 0;
+  std::atomic<int64_t> rays{open_rays_}, invalid{open_invalid_};
+  const auto leave_open = [&] {  // the pass stays open for the next call
+    open_rays_ = rays;
+    open_invalid_ = invalid;
+    stats_.seconds += seconds_since(start);
+  };
+  const auto pause_here = [&] {
+    if (!may_pause || !sink->pause()) return false;
+    leave_open();
+    return true;
+  };
 
   // ---- 1. Camera paths (measurement points + weighted path tracing) ----
   // Radii start from the footprint before the first MIS evaluation needs them.
   const float min_r = 1e-5f * std::max(1e-3f, length(scene_.bounds().diagonal()));
-  if (pass == 0)
+  const bool new_pass = stage_ == Stage::Start;
+  if (pass == 0 && new_pass)
     for (size_t i = 0; i < n_pixels; ++i) px_[i].r2 = radius_ > 0 ? radius_ * radius_ : 0.0;
   // Pixels whose camera path meets no photon-diffuse vertex in the first pass (light or sky
   // seen directly, paths through glass that leave) still need a radius: every pass weights
@@ -353,7 +365,7 @@ void Msppm::iterate(ProgressSink* sink) {
   // (eq. 9.23). Rounded, at least 1 (paths that only path tracing can make, e.g. a light seen
   // directly, need a sample in every pass), at most path_samples_max. Fixed before the pass so
   // that these counts, used in every weight of the pass, are the samples actually taken.
-  for (size_t i = 0; i < n_pixels; ++i) {
+  for (size_t i = 0; i < n_pixels && new_pass; ++i) {
     int npt = 1;
     if (path_samples_ > 0) {
       npt = path_samples_;
@@ -363,26 +375,56 @@ void Msppm::iterate(ProgressSink* sink) {
     }
     pass_npt_[i] = npt;
   }
-  const auto t_eye = clock_type::now();
-  if (pass == 0 && radius_ == 0) {
+  if (new_pass) stage_ = pass == 0 && radius_ == 0 ? Stage::Radii : Stage::Eye;
+  // A whole eye pass: its path tracing becomes the preview while the first pass stays open.
+  const auto keep_preview = [&] {
+    if (may_pause && preview_.empty()) preview_ = pass_direct_;
+  };
+  if (stage_ == Stage::Radii) {
     // The footprint radius comes from the camera path itself: trace the first pass's paths
     // once for it (same random streams, results discarded), so that even the first pass
     // weights path tracing against density estimation. Without this the first pass would be
     // plain path tracing, whose caustic fireflies then fade only as 1 / passes.
-    eye_pass(pass, sink, rays, invalid);
+    const auto t_eye = clock_type::now();
+    const bool done = eye_pass(pass, sink, may_pause, rays, invalid);
     if (sink && sink->cancelled()) return;
+    stats_.extra["eye seconds"] += seconds_since(t_eye);
+    if (!done) {
+      leave_open();
+      return;
+    }
     set_new_radii();
+    keep_preview();
+    stage_ = Stage::Eye;
+    if (pause_here()) return;
   }
-  eye_pass(pass, sink, rays, invalid);
-  if (sink && sink->cancelled()) return;
-  set_new_radii();
-  stats_.extra["eye seconds"] += seconds_since(t_eye);
+  if (stage_ == Stage::Eye) {
+    const auto t_eye = clock_type::now();
+    const bool done = eye_pass(pass, sink, may_pause, rays, invalid);
+    if (sink && sink->cancelled()) return;
+    stats_.extra["eye seconds"] += seconds_since(t_eye);
+    if (!done) {
+      leave_open();
+      return;
+    }
+    set_new_radii();
+    keep_preview();
+    stage_ = Stage::Photons;
+    if (pause_here()) return;
+  }
 
   // ---- 2. Photon pass ----
-  const auto t_trace = clock_type::now();
-  PhotonPassStats ps;
-  photon_pass(pass, ps);
-  stats_.extra["trace seconds"] += seconds_since(t_trace);
+  if (stage_ == Stage::Photons) {
+    const auto t_trace = clock_type::now();
+    photon_pass(pass, open_ps_);
+    stats_.extra["trace seconds"] += seconds_since(t_trace);
+    stage_ = Stage::Gather;
+    if (pause_here()) return;
+  }
+  const PhotonPassStats ps = open_ps_;
+  stage_ = Stage::Start;  // this call ends the pass
+  open_rays_ = open_invalid_ = 0;
+  std::vector<RGB>().swap(preview_);
 
   // ---- 3. Gathering at every measurement point, weighted by the balance heuristic ----
   const auto t_lookup = clock_type::now();
@@ -541,6 +583,16 @@ void Msppm::develop(Film& film) const {
   Pass& count = film.add_pass(pass::kPhotonCount, 1);
   Pass& path_tracing = film.add_pass(pass::kPathTracing, 3);
   const double passes = static_cast<double>(std::max<int64_t>(stats_.passes, 1));
+  if (first_pass_open()) {
+    // The first pass paused before its end: a preview, its first eye pass's path tracing (where
+    // its tiles have reached, until that pass is whole); nothing is left of it after the pass.
+    for (size_t i = 0; i < px_.size(); ++i) {
+      const RGB L = !preview_.empty() ? preview_[i] : eye_tiles_.done(i) ? pass_direct_[i] : RGB(0.0f);
+      for (int c = 0; c < 3; ++c) combined.data[3 * i + c] = path_tracing.data[3 * i + c] = L[c];
+      radius.data[i] = count.data[i] = 0.0f;
+    }
+    return;
+  }
   for (size_t i = 0; i < px_.size(); ++i) {
     const RGB L = pixel_radiance(i);
     for (int c = 0; c < 3; ++c) {

@@ -87,6 +87,7 @@
 
 #include <vector>
 
+#include "integrators/photon/pausable_tiles.h"
 #include "integrators/photon/photon_hash.h"
 #include "integrators/integrator.h"
 #include "integrators/photon/photon_tracer.h"
@@ -191,7 +192,10 @@ class Msppm : public Integrator {
   };
 
   double n_pm(size_t pixel) const;  // N_e pi R^2 of the density-estimation technique
-  void eye_pass(uint64_t pass, ProgressSink* sink, std::atomic<int64_t>& rays, std::atomic<int64_t>& invalid);
+  // The camera paths of the pass over the tiles not done yet (PausableTiles: with `may_pause`,
+  // it stops when the sink asks and returns false; the next call goes on).
+  bool eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::atomic<int64_t>& rays,
+                std::atomic<int64_t>& invalid);
   void photon_pass(uint64_t pass, PhotonPassStats& stats);
 
   const Scene& scene_;
@@ -223,6 +227,20 @@ class Msppm : public Integrator {
   std::vector<RGB> gather_phi_;
   int64_t emitted_total_ = 0;
   double fallback_r_ = 0;  // mean first-pass footprint radius, for pixels without their own
+
+  // ---- The first pass, which pauses between eye tiles and between its stages when the sink
+  // asks (ProgressSink::pause: Blender's F12 window shows develop()'s preview) and goes on at
+  // the next call with the same random numbers; a later pass is one whole (a pause there would
+  // show the passes before it again) ----
+  enum class Stage { Start, Radii, Eye, Photons, Gather };
+  Stage stage_ = Stage::Start;  // what the open pass does next
+  PausableTiles eye_tiles_;
+  PhotonPassStats open_ps_;
+  int64_t open_rays_ = 0, open_invalid_ = 0;
+  // The first eye pass's path tracing, once it is whole: the preview until the first pass ends
+  // (before radii exist path tracing takes weight 1, so it is a plain path-traced image).
+  std::vector<RGB> preview_;
+  bool first_pass_open() const { return stats_.passes == 0 && (stage_ != Stage::Start || eye_tiles_.open()); }
 };
 
 }  // namespace gp

@@ -156,40 +156,10 @@ RGB direct_light(const Scene& scene, const SurfaceHit& hit, const Bsdf& bsdf, co
 }
 
 bool ProgressivePhotonMapping::eye_tiles(ProgressSink* sink, bool may_pause, const std::function<void(const Tile&)>& fn) {
-  const int tiles_x = (width_ + tile_size_ - 1) / tile_size_;
-  const size_t n_tiles = static_cast<size_t>(tiles_x) * ((height_ + tile_size_ - 1) / tile_size_);
-  if (eye_tile_done_.empty()) eye_tile_done_.assign(n_tiles, 0);  // a new eye pass
-  std::atomic<bool> paused{false};
-  std::atomic<size_t> tiles_now{0};  // tiles this call did
-  parallel_for_tiles(
-      width_, height_, tile_size_, threads_,
-      [&](const Tile& tile) {
-        const size_t index = static_cast<size_t>(tile.y0 / tile_size_) * tiles_x + tile.x0 / tile_size_;
-        if (index < n_tiles && eye_tile_done_[index]) return;  // done before a pause
-        fn(tile);
-        if (index < n_tiles) eye_tile_done_[index] = 1;
-        tiles_now.fetch_add(1, std::memory_order_relaxed);
-      },
-      [&] {
-        if (!sink) return false;
-        if (sink->cancelled() || paused.load(std::memory_order_relaxed)) return true;
-        // At least one tile a call, as PixelEstimate::run_pass_tiles, so a caller pausing early moves on.
-        if (!may_pause || tiles_now.load(std::memory_order_relaxed) == 0 || !sink->pause()) return false;
-        paused = true;
-        return true;
-      });
-  // A call that did not pause did every tile left (or was cancelled: the pass is abandoned).
-  const bool done = !paused.load() || (sink && sink->cancelled());
-  if (done) eye_tile_done_.clear();
-  return done;
+  return eye_tiles_.run(width_, height_, tile_size_, threads_, sink, may_pause, fn);
 }
 
-bool ProgressivePhotonMapping::eye_tile_done(size_t pixel) const {
-  if (eye_tile_done_.empty()) return false;
-  const int tiles_x = (width_ + tile_size_ - 1) / tile_size_;
-  const int x = static_cast<int>(pixel % width_), y = static_cast<int>(pixel / width_);
-  return eye_tile_done_[static_cast<size_t>(y / tile_size_) * tiles_x + x / tile_size_] != 0;
-}
+bool ProgressivePhotonMapping::eye_tile_done(size_t pixel) const { return eye_tiles_.done(pixel); }
 
 // ---- Eye pass: one camera path per pixel to its measurement point ----
 bool ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause,
@@ -697,9 +667,9 @@ void ProgressivePhotonMapping::develop(Film& film) const {
   Pass& error = film.add_pass(pass::kError, 1);
   Pass& radius = film.add_pass(pass::kRadius, 1);
   Pass& count = film.add_pass(pass::kPhotonCount, 1);
-  Pass* alpha = film_transparent_ ? &film.add_pass(pass::kAlpha, 1) : nullptr;
+  Pass* alpha = writes_alpha_ ? &film.add_pass(pass::kAlpha, 1) : nullptr;
   const double passes = static_cast<double>(std::max<int64_t>(stats_.passes, 1));
-  if (stats_.passes == 0 && (stage_ != Stage::Eye || !eye_tile_done_.empty())) {
+  if (first_pass_open()) {
     // The first pass paused before its end (iterate, ProgressSink::pause): a preview, the light
     // its camera paths have seen themselves (emission, and direct light where the method adds it
     // by next-event estimation), at the pixels they reached; nothing is left of it after the pass.

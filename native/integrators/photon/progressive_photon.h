@@ -22,6 +22,7 @@
 #include "core/rng.h"
 #include "integrators/photon/adaptive_photons.h"
 #include "integrators/photon/error_estimate.h"
+#include "integrators/photon/pausable_tiles.h"
 #include "integrators/integrator.h"
 #include "integrators/photon/photon_tracer.h"
 #include "integrators/paths/medium_walk.h"
@@ -214,6 +215,9 @@ class ProgressivePhotonMapping : public Integrator {
   // goes on with the others, so the pass is the same as a whole one. True when the pass is done.
   bool eye_tiles(ProgressSink* sink, bool may_pause, const std::function<void(const Tile&)>& fn);
   bool eye_tile_done(size_t pixel) const;
+  // The first pass paused before its end (iterate, ProgressSink::pause): develop() shows its
+  // preview, the light its camera paths saw themselves at the tiles they reached.
+  bool first_pass_open() const { return stats_.passes == 0 && (stage_ != Stage::Eye || eye_tiles_.open()); }
 
   // ---- One camera path of the eye pass (shared with GPM, whose offsets follow it) ----
   struct EyePath {
@@ -285,8 +289,11 @@ class ProgressivePhotonMapping : public Integrator {
   // cut, edge_bias and edge_bias_sd of pixel k into e (e.radiance set).
   void edge_bias(size_t k, ErrorTerms& e) const;
   // Reads parameter film_transparent (PPM, SPPM: their eye passes, RGB and spectral, write
-  // the alpha pass).
-  void read_film_transparent(const Params& params) { film_transparent_ = params.get<bool>("film_transparent"); }
+  // the alpha pass with it, and on a scene that holds out: writes_alpha).
+  void read_film_transparent(const Params& params) {
+    film_transparent_ = params.get<bool>("film_transparent");
+    writes_alpha_ = writes_alpha(film_transparent_, scene_);
+  }
 
   // ---- Spectral photons (progressive_photon_spectral.cpp) ----
   // One set of wavelengths per pass, shared by its eye paths and photons.
@@ -381,6 +388,7 @@ class ProgressivePhotonMapping : public Integrator {
   std::vector<RGB> pass_direct_;       // this pass's eye-path light per pixel
   std::vector<float> pass_covered_;  // this pass's camera ray hit the scene (1; 1 - a mixed holdout's weight) or escaped (0)
   bool film_transparent_ = false;
+  bool writes_alpha_ = false;  // develop() writes pass alpha (read_film_transparent)
   std::vector<float> first_r_;         // footprint radius proposed by the eye pass
   std::vector<PixelState> px_;
   std::vector<float> gather_m_, gather_lap_;
@@ -391,7 +399,7 @@ class ProgressivePhotonMapping : public Integrator {
   // ends: a pause in a later pass would show the image of the passes before it again) ----
   enum class Stage { Eye, Photons, Gather };
   Stage stage_ = Stage::Eye;           // what the open pass does next
-  std::vector<uint8_t> eye_tile_done_;  // the open eye pass's tiles (row-major); empty: none done
+  PausableTiles eye_tiles_;             // the open eye pass's tiles
   PhotonPassStats open_ps_;            // its photons' figures, from Photons to Gather
   int64_t open_rays_ = 0, open_invalid_ = 0;
   double estimated_error_ = INFINITY;

@@ -365,7 +365,7 @@ void SpectralPathTracer::iterate(ProgressSink* sink) {
 
 void SpectralPathTracer::develop(Film& film) const {
   estimate_.develop(film, pass::kCombined);
-  if (settings_.film_transparent) estimate_.develop_alpha(film);
+  if (writes_alpha(settings_.film_transparent, scene_)) estimate_.develop_alpha(film);
 }
 
 }  // namespace gp
