@@ -13,14 +13,23 @@ import scenes
 from test_cycles_brightness import relmse, render_both
 
 SIZE = (48, 36)
-MEAN_TOL = 0.01  # the issue's 1 %; measured: see CASES
-RELMSE = 0.05
+MEAN_TOL = 0.01  # the issue's 1 %; measured (2026-11-27, 48x36, 128 samples, 8 bounces): see CASES
+# relMSE bounds about twice what was measured; the glass spheres' caustics on the floor are noisy.
+RELMSE = {"glossy": 0.03, "principled": 0.03, "refraction": 0.035, "glass": 0.15}
 
-# case -> (node, distribution, inputs)
+# case -> (node, distribution, inputs). Measured gradphoton / Cycles mean, relMSE (two runs):
+#   glossy_multi_0.3 1.0007 / 0.9978 0.012, glossy_multi_0.8 0.9984 / 0.9978 0.011,
+#   principled_metal_multi_0.6 0.9920 / 0.9903 0.0082 (the closest to the bound: headroom 0.1 %),
+#   glass_beckmann_0.3 1.0062 0.044, refraction_beckmann_0.3 1.0017 0.017; the GGX
+#   controls glossy_ggx_0.8 1.0025 0.008, glass_ggx_0.5 1.0058 0.073. With the walk's eval
+#   stopped after its first scattering, glossy_multi_0.8 gave 0.9146 and the metal 0.9553; with
+#   Beckmann glass's pdf of alpha 1.05 x, glass_beckmann 1.0105.
 CASES = {
     "glossy_multi_0.3": ("ShaderNodeBsdfGlossy", 'MULTI_GGX', {"Roughness": 0.3, "Color": (1, 1, 1, 1)}),
     "glossy_multi_0.8": ("ShaderNodeBsdfGlossy", 'MULTI_GGX', {"Roughness": 0.8, "Color": (1, 1, 1, 1)}),
     "glass_multi_0.5": ("ShaderNodeBsdfGlass", 'MULTI_GGX', {"Roughness": 0.5, "IOR": 1.5}),
+    "glass_ggx_0.5": ("ShaderNodeBsdfGlass", 'GGX', {"Roughness": 0.5, "IOR": 1.5}),
+    "glossy_ggx_0.8": ("ShaderNodeBsdfGlossy", 'GGX', {"Roughness": 0.8, "Color": (1, 1, 1, 1)}),
     "glass_beckmann_0.3": ("ShaderNodeBsdfGlass", 'BECKMANN', {"Roughness": 0.3, "IOR": 1.5}),
     "refraction_beckmann_0.3": ("ShaderNodeBsdfRefraction", 'BECKMANN', {"Roughness": 0.3, "IOR": 1.5}),
     "principled_metal_multi_0.6": ("ShaderNodeBsdfPrincipled", 'MULTI_GGX',
@@ -45,7 +54,15 @@ def sphere_scene(scene, kind, distribution, inputs):
     scenes.add_camera(scene, (0, -4.5, 1.6), (0, 0, 0.9), lens=35.0)
 
 
-@pytest.mark.parametrize("case", sorted(CASES))
+# Cycles 3.4's Multiscatter GGX glass renders this sphere as its single-scattering GGX glass does
+# (mean 0.6561 against 0.6535): its walk loses what single scattering loses (its sampler drops
+# walks where its stand-in pdf is 0, and keeps C1 across the interface); gradphoton's keeps the
+# energy (white furnace 0.999-1.000, bsdf_test.cpp) and is 7.4 % brighter (relMSE 0.13).
+KNOWN = {"glass_multi_0.5": "Cycles 3.4's multiscatter glass loses what single scattering loses (docs/blender.md)"}
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=KNOWN[c])) if c in KNOWN
+                                  else c for c in sorted(CASES)])
 def test_multiscatter_and_beckmann_against_cycles(empty_scene, out_dir, case):
     sphere_scene(empty_scene, *CASES[case])
     empty_scene.render.resolution_x, empty_scene.render.resolution_y = SIZE
@@ -55,7 +72,8 @@ def test_multiscatter_and_beckmann_against_cycles(empty_scene, out_dir, case):
     print(f"MULTISCATTER {case}: gradphoton/cycles = {ratio:.4f}, relMSE {err:.5f}")
     assert cycles.sum() > 1e-3
     assert abs(ratio - 1) < MEAN_TOL, f"{case}: gradphoton/Cycles = {ratio:.4f}"
-    assert err < RELMSE, f"{case}: relMSE {err:.5f}"
+    bound = RELMSE[case.split("_")[0]]
+    assert err < bound, f"{case}: relMSE {err:.5f}"
 
 
 @pytest.mark.parametrize("case", ["glossy_multi_0.8", "glass_beckmann_0.3", "principled_metal_multi_0.6"])
