@@ -321,13 +321,16 @@ std::optional<BsdfSample> velvet_sample(const BsdfParams& m, const Vec3& wo, Vec
 //     scattering density weighted by a fit of single scattering's albedo, plus a cosine lobe for
 //     the rest. sample() reports it as pdf with f = weight x pdf / |cos wi|, so f |cos| / pdf is
 //     the walk's weight and MIS weights are a function of the direction alone: unbiased.
-// As in Cycles: a ray going up that meets the surface meets it at its top (mf_sample_height sets
-// C1 = 1 when Lambda >= 0). Unlike Cycles 3.4: the conductor's eval weights the k-th later
-// scattering by the Fresnel products of the walk and of its last microfacet, as sample does
-// (Cycles' mf_eval multiplies the throughput in twice: colour^(2k+1) where its sample has
-// colour^(k+1); the same for white), Fresnel at the drawn microfacets from the first one on, and
-// the glass walk's C1 follows its height when it crosses the interface (Cycles' mf_sample keeps
-// the old C1 there).
+// Unlike Cycles 3.4, where its walk is inconsistent (each measured in bsdf_test.cpp and
+// docs/blender.md): heights by [Heitz16] eq. 13 whichever way the ray goes (Cycles' puts a ray
+// going up that meets the surface at its top, C1 = 1, which makes its walk non-reciprocal: its
+// eval, walked from the shallower direction, reflects 3 % less than its sampler at alpha 1); the
+// conductor's eval weights the k-th later scattering by the Fresnel products of the walk and of
+// its last microfacet, as sample does (Cycles' mf_eval multiplies the throughput in twice:
+// colour^(2k+1) where its sample has colour^(k+1); the same for white), with Fresnel at the drawn
+// microfacets from the first one on; the glass walk's C1 follows its height when it crosses the
+// interface (Cycles' mf_sample keeps the old C1 there); the glass stand-in pdf has a floor
+// (walk_pdf_dielectric).
 // The walk's random numbers are a PCG stream keyed by what the call sees (the directions or the
 // sample's numbers, and the shading point: BsdfParams::walk_salt), so eval and sample stay pure
 // functions and images do not depend on the thread count. A fixed point, fixed directions (a PPM
