@@ -21,12 +21,14 @@
 #include "materials/bsdf.h"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <mutex>
 
 #include "core/frame.h"
+#include "core/rng.h"
 #include "core/sampling.h"
 #include "materials/spectral_material.h"
 
@@ -39,6 +41,7 @@ namespace {
 // Anisotropic (alpha_y >= 0: alpha along local x, alpha_y along y) by [Heitz14] eq. 85 / 86 and
 // [Heitz18]'s stretch by (alpha_x, alpha_y); isotropic (alpha_y < 0) by the forms below.
 struct Ggx {
+  static constexpr bool kVisibleNormals = true;  // sample_visible draws only normals facing w
   float alpha;
   float alpha_y = -1.0f;
 
@@ -90,6 +93,12 @@ struct Ggx {
   // Samples D_visible, [Heitz18] listing 1, with the polar disk warp of its §4.2.
   Vec3 sample_visible(Vec3 w, Vec2 u) const {
     if (w.z < 0) w = -w;  // two-sided: sample the normals visible from the mirrored direction
+    return sample_visible_from(w, u);
+  }
+  // The same for any w, below the horizon too (the normals of the upper hemisphere that face
+  // w: the random walk's rays going up meet them). [Heitz18]'s warp holds for wh.z < 0 as
+  // well: the squashed half disk then lies inside the upper one (s < 1/2).
+  Vec3 sample_visible_from(const Vec3& w, Vec2 u) const {
     // §3.2: stretch the view direction into the hemisphere configuration.
     const float ay = alpha_y >= 0 ? alpha_y : alpha;
     const Vec3 wh = normalize(Vec3(alpha * w.x, ay * w.y, w.z));
@@ -291,6 +300,424 @@ std::optional<BsdfSample> velvet_sample(const BsdfParams& m, const Vec3& wo, Vec
   return s;
 }
 
+// ---- Multiscatter GGX: the random walk of Heitz, Hanika, d'Eon, Dachsbacher 2016 ----
+//
+// [Heitz16] "Multiple-Scattering Microfacet BSDFs with the Smith Model" (SIGGRAPH 2016), in the
+// form Cycles 3.4 renders Blender's Multiscatter GGX with (kernel/closure/bsdf_microfacet_multi.h
+// and bsdf_microfacet_multi_impl.h). The microsurface is a random medium: heights uniform in
+// [-1, 1] (C1(h) = (h + 1) / 2), GGX normals. A ray meets it at a height drawn from the masking
+// C1(h)^Lambda(w) ([Heitz16] §3.2, with Lambda signed: -1 - Lambda(-w) for a ray going down),
+// scatters on a normal visible from it ([Heitz18]) and goes on until it escapes, at most
+// kWalkOrders times (Cycles' bound; the rest is lost, as in Cycles).
+//   sample: one walk from wo; wi is where it escapes, its weight the walk's throughput (the
+//     product of the microfacets' Fresnel factor or colour; a dielectric's walk picks reflection
+//     or refraction by Fresnel and carries flux: the importance form, as this file's glass).
+//   eval: f(wo, wi) |cos wi| estimated by one walk ([Heitz16] §5): the first scattering analytic
+//     (the height-correlated single-scattering BSDF, [Heitz14] eq. 99 and its transmission
+//     form B(1 + Lambda_o, 1 + Lambda_i)), each later one adding its next-event estimate toward
+//     wi (phase function x shadowing from the walk's height). Unbiased, not deterministic;
+//     reflection walks start from the shallower direction (f is reciprocal; less noise).
+//   pdf: there is no closed form; Cycles' stand-in (mf_ggx_pdf, mf_glass_pdf): the single-
+//     scattering density weighted by a fit of single scattering's albedo, plus a cosine lobe for
+//     the rest. sample() reports it as pdf with f = weight x pdf / |cos wi|, so f |cos| / pdf is
+//     the walk's weight and MIS weights are a function of the direction alone: unbiased.
+// Unlike Cycles 3.4, where its walk is inconsistent (each measured in bsdf_test.cpp and
+// docs/blender.md): heights by [Heitz16] eq. 13 whichever way the ray goes (Cycles' puts a ray
+// going up that meets the surface at its top, C1 = 1, which makes its walk non-reciprocal: its
+// eval, walked from the shallower direction, reflects 3 % less than its sampler at alpha 1); the
+// conductor's eval weights the k-th later scattering by the Fresnel products of the walk and of
+// its last microfacet, as sample does (Cycles' mf_eval multiplies the throughput in twice:
+// colour^(2k+1) where its sample has colour^(k+1); the same for white), with Fresnel at the drawn
+// microfacets from the first one on; the glass walk's C1 follows its height when it crosses the
+// interface (Cycles' mf_sample keeps the old C1 there); the glass stand-in pdf has a floor
+// (walk_pdf_dielectric).
+// The walk's random numbers are a PCG stream keyed by what the call sees (the directions or the
+// sample's numbers, and the shading point: BsdfParams::walk_salt), so eval and sample stay pure
+// functions and images do not depend on the thread count. A fixed point, fixed directions (a PPM
+// visible point under a point light) therefore sees one walk, every pass.
+
+constexpr int kWalkOrders = 10;
+
+uint64_t walk_key(uint64_t salt, const Vec3& a, const Vec3& b) {
+  uint64_t k = salt;
+  for (float v : {a.x, a.y, a.z, b.x, b.y, b.z}) {
+    uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    k = mix_bits(k + bits + 0x9E3779B97F4A7C15ULL);
+  }
+  return k;
+}
+Rng walk_rng(uint64_t key) { return Rng(key, mix_bits(key ^ 0xD1B54A32D192ED03ULL)); }
+
+// Cycles' mf_lambda: Smith's Lambda of the (possibly anisotropic) GGX, signed by w.z.
+float walk_lambda(const Ggx& g, const Vec3& w) {
+  if (w.z > 0.9999f) return 0.0f;
+  if (w.z < -0.9999f) return -0.9999f;
+  const float ay = g.alpha_y >= 0 ? g.alpha_y : g.alpha;
+  const float inv_z2 = 1.0f / std::max(w.z * w.z, 1e-7f);
+  float v = std::sqrt(1.0f + (sqr(g.alpha * w.x) + sqr(ay * w.y)) * inv_z2);
+  if (w.z <= 0.0f) v = -v;
+  return 0.5f * (v - 1.0f);
+}
+float walk_C1(float h) { return clamp(0.5f * (h + 1.0f), 0.0f, 1.0f); }
+float walk_invC1(float c) { return 2.0f * clamp(c, 0.0f, 1.0f) - 1.0f; }
+// The probability that w escapes from the height of C1 = c1 ([Heitz16] eq. 8: C1^Lambda).
+float walk_G1(const Vec3& w, float c1, float lambda) {
+  if (w.z > 0.9999f) return 1.0f;
+  if (w.z < 1e-5f) return 0.0f;
+  return std::pow(c1, lambda);
+}
+
+// A ray of the walk: its direction, height h, C1(h), escape probability g1 and Lambda.
+struct WalkRay {
+  Vec3 w;
+  float lambda = 0, h = 1, c1 = 1, g1 = 0;
+  void turn(const Ggx& g, const Vec3& to) {
+    w = to;
+    lambda = walk_lambda(g, w);
+    c1 = walk_C1(h);
+    g1 = walk_G1(w, c1, lambda);
+  }
+};
+
+// The next height the ray meets the surface at ([Heitz16] §3.2, Cycles' mf_sample_height);
+// false when it escapes.
+bool walk_height(WalkRay& r, float u) {
+  if (r.w.z > 0.9999f) return false;
+  if (r.w.z < -0.9999f) {
+    r.c1 *= u;
+  } else if (std::abs(r.w.z) >= 1e-4f) {
+    if (u > 1.0f - r.g1) return false;
+    // [Heitz16] eq. 13 for either way the ray goes (Cycles 3.4 puts a ray going up that meets
+    // the surface at its top, C1 = 1, which makes its walk non-reciprocal: its eval, walked from
+    // the shallower direction, then reflects 3 % less than its sampler at alpha 1).
+    r.c1 = std::min(1.0f, r.c1 * std::pow(1.0f - u, -1.0f / r.lambda));
+    if (!(r.c1 >= 0.0f)) r.c1 = 0.0f;  // 0 x inf at the bottom
+  } else {
+    return true;  // grazing: it meets the surface where it is
+  }
+  r.h = walk_invC1(r.c1);
+  r.g1 = walk_G1(r.w, r.c1, r.lambda);
+  return true;
+}
+
+// The ray's projected area in the microsurface, (1 + Lambda(-w)) |w.z| ([Heitz16] eq. 3).
+float walk_area(const Vec3& w, float lambda) { return w.z < -0.9999f ? 1.0f : lambda * w.z; }
+
+// Phase function of a reflecting microsurface: the density of scattering the ray w into o
+// ([Heitz16] eq. 22: D_w(wh) / (4 |o.wh|) with D_w = <-w, wh> D / area); *cos_h = <-w, wh>.
+float walk_phase_reflect(const Ggx& g, const WalkRay& r, const Vec3& o, float* cos_h) {
+  if (r.w.z > 0.9999f) return 0.0f;
+  const Vec3 d = o - r.w;
+  if (length_squared(d) == 0) return 0.0f;
+  const Vec3 wh = normalize(d);
+  const float c = -dot(r.w, wh);
+  if (wh.z < 0.0f || c <= 0.0f) return 0.0f;
+  *cos_h = c;
+  return 0.25f * g.D(wh) / std::max(walk_area(r.w, r.lambda), 1e-7f);
+}
+
+// Phase function of a dielectric microsurface of relative IOR eta below it ([Heitz16] eq. 24):
+// reflection F D_w / (4 |o.wh|), refraction (1 - F) D_w eta^2 |o.wh| / (<-w, wh> + eta <o, wh>)^2
+// ([Walter07] eq. 17's Jacobian: the density of a flux-carrying walk; Cycles leaves out eta^2).
+float walk_phase_dielectric(const Ggx& g, const WalkRay& r, const Vec3& o, bool o_outside, float eta) {
+  if (r.w.z > 0.9999f) return 0.0f;
+  const float area = std::max(walk_area(r.w, r.lambda), 1e-7f);
+  if (o_outside) {
+    const Vec3 d = o - r.w;
+    if (length_squared(d) == 0) return 0.0f;
+    const Vec3 wh = normalize(d);
+    const float c = -dot(r.w, wh);
+    if (wh.z < 0.0f || c <= 0.0f) return 0.0f;
+    return fresnel_dielectric(c, eta) * 0.25f * g.D(wh) / area;
+  }
+  const Vec3 d = o * eta - r.w;
+  if (length_squared(d) == 0) return 0.0f;
+  Vec3 wh = normalize(d);
+  if (wh.z < 0.0f) wh = -wh;
+  const float c = -dot(r.w, wh), co = dot(o, wh);
+  const float t = c + eta * co;
+  if (c <= 0.0f || co >= 0.0f || t == 0.0f) return 0.0f;
+  return (1.0f - fresnel_dielectric(c, eta)) * c * -co * g.D(wh) * eta * eta / (area * t * t);
+}
+
+// The ray arriving along -wi at microfacet wm (wi.wm > 0) of relative IOR eta: reflected with
+// probability F, else refracted (Snell).
+Vec3 walk_scatter_dielectric(const Vec3& wi, const Vec3& wm, float eta, float u, bool* refracted) {
+  const float c = dot(wi, wm);
+  *refracted = !(u < fresnel_dielectric(c, eta));
+  if (!*refracted) return wm * (2.0f * c) - wi;
+  const float inv = 1.0f / eta;
+  const float cos_t = -safe_sqrt(1.0f - (1.0f - c * c) * inv * inv);
+  return normalize(wm * (c * inv + cos_t) - wi * inv);
+}
+
+// Cycles' fits (bsdf_microfacet_multi.h mf_ggx_albedo, mf_ggx_transmission_albedo) of single
+// scattering's albedo: the share of the stand-in pdf given to the single-scattering density.
+float walk_albedo_fit(float r) {
+  float albedo = 0.806495f * std::exp(-1.98712f * r * r) + 0.199531f;
+  albedo -= ((((((1.76741f * r - 8.43891f) * r + 15.784f) * r - 14.398f) * r + 6.45221f) * r - 1.19722f) * r +
+             0.027803f) * r + 0.00568739f;
+  return clamp(albedo, 0.0f, 1.0f);
+}
+float walk_transmission_albedo_fit(float a, float ior) {
+  if (ior < 1.0f) ior = 1.0f / ior;
+  a = clamp(a, 0.0f, 1.0f);
+  ior = clamp(ior, 1.0f, 3.0f);
+  const float i1 = 0.0476898f * std::exp(-0.978352f * sqr(ior - 0.65657f)) - 0.033756f * ior + 0.993261f;
+  const float r1 = (((0.116991f * a - 0.270369f) * a + 0.0501366f) * a - 0.00411511f) * a + 1.00008f;
+  const float i2 = (((-2.08704f * ior + 26.3298f) * ior - 127.906f) * ior + 292.958f) * ior - 287.946f +
+                   199.803f / (ior * ior) - 101.668f / (ior * ior * ior);
+  const float r2 = ((((5.3725f * a - 24.9307f) * a + 22.7437f) * a - 3.40751f) * a + 0.0986325f) * a + 0.00493504f;
+  return clamp(1.0f + i2 * r2 * 0.0019127f - (1.0f - i1) * (1.0f - r1) * 9.3205f, 0.0f, 1.0f);
+}
+
+// The stand-in pdf of a reflecting walk from a to b (both up; Cycles' mf_ggx_pdf / _aniso_pdf).
+float walk_pdf_reflect(const Ggx& g, const Vec3& a, const Vec3& b) {
+  const Vec3 h = a + b;
+  const float single = length_squared(h) > 0
+                           ? 0.25f * g.D(normalize(h)) / std::max((1.0f + walk_lambda(g, a)) * a.z, 1e-7f)
+                           : 0.0f;
+  const float albedo = walk_albedo_fit(g.alpha_y >= 0 ? std::sqrt(g.alpha * g.alpha_y) : g.alpha);
+  return albedo * single + (1.0f - albedo) * std::abs(b.z) * kInvPi;
+}
+
+// The same for a dielectric walk from a (up) to b (either side; Cycles' mf_glass_pdf).
+float walk_pdf_dielectric(const Ggx& g, const Vec3& a, const Vec3& b, float eta) {
+  const bool reflective = a.z * b.z > 0.0f;
+  const Vec3 h = a + (reflective ? b : b * eta);
+  const float len2 = length_squared(h);
+  if (len2 == 0) return 0.0f;
+  Vec3 wh = h / std::sqrt(len2);
+  if (wh.z < 0.0f) wh = -wh;
+  const float lambda = walk_lambda(g, a), D = g.D(wh);
+  const float F = fresnel_dielectric(dot(a, wh), eta);
+  const float multi = std::abs(b.z) * kInvPi;
+  if (reflective) {
+    const float albedo = walk_albedo_fit(g.alpha);
+    return F * (albedo * 0.25f * D / std::max((1.0f + lambda) * a.z, 1e-7f) + (1.0f - albedo) * multi);
+  }
+  const float single = std::abs(dot(a, wh) * dot(b, wh) * D * eta * eta / std::max((1.0f + lambda) * a.z * len2, 1e-7f));
+  const float albedo = walk_transmission_albedo_fit(g.alpha, eta);
+  // Cycles' stand-in is 0 where no single microfacet refracts a into b (F = 1 at the generalized
+  // half vector), though walks leave there: its sampler then drops them (light lost). A floor of
+  // a tenth of the cosine lobe keeps those samples; the stand-in only weighs MIS.
+  return std::max((1.0f - F) * (albedo * single + (1.0f - albedo) * multi), 0.1f * multi);
+}
+
+// f(a, b) |b.z| of a reflecting microsurface (a, b up) whose microfacets reflect fresnel(cos),
+// estimated by one walk.
+template <class Fresnel>
+RGB walk_eval_reflect(const Ggx& g, Vec3 a, Vec3 b, const Fresnel& fresnel, Rng& rng) {
+  const bool swapped = b.z < a.z;
+  if (swapped) std::swap(a, b);
+  if (a.z < 1e-5f || b.z < 1e-5f) return RGB(0.0f);
+  WalkRay r;
+  r.turn(g, -a);
+  const float lambda_b = walk_lambda(g, b);
+  // Single scattering: D G2 F / (4 a.z) with G2 = 1 / (1 + Lambda(a) + Lambda(b)).
+  const Vec3 wh = normalize(a + b);
+  RGB f = fresnel(dot(a, wh)) * (0.25f * g.D(wh) / (a.z * (lambda_b - r.lambda)));
+  RGB throughput(1.0f);
+  for (int order = 0; order < kWalkOrders; ++order) {
+    if (!walk_height(r, rng.uniform())) break;
+    const float u1 = rng.uniform(), u2 = rng.uniform();
+    const Vec3 wm = g.sample_visible_from(-r.w, Vec2(u1, u2));
+    if (order > 0) {  // next-event estimate toward b ([Heitz16] §5.2)
+      float cos_h = 0.0f;
+      const float phase = walk_phase_reflect(g, r, b, &cos_h);
+      if (phase > 0.0f) f += throughput * fresnel(cos_h) * (phase * walk_G1(b, walk_C1(r.h), lambda_b));
+    }
+    if (order + 1 < kWalkOrders) {
+      throughput *= fresnel(-dot(r.w, wm));
+      r.turn(g, r.w - wm * (2.0f * dot(r.w, wm)));
+    }
+  }
+  if (swapped) f *= a.z / b.z;  // f (a, b) |b.z| from f (b, a) |a.z|
+  return f;
+}
+
+struct WalkExit {
+  Vec3 w;
+  RGB weight;
+};
+
+// One walk from a (up) on a reflecting microsurface: where it escapes and its throughput.
+template <class Fresnel>
+std::optional<WalkExit> walk_sample_reflect(const Ggx& g, const Vec3& a, const Fresnel& fresnel, Rng& rng) {
+  WalkRay r;
+  r.turn(g, -a);
+  RGB throughput(1.0f);
+  for (int order = 0; order < kWalkOrders; ++order) {
+    if (!walk_height(r, rng.uniform())) return WalkExit{r.w, throughput};
+    const float u1 = rng.uniform(), u2 = rng.uniform();
+    const Vec3 wm = g.sample_visible_from(-r.w, Vec2(u1, u2));
+    throughput *= fresnel(-dot(r.w, wm));
+    r.turn(g, r.w - wm * (2.0f * dot(r.w, wm)));
+  }
+  return std::nullopt;
+}
+
+// f(a, b) |b.z| of a dielectric microsurface (a up, relative IOR eta below; the importance
+// form, as dielectric_eval's) tinted by colour at every scattering, estimated by one walk. The
+// walk below the interface sees the microsurface mirrored (direction and height negated, IOR
+// inverted), as [Heitz16] §6 and Cycles.
+RGB walk_eval_dielectric(const Ggx& g, Vec3 a, Vec3 b, float eta, const RGB& color, Rng& rng) {
+  bool swapped = false;
+  if (b.z > 0.0f && b.z < a.z) {  // reflection only: refraction is not symmetric in (a, b)
+    std::swap(a, b);
+    swapped = true;
+  }
+  const bool b_outside = b.z > 0.0f;
+  if (a.z < 1e-5f || (b_outside && b.z < 1e-5f) || (!b_outside && b.z > -1e-5f)) return RGB(0.0f);
+  const Vec3 b_up = b_outside ? b : -b;
+  const float lambda_b = walk_lambda(g, b_up);
+  WalkRay r;
+  r.turn(g, -a);
+  // Single scattering with the height-correlated G ([Heitz14] eq. 99; its transmission form).
+  const float area = -r.lambda;  // 1 + Lambda(a)
+  float single = walk_phase_dielectric(g, r, b, b_outside, eta);
+  single *= b_outside ? area / (lambda_b + area)
+                      : area * std::exp(std::lgamma(area) + std::lgamma(lambda_b + 1.0f) - std::lgamma(area + lambda_b + 1.0f));
+  // The colour once per scattering: tc holds it for the walk's scatterings so far.
+  RGB fc = color * single;
+  RGB tc(1.0f);
+  bool outside = true;
+  for (int order = 0; order < kWalkOrders; ++order) {
+    if (!walk_height(r, rng.uniform())) break;
+    const float u1 = rng.uniform(), u2 = rng.uniform();
+    const Vec3 wm = g.sample_visible_from(-r.w, Vec2(u1, u2));
+    if (order > 0) {
+      const float phase = outside ? walk_phase_dielectric(g, r, b, b_outside, eta)
+                                  : walk_phase_dielectric(g, r, -b, !b_outside, 1.0f / eta);
+      fc += tc * color * (phase * walk_G1(b_up, walk_C1(outside == b_outside ? r.h : -r.h), lambda_b));
+    }
+    if (order + 1 < kWalkOrders) {
+      bool refracted;
+      Vec3 w = walk_scatter_dielectric(-r.w, wm, outside ? eta : 1.0f / eta, rng.uniform(), &refracted);
+      if (refracted) {
+        outside = !outside;
+        w = -w;
+        r.h = -r.h;
+      }
+      r.turn(g, w);
+      tc *= color;
+    }
+  }
+  if (swapped) fc *= a.z / b.z;
+  return fc;
+}
+
+// One walk from a (up) on a dielectric microsurface: where it escapes (either side) and its
+// throughput (colour per scattering).
+std::optional<WalkExit> walk_sample_dielectric(const Ggx& g, const Vec3& a, float eta, const RGB& color, Rng& rng) {
+  WalkRay r;
+  r.turn(g, -a);
+  RGB throughput(1.0f);
+  bool outside = true;
+  for (int order = 0; order < kWalkOrders; ++order) {
+    if (!walk_height(r, rng.uniform())) return WalkExit{outside ? r.w : -r.w, throughput};
+    const float u1 = rng.uniform(), u2 = rng.uniform();
+    const Vec3 wm = g.sample_visible_from(-r.w, Vec2(u1, u2));
+    bool refracted;
+    Vec3 w = walk_scatter_dielectric(-r.w, wm, outside ? eta : 1.0f / eta, rng.uniform(), &refracted);
+    if (refracted) {
+      outside = !outside;
+      w = -w;
+      r.h = -r.h;
+    }
+    r.turn(g, w);
+    throughput *= color;
+  }
+  return std::nullopt;
+}
+
+// ---- Multiscatter GGX lobes: conductor (any ConductorFresnel), principled's specular lobe
+// (its Fresnel) and dielectric. Two-sided as the single-scattering lobes: wo below is mirrored.
+
+constexpr uint64_t kSampleSalt = 0x5851F42D4C957F2DULL;  // sample's streams apart from eval's
+
+template <class Fresnel>
+RGB multi_reflect_eval(const BsdfParams& m, Vec3 wo, Vec3 wi, const Fresnel& fresnel) {
+  if (wo.z < 0) wo = -wo, wi = -wi;
+  if (!(wo.z > 0 && wi.z > 0)) return RGB(0.0f);
+  Rng rng = walk_rng(walk_key(m.walk_salt, wo, wi));
+  return walk_eval_reflect(ggx_of(m), wo, wi, fresnel, rng) / wi.z;
+}
+
+float multi_reflect_pdf(const BsdfParams& m, Vec3 wo, Vec3 wi) {
+  if (wo.z < 0) wo = -wo, wi = -wi;
+  if (!(wo.z > 0 && wi.z > 0)) return 0.0f;
+  return walk_pdf_reflect(ggx_of(m), wo, wi);
+}
+
+template <class Fresnel>
+std::optional<BsdfSample> multi_reflect_sample(const BsdfParams& m, const Vec3& wo, Vec2 u, const Fresnel& fresnel) {
+  if (wo.z == 0) return std::nullopt;
+  const float side = wo.z < 0 ? -1.0f : 1.0f;
+  const Vec3 a = wo * side;
+  Rng rng = walk_rng(walk_key(m.walk_salt ^ kSampleSalt, a, Vec3(u.x, u.y, 0.0f)));
+  const Ggx g = ggx_of(m);
+  const auto exit = walk_sample_reflect(g, a, fresnel, rng);
+  if (!exit || !(exit->w.z > 0)) return std::nullopt;
+  BsdfSample s;
+  s.wi = exit->w * side;
+  s.pdf = walk_pdf_reflect(g, a, exit->w);
+  s.f = exit->weight * (s.pdf / exit->w.z);
+  s.stochastic = true;
+  if (!valid_sample(s.f, s.pdf)) return std::nullopt;
+  return s;
+}
+
+// The dielectric seen from wo's side: wo up, eta the IOR beyond the interface over wo's.
+struct DielectricSide {
+  Vec3 wo, wi;
+  float eta, side;
+};
+DielectricSide dielectric_side(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  if (wo.z < 0) return {-wo, -wi, 1.0f / m.ior, -1.0f};
+  return {wo, wi, m.ior, 1.0f};
+}
+
+RGB dielectric_multi_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, TransportMode mode) {
+  const DielectricSide d = dielectric_side(m, wo, wi);
+  if (d.wo.z == 0 || d.wi.z == 0) return RGB(0.0f);
+  Rng rng = walk_rng(walk_key(m.walk_salt, d.wo, d.wi));
+  RGB f = walk_eval_dielectric(Ggx{m.roughness}, d.wo, d.wi, d.eta, m.color, rng) / std::abs(d.wi.z);
+  // Radiance crossing into wo's medium scales by 1 / etap^2 ([Veach97] §5.2), etap = eta here.
+  if (d.wi.z < 0 && mode == TransportMode::Radiance) f = f / sqr(d.eta);
+  return f;
+}
+
+float dielectric_multi_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  const DielectricSide d = dielectric_side(m, wo, wi);
+  if (d.wo.z == 0 || d.wi.z == 0) return 0.0f;
+  return walk_pdf_dielectric(Ggx{m.roughness}, d.wo, d.wi, d.eta);
+}
+
+std::optional<BsdfSample> dielectric_multi_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u,
+                                                  TransportMode mode) {
+  if (wo.z == 0) return std::nullopt;
+  const DielectricSide d = dielectric_side(m, wo, wo);
+  Rng rng = walk_rng(walk_key(m.walk_salt ^ kSampleSalt, d.wo, Vec3(u.x, u.y, uc)));
+  const Ggx g{m.roughness};
+  const auto exit = walk_sample_dielectric(g, d.wo, d.eta, m.color, rng);
+  if (!exit || exit->w.z == 0) return std::nullopt;
+  BsdfSample s;
+  s.transmission = exit->w.z < 0;
+  s.wi = exit->w * d.side;
+  s.pdf = walk_pdf_dielectric(g, d.wo, exit->w, d.eta);
+  RGB weight = exit->weight;
+  if (s.transmission) {
+    s.eta = d.eta;
+    if (mode == TransportMode::Radiance) weight = weight / sqr(d.eta);
+  }
+  s.f = weight * (s.pdf / std::abs(exit->w.z));
+  s.stochastic = true;
+  if (!valid_sample(s.f, s.pdf)) return std::nullopt;
+  return s;
+}
+
 // ---- Conductor ----
 
 // Cycles 3.4's Principled metal (kernel/closure/bsdf_util.h, interpolate_fresnel_color, as
@@ -375,6 +802,24 @@ float beckmann_aniso_G1(float ax, float ay, const Vec3& w) {
   return ((2.181f * a + 3.535f) * a) / ((2.577f * a + 2.276f) * a + 1.0f);
 }
 
+// Isotropic Beckmann as the dielectric's templates read a distribution: D, Cycles' separable G
+// (G1 by the rational fit; |cos| either side), and half vectors of density D(wm) cos(wm)
+// ([Walter07] eq. 28-29, the pdf exact; Cycles draws visible normals: the same integral).
+struct Beckmann {
+  static constexpr bool kVisibleNormals = false;
+  float alpha;
+  float D(const Vec3& wm) const { return beckmann_D(alpha, wm); }
+  float G(const Vec3& wo, const Vec3& wi) const { return beckmann_G1(alpha, wo.z) * beckmann_G1(alpha, wi.z); }
+  // The density of the drawn half vector (named as Ggx's visible-normal density, which it replaces).
+  float D_visible(const Vec3&, const Vec3& wm) const { return D(wm) * wm.z; }
+  Vec3 sample_visible(const Vec3&, Vec2 u) const {
+    const float tan2 = -alpha * alpha * std::log(std::max(1.0f - u.x, 1e-30f));  // [Walter07] eq. 28
+    const float cos_t = 1.0f / std::sqrt(1.0f + tan2), sin_t = safe_sqrt(1.0f - cos_t * cos_t);
+    const float phi = 2.0f * kPi * u.y;
+    return Vec3(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
+  }
+};
+
 // The BRDF (no Fresnel) of a pair in the upper hemisphere and the half vector's density p_h.
 float other_microfacet_f(const BsdfParams& m, const Vec3& wo, const Vec3& wi, const Vec3& wm, float* p_h) {
   const float cos_o = wo.z, cos_i = wi.z;
@@ -437,8 +882,15 @@ Vec3 other_half_vector(const BsdfParams& m, Vec2 u) {
   return Vec3(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
 }
 
+// The conductor's Fresnel factor as the random walk reads it, per microfacet.
+struct ConductorWalkFresnel {
+  const BsdfParams& m;
+  RGB operator()(float cos_h) const { return conductor_fresnel(m, std::abs(cos_h)); }
+};
+
 RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
+  if (m.distribution == Microfacet::MultiGGX) return multi_reflect_eval(m, wo, wi, ConductorWalkFresnel{m});
   if (m.distribution != Microfacet::GGX) {
     float pdf;
     return other_conductor(m, wo, wi, &pdf);
@@ -451,6 +903,7 @@ RGB conductor_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
 
 float conductor_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (!same_hemisphere(wo, wi)) return 0.0f;
+  if (m.distribution == Microfacet::MultiGGX) return multi_reflect_pdf(m, wo, wi);
   if (m.distribution != Microfacet::GGX) {
     float pdf;
     other_conductor(m, wo, wi, &pdf);
@@ -478,6 +931,7 @@ std::optional<BsdfSample> conductor_sample(const BsdfParams& m, const Vec3& wo, 
     s.delta = true;
     return s;
   }
+  if (m.distribution == Microfacet::MultiGGX) return multi_reflect_sample(m, wo, u, ConductorWalkFresnel{m});
   if (m.distribution != Microfacet::GGX) {
     Vec3 wm = other_half_vector(m, u);
     if (wo.z < 0) wm = -wm;  // the lower side's mirror image
@@ -549,50 +1003,6 @@ float dielectric_fresnel(const BsdfParams& m, const Vec3& wo, const Vec3& wi, co
   return fresnel_dielectric(dot(w, wm), m.ior);
 }
 
-RGB dielectric_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, TransportMode mode) {
-  if (dielectric_is_smooth(m)) return RGB(0.0f);
-  Vec3 wm;
-  float etap;
-  bool reflect_pair;
-  if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return RGB(0.0f);
-  const Ggx ggx{m.roughness};
-  const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
-  const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
-  if (reflect_pair) {
-    // [Walter07] eq. 20.
-    return m.color * (ggx.D(wm) * ggx.G(wo, wi) * lobe_R(m, F) / std::abs(4.0f * cos_i * cos_o));
-  }
-  // [Walter07] eq. 21 divided through by eta_o^2 (pbrt-v4's form). This is the importance
-  // (adjoint) BTDF; radiance reaching wo's medium scales by 1/etap^2 ([Veach97] §5.2).
-  const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * cos_i * cos_o;
-  if (denom == 0) return RGB(0.0f);
-  float ft = ggx.D(wm) * lobe_T(m, F) * ggx.G(wo, wi) * std::abs(dot(wi, wm) * dot(wo, wm) / denom);
-  if (mode == TransportMode::Radiance) ft /= sqr(etap);
-  return m.color * ft;
-}
-
-float dielectric_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
-  if (dielectric_is_smooth(m)) return 0.0f;
-  Vec3 wm;
-  float etap;
-  bool reflect_pair;
-  if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return 0.0f;
-  // Lobe selection probability: Fresnel at the microfacet.
-  const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
-  const float R = lobe_R(m, F), T = lobe_T(m, F);
-  const Ggx ggx{m.roughness};
-  if (reflect_pair) {
-    const float wo_dot_wm = absdot(wo, wm);
-    if (wo_dot_wm == 0) return 0.0f;
-    return ggx.D_visible(wo, wm) / (4.0f * wo_dot_wm) * R;  // [Walter07] eq. 14
-  }
-  // Refraction Jacobian dwm/dwi, [Walter07] eq. 17 divided through by eta_o^2.
-  const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap);
-  if (denom == 0) return 0.0f;
-  const float dwm_dwi = absdot(wi, wm) / denom;
-  return ggx.D_visible(wo, wm) * dwm_dwi * T;
-}
-
 std::optional<BsdfSample> dielectric_sample_smooth(const BsdfParams& m, const Vec3& wo, float uc,
                                                    TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
@@ -621,14 +1031,58 @@ std::optional<BsdfSample> dielectric_sample_smooth(const BsdfParams& m, const Ve
   return s;
 }
 
-std::optional<BsdfSample> dielectric_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u,
-                                            TransportMode mode) {
-  if (dielectric_is_smooth(m)) return dielectric_sample_smooth(m, wo, uc, mode);
+template <class Dist>
+RGB dielectric_eval_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo, const Vec3& wi, TransportMode mode) {
+  Vec3 wm;
+  float etap;
+  bool reflect_pair;
+  if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return RGB(0.0f);
+  const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
+  const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
+  if (reflect_pair) {
+    // [Walter07] eq. 20.
+    return m.color * (ggx.D(wm) * ggx.G(wo, wi) * lobe_R(m, F) / std::abs(4.0f * cos_i * cos_o));
+  }
+  // [Walter07] eq. 21 divided through by eta_o^2 (pbrt-v4's form). This is the importance
+  // (adjoint) BTDF; radiance reaching wo's medium scales by 1/etap^2 ([Veach97] §5.2).
+  const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * cos_i * cos_o;
+  if (denom == 0) return RGB(0.0f);
+  float ft = ggx.D(wm) * lobe_T(m, F) * ggx.G(wo, wi) * std::abs(dot(wi, wm) * dot(wo, wm) / denom);
+  if (mode == TransportMode::Radiance) ft /= sqr(etap);
+  return m.color * ft;
+}
+
+template <class Dist>
+float dielectric_pdf_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo, const Vec3& wi) {
+  Vec3 wm;
+  float etap;
+  bool reflect_pair;
+  if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return 0.0f;
+  // Lobe selection probability: Fresnel at the microfacet.
+  const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
+  const float R = lobe_R(m, F), T = lobe_T(m, F);
+  if (reflect_pair) {
+    const float wo_dot_wm = absdot(wo, wm);
+    if (wo_dot_wm == 0) return 0.0f;
+    return ggx.D_visible(wo, wm) / (4.0f * wo_dot_wm) * R;  // [Walter07] eq. 14
+  }
+  // Refraction Jacobian dwm/dwi, [Walter07] eq. 17 divided through by eta_o^2.
+  const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap);
+  if (denom == 0) return 0.0f;
+  const float dwm_dwi = absdot(wi, wm) / denom;
+  return ggx.D_visible(wo, wm) * dwm_dwi * T;
+}
+
+template <class Dist>
+std::optional<BsdfSample> dielectric_sample_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo, float uc,
+                                                  Vec2 u, TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
-  const Ggx ggx{m.roughness};
   const Vec3 wm = ggx.sample_visible(wo, u);
   const float wo_dot_wm = dot(wo, wm);
   if (wo_dot_wm == 0) return std::nullopt;
+  // A distribution sampled by D cos alone (Beckmann) may draw a microfacet facing away from wo,
+  // which scatters nothing (eval and pdf are 0 there too); visible normals never do.
+  if (!Dist::kVisibleNormals && wo_dot_wm * wo.z < 0) return std::nullopt;
   const float F = fresnel_dielectric(wo_dot_wm, m.ior);
   const float R = lobe_R(m, F), T = lobe_T(m, F);
   const float cos_o = cos_theta(wo);
@@ -664,6 +1118,33 @@ std::optional<BsdfSample> dielectric_sample(const BsdfParams& m, const Vec3& wo,
   }
   if (!valid_sample(s.f, s.pdf)) return std::nullopt;
   return s;
+}
+
+
+// Glass and Refraction BSDF microfacet distributions: GGX (visible normals) and Beckmann (Cycles
+// 3.4's bsdf_microfacet_beckmann_eval_transmit / _reflect: exact D, separable G of its rational
+// Smith G1), both by [Walter07]'s eq. 14-21 above; Multiscatter GGX by the random walk
+// (dielectric_multi_*).
+RGB dielectric_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, TransportMode mode) {
+  if (dielectric_is_smooth(m)) return RGB(0.0f);
+  if (m.distribution == Microfacet::MultiGGX) return dielectric_multi_eval(m, wo, wi, mode);
+  if (m.distribution == Microfacet::Beckmann) return dielectric_eval_rough(m, Beckmann{m.roughness}, wo, wi, mode);
+  return dielectric_eval_rough(m, Ggx{m.roughness}, wo, wi, mode);
+}
+
+float dielectric_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
+  if (dielectric_is_smooth(m)) return 0.0f;
+  if (m.distribution == Microfacet::MultiGGX) return dielectric_multi_pdf(m, wo, wi);
+  if (m.distribution == Microfacet::Beckmann) return dielectric_pdf_rough(m, Beckmann{m.roughness}, wo, wi);
+  return dielectric_pdf_rough(m, Ggx{m.roughness}, wo, wi);
+}
+
+std::optional<BsdfSample> dielectric_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u,
+                                            TransportMode mode) {
+  if (dielectric_is_smooth(m)) return dielectric_sample_smooth(m, wo, uc, mode);
+  if (m.distribution == Microfacet::MultiGGX) return dielectric_multi_sample(m, wo, uc, u, mode);
+  if (m.distribution == Microfacet::Beckmann) return dielectric_sample_rough(m, Beckmann{m.roughness}, wo, uc, u, mode);
+  return dielectric_sample_rough(m, Ggx{m.roughness}, wo, uc, u, mode);
 }
 
 // ---- Plastic: GGX dielectric coat over a diffuse base ----
@@ -791,8 +1272,15 @@ RGB principled_spec_fresnel(const BsdfParams& m, float cos_h) {
   return cspec0 * (1.0f - fh) + RGB(fh);
 }
 
+// Principled's specular Fresnel as the random walk reads it (Multiscatter GGX), per microfacet.
+struct PrincipledWalkFresnel {
+  const BsdfParams& m;
+  RGB operator()(float cos_h) const { return principled_spec_fresnel(m, std::abs(cos_h)); }
+};
+
 RGB principled_spec_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi) {
   if (m.roughness < kSmoothAlpha || !same_hemisphere(wo, wi)) return RGB(0.0f);
+  if (m.distribution == Microfacet::MultiGGX) return multi_reflect_eval(m, wo, wi, PrincipledWalkFresnel{m});
   float cos_h = 0;
   const float f = microfacet_reflection(ggx_of(m), wo, wi, &cos_h);
   return principled_spec_fresnel(m, cos_h) * f;
@@ -840,8 +1328,40 @@ float principled_pdf(const BsdfParams& m, const Vec3& wo, const Vec3& wi, uint8_
   return pdf;
 }
 
+// Principled with a Multiscatter GGX specular lobe: the picked lobe's own weight over its
+// probability (the walk's density is unknown, so the one-sample MIS over both lobes below would
+// be biased), reported with the whole BSDF's (stand-in) pdf for MIS with lights.
+std::optional<BsdfSample> principled_multi_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u,
+                                                  TransportMode mode) {
+  // The lobe is picked as for a grey base (any probability is unbiased here), so that every
+  // wavelength of a spectral path picks the same one with the same numbers.
+  BsdfParams grey = m;
+  grey.color = RGB(0.5f);
+  const float ps = principled_spec_probability(grey, wo);
+  std::optional<BsdfSample> lobe;
+  RGB weight;
+  if (uc < ps) {
+    lobe = multi_reflect_sample(m, wo, u, PrincipledWalkFresnel{m});
+    if (!lobe) return std::nullopt;
+    weight = lobe->f * (abs_cos_theta(lobe->wi) / (lobe->pdf * ps));
+    lobe->lobe = kRayGlossy;
+  } else {
+    lobe = diffuse_sample(m, wo, u);
+    if (!lobe) return std::nullopt;
+    const RGB f = principled_eval(m, wo, lobe->wi, bump_shadowing(m, wo, lobe->wi, mode), kRayDiffuse);
+    weight = f * (abs_cos_theta(lobe->wi) / (lobe->pdf * (1.0f - ps)));
+    lobe->lobe = kRayDiffuse;
+  }
+  lobe->pdf = principled_pdf(m, wo, lobe->wi);
+  lobe->f = weight * (lobe->pdf / abs_cos_theta(lobe->wi));
+  lobe->stochastic = true;
+  if (!valid_sample(lobe->f, lobe->pdf)) return std::nullopt;
+  return lobe;
+}
+
 std::optional<BsdfSample> principled_sample(const BsdfParams& m, const Vec3& wo, float uc, Vec2 u, TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
+  if (m.distribution == Microfacet::MultiGGX && m.roughness >= kSmoothAlpha) return principled_multi_sample(m, wo, uc, u, mode);
   const float ps = principled_spec_probability(m, wo);
   // The conductor sampler of the same alpha draws the specular lobe's direction (its Fresnel
   // plays no part in the direction); f is recomputed below.
@@ -1229,6 +1749,18 @@ std::optional<BsdfSample> Bsdf::sample_lobes(const Vec3& wo, float uc, Vec2 u, T
         s->pdf *= prob;
         return s;
       }
+      if (is_stochastic()) {
+        // A random-walk lobe's density is unknown, so one-sample MIS over the components would
+        // be biased: the picked component's weight over its probability, reported with the
+        // mixture's (stand-in) pdf for MIS with lights.
+        const float cos_i = abs_cos_theta(s->wi);
+        const RGB weight = s->f * (cos_i * (pick_b ? p.scale_b : p.scale_a) / (s->pdf * prob));
+        s->pdf = pdf(wo, s->wi);
+        s->f = weight * (s->pdf / cos_i);
+        s->stochastic = true;
+        if (!valid_sample(s->f, s->pdf)) return std::nullopt;
+        return s;
+      }
       s->f = eval(wo, s->wi, mode);
       s->pdf = pdf(wo, s->wi);
       if (!valid_sample(s->f, s->pdf)) return std::nullopt;
@@ -1246,6 +1778,34 @@ bool Bsdf::is_delta() const {
     case MaterialType::Mix: return component(p_.mix_a).is_delta() && component(p_.mix_b).is_delta();
     default: return false;
   }
+}
+
+bool Bsdf::is_stochastic() const {
+  switch (kind()) {
+    case MaterialType::Conductor:
+    case MaterialType::Principled: return p_.distribution == Microfacet::MultiGGX && p_.roughness >= kSmoothAlpha;
+    case MaterialType::Dielectric: return p_.distribution == Microfacet::MultiGGX && !dielectric_is_smooth(p_);
+    case MaterialType::Mix: return walks(*p_.mix_a) || walks(*p_.mix_b);
+    default: return false;
+  }
+}
+
+namespace {
+// Whether a material has a Multiscatter GGX lobe (its roughness aside): read from the material
+// tree, not by building the components' BSDFs at every sample.
+bool material_walks(const Material& m) {
+  if (m.type == MaterialType::Mix) return (m.mix_a && material_walks(*m.mix_a)) || (m.mix_b && material_walks(*m.mix_b));
+  return m.distribution == Microfacet::MultiGGX &&
+         (m.type == MaterialType::Conductor || m.type == MaterialType::Principled || m.type == MaterialType::Dielectric);
+}
+}  // namespace
+
+bool Bsdf::walks(const Material& m) { return material_walks(m); }
+
+void Bsdf::salt_walks() {
+  // Only where a walk may run (a mix's components salt their own).
+  if (p_.distribution != Microfacet::MultiGGX) return;
+  p_.walk_salt = walk_key(static_cast<uint64_t>(ctx_.prim) + 0x2545F4914F6CDD1DULL, ctx_.P, Vec3(ctx_.uv.x, ctx_.uv.y, 0.0f));
 }
 
 bool Bsdf::is_black() const {

@@ -31,6 +31,10 @@ struct BsdfSample {
   // The lobe it came from (kRayDiffuse, kRayGlossy or kRayTransmission): the kind of the bounce
   // ray it starts, for Cycles' per-kind ray visibility. Smooth reflections are glossy.
   uint8_t lobe = 0;
+  // f and pdf are not the lobe's: pdf is a stand-in density (a function of the direction, for
+  // MIS) and f = weight x pdf / |cos wi| with the sampler's weight, which one random walk
+  // estimated (Multiscatter GGX, bsdf.cpp). Only f |cos| / pdf is the sample's weight.
+  bool stochastic = false;
 };
 
 // Whether a sample passes straight through a Transparent BSDF (smooth, IOR 1: Cycles'
@@ -46,7 +50,7 @@ struct BsdfParams {
   RGB color{0.8f};
   float roughness = 0.0f;
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
-  Microfacet distribution = Microfacet::GGX;  // conductor (Material::distribution)
+  Microfacet distribution = Microfacet::GGX;  // Material::distribution
   float ior = 1.5f;
   // Principled and clearcoat (Material's fields of the same names). The tints take the RGB base
   // colour's luminances, Cycles' two (0.3, 0.6, 0.1 for the specular tint; the scene's linear
@@ -65,6 +69,9 @@ struct BsdfParams {
   // > 0: the parameters one wavelength (nm) sees, `color` a grey (materials/spectral_material.h);
   // a mix's components are then seen at the same wavelength. 0: RGB.
   float lambda = 0.0f;
+  // Multiscatter GGX: the shading point's part of the key of its random walks' streams (set by
+  // Bsdf from the point; bsdf.cpp).
+  uint64_t walk_salt = 0;
 };
 
 // The parameters of `m` at a shading point: its constants, the legacy image textures at the
@@ -78,13 +85,13 @@ class Bsdf {
   // The BSDF of material m at surface texture coordinate uv (SurfaceHit::uv).
   Bsdf(const Material& m, Vec2 uv) : Bsdf(m, shading::ShadingContext::at_uv(uv)) {}
   // The BSDF of material m at a shading point (Scene::bsdf builds it from a hit).
-  Bsdf(const Material& m, const shading::ShadingContext& ctx) : p_(bsdf_params(m, ctx)), ctx_(ctx) {}
+  Bsdf(const Material& m, const shading::ShadingContext& ctx) : p_(bsdf_params(m, ctx)), ctx_(ctx) { salt_walks(); }
   // An untextured material's BSDF (tests, tables): its textures, if any, are read at uv (0, 0).
   explicit Bsdf(const Material& m) : Bsdf(m, Vec2()) {}
   // A BSDF of parameters already looked up (the spectral integrators' per-wavelength ones);
   // uv is where a mix's components look up their textures.
-  explicit Bsdf(const BsdfParams& p, Vec2 uv = Vec2()) : p_(p), ctx_(shading::ShadingContext::at_uv(uv)) {}
-  Bsdf(const BsdfParams& p, const shading::ShadingContext& ctx) : p_(p), ctx_(ctx) {}
+  explicit Bsdf(const BsdfParams& p, Vec2 uv = Vec2()) : p_(p), ctx_(shading::ShadingContext::at_uv(uv)) { salt_walks(); }
+  Bsdf(const BsdfParams& p, const shading::ShadingContext& ctx) : p_(p), ctx_(ctx) { salt_walks(); }
 
   // `lobes` (kRay* bits) restricts both to the lobes of those kinds: what a light visible to
   // only some kinds of bounce ray lights by next-event estimation, and the density with which
@@ -111,6 +118,9 @@ class Bsdf {
   // for every other closure. What a shadow ray keeps of its light through the surface (in the
   // spectral methods the one wavelength's value, grey).
   RGB transparency() const;
+  // True when eval() is a random estimate (a Multiscatter GGX lobe, bsdf.cpp): unbiased, not
+  // deterministic in its arguments alone (its stream is keyed by them and the shading point).
+  bool is_stochastic() const;
   // Photon-method classification: diffuse when roughness > threshold (GPM §4.3).
   bool is_diffuse_for_photons(float threshold = kDefaultSpecularThreshold) const;
   // Where a normal or bump map bent the shading normal: the geometric normal and the smooth
@@ -129,6 +139,8 @@ class Bsdf {
 
  private:
   MaterialType kind() const;
+  void salt_walks();  // BsdfParams::walk_salt from the shading point (Multiscatter GGX only)
+  static bool walks(const Material& m);  // m has a Multiscatter GGX lobe
   BsdfParams p_;
   shading::ShadingContext ctx_;  // where a mix's components read their inputs
   Vec3 ng_{0, 0, 0};  // zero: no geometric-side test (the shading normal is the interpolated one)

@@ -47,8 +47,10 @@ enum class ConductorFresnel : uint8_t { None, Schlick, Principled };
 // Distribution), Cycles 3.4's maths (kernel/closure/bsdf_microfacet.h,
 // bsdf_ashikhmin_shirley.h): GGX; Beckmann (exact D, Smith G1 by Walter et al.'s rational
 // approximation, separable G); Ashikhmin-Shirley (exponent 2 / alpha^2 - 2, its "pump"
-// normalisation). Multiscatter GGX renders as GGX (a warning in the exporter).
-enum class Microfacet : uint8_t { GGX, Beckmann, AshikhminShirley };
+// normalisation); Multiscatter GGX (Heitz et al. 2016's random walk on the GGX microsurface,
+// as Cycles 3.4's bsdf_microfacet_multi.h: its eval is stochastic, bsdf.cpp). Dielectrics take
+// GGX, Beckmann and Multiscatter GGX; principled's specular lobe GGX and Multiscatter GGX.
+enum class Microfacet : uint8_t { GGX, Beckmann, AshikhminShirley, MultiGGX };
 
 // Default roughness below which a BSDF counts as specular for photon methods
 // (gradient-domain photon density estimation §4.3 / §6: "roughness threshold 0.05").
@@ -66,7 +68,7 @@ struct Material {
   float roughness = 0.0f;
   // Conductor: how its reflectance varies with the angle (ConductorFresnel; Principled uses `ior`).
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
-  Microfacet distribution = Microfacet::GGX;  // conductor: its microfacet distribution
+  Microfacet distribution = Microfacet::GGX;  // conductor, dielectric, principled: the microfacet distribution
   // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
   // Principled (Cycles 3.4's Principled BSDF, non-metal): `color` the base colour, `roughness`
   // the specular lobe's GGX alpha (its square root drives the diffuse retro-reflection), `ior`

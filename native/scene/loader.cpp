@@ -97,18 +97,10 @@ class Loader : private JsonReader {
         mat.type = MaterialType::Conductor;
         keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior", "distribution"});
         if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = load_conductor_fresnel(*f, sub(mpath, "fresnel"));
-        if (const json* d = find(m, "distribution")) {
-          // Blender's Glossy BSDF distributions (material.h Microfacet).
-          const std::string dpath = sub(mpath, "distribution"), v = get_string(*d, dpath);
-          if (v == "ggx") mat.distribution = Microfacet::GGX;
-          else if (v == "beckmann") mat.distribution = Microfacet::Beckmann;
-          else if (v == "ashikhmin_shirley") mat.distribution = Microfacet::AshikhminShirley;
-          else fail(dpath, fmt::format("unknown distribution '{}' (known: ggx, beckmann, ashikhmin_shirley)", v));
-        }
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
-        keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe"});
+        keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe", "distribution"});
       } else if (type == "transparent") {
         // Blender's Transparent BSDF: straight through, tinted: a smooth dielectric of IOR 1.
         mat.type = MaterialType::Dielectric;
@@ -128,7 +120,7 @@ class Loader : private JsonReader {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
         mat.refraction_only = true;
-        keys.insert(keys.end(), {"color", "ior", "roughness"});
+        keys.insert(keys.end(), {"color", "ior", "roughness", "distribution"});
       } else if (type == "translucent") {
         mat.type = MaterialType::Translucent;
         keys.push_back("color");
@@ -144,6 +136,7 @@ class Loader : private JsonReader {
       } else if (type == "plastic" || type == "principled") {
         mat.type = type == "plastic" ? MaterialType::Plastic : MaterialType::Principled;
         keys.insert(keys.end(), {"color", "roughness", "ior"});
+        if (type == "principled") keys.push_back("distribution");
         if (type == "principled") {
           // Cycles' Specular Tint, Sheen and Sheen Tint (constants here; links: load_graph_inputs).
           keys.insert(keys.end(), {"specular_tint", "sheen", "sheen_tint"});
@@ -179,6 +172,23 @@ class Loader : private JsonReader {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
                          "principled, clearcoat, mix, add, transparent, refraction, translucent, velvet, volume)", type));
+      }
+      if (const json* d = find(m, "distribution"); d && std::find(keys.begin(), keys.end(), "distribution") != keys.end()) {
+        // Blender's microfacet distributions (material.h Microfacet), those each closure has in
+        // Cycles 3.4: Glossy all four, Glass GGX / Beckmann / Multiscatter GGX, Refraction GGX /
+        // Beckmann, Principled GGX / Multiscatter GGX.
+        const std::string dpath = sub(mpath, "distribution"), v = get_string(*d, dpath);
+        std::vector<std::pair<std::string_view, Microfacet>> known = {{"ggx", Microfacet::GGX}};
+        if (type != "principled") known.push_back({"beckmann", Microfacet::Beckmann});
+        if (type == "conductor") known.push_back({"ashikhmin_shirley", Microfacet::AshikhminShirley});
+        if (type != "refraction") known.push_back({"multi_ggx", Microfacet::MultiGGX});
+        auto it2 = std::find_if(known.begin(), known.end(), [&](const auto& k) { return k.first == v; });
+        if (it2 == known.end()) {
+          std::string names;
+          for (const auto& k : known) names += (names.empty() ? "" : ", ") + std::string(k.first);
+          fail(dpath, fmt::format("unknown distribution '{}' for a {} (known: {})", v, type, names));
+        }
+        mat.distribution = it2->second;
       }
       if (type == "conductor" || type == "principled") {
         // Anisotropy (Cycles' Anisotropic BSDF convention), its rotation (turns) and tangent.
@@ -236,6 +246,12 @@ class Loader : private JsonReader {
         mat.roughness = 0.0f;
         mat.roughness_tex = TextureRef();
         mat.cauchy_b = 0.0f;
+      }
+      if (mat.distribution == Microfacet::MultiGGX && mat.cauchy_b != 0.0f) {
+        // The spectral methods follow one walk for every wavelength; a dispersive walk's
+        // direction depends on the wavelength and its density is unknown (bsdf.cpp).
+        scene_.warnings.add("dispersive Multiscatter GGX glass rendered as GGX", fmt::format("{}: {}", file_, mpath));
+        mat.distribution = Microfacet::GGX;
       }
       if (const json* e = find(m, "emission"); e && !shading::is_link(*e)) mat.emission = get_color(*e, sub(mpath, "emission"));
       mat.emission_strength = 1.0f;

@@ -710,6 +710,39 @@ TEST(SceneLoader, CyclesClosureTypesAndDiffuseRoughness) {
   EXPECT_NE(unknown.find("translucent"), std::string::npos) << unknown;
 }
 
+TEST(SceneLoader, DistributionsAsEachBlenderClosureHasThem) {
+  // Glossy: GGX, Beckmann, Ashikhmin-Shirley, Multiscatter GGX; Glass: GGX, Beckmann,
+  // Multiscatter GGX; Refraction: GGX, Beckmann; Principled: GGX, Multiscatter GGX.
+  const Scene s = from_text(R"({"camera": {"position": [0, -5, 1], "look_at": [0, 0, 1], "width": 8, "height": 8},
+    "materials": {
+      "metal": {"type": "conductor", "roughness": 0.3, "distribution": "multi_ggx"},
+      "glass": {"type": "dielectric", "roughness": 0.3, "distribution": "multi_ggx"},
+      "frosted": {"type": "dielectric", "roughness": 0.3, "distribution": "beckmann"},
+      "refr": {"type": "refraction", "roughness": 0.3, "distribution": "beckmann"},
+      "p": {"type": "principled", "roughness": 0.3, "distribution": "multi_ggx"}},
+    "objects": [{"type": "sphere", "center": [0, 0, 1], "radius": 1, "material": "metal"}]})");
+  auto m = [&](const std::string& name) -> const Material& {
+    for (const Material& x : s.materials)
+      if (x.name == name) return x;
+    throw std::runtime_error("no material " + name);
+  };
+  EXPECT_EQ(m("metal").distribution, Microfacet::MultiGGX);
+  EXPECT_EQ(m("glass").distribution, Microfacet::MultiGGX);
+  EXPECT_EQ(m("frosted").distribution, Microfacet::Beckmann);
+  EXPECT_EQ(m("refr").distribution, Microfacet::Beckmann);
+  EXPECT_EQ(m("p").distribution, Microfacet::MultiGGX);
+  EXPECT_EQ(s.warnings.count("unknown key"), 0u);
+  const std::string refr = scene_error([] {
+    from_text(R"({"materials": {"r": {"type": "refraction", "distribution": "multi_ggx"}}})");
+  });
+  EXPECT_NE(refr.find("/materials/r/distribution: unknown distribution 'multi_ggx' for a refraction (known: ggx, beckmann)"),
+            std::string::npos) << refr;
+  const std::string glass = scene_error([] {
+    from_text(R"({"materials": {"g": {"type": "dielectric", "distribution": "ashikhmin_shirley"}}})");
+  });
+  EXPECT_NE(glass.find("known: ggx, beckmann, multi_ggx"), std::string::npos) << glass;
+}
+
 TEST(SceneLoader, PrincipledLobesAndClearcoat) {
   const Scene s = from_text(R"({"camera": {"position": [0, -5, 1], "look_at": [0, 0, 1], "width": 8, "height": 8},
     "materials": {

@@ -9,8 +9,8 @@ nodes resolved, as Cycles reads the tree). Closures:
   - Diffuse BSDF (its Roughness: Cycles' Oren-Nayar sigma), Glossy / Anisotropic BSDF (the core's
     conductor without Fresnel, as Cycles' Glossy), Glass BSDF (dielectric), Refraction BSDF (its
     refraction lobe alone), Transparent (any colour), Translucent, Velvet, Emission (two-sided, as
-    in Cycles), Mix Shader and Add Shader of any of these, nested; Beckmann, Ashikhmin-Shirley and
-    Multiscatter GGX distributions render as GGX (a counted warning);
+    in Cycles), Mix Shader and Add Shader of any of these, nested; every Distribution each node has
+    in Blender 3.4 (GGX, Beckmann, Ashikhmin-Shirley, Multiscatter GGX: the core's `distribution`);
   - Principled BSDF, as layers of the core's materials:
       the non-metal part is the core's `principled`: Cycles 3.4's two closures added, Burley's
       diffuse with its retro-reflection (roughness r) and a GGX specular lobe (alpha r^2) with the
@@ -27,7 +27,8 @@ nodes resolved, as Cycles reads the tree). Closures:
     anisotropic: `anisotropy` = sqrt(1 - 0.9 a) - 1 in the Anisotropic BSDF's convention, which
     the Anisotropic BSDF node writes as it is (GGX and Beckmann; Ashikhmin-Shirley stays isotropic
     with a counted warning); an unlinked Tangent is Cycles' radial one about the object's Z axis.
-    Subsurface is dropped and Multiscatter GGX renders as GGX (a counted warning each).
+    Its Distribution (GGX, Multiscatter GGX) is every lobe's. Subsurface is dropped (a counted
+    warning).
 
 Where a closure input needs arithmetic on linked values (roughness r -> GGX alpha r^2, the glass
 layer's (1 - m) t, the Specular IOR, a Mix's clamped factor and its emission weights) the exporter
@@ -62,6 +63,21 @@ DEFAULT = "__gradphoton_default"
 # Keys that belong to the whole material, not to one layer of it (lifted out of mix parts).
 SURFACE_KEYS = ("alpha",)
 GREY = {"type": "diffuse", "color": 0.8}
+
+
+
+# Blender 3.4's Distribution enum -> the core's `distribution` (material.h Microfacet); GGX is
+# the core's default. Sharp is Cycles 3.4's singular closure whatever the Roughness: alpha 0.
+_DISTRIBUTIONS = {'BECKMANN': "beckmann", 'ASHIKHMIN_SHIRLEY': "ashikhmin_shirley", 'MULTI_GGX': "multi_ggx"}
+
+
+def _distribution(d, node):
+    distribution = getattr(node, "distribution", 'GGX')
+    if distribution == 'SHARP':
+        d["roughness"] = 0.0
+    name = _DISTRIBUTIONS.get(distribution)
+    if name is not None:
+        d["distribution"] = name
 
 
 def _is_link(v):
@@ -237,27 +253,22 @@ class MaterialExporter:
             return self._with_normal({"type": "velvet", "color": self._in(node, path, "Color"),
                                       "sigma": min(1.0, max(0.0, sigma))}, node, path)
         glossy = kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic')
-        # The core's conductor has GGX, Beckmann and Ashikhmin-Shirley (material.h Microfacet).
-        own = {'BECKMANN': "beckmann", 'ASHIKHMIN_SHIRLEY': "ashikhmin_shirley"} if glossy else {}
-        if kind in ('ShaderNodeBsdfGlossy', 'ShaderNodeBsdfAnisotropic', 'ShaderNodeBsdfGlass',
-                    'ShaderNodeBsdfRefraction') and node.distribution not in {'GGX', 'SHARP'} | set(own):
-            self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {self._nid(node, path)} ({node.distribution})")
         if glossy:
             # Cycles' Glossy BSDF: the colour at every angle (no Fresnel).
             d = {"type": "conductor", "color": self._in(node, path, "Color"),
                  "roughness": self._square(self._num(node, path, "Roughness"), "alpha"), "fresnel": False}
-            if node.distribution in own:
-                d["distribution"] = own[node.distribution]
+            _distribution(d, node)
             if "Anisotropy" in node.inputs:  # the Anisotropic BSDF (Cycles' convention, the core's)
                 self._anisotropy(d, node, path, self._num(node, path, "Anisotropy"), "Rotation")
             return self._with_normal(d, node, path)
         if kind in ('ShaderNodeBsdfGlass', 'ShaderNodeBsdfRefraction'):
             # Refraction BSDF: glass's refraction lobe alone, without Fresnel (the core's "refraction").
-            return self._with_normal({"type": "dielectric" if kind == 'ShaderNodeBsdfGlass' else "refraction",
-                                      "color": self._in(node, path, "Color"),
-                                      "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
-                                      "ior": self.g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")},
-                                     node, path)
+            d = {"type": "dielectric" if kind == 'ShaderNodeBsdfGlass' else "refraction",
+                 "color": self._in(node, path, "Color"),
+                 "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
+                 "ior": self.g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")}
+            _distribution(d, node)
+            return self._with_normal(d, node, path)
         if kind == 'ShaderNodeHoldout':
             # Cycles' Holdout closure: the surface is cut out of the image (no colour, alpha 0) where
             # the camera sees it. Inside a Mix or Add it is a black part weighted by the mix, and
@@ -407,6 +418,7 @@ class MaterialExporter:
         ior = g.math("DIVIDE", g.math("ADD", 1.0, sf0, hint="specular"), g.math("SUBTRACT", 1.0, sf0, hint="specular"),
                      hint="specular")
         d = self._with_normal({"type": "principled", "color": base, "roughness": alpha, "ior": ior}, node, path)
+        _distribution(d, node)  # Cycles 3.4: the specular, metal and glass lobes' (GGX, Multiscatter GGX)
         # Cycles' Specular Tint and Sheen (+ Sheen Tint) belong to the non-metal part: the tint of
         # its specular lobe and a sheen lobe weighted like its diffuse one (svm_closure.h).
         spec_tint = self._clamp01(self._num(node, path, "Specular Tint"), "specular_tint")
@@ -419,12 +431,11 @@ class MaterialExporter:
         s = node.inputs.get("Subsurface")
         if s is not None and _positive(self._num(node, path, "Subsurface")):
             self.w.add("Principled BSDF Subsurface dropped", f"'{mat.name}': {nid}")
-        if node.distribution == 'MULTI_GGX':
-            self.w.add("glossy distribution rendered as GGX", f"'{mat.name}': {nid} (MULTI_GGX)")
         # Cycles' one specular closure of the metal: cspec0 = base colour, interpolated toward white
         # by the dielectric Fresnel of the same Specular-derived IOR (bsdf_util.h).
         metal = self._with_normal({"type": "conductor", "color": base, "roughness": alpha, "fresnel": "principled",
                                    "ior": ior}, node, path)
+        _distribution(metal, node)
         # Anisotropic a: Cycles' aspect sqrt(1 - 0.9 a) gives alpha_x = alpha / aspect, alpha_y =
         # alpha aspect, which is the Anisotropic BSDF's convention with anisotropy aspect - 1.
         aniso = self._num(node, path, "Anisotropic")
@@ -443,6 +454,7 @@ class MaterialExporter:
         glass = self._with_normal({"type": "dielectric", "color": base, "roughness": alpha,
                                    "ior": g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")},
                                   node, path)
+        _distribution(glass, node)
         if not _is_link(t_glass) and t_glass >= 1.0:
             d = glass
         elif _positive(t_glass):

@@ -299,9 +299,17 @@ struct PathPair {
       kept_p[d] = off[d].prev_p;
     }
 
+    // A random-walk lobe (Multiscatter GGX) draws directions of unknown density: an offset's
+    // f / p(base) cannot be formed, so offsets not sharing the base's vertex stop here (a failed
+    // shift keeps the gradient unbiased; KMA15 §4.2).
+    const bool walked = bs->stochastic;
     for (int d = 0; d < 4; ++d) {
       Offset& o = off[d];
       if (!o.alive()) continue;
+      if (walked && o.link != Link::Connected) {
+        fail(o, ShiftFailure::NotInvertible);
+        continue;
+      }
       if (o.link == Link::Connected) {
         split_at(o, bsdf, wo, bs->wi, 1.0f);
         o.beta *= base_factor;

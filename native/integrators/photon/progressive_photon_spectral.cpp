@@ -44,6 +44,10 @@ bool scatter_factors(const Scene& scene, const SurfaceHit& hit, const BsdfParams
       if (bs.delta) {  // same lobe and direction for every wavelength; only the colour differs
         const auto sk = b.sample(wo, uc, u, mode);
         f = sk ? sk->f[0] : 0.0f;
+      } else if (bs.stochastic) {  // a random walk: the same walk's weight at this wavelength
+        const auto sk = b.sample(wo, uc, u, mode);
+        f = sk && sk->wi.x == bs.wi.x && sk->wi.y == bs.wi.y && sk->wi.z == bs.wi.z ? sk->f[0] * (bs.pdf / sk->pdf)
+                                                                                    : 0.0f;
       } else {
         f = b.eval(wo, bs.wi, mode)[0];
       }

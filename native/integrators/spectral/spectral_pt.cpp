@@ -244,6 +244,12 @@ struct SpectralPath {
         if (bs->delta) {
           const auto sk = b.sample(wo, uc, u);
           f[k] = sk ? sk->f[0] : 0.0f;
+        } else if (bs->stochastic) {
+          // A random walk (Multiscatter GGX): its density is unknown, so each wavelength takes
+          // its own weight of the same walk (same numbers, same path: the colour only scales it).
+          const auto sk = b.sample(wo, uc, u);
+          f[k] = sk && sk->wi.x == bs->wi.x && sk->wi.y == bs->wi.y && sk->wi.z == bs->wi.z
+                     ? sk->f[0] * (bs->pdf / sk->pdf) : 0.0f;
         } else {
           f[k] = b.eval(wo, bs->wi)[0];
         }
