@@ -6,6 +6,7 @@
 // importance (photon) form of refraction, which differ by eta^2 (Veach 1997, §5.2).
 #pragma once
 
+#include <memory>
 #include <optional>
 
 #include "core/color.h"
@@ -33,6 +34,8 @@ struct BsdfSample {
   uint8_t lobe = 0;
 };
 
+struct MixComponents;  // below
+
 // A material's BSDF parameters at one surface point: its constants, with the inputs an image
 // texture drives looked up there. Plain values, cheap to make per hit.
 struct BsdfParams {
@@ -59,11 +62,26 @@ struct BsdfParams {
   // > 0: the parameters one wavelength (nm) sees, `color` a grey (materials/spectral_material.h);
   // a mix's components are then seen at the same wavelength. 0: RGB.
   float lambda = 0.0f;
+  // A mix's components at the same point, evaluated once with the mix (bsdf_params), so that
+  // eval, sample and pdf read them instead of re-running the components' graphs per call (as
+  // Cycles' SVM writes every closure of a shader once per shading point). Null for other types
+  // and for parameters made by hand (the components are then looked up per call).
+  std::shared_ptr<const MixComponents> parts;
+};
+
+// The components of a mix at one shading point: their RGB parameters (with their own parts)
+// and, where made for the spectral methods, their colours' spectra, upsampled once per point
+// (RgbSpectrum::reflectance_interpolated) however many wavelengths and calls read them.
+struct MixComponents {
+  BsdfParams a, b;
+  bool spectral = false;
+  RgbSpectrum spectrum_a, spectrum_b;
 };
 
 // The parameters of `m` at a shading point: its constants, the legacy image textures at the
 // point's uv, and the inputs linked into its node graph evaluated there (one run of the graph).
-BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx);
+// `spectral`: a mix's components also get their colours' spectra (MixComponents).
+BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bool spectral = false);
 // The same where only a texture coordinate is known (graphs see no position: tables, tests).
 inline BsdfParams bsdf_params(const Material& m, Vec2 uv) { return bsdf_params(m, shading::ShadingContext::at_uv(uv)); }
 
