@@ -148,49 +148,6 @@ GP_INLINE float perlin_4d(float x, float y, float z, float w) {
   return lerp(tri_mix(v, u, vv, t), tri_mix(v + 8, u, vv, t), fade(fw));
 }
 
-// perlin_3d at eight points at once, a point per lane (the octaves and colour channels of a
-// Noise Texture are independent points): per lane the same integer and float operations in the
-// same order as perlin_3d (floorfrac by std::floor, the corners' hashes and gradients, fade and
-// tri_mix), so each lane is perlin_3d's value bit for bit, with the scalar set-up (floorfrac,
-// fade, tri_mix) shared by eight points instead of repeated per point.
-GP_INLINE f32x8 fade_v(const f32x8& t) { return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f); }
-GP_INLINE f32x8 perlin_3d_lanes(const f32x8& x, const f32x8& y, const f32x8& z) {
-  f32x8 fx, fy, fz;
-  u32x8 X, Y, Z;
-  for (int l = 0; l < 8; ++l) {
-    int xi, yi, zi;
-    fx[l] = floorfrac(x[l], &xi), fy[l] = floorfrac(y[l], &yi), fz[l] = floorfrac(z[l], &zi);
-    X[l] = static_cast<uint32_t>(xi), Y[l] = static_cast<uint32_t>(yi), Z[l] = static_cast<uint32_t>(zi);
-  }
-  f32x8 g[8];
-  for (int k = 0; k < 8; ++k) {
-    const uint32_t dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
-    g[k] = grad3_v(hash_uint3_v(X + dx, Y + dy, Z + dz), fx - static_cast<float>(dx), fy - static_cast<float>(dy),
-                   fz - static_cast<float>(dz));
-  }
-  const f32x8 u = fade_v(fx), v = fade_v(fy), w = fade_v(fz);  // tri_mix(g, u, v, w):
-  const f32x8 u1 = 1.0f - u, v1 = 1.0f - v, w1 = 1.0f - w;
-  return w1 * (v1 * (g[0] * u1 + g[1] * u) + v * (g[2] * u1 + g[3] * u)) +
-         w * (v1 * (g[4] * u1 + g[5] * u) + v * (g[6] * u1 + g[7] * u));
-}
-// unoise_in(q[i], 3) for i < n, eight points at a time.
-GP_INLINE void unoise_3d_many(const Vec4* q, int n, float* out) {
-  const u32x8 exp_mask = u32x8{} + 0x7F800000u;
-  for (int base = 0; base < n; base += 8) {
-    f32x8 x, y, z;
-    for (int l = 0; l < 8; ++l) {
-      const Vec4& p = q[std::min(base + l, n - 1)];
-      x[l] = p[0], y[l] = p[1], z[l] = p[2];
-    }
-    const f32x8 v = perlin_3d_lanes(x, y, z);
-    // ensure_finite: zero where every exponent bit is set (an infinity or a NaN)
-    const u32x8 finite = (u32x8)(((u32x8)v & exp_mask) != exp_mask);
-    const f32x8 s = 0.9820f * (f32x8)((u32x8)v & finite);  // snoise_3d
-    const f32x8 t = 0.5f * s + 0.5f;
-    for (int l = 0; l < 8 && base + l < n; ++l) out[base + l] = t[l];
-  }
-}
-
 float ensure_finite(float v) { return std::isfinite(v) ? v : 0.0f; }
 
 Vec4 scaled(const Vec4& p, float s) {
@@ -239,50 +196,26 @@ GP_INLINE float snoise_in(const Vec4& p, int dims) {
 }
 GP_INLINE float unoise_in(const Vec4& p, int dims) { return 0.5f * snoise_in(p, dims) + 0.5f; }  // unoise
 
-// Cycles 3.4's fractal_noise_Nd: octaves clamped to [0, 16], roughness to [0, 1]. It reads
-// unoise at p * 2^i for i = 0 .. n (n = the whole octaves) and at p * 2^(n + 1) when octaves
-// has a fraction: fractal_points says how many, fractal_sum adds the values t[i] in its order.
-constexpr int kMaxFractalPoints = 18;
-GP_INLINE int fractal_points(float octaves) {
-  octaves = std::clamp(octaves, 0.0f, 16.0f);
-  const int n = static_cast<int>(octaves);  // (a NaN's: no whole octave, one fractional)
-  return std::max(n + 1, 0) + (octaves - std::floor(octaves) != 0.0f ? 1 : 0);
-}
-GP_INLINE float fractal_sum(const float* t, float octaves, float roughness) {
-  float amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
+// Cycles 3.4's fractal_noise_Nd: octaves clamped to [0, 16], roughness to [0, 1].
+GP_INLINE float fractal_noise_in(const Vec4& p, int dims, float octaves, float roughness) {
+  float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
   octaves = std::clamp(octaves, 0.0f, 16.0f);
   roughness = std::clamp(roughness, 0.0f, 1.0f);
   const int n = static_cast<int>(octaves);
-  int i = 0;
-  for (; i <= n; ++i) {
-    sum += t[i] * amp;
+  for (int i = 0; i <= n; ++i) {
+    const float t = unoise_in(scaled(p, fscale), dims);
+    sum += t * amp;
     maxamp += amp;
     amp *= roughness;
+    fscale *= 2.0f;
   }
   const float rmd = octaves - std::floor(octaves);
   if (rmd != 0.0f) {
-    const float sum2 = (sum + t[i] * amp) / (maxamp + amp);
+    const float t = unoise_in(scaled(p, fscale), dims);
+    const float sum2 = (sum + t * amp) / (maxamp + amp);
     return (1.0f - rmd) * (sum / maxamp) + rmd * sum2;
   }
   return sum / maxamp;
-}
-// The points p * 2^i fractal_sum reads (fscale doubled per octave, as the loop does).
-GP_INLINE int fractal_octave_points(const Vec4& p, float octaves, Vec4* out) {
-  const int count = fractal_points(octaves);
-  float fscale = 1.0f;
-  for (int i = 0; i < count; ++i, fscale *= 2.0f) out[i] = scaled(p, fscale);
-  return count;
-}
-GP_INLINE float fractal_noise_in(const Vec4& p, int dims, float octaves, float roughness) {
-  Vec4 q[kMaxFractalPoints];
-  float t[kMaxFractalPoints];
-  const int count = fractal_octave_points(p, octaves, q);
-  if (dims == 3) {
-    unoise_3d_many(q, count, t);
-  } else {
-    for (int i = 0; i < count; ++i) t[i] = unoise_in(q[i], dims);
-  }
-  return fractal_sum(t, octaves, roughness);
 }
 }  // namespace
 
@@ -300,25 +233,10 @@ GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float 
     for (int i = 0; i < dims; ++i) d[i] = snoise_in(added(p, random_offset(i, dims)), dims) * distortion;
     p = added(p, d);
   }
-  // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
-  const int s = dims == 1 ? 1 : dims;
-  if (dims == 3) {
-    // The three fBMs' octaves are independent points: their noise is evaluated together.
-    Vec4 q[3 * kMaxFractalPoints];
-    float t[3 * kMaxFractalPoints];
-    const int count = fractal_octave_points(p, detail, q);
-    if (want_color) {
-      fractal_octave_points(added(p, random_offset(s, dims)), detail, q + count);
-      fractal_octave_points(added(p, random_offset(s + 1, dims)), detail, q + 2 * count);
-    }
-    unoise_3d_many(q, want_color ? 3 * count : count, t);
-    *value = fractal_sum(t, detail, roughness);
-    if (want_color)
-      *color = Vec3(*value, fractal_sum(t + count, detail, roughness), fractal_sum(t + 2 * count, detail, roughness));
-    return;
-  }
   *value = fractal_noise_in(p, dims, detail, roughness);
   if (want_color) {
+    // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
+    const int s = dims == 1 ? 1 : dims;
     *color = Vec3(*value, fractal_noise_in(added(p, random_offset(s, dims)), dims, detail, roughness),
                   fractal_noise_in(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
   }

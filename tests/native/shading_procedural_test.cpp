@@ -118,8 +118,8 @@ TEST(ShadingProcedural, PerlinBitForBitAsTheScalarFormulas) {
     }
 }
 
-// The Noise Texture (3D) bit for bit against noisetex.h's scalar loop: procedural.cpp evaluates
-// the octaves of its value and colour fBMs (and their points) eight at a time, a point per lane.
+// The Noise Texture (3D) bit for bit against noisetex.h's scalar loop (a guard for any
+// reordering of its fBMs' octaves or colour channels, e.g. evaluating their points together).
 // Whole and fractional detail (a last, partial octave), roughness, distortion, a NaN detail,
 // and points far out (cells of 2^20).
 namespace ref {
