@@ -124,8 +124,7 @@ TEST(BsdfMixCache, ComponentsRunTheirGraphsOnceWhenTheBsdfIsMade) {
   EXPECT_EQ(ShaderProgram::runs_on_this_thread(), r2) << "a wavelength re-ran a component's graph";
 }
 
-TEST(BsdfMixCache, CachedComponentsGiveExactlyWhatPerCallLookupsGave) {
-  const auto m = nested_mix();
+void check_against_lookups(const std::shared_ptr<const Material>& m) {
   const ShadingContext ctx = point();
   // Without parts, the components are looked up per call (parameters made by hand).
   auto uncached = [&](BsdfParams p) {
@@ -147,6 +146,13 @@ TEST(BsdfMixCache, CachedComponentsGiveExactlyWhatPerCallLookupsGave) {
     ASSERT_EQ(cached.size(), looked_up.size());
     for (size_t i = 0; i < cached.size(); ++i) EXPECT_EQ(cached[i], looked_up[i]) << lambda << " nm, value " << i;
   }
+}
+
+TEST(BsdfMixCache, CachedComponentsGiveExactlyWhatPerCallLookupsGave) {
+  // One level (the reference looks its components up per call) and the nested mix.
+  for (const auto& m : {mix_of(diffuse_textured(), conductor_textured(), false, true),
+                        mix_of(glass_textured(), diffuse_textured(), true, false), nested_mix()})
+    check_against_lookups(m);
 }
 
 }  // namespace
