@@ -1539,8 +1539,18 @@ MaterialType Bsdf::kind() const {
 }
 
 Bsdf Bsdf::component(const Material* m) const {
-  // Seen at the mix's wavelength when spectral: its colour upsampled at this point.
-  Bsdf b(p_.lambda > 0 ? SpectralSurface(*m, ctx_, nullptr).at(p_.lambda) : bsdf_params(*m, ctx_), ctx_);
+  const MixComponents* parts = p_.parts.get();
+  const bool cached = parts && (m == p_.mix_a || m == p_.mix_b) && (p_.lambda <= 0 || parts->spectral);
+  BsdfParams params;
+  if (cached) {  // evaluated once with the mix (bsdf_params)
+    const bool a = m == p_.mix_a;
+    const BsdfParams& rgb = a ? parts->a : parts->b;
+    params = p_.lambda > 0 ? at_wavelength(*m, rgb, a ? parts->spectrum_a : parts->spectrum_b, p_.lambda) : rgb;
+  } else {
+    // Seen at the mix's wavelength when spectral: its colour upsampled at this point.
+    params = p_.lambda > 0 ? SpectralSurface(*m, ctx_, nullptr).at(p_.lambda) : bsdf_params(*m, ctx_);
+  }
+  Bsdf b(params, ctx_);
   b.ng_ = ng_;
   b.p_.smooth_normal = p_.smooth_normal;
   return b;
@@ -1550,7 +1560,7 @@ namespace {
 float finite_or(float v, float fallback) { return std::isfinite(v) ? v : fallback; }
 }  // namespace
 
-BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
+BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bool spectral) {
   const Vec2 uv = ctx.uv;
   BsdfParams p;
   p.type = m.type;
@@ -1595,6 +1605,18 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx) {
     // linear Rec. 709 Y) for the sheen's.
     p.specular_tint_lum = 0.3f * p.color.r + 0.6f * p.color.g + 0.1f * p.color.b;
     p.sheen_tint_lum = 0.2126729f * p.color.r + 0.7151522f * p.color.g + 0.0721750f * p.color.b;
+  }
+  if (p.type == MaterialType::Mix && p.mix_a && p.mix_b) {
+    // After this material's own graph is read: the components' runs reuse the thread's registers.
+    auto parts = std::make_shared<MixComponents>();
+    parts->a = bsdf_params(*p.mix_a, ctx, spectral);
+    parts->b = bsdf_params(*p.mix_b, ctx, spectral);
+    if (spectral) {
+      parts->spectral = true;
+      parts->spectrum_a = RgbSpectrum::reflectance_interpolated(parts->a.color);
+      parts->spectrum_b = RgbSpectrum::reflectance_interpolated(parts->b.color);
+    }
+    p.parts = std::move(parts);
   }
   return p;
 }
@@ -1679,22 +1701,27 @@ namespace {
 // (kernel/closure/alloc.h: sample_weight = |average(weight)|), a Mix's scaled by its factor
 // and summed. RGB at every wavelength, as Cycles'. Principled and plastic count their colour
 // once (Cycles splits them into closures weighted by Fresnel: not modelled).
-float closure_weight(const Material& m, const shading::ShadingContext& uv) {
-  const BsdfParams p = bsdf_params(m, uv);
+// `p`: the material's RGB parameters at the point (a mix's cached parts; else looked up at ctx).
+float closure_weight(const BsdfParams& p, const shading::ShadingContext& ctx) {
   if (p.type == MaterialType::Emission) return 0.0f;
   // Cycles' clearcoat sample weight is 0.25 clearcoat x its Fresnel at wo (unknown here): at
   // normal incidence, 0.04.
   if (p.type == MaterialType::Clearcoat) return 0.04f * clearcoat_weight(p);
   if (p.type != MaterialType::Mix || !p.mix_a || !p.mix_b) return std::abs(p.color.average());
   const MixParts s = mix_parts(p);
-  return s.scale_a * closure_weight(*p.mix_a, uv) + s.scale_b * closure_weight(*p.mix_b, uv);
+  if (p.parts) return s.scale_a * closure_weight(p.parts->a, ctx) + s.scale_b * closure_weight(p.parts->b, ctx);
+  return s.scale_a * closure_weight(bsdf_params(*p.mix_a, ctx), ctx) +
+         s.scale_b * closure_weight(bsdf_params(*p.mix_b, ctx), ctx);
 }
 }  // namespace
 
 float Bsdf::closure_pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
   if (kind() != MaterialType::Mix) return pdf(wo, wi, lobes);
   const MixParts p = mix_parts(p_);
-  const float wa = p.scale_a * closure_weight(*p_.mix_a, ctx_), wb = p.scale_b * closure_weight(*p_.mix_b, ctx_);
+  // The components' RGB parameters (a spectral mix's parts hold them too).
+  const bool cached = p_.parts != nullptr;
+  const float wa = p.scale_a * closure_weight(cached ? p_.parts->a : bsdf_params(*p_.mix_a, ctx_), ctx_),
+              wb = p.scale_b * closure_weight(cached ? p_.parts->b : bsdf_params(*p_.mix_b, ctx_), ctx_);
   if (!(wa + wb > 0)) return pdf(wo, wi, lobes);
   float sum = 0;
   if (wa > 0) sum += wa * component(p_.mix_a).closure_pdf(wo, wi, lobes);

@@ -6,6 +6,7 @@
 // importance (photon) form of refraction, which differ by eta^2 (Veach 1997, §5.2).
 #pragma once
 
+#include <memory>
 #include <optional>
 
 #include "core/color.h"
@@ -42,6 +43,7 @@ struct BsdfSample {
 // MIS state across such a pass, as Cycles keeps mis_ray_pdf over transparent bounces
 // (integrate_surface_bsdf_bssrdf_bounce), and photons that only passed them are direct light.
 inline bool is_transparent_pass(const BsdfSample& bs) { return bs.delta && bs.transmission && bs.eta == 1.0f; }
+struct MixComponents;  // below
 
 // A material's BSDF parameters at one surface point: its constants, with the inputs an image
 // texture drives looked up there. Plain values, cheap to make per hit.
@@ -72,11 +74,26 @@ struct BsdfParams {
   // Multiscatter GGX: the shading point's part of the key of its random walks' streams (set by
   // Bsdf from the point; bsdf.cpp).
   uint64_t walk_salt = 0;
+  // A mix's components at the same point, evaluated once with the mix (bsdf_params), so that
+  // eval, sample and pdf read them instead of re-running the components' graphs per call (as
+  // Cycles' SVM writes every closure of a shader once per shading point). Null for other types
+  // and for parameters made by hand (the components are then looked up per call).
+  std::shared_ptr<const MixComponents> parts;
+};
+
+// The components of a mix at one shading point: their RGB parameters (with their own parts)
+// and, where made for the spectral methods, their colours' spectra, upsampled once per point
+// (RgbSpectrum::reflectance_interpolated) however many wavelengths and calls read them.
+struct MixComponents {
+  BsdfParams a, b;
+  bool spectral = false;
+  RgbSpectrum spectrum_a, spectrum_b;
 };
 
 // The parameters of `m` at a shading point: its constants, the legacy image textures at the
 // point's uv, and the inputs linked into its node graph evaluated there (one run of the graph).
-BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx);
+// `spectral`: a mix's components also get their colours' spectra (MixComponents).
+BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bool spectral = false);
 // The same where only a texture coordinate is known (graphs see no position: tables, tests).
 inline BsdfParams bsdf_params(const Material& m, Vec2 uv) { return bsdf_params(m, shading::ShadingContext::at_uv(uv)); }
 

@@ -22,6 +22,10 @@ inline bool is_dispersive(const Material& m) {
   return m.type == MaterialType::Dielectric && m.cauchy_b != 0.0f;
 }
 
+// Material m's RGB parameters `rgb` at a point seen at wavelength lambda (nm): the colour
+// replaced by `color`'s value at lambda (a grey), a dispersive IOR by Cauchy's equation.
+BsdfParams at_wavelength(const Material& m, const BsdfParams& rgb, const RgbSpectrum& color, float lambda);
+
 // Material m at texture coordinate uv, ready to be read at any wavelength: its textures are
 // looked up and its colour upsampled once, however many wavelengths a path carries.
 class SpectralSurface {
@@ -35,6 +39,8 @@ class SpectralSurface {
   SpectralSurface& operator=(const SpectralSurface&) = delete;
   // m's parameters at wavelength lambda (nm).
   BsdfParams at(float lambda) const;
+  // Its RGB parameters at the point (a mix's components with their spectra).
+  const BsdfParams& rgb() const { return rgb_; }
 
  private:
   const Material& m_;

@@ -94,7 +94,13 @@ void ShaderProgram::run_op(uint32_t i, const ShadingContext& ctx, Vec3* regs) co
   op.type->eval(a);
 }
 
+namespace {
+thread_local uint64_t tl_runs = 0;
+}  // namespace
+uint64_t ShaderProgram::runs_on_this_thread() { return tl_runs; }
+
 void ShaderProgram::run(const ShadingContext& ctx, Vec3* regs) const {
+  ++tl_runs;
   std::copy(constants_.begin(), constants_.end(), regs);
   for (uint32_t i = 0; i < ops_.size(); ++i) run_op(i, ctx, regs);
 }

@@ -164,6 +164,9 @@ class ShaderProgram {
   void run(const ShadingContext& ctx, Vec3* regs) const;
   // Runs, and returns the value at `source` (convenience for tests and single reads).
   Vec3 evaluate(const ShadingContext& ctx, InputSource source) const;
+  // How many runs (of any program) this thread has made: what tests count to see that a
+  // shading point evaluates each graph once.
+  static uint64_t runs_on_this_thread();
 
   size_t num_registers() const { return constants_.size(); }
   const std::vector<Vec3>& constants() const { return constants_; }

@@ -118,6 +118,91 @@ TEST(ShadingProcedural, PerlinBitForBitAsTheScalarFormulas) {
     }
 }
 
+// The Noise Texture (3D) bit for bit against noisetex.h's scalar loop (a guard for any
+// reordering of its fBMs' octaves or colour channels, e.g. evaluating their points together).
+// Whole and fractional detail (a last, partial octave), roughness, distortion, a NaN detail,
+// and points far out (cells of 2^20).
+namespace ref {
+float unoise3(const Vec4& p) {
+  const float v = perlin(p, 3);
+  return 0.5f * (0.9820f * (std::isfinite(v) ? v : 0.0f)) + 0.5f;
+}
+float fractal3(const Vec4& p, float octaves, float roughness) {  // fractal_noise_3d
+  float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum = 0.0f;
+  octaves = std::clamp(octaves, 0.0f, 16.0f);
+  roughness = std::clamp(roughness, 0.0f, 1.0f);
+  const int n = static_cast<int>(octaves);
+  for (int i = 0; i <= n; ++i) {
+    Vec4 q;
+    for (int k = 0; k < 4; ++k) q[k] = p[k] * fscale;
+    sum += unoise3(q) * amp;
+    maxamp += amp;
+    amp *= roughness;
+    fscale *= 2.0f;
+  }
+  const float rmd = octaves - std::floor(octaves);
+  if (rmd != 0.0f) {
+    Vec4 q;
+    for (int k = 0; k < 4; ++k) q[k] = p[k] * fscale;
+    const float sum2 = (sum + unoise3(q) * amp) / (maxamp + amp);
+    return (1.0f - rmd) * (sum / maxamp) + rmd * sum2;
+  }
+  return sum / maxamp;
+}
+Vec4 offset3(float seed) {  // noisetex.h's random_float3_offset
+  Vec4 r;
+  for (int i = 0; i < 3; ++i) r[i] = 100.0f + hash_float2_to_float(seed, static_cast<float>(i)) * 100.0f;
+  return r;
+}
+Vec4 plus(const Vec4& a, const Vec4& b) {
+  Vec4 r;
+  for (int k = 0; k < 4; ++k) r[k] = a[k] + b[k];
+  return r;
+}
+}  // namespace ref
+
+TEST(ShadingProcedural, NoiseTexture3DBitForBitAsTheScalarLoop) {
+  uint64_t state = 777;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(state >> 40) / static_cast<float>(1 << 24);
+  };
+  auto bits = [](float f) {
+    uint32_t b;
+    std::memcpy(&b, &f, 4);
+    return b;
+  };
+  const float details[] = {0.0f, 1.0f, 2.0f, 2.5f, 5.75f, 15.0f, 16.0f, 20.0f, std::nanf("")};
+  for (int i = 0; i < 6000; ++i) {
+    Vec4 p;
+    const float s = i % 3 == 0 ? 2e6f : (i % 3 == 1 ? 20.0f : 1e-3f);
+    for (int k = 0; k < 3; ++k) p[k] = (next() - 0.5f) * s;
+    const float detail = details[i % 9], roughness = next() * 1.2f, distortion = i % 4 == 0 ? next() * 3.0f : 0.0f;
+    // noisetex.h: distortion by snoise at seeded offsets, then the value and colour fBMs.
+    Vec4 q = p;
+    if (distortion != 0.0f) {
+      Vec4 d;
+      for (int k = 0; k < 3; ++k) {
+        const float v = ref::perlin(ref::plus(p, ref::offset3(static_cast<float>(k))), 3);
+        d[k] = 0.9820f * (std::isfinite(v) ? v : 0.0f) * distortion;
+      }
+      q = ref::plus(p, d);
+    }
+    const float ev = ref::fractal3(q, detail, roughness);
+    const float eg = ref::fractal3(ref::plus(q, ref::offset3(3.0f)), detail, roughness);
+    const float eb = ref::fractal3(ref::plus(q, ref::offset3(4.0f)), detail, roughness);
+    float value, alone;
+    Vec3 color, unused;
+    noise_texture(p, 3, detail, roughness, distortion, true, &value, &color);
+    noise_texture(p, 3, detail, roughness, distortion, false, &alone, &unused);
+    ASSERT_EQ(bits(value), bits(ev)) << "value at (" << p[0] << ", " << p[1] << ", " << p[2] << "), detail " << detail;
+    ASSERT_EQ(bits(alone), bits(ev)) << "value without colour, detail " << detail;
+    ASSERT_EQ(bits(color.x), bits(ev));
+    ASSERT_EQ(bits(color.y), bits(eg)) << "green at (" << p[0] << ", " << p[1] << ", " << p[2] << "), detail " << detail;
+    ASSERT_EQ(bits(color.z), bits(eb)) << "blue, detail " << detail;
+  }
+}
+
 // Voronoi F1 and F2 (Euclidean, Manhattan, Chebychev) bit for bit against voronoi.h's loop with
 // each cell hashed and measured on its own: procedural.cpp hashes the neighbourhood and measures
 // its distances over vector lanes, and reuses a 3D cell's hash as its colour (both

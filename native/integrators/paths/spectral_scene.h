@@ -50,10 +50,21 @@ BsdfParams monochromatic(const Material& m, const RgbSpectrum& albedo, Vec2 uv, 
 class WavelengthParams {
  public:
   WavelengthParams() {}  // leaves params_ unconstructed: nothing is written unless make() is called
+  WavelengthParams(const WavelengthParams&) = delete;
+  WavelengthParams& operator=(const WavelengthParams&) = delete;
+  // (a mix's parameters hold their components: destroyed with the array)
+  ~WavelengthParams() {
+    if (made_) std::destroy_at(&params_);
+  }
   // The array, constructed (it is then written in full by the caller).
-  BsdfParams* make() { return std::construct_at(&params_)->data(); }
+  BsdfParams* make() {
+    if (made_) std::destroy_at(&params_);
+    made_ = true;
+    return std::construct_at(&params_)->data();
+  }
 
  private:
+  bool made_ = false;
   union {
     std::array<BsdfParams, kMaxWavelengths> params_;
   };

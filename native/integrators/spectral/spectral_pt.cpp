@@ -190,7 +190,8 @@ struct SpectralPath {
       mk[k] = surface.at(wl.lambda[k]);
       bk[k] = scene.bsdf(mk[k], hit);  // with the hit's normals (a normal map's bump shadowing)
     }
-    return !scene.bsdf(hit).is_black();
+    // The RGB parameters the surface already holds (its graph run once per hit, not again).
+    return !Bsdf(surface.rgb()).is_black();
   }
   bool is_delta() const { return bk[0]->is_delta(); }
   // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
