@@ -11,14 +11,11 @@ cd "$(dirname "$0")/.."
 [ $# -ge 2 ] || { echo "usage: scripts/fuzz.sh scene|obj|exr|vdb|all SECONDS [libFuzzer flags]" >&2; exit 2; }
 what="$1" seconds="$2"
 shift 2
-# `all` leaves vdb out: libFuzzer on .vdb files stops inside OpenVDB 10's own reader, which is
-# not hardened against hostile files (a node leaked when a corrupt topology throws, file bytes
-# loaded as bools, a blosc length taken from the file and allocated: AddressSanitizer aborts on
-# the 450 PB request that a normal build turns into std::bad_alloc, which our loader reports as
-# an error naming the file). The lengths before each grid's tree (strings, metadata, positions)
-# are checked by the loader's own scan (media/vdb_file.cpp ArchiveScan, docs/reliability.md). Our loader's own code is covered by `scripts/fuzz.sh vdb SECONDS`
-# run by hand and by CTest's replay of fuzz/corpus/vdb (fuzz_corpus_vdb) in the normal build.
-targets=(scene obj exr)
+# vdb: the loader walks each file's whole archive (header, metadata, descriptors, transforms,
+# tree topology and buffers, blosc / zip chunk headers) before OpenVDB 10 reads it, so a length
+# or count from the file never reaches OpenVDB's own allocations (media/vdb_file.cpp ArchiveScan,
+# docs/reliability.md); its seeds are written by fuzz/vdb_corpus.cpp.
+targets=(scene obj exr vdb)
 [ "$what" = all ] || targets=("$what")
 
 if [ ! -f build-fuzz/build.ninja ]; then

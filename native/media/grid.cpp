@@ -123,9 +123,13 @@ float GridMedium::density_at(const Vec3& idx) const {
 
 RGB GridMedium::color_at(const Vec3& idx) const {
   if (!color_) return params_.color;
-  float c[3];
+  float c[4];
   color_->lookup(idx, c);
   if (color_->channels == 1) c[1] = c[2] = c[0];
+  // A smoke domain's colour (channels 4: r d, g d, b d, d): Cycles unpremultiplies after the
+  // interpolation (kernel/geom/volume.h, volume_attribute_value_to_float3).
+  if (color_->channels == 4 && c[3] > 1e-6f && c[3] != 1.0f)
+    for (int k = 0; k < 3; ++k) c[k] /= c[3];
   return params_.color * RGB(std::max(c[0], 0.0f), std::max(c[1], 0.0f), std::max(c[2], 0.0f));
 }
 
@@ -154,8 +158,12 @@ void GridMedium::build_blocks() {
     if (density_) b.density = std::max(b.density, std::max(density_->at(i, j, k), 0.0f));
     else b.density = 1.0f;
     if (color_) {
+      // (Premultiplied: an unpremultiplied interpolation is a weighted mean of the voxels' own
+      // colours where the alpha is positive, else the premultiplied value; both are bounded.)
+      const float alpha = color_->channels == 4 ? color_->at(i, j, k, 3) : 0.0f;
       for (int c = 0; c < 3; ++c) {
-        const float v = std::max(color_->at(i, j, k, color_->channels == 3 ? c : 0), 0.0f);
+        float v = std::max(color_->at(i, j, k, color_->channels == 1 ? 0 : c), 0.0f);
+        if (alpha > 0) v = std::max(v, v / alpha);
         b.color[c] = std::max(b.color[c], params_.color[c] * v);
       }
     } else {

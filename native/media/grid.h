@@ -47,14 +47,16 @@ struct Affine {
   bool is_finite() const;
 };
 
-// One grid: scalar (channels 1) or vector (channels 3, a colour), dense over index box
+// One grid: scalar (channels 1), vector (channels 3, a colour) or a colour premultiplied by an
+// alpha (channels 4: a smoke domain's colour times its density, as Blender hands it to Cycles;
+// media read its colour unpremultiplied after interpolation), dense over index box
 // [lo, lo + size) and `background` outside.
 struct VoxelGrid {
   std::string name;
   int channels = 1;
   std::array<int, 3> lo{0, 0, 0}, size{0, 0, 0};
   std::vector<float> data;  // (x fastest) * channels
-  std::array<float, 3> background{0, 0, 0};
+  std::array<float, 4> background{0, 0, 0, 0};
   Affine index_to_object;   // the grid's own transform (OpenVDB: index space to the file's space)
 
   int64_t voxels() const { return int64_t(size[0]) * size[1] * size[2]; }

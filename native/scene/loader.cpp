@@ -372,7 +372,8 @@ class Loader : private JsonReader {
   std::shared_ptr<const GridMedium> load_grid_medium(const json& g, const std::string& path) {
     require_object(g, path);
     check_keys(g, path, {"file", "density_grid", "color_grid", "temperature_grid", "transform", "density", "color",
-                         "absorption_color", "blackbody_intensity", "blackbody_tint", "temperature"});
+                         "absorption_color", "blackbody_intensity", "blackbody_tint", "temperature",
+                         "smoke_color_grids", "flame_temperature"});
     need(g, "file", path);
     std::filesystem::path file = get_string(g["file"], sub(path, "file"));
     if (file.is_relative() && !base_dir_.empty()) file = std::filesystem::path(base_dir_) / file;
@@ -392,9 +393,17 @@ class Loader : private JsonReader {
       }
     };
     auto density = grid("density_grid"), color = grid("color_grid"), temperature = grid("temperature_grid");
+    if (const json* n = find(g, "smoke_color_grids")) {
+      if (color) fail(path, "gives both 'color_grid' and 'smoke_color_grids'");
+      color = smoke_color(*n, file.string(), sub(path, "smoke_color_grids"));
+    }
+    if (const json* f = find(g, "flame_temperature")) {
+      if (!temperature) fail(sub(path, "flame_temperature"), "needs a 'temperature_grid' (the flame grid)");
+      temperature = flame_temperature(*temperature, *f, sub(path, "flame_temperature"));
+    }
     if (!density && !color && !temperature)
       fail(path, "names no grid: give 'density_grid', 'color_grid' or 'temperature_grid'");
-    if (color && color->channels != 3 && color->channels != 1) fail(sub(path, "color_grid"), "not a colour or float grid");
+    if (color && color->channels != 3 && color->channels != 1 && color->channels != 4) fail(sub(path, "color_grid"), "not a colour or float grid");
     if (density && density->channels != 1) fail(sub(path, "density_grid"), "is a vector grid, not a float grid");
     if (temperature && temperature->channels != 1) fail(sub(path, "temperature_grid"), "is a vector grid, not a float grid");
     GridMediumParams params;
@@ -416,6 +425,71 @@ class Loader : private JsonReader {
     } catch (const std::invalid_argument& e) {
       fail(path, fmt::format("{}: {}", file.string(), e.what()));
     }
+  }
+
+  // A baked smoke domain's colour as Cycles gets it from Blender (rna_fluid.c color_grid:
+  // manta_smoke_get_rgba, the colour grids times the density, the density as alpha): the
+  // file's grids [r, g, b, density] as one premultiplied RGBA grid over their common box
+  // (media/grid.h, channels 4). Negative densities are 0 (the majorant's bound needs alpha >= 0).
+  std::shared_ptr<const VoxelGrid> smoke_color(const json& names, const std::string& file, const std::string& path) {
+    if (!names.is_array() || names.size() != 4)
+      fail(path, "is not a list of four grid names (red, green, blue, density)");
+    std::shared_ptr<const VoxelGrid> parts[4];
+    for (int c = 0; c < 4; ++c) {
+      const std::string name = get_string(names[c], sub(path, std::to_string(c)));
+      try {
+        parts[c] = read_vdb_grid(file, name);
+      } catch (const VdbError& e) {
+        fail(sub(path, std::to_string(c)), e.what());
+      }
+      if (parts[c]->channels != 1) fail(sub(path, std::to_string(c)), fmt::format("'{}' is a vector grid, not a float grid", name));
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 4; ++j)
+          if (std::abs(parts[c]->index_to_object.m[i][j] - parts[0]->index_to_object.m[i][j]) >
+              1e-5f * (1 + std::abs(parts[0]->index_to_object.m[i][j])))
+            fail(path, fmt::format("{}: grids '{}' and '{}' have different transforms (not resampled)", file,
+                                   parts[0]->name, name));
+    }
+    auto rgba = std::make_shared<VoxelGrid>();
+    rgba->name = parts[0]->name + "+" + parts[3]->name;
+    rgba->channels = 4;
+    rgba->index_to_object = parts[0]->index_to_object;
+    std::array<int, 3> hi{};
+    for (int a = 0; a < 3; ++a) {
+      rgba->lo[a] = parts[0]->lo[a];
+      hi[a] = parts[0]->lo[a] + parts[0]->size[a];
+      for (const auto& p : parts) {
+        if (p->voxels() == 0) continue;
+        rgba->lo[a] = std::min(rgba->lo[a], p->lo[a]);
+        hi[a] = std::max(hi[a], p->lo[a] + p->size[a]);
+      }
+      rgba->size[a] = std::max(0, hi[a] - rgba->lo[a]);
+    }
+    if (rgba->voxels() > kMaxGridVoxels) fail(path, fmt::format("{}: the colour grids span more than {} voxels", file, kMaxGridVoxels));
+    rgba->data.resize(static_cast<size_t>(rgba->voxels()) * 4);
+    size_t at = 0;
+    for (int k = rgba->lo[2]; k < hi[2]; ++k)
+      for (int j = rgba->lo[1]; j < hi[1]; ++j)
+        for (int i = rgba->lo[0]; i < hi[0]; ++i) {
+          const float d = std::max(parts[3]->at(i, j, k), 0.0f);
+          for (int c = 0; c < 3; ++c) rgba->data[at++] = parts[c]->at(i, j, k) * d;
+          rgba->data[at++] = d;
+        }
+    const float d = std::max(parts[3]->background[0], 0.0f);
+    for (int c = 0; c < 3; ++c) rgba->background[c] = parts[c]->background[0] * d;
+    rgba->background[3] = d;
+    return rgba;
+  }
+  // A smoke domain's temperature as Cycles gets it from Blender (rna_fluid.c temperature_grid):
+  // each voxel's flame f becomes ignition + f (max - ignition) where f > 0.01, else 0.
+  std::shared_ptr<const VoxelGrid> flame_temperature(const VoxelGrid& flame, const json& j, const std::string& path) {
+    if (!j.is_array() || j.size() != 2) fail(path, "is not [ignition, maximum temperature]");
+    const float ignition = get_float(j[0], sub(path, "0")), max_temp = get_float(j[1], sub(path, "1"));
+    auto t = std::make_shared<VoxelGrid>(flame);
+    auto map = [&](float f) { return f > 0.01f ? ignition + f * (max_temp - ignition) : 0.0f; };
+    for (float& v : t->data) v = map(v);
+    t->background[0] = map(flame.background[0]);
+    return t;
   }
 
   int medium_by_name(const json& j, const std::string& path) const {

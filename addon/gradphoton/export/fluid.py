@@ -7,11 +7,16 @@ sync_smoke_volume / BlenderSmokeLoader) reads the same simulation through the do
 and maps the grid of the domain's resolution onto the domain mesh's texture space (its
 bounding box), so this maps the file's index space [0, resolution] onto that box, whatever
 transform the file's grids carry, then through the object's matrix. The Principled Volume's
-attributes name grids as Cycles' standard attributes do: "density" and "flame" are the file's
-grids of those names. Cycles' "color" (the cache's color_r/g/b) and "temperature" (derived from
-the flame by the domain's ignition and maximum temperatures) have no grid of the file that
-holds them as Cycles reads them: a material that reads them is one warning naming the domain,
-and the rest renders. A domain not baked (no file for the frame), a cache in another format, an
+attributes name grids as Cycles' standard attributes do (rna_fluid.c's grids, which Cycles'
+BlenderSmokeLoader reads): "density" and "flame" are the file's grids of those names; "color" is
+the file's color_r / color_g / color_b times its density, unpremultiplied after interpolation
+(manta_smoke_get_rgba; the scene format's smoke_color_grids); "temperature" is the file's flame
+mapped voxel by voxel to ignition + flame x (maximum - ignition) where the flame exceeds 0.01,
+else 0 (rna_FluidModifier_temperature_grid_get; the scene format's flame_temperature). (The
+file's own "temperature" grid is the simulation's heat, not Cycles' temperature.) An attribute
+the file does not hold as Cycles reads it ("heat", "velocity", "color" of a domain without
+colour grids) is one warning naming the domain, and the rest renders; "temperature" without a
+flame grid is 0 in Cycles, so blackbody emission is then nothing, as there. A domain not baked (no file for the frame), a cache in another format, an
 adaptive domain or one with noise (a higher resolution cache) is one warning naming the object,
 and the domain is not rendered.
 """
@@ -26,7 +31,22 @@ from . import mesh, volume
 # The file's grids that are Cycles' standard attributes of the same name on a smoke domain.
 _SAME_AS_CYCLES = ("density", "flame")
 # Attributes Cycles finds on a smoke domain that the file does not hold as Cycles reads them.
-_NOT_IN_FILE = ("color", "temperature", "heat", "velocity")
+_NOT_IN_FILE = ("heat", "velocity")
+_COLOR_GRIDS = ("color_r", "color_g", "color_b", "density")
+
+
+def _attribute_map(by_name, ds):
+    """Cycles' standard attributes of a smoke domain -> the scene format's keys that give them
+    from the cache file (export/volume.py _grid_of reads this)."""
+    m = {n: {"grid": n} for n in _SAME_AS_CYCLES if n in by_name}
+    if all(n in by_name for n in _COLOR_GRIDS):
+        m["color"] = {"smoke_color_grids": list(_COLOR_GRIDS)}
+    if "flame" in by_name:
+        m["temperature"] = {"grid": "flame",
+                            "flame_temperature": [float(ds.flame_ignition), float(ds.flame_max_temp)]}
+    else:
+        m["temperature"] = {"zero": True}  # Cycles' temperature grid is all 0 without fire
+    return m
 
 
 def gas_domain(ob):
@@ -103,8 +123,7 @@ def add_smoke_domain(out, inst, mats, media, warnings, frame):
         socket = volume.volume_socket(mat.node_tree, 'ShaderNodeOutputMaterial')
     if socket is None and mat is not None:
         return True  # a material without a Volume output: nothing (Cycles renders no volume)
-    names = {n for n in _SAME_AS_CYCLES if n in by_name}
-    info = {"file": path, "names": names, "transform": {"matrix": matrix.reshape(16).tolist()}}
+    info = {"file": path, "map": _attribute_map(by_name, ds), "transform": {"matrix": matrix.reshape(16).tolist()}}
     medium = volume.export_volume(socket, owner, warnings, keep_empty=True, grids=info)
     if mat is not None and mat.use_nodes:
         for node in mat.node_tree.nodes:
@@ -113,7 +132,7 @@ def add_smoke_domain(out, inst, mats, media, warnings, frame):
             for socket_name in ("Density Attribute", "Color Attribute", "Temperature Attribute"):
                 attr = node.inputs[socket_name].default_value
                 used = socket_name != "Temperature Attribute" or node.inputs["Blackbody Intensity"].default_value > 0
-                if used and attr in _NOT_IN_FILE:
+                if used and (attr in _NOT_IN_FILE or (attr == "color" and "color" not in info["map"])):
                     warnings.add("fluid domain attribute not rendered", f"{owner}: '{attr}'")
     name = f"{ob.name} [smoke]" if mat is None else f"{ob.name} [{mat.name}]"
     media[name] = medium

@@ -74,7 +74,8 @@ def export_volume(socket, owner, warnings, keep_empty=False, grids=None):
     nothing (unless keep_empty: a volume-only material's boundary stays one, as in Cycles).
     `owner` names the material or world in warnings ("material 'Smoke'"). `grids`: on a Volume
     object, {"file": path, "names": the file's grid names} (the Principled Volume's attributes
-    look them up); None elsewhere."""
+    look them up); on a smoke domain {"file": path, "map": attribute -> scene-format keys}
+    (export/fluid.py); None elsewhere."""
     node, _ = _from(socket)
     m = _Medium()
     if node is not None:
@@ -205,15 +206,32 @@ def _grid_of(m, grids, owner, warnings):
         warnings.add("several Principled Volumes on a Volume object: the first one's attributes used", owner)
     p = m.principled[0]
     g = {"file": grids["file"]}
+    blackbody = p["blackbody_intensity"]
     for key, name in p["attributes"].items():
-        if name and name in grids["names"]:
-            g[key] = name
+        if not name:
+            continue
+        if "map" not in grids:  # a Volume object: its attributes are the file's grids by name
+            if name in grids["names"]:
+                g[key] = name
+            continue
+        # A smoke domain: Cycles' standard attributes (export/fluid.py _attribute_map).
+        entry = grids["map"].get(name)
+        if entry is None:
+            continue
+        if "smoke_color_grids" in entry:
+            if key == "color_grid":
+                g["smoke_color_grids"] = entry["smoke_color_grids"]
+        elif entry.get("zero"):
+            if key == "temperature_grid":
+                blackbody = 0.0  # T = 0: Cycles' intensity sigma 1e-6 / pi x mix(1, 0, b) is under its cutoff
+        else:
+            g[key] = entry["grid"]
+            if key == "temperature_grid" and "flame_temperature" in entry:
+                g["flame_temperature"] = entry["flame_temperature"]
     if len(g) == 1:
-        if p["blackbody_intensity"] > 0:
-            return None  # (warned by the caller: no grid to carry it)
-        return None
+        return None  # (a blackbody without a grid to carry it: warned by the caller)
     g.update({"density": p["density"], "color": p["color"], "absorption_color": p["absorption_color"],
-              "blackbody_intensity": p["blackbody_intensity"], "blackbody_tint": p["blackbody_tint"],
+              "blackbody_intensity": blackbody, "blackbody_tint": p["blackbody_tint"],
               "temperature": p["temperature"]})
     if "transform" in grids:
         g["transform"] = grids["transform"]
