@@ -138,7 +138,9 @@ int run_reconstruct(const std::string& primal_path, const std::string& grad_path
   o.lambda = lambda;
   o.threads = threads;
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<float> r = screened_poisson(p.data, gx.data, gy.data, pf.width(), pf.height(), p.channels, o);
+  ReconReport rep;
+  const std::vector<float> r =
+      screened_poisson(p.data, gx.data, gy.data, pf.width(), pf.height(), p.channels, o, &rep);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   Film film(pf.width(), pf.height());
   film.add_pass(pass::kCombined, p.channels).data = r;
@@ -149,8 +151,12 @@ int run_reconstruct(const std::string& primal_path, const std::string& grad_path
   Attributes record = read_exr_attributes(primal_path);  // the run's record, for audits
   std::erase_if(record, [](const auto& kv) { return kv.first.rfind("gradphoton.", 0) != 0; });
   write_exr(out, film, record);
-  fmt::print("reconstruction {} lambda {:g}, {}x{}, {:.3f} s\nexr        {}\n", l1 ? "L1" : "L2", lambda,
-             pf.width(), pf.height(), secs, out);
+  fmt::print("reconstruction {} lambda {:g}, {}x{}, {:.3f} s\n", l1 ? "L1" : "L2", lambda, pf.width(), pf.height(),
+             secs);
+  if (l1)
+    fmt::print("L1 solve   {} IRLS rounds, {} PCG iterations, last change {:.2e}{}\n", rep.irls_iterations,
+               rep.cg_iterations, rep.last_change, rep.converged ? "" : " (tolerance NOT met)");
+  fmt::print("exr        {}\n", out);
   return 0;
 }
 

@@ -17,13 +17,17 @@
 //     FFTW REDFT transforms and a division per channel.
 //   - L1 (sum |r| of the same residuals, the primal one scaled by lambda) by iteratively
 //     re-weighted least squares (LKL*13): each iteration solves the weighted L2 system with
-//     weights 1 / max(|r|, eps) by Jacobi-preconditioned conjugate gradients, warm-started from
-//     the previous iterate (the first from the exact L2 solution). eps = epsilon * mean |I_0|
-//     of the channel, so the weights do not depend on the image's brightness.
+//     weights 1 / max(|r|, eps) by conjugate gradients preconditioned with one multigrid V-cycle
+//     (2 x 2 aggregation, Galerkin coarse levels, red-black Gauss-Seidel; poisson.cpp),
+//     warm-started from the previous iterate (the first from the exact L2 solution).
+//     eps = epsilon * mean |I_0| of the channel, so the weights do not depend on the image's
+//     brightness.
 //     Convergence: IRLS stops when a round changes the channel by less than `tolerance`
 //     (||x_k - x_{k-1}||_2 <= tolerance ||x_k||_2); each round's PCG stops when its residual
-//     falls to tolerance / 10 of the right-hand side's norm. The caps only guard against a
-//     stall; ReconReport says whether the tolerance was met.
+//     falls to tolerance / 10 of the right-hand side's norm, or to a tenth of the round's
+//     starting residual, whichever is larger (early rounds need not be solved exactly: their
+//     weights are about to change). The caps only guard against a stall; ReconReport says
+//     whether the tolerance was met.
 #pragma once
 
 #include <string>

@@ -202,6 +202,112 @@ TEST(ScreenedPoisson, L1StopsWithinItsToleranceOfTheConvergedSolution) {
   EXPECT_LT(dist, 8 * dflt.tolerance);  // measured 4.2x; the old 5 x 30 schedule: 10.4x
 }
 
+// An independent reference for the L1 solve: IRLS (the same weights 1 / max(|r|, eps), whose
+// fixed point is the minimum of huber_objective) with every round's weighted system solved
+// exactly by a banded Cholesky factorisation (bandwidth = the width) instead of preconditioned
+// CG, until a round moves the image by less than 1e-13.
+std::vector<double> reference_l1(const NoisyProblem& p, const ReconOptions& o) {
+  const int w = p.w, h = p.h, n = w * h, bw = w;  // A[i][i - k] for k in [0, bw]
+  double mean_abs = 0;
+  for (double v : p.primal) mean_abs += std::abs(v);
+  const double eps = o.epsilon * mean_abs / n;
+  auto weight = [eps](double r) { return 1.0 / std::max(std::abs(r), eps); };
+  std::vector<double> x = p.primal, L(static_cast<size_t>(n) * (bw + 1)), b(n);
+  auto at = [&](int i, int k) -> double& { return L[static_cast<size_t>(i) * (bw + 1) + k]; };  // row i, column i - k
+  for (int round = 0; round < 20000; ++round) {
+    std::fill(L.begin(), L.end(), 0.0);
+    for (int i = 0; i < n; ++i) {
+      const double wp = o.lambda * weight(x[i] - p.primal[i]);
+      at(i, 0) += wp;
+      b[i] = wp * p.primal[i];
+    }
+    for (int y = 0; y < h; ++y)
+      for (int c = 0; c < w; ++c) {
+        const int i = y * w + c;
+        for (int k : {1, w}) {  // the edge to the right (k = 1) and the one below (k = w)
+          if ((k == 1 && c + 1 >= w) || (k == w && y + 1 >= h)) continue;
+          const double g = k == 1 ? p.gx[i] : p.gy[i];
+          const double we = weight(x[i + k] - x[i] - g);
+          at(i, 0) += we;
+          at(i + k, 0) += we;
+          at(i + k, k) -= we;
+          b[i] -= we * g;
+          b[i + k] += we * g;
+        }
+      }
+    for (int i = 0; i < n; ++i)  // banded Cholesky, A = L L^T in place
+      for (int k = std::min(i, bw); k >= 0; --k) {
+        const int j = i - k;
+        double s = at(i, k);
+        for (int m = 1; m <= bw - k && j - m >= 0 && i - j + m <= bw; ++m) s -= at(i, k + m) * at(j, m);
+        at(i, k) = k == 0 ? std::sqrt(s) : s / at(j, 0);
+      }
+    std::vector<double> z(n), x_new(n);
+    for (int i = 0; i < n; ++i) {
+      double s = b[i];
+      for (int k = 1; k <= std::min(i, bw); ++k) s -= at(i, k) * z[i - k];
+      z[i] = s / at(i, 0);
+    }
+    for (int i = n - 1; i >= 0; --i) {
+      double s = z[i];
+      for (int k = 1; k <= bw && i + k < n; ++k) s -= at(i + k, k) * x_new[i + k];
+      x_new[i] = s / at(i, 0);
+    }
+    double d = 0, xx = 0;
+    for (int i = 0; i < n; ++i) d += (x_new[i] - x[i]) * (x_new[i] - x[i]), xx += x_new[i] * x_new[i];
+    x = x_new;
+    if (std::sqrt(d / xx) < 1e-13) break;
+  }
+  return x;
+}
+
+TEST(ScreenedPoisson, L1ReachesTheMinimumOfAnIndependentDirectSolve) {
+  // Odd sizes, so that the multigrid's 2 x 2 aggregates leave a column and a row over on some
+  // levels; large enough for three coarse levels. The objective is not strictly convex where
+  // residuals exceed eps (it is linear there), so minimisers may differ along flat directions
+  // (measured 7e-4 relative between two converged solves): compare the objective's values.
+  const NoisyProblem p = noisy_problem(41, 29);
+  ReconOptions dflt, tight, l2;
+  dflt.norm = tight.norm = l2.norm = ReconNorm::L1;
+  tight.tolerance = 1e-12;
+  tight.max_irls_iterations = tight.max_cg_iterations = 20000;
+  l2.max_irls_iterations = 0;  // the L2 solution IRLS starts from
+  const double f_ref = huber_objective(p, reference_l1(p, dflt), dflt);
+  ReconReport rep;
+  const auto x = screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, dflt, &rep);
+  const double excess_tight = huber_objective(p, screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, tight), dflt) / f_ref - 1;
+  const double excess = huber_objective(p, x, dflt) / f_ref - 1;
+  const double excess_l2 = huber_objective(p, screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, l2), dflt) / f_ref - 1;
+  std::printf("objective above the direct solve's: tight %.2e, default %.2e (%d rounds, %d PCG iterations), "
+              "L2 start %.2e\n", excess_tight, excess, rep.irls_iterations, rep.cg_iterations, excess_l2);
+  EXPECT_LT(std::abs(excess_tight), 1e-10);
+  EXPECT_TRUE(rep.converged);
+  EXPECT_GE(excess, -1e-10);
+  EXPECT_LT(excess, 1e-3);  // measured 3.8e-4; the L2 start is 4.9e-1 above
+}
+
+TEST(ScreenedPoisson, L1PcgIterationsPerRoundAreFewAndDoNotGrowWithTheImage) {
+  // The multigrid preconditioner's point: few PCG iterations per IRLS round, about as many
+  // when the image grows 16-fold (Jacobi's grew with the width: 29 s at 1920 x 1080). Counts,
+  // not times. Measured 1.8 and 1.8 per round; with the coarse correction left out (smoothing
+  // only) 6.5 and 6.0.
+  double per_round[2];
+  int k = 0;
+  for (int size : {48, 192}) {
+    const NoisyProblem p = noisy_problem(size, size * 3 / 4);
+    ReconOptions o;
+    o.norm = ReconNorm::L1;
+    o.tolerance = 1e-6;
+    ReconReport rep;
+    screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, o, &rep);
+    per_round[k++] = double(rep.cg_iterations) / rep.irls_iterations;
+    std::printf("%d x %d: %d rounds, %.1f PCG iterations per round\n", p.w, p.h, rep.irls_iterations,
+                per_round[k - 1]);
+    EXPECT_LT(per_round[k - 1], 3.0) << p.w << " x " << p.h;
+  }
+  EXPECT_LT(per_round[1], 1.5 * per_round[0]);
+}
+
 TEST(ScreenedPoisson, SameResultWhateverTheThreadCount) {
   const int w = 50, h = 33, c = 3;
   const auto p = test_image(w, h, c, 1), gx = test_image(w, h, c, 2), gy = test_image(w, h, c, 3);
