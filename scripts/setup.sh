@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(
   cmake ninja-build g++ pkg-config
   libembree-dev libtbb-dev libopenexr-dev libimath-dev libopencolorio-dev libopenimageio-dev libpng-dev
-  libopenvdb-dev
+  libopenvdb-dev libblosc-dev
   pybind11-dev nlohmann-json3-dev libtinyobjloader-dev libeigen3-dev libfftw3-dev
   libcli11-dev libfmt-dev libgtest-dev libbenchmark-dev
   python3-dev python3-numpy python3-matplotlib python3-pytest python3-hypothesis
