@@ -380,38 +380,27 @@ void Msppm::iterate(ProgressSink* sink) {
   const auto keep_preview = [&] {
     if (may_pause && preview_.empty()) preview_ = pass_direct_;
   };
-  if (stage_ == Stage::Radii) {
-    // The footprint radius comes from the camera path itself: trace the first pass's paths
-    // once for it (same random streams, results discarded), so that even the first pass
-    // weights path tracing against density estimation. Without this the first pass would be
-    // plain path tracing, whose caustic fireflies then fade only as 1 / passes.
+  // One eye pass, then the radii from it; false when it paused (the pass stays open).
+  const auto eye_stage = [&](Stage next) {
     const auto t_eye = clock_type::now();
     const bool done = eye_pass(pass, sink, may_pause, rays, invalid);
-    if (sink && sink->cancelled()) return;
+    if (sink && sink->cancelled()) return false;
     stats_.extra["eye seconds"] += seconds_since(t_eye);
     if (!done) {
       leave_open();
-      return;
+      return false;
     }
     set_new_radii();
     keep_preview();
-    stage_ = Stage::Eye;
-    if (pause_here()) return;
-  }
-  if (stage_ == Stage::Eye) {
-    const auto t_eye = clock_type::now();
-    const bool done = eye_pass(pass, sink, may_pause, rays, invalid);
-    if (sink && sink->cancelled()) return;
-    stats_.extra["eye seconds"] += seconds_since(t_eye);
-    if (!done) {
-      leave_open();
-      return;
-    }
-    set_new_radii();
-    keep_preview();
-    stage_ = Stage::Photons;
-    if (pause_here()) return;
-  }
+    stage_ = next;
+    return !pause_here();
+  };
+  // The footprint radius comes from the camera path itself: the first pass's paths are traced
+  // once for it (same random streams, results discarded), so that even the first pass weights
+  // path tracing against density estimation. Without this the first pass would be plain path
+  // tracing, whose caustic fireflies then fade only as 1 / passes.
+  if (stage_ == Stage::Radii && !eye_stage(Stage::Eye)) return;
+  if (stage_ == Stage::Eye && !eye_stage(Stage::Photons)) return;
 
   // ---- 2. Photon pass ----
   if (stage_ == Stage::Photons) {
