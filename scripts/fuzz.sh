@@ -43,7 +43,9 @@ for t in "${targets[@]}"; do
     status=1
   fi
   runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
-  secs=$(grep -o 'Done [0-9]* runs in [0-9]* second' "$log" | tail -1 | awk '{print $5}')
+  # (|| true: a run that ends on a finding prints no "Done" line, and pipefail would end the script
+  # before its report line.)
+  secs=$(grep -o 'Done [0-9]* runs in [0-9]* second' "$log" | tail -1 | awk '{print $5}' || true)
   echo "fuzz $t: ${runs:-?} executions in ${secs:-$seconds} s, corpus $(ls "build-fuzz/corpus/$t" | wc -l) inputs, crashes: $crashes (log: $log)"
   if [ "$crashes" != 0 ]; then grep -E 'ERROR|SUMMARY|runtime error|artifact|error message' "$log" | head -20 >&2; fi
 done
