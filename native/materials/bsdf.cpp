@@ -558,6 +558,20 @@ std::optional<WalkExit> walk_sample_reflect(const Ggx& g, const Vec3& a, const F
   return std::nullopt;
 }
 
+// One scattering of a dielectric walk at microfacet normal wm (u picks reflection or
+// refraction): a refracted ray crosses to the other side, where the walk goes on in the mirrored
+// frame (direction and height negated, `outside` flipped).
+void walk_step_dielectric(const Ggx& g, WalkRay& r, const Vec3& wm, float eta, float u, bool& outside) {
+  bool refracted;
+  Vec3 w = walk_scatter_dielectric(-r.w, wm, outside ? eta : 1.0f / eta, u, &refracted);
+  if (refracted) {
+    outside = !outside;
+    w = -w;
+    r.h = -r.h;
+  }
+  r.turn(g, w);
+}
+
 // f(a, b) |b.z| of a dielectric microsurface (a up, relative IOR eta below; the importance
 // form, as dielectric_eval's) tinted by colour at every scattering, estimated by one walk. The
 // walk below the interface sees the microsurface mirrored (direction and height negated, IOR
@@ -593,14 +607,7 @@ RGB walk_eval_dielectric(const Ggx& g, Vec3 a, Vec3 b, float eta, const RGB& col
       fc += tc * color * (phase * walk_G1(b_up, walk_C1(outside == b_outside ? r.h : -r.h), lambda_b));
     }
     if (order + 1 < kWalkOrders) {
-      bool refracted;
-      Vec3 w = walk_scatter_dielectric(-r.w, wm, outside ? eta : 1.0f / eta, rng.uniform(), &refracted);
-      if (refracted) {
-        outside = !outside;
-        w = -w;
-        r.h = -r.h;
-      }
-      r.turn(g, w);
+      walk_step_dielectric(g, r, wm, eta, rng.uniform(), outside);
       tc *= color;
     }
   }
@@ -619,14 +626,7 @@ std::optional<WalkExit> walk_sample_dielectric(const Ggx& g, const Vec3& a, floa
     if (!walk_height(r, rng.uniform())) return WalkExit{outside ? r.w : -r.w, throughput};
     const float u1 = rng.uniform(), u2 = rng.uniform();
     const Vec3 wm = g.sample_visible_from(-r.w, Vec2(u1, u2));
-    bool refracted;
-    Vec3 w = walk_scatter_dielectric(-r.w, wm, outside ? eta : 1.0f / eta, rng.uniform(), &refracted);
-    if (refracted) {
-      outside = !outside;
-      w = -w;
-      r.h = -r.h;
-    }
-    r.turn(g, w);
+    walk_step_dielectric(g, r, wm, eta, rng.uniform(), outside);
     throughput *= color;
   }
   return std::nullopt;
