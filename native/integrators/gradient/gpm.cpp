@@ -641,22 +641,15 @@ void Gpm::iterate(ProgressSink* sink) {
   // same random numbers, so the pass is a whole one's. At 1920 x 1080 it took 7 s before its
   // first image (docs/blender.md).
   const bool may_pause = sink && stats_.passes == 0;
-  std::atomic<int64_t> rays{open_rays_}, invalid{open_invalid_}, shift_rays{0}, shifts{0}, walks{0},
-      walk_iterations{0};
+  std::atomic<int64_t> shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0};
   std::array<std::atomic<int64_t>, 2 * kShiftFailureCount> failures;
   for (auto& f : failures) f = 0;
   for (int k = 0; k < kShiftFailureCount; ++k) failures[k] = open_failures_[k];
-  const auto leave_open = [&] {  // the pass stays open for the next call
-    open_rays_ = rays;
-    open_invalid_ = invalid;
+  PassPause open_pass(open_, stats_.seconds, start, sink, may_pause, [&] {
     for (int k = 0; k < kShiftFailureCount; ++k) open_failures_[k] = failures[k];
-    stats_.seconds += seconds_since(start);
-  };
-  const auto pause_here = [&] {
-    if (!may_pause || !sink->pause()) return false;
-    leave_open();
-    return true;
-  };
+  });
+  std::atomic<int64_t>& rays = open_pass.rays;
+  std::atomic<int64_t>& invalid = open_pass.invalid;
 
   if (stage_ == Stage::Eye) {
     // ---- Gather points and their offsets ----
@@ -665,7 +658,7 @@ void Gpm::iterate(ProgressSink* sink) {
     if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
     stats_.extra["eye seconds"] += seconds_since(t_eye);
     if (!done) {  // paused between tiles
-      leave_open();
+      open_pass.leave_open();
       return;
     }
     set_initial_radii();
@@ -673,7 +666,7 @@ void Gpm::iterate(ProgressSink* sink) {
     for (size_t i = 0; i < n_pixels; ++i)
       if (grad_[i].r2 == 0 && px_[i].r2 > 0) grad_[i].r2 = px_[i].r2 * scale2;  // set in the same pass
     stage_ = Stage::Photons;
-    if (pause_here()) return;
+    if (open_pass.pause_here()) return;
   }
 
   if (stage_ == Stage::Photons) {
@@ -683,11 +676,11 @@ void Gpm::iterate(ProgressSink* sink) {
     stats_.extra["trace seconds"] += seconds_since(t_trace);
     if (sink && sink->cancelled()) return;
     stage_ = Stage::Gather;
-    if (pause_here()) return;
+    if (open_pass.pause_here()) return;
   }
   const PhotonPassStats ps = open_ps_;
   stage_ = Stage::Eye;  // this call ends the pass (or a cancel abandons it)
-  open_rays_ = open_invalid_ = 0;
+  open_pass.close();
   open_failures_ = {};
 
   // ---- Gather at base points; shift every photon to the four offset gather points ----

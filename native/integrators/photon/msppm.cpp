@@ -320,17 +320,9 @@ void Msppm::iterate(ProgressSink* sink) {
   const size_t n_pixels = px_.size();
   // The first pass stops between eye tiles and between its stages when the sink asks (Msppm.h).
   const bool may_pause = sink && stats_.passes == 0;
-  std::atomic<int64_t> rays{open_rays_}, invalid{open_invalid_};
-  const auto leave_open = [&] {  // the pass stays open for the next call
-    open_rays_ = rays;
-    open_invalid_ = invalid;
-    stats_.seconds += seconds_since(start);
-  };
-  const auto pause_here = [&] {
-    if (!may_pause || !sink->pause()) return false;
-    leave_open();
-    return true;
-  };
+  PassPause open_pass(open_, stats_.seconds, start, sink, may_pause);
+  std::atomic<int64_t>& rays = open_pass.rays;
+  std::atomic<int64_t>& invalid = open_pass.invalid;
 
   // ---- 1. Camera paths (measurement points + weighted path tracing) ----
   // Radii start from the footprint before the first MIS evaluation needs them.
@@ -387,13 +379,13 @@ void Msppm::iterate(ProgressSink* sink) {
     if (sink && sink->cancelled()) return false;
     stats_.extra["eye seconds"] += seconds_since(t_eye);
     if (!done) {
-      leave_open();
+      open_pass.leave_open();
       return false;
     }
     set_new_radii();
     keep_preview();
     stage_ = next;
-    return !pause_here();
+    return !open_pass.pause_here();
   };
   // The footprint radius comes from the camera path itself: the first pass's paths are traced
   // once for it (same random streams, results discarded), so that even the first pass weights
@@ -408,11 +400,11 @@ void Msppm::iterate(ProgressSink* sink) {
     photon_pass(pass, open_ps_);
     stats_.extra["trace seconds"] += seconds_since(t_trace);
     stage_ = Stage::Gather;
-    if (pause_here()) return;
+    if (open_pass.pause_here()) return;
   }
   const PhotonPassStats ps = open_ps_;
   stage_ = Stage::Start;  // this call ends the pass
-  open_rays_ = open_invalid_ = 0;
+  open_pass.close();
   std::vector<RGB>().swap(preview_);
 
   // ---- 3. Gathering at every measurement point, weighted by the balance heuristic ----

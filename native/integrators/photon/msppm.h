@@ -236,7 +236,7 @@ class Msppm : public Integrator {
   Stage stage_ = Stage::Start;  // what the open pass does next
   PausableTiles eye_tiles_;
   PhotonPassStats open_ps_;
-  int64_t open_rays_ = 0, open_invalid_ = 0;
+  PassPause::Kept open_;  // an open pass's ray counts (PassPause)
   // The first eye pass's path tracing, once it is whole: the preview until the first pass ends
   // (before radii exist path tracing takes weight 1, so it is a plain path-traced image).
   std::vector<RGB> preview_;

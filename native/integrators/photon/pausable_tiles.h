@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -64,6 +65,47 @@ class PausableTiles {
  private:
   int width_ = 1, tile_size_ = 1;
   std::vector<uint8_t> done_;  // the open pass's tiles (row-major); empty: none open
+};
+
+// One call's part of a pass that may pause between its stages (the first pass, when the sink
+// asks) and go on at the next call: the ray counters start from what the pass counted before the
+// pause, and a pause keeps them (in `Kept`, the integrator's) with this call's seconds.
+class PassPause {
+ public:
+  struct Kept {
+    int64_t rays = 0, invalid = 0;
+  };
+  // on_leave: what else the integrator keeps when the pass stays open (GPM's shift failures).
+  PassPause(Kept& kept, double& seconds, std::chrono::steady_clock::time_point start, ProgressSink* sink,
+            bool may_pause, std::function<void()> on_leave = {})
+      : rays(kept.rays), invalid(kept.invalid), kept_(kept), seconds_(seconds), start_(start), sink_(sink),
+        may_pause_(may_pause), on_leave_(std::move(on_leave)) {}
+
+  std::atomic<int64_t> rays, invalid;
+
+  // The pass stays open for the next call.
+  void leave_open() {
+    kept_.rays = rays;
+    kept_.invalid = invalid;
+    if (on_leave_) on_leave_();
+    seconds_ += seconds_since(start_);
+  }
+  // At the end of a stage: true, the pass left open, when the sink asks for a pause.
+  bool pause_here() {
+    if (!may_pause_ || !sink_->pause()) return false;
+    leave_open();
+    return true;
+  }
+  // This call ends the pass: the next one counts from zero.
+  void close() { kept_ = Kept{}; }
+
+ private:
+  Kept& kept_;
+  double& seconds_;
+  std::chrono::steady_clock::time_point start_;
+  ProgressSink* sink_;
+  bool may_pause_;
+  std::function<void()> on_leave_;
 };
 
 }  // namespace gp

@@ -220,17 +220,9 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
   // (ProgressSink::pause: Blender's F12 window shows what it has, develop()'s preview); the next
   // call goes on where it stopped, with the same random numbers, so the pass is a whole one's.
   const bool may_pause = sink && stats_.passes == 0;
-  std::atomic<int64_t> rays{open_rays_}, invalid{open_invalid_};
-  const auto leave_open = [&] {  // the pass stays open for the next call
-    open_rays_ = rays;
-    open_invalid_ = invalid;
-    stats_.seconds += seconds_since(start);
-  };
-  const auto pause_here = [&] {
-    if (!may_pause || !sink->pause()) return false;
-    leave_open();
-    return true;
-  };
+  PassPause open_pass(open_, stats_.seconds, start, sink, may_pause);
+  std::atomic<int64_t>& rays = open_pass.rays;
+  std::atomic<int64_t>& invalid = open_pass.invalid;
   PhotonPassStats ps;
   if (stage_ == Stage::Eye) {
     // ---- Measurement points (every pass for SPPM, once for PPM) ----
@@ -254,7 +246,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       if (sink && sink->cancelled()) return;  // abandoned pass: statistics untouched
       stats_.extra["eye seconds"] += seconds_since(t_eye);
       if (!done) {  // paused between tiles (the sink asked)
-        leave_open();
+        open_pass.leave_open();
         return;
       }
       have_points_ = true;
@@ -263,7 +255,7 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       stats_.extra["eye seconds"] += seconds_since(t_eye);
     }
     stage_ = Stage::Photons;
-    if (pause_here()) return;
+    if (open_pass.pause_here()) return;
   }
 
   const std::function<bool()> cancelled = [sink] { return sink && sink->cancelled(); };
@@ -292,11 +284,11 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
     if (sink && sink->cancelled()) return;
     open_ps_ = ps;
     stage_ = Stage::Gather;
-    if (pause_here()) return;
+    if (open_pass.pause_here()) return;
   }
   ps = open_ps_;
   stage_ = Stage::Eye;  // this call ends the pass (or a cancel abandons it)
-  open_rays_ = open_invalid_ = 0;
+  open_pass.close();
 
   // ---- Lookup: hash grid of this pass's photons, gathered by every measurement point ----
   const auto t_lookup = clock_type::now();

@@ -401,7 +401,7 @@ class ProgressivePhotonMapping : public Integrator {
   Stage stage_ = Stage::Eye;           // what the open pass does next
   PausableTiles eye_tiles_;             // the open eye pass's tiles
   PhotonPassStats open_ps_;            // its photons' figures, from Photons to Gather
-  int64_t open_rays_ = 0, open_invalid_ = 0;
+  PassPause::Kept open_;  // an open pass's ray counts (PassPause)
   double estimated_error_ = INFINITY;
   double t_quantile_ = INFINITY;       // t(dof, 1 - beta/2) of the last pass (eq. 6.10)
   // error_bound = "thesis": eq. 6.12 as written (E_i + |B'_i|, B' with R_i^2 (eq. 6.19), t with
