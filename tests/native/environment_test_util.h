@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "chi2.h"
 #include "core/rng.h"
 #include "lights/background.h"
@@ -41,7 +43,9 @@ inline std::shared_ptr<TextureImage> map_image(int w, int h, F&& f) {
 // A portable float map (OpenImageIO reads it): rows bottom first, as TextureImage.
 inline std::string write_pfm(const std::string& name, const TextureImage& img) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "gradphoton_environment_test";
+  // One folder per process: ctest runs tests in parallel, and a file rewritten under another
+  // test (a new modification time) is a new image to the texture store, its bakes not shared.
+  const fs::path dir = fs::temp_directory_path() / ("gradphoton_environment_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const fs::path p = dir / name;
   std::ofstream f(p, std::ios::binary);

@@ -14,6 +14,7 @@
 #include <fstream>
 #include <string>
 #include <vector>
+#include <unistd.h>
 
 #include "core/rng.h"
 #include "core/spectrum.h"
@@ -27,7 +28,7 @@ namespace gp {
 namespace {
 
 std::string temp_path(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "gradphoton_grid_test";
+  const auto dir = std::filesystem::temp_directory_path() / ("gradphoton_grid_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   return (dir / name).string();
 }

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <vector>
 #include <string>
+#include <unistd.h>
 
 #include "integrators/integrator.h"
 #include "integrators/methods.h"
@@ -254,7 +255,7 @@ TEST(MediaPhotons, AdaptivePhotonsSeeTheVolumePhotons) {
 // A smoke blob of varying density (zero at its box's faces) in a 16^3 grid filling the box
 // [-h, h]^3 about `centre`, written to a temporary .vdb.
 std::string blob_vdb(const std::string& name, float h, const Vec3& centre) {
-  const auto dir = std::filesystem::temp_directory_path() / "gradphoton_media_photon_test";
+  const auto dir = std::filesystem::temp_directory_path() / ("gradphoton_media_photon_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string path = (dir / name).string();
   VoxelGrid d;

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <string>
 #include <vector>
+#include <unistd.h>
 
 #include "core/film.h"
 #include "integrators/integrator.h"
@@ -72,7 +73,7 @@ inline Params photon_params(int64_t photons, uint64_t seed = 1, int threads = 0)
 // An 8-bit binary PPM (OpenImageIO reads it; 8-bit files default to sRGB), rows top first.
 inline std::string write_ppm(const std::string& name, int w, int h, const std::vector<uint8_t>& rgb_top_first) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "gradphoton_texture_test";
+  const fs::path dir = fs::temp_directory_path() / ("gradphoton_texture_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const fs::path p = dir / name;
   std::ofstream f(p, std::ios::binary);
