@@ -63,7 +63,7 @@ ParamDecl wavelengths(int d, std::string read_when = "") {
 }
 ParamDecl film_transparent() {
   return {.name = "film_transparent", .type = ParamType::Bool, .default_value = false, .label = "Transparent",
-          .description = "camera rays that leave the scene see no background; writes pass alpha", .shared = true,
+          .description = "the background is transparent (alpha 0) where camera rays see the World; a scene with Holdout objects or shaders writes alpha either way", .shared = true,
           .group = "Film"};
 }
 ParamDecl clamp(const char* name, const char* label, const char* which) {
