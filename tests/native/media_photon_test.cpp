@@ -50,7 +50,7 @@ TEST(MediaPhotons, AlbedoOneMediumInUniformEnvironmentIsInvisible) {
     "materials": {"boundary": {"type": "volume", "interior": "cloud"}},
     "environment": {"color": [0.5, 1.0, 2.0], "strength": 1},
     "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 48, "material": "boundary"}]})");
-  for (const char* method : {"sppm", "ppm"}) {
+  for (const char* method : {"sppm", "ppm", "msppm"}) {
     bool finite = false;
     const RGB m = image_mean(render(method, s, 32, photon_params(3, 50000, 0.01)), &finite);
     EXPECT_TRUE(finite);
