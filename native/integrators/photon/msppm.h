@@ -124,8 +124,9 @@
 // and pass), photons traced/stored, photon rays,
 // average radius, measurement points per pixel, photons found per point, the share of the
 // image from each family of techniques ("path tracing share"), seconds in the camera pass,
-// photon pass (with the tails) and gathering ("eye / trace / lookup seconds"), and the largest
-// over the mean radius of the gathering pixels (it sets the hash grid's cells).
+// photon pass (with the tails) and gathering ("eye / trace / lookup seconds"), the largest
+// over the mean radius of the gathering pixels (it sets the hash grid's cells), and with media
+// "volume photons stored" and "average cylinder radius", as SPPM's.
 #pragma once
 
 #include <vector>
