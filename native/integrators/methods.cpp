@@ -288,7 +288,7 @@ std::vector<Method> make_methods() {
                .merge = {.keeps_bias = true},
                .stats = {{"path tracing share", "PT share", "{:.3f}"},
                          {"measurement points per pixel", "points/px", "{:.2f}"}},
-               .supports = {.motion_blur = true}});
+               .supports = {.media = true, .motion_blur = true, .grid_media = true}});
   m.push_back({.name = "gpt", .label = "Gradient PT",
                .summary = "gradient-domain path tracing: gradients by shifted paths, screened Poisson (KMA15)",
                .tooltip = "Path tracing of image gradients, then a smooth reconstruction: less noise on flat areas "

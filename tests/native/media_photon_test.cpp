@@ -50,7 +50,7 @@ TEST(MediaPhotons, AlbedoOneMediumInUniformEnvironmentIsInvisible) {
     "materials": {"boundary": {"type": "volume", "interior": "cloud"}},
     "environment": {"color": [0.5, 1.0, 2.0], "strength": 1},
     "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "segments": 48, "material": "boundary"}]})");
-  for (const char* method : {"sppm", "ppm"}) {
+  for (const char* method : {"sppm", "ppm", "msppm"}) {
     bool finite = false;
     const RGB m = image_mean(render(method, s, 32, photon_params(3, 50000, 0.01)), &finite);
     EXPECT_TRUE(finite);
@@ -313,15 +313,18 @@ TEST(MediaPhotons, SppmAndPathTracingAgreeInAGridMedium) {
     std::nth_element(v.begin(), v.begin() + 2, v.end());
     pt[c] = v[2];
   }
-  Stats stats;
-  bool finite = false;
-  const RGB sppm = image_mean(render("sppm", s, 48, photon_params(14, 100000, 0.02), &stats), &finite);
-  EXPECT_TRUE(finite);
-  EXPECT_GT(stats.extra.at("volume photons stored"), 0.0);
-  std::printf("grid fog room: sppm / pt %.4f %.4f %.4f\n", sppm.r / pt.r, sppm.g / pt.g, sppm.b / pt.b);
-  // The issue asks for 1 % on homogeneous media (the fog room above); the grid adds the noise of
-  // the tracking estimators to both: 2 % headroom.
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(sppm[c] / pt[c], 1.0, 0.02) << "channel " << c << ": " << sppm[c] << " vs " << pt[c];
+  // msppm (its camera paths through the grid, the same walk and beam gather): msppm_media_test.cpp.
+  for (const char* method : {"sppm", "msppm"}) {
+    Stats stats;
+    bool finite = false;
+    const RGB m = image_mean(render(method, s, 48, photon_params(14, 100000, 0.02), &stats), &finite);
+    EXPECT_TRUE(finite);
+    EXPECT_GT(stats.extra.at("volume photons stored"), 0.0);
+    std::printf("grid fog room: %s / pt %.4f %.4f %.4f\n", method, m.r / pt.r, m.g / pt.g, m.b / pt.b);
+    // The issue asks for 1 % on homogeneous media (the fog room above); the grid adds the noise
+    // of the tracking estimators to both: 2 % headroom.
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(m[c] / pt[c], 1.0, 0.02) << method << " channel " << c << ": " << m[c] << " vs " << pt[c];
+  }
 }
 
 TEST(MediaPhotons, MemoryStaysFlatOverManyPassesWithVolumePhotons) {

@@ -412,9 +412,9 @@ TEST(MediaMethods, MethodsWithoutMediaSayItOnceNamingThemselves) {
   EXPECT_TRUE(find_method("sppm").supports.media);  // photon methods in media: media_photon_test.cpp
   EXPECT_TRUE(find_method("ppm").supports.media);
   EXPECT_TRUE(find_method("sppm-adaptive").supports.media);  // V(u) sees volume photons (adaptive_photons.h)
-  for (const char* m : {"pt", "spt", "spt-hero", "ppm", "sppm", "sppm-adaptive"}) EXPECT_TRUE(find_method(m).supports.grid_media) << m;
+  EXPECT_TRUE(find_method("msppm").supports.media);  // msppm_media_test.cpp
+  for (const char* m : {"pt", "spt", "spt-hero", "ppm", "sppm", "sppm-adaptive", "msppm"}) EXPECT_TRUE(find_method(m).supports.grid_media) << m;
   EXPECT_FALSE(find_method("gpm").supports.media);
-  EXPECT_FALSE(find_method("msppm").supports.media);
 }
 
 }  // namespace

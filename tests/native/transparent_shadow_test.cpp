@@ -154,5 +154,30 @@ TEST(TransparentShadow, AreaLightIsCountedOnceThroughThePane) {
   }
 }
 
+TEST(TransparentShadow, MsppmShadowRaysPassThePane) {
+  // msppm's next-event estimation goes through the shared ShadowTest (issue 30): under the red
+  // pane its path-tracing part is the light through the pane (it was 0: the pane blocked every
+  // shadow ray and only photons lit the floor), and its image is pt's within the photons' noise.
+  // The pane is no vertex of the paths through it (the camera path and the photons cross it as
+  // the shadow rays do), so next-event estimation and the photons share that light by MIS.
+  const Scene shadowed = scene_from(pane_scene(red_pane(true)));
+  const RGB pt = image_mean(render("pt", shadowed, 8, seeded()));
+  Params p = photon_params(20000, 3);
+  p.set("max_depth", 8);
+  const Film film = render("msppm", shadowed, 16, p);
+  const RGB m = image_mean(film);
+  double path_tracing[3] = {0, 0, 0};
+  const Pass& pt_pass = film.pass(pass::kPathTracing);
+  const size_t n = static_cast<size_t>(film.width()) * film.height();
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) path_tracing[c] += pt_pass.data[3 * i + c] / static_cast<double>(n);
+  std::printf("msppm / pt %.4f %.4f %.4f; its path-tracing part / pt %.4f %.4f %.4f\n", m.r / pt.r, m.g / pt.g,
+              m.b / pt.b, path_tracing[0] / pt.r, path_tracing[1] / pt.g, path_tracing[2] / pt.b);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(m[c] / pt[c], 1.0, 0.02) << "channel " << c;
+    EXPECT_GT(path_tracing[c] / pt[c], 0.2) << "channel " << c;  // next-event estimation's share
+  }
+}
+
 }  // namespace
 }  // namespace gp

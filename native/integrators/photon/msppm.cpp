@@ -51,6 +51,18 @@ Msppm::Msppm(const Scene& scene, const Params& params)
   gather_m_.assign(n, 0.0f);
   gather_phi_.assign(n, RGB(0.0f));
   if (scene.light_set().empty()) stats_.extra["warning: no lights"] = 1;
+  // Participating media ("Participating media" in msppm.h): grid media too, by the same
+  // MediumSegment, photon walk and beam gather as SPPM.
+  media_ = scene.has_media();
+  tracer_.set_media(media_);
+  if (media_) {
+    for (const Medium& m : scene.media) media_rgb_.push_back(rgb_channels(m));
+    beams_.assign(n * kMaxBeams, EyeBeam{});
+    n_beams_.assign(n, 0);
+    first_vr_.assign(n, 0.0f);
+    gather_vm_.assign(n, 0.0f);
+    gather_vphi_.assign(n, RGB(0.0f));
+  }
 }
 
 double Msppm::n_pm(size_t pixel) const {
@@ -75,9 +87,12 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
         std::vector<double> cy(static_cast<size_t>(max_depth_) + 2, 0.0);  // c_j of the path so far
         std::vector<EyeVertex> scratch(static_cast<size_t>(max_depth_));   // vertices of the extra PT paths
         // One camera path from `film`/`lens` samples of `rng`: weighted PT contribution returned,
-        // vertices written to ev[0 .. count). `ratio` = n_pm / n_pt (see light_weight).
+        // vertices written to ev[0 .. count). `ratio` = n_pm / n_pt (see light_weight). With
+        // `beams` (the pixel's measurement path, in media), its segments through scattering media
+        // before its first mergeable vertex, n_beams of them, and the footprint radius first_vr at
+        // the first one's middle.
         auto trace = [&](Rng& rng, int px, int py, double ratio, EyeVertex* ev, int& count, float& first_r,
-                         Vec3& origin) -> RGB {
+                         Vec3& origin, EyeBeam* beams, uint8_t* n_beams, float* first_vr) -> RGB {
             const Vec2 film(px + scene_.camera.crop_x + rng.uniform(), py + scene_.camera.crop_y + rng.uniform());
             const Vec2 lens(rng.uniform(), rng.uniform());
             Ray ray = scene_.camera.generate_ray(film, lens);
@@ -94,6 +109,12 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
             uint8_t kind = kRayCamera;
             LobeSplit prev;
             bool prev_delta = false;
+            // The media the path is in (Cycles' volume stack), and the shadow test that follows
+            // it through them and through Transparent BSDFs (paths/medium_walk.h), as pt's.
+            MediumStack stack = scene_.initial_medium_stack();
+            ShadowTest shadow(scene_, media_ ? &stack : nullptr);
+            if (n_beams) *n_beams = 0;
+            bool past_mergeable = false;  // a (not crossed) mergeable vertex is behind: no more beams
             auto found = [&](const RGB& Le, int light) -> RGB {
               const Light& l = lights.lights()[light];
               if (!l.visible_to(kind)) return RGB(0.0f);
@@ -108,6 +129,25 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
             for (int depth = 1; depth <= max_depth_; ++depth) {
               ++rays;
               const auto hit = scene_.intersect(ray);
+              // ---- Participating media along the segment: emission integrated exactly (only the
+              // camera path finds it: weight 1), a beam for the volume photons before the first
+              // mergeable vertex, and the transmittance to the surface behind (no free flight:
+              // photons carry the light scattered in media) ----
+              if (media_ && !stack.empty()) {
+                const MediumSegment segment(stack, ray, 3, [&](int m) -> const MediumChannels& { return media_rgb_[m]; });
+                const float t_end = hit ? hit->t : kInfinity;
+                const ChannelValues em = segment.emission_integral(t_end);
+                Ld += beta * RGB(em[0], em[1], em[2]);
+                if (beams && segment.scatters && !past_mergeable && *n_beams < kMaxBeams) {
+                  beams[(*n_beams)++] = make_beam(ray, t_end, {beta.r, beta.g, beta.b}, stack);
+                  if (*n_beams == 1)  // the middle of the first beam (of a World medium: within the scene)
+                    *first_vr = 2.0f * scene_.camera.pixel_footprint(
+                                           path_length + 0.5f * std::min(t_end, length(scene_.bounds().diagonal())));
+                }
+                const ChannelValues T = segment.transmittance(t_end);
+                beta *= RGB(T[0], T[1], T[2]);
+                if (split_lobes) prev.beta *= RGB(T[0], T[1], T[2]);
+              }
               if (!hit) {
                 // ---- Environment seen by the path (technique "hit") ----
                 if (lights.environment() >= 0) {
@@ -151,6 +191,7 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
               e.uv = hit->uv;
               e.delta = bsdf.is_delta();
               e.mergeable = !e.delta;  // no diffuse/glossy classification (thesis §9.6)
+              e.crossed = false;
               if (e.mergeable && first_r == 0) first_r = 2.0f * scene_.camera.pixel_footprint(path_length);
               PathVertex sv;
               sv.p = e.p;
@@ -184,11 +225,13 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
                   if (!f.is_black()) {
                     ++rays;
                     const Light& l = lights.lights()[ls->light];
-                    // A Transparent BSDF blocks this shadow ray: MSPPM's path-space MIS keeps
-                    // such a surface a delta vertex of its paths (its photons and BSDF rays carry
-                    // the light through it), not Cycles' transparent shadow (paths/medium_walk.h).
-                    const bool blocked = scene_.occluded(hit->p, hit->ng, *ls);
-                    if (!blocked) {
+                    // The shared shadow test (paths/medium_walk.h): media's transmittance and
+                    // Transparent BSDFs up to transparent_bounces, as pt's. A surface it passes is
+                    // no vertex of the paths (the camera path and the photons cross it too).
+                    if (media_) shadow.at_surface(hit->mesh, scene_.material(hit->material).interior, hit->ng, ray.d);
+                    const ShadowChannels ch{.count = 3, .media = media_ ? media_rgb_.data() : nullptr, .state = hit->ray};
+                    const ChannelValues T = shadow.transmittance(hit->p, &hit->ng, *ls, ch);
+                    if (!is_blocked(T, 3)) {
                       PathVertex lv;
                       lv.light = ls->light;
                       if (l.is_infinite()) {
@@ -200,7 +243,8 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
                         lv.ng = l.type == LightType::Area ? ls->n : Vec3(0, 0, 0);
                       }
                       y.push_back(lv);
-                      Ld += beta * f * ls->L * static_cast<float>(light_weight(y, 1, cy[y.size() - 2], ratio) / ls->pdf);
+                      Ld += beta * f * RGB(T[0], T[1], T[2]) * ls->L *
+                            static_cast<float>(light_weight(y, 1, cy[y.size() - 2], ratio) / ls->pdf);
                       y.pop_back();
                     }
                   }
@@ -212,9 +256,31 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
               const Vec2 u(rng.uniform(), rng.uniform());
               const auto bs = bsdf.sample(wo, uc, u);
               if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
-              const bool crossed = scene_.material(hit->material).is_pass_through();  // a light object
-              ray = scattered_ray(hit->p, hit->ng, hit->frame.to_world(bs->wi), ray, crossed, *bs);
-              if (!crossed) {
+              const Material& material = scene_.material(hit->material);
+              const bool crossed = material.is_pass_through();  // a light object, a volume boundary
+              const Vec3 wi_world = hit->frame.to_world(bs->wi);
+              // A sample through a surface with an interior medium (glass of murky water, a volume
+              // boundary) crosses it.
+              if (media_ && material.interior >= 0 && (dot(wi_world, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
+                stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
+              ray = scattered_ray(hit->p, hit->ng, wi_world, ray, crossed, *bs);
+              if (crossed) {
+                // A light object or a volume boundary that casts no shadow: shadow rays pass it,
+                // so it is no vertex of the paths through it either (nor of the photons',
+                // photon_walk.h); the kind and lobe state of the vertex before stay.
+                if (!material.casts_shadow) {
+                  e.crossed = true;
+                  y.pop_back();
+                }
+              } else if (is_transparent_pass(*bs) && material.transparent_shadow()) {
+                // Through a Transparent BSDF that shadow rays pass: no vertex of the paths that go
+                // on (as next-event estimation from the vertex before passed it), so it leaves y
+                // and the kind and lobe state of the vertex before stay (as pt's).
+                e.crossed = true;
+                y.pop_back();
+                if (split_lobes) prev.beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+              } else {
+                past_mergeable = past_mergeable || e.mergeable;
                 kind = bs->lobe;
                 prev_delta = bs->delta;
                 if (split_lobes) {
@@ -253,7 +319,9 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
             Rng rng = Rng::for_key(seed_, scene_.camera.pixel_key(px, py), pass);
             int count = 0;
             float first_r = 0;
-            RGB Ld = trace(rng, px, py, ratio, &eye_[pixel * max_depth_], count, first_r, eye_origin_[pixel]);
+            RGB Ld = trace(rng, px, py, ratio, &eye_[pixel * max_depth_], count, first_r, eye_origin_[pixel],
+                           media_ ? &beams_[pixel * kMaxBeams] : nullptr, media_ ? &n_beams_[pixel] : nullptr,
+                           media_ ? &first_vr_[pixel] : nullptr);
             eye_count_[pixel] = count;
             first_r_[pixel] = first_r;
             // The other n_pt - 1 path-tracing samples (§9.5 step 5), their own random stream.
@@ -263,7 +331,7 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
               int c2;
               float r2;
               Vec3 o2;
-              for (int s = 1; s < npt; ++s, ++traced) Ld += trace(extra, px, py, ratio, scratch.data(), c2, r2, o2);
+              for (int s = 1; s < npt; ++s, ++traced) Ld += trace(extra, px, py, ratio, scratch.data(), c2, r2, o2, nullptr, nullptr, nullptr);
             }
             pass_traced_[pixel] = traced;
             pass_direct_[pixel] = Ld / static_cast<float>(npt);  // (1 / n_i) sum_j w_i f / p_i (eq. 9.5)
@@ -283,16 +351,20 @@ void Msppm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
     chunk_records_.resize(n_chunks);
     chunk_tails_.resize(n_chunks);
   }
+  if (media_ && chunk_volume_.size() < n_chunks) chunk_volume_.resize(n_chunks);
   std::atomic<int64_t> rays{0}, invalid{0};
   parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
     int64_t r = 0, inv = 0;
     for (size_t c = lo; c < hi; ++c) {
       chunk_photons_[c].clear();
       chunk_records_[c].clear();
+      if (media_) chunk_volume_[c].clear();
       Rng rng = Rng::for_key(seed_ ^ 0x6d7370706dULL, c, pass);
       RngSamples u(rng);
       const int64_t begin = static_cast<int64_t>(c) * chunk, end = std::min(count, begin + chunk);
-      for (int64_t k = begin; k < end; ++k) r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &chunk_records_[c]);
+      for (int64_t k = begin; k < end; ++k)
+        r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &chunk_records_[c], nullptr, nullptr,
+                                media_ ? &chunk_volume_[c] : nullptr);
       photon_tails(chunk_records_[c], chunk_tails_[c]);  // light-side sums, once per path vertex
     }
     rays += r;
@@ -306,6 +378,7 @@ void Msppm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
     tails_.insert(tails_.end(), chunk_tails_[c].begin(), chunk_tails_[c].end());
   }
   for (size_t i = 0; i < photons_.size(); ++i) photons_[i].index = static_cast<uint32_t>(i);
+  if (media_) concatenate_chunks(chunk_volume_, n_chunks, threads_, volume_photons_);
   stats.emitted = count;
   stats.stored = static_cast<int64_t>(photons_.size());
   stats.rays = rays;
@@ -430,8 +503,9 @@ void Msppm::iterate(ProgressSink* sink) {
   if (have_photons) grid_.build(photons_, 2.0f * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
   std::atomic<int64_t> points{0}, found{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    std::vector<PathVertex> ycam(static_cast<size_t>(max_depth_) + 1);
-    std::vector<double> cpre(static_cast<size_t>(max_depth_) + 1);
+    std::vector<PathVertex> ycam(static_cast<size_t>(max_depth_) + 1), ytmp(ycam.size());
+    std::vector<double> cpre(static_cast<size_t>(max_depth_) + 1), ctmp(cpre.size());
+    std::vector<int> at(static_cast<size_t>(max_depth_));
     std::vector<const Photon*> hits;
     int64_t local_points = 0, local_found = 0;
     for (size_t i = lo; i < hi; ++i) {
@@ -442,28 +516,55 @@ void Msppm::iterate(ProgressSink* sink) {
       const double npm = pass_npm_[i];
       if (!(npm > 0)) continue;  // weight 0 for every photon (pass 0, see eye_pass)
       const EyeVertex* ev = &eye_[i * max_depth_];
-      // The camera path as path vertices y_0 .. y_count, and its prefix sums c_j.
+      // The camera path as path vertices y_0 .. y_n, those it crossed (EyeVertex::crossed) left
+      // out, and its prefix sums c_j; at[a]: the index of ev[a] in it (a crossed one: where it
+      // would be, as the end of the paths that merge there).
       const int count = eye_count_[i];
+      auto path_vertex = [&](const EyeVertex& e) {
+        PathVertex v;
+        v.p = e.p;
+        v.ng = e.ng;
+        v.frame = &e.frame;
+        v.material = e.material;
+        v.uv = e.uv;
+        v.delta = e.delta;
+        v.mergeable = e.mergeable;
+        return v;
+      };
       ycam[0] = PathVertex();
       ycam[0].p = eye_origin_[i];
+      int n = 0;
       for (int a = 0; a < count; ++a) {
-        PathVertex& v = ycam[a + 1];
-        v = PathVertex();
-        v.p = ev[a].p;
-        v.ng = ev[a].ng;
-        v.frame = &ev[a].frame;
-        v.material = ev[a].material;
-        v.uv = ev[a].uv;
-        v.delta = ev[a].delta;
-        v.mergeable = ev[a].mergeable;
+        at[a] = n + 1;
+        if (!ev[a].crossed) ycam[++n] = path_vertex(ev[a]);
       }
-      if (count > 0) camera_prefix(ycam.data(), count, cpre.data());
+      if (n > 0) camera_prefix(ycam.data(), n, cpre.data());
+      // Paths with a medium vertex are the first mergeable vertex's (msppm.h, "Participating
+      // media"): photons that scattered in a medium count there with weight 1, nowhere else. A
+      // crossed vertex is the first of the paths that end there only: merges up to the first
+      // mergeable vertex not crossed take them.
+      int medium_merges = count - 1;  // the last vertex that takes them
+      for (int a = 0; a < count; ++a)
+        if (ev[a].mergeable && !ev[a].crossed) {
+          medium_merges = a;
+          break;
+        }
       double m = 0;
       RGB phi(0.0f);
-      for (int j = 0; j < eye_count_[i]; ++j) {
+      for (int j = 0; j < count; ++j) {
         const EyeVertex& e = ev[j];
         if (!e.mergeable) continue;
         ++local_points;
+        // A crossed vertex ends the paths merged there: the prefix up to it, then it.
+        const PathVertex* yj = ycam.data();
+        const double* cj = cpre.data();
+        if (e.crossed) {
+          std::copy(ycam.begin(), ycam.begin() + at[j], ytmp.begin());
+          ytmp[at[j]] = path_vertex(e);
+          camera_prefix(ytmp.data(), at[j], ctmp.data());
+          yj = ytmp.data();
+          cj = ctmp.data();
+        }
         const Bsdf bsdf = scene_.bsdf(e.material, e.uv, e.frame, e.ng, e.n_smooth);  // as Scene::bsdf(hit)
         const Vec3 wo = e.frame.to_local(e.wo);
         // The grid's own copy of the photons (bucket order, read in sequence); `index` finds the
@@ -480,14 +581,17 @@ void Msppm::iterate(ProgressSink* sink) {
           hits.push_back(&ph);
         });
         for (const Photon* ph : hits) {
+          const PhotonTail& tail = tails_[ph->index];
+          if (tail.through_medium && j > medium_merges) continue;  // another vertex's path
           // The photon's lobes (the kinds that see where it came from, photon_tracer.cpp), and a
           // normal map's bent cosine (gather_shading_correction), as SPPM's gather.
           const RGB f = bsdf.eval(wo, e.frame.to_local(ph->wi), TransportMode::Radiance, ph->lobes) *
                         gather_shading_correction(ph->wi, e.n_smooth, e.frame.n);
           if (f.is_black()) continue;
-          // Balance heuristic of density estimation at y_{j+1} for the full path the photon
-          // closes (eq. 9.5), in O(1) from the camera prefix and the photon's tail.
-          const double w = merge_weight(ycam.data(), j + 1, cpre.data(), tails_[ph->index], npm);
+          // Balance heuristic of density estimation at y_t for the full path the photon closes
+          // (eq. 9.5), in O(1) from the camera prefix and the photon's tail; 1 for a path with a
+          // medium vertex at its first mergeable vertex.
+          const double w = tail.through_medium ? 1.0 : merge_weight(yj, at[j], cj, tail, npm);
           phi += e.beta * f * ph->power * static_cast<float>(w);  // eq. 7.4, weighted (§9.5 step 4)
         }
       }
@@ -498,6 +602,7 @@ void Msppm::iterate(ProgressSink* sink) {
     points += local_points;
     found += local_found;
   });
+  if (media_) volume_gather(pass);
   stats_.extra["lookup seconds"] += seconds_since(t_lookup);
 
   // ---- 4. Update (SPPM, eq. 7.2-7.5), path-tracing samples accumulated ----
@@ -521,6 +626,17 @@ void Msppm::iterate(ProgressSink* sink) {
     }
     s.n = u.n_new;
     s.r2 = u.r2_new;
+    if (media_) {  // the beam radiance estimate's radius and flux (thesis eq. 5.39, 5.12)
+      RGB vphi = gather_vphi_[i];
+      if (!vphi.is_finite()) {
+        ++bad;
+        vphi = RGB(0.0f);
+      }
+      const PhotonStatsUpdate v = progressive_update(s.vn, s.vr2, gather_vm_[i], alpha_);
+      for (int c = 0; c < 3; ++c) s.vtau[c] = (s.vtau[c] + vphi[c]) * v.ratio;
+      s.vn = v.n_new;
+      s.vr2 = v.r2_new;
+    }
   }
   stats_.passes += 1;
 
@@ -548,13 +664,68 @@ void Msppm::iterate(ProgressSink* sink) {
   stats_.extra["path tracing samples per pixel and pass"] =
       stats_.extra["path tracing samples"] / (static_cast<double>(n_pixels) * stats_.passes);
   stats_.extra["path tracing share"] = pt + pm > 0 ? pt / (pt + pm) : 0.0;
+  if (media_) {  // the beam radiance estimate's figures, as SPPM's
+    double sum_vr = 0, n_vr = 0;
+    for (const PixelState& s : px_)
+      if (s.vr2 > 0) { sum_vr += std::sqrt(s.vr2); n_vr += 1; }
+    stats_.extra["volume photons stored"] += static_cast<double>(volume_photons_.size());
+    stats_.extra["average cylinder radius"] = n_vr > 0 ? sum_vr / n_vr : 0.0;
+  }
   stats_.seconds += seconds_since(start);
 }
 
 RGB Msppm::pixel_radiance(size_t i) const {
   // direct: per pass the mean of its n_pt weighted path-tracing samples, summed over passes.
   const PixelState& s = px_[i];
-  return progressive_radiance(s.direct, s.tau, s.r2, stats_.passes, emitted_total_);
+  RGB L = progressive_radiance(s.direct, s.tau, s.r2, stats_.passes, emitted_total_);
+  if (media_ && s.vr2 > 0 && emitted_total_ > 0) {
+    // The beam radiance estimate: the cylinder's flux over pi R^2 and the photons emitted (§5.6).
+    const double k = 1.0 / (static_cast<double>(emitted_total_) * M_PI * s.vr2);
+    for (int c = 0; c < 3; ++c) L[c] += static_cast<float>(s.vtau[c] * k);
+  }
+  return L;
+}
+
+// ---- The beam radiance estimate of the pixels' beams (beam_estimate.h, as SPPM's) ----
+void Msppm::volume_gather(uint64_t pass) {
+  const size_t n_pixels = px_.size();
+  Bounds3 box;  // the photons' bounds: beams are searched only where photons are
+  for (const Photon& ph : volume_photons_) box.extend(ph.p);
+  // The cylinder's first radius: `radius` if given, else FirstCylinder's rule.
+  const FirstCylinder first(scene_, volume_photons_, box);
+  for (size_t i = 0; i < n_pixels; ++i) {
+    if (n_beams_[i] == 0 || px_[i].vr2 > 0) continue;
+    if (radius_ > 0) px_[i].vr2 = radius_ * radius_;
+    else if (first.valid()) px_[i].vr2 = first.r2(&beams_[i * kMaxBeams], n_beams_[i], first_vr_[i]);
+  }
+  double max_r2 = 0;
+  for (size_t i = 0; i < n_pixels; ++i)
+    if (n_beams_[i] > 0) max_r2 = std::max(max_r2, px_[i].vr2);
+  const float max_r = static_cast<float>(std::sqrt(max_r2));
+  const bool have = !volume_photons_.empty() && max_r > 0;
+  if (have) volume_grid_.build(volume_photons_, 2.0f * std::sqrt(2.0f) * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
+  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
+    std::array<TransmittanceSteps, kMaxBeamMedia> steps;  // grid media's walks, kept for their capacity
+    for (size_t i = lo; i < hi; ++i) {
+      gather_vm_[i] = 0;
+      gather_vphi_[i] = RGB(0.0f);
+      if (!have || n_beams_[i] == 0 || !(px_[i].vr2 > 0)) continue;
+      const float R = static_cast<float>(std::sqrt(px_[i].vr2));
+      double m = 0;
+      RGB phi(0.0f);
+      for (int k = 0; k < n_beams_[i]; ++k) {
+        const EyeBeam& b = beams_[i * kMaxBeams + k];
+        gather_beam(volume_grid_, box, b, R, 3, 0xbea0 + pass, steps,
+                    [&](int med) -> const MediumChannels& { return media_rgb_[med]; },
+                    [&](const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
+                      m += 1;
+                      phi += RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
+                    });
+      }
+      gather_vm_[i] = static_cast<float>(m);
+      gather_vphi_[i] = phi;
+    }
+  });
 }
 
 void Msppm::develop(Film& film) const {

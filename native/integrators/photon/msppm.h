@@ -74,6 +74,49 @@
 // every pass. path_samples = k > 0 takes k samples per pass instead (k = 1: one per pass, as
 // the per-pass eye tracing of §9.5's last paragraph and as this integrator did before).
 //
+// Participating media (issue 32; homogeneous and grid media, scenes that have them only). The
+// camera paths follow the media as SPPM's eye paths do (no free flights: photons carry the light
+// scattered in media): each segment's emission is integrated (weight 1, no other technique finds
+// it), its transmittance multiplies the throughput, the volume stack follows volume boundaries
+// and glass, and next-event estimation goes through the shared ShadowTest (paths/medium_walk.h),
+// whose transmittance multiplies the light. Photons are the one photon walk's (photon_walk.h):
+// free flights, volume photons at every scattering point in a medium, surface photons with the
+// media's pass weights; the record keeps each scattering point in a medium as a `medium` vertex.
+//
+// The weights' volume form. For a path whose vertex y_t lies in a medium, the beam radiance
+// estimate (thesis §5.6, eqs. 5.37-5.39) is density estimation at y_t with a cylinder of radius
+// R_v as kernel: the camera samples the line from y_{t-1} towards y_t, per unit area across the
+// segment E_t = p(y_{t-1}: y_{t-2} -> y_t) / d^2 (no cosine: y_t is no surface), the photon
+// samples the point y_t per unit volume, L_t = p(y_{t+1}: y_{t+2} -> y_t) p_ff(d') / d'^2
+// (p_ff the free flight's distance density), and the kernel's cross-section is pi R_v^2:
+//   q_beam(t) = N_e pi R_v^2 prod_{i<=t} E_i prod_{i>=t} L_i,
+// the surface's q_pm(t) of eq. 9.6-9.8 with those densities at y_t. The camera path takes no
+// free flights, so E_{t+1} = 0: no technique that needs the camera to scatter at y_t (merges
+// past it, hit, NEE) makes the path, and the incremental sums above give
+//   1 / w_beam(t) = 1 + (R^2 / R_v^2) (L_{t-1} / E_t) B_{t-1},
+//   L_{t-1} / E_t = f_phase(y_t: y_{t+1} -> y_{t-1}) |cos at y_{t-1}| / p(y_{t-1}: y_{t-2} -> y_t),
+// (the d^2 cancel), while a surface merge at s < t with a photon that scattered at y_t needs the
+// beam's term in its light-side sum, R_t = R_v^2 / R^2, carried down its tail (a third sum beside
+// P and H, photon_tails). That is not built yet. What is built is the partition SPPM makes, which
+// needs no densities in media: a path with a medium vertex is taken, with weight 1, by density
+// estimation at the camera path's first mergeable vertex -- the first non-delta surface, if the
+// camera reaches it before any medium vertex (a surface photon that scattered in a medium,
+// PhotonTail::through_medium), else the beam at the first medium vertex, reached through delta
+// vertices only (volume photons gathered along the pixel's beams: segments through scattering
+// media before the first mergeable vertex, at most kMaxBeams, beam_estimate.h, with a progressive
+// cylinder per pixel as SPPM's, eq. 5.39). Every such path has exactly one such vertex. Paths
+// without a medium vertex keep the weights above; their densities leave out the transmittance
+// and the free flights' pass probabilities, which makes the weights less than optimal but still a
+// function of the path that sums to one over the techniques that make it, so the combination
+// stays unbiased.
+//
+// Transparent BSDFs (issue 30): next-event estimation passes a surface with a Transparent BSDF
+// filtered by its transparency, as pt's (ShadowTest, up to transparent_bounces). So that each
+// path has one set of vertices for all techniques, such a surface is no vertex of the paths that
+// go on through it: the camera path's sample through it (EyeVertex::crossed) leaves it out of the
+// camera prefix, and the photon's (PhotonPathVertex::crossed) out of its tail. It stays the end
+// of the paths that merge at it (a Mix with a diffuse part).
+//
 // Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
 // (`gradphoton methods msppm`, docs/methods.md#msppm).
 //
@@ -81,12 +124,14 @@
 // and pass), photons traced/stored, photon rays,
 // average radius, measurement points per pixel, photons found per point, the share of the
 // image from each family of techniques ("path tracing share"), seconds in the camera pass,
-// photon pass (with the tails) and gathering ("eye / trace / lookup seconds"), and the largest
-// over the mean radius of the gathering pixels (it sets the hash grid's cells).
+// photon pass (with the tails) and gathering ("eye / trace / lookup seconds"), the largest
+// over the mean radius of the gathering pixels (it sets the hash grid's cells), and with media
+// "volume photons stored" and "average cylinder radius", as SPPM's.
 #pragma once
 
 #include <vector>
 
+#include "integrators/photon/beam_estimate.h"
 #include "integrators/photon/pausable_tiles.h"
 #include "integrators/photon/photon_hash.h"
 #include "integrators/integrator.h"
@@ -154,6 +199,9 @@ class Msppm : public Integrator {
     uint8_t lobes = kAllLobes;  // those its densities take (msppm_detail::light_lobes at depth 2)
     int depth = 0;    // segments from the light to the deposit (d = k - t)
     bool delta = false, mergeable = false, distant = false;
+    // The photon scattered in a medium before this deposit: no densities (depth 0); the gather
+    // counts it only at the camera path's first mergeable vertex ("Participating media").
+    bool through_medium = false;
   };
   // Fills tails[i] for the i-th deposit of `record` (resized to its deposit count).
   void photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>& tails) const;
@@ -183,12 +231,17 @@ class Msppm : public Integrator {
     int material = -1;
     Vec2 uv;  // texture coordinate there (Scene::bsdf)
     bool delta = false, mergeable = false;
+    // The path went on through a Transparent BSDF here as shadow rays do: a vertex only of the
+    // paths that end here (msppm_weights.cpp), not of those that go on.
+    bool crossed = false;
   };
   struct PixelState {
     double r2 = 0, n = 0;
     double tau[3] = {0, 0, 0};
     double direct[3] = {0, 0, 0};  // per pass the mean of its weighted path-tracing samples, summed
     double found_sum = 0, r2_sum = 0;  // photons found and R^2, summed over the passes that gathered
+    // The beam radiance estimate's cylinder radius, count and flux (thesis eq. 5.39, 5.12; media).
+    double vr2 = 0, vn = 0, vtau[3] = {0, 0, 0};
   };
 
   double n_pm(size_t pixel) const;  // N_e pi R^2 of the density-estimation technique
@@ -197,6 +250,8 @@ class Msppm : public Integrator {
   bool eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::atomic<int64_t>& rays,
                 std::atomic<int64_t>& invalid);
   void photon_pass(uint64_t pass, PhotonPassStats& stats);
+  // The beam radiance estimate of every pixel's beams from this pass's volume photons (media).
+  void volume_gather(uint64_t pass);
 
   const Scene& scene_;
   double alpha_, radius_;
@@ -226,7 +281,20 @@ class Msppm : public Integrator {
   std::vector<float> gather_m_;
   std::vector<RGB> gather_phi_;
   int64_t emitted_total_ = 0;
-  double fallback_r_ = 0;  // mean first-pass footprint radius, for pixels without their own
+  double fallback_r_ = 0;
+
+  // ---- Participating media ("Participating media" above; scenes with media only) ----
+  static constexpr int kMaxBeams = 4;  // per pixel and pass, as SPPM's; further segments gather nothing
+  bool media_ = false;
+  std::vector<MediumChannels> media_rgb_;  // Scene::media at R, G, B
+  std::vector<EyeBeam> beams_;             // kMaxBeams per pixel, this pass's
+  std::vector<uint8_t> n_beams_;
+  std::vector<float> first_vr_;            // footprint radius at the first beam's middle
+  std::vector<Photon> volume_photons_;     // this pass's
+  std::vector<std::vector<Photon>> chunk_volume_;
+  PhotonHashGrid volume_grid_;
+  std::vector<float> gather_vm_;
+  std::vector<RGB> gather_vphi_;  // mean first-pass footprint radius, for pixels without their own
 
   // ---- The first pass, which pauses between eye tiles and between its stages when the sink
   // asks (ProgressSink::pause: Blender's F12 window shows develop()'s preview) and goes on at

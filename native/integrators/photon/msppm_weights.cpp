@@ -126,10 +126,18 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
     // (the segment goes straight on through them); before[a]: how many of them precede record
     // vertex begin + a, the depth of a deposit there (crossed or not). As a path ending on the
     // light, y_j = z_{k-j} with k = n + 1 (y_0 is never reached: R_j needs y_{j-1} = z_{a+1}).
+    // Media: the path up to its first scattering point in a medium; a deposit after that point
+    // closes paths with a medium vertex, which the beam radiance estimate's partition takes
+    // (msppm.h, "Participating media"): its tail says so and has no densities.
     z.clear();
     before.clear();
+    size_t first_medium = end;
     for (size_t a = begin; a < end; ++a) {
       const PhotonPathVertex& pv = record.vertices[a];
+      if (pv.medium) {
+        first_medium = a;
+        break;
+      }
       before.push_back(static_cast<int>(z.size()));
       if (pv.crossed) continue;
       const bool m = !pv.start && !pv.delta;  // mergeable: every non-delta vertex (§9.6)
@@ -163,8 +171,14 @@ void Msppm::photon_tails(const PhotonPathRecord& record, std::vector<PhotonTail>
     }
     // Deposits of this path (in order: their vertices increase).
     while (dep < record.deposit_vertex.size() && record.deposit_vertex[dep] < end) {
-      const int dd = before[record.deposit_vertex[dep] - begin];  // depth of the deposit
       PhotonTail& tl = tails[dep];
+      if (record.deposit_vertex[dep] > first_medium) {
+        tl.depth = 0;
+        tl.through_medium = true;
+        ++dep;
+        continue;
+      }
+      const int dd = before[record.deposit_vertex[dep] - begin];  // depth of the deposit
       const PathVertex& v = z[dd - 1];  // y_{t+1}
       tl.p = v.p;
       tl.ng = v.ng;

@@ -74,7 +74,8 @@ struct PhotonOrigin {
 // Optional record of whole photon paths (thesis §9.5 step 1: "each photon stores a pointer to
 // the photon at the previous bounce"), for the path densities of multisampled PPM
 // (msppm.h). A path's vertices are consecutive: its light vertex (start = true), then
-// every surface hit in order, specular and crossed ones included.
+// every surface hit in order, specular and crossed ones included, and its scattering points in
+// media (medium = true).
 struct PhotonPathVertex {
   Vec3 p, ng;       // light vertex: origin on the light (or on the emission disk) and its normal
   Frame frame;      // shading frame (surface vertices)
@@ -90,6 +91,8 @@ struct PhotonPathVertex {
   // switches, photon_tracer.cpp): not a vertex of the path, but a deposit may have been made
   // there (it received the photon), so it stays in the record for deposit_vertex to point at.
   bool crossed = false;
+  // A scattering point in a participating medium (photon_walk.h): p, wi; no surface.
+  bool medium = false;
 };
 struct PhotonPathRecord {
   std::vector<PhotonPathVertex> vertices;

@@ -42,8 +42,9 @@
 // it carries sigma_s(x_p), so the beam radiance estimate (progressive_photon.cpp) does not
 // multiply by it again. Volume photons are deposited from the light's first segment on whatever
 // min_deposit_bounce says: the eye paths take no next-event estimation in media, so the photons
-// carry the media's direct light too. Records, origins and chains (MSPPM, GPM) know no media:
-// those methods declare that they do not render them.
+// carry the media's direct light too. A record (MSPPM) keeps each scattering point in a medium
+// as a vertex marked `medium` (its weights, msppm_weights.cpp); origins and chains (GPM) know
+// no media: that method declares that it does not render them.
 #pragma once
 
 #include <algorithm>
@@ -164,6 +165,13 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
         const float m_old = power.max_old();
         power.medium_weight(segment.scatter_weight(t));
         const Vec3 p = ray.at(t);
+        if (record) {  // a medium vertex: MSPPM's weights see that the path scattered in a medium
+          PhotonPathVertex v;
+          v.p = p;
+          v.wi = -ray.d;
+          v.medium = true;
+          record->vertices.push_back(v);
+        }
         if (power.finite()) power.deposit_volume(p, -ray.d);
         else ++invalid;
         if (bounce + 2 > max_depth_) break;
@@ -307,6 +315,11 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
       }
     }
     power.commit(p_continue);
+    // A light object or a volume boundary that casts no shadow, or a pass through a Transparent
+    // BSDF that shadow rays pass (below) is no vertex of the path in a record either: next-event
+    // estimation reaches the light through it (msppm_weights.cpp).
+    if (record && ((pass_through && !mat.casts_shadow) || (is_transparent_pass(*bs) && mat.transparent_shadow())))
+      record->vertices.back().crossed = true;
     // A sample through a surface with an interior medium (glass of murky water) crosses it.
     if (media && mat.interior >= 0 && (dot(wi_world, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
       stack.cross(hit->mesh, mat.interior, dot(ray.d, hit->ng) < 0);

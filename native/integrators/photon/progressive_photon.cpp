@@ -689,74 +689,18 @@ void ProgressivePhotonMapping::develop(Film& film) const {
 namespace gp {
 
 // ---- The beam radiance estimate (Jarosz et al. 2008) with a progressive radius (thesis §5.6) ----
-// A pixel's in-scattered radiance along its camera segments through media is
-//   L_v = 1 / (N_e pi R^2) sum_p beta T(x, x_p) f_p(theta_p) Phi_p
-// over the volume photons p within the cylinder of radius R around each segment (perpendicular
-// distance <= R, between the segment's ends): beta the eye throughput at the segment's start,
-// T the transmittance from it to the photon's foot on the segment, f_p the phase function between
-// the photon's direction of travel and the direction towards the camera, and Phi_p the photon's
-// power, which already carries sigma_s(x_p) (photon_walk.h: the free flight's weight
-// sigma_s T / pdf), so it is not multiplied again. The flux sum (tau) and the count M found here
-// enter the same update as the surface's (eq. 5.37-5.39: N + alpha M photons kept within the
+// beam_estimate.h's gather over every pixel's segments; the flux sum (tau) and the count M found
+// here enter the same update as the surface's (eq. 5.37-5.39: N + alpha M photons kept within the
 // shrunk cylinder; tau scaled by the same ratio, eq. 5.12).
-//
-// The photons are found with the hash grid of spheres: the segment is cut into pieces of length
-// 2R, each searched with a sphere of radius sqrt(2) R about its middle (which holds the cylinder's
-// piece), and a photon counts for the piece its foot lies in, so each is counted once.
 void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<bool()>& cancelled) {
   const size_t n_pixels = px_.size();
   Bounds3 box;  // the photons' bounds: beams are searched only where photons are
   for (const Photon& ph : volume_photons_) box.extend(ph.p);
-  // The part of beam b within the photons' bounds grown by R: [t0, t1) (empty: t0 >= t1).
-  auto clip = [](const Bounds3& box, const EyeBeam& b, float R, float& t0, float& t1) {
-    t0 = 0;
-    t1 = b.t_max;
-    for (int a = 0; a < 3; ++a) {
-      const float inv = 1.0f / b.d[a];
-      float ta = (box.lo[a] - R - b.o[a]) * inv, tb = (box.hi[a] + R - b.o[a]) * inv;
-      if (ta > tb) std::swap(ta, tb);
-      if (std::isnan(ta) || std::isnan(tb)) continue;  // parallel to the slab, on its plane
-      t0 = std::max(t0, ta);
-      t1 = std::min(t1, tb);
-    }
-  };
-  // ---- The cylinder's first radius (no `radius` given) ----
-  // The pixel footprint that starts the surface's disc is far too thin for volume photons,
-  // which fill a volume, not a surface: a cylinder of a footprint's radius finds a photon in a
-  // few passes, so its estimate stays noisy and its radius hardly shrinks. Instead the first
-  // radius is the one whose cylinders, along the pixel's segments within the photons' bounds,
-  // would hold kFirstCylinderPhotons photons were this pass's volume photons within the scene's
-  // bounds spread evenly over them (never below the footprint, nor above a tenth of the bounds'
-  // diagonal); where they are denser it shrinks the faster. (The scene's bounds, not the
-  // photons': in a World medium photons wander far from the scene.)
-  constexpr double kFirstCylinderPhotons = 16;
-  Bounds3 region = scene_.bounds();
-  if (region.empty()) region = box;  // no surfaces at all
-  if (!region.empty()) {
-    const float pad = 0.01f * length(region.diagonal()) + 1e-4f;  // a flat scene still has a volume
-    region.lo = region.lo - Vec3(pad);
-    region.hi = region.hi + Vec3(pad);
-  }
-  size_t inside = 0;
-  for (const Photon& ph : volume_photons_)
-    inside += ph.p.x >= region.lo.x && ph.p.y >= region.lo.y && ph.p.z >= region.lo.z && ph.p.x <= region.hi.x &&
-              ph.p.y <= region.hi.y && ph.p.z <= region.hi.z;
-  if (inside > 0 && !region.empty()) {
-    const Vec3 e = region.diagonal();
-    const double volume = static_cast<double>(e.x) * e.y * e.z;
-    const double density = static_cast<double>(inside) / volume;
+  // The cylinder's first radius (no `radius` given): FirstCylinder's rule.
+  if (const FirstCylinder first(scene_, volume_photons_, box); first.valid()) {
     for (size_t i = 0; i < n_pixels; ++i) {
       if (n_beams_[i] == 0 || px_[i].vr2 > 0) continue;
-      double length = 0;
-      for (int k = 0; k < n_beams_[i]; ++k) {
-        float t0, t1;
-        clip(region, beams_[i * kMaxBeams + k], 0.0f, t0, t1);
-        if (t0 < t1) length += t1 - t0;
-      }
-      if (!(length > 0)) continue;
-      const double r2 = kFirstCylinderPhotons / (M_PI * density * length);
-      const double diag = length_squared(e);
-      px_[i].vr2 = std::clamp(r2, static_cast<double>(first_vr_[i]) * first_vr_[i], 0.01 * diag);
+      if (const double r2 = first.r2(&beams_[i * kMaxBeams], n_beams_[i], first_vr_[i]); r2 > 0) px_[i].vr2 = r2;
     }
   }
   double max_r2 = 0;
@@ -778,59 +722,25 @@ void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<
       gather_vm_[i] = 0;
       gather_vphi_[i] = RGB(0.0f);
       if (!have || n_beams_[i] == 0 || !(px_[i].vr2 > 0)) continue;
-      const float R = static_cast<float>(std::sqrt(px_[i].vr2)), R2 = R * R;
+      const float R = static_cast<float>(std::sqrt(px_[i].vr2));
       double m = 0;
       RGB phi(0.0f);
       for (int k = 0; k < n_beams_[i]; ++k) {
         const EyeBeam& b = beams_[i * kMaxBeams + k];
-        MediumStack stack;
-        for (int j = 0; j < b.n_media; ++j) stack.cross(j, b.media[j], true);
-        const MediumSegment segment(stack, Ray(b.o, b.d), C,
-                                    [&](int med) -> const MediumChannels& { return medium_channels(med); });
-        float t0, t1;  // the segment within the photons' bounds grown by R
-        clip(box, b, R, t0, t1);
-        if (!(t0 < t1)) continue;
-        // Every photon's foot lies within [t0, t1] (the photon is in the box, its foot within R).
-        for (int g = 0; g < segment.n_grids; ++g)
-          steps[g].track(*segment.grids[g].c, C, b.o, b.d, std::min(t1, b.t_max), ray_seed(b.o, b.d, 0xbea0 + pass + g));
-        const bool mixture = segment.heterogeneous() && segment.n_lobes > 1;
-        // T(x, x_p): the homogeneous media's exactly, the grids' by their walks.
-        auto transmittance = [&](float tp) {
-          if (!segment.heterogeneous()) return segment.transmittance(tp);
-          ChannelValues T{};
-          for (int w = 0; w < C; ++w) T[w] = segment.sigma_t[w] > 0 ? std::exp(-segment.sigma_t[w] * tp) : 1.0f;
-          for (int g = 0; g < segment.n_grids; ++g) {
-            const ChannelValues Tg = steps[g].at(tp);
-            for (int w = 0; w < C; ++w) T[w] *= Tg[w];
-          }
-          return T;
-        };
-        // Pieces counted in integers (a float t += 2R could stall far along a long segment).
-        const double pieces = std::ceil((static_cast<double>(t1) - t0) / (2.0 * R));
-        const int64_t n_pieces = static_cast<int64_t>(std::min(pieces, 1e7));
-        for (int64_t piece = 0; piece < n_pieces; ++piece) {
-          const float t = t0 + static_cast<float>(piece) * 2 * R;
-          volume_grid_.query(b.o + b.d * (t + R), std::sqrt(2.0f) * R, [&](const Photon& ph, float, float) {
-            const Vec3 off = ph.p - b.o;
-            const float tp = dot(off, b.d);
-            if (tp < t || tp >= t + 2 * R || tp < 0 || tp >= b.t_max) return;  // another piece's
-            if (length_squared(off - b.d * tp) > R2) return;                       // outside the cylinder
-            m += 1;
-            const float cos_theta = dot(ph.wi, b.d);  // travel direction -wi, towards the camera -d
-            const ChannelValues T = transmittance(tp);
-            if (mixture) segment.set_point(ph.p);  // the media's shares of the scattering at the photon
-            const ChannelValues f = segment.phase(cos_theta);
-            if (spectral_) {
-              const SpectralValues& power = volume_power_[ph.index];
-              SpectralValues c{};
-              for (int w = 0; w < C; ++w) c[w] = b.beta[w] * T[w] * f[w] * power[w];
-              if (volume_hero_[ph.index] && !b.hero_only) c[0] *= static_cast<float>(C);  // C once per full path
-              phi += spectral_to_rgb(c);
-            } else {
-              phi += RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
-            }
-          });
-        }
+        gather_beam(volume_grid_, box, b, R, C, 0xbea0 + pass, steps,
+                    [&](int med) -> const MediumChannels& { return medium_channels(med); },
+                    [&](const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
+                      m += 1;
+                      if (spectral_) {
+                        const SpectralValues& power = volume_power_[ph.index];
+                        SpectralValues c{};
+                        for (int w = 0; w < C; ++w) c[w] = b.beta[w] * T[w] * f[w] * power[w];
+                        if (volume_hero_[ph.index] && !b.hero_only) c[0] *= static_cast<float>(C);  // C once per full path
+                        phi += spectral_to_rgb(c);
+                      } else {
+                        phi += RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
+                      }
+                    });
       }
       gather_vm_[i] = static_cast<float>(m);
       gather_vphi_[i] = phi;

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "integrators/photon/beam_estimate.h"
 #include "integrators/photon/photon_hash.h"
 #include "core/frame.h"
 #include "core/rng.h"
@@ -239,19 +240,10 @@ class ProgressivePhotonMapping : public Integrator {
   // pass), generic over what the path carries (`Colour`: RgbEye here, SpectralEye in
   // progressive_photon_spectral.cpp) with its estimator at the measurement point, at each bounce
   // and at roulette in the eye_nee / eye_scatter / eye_survive overloads.
-  // A camera segment through a scattering medium (media only): where the beam radiance estimate
-  // gathers volume photons, t in [0, t_max) along o + t d; beta the path's throughput at o per
-  // channel (RGB or the pass's wavelengths), the media it is in (MediumSegment rebuilds them).
+  // A camera segment through a scattering medium (media only): beam_estimate.h's EyeBeam.
   static constexpr int kMaxBeams = 4;       // per camera path; further segments gather nothing
-  static constexpr int kMaxBeamMedia = 4;   // overlapping media per segment kept
-  struct EyeBeam {
-    Vec3 o, d;
-    float t_max = 0;
-    ChannelValues beta{};
-    std::array<int16_t, kMaxBeamMedia> media{};
-    uint8_t n_media = 0;
-    bool hero_only = false;  // spectral: the eye path is hero-only (its beta carries C)
-  };
+  static constexpr int kMaxBeamMedia = gp::kMaxBeamMedia;
+  using EyeBeam = gp::EyeBeam;
   struct EyeEnd {
     VisiblePoint vp;        // the measurement point (material -1: none)
     float path_length = 0;  // distance travelled to it (initial radius)
@@ -464,15 +456,7 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
       const float t_end = hit ? hit->t : kInfinity;
       c.medium_emission(segment.emission_integral(t_end));
       if (segment.scatters && out.n_beams < kMaxBeams) {
-        EyeBeam& b = out.beams[out.n_beams++];
-        b.o = ray.o;
-        b.d = ray.d;
-        b.t_max = t_end;
-        b.beta = c.channel_weights();
-        b.hero_only = c.is_hero_only();
-        b.n_media = 0;
-        for (int i = 0; i < stack.size() && b.n_media < kMaxBeamMedia; ++i)
-          b.media[b.n_media++] = static_cast<int16_t>(stack[i].medium);
+        out.beams[out.n_beams++] = make_beam(ray, t_end, c.channel_weights(), stack, c.is_hero_only());
         if (out.n_beams == 1)  // the middle of the first beam (of a World medium: within the scene)
           out.beam_length = out.path_length + 0.5f * std::min(t_end, length(scene_.bounds().diagonal()));
       }
