@@ -779,7 +779,7 @@ void Gpm::iterate(ProgressSink* sink) {
       const float R_primal = static_cast<float>(std::sqrt(px_[i].r2));
       const float R = static_cast<float>(std::sqrt(grad_[i].r2));  // the gradients' radius (gpm.h)
       // The offsets: the eye pass's, or traced on the first photon to shift (replay_offsets).
-      std::array<OffsetPoint, 4> replayed;
+      std::optional<std::array<OffsetPoint, 4>> replayed;  // built only when replayed (512 bytes)
       const std::array<OffsetPoint, 4>* offsets = offsets_ready_[i] ? &off_[i] : nullptr;
       double m = 0, m_grad = 0, lap = 0;
       RGB phi(0.0f), phi_fb(0.0f);
@@ -813,8 +813,8 @@ void Gpm::iterate(ProgressSink* sink) {
           return;
         }
         if (!offsets) {
-          replayed = replay_offsets(i, pass, local_rays, sensor_fail_count);
-          offsets = &replayed;
+          replayed.emplace(replay_offsets(i, pass, local_rays, sensor_fail_count));
+          offsets = &*replayed;
           ++replays;
         }
         gathered_shifts_[i] = 1;
