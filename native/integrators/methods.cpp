@@ -319,6 +319,12 @@ std::vector<Method> make_methods() {
                        .description = "camera paths per pixel and pass, besides the gather path, for the light "
                                       "seen along them (emitters, their images in mirrors and glass); combined only",
                        .group = "Photons"},  // measured: docs/gradient.md "Emission"
+                      {.name = "gradient_nee", .type = ParamType::Bool, .default_value = true,
+                       .label = "Gradient Direct Light",
+                       .description = "direct light by next-event estimation in the gradient domain (four offset "
+                                      "shadow rays per pixel and pass); off keeps it in the primal, as SPPM's, and "
+                                      "traces offsets only for pixels that gather photons",
+                       .group = "Reconstruction"},  // measured: docs/gradient.md "Eye pass cost"
                       recon("l1"), lambda(),
                       {.name = "manifold_iterations", .type = ParamType::Int, .default_value = 20, .min = 0,
                        .label = "Manifold Steps",

@@ -43,9 +43,21 @@ Gpm::Gpm(const Scene& scene, const Params& params)
   recon_ = gradient_recon_options(params, threads_);
   manifold_iterations_ = params.get<int>("manifold_iterations");
   emission_samples_ = params.get<int>("emission_samples");
+  // Further camera paths estimate the light a camera path meets: an area light (emissive
+  // surfaces), the World, a medium's emission. A scene lit only by lights no ray can hit (point,
+  // spot, sun: Cycles shows no light object to the camera, and these have no area) gives every
+  // such path 0, so none is traced: the image is the same bit for bit (each pass's mean of zeros),
+  // and sun-caustic's glass pixels took 4 of them every pass for nothing (issue 34).
+  const auto& lights = scene.light_set().lights();
+  const bool emission_visible =
+      scene.has_media() || std::any_of(lights.begin(), lights.end(), [](const Light& l) { return !l.is_delta(); });
+  if (!emission_visible) emission_samples_ = 0;
   if (radius_ <= 0) gradient_radius_scale_ = params.get<double>("gradient_footprint") / footprint_pixels_;
   gradient_photons_ = params.get<double>("gradient_photons");
+  gradient_nee_ = params.get<bool>("gradient_nee");
   const size_t n = px_.size();
+  offsets_ready_.assign(n, 0);
+  gathered_shifts_.assign(n, 0);
   gather_mg_.assign(n, 0.0f);
   off_.assign(n, {});
   grad_.assign(n, GradState{});
@@ -78,9 +90,10 @@ struct OffsetWalk : EyePathHooks {
   RGB nee_base{0.0f};
   std::array<RGB, 4> nee_diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
   bool scattered = false;  // the base path went through a specular or glossy vertex
+  bool shift_nee = true;   // direct light in the gradient domain (`gradient_nee`)
 
-  OffsetWalk(const Scene& scene, float threshold, int64_t& rays, int64_t* fail_count)
-      : scene(scene), threshold(threshold), rays(rays), fail_count(fail_count) {}
+  OffsetWalk(const Scene& scene, float threshold, int64_t& rays, int64_t* fail_count, bool shift_nee)
+      : scene(scene), threshold(threshold), rays(rays), fail_count(fail_count), shift_nee(shift_nee) {}
 
   void fail(int d, ShiftFailure f) {
     off[d].failure = f;
@@ -119,6 +132,7 @@ struct OffsetWalk : EyePathHooks {
   // the ratio is the sensor's).
   void nee(float u_light, const Vec2& u2, const RGB& c) {
     nee_base = c;
+    if (!shift_nee) return;  // direct light stays in the primal domain: no offset shadow rays
     for (int d = 0; d < 4; ++d) {
       if (!off[d].exists) continue;
       RGB c_off(0.0f);
@@ -173,7 +187,22 @@ struct OffsetWalk : EyePathHooks {
   void roulette(float survival) {  // the base's Russian roulette, shared by the offsets
     for (OffsetPoint& o : off) o.beta = o.beta / survival;
   }
+  // After the walk: offsets that ended with the base or carry a non-finite throughput fail; none
+  // is used when the base has no gather point.
+  void finish(bool base_gathers) {
+    for (int d = 0; d < 4; ++d) {
+      OffsetPoint& o = off[d];
+      if (!base_gathers) o.failure = ShiftFailure::Missed;  // no base gather point: unused
+      else if (o.ok() && o.material < 0) fail(d, ShiftFailure::Missed);  // ended with the base
+      else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) fail(d, ShiftFailure::ZeroLength);
+    }
+  }
 };
+
+bool offset_inside(int x, int y, int d, int width, int height) {
+  const int px = x + kOffsetX[d], py = y + kOffsetY[d];
+  return px >= 0 && px < width && py >= 0 && py < height;
+}
 
 }  // namespace
 
@@ -195,14 +224,15 @@ bool Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::a
         const Vec2 ext = scene_.camera.half_extent();
         std::vector<std::array<bool, 4>> exists(n);
         for (int d = 0; d < 4; ++d) {
-          // Offsets inside the image only, packed: slot[k] is pixel k's ray among them.
+          // Offsets inside the image only, packed: slot[k] is pixel k's ray among them. Only for
+          // the pixels whose offsets are traced now (eager_offsets); the others' are traced in
+          // the gather if a photon needs them (replay_offsets).
           std::vector<Ray> rays_d;
           std::vector<size_t> slot(n);
           size_t k = 0;
           for (int y = tile.y0; y < tile.y1; ++y)
             for (int x = tile.x0; x < tile.x1; ++x, ++k) {
-              const int px = x + kOffsetX[d], py = y + kOffsetY[d];
-              exists[k][d] = px >= 0 && px < width_ && py >= 0 && py < height_;
+              exists[k][d] = eager_offsets(static_cast<size_t>(y) * width_ + x) && offset_inside(x, y, d, width_, height_);
               if (!exists[k][d]) continue;
               slot[k] = rays_d.size();
               const Vec2 film = starts[k].film;
@@ -221,8 +251,9 @@ bool Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::a
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x, ++k) {
             const size_t pixel = static_cast<size_t>(y) * width_ + x;
-            OffsetWalk walk(scene_, threshold_, rays, fail_count);
+            OffsetWalk walk(scene_, threshold_, rays, fail_count, gradient_nee_);
             walk.start(exists[k], &camera[n + 4 * k], &hits[n + 4 * k]);
+            offsets_ready_[pixel] = eager_offsets(pixel);
             EyePath path = trace_eye_path(camera[k], starts[k].rng, rays, walk, &hits[k]);
             auto& off = walk.off;
             bool nee_finite = walk.nee_base.is_finite();
@@ -238,12 +269,7 @@ bool Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::a
               ++invalid;
               path.vp.material = -1;
             }
-            for (int d = 0; d < 4; ++d) {
-              OffsetPoint& o = off[d];
-              if (path.vp.material < 0) o.failure = ShiftFailure::Missed;  // no base gather point: unused
-              else if (o.ok() && o.material < 0) walk.fail(d, ShiftFailure::Missed);  // ended with the base
-              else if (o.ok() && (!o.beta.is_finite() || !std::isfinite(o.ratio))) walk.fail(d, ShiftFailure::ZeroLength);
-            }
+            walk.finish(path.vp.material >= 0);
             pass_direct_[pixel] = path.Ld;
             const int further = takes_further_paths(pixel, pass) ? emission_samples_ : 0;
             pass_emission_[pixel] = emission_seen(starts[k], x, y, ext, path.Ld - walk.nee_base, further, rays, invalid);
@@ -257,6 +283,43 @@ bool Gpm::gpm_eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::a
         invalid_out += invalid;
         for (int k = 0; k < kShiftFailureCount; ++k) failures[k] += fail_count[k];
       });
+}
+
+// Offsets traced in the eye pass: all of them when the direct light is in the gradient domain
+// (every gather point's shifted next-event estimate needs its four), otherwise those of pixels
+// whose last gather found photons to shift (the first pass: none; they are replayed, below).
+bool Gpm::eager_offsets(size_t pixel) const {
+  return eager_all_offsets_ || gradient_nee_ || gathered_shifts_[pixel] != 0;
+}
+
+// Pixel `pixel`'s offsets of pass `pass`, for a gather that finds photons to shift where the eye
+// pass did not trace them: its gather path again, from the same start (same random numbers,
+// same hits), with the offsets following it as in gpm_eye_pass, so they are the very records an
+// eager trace gives (Gpm.LazyOffsetsGiveTheEagerImage). A pixel whose gather shifts no photon
+// needs none: its differences are the photons it gathers (none) and its shifted direct light
+// (here in the primal domain); a photon near an offset gather point but not within the base's
+// radius is the neighbour's to shift (outside the kernel on this side: weight 1 there).
+std::array<Gpm::OffsetPoint, 4> Gpm::replay_offsets(size_t pixel, uint64_t pass, int64_t& rays,
+                                                    int64_t* fail_count) const {
+  const int x = static_cast<int>(pixel % width_), y = static_cast<int>(pixel / width_);
+  PixelStart start = start_pixel_in_pass(scene_.camera, seed_, pass, x, y);
+  const Vec2 ext = scene_.camera.half_extent();
+  const Ray base = scene_.camera.generate_ray(start.film, start.lens, ext, start.time);
+  std::array<bool, 4> exists{};
+  Ray orays[4];
+  std::optional<SurfaceHit> ohits[4];
+  for (int d = 0; d < 4; ++d) {
+    exists[d] = offset_inside(x, y, d, width_, height_);
+    if (!exists[d]) continue;
+    orays[d] = scene_.camera.generate_ray(Vec2(start.film.x + kOffsetX[d], start.film.y + kOffsetY[d]), start.lens, ext);
+    ohits[d] = scene_.intersect(orays[d]);
+  }
+  OffsetWalk walk(scene_, threshold_, rays, fail_count, gradient_nee_);
+  walk.start(exists, orays, ohits);
+  EyePath path = trace_eye_path(base, start.rng, rays, walk, nullptr);
+  if (path.vp.material >= 0 && !path.vp.beta.is_finite()) path.vp.material = -1;
+  walk.finish(path.vp.material >= 0);
+  return walk.off;
 }
 
 // Where further camera paths go: every pixel in the first pass; afterwards pixels whose light seen
@@ -641,7 +704,7 @@ void Gpm::iterate(ProgressSink* sink) {
   // same random numbers, so the pass is a whole one's. At 1920 x 1080 it took 7 s before its
   // first image (docs/blender.md).
   const bool may_pause = sink && stats_.passes == 0;
-  std::atomic<int64_t> shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0};
+  std::atomic<int64_t> shift_rays{0}, shifts{0}, walks{0}, walk_iterations{0}, replayed_pixels{0};
   std::array<std::atomic<int64_t>, 2 * kShiftFailureCount> failures;
   for (auto& f : failures) f = 0;
   for (int k = 0; k < kShiftFailureCount; ++k) failures[k] = open_failures_[k];
@@ -698,8 +761,8 @@ void Gpm::iterate(ProgressSink* sink) {
   for (size_t c = 0; c < chains_.size(); ++c) chain_state_[c].store(0, std::memory_order_relaxed);
   chain_bases_.resize(chains_.size());
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    int64_t local_rays = 0, local_shifts = 0;
-    int64_t fail_count[kShiftFailureCount] = {};
+    int64_t local_rays = 0, local_shifts = 0, replays = 0;
+    int64_t fail_count[kShiftFailureCount] = {}, sensor_fail_count[kShiftFailureCount] = {};
     WalkStats walk_stats;
     for (size_t i = lo; i < hi; ++i) {
       gather_m_[i] = 0;
@@ -708,13 +771,16 @@ void Gpm::iterate(ProgressSink* sink) {
       gather_phi_[i] = RGB(0.0f);
       gather_fb_[i] = RGB(0.0f);
       for (RGB& g : gather_diff_[i]) g = RGB(0.0f);
+      gathered_shifts_[i] = 0;
       const VisiblePoint& vp = vp_[i];
       if (!have_photons || vp.material < 0) continue;
       const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.p, vp.frame.to_world(vp.wo), vp.frame, vp.ng,
                                     vp.n_smooth);  // as Scene::bsdf(hit)
       const float R_primal = static_cast<float>(std::sqrt(px_[i].r2));
       const float R = static_cast<float>(std::sqrt(grad_[i].r2));  // the gradients' radius (gpm.h)
-      const auto& off = off_[i];
+      // The offsets: the eye pass's, or traced on the first photon to shift (replay_offsets).
+      std::optional<std::array<OffsetPoint, 4>> replayed;  // built only when replayed (512 bytes)
+      const std::array<OffsetPoint, 4>* offsets = offsets_ready_[i] ? &off_[i] : nullptr;
       double m = 0, m_grad = 0, lap = 0;
       RGB phi(0.0f), phi_fb(0.0f);
       std::array<RGB, 4> diff{RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)};
@@ -746,6 +812,13 @@ void Gpm::iterate(ProgressSink* sink) {
           ++fail_count[static_cast<int>(ShiftFailure::SpecularChain)];
           return;
         }
+        if (!offsets) {
+          replayed.emplace(replay_offsets(i, pass, local_rays, sensor_fail_count));
+          offsets = &*replayed;
+          ++replays;
+        }
+        gathered_shifts_[i] = 1;
+        const auto& off = *offsets;
         ChainBase local_base;
         const ChainBase* base = nullptr;  // evaluated on the first offset that needs it
         std::optional<Bsdf> org_bsdf;     // y_{s-1}'s BSDF, likewise (DD endings)
@@ -789,7 +862,11 @@ void Gpm::iterate(ProgressSink* sink) {
     }
     shift_rays += local_rays;
     shifts += local_shifts;
-    for (int k = 0; k < kShiftFailureCount; ++k) failures[kPhotonFailureBase + k] += fail_count[k];
+    for (int k = 0; k < kShiftFailureCount; ++k) {
+      failures[kPhotonFailureBase + k] += fail_count[k];
+      failures[k] += sensor_fail_count[k];
+    }
+    replayed_pixels += replays;
     walks += walk_stats.walks;
     walk_iterations += walk_stats.iterations;
   });
@@ -850,6 +927,7 @@ void Gpm::iterate(ProgressSink* sink) {
   end_pass(t_update, ps, rays + shift_rays, invalid + invalid_phi);  // SPPM's end of a pass
   stats_.extra["further camera paths"] += static_cast<double>(further_paths);  // what `emission_samples` costs
   stats_.extra["photon shifts"] += static_cast<double>(shifts);
+  if (!gradient_nee_) stats_.extra["offsets traced in the gather"] += static_cast<double>(replayed_pixels);
   stats_.extra["photon shift rays"] += static_cast<double>(shift_rays);
   stats_.extra["manifold walks"] += static_cast<double>(walks);
   stats_.extra["manifold walk iterations"] += static_cast<double>(walk_iterations);
@@ -892,9 +970,11 @@ void Gpm::develop(Film& film) const {
       const double nee = passes > 0 ? grad_[i].nee[c] / passes : 0.0;
       const double emission = direct - nee;  // seen along the gather path
       const double emission_all = passes > 0 ? grad_[i].emission[c] / passes : 0.0;  // with the further paths
-      grad_part[3 * i + c] = photons - photons_fb + nee;
-      fb[3 * i + c] = photons_fb + emission;
-      fb_combined[3 * i + c] = photons_fb + emission_all;
+      // Direct light by NEE: in the gradient domain, or kept apart with the emission (gradient_nee).
+      const double nee_grad = gradient_nee_ ? nee : 0.0, nee_fb = nee - nee_grad;
+      grad_part[3 * i + c] = photons - photons_fb + nee_grad;
+      fb[3 * i + c] = photons_fb + emission + nee_fb;
+      fb_combined[3 * i + c] = photons_fb + emission_all + nee_fb;
     }
   }
   for (int y = 0; y < height_; ++y)

@@ -61,6 +61,14 @@
 // Direct light at the gather point by next-event estimation (SPPM's) is in the gradient domain:
 // the offset gather points take the same light sample (as GPT), own visibility and BSDF, with
 // the sensor subpath's ratio in the MIS weight (the light point's area density is shared).
+// With `gradient_nee` off it is kept apart with the emission (primal domain, SPPM's estimate),
+// and then a pixel needs its offsets only when its gather finds a photon to shift: the eye pass
+// traces them for pixels whose last gather did, the gather replays the others' from their start
+// (same random numbers, same records: gpm.cpp eager_offsets, replay_offsets), and a pixel that
+// shifts nothing never traces them (issue 34: sun-caustic's floor, lit by the sun, holds photons
+// only in the ball's caustic).
+// No further camera paths where no camera path can meet emission (lights only point, spot and
+// sun, no medium): each would add 0 (gpm.cpp, the constructor).
 //
 // Parameters: declared once, with their defaults, ranges and equations, in methods.cpp
 // (`gradphoton methods gpm`, docs/methods.md#gpm).
@@ -99,6 +107,8 @@ class Gpm : public ProgressivePhotonMapping {
   // hidden from some of its kinds is not shifted (shift_dd_photon).
   void iterate(ProgressSink* sink) override;
   void develop(Film& film) const override;
+  // Tests: trace every pixel's offsets in the eye pass (the lazy rule's reference image).
+  void set_eager_offsets(bool eager) { eager_all_offsets_ = eager; }
 
   // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
@@ -124,7 +134,6 @@ class Gpm : public ProgressivePhotonMapping {
   // keeps SPPM's (PixelState: two pixels), so that `primal` is SPPM's image at the same parameters.
   struct GradState {
     double r2 = 0;                 // the gradients' R_i^2 (0 until the primal's is set)
-    bool sized = false;            // widened (or not) after the pixel's first gather (gpm.cpp)
     double n = 0;                  // their N_i
     double tau_fb[3] = {0, 0, 0};  // flux of photons kept in the primal domain (specular chains)
     double diff[4][3] = {};        // MIS-weighted flux differences per direction, within r2
@@ -134,6 +143,7 @@ class Gpm : public ProgressivePhotonMapping {
     double emission_lum = 0, emission_lum2 = 0;  // luminance sums of every path's emission seen
     double emission_paths = 0;                   // and how many paths
     bool scattered = false;  // a gather path went through a specular or glossy vertex
+    bool sized = false;      // widened (or not) after the pixel's first gather (gpm.cpp)
     // Whether this pixel's light seen along camera paths has varied between paths so far: there
     // further paths lower the variance (an emitter's edge or its image in glass, not the inside
     // of an emitter or a pixel that never saw one). Pixels seen through specular or glossy
@@ -153,6 +163,9 @@ class Gpm : public ProgressivePhotonMapping {
   };
 
   bool takes_further_paths(size_t pixel, uint64_t pass) const;
+  // Whether the eye pass traces the pixel's offsets, or leaves them to replay_offsets.
+  bool eager_offsets(size_t pixel) const;
+  std::array<OffsetPoint, 4> replay_offsets(size_t pixel, uint64_t pass, int64_t& rays, int64_t* fail_count) const;
   // (x, y): the film pixel the start belongs to (with a wide pixel filter start.film may lie
   // outside it).
   EmissionSeen emission_seen(PixelStart& start, int x, int y, const Vec2& ext, const RGB& gather_path, int further,
@@ -214,6 +227,10 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
   std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
   int emission_samples_ = 0;                        // further camera paths per pixel and pass
+  bool gradient_nee_ = true;                        // direct light by NEE in the gradient domain
+  bool eager_all_offsets_ = false;                  // tests: every offset in the eye pass
+  std::vector<uint8_t> offsets_ready_;              // off_[pixel] traced this pass
+  std::vector<uint8_t> gathered_shifts_;            // the pixel's last gather shifted photons
   std::vector<EmissionSeen> pass_emission_;         // this pass's per pixel
   // The first pass's sensor shift failures while it is open (paused: first_pass_open).
   std::array<int64_t, kShiftFailureCount> open_failures_{};
