@@ -269,8 +269,10 @@ class ProgressivePhotonMapping : public Integrator {
   std::optional<BsdfSample> eye_scatter(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo,
                                         float uc, Vec2 u) const;
   bool eye_survive(RgbEye& c, float u, float* survival) const;
-  void eye_prepare(RgbEye& c, const SurfaceHit& hit) const;
-  void eye_prepare(SpectralEye& c, const SurfaceHit& hit) const;  // the materials at the wavelengths
+  // The BSDF at an eye vertex (Scene::bsdf); spectral: also the material at the pass's
+  // wavelengths, from the same run of its node graph.
+  Bsdf eye_bsdf(RgbEye& c, const SurfaceHit& hit) const;
+  Bsdf eye_bsdf(SpectralEye& c, const SurfaceHit& hit) const;
   RGB eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
               const Vec2& u2, int64_t& rays, const ShadowTest* shadow) const;
   std::optional<BsdfSample> eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf,
@@ -492,11 +494,10 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     if (hit->light >= 0 && lights.lights()[hit->light].visible_to(kind))
       c.area_light(lights.area_radiance(hit->light, -ray.d), hit->light, lights);
     if (transparent_done(scene_.transparent_bounces, ray.state)) break;  // Light Paths > Transparent (medium_walk.h)
-    const Bsdf bsdf = scene_.bsdf(*hit);
+    const Bsdf bsdf = eye_bsdf(c, *hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
-    eye_prepare(c, *hit);
     hooks.vertex(*hit, wo, bsdf);
     if (bsdf.is_diffuse_for_photons(threshold_)) {
       if (emission_only) break;
@@ -563,7 +564,7 @@ inline std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(RgbEye& c
   c.beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
   return bs;
 }
-inline void ProgressivePhotonMapping::eye_prepare(RgbEye&, const SurfaceHit&) const {}
+inline Bsdf ProgressivePhotonMapping::eye_bsdf(RgbEye&, const SurfaceHit& hit) const { return scene_.bsdf(hit); }
 inline bool ProgressivePhotonMapping::eye_survive(RgbEye& c, float u, float* survival) const {
   return russian_roulette(c.beta, u, survival);
 }
