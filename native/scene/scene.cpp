@@ -47,6 +47,12 @@ Ray scattered_ray(const Vec3& p, const Vec3& ng, const Vec3& wi, const Ray& in, 
     next.bounce = in.bounce;
     next.state = in.state;
     next.state.length = 0.0f;
+  } else if (is_transparent_pass(bs)) {
+    // A Transparent BSDF's pass (a transparent bounce) keeps the ray's flags, as Cycles'
+    // path_state_next: a camera ray stays one, its kind stays.
+    next.camera = in.camera;
+    next.bounce = in.bounce;
+    next.state = next_ray_state(in.state, bs.lobe, bs.transmission, bs.delta, bs.eta);
   } else {
     next.bounce = bs.lobe;
     next.state = next_ray_state(in.state, bs.lobe, bs.transmission, bs.delta, bs.eta);

@@ -385,7 +385,10 @@ def test_mix_shader_with_a_linked_factor_weights_emission_by_nodes(empty_scene):
     assert "emission" not in table[d["b"]] and "strength" not in table[d["b"]]
 
 
-def test_transparent_second_with_a_linked_factor_is_coverage_one_minus_it(empty_scene):
+def test_white_transparent_in_a_mix_is_the_transparent_closure_not_a_cut_out(empty_scene):
+    """Cycles 3.4 keeps a Mix's Transparent BSDF as a closure of the mix's weight: paths pick it
+    by that weight, next-event estimation lights the other closure at every hit, shadow rays pass
+    filtered by it. The exporter writes the same mix (once a coverage cut-out: issue 30)."""
     m, nt, out = node_material("Leaf")
     ch = nt.nodes.new("ShaderNodeTexChecker")
     t = nt.nodes.new("ShaderNodeBsdfTransparent")
@@ -395,10 +398,12 @@ def test_transparent_second_with_a_linked_factor_is_coverage_one_minus_it(empty_
     nt.links.new(dif.outputs[0], mix.inputs[1])
     nt.links.new(t.outputs[0], mix.inputs[2])
     nt.links.new(mix.outputs[0], out.inputs["Surface"])
-    d, _, warnings, _ = export_material(m)
-    assert not warnings and d["type"] == "diffuse"
-    a = d["nodes"][d["alpha"]["link"]]
-    assert a["props"] == {"operation": "SUBTRACT", "use_clamp": True} and a["inputs"]["Value"] == 1.0
+    d, table, warnings, _ = export_material(m)
+    assert not warnings and d["type"] == "mix" and "alpha" not in d
+    assert table[d["a"]]["type"] == "diffuse"
+    assert table[d["b"]]["type"] == "transparent" and table[d["b"]]["color"] == [1.0, 1.0, 1.0]
+    fac = d["nodes"][d["factor"]["link"]]
+    assert fac["inputs"]["Value"] == link("Checker Texture", "Fac")
 
 
 def test_the_addons_node_list_is_the_cores(empty_scene):

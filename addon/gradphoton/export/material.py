@@ -39,10 +39,11 @@ A mix's components are other materials of the table ("<material>/<node>/<a|b>");
 material object carries the part of the node table its own inputs reach (scene-format:
 links resolve against the table of the material object they appear in).
 
-A Mix Shader with a white Transparent BSDF on one side is the other side with coverage `alpha` =
-the mix's factor (Transparent first) or 1 - factor: the core's stochastic cut-out, which shadow
-rays see too (a tinted Transparent BSDF is the `transparent` closure, through which shadow rays
-pass filtered by its weight, up to Light Paths > Transparent bounces).
+A Transparent BSDF of any colour, alone or in a Mix, is the core's `transparent` closure, as
+Cycles 3.4 keeps it: camera and bounce paths pick it by its mix weight (a transparent bounce,
+counted against Light Paths > Transparent only), next-event estimation lights the other closures
+at every hit, and shadow rays pass filtered by its weight, up to Light Paths > Transparent
+bounces. (It was once a stochastic coverage cut-out for a white one: noisier, docs/blender.md.)
 Coverage (alpha) belongs to the whole material (lifted out of mix parts; the first found wins).
 Normals are per closure, as Cycles' closures each have their own (the `normal` key: a link to a
 Normal Map or Bump node, or any vector output).
@@ -330,10 +331,6 @@ class MaterialExporter:
             sockets = (node.inputs[1], node.inputs[2])
             weights = (self.g.math("SUBTRACT", 1.0, t, clamp=True, hint="fac"), t)
         pairs = [self._shader_in(s, path) for s in sockets]
-        if not add:
-            cut_out = self._transparent_mix(pairs, t, depth)
-            if cut_out is not None:
-                return cut_out
         parts = [self._sub(p, depth) for p in pairs]
         holdout = self._holdout_weight(parts, weights)
         lifted = {}
@@ -377,24 +374,6 @@ class MaterialExporter:
         if total is None or _is_link(total):
             return total
         return True if total >= 1.0 else total if total > 0.0 else None
-
-    def _transparent_mix(self, pairs, t, depth):
-        """Mix Shader of a Transparent BSDF (white) and one other shader: that shader with
-        coverage alpha = Fac (transparent first) or 1 - Fac (transparent second); None otherwise.
-        (The core has no transparent closure yet: coverage is its stochastic cut-out.)"""
-        kinds = [p[0].bl_idname if p is not None else None for p in pairs]
-        if kinds.count('ShaderNodeBsdfTransparent') != 1:
-            return None
-        k = kinds.index('ShaderNodeBsdfTransparent')
-        tnode, tpath = pairs[k]
-        color = self._in(tnode, tpath, "Color")
-        if _is_link(color) or any(c < 0.999 for c in color):
-            return None  # a tinted transparency is no cut-out
-        alpha = t if k == 0 else self.g.math("SUBTRACT", 1.0, t, clamp=True, hint="coverage")
-        d = self._sub(pairs[1 - k], depth)
-        if _is_link(alpha) or alpha < 1.0:
-            d["alpha"] = alpha
-        return d
 
     @staticmethod
     def _one_sided(d, mat):

@@ -68,6 +68,7 @@ struct PathPair {
   float prev_pdf = 0;
   Vec3 prev_p;
   std::optional<SurfaceHit> hit;
+  bool crossed = false, transparent_pass = false;  // what the last scatter did (not a bounce)
 
   PathPair(const Scene& scene, Vec2 film, Vec2 lens, Sampler& sampler, RayCounts& ray_counts,
            std::map<std::string, double>* fails, int pixel_x, int pixel_y, int width, int height)
@@ -265,11 +266,16 @@ struct PathPair {
     const RGB base_factor = bs->f * (std::abs(bs->wi.z) / bs->pdf);
     const Vec3 wi_world = hit->frame.to_world(bs->wi);
     Ray next_ray(offset_ray_origin(hit->p, hit->ng, wi_world), wi_world);
-    // Its kind: the lobe sampled, or across a light object (a pass-through surface) the kind it had.
-    next_ray.bounce = scene_.material(hit->material).is_pass_through() ? ray.bounce : bs->lobe;
-    next_ray.state = scene_.material(hit->material).is_pass_through()
-                         ? ray.state
-                         : next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
+    // Its kind: the lobe sampled, or across a light object (a pass-through surface casting no
+    // shadow) or a Transparent BSDF the kind it had (a transparent bounce counts in its state
+    // only; neither is a bounce: `not_bounce`, as in paths/camera_path.h).
+    const Material& material = scene_.material(hit->material);
+    crossed = material.is_pass_through() && !material.transparent_shadow();
+    transparent_pass = !crossed && is_transparent_pass(*bs);
+    const bool not_bounce = crossed || transparent_pass;
+    next_ray.bounce = not_bounce ? ray.bounce : bs->lobe;
+    next_ray.camera = not_bounce && ray.camera;
+    next_ray.state = crossed ? ray.state : next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     if (split_lobes) {
       prev.beta = beta;
       prev.lobe = bs->lobe;
@@ -353,6 +359,7 @@ struct PathPair {
           wi_o = wi_world;
           o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_o), wi_o);
           o.ray.bounce = next_ray.bounce;
+          o.ray.camera = next_ray.camera;
           o.ray.state = next_ray.state;
           ++rays.closest;
           const auto oh = scene_.intersect(o.ray);
@@ -385,6 +392,7 @@ struct PathPair {
       const Vec3 wi_w = ov.frame.to_world(ss.wi);
       o.ray = Ray(offset_ray_origin(ov.p, ov.ng, wi_w), wi_w);
       o.ray.bounce = next_ray.bounce;
+      o.ray.camera = next_ray.camera;
       o.ray.state = next_ray.state;
       ++rays.closest;
       o.hit = scene_.intersect(o.ray);
@@ -445,9 +453,11 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
                                                      std::map<std::string, double>* failures, int pixel_x,
                                                      int pixel_y) const {
   PathPair p(scene_, film, lens, rng, rays, failures, pixel_x, pixel_y, width_, height_);
+  constexpr int kMaxCrossings = 8;  // light objects crossed without a bounce (camera_path.h)
+  int crossings = 0;
   for (int depth = 0;; ++depth) {
     p.emission(depth);
-    if (!p.hit || depth + 1 >= max_depth_) break;
+    if (!p.hit || depth + 1 >= max_depth_ || transparent_done(scene_.transparent_bounces, p.ray.state)) break;
     const Bsdf bsdf = scene_.bsdf(*p.hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = p.hit->frame.to_local(-p.ray.d);
@@ -456,6 +466,8 @@ GradientPathTracer::Sample GradientPathTracer::trace(Vec2 film, Vec2 lens, Sampl
     p.match_offsets(kind);
     p.next_event(bsdf, wo);
     if (!p.scatter(bsdf, wo, kind)) break;
+    // A transparent bounce or a light object crossed is no bounce (Cycles' path_state_next).
+    if (p.transparent_pass || (p.crossed && ++crossings <= kMaxCrossings)) --depth;
     if (depth + 1 >= rr_depth_ && !p.survive()) break;
   }
   return p.out;

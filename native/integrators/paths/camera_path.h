@@ -134,7 +134,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
   // start_pixel), which every ray, hit and light sample on the path then takes (core/math.h).
   const ShutterTime at_time(ray.time);
   const LightSet& lights = scene.light_set();
-  constexpr int kMaxPassThrough = 8;  // Cycles: Light Paths > Transparent, 8 by default
+  constexpr int kMaxPassThrough = 8;  // light objects crossed (they count no transparent bounce)
   constexpr int kMaxBoundaries = 64;  // volume boundaries crossed (Cycles: VOLUME_BOUNDS_MAX)
   int pass_through = 0, boundaries = 0;
   // The media the path is in (Cycles' volume stack), only in scenes that have media.
@@ -245,21 +245,28 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       return true;
     }
     if (hit->light >= 0) path.area_light(depth, *hit, ray);
-    // ---- A pass-through surface (a light object): the path goes on as if it were not there,
-    // keeping its state and its kind of ray, not counting a bounce (Cycles' transparent bounce)
+    // Light Paths > Transparent reached: the ray that made the last allowed transparent bounce
+    // sees this surface's emission and ends here (Cycles' PATH_RAY_TERMINATE_ON_NEXT_SURFACE,
+    // path_state.h path_state_next).
+    if (transparent_done(scene.transparent_bounces, ray.state)) return true;
+    // ---- A pass-through surface: the path goes on as if it were not there, keeping its kind of
+    // ray, not counting a bounce. A clear Transparent BSDF counts a transparent bounce (Cycles'
+    // LABEL_TRANSPARENT); a light object (no shadow: Cycles' lights are not geometry) and a
+    // volume boundary (Cycles' volume_bounds_bounce) count none.
     const Material& material = scene.material(hit->material);
     if (material.is_pass_through() && (media && material.interior >= 0 ? boundaries < kMaxBoundaries
-                                                                         : pass_through < kMaxPassThrough)) {
+                                       : material.transparent_shadow() || pass_through < kMaxPassThrough)) {
       // A volume boundary (Blender's Volume-only material) enters or leaves its medium.
       if (media && material.interior >= 0) {
         ++boundaries;
         stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
-      } else {
+      } else if (!material.transparent_shadow()) {
         ++pass_through;
       }
       const bool camera = ray.camera;
       const uint8_t bounce = ray.bounce;
-      const RayState state = ray.state;
+      RayState state = ray.state;
+      if (material.transparent_shadow() && material.interior < 0) ++state.transparent;
       ray = Ray(offset_ray_origin(hit->p, hit->ng, ray.d), ray.d);
       ray.camera = camera;
       ray.bounce = bounce;
@@ -295,9 +302,22 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     if (media && material.interior >= 0 && (dot(wi, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
       stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
     const RayState state = next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
-    ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
-    ray.bounce = bs->lobe;  // surfaces hidden from this kind of ray let it through
-    ray.state = state;      // Light Path's view of it (Cycles' path_state_next)
+    if (is_transparent_pass(*bs)) {
+      // Through a Transparent BSDF: a transparent bounce, not a bounce (Cycles' path_state_next
+      // counts it against Light Paths > Transparent only and keeps the ray's flags), so the
+      // depth and the kind of ray stay: a camera ray is still one behind the surface.
+      const bool camera = ray.camera;
+      const uint8_t bounce = ray.bounce;
+      ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+      ray.camera = camera;
+      ray.bounce = bounce;
+      ray.state = state;
+      --depth;
+    } else {
+      ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
+      ray.bounce = bs->lobe;  // surfaces hidden from this kind of ray let it through
+      ray.state = state;      // Light Path's view of it (Cycles' path_state_next)
+    }
 
     // ---- Russian roulette ----
     if (depth + 1 >= s.rr_depth && !path.survive(rng.uniform())) return true;

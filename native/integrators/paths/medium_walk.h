@@ -17,6 +17,16 @@ struct ShadowChannels {
   RayState state;                         // the path's ray at the vertex (its transparent bounces)
 };
 
+// Whether a ray of Light Path state `state` ends at the next surface it meets, after that
+// surface's emission: its transparent bounces reached Light Paths > Transparent
+// (Scene::transparent_bounces; Cycles sets PATH_RAY_TERMINATE_ON_NEXT_SURFACE once
+// transparent_bounce >= transparent_max_bounce after a transparent bounce, path_state.h
+// path_state_next). The camera-path loop, the photon methods' eye walk and gpt's base path
+// share it; a transparent bounce is not a bounce for their depth (RayState::next).
+inline bool transparent_done(int transparent_bounces, const RayState& state) {
+  return state.transparent > 0 && state.transparent >= transparent_bounces;
+}
+
 // The shadow test of next-event estimation: the per-channel transmittance from a vertex to a
 // light sample, 0 where something blocks it. Without media (stack null) and without transparent
 // surfaces it is Scene::occluded, unchanged (all ones or all zeros). With media it follows the

@@ -65,10 +65,12 @@ const BsdfParams* SpectraAtWavelengths::material(const SurfaceHit& hit, Waveleng
   return at_point(hit.material, scene_->shading_context(hit), local);
 }
 
-const BsdfParams* SpectraAtWavelengths::at_point(int m, const shading::ShadingContext& ctx, WavelengthParams& local) const {
+const BsdfParams* SpectraAtWavelengths::at_point(int m, const shading::ShadingContext& ctx, WavelengthParams& local,
+                                                  BsdfParams* rgb) const {
   const SpectralSurface surface(scene_->materials[static_cast<size_t>(m)], ctx, &spectra_->albedo[static_cast<size_t>(m)]);
   BsdfParams* params = local.make();
   for (int k = 0; k < count_; ++k) params[k] = surface.at(wl_.lambda[k]);
+  if (rgb) *rgb = surface.rgb();
   return params;
 }
 

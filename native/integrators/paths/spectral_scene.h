@@ -85,6 +85,13 @@ class SpectraAtWavelengths {
   }
   // The same at a hit, a node graph seeing its whole shading context (position, object, ray).
   const BsdfParams* material(const SurfaceHit& hit, WavelengthParams& local) const;
+  // Whether material m's parameters are made per point (textures or a graph drive them).
+  bool per_point(int m) const { return per_point_[static_cast<size_t>(m)] != 0; }
+  // For such a material, at shading context ctx: the parameters at each wavelength, and in *rgb
+  // the point's RGB ones, from the same run of its node graph (what Bsdf(m, ctx) holds).
+  const BsdfParams* material(int m, const shading::ShadingContext& ctx, WavelengthParams& local, BsdfParams* rgb) const {
+    return at_point(m, ctx, local, rgb);
+  }
   // Light l's spectrum (SceneSpectra::light) at each wavelength of the set.
   const float* light(int l) const { return &light_[static_cast<size_t>(l) * count_]; }
   // The spectral radiance at each wavelength of the set of the RGB `value` light l sends
@@ -99,7 +106,8 @@ class SpectraAtWavelengths {
   std::vector<BsdfParams> bsdf_;
   std::vector<uint8_t> per_point_;  // the material has textures: parameters per point
   std::vector<float> light_;
-  const BsdfParams* at_point(int m, const shading::ShadingContext& ctx, WavelengthParams& local) const;
+  const BsdfParams* at_point(int m, const shading::ShadingContext& ctx, WavelengthParams& local,
+                             BsdfParams* rgb = nullptr) const;
 };
 
 // Spectral radiance of a light sample over its light's spectrum: lights scale their RGB

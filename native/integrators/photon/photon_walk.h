@@ -308,6 +308,12 @@ int64_t PhotonTracer::walk(PrimarySamples& u, int min_deposit_bounce, P& power, 
         chain->dir = Vec3(0.0f);
         chain->count = 0;
         chain_ok = true;
+      } else if (!bs->delta && bsdf.is_stochastic()) {
+        // A random-walk lobe (Multiscatter GGX): its directions hold no half-vector and its
+        // density is unknown, so no manifold walk may move the chain through it (GPM §4.2
+        // assumes single-scatter lobes): the photon is the primal's alone (gpm.cpp: counted
+        // as a failed specular-chain shift), as gpt stops offsets at such a vertex.
+        chain_ok = false;
       } else if (chain->count < kMaxChainVertices) {
         chain->v[chain->count++] = ChainVertex{hit->p, hit->ng, hit->mesh, hit->prim, bs->transmission};
       } else {

@@ -261,8 +261,10 @@ class ProgressivePhotonMapping : public Integrator {
   std::optional<BsdfSample> eye_scatter(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo,
                                         float uc, Vec2 u) const;
   bool eye_survive(RgbEye& c, float u, float* survival) const;
-  void eye_prepare(RgbEye& c, const SurfaceHit& hit) const;
-  void eye_prepare(SpectralEye& c, const SurfaceHit& hit) const;  // the materials at the wavelengths
+  // The BSDF at an eye vertex (Scene::bsdf); spectral: also the material at the pass's
+  // wavelengths, from the same run of its node graph.
+  Bsdf eye_bsdf(RgbEye& c, const SurfaceHit& hit) const;
+  Bsdf eye_bsdf(SpectralEye& c, const SurfaceHit& hit) const;
   RGB eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
               const Vec2& u2, int64_t& rays, const ShadowTest* shadow) const;
   std::optional<BsdfSample> eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf,
@@ -439,6 +441,8 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
   // The kind of the ray being traced, for the lights' and the World's Ray Visibility: the camera,
   // then the lobe of the last bounce (a light object crossed keeps it, as in the path tracer).
   uint8_t kind = kRayCamera;
+  constexpr int kMaxCrossings = 8;  // light objects and volume boundaries crossed without a bounce
+  int crossings = 0;
   // The media the path is in (Cycles' volume stack), only where the method renders media.
   MediumStack stack = scene_.initial_medium_stack();
   ShadowTest shadow(scene_, media_ ? &stack : nullptr);
@@ -473,11 +477,11 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     out.path_length += hit->t;
     if (hit->light >= 0 && lights.lights()[hit->light].visible_to(kind))
       c.area_light(lights.area_radiance(hit->light, -ray.d), hit->light, lights);
-    const Bsdf bsdf = scene_.bsdf(*hit);
+    if (transparent_done(scene_.transparent_bounces, ray.state)) break;  // Light Paths > Transparent (medium_walk.h)
+    const Bsdf bsdf = eye_bsdf(c, *hit);
     if (bsdf.is_black()) break;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
-    eye_prepare(c, *hit);
     hooks.vertex(*hit, wo, bsdf);
     if (bsdf.is_diffuse_for_photons(threshold_)) {
       if (emission_only) break;
@@ -505,15 +509,21 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     const std::optional<BsdfSample> bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
     if (!bs) break;
     const Material& material = scene_.material(hit->material);
-    const bool crossed = material.is_pass_through();  // a light object, a volume boundary
+    // A light object, a volume boundary (a clear Transparent BSDF, which shadow rays pass
+    // filtered, is a transparent bounce below).
+    const bool crossed = material.is_pass_through() && !material.transparent_shadow();
     const Vec3 wi_world = hit->frame.to_world(bs->wi);
     // A sample through a surface with an interior medium (glass of murky water) crosses it.
     if (media_ && material.interior >= 0 && (dot(wi_world, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
       stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
     const Ray next = scattered_ray(hit->p, hit->ng, wi_world, ray, crossed, *bs);
-    if (!crossed) kind = bs->lobe;
+    // Neither a light object crossed nor a Transparent BSDF's pass is a bounce (as in
+    // paths/camera_path.h: Cycles counts the latter against Light Paths > Transparent only).
+    const bool transparent = !crossed && is_transparent_pass(*bs);  // scattered_ray keeps its kind
+    if (!crossed && !transparent) kind = bs->lobe;
     hooks.scatter(wo, *bs, next);
     ray = next;
+    if (transparent || (crossed && ++crossings <= kMaxCrossings)) --depth;
     if (depth + 1 >= rr_depth_) {
       float survival = 1.0f;
       if (!eye_survive(c, rng.uniform(), &survival)) break;
@@ -538,7 +548,7 @@ inline std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(RgbEye& c
   c.beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
   return bs;
 }
-inline void ProgressivePhotonMapping::eye_prepare(RgbEye&, const SurfaceHit&) const {}
+inline Bsdf ProgressivePhotonMapping::eye_bsdf(RgbEye&, const SurfaceHit& hit) const { return scene_.bsdf(hit); }
 inline bool ProgressivePhotonMapping::eye_survive(RgbEye& c, float u, float* survival) const {
   return russian_roulette(c.beta, u, survival);
 }

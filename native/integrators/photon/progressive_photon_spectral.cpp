@@ -169,8 +169,20 @@ std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, 
   return bs;
 }
 
-void ProgressivePhotonMapping::eye_prepare(SpectralEye& c, const SurfaceHit& hit) const {
-  c.mk = pass_spectra_.material(hit, c.local);
+Bsdf ProgressivePhotonMapping::eye_bsdf(SpectralEye& c, const SurfaceHit& hit) const {
+  const Material& m = scene_.material(hit.material);
+  if (!m.graph || !pass_spectra_.per_point(hit.material)) {
+    c.mk = pass_spectra_.material(hit, c.local);  // shared per pass, or legacy textures at uv
+    return scene_.bsdf(hit);
+  }
+  // One run of the node graph for both (it ran twice: Scene::bsdf, then the wavelengths'): the
+  // RGB BSDF is Scene::bsdf(hit)'s, made from the same parameters at the same shading context.
+  const shading::ShadingContext ctx = scene_.shading_context(hit);
+  BsdfParams rgb;
+  c.mk = pass_spectra_.material(hit.material, ctx, c.local, &rgb);
+  Bsdf b(rgb, ctx);
+  if (m.perturbs_normal()) b.set_surface_normals(hit.frame.to_local(hit.ng), hit.frame.to_local(hit.n_smooth));
+  return b;
 }
 
 bool ProgressivePhotonMapping::eye_survive(SpectralEye& c, float u, float*) const {
