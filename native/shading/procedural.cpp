@@ -236,8 +236,12 @@ GP_AVX2_CLONES float fractal_noise(const Vec4& p, int dims, float octaves, float
   return fractal_noise_in(p, dims, octaves, roughness);
 }
 
-GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
-                   float* value, Vec3* color) {
+namespace {
+// The Noise Texture for a dimension count known at compile time (each octave's perlin_Nd
+// chosen once, not per octave).
+template <int dims>
+GP_INLINE void noise_texture_d(const Vec4& co, float detail, float roughness, float distortion, bool want_color,
+                               float* value, Vec3* color) {
   Vec4 p = co;
   if (distortion != 0.0f) {
     Vec4 d;
@@ -250,6 +254,17 @@ GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float 
     const int s = dims == 1 ? 1 : dims;
     *color = Vec3(*value, fractal_noise_in(added(p, random_offset(s, dims)), dims, detail, roughness),
                   fractal_noise_in(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
+  }
+}
+}  // namespace
+
+GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
+                   float* value, Vec3* color) {
+  switch (dims) {
+    case 1: return noise_texture_d<1>(co, detail, roughness, distortion, want_color, value, color);
+    case 2: return noise_texture_d<2>(co, detail, roughness, distortion, want_color, value, color);
+    case 3: return noise_texture_d<3>(co, detail, roughness, distortion, want_color, value, color);
+    default: return noise_texture_d<4>(co, detail, roughness, distortion, want_color, value, color);
   }
 }
 
