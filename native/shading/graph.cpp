@@ -476,6 +476,7 @@ std::shared_ptr<const ShaderProgram> GraphCompiler::compile() {
     prog->sub_ops_.insert(prog->sub_ops_.end(), subs.begin(), subs.end());
   }
 
+  for (const Op& op : prog->ops_) prog->reads_tangents_ = prog->reads_tangents_ || op.type->reads_tangents;
   prog->constants_ = std::move(regs);
   prog->is_constant_ = std::move(is_const);
   g.root_sources.clear();

@@ -78,6 +78,7 @@ struct NodeType {
   void (*eval)(EvalArgs&) = nullptr;
   bool reads_context = false;  // never constant-folded (input nodes, bump)
   int height_input = -1;       // Bump: the input re-evaluated at offset points
+  bool reads_tangents = false; // reads the context's dPdu / dPdv (ShaderProgram::reads_tangents)
 };
 
 // The evaluation of one op: its inputs read (converted) and outputs written. `in` and `outs`
