@@ -177,6 +177,12 @@ struct Material {
     return mix_b ? mix_b->anisotropic_part() : nullptr;
   }
   bool perturbs_normal() const { return normal_tex || bump_tex || normal_in; }
+  // Whether a node graph this material runs (its own, a mix component's) reads the surface
+  // tangents dPdu / dPdv: where none does, the shading context leaves them out.
+  bool graph_reads_tangents() const {
+    return (graph && graph->reads_tangents()) || (mix_a && mix_a->graph_reads_tangents()) ||
+           (mix_b && mix_b->graph_reads_tangents());
+  }
   bool holds_out_partly() const { return !holdout && (holdout_weight > 0.0f || holdout_in); }
   bool has_coverage() const { return alpha < 1.0f || alpha_tex || alpha_in; }
   bool emission_from_graph() const { return emission_in || strength_in; }

@@ -159,13 +159,17 @@ shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3
   c.N = dot(n_smooth, c.Ng) < 0 ? -n_smooth : n_smooth;
   if (h.mesh >= 0) {
     const Mesh& m = meshes[h.mesh];
-    const uint32_t i0 = m.indices[3 * h.prim], i1 = m.indices[3 * h.prim + 1], i2 = m.indices[3 * h.prim + 2];
-    const bool has_uvs = !m.uvs.empty();
-    Vec3 v[3];
-    triangle_at(h.mesh, h.prim, shutter_time(), v);  // the path's time (a moving mesh's tangents turn)
-    if (!triangle_dpduv(v[0], v[1], v[2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
-                        has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &c.dPdu, &c.dPdv))
-      c.dPdu = c.dPdv = Vec3(0.0f);
+    // The tangents only where a graph reads them (Bump, Normal Map, Geometry's Tangent): the
+    // triangle's corners and its uv Jacobian are a good part of a procedural hit's cost.
+    if (h.material < 0 || materials[h.material].graph_reads_tangents()) {
+      const uint32_t i0 = m.indices[3 * h.prim], i1 = m.indices[3 * h.prim + 1], i2 = m.indices[3 * h.prim + 2];
+      const bool has_uvs = !m.uvs.empty();
+      Vec3 v[3];
+      triangle_at(h.mesh, h.prim, shutter_time(), v);  // the path's time (a moving mesh's tangents turn)
+      if (!triangle_dpduv(v[0], v[1], v[2], has_uvs ? m.uvs[i0] : Vec2(0, 0),
+                          has_uvs ? m.uvs[i1] : Vec2(1, 0), has_uvs ? m.uvs[i2] : Vec2(0, 1), &c.dPdu, &c.dPdv))
+        c.dPdu = c.dPdv = Vec3(0.0f);
+    }
     if (static_cast<size_t>(h.mesh) < shading_objects_.size()) {
       c.object = &shading_objects_[h.mesh];
       // A moving object's Object/Generated coordinates, Object Info and Vector Transform at the

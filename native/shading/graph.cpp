@@ -90,7 +90,7 @@ float EvalArgs::height_at(const ShadingContext& moved) const {
 
 void ShaderProgram::run_op(uint32_t i, const ShadingContext& ctx, Vec3* regs) const {
   const Op& op = ops_[i];
-  EvalArgs a{*this, op, ctx, regs};
+  EvalArgs a{*this, op, ctx, regs, inputs_.data() + op.first_in, outputs_.data() + op.first_out};
   op.type->eval(a);
 }
 
@@ -102,7 +102,12 @@ uint64_t ShaderProgram::runs_on_this_thread() { return tl_runs; }
 void ShaderProgram::run(const ShadingContext& ctx, Vec3* regs) const {
   ++tl_runs;
   std::copy(constants_.begin(), constants_.end(), regs);
-  for (uint32_t i = 0; i < ops_.size(); ++i) run_op(i, ctx, regs);
+  const InputSource* in = inputs_.data();
+  const uint32_t* outs = outputs_.data();
+  for (const Op& op : ops_) {
+    EvalArgs a{*this, op, ctx, regs, in + op.first_in, outs + op.first_out};
+    op.type->eval(a);
+  }
 }
 
 Vec3 ShaderProgram::evaluate(const ShadingContext& ctx, InputSource source) const {
@@ -471,6 +476,7 @@ std::shared_ptr<const ShaderProgram> GraphCompiler::compile() {
     prog->sub_ops_.insert(prog->sub_ops_.end(), subs.begin(), subs.end());
   }
 
+  for (const Op& op : prog->ops_) prog->reads_tangents_ = prog->reads_tangents_ || op.type->reads_tangents;
   prog->constants_ = std::move(regs);
   prog->is_constant_ = std::move(is_const);
   g.root_sources.clear();

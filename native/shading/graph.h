@@ -172,6 +172,9 @@ class ShaderProgram {
   const std::vector<Vec3>& constants() const { return constants_; }
   size_t op_count() const { return ops_.size(); }
   bool empty() const { return ops_.empty(); }
+  // Whether an op reads the context's surface tangents (dPdu, dPdv: Bump, Normal Map, Geometry),
+  // which a caller may then leave out of the context (Scene::shading_context).
+  bool reads_tangents() const { return reads_tangents_; }
   // Whether the value at a source is constant (folded or never written by an op).
   bool is_constant(InputSource s) const { return s.reg < is_constant_.size() && is_constant_[s.reg]; }
 
@@ -186,6 +189,7 @@ class ShaderProgram {
   std::vector<Vec3> constants_;
   std::vector<bool> is_constant_;
   uint32_t trash_ = 0;  // the register unused outputs are written to
+  bool reads_tangents_ = false;
   void run_op(uint32_t i, const ShadingContext& ctx, Vec3* regs) const;
 };
 

@@ -78,22 +78,27 @@ struct NodeType {
   void (*eval)(EvalArgs&) = nullptr;
   bool reads_context = false;  // never constant-folded (input nodes, bump)
   int height_input = -1;       // Bump: the input re-evaluated at offset points
+  bool reads_tangents = false; // reads the context's dPdu / dPdv (ShaderProgram::reads_tangents)
 };
 
-// The evaluation of one op: its inputs read (converted) and outputs written.
+// The evaluation of one op: its inputs read (converted) and outputs written. `in` and `outs`
+// point at the op's slices of the program's tables (set once per op: a read is one lookup).
 struct EvalArgs {
   const ShaderProgram& prog;
   const Op& op;
   const ShadingContext& ctx;
   Vec3* regs;
-  Vec3 v(int i) const { return regs[prog.inputs_[op.first_in + i].reg]; }
+  const InputSource* in;
+  const uint32_t* outs;
+  Vec3 v(int i) const { return regs[in[i].reg]; }
   float f(int i) const {
-    const InputSource& s = prog.inputs_[op.first_in + i];
-    return as_float(regs[s.reg], s.conv);
+    const InputSource& s = in[i];
+    const Vec3& r = regs[s.reg];
+    return __builtin_expect(s.conv == Conversion::None, 1) ? r.x : as_float(r, s.conv);
   }
-  bool used(int j) const { return prog.outputs_[op.first_out + j] != prog.trash_; }
-  void out(int j, const Vec3& x) const { regs[prog.outputs_[op.first_out + j]] = x; }
-  void out(int j, float x) const { regs[prog.outputs_[op.first_out + j]] = Vec3(x); }
+  bool used(int j) const { return outs[j] != prog.trash_; }
+  void out(int j, const Vec3& x) const { regs[outs[j]] = x; }
+  void out(int j, float x) const { regs[outs[j]] = Vec3(x); }
   // Bump: the height input evaluated at a moved shading point.
   float height_at(const ShadingContext& moved) const;
 };

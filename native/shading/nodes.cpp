@@ -1570,9 +1570,12 @@ std::vector<NodeType> make_types() {
        true});
   add({"ShaderNodeAttribute", {}, {out_c("Color"), out_v("Vector"), out_f("Fac"), out_f("Alpha")}, parse_attribute,
        eval_attribute, true});
-  add({"ShaderNodeNewGeometry", {}, {out_v("Position"), out_v("Normal"), out_v("Tangent"), out_v("True Normal"),
-                                      out_v("Incoming"), out_v("Parametric"), out_f("Backfacing"), out_f("Pointiness"),
-                                      out_f("Random Per Island")}, nullptr, eval_geometry, true});
+  NodeType geometry{"ShaderNodeNewGeometry", {}, {out_v("Position"), out_v("Normal"), out_v("Tangent"),
+                                                  out_v("True Normal"), out_v("Incoming"), out_v("Parametric"),
+                                                  out_f("Backfacing"), out_f("Pointiness"), out_f("Random Per Island")},
+                     nullptr, eval_geometry, true};
+  geometry.reads_tangents = true;  // Tangent without an object
+  add(std::move(geometry));
   add({"ShaderNodeObjectInfo", {}, {out_v("Location"), out_c("Color"), out_f("Alpha"), out_f("Object Index"),
                                      out_f("Material Index"), out_f("Random")}, nullptr, eval_object_info, true});
   add({"ShaderNodeFresnel", {in_f("IOR", 1.45f), in_imp("Normal", Implicit::Normal)}, {out_f("Fac")}, nullptr,
@@ -1670,11 +1673,14 @@ std::vector<NodeType> make_types() {
   // Vector
   add({"ShaderNodeMapping", {in_v("Vector"), in_v("Location"), in_v("Rotation"), in_v("Scale", 1, 1, 1)},
        {out_v("Vector")}, parse_mapping, eval_mapping});
-  add({"ShaderNodeNormalMap", {in_f("Strength", 1.0f), in_c("Color", 0.5f, 0.5f, 1.0f)}, {out_v("Normal")},
-       parse_normal_map, eval_normal_map, true});
+  NodeType normal_map{"ShaderNodeNormalMap", {in_f("Strength", 1.0f), in_c("Color", 0.5f, 0.5f, 1.0f)},
+                      {out_v("Normal")}, parse_normal_map, eval_normal_map, true};
+  normal_map.reads_tangents = true;
+  add(std::move(normal_map));
   NodeType bump{"ShaderNodeBump", {in_f("Strength", 1.0f), in_f("Distance", 1.0f), in_f("Height", 1.0f),
                                    in_imp("Normal", Implicit::Normal)}, {out_v("Normal")}, parse_bump, eval_bump, true};
   bump.height_input = 2;
+  bump.reads_tangents = true;
   add(std::move(bump));
   add({"ShaderNodeDisplacement", {in_f("Height", 0.0f), in_f("Midlevel", 0.5f), in_f("Scale", 1.0f),
                                   in_imp("Normal", Implicit::Normal)}, {out_v("Displacement")}, parse_displacement,

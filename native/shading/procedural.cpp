@@ -78,12 +78,15 @@ GP_INLINE f32x4 grad2_v(u32x4 hash, f32x4 x, f32x4 y) {
   return (f32x4)(u ^ ((h & 1u) << 31)) + (f32x4)((u32x4)v ^ ((h & 2u) << 30));
 }
 // grad3: u = h < 8 ? x : y, v = h < 4 ? y : (h == 12 || h == 14 ? x : z), signs by h & 1, h & 2.
+// The tests read the bits of h directly: h < 8 is bit 3 clear, h < 4 bits 2 and 3 clear, h == 12 or
+// 14 is h & 13 == 12; bit 0 shifted to the sign is u's flip, bit 1 v's.
 GP_INLINE f32x8 grad3_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z) {
-  const u32x8 h = hash & 15u;
-  const u32x8 u = select_bits<u32x8>(below(h, 8), x, y);
-  const f32x8 vt = (f32x8)select_bits<u32x8>(below(h ^ 12u, 1) | below(h ^ 14u, 1), x, z);
-  const u32x8 v = select_bits<u32x8>(below(h, 4), y, vt);
-  return (f32x8)(u ^ ((h & 1u) << 31)) + (f32x8)(v ^ ((h & 2u) << 30));
+  const u32x8 lt8 = (u32x8)((i32x8)(hash << 28) >> 31);  // all ones where bit 3 is set (h >= 8)
+  const u32x8 u = select_bits<u32x8>(lt8, y, x);
+  const u32x8 is12or14 = (u32x8)((hash & 13u) == 12u);
+  const u32x8 lt4 = (u32x8)((hash & 12u) == 0u);
+  const u32x8 v = select_bits<u32x8>(lt4, (u32x8)y, select_bits<u32x8>(is12or14, x, z));
+  return (f32x8)(u ^ (hash << 31)) + (f32x8)(v ^ ((hash << 30) & 0x80000000u));
 }
 // grad4: u = h < 24 ? x : y, v = h < 16 ? y : z, s = h < 8 ? z : w, signs by h & 1, 2, 4.
 GP_INLINE f32x8 grad4_v(const u32x8& hash, const f32x8& x, const f32x8& y, const f32x8& z, const f32x8& w) {
@@ -103,11 +106,6 @@ float bi_mix(float v0, float v1, float v2, float v3, float x, float y) {
   const float x1 = 1.0f - x;
   return (1.0f - y) * (v0 * x1 + v1 * x) + y * (v2 * x1 + v3 * x);
 }
-float tri_mix(const float* v, float x, float y, float z) {
-  const float x1 = 1.0f - x, y1 = 1.0f - y, z1 = 1.0f - z;
-  return z1 * (y1 * (v[0] * x1 + v[1] * x) + y * (v[2] * x1 + v[3] * x)) +
-         z * (y1 * (v[4] * x1 + v[5] * x) + y * (v[6] * x1 + v[7] * x));
-}
 // Corner k of a cell is (k & 1, k >> 1 & 1, k >> 2 & 1, k >> 3 & 1): the order of bi_mix and tri_mix.
 constexpr u32x8 kCornerX = {0, 1, 0, 1, 0, 1, 0, 1}, kCornerY = {0, 0, 1, 1, 0, 0, 1, 1},
                 kCornerZ = {0, 0, 0, 0, 1, 1, 1, 1};
@@ -122,15 +120,31 @@ GP_INLINE float perlin_2d(float x, float y) {
   const f32x4 g = grad2_v(h, fx - dxf, fy - dyf);
   return bi_mix(g[0], g[1], g[2], g[3], fade(fx), fade(fy));
 }
+// tri_mix of a cell's eight corner values over vector lanes: the fades of x, y, z (and w) at once,
+// then the three levels of the trilinear mix as pair sums of weighted lanes. Each level forms the
+// scalar formula's products (x1 * v0, x * v1, ...) and adds each pair once, and a sum of two is
+// the same whichever is first: the bits of tri_mix(v, fade(fx), fade(fy), fade(fz)).
+struct Fades {
+  f32x4 t, t1;  // fade(f) and 1 - fade(f) per coordinate
+};
+GP_INLINE Fades fades(float fx, float fy, float fz, float fw) {
+  const f32x4 f = {fx, fy, fz, fw};
+  const f32x4 t = f * f * f * (f * (f * 6.0f - 15.0f) + 10.0f);  // fade
+  return {t, 1.0f - t};
+}
+GP_INLINE float tri_mix_v(const f32x8& g, const Fades& w) {
+  const f32x8 mx = g * __builtin_shufflevector(w.t1, w.t, 0, 4, 0, 4, 0, 4, 0, 4);  // v0 * x1, v1 * x, ...
+  const f32x4 a = __builtin_shufflevector(mx, mx, 0, 2, 4, 6) + __builtin_shufflevector(mx, mx, 1, 3, 5, 7);
+  const f32x4 my = a * __builtin_shufflevector(w.t1, w.t, 1, 5, 1, 5);  // y1 * a0, y * a1, y1 * a2, y * a3
+  return w.t1[2] * (my[0] + my[1]) + w.t[2] * (my[2] + my[3]);
+}
 GP_INLINE float perlin_3d(float x, float y, float z) {
   int X, Y, Z;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y), fz = floorfrac(z, &Z);
   const u32x8 h = hash_uint3_v(static_cast<uint32_t>(X) + kCornerX, static_cast<uint32_t>(Y) + kCornerY,
                                static_cast<uint32_t>(Z) + kCornerZ);
   const f32x8 g = grad3_v(h, fx - kCornerXf, fy - kCornerYf, fz - kCornerZf);
-  float v[8];
-  std::memcpy(v, &g, sizeof v);
-  return tri_mix(v, fade(fx), fade(fy), fade(fz));
+  return tri_mix_v(g, fades(fx, fy, fz, 0.0f));
 }
 GP_INLINE float perlin_4d(float x, float y, float z, float w) {
   int X, Y, Z, W;
@@ -138,14 +152,11 @@ GP_INLINE float perlin_4d(float x, float y, float z, float w) {
   const u32x8 kx = static_cast<uint32_t>(X) + kCornerX, ky = static_cast<uint32_t>(Y) + kCornerY,
               kz = static_cast<uint32_t>(Z) + kCornerZ;
   const f32x8 px = fx - kCornerXf, py = fy - kCornerYf, pz = fz - kCornerZf;
-  float v[16];
   const f32x8 g0 = grad4_v(hash_uint4_v(kx, ky, kz, u32x8{} + static_cast<uint32_t>(W)), px, py, pz, f32x8{} + fw);
   const f32x8 g1 = grad4_v(hash_uint4_v(kx, ky, kz, u32x8{} + (static_cast<uint32_t>(W) + 1u)), px, py, pz,
                            f32x8{} + (fw - 1.0f));
-  std::memcpy(v, &g0, sizeof g0);
-  std::memcpy(v + 8, &g1, sizeof g1);
-  const float u = fade(fx), vv = fade(fy), t = fade(fz);
-  return lerp(tri_mix(v, u, vv, t), tri_mix(v + 8, u, vv, t), fade(fw));
+  const Fades t = fades(fx, fy, fz, fw);
+  return t.t1[3] * tri_mix_v(g0, t) + t.t[3] * tri_mix_v(g1, t);  // lerp(.., .., fade(fw))
 }
 
 float ensure_finite(float v) { return std::isfinite(v) ? v : 0.0f; }
@@ -225,8 +236,12 @@ GP_AVX2_CLONES float fractal_noise(const Vec4& p, int dims, float octaves, float
   return fractal_noise_in(p, dims, octaves, roughness);
 }
 
-GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
-                   float* value, Vec3* color) {
+namespace {
+// The Noise Texture for a dimension count known at compile time (each octave's perlin_Nd
+// chosen once, not per octave).
+template <int dims>
+GP_INLINE void noise_texture_d(const Vec4& co, float detail, float roughness, float distortion, bool want_color,
+                               float* value, Vec3* color) {
   Vec4 p = co;
   if (distortion != 0.0f) {
     Vec4 d;
@@ -239,6 +254,17 @@ GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float 
     const int s = dims == 1 ? 1 : dims;
     *color = Vec3(*value, fractal_noise_in(added(p, random_offset(s, dims)), dims, detail, roughness),
                   fractal_noise_in(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
+  }
+}
+}  // namespace
+
+GP_AVX2_CLONES void noise_texture(const Vec4& co, int dims, float detail, float roughness, float distortion, bool want_color,
+                   float* value, Vec3* color) {
+  switch (dims) {
+    case 1: return noise_texture_d<1>(co, detail, roughness, distortion, want_color, value, color);
+    case 2: return noise_texture_d<2>(co, detail, roughness, distortion, want_color, value, color);
+    case 3: return noise_texture_d<3>(co, detail, roughness, distortion, want_color, value, color);
+    default: return noise_texture_d<4>(co, detail, roughness, distortion, want_color, value, color);
   }
 }
 
@@ -454,8 +480,16 @@ GP_INLINE void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
       h[1] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], one));
     } else if constexpr (N == 3) {  // hash_float3_to_float3
       h[0] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], k[2]));
-      h[1] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], one));
-      h[2] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], two));
+      // hash_uint4 of (k, 1) and (k, 2): lookup3 mixes the first three keys before the fourth
+      // is added, so that mix is made once for both.
+      const u32x8 init = u32x8{} + (0xdeadbeefu + (4u << 2) + 13u);
+      u32x8 a = init + k[0], b = init + k[1], c = init + k[2];
+      detail::jenkins_mix_v(a, b, c);
+      u32x8 a1 = a + one, b1 = b, c1 = c, a2 = a + two, b2 = b, c2 = c;
+      detail::jenkins_final_v(a1, b1, c1);
+      detail::jenkins_final_v(a2, b2, c2);
+      h[1] = uint_to_float_incl_v(c1);
+      h[2] = uint_to_float_incl_v(c2);
     } else {  // hash_float4_to_float4
       h[0] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], k[3]));
       h[1] = uint_to_float_incl_v(hash_uint4_v(k[3], k[0], k[1], k[2]));
@@ -544,14 +578,27 @@ GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, con
   };
   switch (feature) {
     case VoronoiFeature::F1: {
+      // voronoi.h's loop keeps the first cell whose distance is below all before it and below
+      // 8: the first cell holding the least distance under 8. The least is found over the
+      // lanes (the padding repeats the last cell: the same least), then its first cell.
+      constexpr const CellOffsets<N, 1>& t = kCellOffsets<N, 1>;
+      f32x8 m = f32x8{} + 8.0f;
+      for (int base = 0; base < t.kPadded; base += 8) {
+        f32x8 d;
+        std::memcpy(&d, &dist[base], sizeof d);
+        m = (f32x8)select_bits<u32x8>((u32x8)(d < m), d, m);  // NaN never below
+      }
+      float least = 8.0f;
+      for (int l = 0; l < 8; ++l) least = m[l] < least ? m[l] : least;
       float min_d = 8.0f;
       VP<N> target_offset{}, target_pos{};
       int target = 0;
-      for_cells<N, 1>([&](int idx, const VP<N>& o) {
-        const VP<N> pp = point_in(idx, o);
-        const float d = dist[idx];  // metric_distance(pp, local, metric, exponent)
-        if (d < min_d) target_offset = o, min_d = d, target_pos = pp, target = idx;
-      });
+      if (least < 8.0f) {
+        while (!(dist[target] == least)) ++target;
+        min_d = dist[target];  // (its own bits: a zero's sign as the loop's)
+        for (int i = 0; i < N; ++i) target_offset[i] = t.o[i][target];
+        target_pos = point_in(target, target_offset);
+      }
       out.distance = min_d;
       out.color = color_of(target, target_offset);
       set_position(target_pos + cell);

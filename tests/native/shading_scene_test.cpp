@@ -35,6 +35,27 @@ TEST(ShadingScene, CheckerOnAQuadUnderPathTracing) {
   EXPECT_NEAR(image_mean(f).g, 0.5f, 0.02f);
 }
 
+TEST(ShadingScene, TangentsReachTheGraphsThatReadThem) {
+  // The shading context carries dPdu / dPdv only for materials whose graphs read them
+  // (Material::graph_reads_tangents). A tangent-space Normal Map of colour (1, 0.5, 0.5) gives
+  // the tangent along u, here +x: linked as the albedo, red under the white furnace. Without the
+  // tangents the node returns the normal (0, 0, 1): blue. In a Mix's component too.
+  const std::string nm = R"({"type": "diffuse", "color": {"link": "nm", "output": "Normal"},
+    "nodes": {"nm": {"type": "ShaderNodeNormalMap", "inputs": {"Color": [1.0, 0.5, 0.5]}}}})";
+  // (furnace_scene's material "m" here a mix of two more materials written beside it; its factor
+  // from a graph of its own, as Scene::bsdf shades a mix without one at its uv alone)
+  const std::string mix = R"({"type": "mix", "factor": {"link": "f", "output": "Value"}, "a": "grey", "b": "nmap",
+    "nodes": {"f": {"type": "ShaderNodeValue", "inputs": {"Value": 1.0}}}},
+    "grey": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}, "nmap": )" + nm;
+  for (const std::string& mat : {nm, mix}) {
+    const Scene scene = load_scene_from_string(furnace_scene(mat), ".", "tangents.json");
+    const RGB m = image_mean(render("pt", scene, 4, Params()));
+    // Headroom: a furnace's mean is the albedo within ~0.02 at 4 samples; red 1 against 0.
+    EXPECT_NEAR(m.r, 1.0f, 0.05f) << mat;
+    EXPECT_NEAR(m.b, 0.0f, 0.05f) << mat;
+  }
+}
+
 TEST(ShadingScene, PhotonMeasurementPointsSeeThePositionOfTheirHit) {
   // A checker on Object coordinates (x, y in [-1, 1], scale 0.5: the quadrants are its cells):
   // a measurement point shaded from its uv alone would see one cell everywhere.
