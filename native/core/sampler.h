@@ -84,13 +84,13 @@ class SobolSampler {
   SobolSampler() = default;
   SobolSampler(uint64_t seed, uint64_t pixel, uint64_t index, Rng rng)
       : key_(mix_bits(seed * 0x9E3779B97F4A7C15ULL ^ mix_bits(pixel + 0x2545F4914F6CDD1DULL))),
-        index_(static_cast<uint32_t>(index)), rng_(rng) {}
+        reversed_index_(reverse_bits(static_cast<uint32_t>(index))), rng_(rng) {}
 
   float get1d(int dim) {
     if (dim >= kSobolDims) return rng_.uniform();
     const uint64_t h = hash(dim);
-    const uint32_t i = nested_uniform_scramble(index_, static_cast<uint32_t>(h));
-    return bits_to_unit(nested_uniform_scramble(sobol_bits(i, 0), static_cast<uint32_t>(h >> 32)));
+    const uint32_t r = laine_karras_permutation(reversed_index_, static_cast<uint32_t>(h));  // the shuffle
+    return bits_to_unit(sobol_owen(r, 0, static_cast<uint32_t>(h >> 32)));
   }
   Vec2 get2d(int dim) {
     if (dim >= kSobolDims) {
@@ -98,15 +98,15 @@ class SobolSampler {
       return Vec2(u, rng_.uniform());
     }
     const uint64_t h = hash(dim), h2 = mix_bits(h);
-    const uint32_t i = nested_uniform_scramble(index_, static_cast<uint32_t>(h));
-    return Vec2(bits_to_unit(nested_uniform_scramble(sobol_bits(i, 0), static_cast<uint32_t>(h >> 32))),
-                bits_to_unit(nested_uniform_scramble(sobol_bits(i, 1), static_cast<uint32_t>(h2))));
+    const uint32_t r = laine_karras_permutation(reversed_index_, static_cast<uint32_t>(h));
+    return Vec2(bits_to_unit(sobol_owen(r, 0, static_cast<uint32_t>(h >> 32))),
+                bits_to_unit(sobol_owen(r, 1, static_cast<uint32_t>(h2))));
   }
 
  private:
   uint64_t hash(int dim) const { return mix_bits(key_ + static_cast<uint64_t>(dim + 1) * 0xD1B54A32D192ED03ULL); }
   uint64_t key_ = 0;
-  uint32_t index_ = 0;
+  uint32_t reversed_index_ = 0;  // the sample index, bit-reversed (core/sobol.h sobol_owen)
   Rng rng_;
 };
 

@@ -1,9 +1,9 @@
 // Owen-scrambled Sobol points by hashing (Burley 2020, "Practical Hash-based Owen Scrambling",
 // JCGT 9(4)): the low-discrepancy pattern of the camera-path loop (core/sampler.h SobolSampler).
 //
-// sobol_bits(i, d) is dimension d < kSobolDimensions of the i-th point of the Sobol sequence
-// (Joe & Kuo's direction numbers; dimension 0 is van der Corput's radical inverse), as a 32-bit
-// fixed-point fraction. Dimensions 0 and 1 form a (0,2)-sequence: every aligned block of 2^k
+// sobol_owen(r, d, seed) is dimension d < kSobolDimensions of a point of the Sobol sequence (Joe
+// & Kuo's direction numbers; dimension 0 is van der Corput's radical inverse), scrambled, as a
+// 32-bit fixed-point fraction. Dimensions 0 and 1 form a (0,2)-sequence: every aligned block of 2^k
 // points is a (0,k,2)-net (each elementary interval of area 2^-k holds exactly one point).
 //
 // nested_uniform_scramble(v, seed) is Owen's nested uniform scrambling of v's base-2 digits
@@ -27,11 +27,10 @@ namespace gp {
 inline constexpr int kSobolDimensions = 2;
 
 inline constexpr uint32_t reverse_bits(uint32_t v) {
-  v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
-  v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+  v = __builtin_bswap32(v);  // bytes, then the bits within each byte
   v = ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
-  v = ((v >> 8) & 0x00FF00FFu) | ((v & 0x00FF00FFu) << 8);
-  return (v >> 16) | (v << 16);
+  v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+  return ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
 }
 
 // Laine & Karras 2011's permutation with Burley 2020's constants (§4, the improved hash).
@@ -59,8 +58,11 @@ inline constexpr std::array<std::array<uint32_t, 32>, kSobolDimensions> matrices
   for (int k = 1; k < 32; ++k) m[1][k] = m[1][k - 1] ^ (m[1][k - 1] >> 1);
   return m;
 }
-// The same matrices sliced by index byte: entry [d][b][x] is the XOR of the columns that byte b
-// of the index selects when its value is x (four lookups per point instead of 32 steps).
+// The matrices in the bit-reversed domain, sliced by byte: entry [d][b][x] is reverse(v) for the
+// point v of dimension d whose index, bit-reversed, has byte b equal to x and the other bytes 0
+// (XOR over the bytes gives any index). Working on reversed indices and values saves the
+// reversals of nested_uniform_scramble around the index shuffle and the point's scramble
+// (sobol_owen below; Burley 2020 §5 notes the same).
 struct ByteTables {
   uint32_t t[kSobolDimensions][4][256];
 };
@@ -71,8 +73,8 @@ inline constexpr ByteTables byte_tables() {
     for (int b = 0; b < 4; ++b)
       for (int x = 0; x < 256; ++x) {
         uint32_t v = 0;
-        for (int k = 0; k < 8; ++k)
-          if (x & (1 << k)) v ^= m[d][8 * b + k];
+        for (int j = 0; j < 8; ++j)
+          if (x & (1 << j)) v ^= reverse_bits(m[d][31 - (8 * b + j)]);  // bit 8b+j of reverse(i) is bit 31-8b-j of i
         out.t[d][b][x] = v;
       }
   return out;
@@ -80,11 +82,19 @@ inline constexpr ByteTables byte_tables() {
 inline constexpr ByteTables kTables = byte_tables();
 }  // namespace sobol_detail
 
-// Dimension d (0 or 1) of Sobol point i, as bits of a fraction (value = bits * 2^-32).
-inline uint32_t sobol_bits(uint32_t i, int d) {
-  if (d == 0) return reverse_bits(i);
+// Dimension d (0 or 1) of the Sobol point with index i, both bit-reversed: for r = reverse(i),
+// reverse(sobol point i's bits in dimension d).
+inline uint32_t sobol_reversed(uint32_t r, int d) {
   const auto& t = sobol_detail::kTables.t[d];
-  return t[0][i & 0xFF] ^ t[1][(i >> 8) & 0xFF] ^ t[2][(i >> 16) & 0xFF] ^ t[3][i >> 24];
+  return t[0][r & 0xFF] ^ t[1][(r >> 8) & 0xFF] ^ t[2][(r >> 16) & 0xFF] ^ t[3][r >> 24];
+}
+
+// Shuffled, Owen-scrambled Sobol: with r = laine_karras_permutation(reverse_bits(index),
+// shuffle_seed) (the shuffled index nested_uniform_scramble(index, shuffle_seed), bit-reversed),
+// dimension d of that point scrambled by `seed`, as bits of a fraction:
+// nested_uniform_scramble(sobol point, seed) = reverse(LK(reverse(point), seed)).
+inline uint32_t sobol_owen(uint32_t r, int d, uint32_t seed) {
+  return reverse_bits(laine_karras_permutation(sobol_reversed(r, d), seed));
 }
 
 // 32 bits of a fraction as a float in [0, 1): the top 24 bits, so it never rounds up to 1.

@@ -44,6 +44,26 @@ bool is_net(uint64_t seed, uint64_t pixel, int dim, int first, int m) {
   return true;
 }
 
+// sobol_owen works on bit-reversed indices and values (no reversals around the scrambles): the
+// same numbers as Burley's nested_uniform_scramble of the shuffled index and of the point, with
+// the Sobol point computed directly (dimension 0: van der Corput; 1: v_k = v_{k-1} ^ v_{k-1} >> 1).
+uint32_t sobol_direct(uint32_t i, int d) {
+  uint32_t v = 0, c = 1u << 31;
+  for (int k = 0; k < 32; ++k, c = d == 0 ? c >> 1 : c ^ (c >> 1))
+    if (i & (1u << k)) v ^= c;
+  return v;
+}
+TEST(SobolSampler, ReversedDomainEqualsNestedUniformScrambling) {
+  Rng r(3, 4);
+  for (int n = 0; n < 20000; ++n) {
+    const uint32_t i = n < 1000 ? n : r.next_u32(), s0 = r.next_u32(), s1 = r.next_u32();
+    const uint32_t shuffled = nested_uniform_scramble(i, s0);
+    for (int d = 0; d < kSobolDimensions; ++d)
+      ASSERT_EQ(sobol_owen(laine_karras_permutation(reverse_bits(i), s0), d, s1),
+                nested_uniform_scramble(sobol_direct(shuffled, d), s1)) << i << " " << d;
+  }
+}
+
 TEST(SobolSampler, EveryPowerOfTwoPrefixIsStratifiedIn2D) {
   for (uint64_t pixel : {0ull, 1ull, 12345ull})
     for (int dim : k2d)
