@@ -66,6 +66,14 @@ ParamDecl film_transparent() {
           .description = "the background is transparent (alpha 0) where camera rays see the World; a scene with Holdout objects or shaders writes alpha either way", .shared = true,
           .group = "Film"};
 }
+ParamDecl sampling_pattern() {
+  return {.name = "sampling_pattern", .type = ParamType::String, .default_value = "sobol",
+          .choices = {"sobol", "independent"}, .label = "Pattern",
+          .description = "where the camera paths' random numbers come from; sobol: Owen-scrambled Sobol points, "
+                       "stratified per pixel (less noise at the same samples, as Cycles' patterns); independent: "
+                       "independent random numbers",
+          .reference = "Burley 2020", .group = "Rendering"};
+}
 ParamDecl clamp(const char* name, const char* label, const char* which) {
   return {.name = name, .type = ParamType::Float, .default_value = 0.0, .min = 0, .label = label,
           .description = std::string("largest sum of RGB a sample of ") + which + " light may add, 0 = off (as Cycles)",
@@ -219,7 +227,8 @@ std::vector<Method> make_methods() {
                           "(next-event estimation and MIS, Veach 1997)",
                .params = join({{max_depth(32), rr_depth(), clamp("clamp_direct", "Direct Light", "direct"),
                       clamp("clamp_indirect", "Indirect Light", "indirect"), spectral(),
-                      wavelengths(4, "spectral=spectral, or auto on a dispersive scene"), film_transparent()},
+                      wavelengths(4, "spectral=spectral, or auto on a dispersive scene"), film_transparent(),
+                      sampling_pattern()},
                      common()}),
                .make = [](const Scene& s, const Params& p) -> std::unique_ptr<Integrator> {
                  // `pt` turns into the hero-wavelength spectral path tracer when the mode asks
@@ -388,13 +397,13 @@ std::vector<Method> make_methods() {
                .summary = "spectral path tracing, one wavelength per path, Cauchy dispersion",
                .tooltip = "Path tracing by wavelength, for rainbows through dispersive glass (one wavelength per "
                           "path, Cauchy dispersion)",
-               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1), film_transparent()}, common()}),
+               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1), film_transparent(), sampling_pattern()}, common()}),
                .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
   m.push_back({.name = "spt-hero", .label = "Spectral PT Hero",
                .summary = "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
                .tooltip = "Spectral path tracing with four wavelengths per path: less colour noise (hero "
                           "wavelengths, Wilkie et al. 2014)",
-               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4), film_transparent()}, common()}),
+               .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4), film_transparent(), sampling_pattern()}, common()}),
                .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
   m.push_back({.name = "sgpt", .label = "Spectral Gradient",
                .summary = "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",

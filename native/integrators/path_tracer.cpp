@@ -19,6 +19,7 @@ PathTracer::PathTracer(const Scene& scene, const Params& params)
       threads_(params.get<int>("threads")),
       tile_size_(params.get<int>("tile_size")),
       seed_(params.get<uint64_t>("seed")),
+      pattern_(parse_sampling_pattern(params.get<std::string>("sampling_pattern"))),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
       estimate_(std::max(1, width_), std::max(1, height_), &scene.camera) {  // sizes checked just below
@@ -191,14 +192,22 @@ struct RgbPath {
 
 }  // namespace
 
-RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
+template <class S>
+RGB PathTracer::Li(Ray ray, S& sampler, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
   RgbPath path(scene_, clamp_direct_, clamp_indirect_, &media_);
-  return camera_path_radiance(scene_, settings_, ray, rng, rays, path, first, escaped);
+  return camera_path_radiance(scene_, settings_, ray, sampler, rays, path, first, escaped);
+}
+template RGB PathTracer::Li(Ray, SobolSampler&, RayCounts&, bool*, const std::optional<SurfaceHit>*) const;
+template RGB PathTracer::Li(Ray, IndependentSampler&, RayCounts&, bool*, const std::optional<SurfaceHit>*) const;
+
+RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
+  IndependentSampler sampler{rng};
+  return Li(ray, sampler, rays, escaped, first);
 }
 
 void PathTracer::iterate(ProgressSink* sink) {
-  estimate_.run_camera_pass(scene_, seed_, tile_size_, threads_, sink, stats_,
-                            [this](const Ray& ray, Rng& rng, RayCounts& rays, const std::optional<SurfaceHit>* first) {
+  estimate_.run_camera_pass(scene_, seed_, tile_size_, threads_, sink, stats_, pattern_,
+                            [this](const Ray& ray, auto& rng, RayCounts& rays, const std::optional<SurfaceHit>* first) {
                               bool escaped = false;
                               const RGB L = Li(ray, rng, rays, &escaped, first);
                               return PixelSample{L, escaped ? 0.0f : 1.0f};

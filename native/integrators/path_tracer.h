@@ -39,6 +39,10 @@ class PathTracer : public Integrator {
   // traced together, Scene::intersect_coherent).
   RGB Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped = nullptr,
          const std::optional<SurfaceHit>* first = nullptr) const;
+  // The same with the path's numbers from a sampler (core/sampler.h), as iterate() draws them.
+  template <class S>
+  RGB Li(Ray ray, S& sampler, RayCounts& rays, bool* escaped = nullptr,
+         const std::optional<SurfaceHit>* first = nullptr) const;
 
  private:
   const Scene& scene_;
@@ -46,6 +50,7 @@ class PathTracer : public Integrator {
   float clamp_direct_, clamp_indirect_;
   int threads_, tile_size_;
   uint64_t seed_;
+  SamplingPattern pattern_;
   int width_, height_;
   PixelEstimate estimate_;
   std::vector<MediumChannels> media_;  // the scene's media at R, G, B

@@ -19,10 +19,29 @@
 #include "core/parallel.h"
 #include "core/progress.h"
 #include "core/rng.h"
+#include "core/sampler.h"
 #include "scene/camera.h"
 #include "scene/scene.h"
 
 namespace gp {
+
+// start_pixel (scene/camera.h) from the Sobol pattern (core/sampler.h; pt, spt, spt-hero with
+// sampling_pattern sobol): `sampler` becomes pixel (x, y)'s SobolSampler for sample `pass`, and
+// the film position (through the pixel filter, in the whole image's pixels), the lens sample and
+// the shutter time are its camera dimensions; the start's stream is the pixel's PCG32 stream
+// (as camera.h's), which the sampler continues past its dimensions.
+inline PixelStart start_pixel(const Camera& camera, uint64_t seed, uint64_t pass, int x, int y, SobolSampler& sampler) {
+  const size_t key = camera.pixel_key(x, y);
+  PixelStart s{Rng::for_key(seed, key, pass), {}, {}, 0.0f};
+  sampler = SobolSampler(seed, key, pass, s.rng);
+  const Vec2 u = sampler.get2d(kDimFilter);
+  const float px = static_cast<float>(x + camera.crop_x), py = static_cast<float>(y + camera.crop_y);
+  s.film = camera.filter.is_default_box() ? Vec2(px + u.x, py + u.y)
+                                          : Vec2(camera.filter.sample(px, u.x), camera.filter.sample(py, u.y));
+  s.lens = sampler.get2d(kDimLens);
+  if (camera.motion_blur) s.time = sampler.get1d(kDimTime);
+  return s;
+}
 
 // One camera sample: its radiance and its alpha (0 where the camera ray escaped to a transparent
 // background, else 1).
@@ -47,7 +66,7 @@ class PixelEstimate {
   void run_pass(uint64_t seed, int tile_size, int threads, ProgressSink* sink, Stats& stats,
                 const Estimator& estimate) {
     run_pass_tiles(seed, tile_size, threads, sink, stats,
-                   [&](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
+                   [&](PixelStart* starts, SobolSampler*, size_t n, RayCounts& rays, PixelSample* out) {
                      for (size_t i = 0; i < n; ++i) {
                        const auto sample = estimate(starts[i].rng, starts[i].film, starts[i].lens, rays);
                        if constexpr (std::is_same_v<std::decay_t<decltype(sample)>, PixelSample>) out[i] = sample;
@@ -57,14 +76,16 @@ class PixelEstimate {
   }
 
   // The same pass with the estimator called once per tile, so that it can trace the tile's
-  // camera rays together (Scene::intersect_coherent): estimate_tile(starts, n, rays, out)
-  // fills out[i] from starts[i], the PixelStart of the tile's i-th pixel in row order.
+  // camera rays together (Scene::intersect_coherent): estimate_tile(starts, sobol, n, rays, out)
+  // fills out[i] from starts[i], the PixelStart of the tile's i-th pixel in row order, and with
+  // the Sobol pattern (a camera given) from sobol[i], its sampler; sobol is null otherwise.
   // When the sink asks to pause (ProgressSink::pause), the pass stops at a tile and the next
   // call goes on with the tiles it has not done, with the same pass index: the image is the same
   // as without the pause, and in between every pixel's mean is of the samples it has.
   template <typename TileEstimator>
   void run_pass_tiles(uint64_t seed, int tile_size, int threads, ProgressSink* sink, Stats& stats,
-                      const TileEstimator& estimate_tile) {
+                      const TileEstimator& estimate_tile, SamplingPattern pattern = SamplingPattern::Independent) {
+    const bool sobol = pattern == SamplingPattern::Sobol && camera_;
     const auto start = std::chrono::steady_clock::now();
     const uint64_t pass = static_cast<uint64_t>(stats.passes);
     std::atomic<int64_t> closest{0}, shadow{0}, paths{0}, invalid{0};
@@ -83,12 +104,14 @@ class PixelEstimate {
           RayCounts tile_rays;
           int64_t tile_invalid = 0;
           std::vector<PixelStart> starts;
+          std::vector<SobolSampler> samplers(sobol ? static_cast<size_t>(tile.x1 - tile.x0) * (tile.y1 - tile.y0) : 0);
           for (int y = tile.y0; y < tile.y1; ++y)
             for (int x = tile.x0; x < tile.x1; ++x)
-              starts.push_back(camera_ ? start_pixel(*camera_, seed, pass, x, y)
-                                       : start_pixel(seed, static_cast<size_t>(y) * width_ + x, pass, x, y));
+              starts.push_back(sobol     ? start_pixel(*camera_, seed, pass, x, y, samplers[starts.size()])
+                               : camera_ ? start_pixel(*camera_, seed, pass, x, y)
+                                         : start_pixel(seed, static_cast<size_t>(y) * width_ + x, pass, x, y));
           std::vector<PixelSample> samples(starts.size());
-          estimate_tile(starts.data(), starts.size(), tile_rays, samples.data());
+          estimate_tile(starts.data(), sobol ? samplers.data() : nullptr, starts.size(), tile_rays, samples.data());
           size_t k = 0;
           for (int y = tile.y0; y < tile.y1; ++y)
             for (int x = tile.x0; x < tile.x1; ++x, ++k) {
@@ -137,18 +160,27 @@ class PixelEstimate {
 
   // One pass of a camera-path tracer (pt, spt, spt-hero): a tile's camera rays traced together
   // (Embree packets: the same hits, several times faster than one by one; holdouts applied),
-  // then each path alone from its first hit: sample(ray, rng, rays, first_hit) -> PixelSample.
+  // then each path alone from its first hit: sample(ray, sampler, rays, first_hit) -> PixelSample,
+  // generic over the sampler (core/sampler.h): the pixel's SobolSampler with the Sobol pattern,
+  // else an IndependentSampler over its stream.
   template <typename Sample>
   void run_camera_pass(const Scene& scene, uint64_t seed, int tile_size, int threads, ProgressSink* sink,
-                       Stats& stats, const Sample& sample) {
-    run_pass_tiles(seed, tile_size, threads, sink, stats,
-                   [&](PixelStart* starts, size_t n, RayCounts& rays, PixelSample* out) {
-                     CameraRays first(scene, starts, n);
-                     for (size_t i = 0; i < n; ++i) {
-                       out[i] = sample(first.rays[i], starts[i].rng, rays, &first.hits[i]);
-                       out[i].alpha *= first.coverage[i];  // a Holdout weighted in a mix
-                     }
-                   });
+                       Stats& stats, SamplingPattern pattern, const Sample& sample) {
+    run_pass_tiles(
+        seed, tile_size, threads, sink, stats,
+        [&](PixelStart* starts, SobolSampler* sobol, size_t n, RayCounts& rays, PixelSample* out) {
+          CameraRays first(scene, starts, n);
+          for (size_t i = 0; i < n; ++i) {
+            if (sobol) {
+              out[i] = sample(first.rays[i], sobol[i], rays, &first.hits[i]);
+            } else {
+              IndependentSampler independent{starts[i].rng};
+              out[i] = sample(first.rays[i], independent, rays, &first.hits[i]);
+            }
+            out[i].alpha *= first.coverage[i];  // a Holdout weighted in a mix
+          }
+        },
+        pattern);
   }
 
   // The mean of every pixel's samples into pass `name` (RGB) of `film`, sized to the image.

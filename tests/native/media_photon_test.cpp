@@ -196,7 +196,9 @@ TEST(MediaPhotons, ALightInsideAMediumStartsItsPhotonsThere) {
   EXPECT_NEAR(centre.g / exact, 1.0, 0.005) << centre.g << " vs " << exact;
   // sppm against pt over a wide field (the floor within 0.45 m of the centre), all bounces.
   const Scene s = scene_from(lamp_in_ink("90"));
-  const RGB pt = image_mean(render_pt(s, 512, "pt", 2));
+  // 2048 passes: at 512 one rare long path in the ink (a pixel at 7x the median) moved pt's mean
+  // by 4 % (seed 2, the Sobol pattern: sppm / pt 0.960), more than the tolerance below.
+  const RGB pt = image_mean(render_pt(s, 2048, "pt", 2));
   const RGB sppm = image_mean(render("sppm", s, 32, photon_params(3, 100000, 0.05)));
   std::printf("lamp in ink: pt direct / exact %.4f; sppm / pt %.4f\n", centre.g / exact, sppm.g / pt.g);
   // Measured 0.992 (1.003 against pt at another seed); photons started in the World's medium

@@ -45,6 +45,7 @@
 
 #include "core/progress.h"
 #include "core/rng.h"
+#include "core/sampler.h"
 #include "integrators/paths/medium_walk.h"
 #include "lights/light.h"
 #include "scene/scene.h"
@@ -89,12 +90,12 @@ inline float free_flight_weight(const LightSet& lights, const LightSample& ls, c
 // The equiangular strategy on one segment: its light and point, its distance, and next-event
 // estimation there with weight sigma_s T(t) / p_e(t) times its MIS weight; the path's throughput
 // is left as it was.
-template <class P>
+template <class P, class S>
 void equiangular_next_event(const LightSet& lights, const Ray& ray, float t_end, const MediumSegment& segment,
-                            ShadowTest& shadow, Rng& rng, int depth, P& path) {
-  const float u_light = rng.uniform();
-  const Vec2 u2(rng.uniform(), rng.uniform());
-  const float u_t = rng.uniform();
+                            ShadowTest& shadow, S& sampler, int vertex, int depth, P& path) {
+  const float u_light = sampler.get1d(path_dim(vertex, kDimEquiangularLight));
+  const Vec2 u2 = sampler.get2d(path_dim(vertex, kDimEquiangularLight2));
+  const float u_t = sampler.get1d(path_dim(vertex, kDimEquiangularT));
   int light;
   const std::optional<Vec3> c = lights.sample_position(u_light, u2, &light);
   if (!c) return;
@@ -126,9 +127,10 @@ void equiangular_next_event(const LightSet& lights, const Ray& ray, float t_end,
 
 // Follows `ray` from the camera (its closest hit `first`, when given, already traced); returns
 // false when the camera ray escaped with a transparent film or met a holdout (Ray::held_out: the
-// pixel's sample is then uncovered and black), true otherwise.
-template <class P>
-bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray, Rng& rng, RayCounts& rays, P& path,
+// pixel's sample is then uncovered and black), true otherwise. `sampler` gives the path's numbers
+// by dimension (core/sampler.h: IndependentSampler or SobolSampler), the camera's taken before.
+template <class P, class S>
+bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray, S& sampler, RayCounts& rays, P& path,
                        const std::optional<SurfaceHit>* first = nullptr) {
   // Motion blur: the whole path at its camera ray's shutter time (drawn once per camera path by
   // start_pixel), which every ray, hit and light sample on the path then takes (core/math.h).
@@ -148,7 +150,9 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
   // next surface that is not a pass-through one, with that surface's emission.
   int volume_scatters = 0;
   bool volume_done = false;
-  for (int depth = 0;; ++depth) {
+  // The segment's index for the sampler's dimensions (path_dim): unlike depth it also counts
+  // pass-through segments, so no dimension is used twice on one path.
+  for (int depth = 0, vertex = 0;; ++depth, ++vertex) {
     ++rays.closest;
     const std::optional<SurfaceHit> traced = first ? std::nullopt : scene.intersect(ray);
     const std::optional<SurfaceHit>& hit = first ? *first : traced;
@@ -166,13 +170,14 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       const float t_end = hit ? hit->t : kInfinity;
       path.medium_emission(depth, segment->emission_integral(t_end));
       segment->set_channel_weights(path.channel_weights());
-      const float u_channel = rng.uniform(), u_distance = rng.uniform();
+      const float u_channel = sampler.get1d(path_dim(vertex, kDimMediumChannel));
+      const float u_distance = sampler.get1d(path_dim(vertex, kDimMediumDistance));
       t_scatter = segment->sample_distance(u_channel, u_distance, t_end);
       if (!(t_scatter < t_end)) t_scatter = kInfinity;
       // Homogeneous media: next-event estimation also from an equiangular distance toward a
       // point-like light, MIS with the free flight's (grid media keep free flights only).
       if (!segment->heterogeneous() && segment->scatters && !lights.empty() && depth + 1 < s.max_depth) {
-        equiangular_next_event(lights, ray, t_end, *segment, shadow, rng, depth, path);
+        equiangular_next_event(lights, ray, t_end, *segment, shadow, sampler, vertex, depth, path);
         use_equiangular = true;
       }
     }
@@ -203,8 +208,8 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       const Vec3 p = ray.at(t_scatter);
       if (depth + 1 >= s.max_depth) return true;
       if (!lights.empty()) {
-        const float u_light = rng.uniform();
-        const Vec2 u2(rng.uniform(), rng.uniform());
+        const float u_light = sampler.get1d(path_dim(vertex, kDimLight));
+        const Vec2 u2 = sampler.get2d(path_dim(vertex, kDimLight2));
         if (auto ls = lights.sample_li(p, u_light, u2);
             ls && ls->pdf > 0 && !ls->L.is_black() &&
             !(ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only())) {
@@ -221,8 +226,8 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
           }
         }
       }
-      const float u_lobe = rng.uniform();
-      const Vec2 u(rng.uniform(), rng.uniform());
+      const float u_lobe = sampler.get1d(path_dim(vertex, kDimLobe));
+      const Vec2 u = sampler.get2d(path_dim(vertex, kDimScatter2));
       const Vec3 wi = segment->sample_phase(ray.d, u_lobe, u);
       const float cos_theta = dot(ray.d, wi);
       const float pdf = segment->phase_pdf(cos_theta);
@@ -234,7 +239,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       const RayState state = ray.state.volume_next();
       ray = Ray(p, wi);  // a volume ray: every surface is there for it
       ray.state = state;
-      if (depth + 1 >= s.rr_depth && !path.survive(rng.uniform())) return true;
+      if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return true;
       continue;
     }
     if (segment) path.medium_weight(segment->pass_weight(hit ? hit->t : kInfinity));
@@ -282,8 +287,8 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     // ---- Emitter sampling (next-event estimation). A light lit only by BSDF rays (the World
     // hidden from some kinds, lobe_split.h) is not sampled.
     if (!path.is_delta() && !lights.empty()) {
-      const float u_light = rng.uniform();
-      const Vec2 u2(rng.uniform(), rng.uniform());
+      const float u_light = sampler.get1d(path_dim(vertex, kDimLight));
+      const Vec2 u2 = sampler.get2d(path_dim(vertex, kDimLight2));
       if (auto ls = lights.sample_li(hit->p, u_light, u2);
           ls && ls->pdf > 0 && !ls->L.is_black() &&
           !(ls->light >= 0 && lights.lights()[ls->light].lit_by_bsdf_rays_only())) {
@@ -293,8 +298,8 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     }
 
     // ---- BSDF sampling ----
-    const float uc = rng.uniform();
-    const Vec2 u(rng.uniform(), rng.uniform());
+    const float uc = sampler.get1d(path_dim(vertex, kDimLobe));
+    const Vec2 u = sampler.get2d(path_dim(vertex, kDimScatter2));
     const std::optional<BsdfSample> bs = path.scatter(*hit, wo, uc, u);
     if (!bs) return true;
     const Vec3 wi = hit->frame.to_world(bs->wi);
@@ -320,17 +325,17 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     }
 
     // ---- Russian roulette ----
-    if (depth + 1 >= s.rr_depth && !path.survive(rng.uniform())) return true;
+    if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return true;
   }
 }
 
 // The radiance of one camera path (path.L after trace_camera_path), with whether it covered its
 // pixel (not escaped to a transparent background) and its shadow rays counted: the path
 // tracers' Li, RGB and spectral.
-template <typename P>
-auto camera_path_radiance(const Scene& scene, const CameraPathSettings& s, Ray ray, Rng& rng, RayCounts& rays, P& path,
+template <typename P, typename S>
+auto camera_path_radiance(const Scene& scene, const CameraPathSettings& s, Ray ray, S& sampler, RayCounts& rays, P& path,
                           const std::optional<SurfaceHit>* first, bool* escaped) {
-  const bool covered = trace_camera_path(scene, s, ray, rng, rays, path, first);
+  const bool covered = trace_camera_path(scene, s, ray, sampler, rays, path, first);
   if (escaped) *escaped = !covered;
   rays.shadow += path.shadow_rays;
   return path.L;

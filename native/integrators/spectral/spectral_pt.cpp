@@ -21,6 +21,7 @@ SpectralPathTracer::SpectralPathTracer(const Scene& scene, const Params& params,
       threads_(params.get<int>("threads")),
       tile_size_(params.get<int>("tile_size")),
       seed_(params.get<uint64_t>("seed")),
+      pattern_(parse_sampling_pattern(params.get<std::string>("sampling_pattern"))),
       width_(scene.camera.film_width()),
       height_(scene.camera.film_height()),
       estimate_(std::max(1, width_), std::max(1, height_), &scene.camera) {  // sizes checked just below
@@ -354,16 +355,29 @@ struct SpectralPath {
 
 }  // namespace
 
-SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
+template <class S>
+SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, S& sampler, RayCounts& rays,
                                       const std::optional<SurfaceHit>* first, bool* escaped) const {
   SpectralPath path(scene_, spectra_, wl);
-  return camera_path_radiance(scene_, settings_, ray, rng, rays, path, first, escaped);
+  return camera_path_radiance(scene_, settings_, ray, sampler, rays, path, first, escaped);
+}
+template SpectralValues SpectralPathTracer::Li(Ray, const SampledWavelengths&, SobolSampler&, RayCounts&,
+                                               const std::optional<SurfaceHit>*, bool*) const;
+template SpectralValues SpectralPathTracer::Li(Ray, const SampledWavelengths&, IndependentSampler&, RayCounts&,
+                                               const std::optional<SurfaceHit>*, bool*) const;
+
+SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
+                                      const std::optional<SurfaceHit>* first, bool* escaped) const {
+  IndependentSampler sampler{rng};
+  return Li(ray, wl, sampler, rays, first, escaped);
 }
 
 void SpectralPathTracer::iterate(ProgressSink* sink) {
-  estimate_.run_camera_pass(scene_, seed_, tile_size_, threads_, sink, stats_,
-                            [this](const Ray& ray, Rng& rng, RayCounts& rays, const std::optional<SurfaceHit>* first) {
-                              const SampledWavelengths wl = SampledWavelengths::sample_uniform(rng.uniform(), count_);
+  estimate_.run_camera_pass(scene_, seed_, tile_size_, threads_, sink, stats_, pattern_,
+                            [this](const Ray& ray, auto& rng, RayCounts& rays, const std::optional<SurfaceHit>* first) {
+                              // The hero wavelength: a camera dimension of the pattern.
+                              const SampledWavelengths wl =
+                                  SampledWavelengths::sample_uniform(rng.get1d(kDimWavelength), count_);
                               bool escaped = false;
                               const RGB L = sample_to_rgb(Li(ray, wl, rng, rays, first, &escaped), wl);
                               return PixelSample{L, escaped ? 0.0f : 1.0f};

@@ -52,6 +52,10 @@ class SpectralPathTracer : public Integrator {
   // With film_transparent, a camera ray that escapes gives 0 and sets *escaped.
   SpectralValues Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
                     const std::optional<SurfaceHit>* first = nullptr, bool* escaped = nullptr) const;
+  // The same with the path's numbers from a sampler (core/sampler.h), as iterate() draws them.
+  template <class S>
+  SpectralValues Li(Ray ray, const SampledWavelengths& wl, S& sampler, RayCounts& rays,
+                    const std::optional<SurfaceHit>* first = nullptr, bool* escaped = nullptr) const;
 
  private:
   const Scene& scene_;
@@ -60,6 +64,7 @@ class SpectralPathTracer : public Integrator {
   CameraPathSettings settings_;
   int count_, threads_, tile_size_;
   uint64_t seed_;
+  SamplingPattern pattern_;
   int width_, height_;
   PixelEstimate estimate_;
 };
