@@ -116,7 +116,7 @@ int run_merge(const std::vector<std::string>& inputs, const std::string& out, co
 // "combined"), gradients from `grad_path` (passes gradient_x, gradient_y) or, without it, from
 // the primal file itself.
 int run_reconstruct(const std::string& primal_path, const std::string& grad_path, bool l1, double lambda,
-                    const std::string& out, int threads) {
+                    const std::string& out, int threads, double tolerance, int max_rounds) {
   const Film pf = read_exr(primal_path);
   const Film gf = grad_path.empty() ? pf : read_exr(grad_path);
   const std::string gpath = grad_path.empty() ? primal_path : grad_path;
@@ -137,6 +137,8 @@ int run_reconstruct(const std::string& primal_path, const std::string& grad_path
   o.norm = l1 ? ReconNorm::L1 : ReconNorm::L2;
   o.lambda = lambda;
   o.threads = threads;
+  if (tolerance > 0) o.tolerance = tolerance;
+  if (max_rounds > 0) o.max_irls_iterations = max_rounds;
   const auto t0 = std::chrono::steady_clock::now();
   ReconReport rep;
   const std::vector<float> r =
@@ -154,8 +156,10 @@ int run_reconstruct(const std::string& primal_path, const std::string& grad_path
   fmt::print("reconstruction {} lambda {:g}, {}x{}, {:.3f} s\n", l1 ? "L1" : "L2", lambda, pf.width(), pf.height(),
              secs);
   if (l1)
-    fmt::print("L1 solve   {} IRLS rounds, {} PCG iterations, last change {:.2e}{}\n", rep.irls_iterations,
-               rep.cg_iterations, rep.last_change, rep.converged ? "" : " (tolerance NOT met)");
+    fmt::print("L1 solve   {} IRLS rounds, {} PCG iterations, objective {:.12e} (sum |r| {:.12e}), estimated "
+               "{:.2e} above its minimum{}\n",
+               rep.irls_iterations, rep.cg_iterations, rep.objective, rep.objective_l1, rep.estimated_excess,
+               rep.converged ? "" : " (tolerance NOT met)");
   fmt::print("exr        {}\n", out);
   return 0;
 }
@@ -207,8 +211,8 @@ std::vector<Command> add_image_commands(CLI::App& app) {
   struct ReconArgs {
     std::string rec_primal, rec_grad, rec_out;
     bool rec_l1 = false, rec_l2 = false;
-    double rec_lambda = 0.2;
-    int rec_threads = 0;
+    double rec_lambda = 0.2, rec_tolerance = 0;
+    int rec_threads = 0, rec_max_rounds = 0;
   };
   auto r = std::make_shared<ReconArgs>();
   auto* recon = app.add_subcommand(
@@ -221,6 +225,11 @@ std::vector<Command> add_image_commands(CLI::App& app) {
   recon->add_flag("--l2", r->rec_l2, "L2 reconstruction (default): unbiased")->excludes(l1_flag);
   recon->add_option("--lambda", r->rec_lambda, "Weight of the primal image")->capture_default_str();
   recon->add_option("--threads", r->rec_threads, "Worker threads (0 = all cores)")->capture_default_str();
+  recon->add_option("--tolerance", r->rec_tolerance,
+                    "L1: stop when the objective is estimated within this fraction of its minimum (default 1e-4)")
+      ->check(CLI::PositiveNumber);
+  recon->add_option("--max-rounds", r->rec_max_rounds, "L1: cap on IRLS rounds (default 100)")
+      ->check(CLI::PositiveNumber);
   recon->add_option("-o,--output", r->rec_out, "Output EXR (combined = reconstruction, plus the inputs)")->required();
 
   auto show_info = [info_scene] {
@@ -233,7 +242,8 @@ std::vector<Command> add_image_commands(CLI::App& app) {
           {diff, [d] { return run_diff(d->diff_a, d->diff_ref, d->diff_pass, d->diff_png, d->diff_error_pass); }},
           {info, show_info},
           {recon, [r] {
-             return run_reconstruct(r->rec_primal, r->rec_grad, r->rec_l1, r->rec_lambda, r->rec_out, r->rec_threads);
+             return run_reconstruct(r->rec_primal, r->rec_grad, r->rec_l1, r->rec_lambda, r->rec_out, r->rec_threads,
+                                    r->rec_tolerance, r->rec_max_rounds);
            }}};
 }
 

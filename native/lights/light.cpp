@@ -1,6 +1,7 @@
 #include "lights/light.h"
 
 #include "core/frame.h"
+#include "lights/world_graph.h"
 
 namespace gp {
 
@@ -218,6 +219,7 @@ RGB LightSet::environment_radiance(const Ray& ray) const {
   const Light& l = lights_[environment_];
   RayState state = ray.state;
   if (ray.camera) state.flags |= kPathCamera;
+  const WorldRayOrigin origin(ray.o);  // Window of an orthographic camera's rays (world_graph.h)
   if (ray.camera && l.camera_override) return l.camera_map ? l.camera_map->eval(ray.d, state) : l.camera_emit;
   return l.map ? l.map->eval(ray.d, state) : l.emit;
 }

@@ -268,6 +268,16 @@ Vec3 sample_cone(const Vec3& axis, double one_minus_cos_max, Vec2 u) {
 }
 }  // namespace
 
+namespace {
+thread_local const Vec3* t_world_ray_origin = nullptr;
+}  // namespace
+
+WorldRayOrigin::WorldRayOrigin(const Vec3& origin) : origin_(origin), previous_(t_world_ray_origin) {
+  t_world_ray_origin = &origin_;
+}
+WorldRayOrigin::~WorldRayOrigin() { t_world_ray_origin = previous_; }
+const Vec3* WorldRayOrigin::get() { return t_world_ray_origin; }
+
 size_t world_bake_cache_size() {
   std::lock_guard lock(g_bake_mutex);
   size_t n = 0;

@@ -123,6 +123,23 @@ class WorldGraph final : public BackgroundTerm {
   bool reused_ = false;
 };
 
+// While one lives on a thread, the World evaluated there is seen by a ray from `origin` (Cycles'
+// sd->ray_P; LightSet::environment_radiance sets it for a path's ray). Texture Coordinate's
+// Window of a camera ray through an orthographic camera reads it (shading/nodes.cpp): all such
+// rays share the view's direction, so Cycles places the ray's origin in the frame instead.
+class WorldRayOrigin {
+ public:
+  explicit WorldRayOrigin(const Vec3& origin);
+  ~WorldRayOrigin();
+  WorldRayOrigin(const WorldRayOrigin&) = delete;
+  WorldRayOrigin& operator=(const WorldRayOrigin&) = delete;
+  static const Vec3* get();  // null: none
+
+ private:
+  Vec3 origin_;
+  const Vec3* previous_;
+};
+
 // Number of World bakes alive in the shared cache (tests: "baked once").
 size_t world_bake_cache_size();
 

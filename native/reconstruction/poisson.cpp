@@ -368,6 +368,44 @@ int Pcg::solve(const std::vector<double>& b, std::vector<double>& x, int iterati
   return it;
 }
 
+// The objective IRLS with weights 1 / max(|r|, eps) minimises (it is the majorised function
+// of those weights): Huber's function of every residual, |r| beyond eps and r^2 / (2 eps) +
+// eps / 2 within, the primal's weighted by lambda (GPM paper eq. 3 with the L1 norm, smoothed
+// within eps). `l1` gets the plain sum of |r| (same weights), for reports.
+double huber_objective(const double* primal, const double* gx, const double* gy, int w, int h, double lambda,
+                       double eps, const std::vector<double>& x, int threads, std::vector<double>& rows,
+                       std::vector<double>& rows_l1, double* l1) {
+  auto hub = [eps](double r) {
+    r = std::abs(r);
+    return r >= eps ? r : r * r / (2 * eps) + eps / 2;
+  };
+  for_rows(w, h, threads, [&](size_t r0, size_t r1) {
+    for (size_t r = r0; r < r1; ++r) {
+      double f = 0, a = 0;
+      for (int c = 0; c < w; ++c) {
+        const size_t i = r * w + c;
+        const double rp = x[i] - primal[i];
+        f += lambda * hub(rp);
+        a += lambda * std::abs(rp);
+        if (c < w - 1) {
+          const double re = x[i + 1] - x[i] - gx[i];
+          f += hub(re);
+          a += std::abs(re);
+        }
+        if (static_cast<int>(r) < h - 1) {
+          const double re = x[i + w] - x[i] - gy[i];
+          f += hub(re);
+          a += std::abs(re);
+        }
+      }
+      rows[r] = f;
+      rows_l1[r] = a;
+    }
+  });
+  if (l1) *l1 = sum_rows(rows_l1);
+  return sum_rows(rows);
+}
+
 void solve_l1_channel(const double* primal, const double* gx, const double* gy, int w, int h,
                       const ReconOptions& o, double* out, ReconReport& report) {
   const size_t n = static_cast<size_t>(w) * h;
@@ -385,16 +423,20 @@ void solve_l1_channel(const double* primal, const double* gx, const double* gy, 
   A.wx.assign(n, 0.0);
   A.wy.assign(n, 0.0);
   Pcg pcg(A);
-  std::vector<double> b(n), x_prev(n), rows_d(h), rows_x(h);
-  bool converged = false;
-  double change = 0;
-  // Inexact rounds: each PCG stops once it has cut its starting residual by kInexact (the
-  // weights change after the round anyway). Once a round changes x by less than the tolerance,
-  // the rounds that follow solve to the tolerance (tight), and only such a round may stop IRLS,
-  // so the stop means what it meant with exact rounds. Measured on GPM buffers: 0.1-0.5 cut
-  // the PCG iterations 2-4x for +-2 rounds.
+  std::vector<double> b(n), rows_f(h), rows_a(h);
+  // Inexact rounds: each PCG stops once it has cut its starting residual by kInexact. IRLS is
+  // a majorise-minimise method (the weighted quadratic touches the objective at the current
+  // image and lies above it elsewhere), and CG lowers that quadratic from its warm start, so
+  // even an inexact round lowers the objective. Measured on GPM buffers: 0.1-0.5 cut the PCG
+  // iterations 2-4x against exact rounds for +-2 rounds.
   constexpr double kInexact = 0.3;
-  bool tight = false;
+  constexpr double kOverRelax = 2.0;
+  std::vector<double> x_prev(n), x_try(n);
+  double l1 = 0;
+  // The objective after each round (f[0]: the L2 start).
+  std::vector<double> f{huber_objective(primal, gx, gy, w, h, o.lambda, eps, x, o.threads, rows_f, rows_a, &l1)};
+  bool converged = false;
+  double estimate = HUGE_VAL;
   for (int round = 0; round < o.max_irls_iterations && !converged; ++round) {
     // IRLS weights 1 / max(|r|, eps) of the current residuals (LKL*13), the primal's scaled by
     // lambda as eq. 3 of the GPM paper weights its term.
@@ -419,25 +461,44 @@ void solve_l1_channel(const double* primal, const double* gx, const double* gy, 
         b[i] = v;
       }
     x_prev = x;
-    report.cg_iterations += pcg.solve(b, x, o.max_cg_iterations, 0.1 * o.tolerance, tight ? 0.0 : kInexact);
+    report.cg_iterations += pcg.solve(b, x, o.max_cg_iterations, 1e-12, kInexact);  // (1e-12: rounding)
     ++report.irls_iterations;
+    double fx = huber_objective(primal, gx, gy, w, h, o.lambda, eps, x, o.threads, rows_f, rows_a, &l1);
+    // Over-relaxation: the round's step doubled, kept where it lowers the objective further
+    // (one more pass over the image; the objective still falls every round). Near the minimum
+    // the weights change little from round to round, so each majoriser's minimum lies a short,
+    // similar step along the way: measured 1.7-1.9x fewer rounds and PCG iterations for the same
+    // distance to the minimum on 48 x 36 GPM, GPT and GD-MLT buffers (x1.6: 1.5x).
     for_rows(w, h, o.threads, [&](size_t r0, size_t r1) {
-      for (size_t r = r0; r < r1; ++r) {
-        double dd = 0, xx = 0;
-        for (size_t i = r * w; i < (r + 1) * w; ++i) {
-          dd += (x[i] - x_prev[i]) * (x[i] - x_prev[i]);
-          xx += x[i] * x[i];
-        }
-        rows_d[r] = dd;
-        rows_x[r] = xx;
-      }
+      for (size_t i = r0 * w; i < r1 * w; ++i) x_try[i] = x_prev[i] + kOverRelax * (x[i] - x_prev[i]);
     });
-    const double xx = sum_rows(rows_x);
-    change = xx > 0 ? std::sqrt(sum_rows(rows_d) / xx) : 0.0;
-    converged = tight && change <= o.tolerance;
-    tight = tight || change <= o.tolerance;
+    double l1_try = 0;
+    const double f_try = huber_objective(primal, gx, gy, w, h, o.lambda, eps, x_try, o.threads, rows_f, rows_a, &l1_try);
+    if (f_try < fx) {
+      std::swap(x, x_try);
+      fx = f_try;
+      l1 = l1_try;
+    }
+    f.push_back(fx);
+    // The stop: the distance of the objective to its minimum, estimated from how fast it falls.
+    // IRLS converges about linearly, so the decrease of the last two rounds, s_now, against that
+    // of the two before, s_before, gives the ratio r per two rounds, and the rounds still to
+    // come would lower it by about s_now r / (1 - r) (a geometric tail). Pairs of rounds, not
+    // single ones, because an inexact round that took one PCG iteration lowers it little and
+    // the next one more. The decrease slows as IRLS nears the minimum, so the estimate runs
+    // low (measured 2-4x on GPM, GPT and GD-MLT buffers: the default tolerance has that
+    // headroom); it stops IRLS where the change of the image did not mean nearness (docs/gradient.md).
+    const size_t k = f.size() - 1;
+    if (k >= 4) {
+      const double s_now = f[k - 2] - f[k], s_before = f[k - 4] - f[k - 2];
+      const double r = s_before > 0 ? s_now / s_before : 1.0;
+      estimate = s_now <= 0 ? 0.0 : r < 1 ? std::max(s_now * r / (1 - r), f[k - 1] - f[k]) : HUGE_VAL;
+      converged = estimate <= o.tolerance * f[k];
+    }
   }
-  report.last_change = std::max(report.last_change, change);
+  report.estimated_excess = std::max(report.estimated_excess, f.back() > 0 ? estimate / f.back() : 0.0);
+  report.objective += f.back();
+  report.objective_l1 += l1;
   report.converged = report.converged && (converged || o.max_irls_iterations == 0);
   std::copy(x.begin(), x.end(), out);
 }

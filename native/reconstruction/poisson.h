@@ -21,12 +21,13 @@
 //     (2 x 2 aggregation, Galerkin coarse levels, red-black Gauss-Seidel; poisson.cpp),
 //     warm-started from the previous iterate (the first from the exact L2 solution).
 //     eps = epsilon * mean |I_0| of the channel, so the weights do not depend on the image's
-//     brightness.
-//     Convergence: IRLS stops when a round changes the channel by less than `tolerance`
-//     (||x_k - x_{k-1}||_2 <= tolerance ||x_k||_2); each round's PCG stops when its residual
-//     falls to tolerance / 10 of the right-hand side's norm, or to a tenth of the round's
-//     starting residual, whichever is larger (early rounds need not be solved exactly: their
-//     weights are about to change). The caps only guard against a stall; ReconReport says
+//     brightness. The function these weights minimise (IRLS majorises it) is Huber's of every
+//     residual: |r| beyond eps, r^2 / (2 eps) + eps / 2 within ("the objective" below).
+//     Convergence: each round's PCG stops once its residual falls to 0.3 of the round's start
+//     (early rounds need not be solved exactly: their weights are about to change; a partial
+//     round still lowers the objective). IRLS stops when the objective's distance to its
+//     minimum, estimated from the rate at which the rounds lower it (poisson.cpp), falls under
+//     `tolerance` of the objective. The caps only guard against a stall; ReconReport says
 //     whether the tolerance was met.
 #pragma once
 
@@ -43,18 +44,20 @@ ReconNorm parse_recon_norm(const std::string& name);
 struct ReconOptions {
   ReconNorm norm = ReconNorm::L2;
   double lambda = 0.2;        // weight of the primal term (KMA15's alpha)
-  double tolerance = 1e-3;    // L1 only: relative change of an IRLS round at which it stops
+  double tolerance = 1e-4;    // L1 only: estimated relative distance of the objective to its minimum at which it stops
   int max_irls_iterations = 100;  // L1 only: cap on re-weighting rounds
   int max_cg_iterations = 1000;   // L1 only: cap on PCG iterations per round
   double epsilon = 1e-2;      // L1 only: weight floor, relative to the channel's mean |I_0|
   int threads = 0;            // 0 = all cores
 };
 
-// What an L1 solve did, summed (iterations) or worst (change) over channels.
+// What an L1 solve did, summed (iterations, objectives) or worst (estimate) over channels.
 struct ReconReport {
   int irls_iterations = 0;    // re-weighting rounds
   int cg_iterations = 0;      // PCG iterations over all rounds
-  double last_change = 0;     // relative change of the last round
+  double estimated_excess = 0;  // the stop's estimate of (objective - its minimum) / objective
+  double objective = 0;       // L1: the minimised objective at the result, summed over channels
+  double objective_l1 = 0;    // L1: the plain sum of |r| (the same weights) at the result
   bool converged = true;      // every channel met `tolerance` within the caps
 };
 

@@ -8,6 +8,7 @@
 #include "core/spectrum.h"
 #include "lights/environment_map.h"
 #include "lights/sky.h"
+#include "lights/world_graph.h"
 #include "shading/node_types.h"
 #include "shading/procedural.h"
 
@@ -325,7 +326,16 @@ void eval_tex_coord(EvalArgs& a) {  // svm/tex_coord.h
   // in the frame (svm/tex_coord.h, camera_world_to_ndc).
   if (a.used(4))
     a.out(4, !c.camera ? kZero : c.surface ? c.camera->world_to_camera.point(c.P) : c.camera->world_to_camera.vector(c.P));
-  if (a.used(5)) a.out(5, c.camera ? c.camera->window(c.P, !c.surface) : kZero);
+  // For the World (svm/tex_coord.h, camera_world_to_ndc): a camera ray of an orthographic
+  // camera places its origin (sd->ray_P; every such ray has the view's direction), any other
+  // ray its direction taken from the camera (perspective: Cycles adds the camera's position)
+  // or, orthographic, as a point as it is.
+  if (a.used(5)) {
+    const Vec3* origin = c.surface || !c.camera || !c.camera->orthographic ? nullptr : WorldRayOrigin::get();
+    a.out(5, !c.camera                             ? kZero
+             : origin && (c.ray.flags & kPathCamera) ? c.camera->window(*origin, false)
+                                                    : c.camera->window(c.P, !c.surface && !c.camera->orthographic));
+  }
   if (a.used(6)) a.out(6, c.surface ? c.N * (2.0f * dot(c.N, c.I)) - c.I : c.I);
 }
 void eval_uv_map(EvalArgs& a) { a.out(0, Vec3(a.ctx.uv.x, a.ctx.uv.y, 0.0f)); }

@@ -152,15 +152,6 @@ double huber_objective(const NoisyProblem& p, const std::vector<double>& x, cons
   return f;
 }
 
-double relative_distance(const std::vector<double>& a, const std::vector<double>& b) {
-  double d = 0, n = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    d += (a[i] - b[i]) * (a[i] - b[i]);
-    n += b[i] * b[i];
-  }
-  return std::sqrt(d / n);
-}
-
 TEST(ScreenedPoisson, L1ConvergesToTheMinimumOfItsObjective) {
   const NoisyProblem p = noisy_problem(48, 32);
   ReconOptions tight;
@@ -180,26 +171,55 @@ TEST(ScreenedPoisson, L1ConvergesToTheMinimumOfItsObjective) {
     }
 }
 
-TEST(ScreenedPoisson, L1StopsWithinItsToleranceOfTheConvergedSolution) {
-  const NoisyProblem p = noisy_problem(96, 64);
-  ReconOptions tight, fixed, dflt;
-  tight.norm = fixed.norm = dflt.norm = ReconNorm::L1;
-  tight.tolerance = 1e-12;
-  tight.max_irls_iterations = tight.max_cg_iterations = 5000;
-  const auto x_star = screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, tight);
-  ReconReport rep;
-  const auto x = screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, dflt, &rep);
-  const double dist = relative_distance(x, x_star);
-  // The old fixed schedule (5 rounds x 30 PCG iterations), for the record.
-  fixed.max_irls_iterations = 5;
-  fixed.max_cg_iterations = 30;
-  fixed.tolerance = 1e-12;
-  const double dist_fixed = relative_distance(screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, fixed), x_star);
-  std::printf("L1 default: %d rounds, %d PCG iterations, last change %.2e, distance %.2e "
-              "(5 x 30 fixed: %.2e)\n", rep.irls_iterations, rep.cg_iterations, rep.last_change, dist, dist_fixed);
-  EXPECT_TRUE(rep.converged);
-  EXPECT_LE(rep.last_change, dflt.tolerance);
-  EXPECT_LT(dist, 8 * dflt.tolerance);  // measured 4.2x; the old 5 x 30 schedule: 10.4x
+// A buffer as a photon method's early pass makes it: a small light 300x brighter than the
+// rest (it dominates the image's norm), a primal with exponential noise (photon counts),
+// gradients with additive noise and 2 % outliers.
+NoisyProblem bright_spot_problem(int w, int h) {
+  NoisyProblem p{w, h, {}, {}, {}};
+  std::vector<double> img(static_cast<size_t>(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      img[static_cast<size_t>(y) * w + x] = 1.0 + 0.5 * std::sin(0.3 * x) * std::cos(0.2 * y) + (x > w / 2 ? 2.0 : 0.0) +
+                                            (std::abs(x - 10) < 3 && std::abs(y - 8) < 3 ? 300.0 : 0.0);
+  forward_differences(img, w, h, 1, &p.gx, &p.gy);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::exponential_distribution<double> photons(1.0);
+  p.primal = img;
+  for (size_t i = 0; i < img.size(); ++i) {
+    p.primal[i] *= photons(rng);
+    p.gx[i] += 0.5 * img[i] * (u(rng) - 0.5);
+    p.gy[i] += 0.5 * img[i] * (u(rng) - 0.5);
+    if (u(rng) < 0.02) p.gx[i] += 20.0 * (u(rng) - 0.5);
+  }
+  return p;
+}
+
+TEST(ScreenedPoisson, L1StopsWithinItsToleranceOfTheMinimum) {
+  // The stop bounds the objective's distance to its minimum. The former stop, on the change of
+  // the image (||x_k - x_k-1|| <= 1e-3 ||x_k||), ended far from it here: the bright spot makes
+  // the norm large, so the dim rest stopped moving "enough" early: with it put back, 2.6e-3
+  // above the minimum after 10 rounds on the first problem (this test failed); on 48 x 36
+  // two-pass GPM / GPT / GD-MLT buffers it ended up to 2.9e-2 above. Measured with this stop:
+  // 7.4e-6 and 1.4e-4.
+  for (const NoisyProblem& p : {bright_spot_problem(48, 32), noisy_problem(96, 64)}) {
+    ReconOptions tight, dflt;
+    tight.norm = dflt.norm = ReconNorm::L1;
+    tight.tolerance = 1e-12;
+    tight.max_irls_iterations = tight.max_cg_iterations = 5000;
+    ReconReport exact, rep;
+    screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, tight, &exact);
+    const auto x = screened_poisson(p.primal, p.gx, p.gy, p.w, p.h, 1, dflt, &rep);
+    const double excess = rep.objective / exact.objective - 1;
+    std::printf("%d x %d: objective %.3e above the minimum (estimated %.2e) after %d rounds, %d PCG iterations "
+                "(exact: %d rounds)\n", p.w, p.h, excess, rep.estimated_excess, rep.irls_iterations,
+                rep.cg_iterations, exact.irls_iterations);
+    EXPECT_NEAR(rep.objective, huber_objective(p, x, dflt), 1e-9 * rep.objective);  // the report's is the result's
+    EXPECT_TRUE(rep.converged);
+    EXPECT_LE(rep.estimated_excess, dflt.tolerance);
+    EXPECT_GE(excess, -1e-9);
+    EXPECT_LT(excess, 1e-3);
+  }
 }
 
 // An independent reference for the L1 solve: IRLS (the same weights 1 / max(|r|, eps), whose
