@@ -57,10 +57,12 @@ def view_camera(context, scene, width, height):
     """The scene-format camera (a JSON-able dict) of the 3D view's region: its view matrix and
     projection (perspective or orthographic, off-centre as the view's window matrix says: a
     camera view with zoom and offset, or a panned view), `width` x `height` pixels."""
-    rv3d = context.region_data
+    rv3d, space = context.region_data, context.space_data
     view = rv3d.view_matrix.inverted()
     P = rv3d.window_matrix
     d = {"width": int(width), "height": int(height), "sensor_fit": "horizontal"}
+    in_camera = rv3d.view_perspective == 'CAMERA' and scene.camera is not None
+    cam = camera_export.export_camera(scene, Warnings())[0] if in_camera else None
     if rv3d.is_perspective:
         ext = (1.0 / P[0][0], 1.0 / P[1][1])            # tan of the half angles
         centre = (P[0][2] / P[0][0], P[1][2] / P[1][1])  # the frustum's off-centre at distance 1
@@ -70,12 +72,12 @@ def view_camera(context, scene, width, height):
         centre = (-P[0][3] / P[0][0], -P[1][3] / P[1][1])
         d["type"] = "orthographic"
         d["ortho_scale"] = 2.0 * ext[0]
-        # Blender's orthographic views see behind their origin (clipping from -clip_end / 2):
-        # start the rays that far back.
-        space = context.space_data
-        back = 0.5 * getattr(space, "clip_end", 1000.0)
-        z = view.col[2].xyz.normalized()
-        view.translation = view.translation + z * back
+        if not in_camera:
+            # Blender's orthographic views see behind their origin (clipping from -clip_end / 2):
+            # start the rays that far back.
+            back = 0.5 * getattr(space, "clip_end", 1000.0)
+            z = view.col[2].xyz.normalized()
+            view.translation = view.translation + z * back
     s = 2.0 * max(ext[0], ext[0] * height / max(1, width))  # the larger extent (camera.h shift)
     if abs(centre[0]) > 1e-7 or abs(centre[1]) > 1e-7:
         d["shift"] = [centre[0] / s, centre[1] / s]
@@ -83,9 +85,22 @@ def view_camera(context, scene, width, height):
     t = view.translation
     d["matrix"] = [rot[0][0], rot[0][1], rot[0][2], t[0], rot[1][0], rot[1][1], rot[1][2], t[1],
                    rot[2][0], rot[2][1], rot[2][2], t[2], 0, 0, 0, 1]
-    if rv3d.is_perspective and rv3d.view_perspective == 'CAMERA' and scene.camera is not None:
+    # Clip Start / End as Cycles' viewport takes them (blender/camera.cpp blender_camera_from_view):
+    # through the scene camera its own (as F12), in a perspective view the view's (View > Clip
+    # Start / End), in an orthographic view -clip_end / 2 to clip_end / 2 about the view plane
+    # (from the origin moved back above: 0 to clip_end).
+    if in_camera:
+        clip = (cam.get("clip_start", 0.0), cam.get("clip_end"))
+    elif rv3d.is_perspective:
+        clip = (float(getattr(space, "clip_start", 0.0)), float(getattr(space, "clip_end", 0.0)) or None)
+    else:
+        clip = (0.0, float(getattr(space, "clip_end", 1000.0)))
+    if clip[0] > 0:
+        d["clip_start"] = clip[0]
+    if clip[1] is not None and clip[1] > clip[0]:
+        d["clip_end"] = clip[1]
+    if rv3d.is_perspective and in_camera:
         # Looking through the scene camera: its depth of field too (Cycles does).
-        cam, *_ = camera_export.export_camera(scene, Warnings())
         for key in ("aperture_radius", "focus_distance"):
             if key in cam:
                 d[key] = cam[key]

@@ -13,7 +13,7 @@ namespace gp {
 PathTracer::PathTracer(const Scene& scene, const Params& params)
     : scene_(scene),
       settings_{.max_depth = params.get<int>("max_depth"), .rr_depth = params.get<int>("rr_depth"),
-                .film_transparent = params.get<bool>("film_transparent")},
+                .film_transparent = params.get<bool>("film_transparent"), .camera_media = CameraMedia(scene)},
       clamp_direct_(params.get<float>("clamp_direct")),
       clamp_indirect_(params.get<float>("clamp_indirect")),
       threads_(params.get<int>("threads")),

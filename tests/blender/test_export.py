@@ -1,5 +1,6 @@
 """Export of a scene built here: meshes with modifiers, instances, every light type, a camera
 with depth of field; checked against the counts, transforms and values expected."""
+import json
 import math
 
 import bpy
@@ -105,6 +106,46 @@ def test_every_light_type_and_camera(empty_scene):
     scene = ex.build(native.get())
     assert scene.light_count == 3 + 2 + 64 + 64 + 2 + 1  # delta lights, area triangles, environment
     assert (scene.camera()["clip_start"], scene.camera()["clip_end"]) == pytest.approx((0.25, 80.0))
+
+
+def test_the_rendered_viewport_clips_as_cycles_viewport(empty_scene):
+    """The rendered viewport's camera (viewport.view_camera) takes Clip Start / End as Cycles'
+    viewport does (blender/camera.cpp blender_camera_from_view): through the scene camera its
+    own, as F12; in a perspective view the view's (View > Clip Start / End); in an orthographic
+    view the view's far clip either side of the view plane (from the origin moved back by
+    clip_end / 2: 0 to clip_end)."""
+    from types import SimpleNamespace
+
+    import mathutils
+    from gradphoton import viewport
+
+    cam = scenes.add_camera(empty_scene, (0, -5, 2), (0, 0, 0), lens=35.0)
+    cam.data.clip_start, cam.data.clip_end = 0.25, 80.0
+    bpy.context.view_layer.update()  # the camera's matrix_world
+    space = SimpleNamespace(clip_start=0.5, clip_end=40.0, use_render_border=False)
+    persp = mathutils.Matrix(((2.0, 0, 0, 0), (0, 2.0, 0, 0), (0, 0, -1.0, -0.1), (0, 0, -1.0, 0)))
+    ortho = mathutils.Matrix(((0.2, 0, 0, 0), (0, 0.2, 0, 0), (0, 0, -0.05, 0), (0, 0, 0, 1.0)))
+
+    def view(kind, window):
+        rv3d = SimpleNamespace(view_matrix=cam.matrix_world.inverted(), window_matrix=window,
+                               is_perspective=kind != 'ORTHO', view_perspective=kind)
+        return viewport.view_camera(SimpleNamespace(region_data=rv3d, space_data=space), empty_scene, 64, 48)
+
+    through_camera = view('CAMERA', persp)
+    assert (through_camera["clip_start"], through_camera["clip_end"]) == pytest.approx((0.25, 80.0))
+    free = view('PERSP', persp)
+    assert (free["clip_start"], free["clip_end"]) == pytest.approx((0.5, 40.0))
+    flat = view('ORTHO', ortho)
+    assert "clip_start" not in flat and flat["clip_end"] == pytest.approx(40.0)
+    # The origin moved back by 20 along the view's +Z (the camera at (0, -5, 2) looking at the origin).
+    back = cam.matrix_world.col[2].xyz.normalized() * 20.0
+    assert [flat["matrix"][3], flat["matrix"][7], flat["matrix"][11]] == pytest.approx(list(cam.location + back), abs=1e-4)
+    # Each is a camera the core takes (Camera::check), with these clip planes.
+    scene = export_current().build(native.get())
+    for d in (through_camera, free, flat):
+        scene.set_camera(json.dumps(d))
+        assert scene.camera()["clip_start"] == pytest.approx(d.get("clip_start", 0.0))
+        assert scene.camera()["clip_end"] == pytest.approx(d["clip_end"])
 
 
 def test_materials_map_onto_the_closed_set(empty_scene):

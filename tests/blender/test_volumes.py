@@ -151,6 +151,36 @@ def test_principled_volume_cube_at_cycles_brightness(empty_scene, out_dir):
     assert abs(ratio_mid - 1) < 0.01, ratio_mid
 
 
+def test_camera_inside_a_volume_cube_at_cycles_brightness(empty_scene, out_dir):
+    """The camera inside a Principled Volume cube (no surface), looking at an emissive panel and a
+    floor inside it under a sun: Cycles starts such camera rays in the cube's volume
+    (integrator_volume_stack_init at the ray's origin, on the near clip plane); gradphoton does
+    too (CameraMedia, paths/medium_stack.h). The image mean within 1 % of Cycles': measured 0.9982,
+    1.0019 over the panel's window (256 samples). With camera rays started in the World's medium
+    alone (before) the image read 1.7596 of Cycles', 2.3244 over the panel."""
+    scene = empty_scene
+    scenes.set_world(scene, (0.5, 0.55, 0.6), 0.4)
+    scenes.add_plane(scene, "Floor", 20.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
+    pv = volume_material("Murk", "ShaderNodeVolumePrincipled", **{
+        "Color": (0.8, 0.7, 0.5, 1), "Density": 0.35, "Anisotropy": 0.2, "Absorption Color": (0.4, 0.3, 0.2, 1)})
+    add_cube(scene, "Murk", 6.0, pv, (0, 0, 2.7))  # z from -0.3 to 5.7: the floor inside, not on a face
+    panel = scenes.add_plane(scene, "Panel", 2.0, scenes.emission_material("Panel", 4.0, (1.0, 0.9, 0.7)), (0, 2.0, 1.2))
+    panel.rotation_euler = (math.radians(90), 0, 0)  # facing -Y, toward the camera
+    sun = scenes.add_light(scene, "Sun", 'SUN', None, 2.0, {"angle": 0.0}, (2, -1, 4))
+    scenes.look_at(sun, (0, 0, 0))
+    scenes.add_camera(scene, (0, -2.0, 1.4), (0, 2.0, 1.0), lens=30.0)
+    scene.render.resolution_x, scene.render.resolution_y = 40, 30
+    samples, bounces = 256, 8
+    scenes.configure_cycles(scene, samples, bounces)
+    scene.cycles.volume_bounces = bounces
+    a, b = cycles_then_pt(scene, out_dir, samples, bounces)
+    ratio, ratio_mid = window_ratios(a, b)  # the window: the panel seen through the murk
+    print(f"VOLUME camera inside a cube: gradphoton/cycles = {ratio:.4f} (panel window {ratio_mid:.4f}); "
+          f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
+    assert abs(ratio - 1) < 0.01, ratio
+    assert abs(ratio_mid - 1) < 0.01, ratio_mid
+
+
 def test_method_without_media_says_so(empty_scene):
     volume_cube_scene(empty_scene)
     ex = export_current()
@@ -250,7 +280,8 @@ def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir)
     Camera::clip_start), so the fog in front of it is not there: before gradphoton clipped, Cycles
     was 2.6 % brighter (gradphoton/cycles 0.974 at 2048 spp, exp(0.24 x 0.1) = 1.024 of it).
     FOG_SPP=... sets the samples, FOG_VOLUME_BOUNCES / FOG_BOUNCES the bounces, FOG_LIGHT=POINT
-    a point light."""
+    a point light, FOG_SAMPLING the World's Volume > Sampling for Cycles (EQUIANGULAR, Blender's
+    default for a World; DISTANCE; MULTIPLE_IMPORTANCE)."""
     scene = empty_scene
     if os.environ.get("FOG_FLOOR", "1") != "0":
         scenes.add_plane(scene, "Floor", 12.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
@@ -272,10 +303,12 @@ def test_world_fog_under_a_spot_light_at_cycles_brightness(empty_scene, out_dir)
     samples, bounces = int(os.environ.get('FOG_SPP', 1024)), int(os.environ.get('FOG_BOUNCES', 8))
     scenes.configure_cycles(scene, samples, bounces)
     # Volume bounces 0 (Blender's default: single scattering in the fog, the floor's light through
-    # it). Measured 0.9975 (512 spp), 1.0000 (2048 spp). With FOG_VOLUME_BOUNCES=8 Cycles keeps
-    # ~3 % more multiply scattered light than gradphoton (0.9701 at 2048 spp; 0.9862 with
-    # FOG_BOUNCES=32 at 1024 spp; a point light 1.0054): not explained yet (docs/blender.md).
+    # it). Measured 0.9975 (512 spp), 1.0000 (2048 spp). With FOG_VOLUME_BOUNCES=8 gradphoton reads
+    # 0.970-0.981 of Cycles' default (Equiangular), where Cycles' own estimators disagree by 3.3 %
+    # at 4096 spp (Equiangular 0.02960, Multiple Importance 0.02935, Distance 0.02864; gradphoton
+    # 0.0288): docs/blender.md, not resolved, so the test stays at Volume bounces 0.
     scene.cycles.volume_bounces = int(os.environ.get('FOG_VOLUME_BOUNCES', 0))
+    w.cycles.volume_sampling = os.environ.get('FOG_SAMPLING', 'EQUIANGULAR')
     cycles = native.get().read_exr(scenes.render_to_exr(scene, os.path.join(str(out_dir), "c.exr")))["combined"]
     scene.render.engine = 'GRADPHOTON'
     g = scene.gradphoton

@@ -364,6 +364,65 @@ TEST(MediaPathTracing, CameraClipStartSkipsTheFogInFrontOfIt) {
   EXPECT_THROW(scene(R"(, "clip_start": 0.3, "clip_end": 0.2)"), std::exception);
 }
 
+// A camera inside a medium starts its paths in it (CameraMedia, Cycles' volume_stack_init at the
+// camera ray's origin): an emitter of radiance 1 at z = 0 seen from z = 2 inside an absorbing box
+// whose top and bottom are at z = `top` and z = `bottom`: L = exp(-sigma d), d the length of the
+// ray from its origin (on the near clip plane) to the emitter inside the box. Without it every
+// camera ray started in the World's medium alone and saw the emitter unattenuated.
+std::string camera_in_box(float bottom, float top, const std::string& camera_extra, const std::string& sigma = "[0.5, 1.0, 2.0]",
+                          const std::string& material = R"({"type": "volume", "interior": "ink"})") {
+  return std::string(R"({"camera": {"position": [0, 0, 2], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 2, "width": 8, "height": 8)") +
+         camera_extra + R"(},
+    "media": {"ink": {"sigma_a": )" + sigma + R"(}},
+    "materials": {"light": {"type": "emission", "emission": 1, "strength": 1}, "box": )" + material + R"(},
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [5, 0, 0], "v": [0, 5, 0], "material": "light"},
+                {"type": "box", "min": [-3, -3, )" + std::to_string(bottom) + R"(], "max": [3, 3, )" + std::to_string(top) +
+         R"(], "material": "box"}]})";
+}
+
+TEST(MediaPathTracing, ACameraInsideAMediumSeesThroughIt) {
+  const float sigma[3] = {0.5f, 1.0f, 2.0f};
+  auto expect_beer_lambert = [&](const RGB& m, float d, double tol, const std::string& what) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(m[c], std::exp(-sigma[c] * d), tol) << what << ", channel " << c;
+  };
+  // Inside a Volume box: 1.5 m of ink to the emitter, in pt and in SPPM's eye paths.
+  const Scene inside = scene_from(camera_in_box(0.5f, 2.5f, ""));
+  expect_beer_lambert(image_mean(render_pt(inside, 16)), 1.5f, 0.01, "pt inside the box");
+  Params sppm;
+  sppm.set("seed", 1);
+  sppm.set("photons", 1000);
+  expect_beer_lambert(image_mean(render("sppm", inside, 4, sppm)), 1.5f, 0.01, "sppm inside the box");
+  // Under murky water: inside a glass box whose interior is the ink, the emitter in the water.
+  const Scene water = scene_from(camera_in_box(-1.0f, 2.5f, "", "[0.5, 1.0, 2.0]",
+                                               R"({"type": "dielectric", "ior": 1.33, "roughness": 0, "interior": "ink"})"));
+  expect_beer_lambert(image_mean(render_pt(water, 16)), 2.0f, 0.01, "pt under murky water");
+  // The clip start as Cycles reads it: the stack at the ray's origin on the near clip plane. The
+  // eye above a box whose top is at 1.8, the clip plane at 1.7 inside it: 1.2 m of ink ...
+  expect_beer_lambert(image_mean(render_pt(scene_from(camera_in_box(0.5f, 1.8f, R"(, "clip_start": 0.3)")), 16)), 1.2f,
+                      0.01, "the clip plane inside the box");
+  // ... and the eye inside a box whose bottom is at 1.8, the clip plane at 1.7 below it: none.
+  expect_beer_lambert(image_mean(render_pt(scene_from(camera_in_box(1.8f, 2.5f, R"(, "clip_start": 0.3)")), 16)), 0.0f,
+                      0.01, "the clip plane below the box");
+  // A thin lens: every ray's origin on the lens, inside the box (the stack carried from the eye).
+  expect_beer_lambert(
+      image_mean(render_pt(scene_from(camera_in_box(0.5f, 2.5f, R"(, "aperture_radius": 0.05, "focus_distance": 2)")), 16)),
+      1.5f, 0.01, "a thin lens inside the box");
+  // A camera moving inside the box over the shutter (its media found per path at the path's time).
+  const Scene moving = scene_from(camera_in_box(
+      0.5f, 2.5f, R"(, "motion": [[1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 2, 0, 0, 0, 1], [1, 0, 0, 0.3, 0, 1, 0, 0, 0, 0, 1, 2, 0, 0, 0, 1]])"));
+  ASSERT_TRUE(moving.camera.motion_blur);
+  expect_beer_lambert(image_mean(render_pt(moving, 16)), 1.5f, 0.01, "a moving camera inside the box");
+  // Wavelengths: grey ink (its spectrum flat), spt and spt-hero, against the same method's image of
+  // the emitter with the clip plane below the box (no ink on the way; a white emitter's sampled
+  // wavelengths give its RGB only within their colour noise), the same seed: the ratio per channel.
+  const Scene grey = scene_from(camera_in_box(0.5f, 2.5f, "", "1.0"));
+  const Scene clear = scene_from(camera_in_box(1.8f, 2.5f, R"(, "clip_start": 0.3)", "1.0"));
+  for (const char* method : {"spt", "spt-hero"}) {
+    const RGB m = image_mean(render_pt(grey, 16, method)), open = image_mean(render_pt(clear, 16, method));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(m[c] / open[c], std::exp(-1.5), 0.005) << method << ", channel " << c;
+  }
+}
+
 TEST(MediaSceneFormat, ErrorsNameTheFileAndTheKey) {
   auto error_of = [](const std::string& json) -> std::string {
     try {

@@ -46,6 +46,7 @@
 #include "core/progress.h"
 #include "core/rng.h"
 #include "core/sampler.h"
+#include "integrators/paths/medium_stack.h"
 #include "integrators/paths/medium_walk.h"
 #include "lights/light.h"
 #include "scene/scene.h"
@@ -55,6 +56,7 @@ namespace gp {
 struct CameraPathSettings {
   int max_depth = 32, rr_depth = 3;
   bool film_transparent = false;  // a camera ray that leaves the scene sees no background
+  CameraMedia camera_media;       // the media camera rays start in (a camera inside a Volume cube)
 };
 
 // ---- Equiangular sampling in homogeneous media (Kulla & Fajardo 2012; media/medium.h
@@ -139,9 +141,10 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
   constexpr int kMaxPassThrough = 8;  // light objects crossed (they count no transparent bounce)
   constexpr int kMaxBoundaries = 64;  // volume boundaries crossed (Cycles: VOLUME_BOUNDS_MAX)
   int pass_through = 0, boundaries = 0;
-  // The media the path is in (Cycles' volume stack), only in scenes that have media.
+  // The media the path is in (Cycles' volume stack), only in scenes that have media: from those
+  // around the camera ray's origin (CameraMedia).
   const bool media = scene.has_media();
-  MediumStack stack = scene.initial_medium_stack();
+  MediumStack stack = media ? s.camera_media.at(scene, ray) : scene.initial_medium_stack();
   ShadowTest shadow(scene, media ? &stack : nullptr);
   // Light Paths > Volume bounces (Scene::volume_bounces; -1: only max_depth bounds them), as
   // Cycles 3.4 counts them apart from Max Bounces (path_state_next, max_volume_bounce =

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 
 namespace gp {
 
@@ -45,6 +46,91 @@ MediumStack medium_stack_at(const Scene& scene, const Vec3& p) {
     if (2 * inside > static_cast<int>(kProbe.size())) stack.cross(c.mesh, c.medium, true);
   }
   return stack;
+}
+
+namespace {
+// The boundaries of meshes with an interior medium between `from` and `to`, crossed in `stack`
+// (a stack carried along a segment, as Cycles' integrator_volume_stack_update_for_subsurface).
+void cross_between(const Scene& scene, MediumStack& stack, const Vec3& from, const Vec3& to) {
+  float remaining = length(to - from);
+  if (!(remaining > 0)) return;
+  const Vec3 d = (to - from) / remaining;
+  Vec3 o = from;
+  for (int crossing = 0; crossing < kMaxCrossings; ++crossing) {
+    const std::optional<SurfacePoint> hit = scene.intersect_point(Ray(o, d, 0.0f, remaining));
+    if (!hit) return;
+    const int medium = scene.material(hit->material).interior;
+    if (medium >= 0) stack.cross(hit->mesh, medium, dot(d, hit->ng) < 0);
+    o = offset_ray_origin(hit->p, hit->ng, d);
+    remaining = length(to - o);
+    if (dot(to - o, d) <= 0) return;  // the offset stepped past `to`
+  }
+}
+
+// How far from the camera's eye (camera space, before its matrix's scale) a camera ray can start:
+// the clip start along the widest ray, plus the lens or the orthographic plane's extent.
+float origin_reach(const Camera& c) {
+  const Vec2 ext = c.half_extent();
+  const float s = 2.0f * std::max(ext.x, ext.y);  // Blender's shift is a fraction of this
+  const float x = ext.x + std::abs(c.shift.x) * s, y = ext.y + std::abs(c.shift.y) * s;
+  if (c.projection == Projection::Orthographic) return std::sqrt(x * x + y * y) + c.clip_start;
+  return c.aperture_radius + c.clip_start * std::sqrt(x * x + y * y + 1.0f);
+}
+}  // namespace
+
+CameraMedia::CameraMedia(const Scene& scene) {
+  if (!scene.finalized() || !scene.has_media()) return;
+  // Where camera rays start over the shutter: boxes around the eye at each camera step (the eye
+  // moves linearly between steps; the box holds every turn of the camera about it).
+  const Camera& cam = scene.camera;
+  const size_t steps = std::max<size_t>(1, cam.motion.size());
+  const float reach = origin_reach(cam);
+  Bounds3 origins;
+  for (size_t i = 0; i < steps; ++i) {
+    const Transform m = cam.to_world_at(steps == 1 ? 0.0f : static_cast<float>(i) / static_cast<float>(steps - 1));
+    const float scale = std::max({length(m.vector({1, 0, 0})), length(m.vector({0, 1, 0})), length(m.vector({0, 0, 1}))});
+    const Vec3 eye = m.point({0, 0, 0}), r(reach * scale * 1.001f + 1e-4f * (1.0f + length(eye)));
+    origins.extend(eye - r);
+    origins.extend(eye + r);
+  }
+  // The meshes with an interior medium whose bounds meet that region (a moving one always).
+  bool near = false, moving = !cam.motion.empty();
+  for (const Mesh& mesh : scene.meshes) {
+    if (std::none_of(mesh.material_ids.begin(), mesh.material_ids.end(),
+                     [&](uint32_t id) { return scene.material(static_cast<int>(id)).interior >= 0; }))
+      continue;
+    if (mesh.motion) {
+      near = moving = true;
+      continue;
+    }
+    Bounds3 b;
+    for (const Vec3& p : mesh.positions) b.extend(p);
+    near = near || (b.lo.x <= origins.hi.x && b.hi.x >= origins.lo.x && b.lo.y <= origins.hi.y &&
+                    b.hi.y >= origins.lo.y && b.lo.z <= origins.hi.z && b.hi.z >= origins.lo.z);
+  }
+  if (!near) return;  // every camera ray starts in the World's medium alone
+  if (moving) {
+    mode_ = Mode::Probe;
+    return;
+  }
+  mode_ = Mode::FromEye;
+  eye_ = cam.camera_to_world.point({0, 0, 0});
+  eye_stack_ = medium_stack_at(scene, eye_);
+}
+
+MediumStack CameraMedia::at(const Scene& scene, const Ray& ray) const {
+  switch (mode_) {
+    case Mode::World:
+      return scene.initial_medium_stack();
+    case Mode::FromEye: {
+      MediumStack stack = eye_stack_;
+      if (ray.o.x != eye_.x || ray.o.y != eye_.y || ray.o.z != eye_.z) cross_between(scene, stack, eye_, ray.o);
+      return stack;
+    }
+    case Mode::Probe:
+      break;
+  }
+  return medium_stack_at(scene, ray.o);
 }
 
 LightMedia::LightMedia(const Scene& scene) : world_(scene.initial_medium_stack()) {

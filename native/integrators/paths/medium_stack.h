@@ -19,6 +19,33 @@ namespace gp {
 // majority of three rays.
 MediumStack medium_stack_at(const Scene& scene, const Vec3& p);
 
+// The media camera rays start in. Cycles finds them per camera ray at the ray's origin, on the
+// near clip plane (integrator_volume_stack_init, kernel/integrator/intersect_volume_stack.h: one
+// ray out, a boundary left and not entered first is a medium around the origin), when
+// Camera::device_update_volume (scene/camera.cpp) finds a volume object's bounds touching those
+// of the clip plane; so a camera inside a Volume cube or under murky water sees through that
+// medium from its first segment, and a volume boundary the clip start leaves behind counts as
+// crossed. Here the same stack at each camera ray's origin, at the least cost the scene allows:
+//   - the World's alone when no medium mesh's bounds come near any camera ray's origin over the
+//     shutter (the usual scene: no work per ray);
+//   - else, when neither the camera nor a medium mesh moves, the stack at the camera's eye found
+//     once, carried to each ray's origin across the boundaries in between (the clip start, a
+//     thin lens, an orthographic plane): one short ray, none where the origin is the eye;
+//   - else (motion blur) medium_stack_at the ray's origin at its time.
+class CameraMedia {
+ public:
+  CameraMedia() = default;  // every camera ray in the World's medium
+  explicit CameraMedia(const Scene& scene);
+  // The media around camera ray `ray`'s origin (at the thread's shutter time).
+  MediumStack at(const Scene& scene, const Ray& ray) const;
+
+ private:
+  enum class Mode : uint8_t { World, FromEye, Probe };
+  Mode mode_ = Mode::World;
+  MediumStack eye_stack_;  // FromEye: the media around the eye
+  Vec3 eye_{0.0f};
+};
+
 // The media each light of a scene is inside, found once (per light: its position, an emissive
 // triangle's centre; distant lights and the World: the World's alone).
 class LightMedia {

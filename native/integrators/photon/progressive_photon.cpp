@@ -56,6 +56,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
   // gather reads it at each photon (volume_gather).
   media_ = options.media && scene.has_media();
   tracer_.set_media(media_);
+  if (media_) camera_media_ = CameraMedia(scene);
   check_image_size(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
   px_.assign(n, PixelState{});

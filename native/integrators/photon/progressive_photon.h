@@ -26,6 +26,7 @@
 #include "integrators/photon/pausable_tiles.h"
 #include "integrators/integrator.h"
 #include "integrators/photon/photon_tracer.h"
+#include "integrators/paths/medium_stack.h"
 #include "integrators/paths/medium_walk.h"
 #include "integrators/paths/spectral_scene.h"
 #include "core/sampling.h"
@@ -320,6 +321,7 @@ class ProgressivePhotonMapping : public Integrator {
   // to shrink from; per pixel, the passes' segments are samples of the pixel's beam as the passes'
   // measurement points are samples of its surface, and eq. 5.39 holds for any query shape.
   bool media_ = false;
+  CameraMedia camera_media_;                // the media eye paths start in (paths/medium_stack.h)
   std::vector<MediumChannels> media_rgb_;   // Scene::media at R, G, B
   std::vector<MediumChannels> pass_media_;  // and at the pass's wavelengths (spectral photons)
   std::vector<EyeBeam> beams_;              // kMaxBeams per pixel, this pass's (PPM: the first's)
@@ -444,7 +446,7 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
   constexpr int kMaxCrossings = 8;  // light objects and volume boundaries crossed without a bounce
   int crossings = 0;
   // The media the path is in (Cycles' volume stack), only where the method renders media.
-  MediumStack stack = scene_.initial_medium_stack();
+  MediumStack stack = media_ ? camera_media_.at(scene_, ray) : scene_.initial_medium_stack();
   ShadowTest shadow(scene_, media_ ? &stack : nullptr);
   for (int depth = 0; depth < max_depth_; ++depth) {
     ++rays;
