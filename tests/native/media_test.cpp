@@ -392,6 +392,7 @@ TEST(MediaPathTracing, ACameraInsideAMediumSeesThroughIt) {
   sppm.set("seed", 1);
   sppm.set("photons", 1000);
   expect_beer_lambert(image_mean(render("sppm", inside, 4, sppm)), 1.5f, 0.01, "sppm inside the box");
+  expect_beer_lambert(image_mean(render("msppm", inside, 4, sppm)), 1.5f, 0.01, "msppm inside the box");
   // Under murky water: inside a glass box whose interior is the ink, the emitter in the water.
   const Scene water = scene_from(camera_in_box(-1.0f, 2.5f, "", "[0.5, 1.0, 2.0]",
                                                R"({"type": "dielectric", "ior": 1.33, "roughness": 0, "interior": "ink"})"));

@@ -54,6 +54,7 @@ Msppm::Msppm(const Scene& scene, const Params& params)
   // Participating media ("Participating media" in msppm.h): grid media too, by the same
   // MediumSegment, photon walk and beam gather as SPPM.
   media_ = scene.has_media();
+  if (media_) camera_media_ = CameraMedia(scene);  // a camera inside a Volume cube
   tracer_.set_media(media_);
   if (media_) {
     for (const Medium& m : scene.media) media_rgb_.push_back(rgb_channels(m));
@@ -111,7 +112,7 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
             bool prev_delta = false;
             // The media the path is in (Cycles' volume stack), and the shadow test that follows
             // it through them and through Transparent BSDFs (paths/medium_walk.h), as pt's.
-            MediumStack stack = scene_.initial_medium_stack();
+            MediumStack stack = media_ ? camera_media_.at(scene_, ray) : scene_.initial_medium_stack();
             ShadowTest shadow(scene_, media_ ? &stack : nullptr);
             if (n_beams) *n_beams = 0;
             bool past_mergeable = false;  // a (not crossed) mergeable vertex is behind: no more beams

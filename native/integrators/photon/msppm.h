@@ -131,6 +131,7 @@
 
 #include <vector>
 
+#include "integrators/paths/medium_stack.h"
 #include "integrators/photon/beam_estimate.h"
 #include "integrators/photon/pausable_tiles.h"
 #include "integrators/photon/photon_hash.h"
@@ -286,6 +287,7 @@ class Msppm : public Integrator {
   // ---- Participating media ("Participating media" above; scenes with media only) ----
   static constexpr int kMaxBeams = 4;  // per pixel and pass, as SPPM's; further segments gather nothing
   bool media_ = false;
+  CameraMedia camera_media_;  // the media eye paths start in (paths/medium_stack.h)
   std::vector<MediumChannels> media_rgb_;  // Scene::media at R, G, B
   std::vector<EyeBeam> beams_;             // kMaxBeams per pixel, this pass's
   std::vector<uint8_t> n_beams_;
