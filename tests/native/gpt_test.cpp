@@ -189,6 +189,8 @@ std::unique_ptr<Integrator> run(const Scene& s, const std::string& method, int p
   p.set("seed", seed);
   p.set("threads", threads);
   if (method == "gpt") p.set("recon", recon);
+  // gpt's base paths take pt's independent stream (PrimalIsThePathTracersImage...: the same numbers).
+  if (method == "pt") p.set("sampling_pattern", "independent");
   auto integ = make_integrator(method, s, p);
   if (passes > 0) run_progressive(*integ, StopRule{0, passes, 0}, nullptr);
   return integ;
