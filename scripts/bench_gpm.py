@@ -145,6 +145,8 @@ def main_error(argv):
     ap.add_argument("--photons", default="100000,250000,500000,1000000",
                     help="photons per pass swept for gpm l1 and l2 (empty: defaults only)")
     ap.add_argument("--seeds", default="1", help="render seeds, comma separated (each a full set of renders)")
+    ap.add_argument("--config", action="append", default=[], metavar="LABEL=METHOD:k=v,...",
+                    help="a further configuration, e.g. 'gpm-L1 nee-off=gpm:recon=l1,gradient_nee=false'")
     ap.add_argument("--reference", action="append", default=[], metavar="SCENE=A.exr[,B.exr]")
     ap.add_argument("--ref-method", default="sppm:photons=200000,footprint=0.15,alpha=0.99999",
                     help="a sharp reference: fixed radius of 0.15 pixel (docs/gradient.md)")
@@ -163,6 +165,7 @@ def main_error(argv):
     configs = [("sppm", "sppm"), ("gpm-L1", "gpm:recon=l1"), ("gpm-L2", "gpm:recon=l2")]
     for p in sweep:
         configs += [(f"gpm-L1 {p}", f"gpm:recon=l1,photons={p}"), (f"gpm-L2 {p}", f"gpm:recon=l2,photons={p}")]
+    configs += [tuple(c.split("=", 1)) for c in opts.config]
     given = dict(r.split("=", 1) for r in opts.reference)
     opts.out.mkdir(parents=True, exist_ok=True)
     print(f"load average {os.getloadavg()[0]:.2f} at the start; {opts.threads} threads; one render at a time")
