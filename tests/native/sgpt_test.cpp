@@ -439,7 +439,8 @@ TEST(Sgpt, PointAndSunLightsAreReachedByNee) {
   // whose caustics through the rough sphere are the noisy part), 0.6 % on the ratio, so the 3 %
   // bound is 5 of them (over 1024 passes it was 1.7: spt's Sobol pattern moved its mean at the
   // old seed and the ratio read 0.965, z -2.0). Measured: 0.989 (z -1.7); seeds 201-202 over
-  // 16384 passes 0.9988, seeds 101-102 over 8192 0.990.
+  // 16384 passes 0.9988, seeds 101-102 over 8192 0.990; over 65536 passes sgpt 0.18190, spt
+  // 0.18254 (Sobol) and 0.18172 (independent), standard errors 0.1 % and 0.2 %: no bias.
   const Scene s = sphere_on_floor(12, 0.15f, "", R"(, "lights": [
       {"type": "point", "position": [0.3, -0.2, 1.5], "power": 30, "color": [1, 0.9, 0.7]},
       {"type": "sun", "direction": [0.3, 0.4, -1], "strength": 1}])");
