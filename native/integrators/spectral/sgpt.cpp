@@ -129,6 +129,7 @@ struct Event {
 // split by lobe kind, per wavelength, with the path's f and density before it.
 struct LobeScatter {
   std::array<SpectralValues, 3> f{}, pdf{};  // f |cos| and pdf of each lobe kind (a Dirac lobe's weights)
+  std::array<float, 3> cpdf{};               // Cycles' closure-choice density of each kind (RGB: Bsdf::closure_pdf)
   SpectralValues F{}, P{};                   // the path's f and density before the vertex
   float rr = 1;                              // roulette's survival after it (the BSDF strategy's)
   uint8_t lobe = kAllLobes;                  // the lobe sampled (a BSDF ray's kind; next-event estimation: all)
@@ -150,6 +151,28 @@ struct LobeScatter {
         }
       e.f[j] = seen ? F[j] * fv * Le[j] : 0.0f;
       e.p_bsdf[j] = pv;
+    }
+  }
+
+  // Event e, emission found by the BSDF ray from a World visible to `vis` only (lit by BSDF rays
+  // only: Light::lit_by_bsdf_rays_only), made with the whole BSDF (e.f = F f Le, e.p_bsdf its
+  // density), by Cycles 3.4's rule (lobe_split.h): a ray of a visible kind carries the whole f,
+  // times P_C(k | wi) / P(k | wi) for the sampled lobe k. Here as an event of the path extended
+  // by its lobe choice: f F Le P_C(k | wi) with density p_k (the sampled kind's share of the
+  // density, per wavelength: p_lobe[k]), so the balance heuristic over wavelengths and over a
+  // pair's two paths compares densities of the same lobe (e.vis: that kind alone). A Dirac lobe's
+  // pair is all its kind's (P_C = P = 1). No light strategy: next-event estimation skips it.
+  void world(Event& e, uint8_t vis, int C) const {
+    const int k = lobe_index(lobe);
+    e.vis = lobe;
+    float c_all = 0;
+    for (int l = 0; l < 3; ++l) c_all += cpdf[l];
+    const float pc = c_all > 0 ? cpdf[k] / c_all : 0.0f;  // P_C(k | wi), Cycles' closure choice (RGB)
+    for (int j = 0; j < C; ++j) {
+      for (int l = 0; l < 3; ++l) e.p_lobe[l][j] = P[j] * pdf[l][j] * rr;
+      e.f[j] = (vis & lobe) ? e.f[j] * pc : 0.0f;
+      e.p_bsdf[j] = e.p_lobe[k][j];
+      e.p_light[j] = 0.0f;
     }
   }
 };
@@ -245,7 +268,8 @@ class SpectralSample {
       : s_(setup), lights_(setup.scene.light_set()), C(setup.C), bin_width_(double(kLambdaRange) / setup.bins),
         rng_(rng), rays_(rays), counts_(counts), sc_(scratch()), base_(sc_.base), hit_ev_(sc_.hit_ev),
         nee_ev_(sc_.nee_ev), G_(sc_.G), f_max_from_(sc_.f_max_from),
-        split_lobes_(setup.scene.lights_hidden_from_some_lobes()) {
+        split_lobes_(setup.scene.lights_hidden_from_some_lobes()),
+        world_rule_(lights_.environment() >= 0 && lights_.lights()[lights_.environment()].lit_by_bsdf_rays_only()) {
     // Hero wavelength and its C - 1 rotations (§3.4; C = 1 is plain §3). Each keeps its position
     // inside its bin, so lambda_j +- delta lands in bin b_j +- s.
     wl_ = SampledWavelengths::sample_uniform(rng_.uniform(), C);
@@ -312,8 +336,9 @@ class SpectralSample {
   bool camera_ray_to(size_t k) const { return k == 0 || base_.v[k - 1].kind == 0; }
   // Solid-angle pdf with which next-event estimation from p would pick the emission found
   // along dir (at h, or the environment when h is null): the light strategy of the MIS.
+  // A World lit by BSDF rays only is not sampled (trace_base).
   float light_pdf(const Vec3& p, const SurfaceHit* h, const Vec3& dir) const {
-    if (!h) return lights_.pdf_environment(dir);
+    if (!h) return world_rule_ ? 0.0f : lights_.pdf_environment(dir);
     return h->light >= 0 ? lights_.pdf_area(h->light, p, h->p, dir) : 0.0f;
   }
   // BSDF value x |cos| and pdf of a recorded scattering pair at wavelength l (of its lobes of the
@@ -333,6 +358,8 @@ class SpectralSample {
     return l >= 0 ? lights_.lights()[l].visible_lobes : kAllLobes;
   }
   // s's f and pdf per lobe kind for a smooth pair (wo, wi) at vertex h, at the wavelengths lw.
+  // With Cycles' closure-choice densities per kind (RGB, so the hero's BSDF gives them) for a
+  // World lit by BSDF rays only (LobeScatter::world).
   void split_smooth(LobeScatter& s, const SurfaceHit& h, const Values& lw, const Vec3& wo, const Vec3& wi) const {
     for (int l = 0; l < 3; ++l)
       for (int j = 0; j < C; ++j) {
@@ -340,6 +367,11 @@ class SpectralSample {
         s.f[l][j] = sc.f_cos;
         s.pdf[l][j] = sc.pdf;
       }
+    if (world_rule_) {
+      const Material& mat = s_.scene.material(h.material);
+      const Bsdf b = s_.scene.bsdf(monochromatic(mat, s_.spectra.albedo[h.material], h.uv, lw[0]), h);
+      for (int l = 0; l < 3; ++l) s.cpdf[l] = b.closure_pdf(wo, wi, static_cast<uint8_t>(kRayDiffuse << l));
+    }
   }
   float sum_p(const Values& a, const Values& b) const {
     float s = 0;
@@ -380,6 +412,9 @@ class SpectralSample {
   std::vector<double>& G_;
   std::vector<float>& f_max_from_;
   const bool split_lobes_;
+  // The World is hidden from some kinds of bounce ray and lit by BSDF rays only, by Cycles'
+  // rule (lobe_split.h; LobeScatter::world), not by next-event estimation.
+  const bool world_rule_;
   SampledWavelengths wl_;
   float lambda_ = 0;
   Bins bin_{};
@@ -417,7 +452,10 @@ void SpectralSample::trace_base(Ray ray) {
       v.nee_eligible = true;
       v.u_light = rng_.uniform();
       v.u_light2 = Vec2(rng_.uniform(), rng_.uniform());
-      if (auto ls = lights_.sample_li(hit->p, v.u_light, v.u_light2); ls && ls->pdf > 0 && !ls->L.is_black()) {
+      // A World lit by BSDF rays only is not sampled (as camera_path.h); the offsets, drawing
+      // the same light with the same numbers (the choice does not depend on the point), skip it too.
+      if (auto ls = lights_.sample_li(hit->p, v.u_light, v.u_light2);
+          ls && ls->pdf > 0 && !ls->L.is_black() && !lights_.lights()[ls->light].lit_by_bsdf_rays_only()) {
         v.ls = *ls;
         v.nee = true;
         ++rays_.shadow;
@@ -495,7 +533,10 @@ void SpectralSample::base_events() {
       e.p_bsdf[j] = P[j];
       e.p_light[j] = P_prev[j] * pl;
     }
-    if (split_lobes_ && !camera_ray_to(k)) last.restrict(e, light_vis(h), Le, C);
+    if (split_lobes_ && !camera_ray_to(k)) {
+      if (!h && world_rule_) last.world(e, light_vis(h), C);
+      else last.restrict(e, light_vis(h), Le, C);
+    }
     if (is_escape) break;
     const BaseVertex& v = base.v[k];
     if (v.nee) {
@@ -556,6 +597,7 @@ void SpectralSample::base_events() {
       if (split_lobes_ && v.delta && v.kind != 0) {  // a Dirac pair is all its lobe's
         last.f[lobe_index(v.kind)][j] = s.f_cos;
         last.pdf[lobe_index(v.kind)][j] = s.pdf;
+        last.cpdf[lobe_index(v.kind)] = 1.0f;
       }
     }
     beta_k *= p0 > 0 ? f0 / p0 / v.rr : 0.0f;
@@ -669,7 +711,10 @@ struct OffsetPath {
       ey.p_light[j] = P2_prev[j] * l_pdf;
     }
     // The offset's light weighed by the lobes that see it at its own vertex (the base's lobe sampled).
-    if (s.split_lobes_ && !s.camera_ray_to(k)) y_last.restrict(ey, s.light_vis(yk), Le, s.C);
+    if (s.split_lobes_ && !s.camera_ray_to(k)) {
+      if (!yk && s.world_rule_) y_last.world(ey, s.light_vis(yk), s.C);
+      else y_last.restrict(ey, s.light_vis(yk), Le, s.C);
+    }
     pair(s.hit_ev_[k], ey, J);
   }
 
@@ -859,6 +904,7 @@ struct OffsetPath {
           y_last.f[lobe_index(x.kind)][j] = s2[j].f_cos;
           y_last.pdf[lobe_index(x.kind)][j] = s2[j].pdf;
         }
+        y_last.cpdf[lobe_index(x.kind)] = 1.0f;
       }
     }
     if (!crossing && !transparent) {  // the vertex whose BSDF ray the next events come from (as the base's `from`)

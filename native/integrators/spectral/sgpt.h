@@ -37,7 +37,8 @@
 // leaves only the hero's pair.
 //
 // Blender scenes as Cycles renders them (docs/blender.md): per-kind ray visibility of surfaces,
-// lights and the World, for the base and the offsets alike (sgpt.cpp, LobeScatter); light
+// lights and the World (Cycles' own rule for a constant World, lobe_split.h), for the base and
+// the offsets alike (sgpt.cpp, LobeScatter); light
 // objects crossed as spt crosses them; per-wavelength BSDFs with the hit's normals, so a normal
 // or bump map's shadowing term applies at every vertex (Scene::bsdf(params, hit)).
 //
