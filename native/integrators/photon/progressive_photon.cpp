@@ -382,17 +382,8 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
         s.direct[c] += Ld[c];
       }
       s.coverage += pass_covered_[i];
-      if (media_) {  // the beam radiance estimate's radius and flux (thesis eq. 5.39, 5.12)
-        RGB vphi = gather_vphi_[i];
-        if (!vphi.is_finite()) {
-          ++bad;
-          vphi = RGB(0.0f);
-        }
-        const PhotonStatsUpdate v = progressive_update(s.vn, s.vr2, gather_vm_[i], alpha_);
-        for (int c = 0; c < 3; ++c) s.vtau[c] = (s.vtau[c] + vphi[c]) * v.ratio;
-        s.vn = v.n_new;
-        s.vr2 = v.r2_new;
-      }
+      if (media_)  // the beam radiance estimate's radius and flux
+        bad += progressive_beam_update(s.vn, s.vr2, s.vtau, gather_vphi_[i], gather_vm_[i], alpha_);
       s.lap = (s.lap + lap_j) * u.ratio;  // thesis eq. 6.32: derivatives scale like the flux
       s.n = u.n_new;
       s.r2 = u.r2_new;

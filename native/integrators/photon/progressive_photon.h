@@ -47,6 +47,19 @@ inline PhotonStatsUpdate progressive_update(double n, double r2, double m, doubl
           ratio};         // thesis eq. 5.12: tau_new = (tau_N + tau_M) * ratio
 }
 
+// The same for a pixel's beam radiance estimate (thesis eq. 5.39: the cylinder's radius by the
+// surface rule, `vm` volume photons found; its flux by eq. 5.12). A non-finite pass flux adds
+// nothing and returns true (counted as invalid). SPPM's and MSPPM's pass ends.
+inline bool progressive_beam_update(double& vn, double& vr2, double vtau[3], RGB vphi, double vm, double alpha) {
+  const bool bad = !vphi.is_finite();
+  if (bad) vphi = RGB(0.0f);
+  const PhotonStatsUpdate v = progressive_update(vn, vr2, vm, alpha);
+  for (int c = 0; c < 3; ++c) vtau[c] = (vtau[c] + vphi[c]) * v.ratio;
+  vn = v.n_new;
+  vr2 = v.r2_new;
+  return bad;
+}
+
 // Observers of ProgressivePhotonMapping::trace_eye_path (one SPPM camera path), called in path
 // order; GPM's offset paths are one (gpm.cpp). The default observes nothing.
 struct EyePathHooks {
