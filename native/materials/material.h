@@ -183,6 +183,9 @@ struct Material {
     return (graph && graph->reads_tangents()) || (mix_a && mix_a->graph_reads_tangents()) ||
            (mix_b && mix_b->graph_reads_tangents());
   }
+  // Whether shading it runs a node graph (its own, a mix component's): such a material needs the
+  // hit's whole shading context (position, object, tangents), not its uv alone.
+  bool runs_graph() const { return graph || (mix_a && mix_a->runs_graph()) || (mix_b && mix_b->runs_graph()); }
   bool holds_out_partly() const { return !holdout && (holdout_weight > 0.0f || holdout_in); }
   bool has_coverage() const { return alpha < 1.0f || alpha_tex || alpha_in; }
   bool emission_from_graph() const { return emission_in || strength_in; }

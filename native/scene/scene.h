@@ -294,7 +294,7 @@ class Scene {
   // integrator shades through these, so the photon and gradient methods see the same textures.
   Bsdf bsdf(const SurfaceHit& h) const {
     const Material& m = materials[h.material];
-    if (!m.graph) return bsdf(h.material, h.uv, h.frame, h.ng, h.n_smooth);
+    if (!m.runs_graph()) return bsdf(h.material, h.uv, h.frame, h.ng, h.n_smooth);
     const shading::ShadingContext ctx = shading_context(h);
     Bsdf b(m, ctx);
     if (m.perturbs_normal()) b.set_surface_normals(h.frame.to_local(h.ng), h.frame.to_local(h.n_smooth));
@@ -320,7 +320,7 @@ class Scene {
   Bsdf bsdf(int material, const ShadePoint& at, const Vec3& p, const Vec3& wo, const Frame& frame, const Vec3& ng,
             const Vec3& n_smooth) const {
     const Material& m = materials[material];
-    if (!m.graph) return bsdf(material, at.uv, frame, ng, n_smooth);
+    if (!m.runs_graph()) return bsdf(material, at.uv, frame, ng, n_smooth);
     SurfacePoint sp;
     sp.p = p;
     sp.ng = ng;

@@ -42,12 +42,15 @@ TEST(ShadingScene, TangentsReachTheGraphsThatReadThem) {
   // tangents the node returns the normal (0, 0, 1): blue. In a Mix's component too.
   const std::string nm = R"({"type": "diffuse", "color": {"link": "nm", "output": "Normal"},
     "nodes": {"nm": {"type": "ShaderNodeNormalMap", "inputs": {"Color": [1.0, 0.5, 0.5]}}}})";
-  // (furnace_scene's material "m" here a mix of two more materials written beside it; its factor
-  // from a graph of its own, as Scene::bsdf shades a mix without one at its uv alone)
+  // (furnace_scene's material "m" here a mix of two more materials written beside it, its factor
+  // from a graph of its own or a constant: a mix without a graph once shaded its components at
+  // the uv alone, the Normal Map's blue)
   const std::string mix = R"({"type": "mix", "factor": {"link": "f", "output": "Value"}, "a": "grey", "b": "nmap",
     "nodes": {"f": {"type": "ShaderNodeValue", "inputs": {"Value": 1.0}}}},
     "grey": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}, "nmap": )" + nm;
-  for (const std::string& mat : {nm, mix}) {
+  const std::string plain_mix = R"({"type": "mix", "factor": 1.0, "a": "grey", "b": "nmap"},
+    "grey": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}, "nmap": )" + nm;
+  for (const std::string& mat : {nm, mix, plain_mix}) {
     const Scene scene = load_scene_from_string(furnace_scene(mat), ".", "tangents.json");
     const RGB m = image_mean(render("pt", scene, 4, Params()));
     // Headroom: a furnace's mean is the albedo within ~0.02 at 4 samples; red 1 against 0.
