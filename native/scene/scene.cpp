@@ -137,8 +137,8 @@ void Scene::build_shading_objects() {
     } else {
       for (const Vec3& p : m.positions) o.bounds.extend(o.to_object.point(p));
     }
-    // Object Info's Random: Cycles hashes the object's name (hash_uint2(BLI_hash_string(name), 0)).
-    o.random = shading::uint_to_float_incl(shading::hash_uint2(shading::hash_string_x31(m.name.c_str()), 0u));
+    // Object Info's Random: Cycles hashes the object's name (blender/object.cpp: hash_uint2(hash_string(name), 0)).
+    o.random = shading::uint_to_float_incl(shading::hash_uint2(shading::hash_string_x37(m.name.c_str()), 0u));
     if (m.attributes && !m.attributes->list.empty()) {
       o.attributes = m.attributes.get();
       o.indices = m.indices.data();
