@@ -222,3 +222,41 @@ CASES = {
 @pytest.mark.parametrize("case", list(CASES))
 def test_more_nodes_against_cycles(empty_scene, out_dir, case):
     check_plane(empty_scene, str(out_dir), case, CASES[case])
+
+
+def test_object_info_random_of_instances_against_cycles(empty_scene, out_dir):
+    """Object Info's Random on instanced copies: Cycles takes each copy's own random id from the
+    depsgraph (not its name's hash, which an object of its own gets). Four collection instances
+    of one emitting plane, and the plane itself, in one row; every tile's value as Cycles'."""
+    import bpy
+    import numpy as np
+    import scenes
+    from test_nodes_render import render_plane
+    scene = empty_scene
+    scenes.set_world(scene)
+    m, nt, out = scenes._node_material("random")
+    e = nt.nodes.new("ShaderNodeEmission")
+    info = nt.nodes.new("ShaderNodeObjectInfo")
+    nt.links.new(info.outputs["Random"], e.inputs["Color"])
+    nt.links.new(e.outputs[0], out.inputs["Surface"])
+    coll = bpy.data.collections.new("Tiles")
+    tile = scenes.add_plane(scene, "Tile", 0.36, m, (-0.8, 0, 0))
+    coll.objects.link(tile)  # also in the scene: the object itself, hashed by name
+    for k in range(1, 5):
+        inst = bpy.data.objects.new(f"Copy{k}", None)
+        inst.instance_type = 'COLLECTION'
+        inst.instance_collection = coll
+        inst.location = (0.4 * k, 0, 0)
+        scene.collection.objects.link(inst)
+    cam = scenes.add_camera(scene, (0, 0, 5), (0, 0, 0))
+    cam.data.type = 'ORTHO'
+    cam.data.ortho_scale = 2.0
+    cam.rotation_euler = (0.0, 0.0, 0.0)
+    scene.render.resolution_x, scene.render.resolution_y = 50, 10
+    scene.render.resolution_percentage = 100
+    ours, cycles = render_plane(scene, str(out_dir), "object_info_instances")
+    tiles = [(cycles[5, 5 + 10 * k, 0], ours[5, 5 + 10 * k, 0]) for k in range(5)]
+    print("NODES object_info_instances (Cycles, gradphoton) per tile:", [(round(float(c), 4), round(float(o), 4)) for c, o in tiles])
+    assert len({round(float(c), 3) for c, _ in tiles}) == 5, "Cycles' tiles should differ"
+    for c, o in tiles:
+        assert abs(c - o) < 1e-3
