@@ -456,6 +456,22 @@ GP_INLINE void for_cells(F&& f) {
   }
 }
 
+// hash_float3_to_float3 of eight 3D keys (their float bits k[0..2]) into h[0..2].
+GP_INLINE void cell_hash3_v(const u32x8* k, f32x8* h) {
+  const u32x8 one = u32x8{} + detail::float_bits(1.0f), two = u32x8{} + detail::float_bits(2.0f);
+  h[0] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], k[2]));
+  // hash_uint4 of (k, 1) and (k, 2): lookup3 mixes the first three keys before the fourth
+  // is added, so that mix is made once for both.
+  const u32x8 init = u32x8{} + (0xdeadbeefu + (4u << 2) + 13u);
+  u32x8 a = init + k[0], b = init + k[1], c = init + k[2];
+  detail::jenkins_mix_v(a, b, c);
+  u32x8 a1 = a + one, b1 = b, c1 = c, a2 = a + two, b2 = b, c2 = c;
+  detail::jenkins_final_v(a1, b1, c1);
+  detail::jenkins_final_v(a2, b2, c2);
+  h[1] = uint_to_float_incl_v(c1);
+  h[2] = uint_to_float_incl_v(c2);
+}
+
 // cell_hash of every cell for_cells<N, R> visits around `cell`, in its order, eight cells at a
 // time over vector lanes (hash.h's *_v: the scalar hashes bit for bit; each key is the same
 // float sum cell + offset). out[i][idx]: component i of cell idx.
@@ -464,7 +480,7 @@ using CellHashTable = float[N][CellOffsets<N, 2>::kPadded];
 template <int N, int R>
 GP_INLINE void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
   constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
-  const u32x8 one = u32x8{} + detail::float_bits(1.0f), two = u32x8{} + detail::float_bits(2.0f);
+  const u32x8 one = u32x8{} + detail::float_bits(1.0f);  // hash_float2_to_float2's third key
   for (int base = 0; base < t.kPadded; base += 8) {
     u32x8 k[N];
     for (int i = 0; i < N; ++i) {
@@ -478,18 +494,8 @@ GP_INLINE void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
     } else if constexpr (N == 2) {  // hash_float2_to_float2
       h[0] = uint_to_float_incl_v(hash_uint2_v(k[0], k[1]));
       h[1] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], one));
-    } else if constexpr (N == 3) {  // hash_float3_to_float3
-      h[0] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], k[2]));
-      // hash_uint4 of (k, 1) and (k, 2): lookup3 mixes the first three keys before the fourth
-      // is added, so that mix is made once for both.
-      const u32x8 init = u32x8{} + (0xdeadbeefu + (4u << 2) + 13u);
-      u32x8 a = init + k[0], b = init + k[1], c = init + k[2];
-      detail::jenkins_mix_v(a, b, c);
-      u32x8 a1 = a + one, b1 = b, c1 = c, a2 = a + two, b2 = b, c2 = c;
-      detail::jenkins_final_v(a1, b1, c1);
-      detail::jenkins_final_v(a2, b2, c2);
-      h[1] = uint_to_float_incl_v(c1);
-      h[2] = uint_to_float_incl_v(c2);
+    } else if constexpr (N == 3) {
+      cell_hash3_v(k, h);
     } else {  // hash_float4_to_float4
       h[0] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], k[3]));
       h[1] = uint_to_float_incl_v(hash_uint4_v(k[3], k[0], k[1], k[2]));
@@ -544,6 +550,151 @@ float smoothstep01(float x) {  // Cycles' smoothstep(0, 1, x)
   return (3.0f - 2.0f * x) * x * x;
 }
 
+// ---- Voronoi F1, Euclidean, 3D: the nearest cells first ----
+// voronoi.h's F1 measures the 27 cells around the point's cell and keeps the first of least
+// distance. A cell's feature point lies in the unit cube at its offset (offset + hash *
+// randomness, randomness in [0, 1]), so along each axis it is at least 0 (offset 0), 1 - local
+// (offset 1) or local (offset -1) from the point. Those bounds squared, summed in the distance's
+// order and rooted are never above any distance the cell can give, to the bit (each rounded
+// operation is monotonic, and |p - local| >= the bound exactly). The eight cells of the 2x2x2
+// block towards the point's nearest cube corner are measured first; of the 19 others only those
+// whose bound is not above the block's least distance can hold the least one (about 1.3 of them
+// on average, none for most points). Of the cells measured: the least distance and, among
+// equal ones, the first cell in voronoi.h's order -- the cell, and the bits, of the full loop.
+// Tested against it (shading_procedural_test.cpp, VoronoiF1NearestCellsFirst...).
+struct F1Octants {
+  // Per octant (bit i: the nearer neighbour along axis i is at +1), the 19 cells off the block,
+  // padded to 24 with the last: their index in voronoi.h's order and, per axis, all ones where
+  // the cell's offset is the nearer (near) or the farther (far) neighbour.
+  int idx[8][24] = {};
+  uint32_t near[8][3][24] = {}, far[8][3][24] = {};
+  int block[8][8] = {};  // the block's cells, lane l: corner (l & 1, l >> 1 & 1, l >> 2 & 1)
+  constexpr F1Octants() {
+    for (int oct = 0; oct < 8; ++oct) {
+      int n = 0;
+      for (int idx_ = 0; idx_ < 27; ++idx_) {
+        int o[3] = {idx_ % 3 - 1, idx_ / 3 % 3 - 1, idx_ / 9 - 1};
+        bool in_block = true;
+        for (int i = 0; i < 3; ++i) {
+          const int side = (oct >> i & 1) ? 1 : -1;
+          in_block = in_block && (o[i] == 0 || o[i] == side);
+        }
+        if (in_block) continue;
+        for (int pad = n; pad < (n == 18 ? 24 : n + 1); ++pad) {
+          idx[oct][pad] = idx_;
+          for (int i = 0; i < 3; ++i) {
+            const int side = (oct >> i & 1) ? 1 : -1;
+            near[oct][i][pad] = o[i] == side ? 0xFFFFFFFFu : 0u;
+            far[oct][i][pad] = o[i] == -side ? 0xFFFFFFFFu : 0u;
+          }
+        }
+        ++n;
+      }
+      for (int l = 0; l < 8; ++l) {
+        int id = 13;  // the centre (0, 0, 0)
+        for (int i = 0, p3 = 1; i < 3; ++i, p3 *= 3)
+          if (l >> i & 1) id += ((oct >> i & 1) ? 1 : -1) * p3;
+        block[oct][l] = id;
+      }
+    }
+  }
+};
+constexpr F1Octants kF1Octants{};
+
+// The hashes, feature points and distances of eight cells (offsets off[3] per lane) around
+// `cell`: cell_hashes and cell_points' operations for 3D, Euclidean.
+GP_INLINE void f1_cells3(const VP<3>& cell, const VP<3>& local, float randomness, const f32x8* off, f32x8* h,
+                         f32x8* pt, f32x8& dist) {
+  u32x8 k[3];
+  for (int i = 0; i < 3; ++i) k[i] = float_bits_v(cell[i] + off[i]);
+  cell_hash3_v(k, h);
+  f32x8 sum = f32x8{};
+  for (int i = 0; i < 3; ++i) {
+    pt[i] = off[i] + h[i] * randomness;
+    const f32x8 d = pt[i] - local[i];
+    sum = sum + d * d;
+  }
+  for (int l = 0; l < 8; ++l) dist[l] = std::sqrt(sum[l]);
+}
+
+GP_INLINE VoronoiOut voronoi_f1_euclidean3(const VP<3>& cell, const VP<3>& local, float randomness) {
+  int oct = 0;
+  float near_b[3], far_b[3];
+  f32x8 off[3];
+  const u32x8 corner[3] = {u32x8{} - kCornerX, u32x8{} - kCornerY, u32x8{} - kCornerZ};  // all ones: 1
+  for (int i = 0; i < 3; ++i) {
+    const bool up = !(local[i] < 0.5f);
+    oct |= up << i;
+    near_b[i] = up ? 1.0f - local[i] : local[i];
+    far_b[i] = up ? local[i] : 1.0f - local[i];
+    // The block's offsets: 0 or the nearer neighbour's (+0, never -0: the key's bits as the table's).
+    off[i] = (f32x8)(corner[i] & detail::float_bits(up ? 1.0f : -1.0f));
+  }
+  // Up to 8 + 19 cells measured, lane by lane.
+  float dist[32], hh[3][32], pp[3][32];
+  int ids[32];
+  int m = 8;
+  {
+    f32x8 h[3], pt[3], d;
+    f1_cells3(cell, local, randomness, off, h, pt, d);
+    std::memcpy(dist, &d, sizeof d);
+    for (int i = 0; i < 3; ++i) std::memcpy(hh[i], &h[i], sizeof h[i]), std::memcpy(pp[i], &pt[i], sizeof pt[i]);
+    for (int l = 0; l < 8; ++l) ids[l] = kF1Octants.block[oct][l];
+  }
+  float best = dist[0];
+  for (int l = 1; l < 8; ++l) best = dist[l] < best ? dist[l] : best;
+  // The bounds of the 19 other cells; those not above `best` are measured too.
+  float bound[24];
+  f32x8 least_bound = f32x8{} + 8.0f;
+  for (int base = 0; base < 24; base += 8) {
+    f32x8 sum = f32x8{};
+    for (int i = 0; i < 3; ++i) {
+      u32x8 mn, mf;
+      std::memcpy(&mn, &kF1Octants.near[oct][i][base], sizeof mn);
+      std::memcpy(&mf, &kF1Octants.far[oct][i][base], sizeof mf);
+      const f32x8 b = (f32x8)((mn & detail::float_bits(near_b[i])) | (mf & detail::float_bits(far_b[i])));
+      sum = sum + b * b;
+    }
+    f32x8 r;
+    for (int l = 0; l < 8; ++l) r[l] = std::sqrt(sum[l]);
+    least_bound = (f32x8)select_bits<u32x8>(below_f(r, least_bound), r, least_bound);
+    std::memcpy(&bound[base], &r, sizeof r);
+  }
+  float lb = least_bound[0];
+  for (int l = 1; l < 8; ++l) lb = least_bound[l] < lb ? least_bound[l] : lb;
+  if (!(lb > best)) {
+    int list[24];
+    int n = 0;
+    for (int j = 0; j < 19; ++j) {
+      list[n] = kF1Octants.idx[oct][j];
+      n += !(bound[j] > best);
+    }
+    constexpr const CellOffsets<3, 1>& t = kCellOffsets<3, 1>;
+    for (int base = 0; base < n; base += 8) {
+      float o[3][8];
+      for (int l = 0; l < 8; ++l) {
+        const int id = list[base + l < n ? base + l : n - 1];
+        ids[m + l] = id;
+        for (int i = 0; i < 3; ++i) o[i][l] = t.o[i][id];
+      }
+      f32x8 offs[3], h[3], pt[3], d;
+      for (int i = 0; i < 3; ++i) std::memcpy(&offs[i], o[i], sizeof offs[i]);
+      f1_cells3(cell, local, randomness, offs, h, pt, d);
+      std::memcpy(&dist[m], &d, sizeof d);
+      for (int i = 0; i < 3; ++i) std::memcpy(&hh[i][m], &h[i], sizeof h[i]), std::memcpy(&pp[i][m], &pt[i], sizeof pt[i]);
+      m += std::min(8, n - base);
+    }
+  }
+  int target = 0;
+  for (int j = 1; j < m; ++j)
+    if (dist[j] < dist[target] || (dist[j] == dist[target] && ids[j] < ids[target])) target = j;
+  VoronoiOut out;
+  out.distance = dist[target];
+  out.color = Vec3(hh[0][target], hh[1][target], hh[2][target]);
+  for (int i = 0; i < 3; ++i) out.position[i] = pp[i][target] + cell[i];
+  return out;
+}
+
 template <int N>
 GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, const Vec4& p4, float smoothness, float exponent,
                      float randomness) {
@@ -552,6 +703,11 @@ GP_INLINE VoronoiOut voronoi_n(VoronoiFeature feature, VoronoiMetric metric, con
     coord[i] = p4[i];
     cell[i] = std::floor(coord[i]);
     local[i] = coord[i] - cell[i];
+  }
+  if constexpr (N == 3) {
+    if (feature == VoronoiFeature::F1 && metric == VoronoiMetric::Euclidean && std::isfinite(local[0]) &&
+        std::isfinite(local[1]) && std::isfinite(local[2]))
+      return voronoi_f1_euclidean3(cell, local, randomness);
   }
   VoronoiOut out;
   // The feature points of the 3^N cells around (5^N for smooth F1), hashed together up front.
