@@ -146,6 +146,37 @@ GP_INLINE float perlin_3d(float x, float y, float z) {
   const f32x8 g = grad3_v(h, fx - kCornerXf, fy - kCornerYf, fz - kCornerZf);
   return tri_mix_v(g, fades(fx, fy, fz, 0.0f));
 }
+// perlin_3d at three points (the Noise Texture's channels at one octave): the floors, their
+// int conversions, the fractions and the fades of the three points' coordinates in 8 + 4 lanes
+// instead of one coordinate at a time (per lane floorf, the conversion, x - floor(x) and fade, as
+// floorfrac and fades), then each point's corners as perlin_3d. A point's lanes: (x, y, z, w).
+GP_INLINE void perlin_3d_x3(const f32x4 (&q)[3], float* out) {
+  const f32x8 a = __builtin_shufflevector(q[0], q[1], 0, 1, 2, 3, 4, 5, 6, 7);
+  const f32x4 b = q[2];
+  f32x8 fa;
+  f32x4 fb;
+  for (int l = 0; l < 8; ++l) fa[l] = std::floor(a[l]);
+  for (int l = 0; l < 4; ++l) fb[l] = std::floor(b[l]);
+  const i32x8 ia = __builtin_convertvector(fa, i32x8);
+  const i32x4 ib = __builtin_convertvector(fb, i32x4);
+  const f32x8 ra = a - fa;
+  const f32x4 rb = b - fb;
+  const f32x8 ta = ra * ra * ra * (ra * (ra * 6.0f - 15.0f) + 10.0f);  // fade
+  const f32x4 tb = rb * rb * rb * (rb * (rb * 6.0f - 15.0f) + 10.0f);
+  const f32x8 ta1 = 1.0f - ta;
+  const f32x4 tb1 = 1.0f - tb;
+  auto corners = [](const i32x4& i, const f32x4& r, const Fades& w) {
+    const u32x8 h = hash_uint3_v(static_cast<uint32_t>(i[0]) + kCornerX, static_cast<uint32_t>(i[1]) + kCornerY,
+                                 static_cast<uint32_t>(i[2]) + kCornerZ);
+    const f32x8 g = grad3_v(h, r[0] - kCornerXf, r[1] - kCornerYf, r[2] - kCornerZf);
+    return tri_mix_v(g, w);
+  };
+  out[0] = corners(__builtin_shufflevector(ia, ia, 0, 1, 2, 3), __builtin_shufflevector(ra, ra, 0, 1, 2, 3),
+                   Fades{__builtin_shufflevector(ta, ta, 0, 1, 2, 3), __builtin_shufflevector(ta1, ta1, 0, 1, 2, 3)});
+  out[1] = corners(__builtin_shufflevector(ia, ia, 4, 5, 6, 7), __builtin_shufflevector(ra, ra, 4, 5, 6, 7),
+                   Fades{__builtin_shufflevector(ta, ta, 4, 5, 6, 7), __builtin_shufflevector(ta1, ta1, 4, 5, 6, 7)});
+  out[2] = corners(ib, rb, Fades{tb, tb1});
+}
 GP_INLINE float perlin_4d(float x, float y, float z, float w) {
   int X, Y, Z, W;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y), fz = floorfrac(z, &Z), fw = floorfrac(w, &W);
@@ -237,6 +268,52 @@ GP_AVX2_CLONES float fractal_noise(const Vec4& p, int dims, float octaves, float
 }
 
 namespace {
+// fractal_noise_in of three points (the Noise Texture's value and colour channels) in one loop:
+// each channel's sums are formed as there, octave by octave; the octaves' bookkeeping and the
+// loop's constants are shared (three separate loops each set up their constants again).
+// unoise_in of three points scaled by fscale (scaled()), the 3D ones together (perlin_3d_x3).
+template <int dims>
+GP_INLINE void unoise_x3(const Vec4 (&p)[3], float fscale, float* t) {
+  if constexpr (dims == 3) {
+    f32x4 q[3];
+    for (int c = 0; c < 3; ++c) q[c] = f32x4{p[c][0], p[c][1], p[c][2], p[c][3]} * fscale;
+    float v[3];
+    perlin_3d_x3(q, v);
+    for (int c = 0; c < 3; ++c) t[c] = 0.5f * (0.9820f * ensure_finite(v[c])) + 0.5f;  // unoise_in, 3D
+  } else {
+    for (int c = 0; c < 3; ++c) t[c] = unoise_in(scaled(p[c], fscale), dims);
+  }
+}
+
+template <int dims>
+GP_INLINE void fractal_noise_x3(const Vec4 (&p)[3], float octaves, float roughness, float* out) {
+  float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum[3] = {0.0f, 0.0f, 0.0f};
+  octaves = std::clamp(octaves, 0.0f, 16.0f);
+  roughness = std::clamp(roughness, 0.0f, 1.0f);
+  const int n = static_cast<int>(octaves);
+  for (int i = 0; i <= n; ++i) {
+    float t[3];
+    unoise_x3<dims>(p, fscale, t);
+    for (int c = 0; c < 3; ++c) sum[c] += t[c] * amp;
+    maxamp += amp;
+    amp *= roughness;
+    fscale *= 2.0f;
+  }
+  const float rmd = octaves - std::floor(octaves);
+  float t[3];
+  if (rmd != 0.0f) unoise_x3<dims>(p, fscale, t);
+  for (int c = 0; c < 3; ++c) {
+    if (rmd != 0.0f) {
+      const float sum2 = (sum[c] + t[c] * amp) / (maxamp + amp);
+      out[c] = (1.0f - rmd) * (sum[c] / maxamp) + rmd * sum2;
+    } else {
+      out[c] = sum[c] / maxamp;
+    }
+  }
+}
+}  // namespace
+
+namespace {
 // The Noise Texture for a dimension count known at compile time (each octave's perlin_Nd
 // chosen once, not per octave).
 template <int dims>
@@ -248,13 +325,17 @@ GP_INLINE void noise_texture_d(const Vec4& co, float detail, float roughness, fl
     for (int i = 0; i < dims; ++i) d[i] = snoise_in(added(p, random_offset(i, dims)), dims) * distortion;
     p = added(p, d);
   }
-  *value = fractal_noise_in(p, dims, detail, roughness);
-  if (want_color) {
-    // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
-    const int s = dims == 1 ? 1 : dims;
-    *color = Vec3(*value, fractal_noise_in(added(p, random_offset(s, dims)), dims, detail, roughness),
-                  fractal_noise_in(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
+  if (!want_color) {
+    *value = fractal_noise_in(p, dims, detail, roughness);
+    return;
   }
+  // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
+  const int s = dims == 1 ? 1 : dims;
+  const Vec4 q[3] = {p, added(p, random_offset(s, dims)), added(p, random_offset(s + 1, dims))};
+  float v[3];
+  fractal_noise_x3<dims>(q, detail, roughness, v);
+  *value = v[0];
+  *color = Vec3(v[0], v[1], v[2]);
 }
 }  // namespace
 
