@@ -698,6 +698,19 @@ GP_INLINE void f1_cells3(const VP<3>& cell, const VP<3>& local, float randomness
   for (int l = 0; l < 8; ++l) dist[l] = std::sqrt(sum[l]);
 }
 
+// Of m cells measured: the least distance, the first in voronoi.h's order (ids) among equal ones.
+GP_INLINE VoronoiOut f1_result(const float* dist, const float (&hh)[3][32], const float (&pp)[3][32], const int* ids,
+                               int m, const VP<3>& cell) {
+  int target = 0;
+  for (int j = 1; j < m; ++j)
+    if (dist[j] < dist[target] || (dist[j] == dist[target] && ids[j] < ids[target])) target = j;
+  VoronoiOut out;
+  out.distance = dist[target];
+  out.color = Vec3(hh[0][target], hh[1][target], hh[2][target]);
+  for (int i = 0; i < 3; ++i) out.position[i] = pp[i][target] + cell[i];
+  return out;
+}
+
 GP_INLINE VoronoiOut voronoi_f1_euclidean3(const VP<3>& cell, const VP<3>& local, float randomness) {
   int oct = 0;
   float near_b[3], far_b[3];
@@ -724,6 +737,12 @@ GP_INLINE VoronoiOut voronoi_f1_euclidean3(const VP<3>& cell, const VP<3>& local
   }
   float best = dist[0];
   for (int l = 1; l < 8; ++l) best = dist[l] < best ? dist[l] : best;
+  // The least bound of the 19 other cells is that of a cell one farther neighbour away along a
+  // single axis (the others' sums add terms to one of those): sqrt(far^2), formed as the bounds
+  // are. Above `best` (most points): none of them can hold the least distance.
+  float least_far = 8.0f;
+  for (int i = 0; i < 3; ++i) least_far = std::min(least_far, std::sqrt(far_b[i] * far_b[i]));
+  if (least_far > best) return f1_result(dist, hh, pp, ids, 8, cell);
   // The bounds of the 19 other cells; those not above `best` are measured too.
   float bound[24];
   f32x8 least_bound = f32x8{} + 8.0f;
@@ -766,14 +785,7 @@ GP_INLINE VoronoiOut voronoi_f1_euclidean3(const VP<3>& cell, const VP<3>& local
       m += std::min(8, n - base);
     }
   }
-  int target = 0;
-  for (int j = 1; j < m; ++j)
-    if (dist[j] < dist[target] || (dist[j] == dist[target] && ids[j] < ids[target])) target = j;
-  VoronoiOut out;
-  out.distance = dist[target];
-  out.color = Vec3(hh[0][target], hh[1][target], hh[2][target]);
-  for (int i = 0; i < 3; ++i) out.position[i] = pp[i][target] + cell[i];
-  return out;
+  return f1_result(dist, hh, pp, ids, m, cell);
 }
 
 template <int N>
