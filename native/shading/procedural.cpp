@@ -1072,10 +1072,12 @@ float checker(Vec3 p) {
   p.x = (p.x + 0.000001f) * 0.999999f;
   p.y = (p.y + 0.000001f) * 0.999999f;
   p.z = (p.z + 0.000001f) * 0.999999f;
-  const int xi = std::abs(static_cast<int>(std::floor(p.x)));
-  const int yi = std::abs(static_cast<int>(std::floor(p.y)));
-  const int zi = std::abs(static_cast<int>(std::floor(p.z)));
-  return ((xi % 2 == yi % 2) == static_cast<bool>(zi % 2)) ? 1.0f : 0.0f;
+  const int xi = static_cast<int>(std::floor(p.x));
+  const int yi = static_cast<int>(std::floor(p.y));
+  const int zi = static_cast<int>(std::floor(p.z));
+  // checker.h's ((|xi| % 2 == |yi| % 2) == |zi| % 2) of the three parities a, b, c (abs keeps an
+  // int's parity) is (1 ^ a ^ b) == c, that is a ^ b ^ c.
+  return ((xi ^ yi ^ zi) & 1) ? 1.0f : 0.0f;
 }
 
 namespace {

@@ -335,6 +335,25 @@ TEST(ShadingProcedural, VoronoiF1NearestCellsFirstAsTheFullLoop) {
   }
 }
 
+// Checker's parity test (procedural.cpp: a ^ b ^ c) against checker.h's formula as written.
+TEST(ShadingProcedural, CheckerAsCyclesFormula) {
+  uint64_t state = 99;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(state >> 40) / static_cast<float>(1 << 24);
+  };
+  for (int i = 0; i < 100000; ++i) {
+    Vec3 p;
+    for (int k = 0; k < 3; ++k) p[k] = (next() - 0.5f) * (i % 2 ? 20.0f : 2e5f) + (i % 3 == 0 ? std::round(next() * 8.0f) : 0.0f);
+    Vec3 q = p;
+    for (int k = 0; k < 3; ++k) q[k] = (q[k] + 0.000001f) * 0.999999f;
+    const int xi = std::abs(static_cast<int>(std::floor(q.x))), yi = std::abs(static_cast<int>(std::floor(q.y)));
+    const int zi = std::abs(static_cast<int>(std::floor(q.z)));
+    const float expected = ((xi % 2 == yi % 2) == static_cast<bool>(zi % 2)) ? 1.0f : 0.0f;
+    ASSERT_EQ(checker(p), expected) << "at (" << p.x << ", " << p.y << ", " << p.z << ")";
+  }
+}
+
 TEST(ShadingHash, VectorLanesAreTheScalarHashes) {
   u32x8 k[4];
   for (int j = 0; j < 4; ++j)
