@@ -720,7 +720,7 @@ GP_INLINE VoronoiOut f1_result(const float* dist, const float (&hh)[3][32], cons
 
 // (Its own clones, not inlined into voronoi(): GCC's array-bounds analysis of the inlined
 // 2D, 3D and 4D searches together then warns of VP<2> read as VP<3>, falsely.)
-// p: finite (its cell and local coordinates then are).
+// p and randomness finite (the cell and local coordinates then are), randomness in [0, 1].
 GP_AVX2_CLONES VoronoiOut voronoi_f1_euclidean3(const Vec4& p4, float randomness) {
   VP<3> cell, local;
   for (int i = 0; i < 3; ++i) {
@@ -966,8 +966,9 @@ GP_AVX2_CLONES VoronoiOut voronoi(VoronoiFeature feature, VoronoiMetric metric, 
     case 1: return voronoi_n<1>(feature, metric, p, smoothness, exponent, randomness);
     case 2: return voronoi_n<2>(feature, metric, p, smoothness, exponent, randomness);
     case 3:
+      // (A NaN point or randomness: the full loop, whose comparisons then keep 8 and cell 0.)
       if (feature == VoronoiFeature::F1 && metric == VoronoiMetric::Euclidean && std::isfinite(p[0]) &&
-          std::isfinite(p[1]) && std::isfinite(p[2]))
+          std::isfinite(p[1]) && std::isfinite(p[2]) && std::isfinite(randomness))
         return voronoi_f1_euclidean3(p, randomness);
       return voronoi_n<3>(feature, metric, p, smoothness, exponent, randomness);
     default: return voronoi_n<4>(feature, metric, p, smoothness, exponent, randomness);
