@@ -1583,7 +1583,9 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bo
   if (m.graph) {
     // One run of the material's node graph gives every linked input (Cycles' SVM per shader).
     thread_local std::vector<Vec3> regs;
-    regs.resize(m.graph->num_registers());
+    // Grown, never shrunk: materials with different register counts alternate hit by hit, and
+    // resizing down and up again zero-filled the registers each time (run() fills them).
+    if (regs.size() < m.graph->num_registers()) regs.resize(m.graph->num_registers());
     m.graph->run(ctx, regs.data());
     auto value = [&](const GraphInput& g) { return shading::as_float(regs[g.source.reg], g.source.conv); };
     if (m.color_in) {

@@ -146,6 +146,37 @@ GP_INLINE float perlin_3d(float x, float y, float z) {
   const f32x8 g = grad3_v(h, fx - kCornerXf, fy - kCornerYf, fz - kCornerZf);
   return tri_mix_v(g, fades(fx, fy, fz, 0.0f));
 }
+// perlin_3d at three points (the Noise Texture's channels at one octave): the floors, their
+// int conversions, the fractions and the fades of the three points' coordinates in 8 + 4 lanes
+// instead of one coordinate at a time (per lane floorf, the conversion, x - floor(x) and fade, as
+// floorfrac and fades), then each point's corners as perlin_3d. A point's lanes: (x, y, z, w).
+GP_INLINE void perlin_3d_x3(const f32x4 (&q)[3], float* out) {
+  const f32x8 a = __builtin_shufflevector(q[0], q[1], 0, 1, 2, 3, 4, 5, 6, 7);
+  const f32x4 b = q[2];
+  f32x8 fa;
+  f32x4 fb;
+  for (int l = 0; l < 8; ++l) fa[l] = std::floor(a[l]);
+  for (int l = 0; l < 4; ++l) fb[l] = std::floor(b[l]);
+  const i32x8 ia = __builtin_convertvector(fa, i32x8);
+  const i32x4 ib = __builtin_convertvector(fb, i32x4);
+  const f32x8 ra = a - fa;
+  const f32x4 rb = b - fb;
+  const f32x8 ta = ra * ra * ra * (ra * (ra * 6.0f - 15.0f) + 10.0f);  // fade
+  const f32x4 tb = rb * rb * rb * (rb * (rb * 6.0f - 15.0f) + 10.0f);
+  const f32x8 ta1 = 1.0f - ta;
+  const f32x4 tb1 = 1.0f - tb;
+  auto corners = [](const i32x4& i, const f32x4& r, const Fades& w) {
+    const u32x8 h = hash_uint3_v(static_cast<uint32_t>(i[0]) + kCornerX, static_cast<uint32_t>(i[1]) + kCornerY,
+                                 static_cast<uint32_t>(i[2]) + kCornerZ);
+    const f32x8 g = grad3_v(h, r[0] - kCornerXf, r[1] - kCornerYf, r[2] - kCornerZf);
+    return tri_mix_v(g, w);
+  };
+  out[0] = corners(__builtin_shufflevector(ia, ia, 0, 1, 2, 3), __builtin_shufflevector(ra, ra, 0, 1, 2, 3),
+                   Fades{__builtin_shufflevector(ta, ta, 0, 1, 2, 3), __builtin_shufflevector(ta1, ta1, 0, 1, 2, 3)});
+  out[1] = corners(__builtin_shufflevector(ia, ia, 4, 5, 6, 7), __builtin_shufflevector(ra, ra, 4, 5, 6, 7),
+                   Fades{__builtin_shufflevector(ta, ta, 4, 5, 6, 7), __builtin_shufflevector(ta1, ta1, 4, 5, 6, 7)});
+  out[2] = corners(ib, rb, Fades{tb, tb1});
+}
 GP_INLINE float perlin_4d(float x, float y, float z, float w) {
   int X, Y, Z, W;
   const float fx = floorfrac(x, &X), fy = floorfrac(y, &Y), fz = floorfrac(z, &Z), fw = floorfrac(w, &W);
@@ -237,6 +268,52 @@ GP_AVX2_CLONES float fractal_noise(const Vec4& p, int dims, float octaves, float
 }
 
 namespace {
+// fractal_noise_in of three points (the Noise Texture's value and colour channels) in one loop:
+// each channel's sums are formed as there, octave by octave; the octaves' bookkeeping and the
+// loop's constants are shared (three separate loops each set up their constants again).
+// unoise_in of three points scaled by fscale (scaled()), the 3D ones together (perlin_3d_x3).
+template <int dims>
+GP_INLINE void unoise_x3(const Vec4 (&p)[3], float fscale, float* t) {
+  if constexpr (dims == 3) {
+    f32x4 q[3];
+    for (int c = 0; c < 3; ++c) q[c] = f32x4{p[c][0], p[c][1], p[c][2], p[c][3]} * fscale;
+    float v[3];
+    perlin_3d_x3(q, v);
+    for (int c = 0; c < 3; ++c) t[c] = 0.5f * (0.9820f * ensure_finite(v[c])) + 0.5f;  // unoise_in, 3D
+  } else {
+    for (int c = 0; c < 3; ++c) t[c] = unoise_in(scaled(p[c], fscale), dims);
+  }
+}
+
+template <int dims>
+GP_INLINE void fractal_noise_x3(const Vec4 (&p)[3], float octaves, float roughness, float* out) {
+  float fscale = 1.0f, amp = 1.0f, maxamp = 0.0f, sum[3] = {0.0f, 0.0f, 0.0f};
+  octaves = std::clamp(octaves, 0.0f, 16.0f);
+  roughness = std::clamp(roughness, 0.0f, 1.0f);
+  const int n = static_cast<int>(octaves);
+  for (int i = 0; i <= n; ++i) {
+    float t[3];
+    unoise_x3<dims>(p, fscale, t);
+    for (int c = 0; c < 3; ++c) sum[c] += t[c] * amp;
+    maxamp += amp;
+    amp *= roughness;
+    fscale *= 2.0f;
+  }
+  const float rmd = octaves - std::floor(octaves);
+  float t[3];
+  if (rmd != 0.0f) unoise_x3<dims>(p, fscale, t);
+  for (int c = 0; c < 3; ++c) {
+    if (rmd != 0.0f) {
+      const float sum2 = (sum[c] + t[c] * amp) / (maxamp + amp);
+      out[c] = (1.0f - rmd) * (sum[c] / maxamp) + rmd * sum2;
+    } else {
+      out[c] = sum[c] / maxamp;
+    }
+  }
+}
+}  // namespace
+
+namespace {
 // The Noise Texture for a dimension count known at compile time (each octave's perlin_Nd
 // chosen once, not per octave).
 template <int dims>
@@ -248,13 +325,17 @@ GP_INLINE void noise_texture_d(const Vec4& co, float detail, float roughness, fl
     for (int i = 0; i < dims; ++i) d[i] = snoise_in(added(p, random_offset(i, dims)), dims) * distortion;
     p = added(p, d);
   }
-  *value = fractal_noise_in(p, dims, detail, roughness);
-  if (want_color) {
-    // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
-    const int s = dims == 1 ? 1 : dims;
-    *color = Vec3(*value, fractal_noise_in(added(p, random_offset(s, dims)), dims, detail, roughness),
-                  fractal_noise_in(added(p, random_offset(s + 1, dims)), dims, detail, roughness));
+  if (!want_color) {
+    *value = fractal_noise_in(p, dims, detail, roughness);
+    return;
   }
+  // Colour channels 2 and 3 at the seeds after the distortion's (noisetex.h).
+  const int s = dims == 1 ? 1 : dims;
+  const Vec4 q[3] = {p, added(p, random_offset(s, dims)), added(p, random_offset(s + 1, dims))};
+  float v[3];
+  fractal_noise_x3<dims>(q, detail, roughness, v);
+  *value = v[0];
+  *color = Vec3(v[0], v[1], v[2]);
 }
 }  // namespace
 
@@ -347,6 +428,13 @@ GP_AVX2_CLONES float musgrave(MusgraveType type, const Vec4& co, int dims, float
 }
 
 // ---- Voronoi (voronoi.h), one template over 1 to 4 dimensions ----
+
+// GCC 12 warns, with the 3D F1 search below in the file, that voronoi()'s inlined 2D and 4D
+// searches read a VP<2> as a VP<3> (and a VP<3> at index 3): every access is VP<N>'s own loop
+// over i < N; the bit-for-bit tests of every dimension count read the values. A false positive
+// of its array-bounds analysis across the dimension switch.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Warray-bounds"
 
 namespace {
 
@@ -456,6 +544,22 @@ GP_INLINE void for_cells(F&& f) {
   }
 }
 
+// hash_float3_to_float3 of eight 3D keys (their float bits k[0..2]) into h[0..2].
+GP_INLINE void cell_hash3_v(const u32x8* k, f32x8* h) {
+  const u32x8 one = u32x8{} + detail::float_bits(1.0f), two = u32x8{} + detail::float_bits(2.0f);
+  h[0] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], k[2]));
+  // hash_uint4 of (k, 1) and (k, 2): lookup3 mixes the first three keys before the fourth
+  // is added, so that mix is made once for both.
+  const u32x8 init = u32x8{} + (0xdeadbeefu + (4u << 2) + 13u);
+  u32x8 a = init + k[0], b = init + k[1], c = init + k[2];
+  detail::jenkins_mix_v(a, b, c);
+  u32x8 a1 = a + one, b1 = b, c1 = c, a2 = a + two, b2 = b, c2 = c;
+  detail::jenkins_final_v(a1, b1, c1);
+  detail::jenkins_final_v(a2, b2, c2);
+  h[1] = uint_to_float_incl_v(c1);
+  h[2] = uint_to_float_incl_v(c2);
+}
+
 // cell_hash of every cell for_cells<N, R> visits around `cell`, in its order, eight cells at a
 // time over vector lanes (hash.h's *_v: the scalar hashes bit for bit; each key is the same
 // float sum cell + offset). out[i][idx]: component i of cell idx.
@@ -464,7 +568,7 @@ using CellHashTable = float[N][CellOffsets<N, 2>::kPadded];
 template <int N, int R>
 GP_INLINE void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
   constexpr const CellOffsets<N, R>& t = kCellOffsets<N, R>;
-  const u32x8 one = u32x8{} + detail::float_bits(1.0f), two = u32x8{} + detail::float_bits(2.0f);
+  const u32x8 one = u32x8{} + detail::float_bits(1.0f);  // hash_float2_to_float2's third key
   for (int base = 0; base < t.kPadded; base += 8) {
     u32x8 k[N];
     for (int i = 0; i < N; ++i) {
@@ -478,18 +582,8 @@ GP_INLINE void cell_hashes(const VP<N>& cell, CellHashTable<N>& out) {
     } else if constexpr (N == 2) {  // hash_float2_to_float2
       h[0] = uint_to_float_incl_v(hash_uint2_v(k[0], k[1]));
       h[1] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], one));
-    } else if constexpr (N == 3) {  // hash_float3_to_float3
-      h[0] = uint_to_float_incl_v(hash_uint3_v(k[0], k[1], k[2]));
-      // hash_uint4 of (k, 1) and (k, 2): lookup3 mixes the first three keys before the fourth
-      // is added, so that mix is made once for both.
-      const u32x8 init = u32x8{} + (0xdeadbeefu + (4u << 2) + 13u);
-      u32x8 a = init + k[0], b = init + k[1], c = init + k[2];
-      detail::jenkins_mix_v(a, b, c);
-      u32x8 a1 = a + one, b1 = b, c1 = c, a2 = a + two, b2 = b, c2 = c;
-      detail::jenkins_final_v(a1, b1, c1);
-      detail::jenkins_final_v(a2, b2, c2);
-      h[1] = uint_to_float_incl_v(c1);
-      h[2] = uint_to_float_incl_v(c2);
+    } else if constexpr (N == 3) {
+      cell_hash3_v(k, h);
     } else {  // hash_float4_to_float4
       h[0] = uint_to_float_incl_v(hash_uint4_v(k[0], k[1], k[2], k[3]));
       h[1] = uint_to_float_incl_v(hash_uint4_v(k[3], k[0], k[1], k[2]));
@@ -542,6 +636,171 @@ float smoothstep01(float x) {  // Cycles' smoothstep(0, 1, x)
   if (x < 0.0f) return 0.0f;
   if (x >= 1.0f) return 1.0f;
   return (3.0f - 2.0f * x) * x * x;
+}
+
+// ---- Voronoi F1, Euclidean, 3D: the nearest cells first ----
+// voronoi.h's F1 measures the 27 cells around the point's cell and keeps the first of least
+// distance. A cell's feature point lies in the unit cube at its offset (offset + hash *
+// randomness, randomness in [0, 1]), so along each axis it is at least 0 (offset 0), 1 - local
+// (offset 1) or local (offset -1) from the point. Those bounds squared, summed in the distance's
+// order and rooted are never above any distance the cell can give, to the bit (each rounded
+// operation is monotonic, and |p - local| >= the bound exactly). The eight cells of the 2x2x2
+// block towards the point's nearest cube corner are measured first; of the 19 others only those
+// whose bound is not above the block's least distance can hold the least one (about 1.3 of them
+// on average, none for most points). Of the cells measured: the least distance and, among
+// equal ones, the first cell in voronoi.h's order -- the cell, and the bits, of the full loop.
+// Tested against it (shading_procedural_test.cpp, VoronoiF1NearestCellsFirst...).
+struct F1Octants {
+  // Per octant (bit i: the nearer neighbour along axis i is at +1), the 19 cells off the block,
+  // padded to 24 with the last: their index in voronoi.h's order and, per axis, all ones where
+  // the cell's offset is the nearer (near) or the farther (far) neighbour.
+  int idx[8][24] = {};
+  uint32_t near[8][3][24] = {}, far[8][3][24] = {};
+  int block[8][8] = {};  // the block's cells, lane l: corner (l & 1, l >> 1 & 1, l >> 2 & 1)
+  constexpr F1Octants() {
+    for (int oct = 0; oct < 8; ++oct) {
+      int n = 0;
+      for (int idx_ = 0; idx_ < 27; ++idx_) {
+        int o[3] = {idx_ % 3 - 1, idx_ / 3 % 3 - 1, idx_ / 9 - 1};
+        bool in_block = true;
+        for (int i = 0; i < 3; ++i) {
+          const int side = (oct >> i & 1) ? 1 : -1;
+          in_block = in_block && (o[i] == 0 || o[i] == side);
+        }
+        if (in_block) continue;
+        for (int pad = n; pad < (n == 18 ? 24 : n + 1); ++pad) {
+          idx[oct][pad] = idx_;
+          for (int i = 0; i < 3; ++i) {
+            const int side = (oct >> i & 1) ? 1 : -1;
+            near[oct][i][pad] = o[i] == side ? 0xFFFFFFFFu : 0u;
+            far[oct][i][pad] = o[i] == -side ? 0xFFFFFFFFu : 0u;
+          }
+        }
+        ++n;
+      }
+      for (int l = 0; l < 8; ++l) {
+        int id = 13;  // the centre (0, 0, 0)
+        for (int i = 0, p3 = 1; i < 3; ++i, p3 *= 3)
+          if (l >> i & 1) id += ((oct >> i & 1) ? 1 : -1) * p3;
+        block[oct][l] = id;
+      }
+    }
+  }
+};
+constexpr F1Octants kF1Octants{};
+
+// The hashes, feature points and distances of eight cells (offsets off[3] per lane) around
+// `cell`: cell_hashes and cell_points' operations for 3D, Euclidean.
+GP_INLINE void f1_cells3(const VP<3>& cell, const VP<3>& local, float randomness, const f32x8* off, f32x8* h,
+                         f32x8* pt, f32x8& dist) {
+  u32x8 k[3];
+  for (int i = 0; i < 3; ++i) k[i] = float_bits_v(cell[i] + off[i]);
+  cell_hash3_v(k, h);
+  f32x8 sum = f32x8{};
+  for (int i = 0; i < 3; ++i) {
+    pt[i] = off[i] + h[i] * randomness;
+    const f32x8 d = pt[i] - local[i];
+    sum = sum + d * d;
+  }
+  for (int l = 0; l < 8; ++l) dist[l] = std::sqrt(sum[l]);
+}
+
+// Of m cells measured: the least distance, the first in voronoi.h's order (ids) among equal ones.
+GP_INLINE VoronoiOut f1_result(const float* dist, const float (&hh)[3][32], const float (&pp)[3][32], const int* ids,
+                               int m, const VP<3>& cell) {
+  int target = 0;
+  for (int j = 1; j < m; ++j)
+    if (dist[j] < dist[target] || (dist[j] == dist[target] && ids[j] < ids[target])) target = j;
+  VoronoiOut out;
+  out.distance = dist[target];
+  out.color = Vec3(hh[0][target], hh[1][target], hh[2][target]);
+  for (int i = 0; i < 3; ++i) out.position[i] = pp[i][target] + cell[i];
+  return out;
+}
+
+// (Its own clones, not inlined into voronoi(): GCC's array-bounds analysis of the inlined
+// 2D, 3D and 4D searches together then warns of VP<2> read as VP<3>, falsely.)
+// p and randomness finite (the cell and local coordinates then are), randomness in [0, 1].
+GP_AVX2_CLONES VoronoiOut voronoi_f1_euclidean3(const Vec4& p4, float randomness) {
+  VP<3> cell, local;
+  for (int i = 0; i < 3; ++i) {
+    cell[i] = std::floor(p4[i]);
+    local[i] = p4[i] - cell[i];
+  }
+  int oct = 0;
+  float near_b[3], far_b[3];
+  f32x8 off[3];
+  const u32x8 corner[3] = {u32x8{} - kCornerX, u32x8{} - kCornerY, u32x8{} - kCornerZ};  // all ones: 1
+  for (int i = 0; i < 3; ++i) {
+    const bool up = !(local[i] < 0.5f);
+    oct |= up << i;
+    near_b[i] = up ? 1.0f - local[i] : local[i];
+    far_b[i] = up ? local[i] : 1.0f - local[i];
+    // The block's offsets: 0 or the nearer neighbour's (+0, never -0: the key's bits as the table's).
+    off[i] = (f32x8)(corner[i] & detail::float_bits(up ? 1.0f : -1.0f));
+  }
+  // Up to 8 + 19 cells measured, lane by lane.
+  float dist[32], hh[3][32], pp[3][32];
+  int ids[32];
+  int m = 8;
+  {
+    f32x8 h[3], pt[3], d;
+    f1_cells3(cell, local, randomness, off, h, pt, d);
+    std::memcpy(dist, &d, sizeof d);
+    for (int i = 0; i < 3; ++i) std::memcpy(hh[i], &h[i], sizeof h[i]), std::memcpy(pp[i], &pt[i], sizeof pt[i]);
+    for (int l = 0; l < 8; ++l) ids[l] = kF1Octants.block[oct][l];
+  }
+  float best = dist[0];
+  for (int l = 1; l < 8; ++l) best = dist[l] < best ? dist[l] : best;
+  // The least bound of the 19 other cells is that of a cell one farther neighbour away along a
+  // single axis (the others' sums add terms to one of those): sqrt(far^2), formed as the bounds
+  // are. Above `best` (most points): none of them can hold the least distance.
+  float least_far = 8.0f;
+  for (int i = 0; i < 3; ++i) least_far = std::min(least_far, std::sqrt(far_b[i] * far_b[i]));
+  if (least_far > best) return f1_result(dist, hh, pp, ids, 8, cell);
+  // The bounds of the 19 other cells; those not above `best` are measured too.
+  float bound[24];
+  f32x8 least_bound = f32x8{} + 8.0f;
+  for (int base = 0; base < 24; base += 8) {
+    f32x8 sum = f32x8{};
+    for (int i = 0; i < 3; ++i) {
+      u32x8 mn, mf;
+      std::memcpy(&mn, &kF1Octants.near[oct][i][base], sizeof mn);
+      std::memcpy(&mf, &kF1Octants.far[oct][i][base], sizeof mf);
+      const f32x8 b = (f32x8)((mn & detail::float_bits(near_b[i])) | (mf & detail::float_bits(far_b[i])));
+      sum = sum + b * b;
+    }
+    f32x8 r;
+    for (int l = 0; l < 8; ++l) r[l] = std::sqrt(sum[l]);
+    least_bound = (f32x8)select_bits<u32x8>(below_f(r, least_bound), r, least_bound);
+    std::memcpy(&bound[base], &r, sizeof r);
+  }
+  float lb = least_bound[0];
+  for (int l = 1; l < 8; ++l) lb = least_bound[l] < lb ? least_bound[l] : lb;
+  if (!(lb > best)) {
+    int list[24];
+    int n = 0;
+    for (int j = 0; j < 19; ++j) {
+      list[n] = kF1Octants.idx[oct][j];
+      n += !(bound[j] > best);
+    }
+    constexpr const CellOffsets<3, 1>& t = kCellOffsets<3, 1>;
+    for (int base = 0; base < n; base += 8) {
+      float o[3][8];
+      for (int l = 0; l < 8; ++l) {
+        const int id = list[base + l < n ? base + l : n - 1];
+        ids[m + l] = id;
+        for (int i = 0; i < 3; ++i) o[i][l] = t.o[i][id];
+      }
+      f32x8 offs[3], h[3], pt[3], d;
+      for (int i = 0; i < 3; ++i) std::memcpy(&offs[i], o[i], sizeof offs[i]);
+      f1_cells3(cell, local, randomness, offs, h, pt, d);
+      std::memcpy(&dist[m], &d, sizeof d);
+      for (int i = 0; i < 3; ++i) std::memcpy(&hh[i][m], &h[i], sizeof h[i]), std::memcpy(&pp[i][m], &pt[i], sizeof pt[i]);
+      m += std::min(8, n - base);
+    }
+  }
+  return f1_result(dist, hh, pp, ids, m, cell);
 }
 
 template <int N>
@@ -706,10 +965,17 @@ GP_AVX2_CLONES VoronoiOut voronoi(VoronoiFeature feature, VoronoiMetric metric, 
   switch (dims) {
     case 1: return voronoi_n<1>(feature, metric, p, smoothness, exponent, randomness);
     case 2: return voronoi_n<2>(feature, metric, p, smoothness, exponent, randomness);
-    case 3: return voronoi_n<3>(feature, metric, p, smoothness, exponent, randomness);
+    case 3:
+      // (A NaN point or randomness: the full loop, whose comparisons then keep 8 and cell 0.)
+      if (feature == VoronoiFeature::F1 && metric == VoronoiMetric::Euclidean && std::isfinite(p[0]) &&
+          std::isfinite(p[1]) && std::isfinite(p[2]) && std::isfinite(randomness))
+        return voronoi_f1_euclidean3(p, randomness);
+      return voronoi_n<3>(feature, metric, p, smoothness, exponent, randomness);
     default: return voronoi_n<4>(feature, metric, p, smoothness, exponent, randomness);
   }
 }
+
+#pragma GCC diagnostic pop
 
 // ---- Wave, Magic, Gradient, Checker, Brick, White Noise ----
 
@@ -823,10 +1089,12 @@ float checker(Vec3 p) {
   p.x = (p.x + 0.000001f) * 0.999999f;
   p.y = (p.y + 0.000001f) * 0.999999f;
   p.z = (p.z + 0.000001f) * 0.999999f;
-  const int xi = std::abs(static_cast<int>(std::floor(p.x)));
-  const int yi = std::abs(static_cast<int>(std::floor(p.y)));
-  const int zi = std::abs(static_cast<int>(std::floor(p.z)));
-  return ((xi % 2 == yi % 2) == static_cast<bool>(zi % 2)) ? 1.0f : 0.0f;
+  const int xi = static_cast<int>(std::floor(p.x));
+  const int yi = static_cast<int>(std::floor(p.y));
+  const int zi = static_cast<int>(std::floor(p.z));
+  // checker.h's ((|xi| % 2 == |yi| % 2) == |zi| % 2) of the three parities a, b, c (abs keeps an
+  // int's parity) is (1 ^ a ^ b) == c, that is a ^ b ^ c.
+  return ((xi ^ yi ^ zi) & 1) ? 1.0f : 0.0f;
 }
 
 namespace {

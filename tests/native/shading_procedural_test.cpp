@@ -275,6 +275,85 @@ TEST(ShadingProcedural, VoronoiCellHashesAsTheScalarLoop) {
     }
 }
 
+// The 3D F1 Euclidean Voronoi measures the eight cells towards the point's nearest corner first
+// and skips cells whose cube is farther than their least distance (procedural.cpp,
+// voronoi_f1_euclidean3): against voronoi.h's loop over all 27 cells, written out here, on
+// random points and on the cases that test its bound and its tie-break: randomness 0 (feature
+// points on the lattice: equal distances between cells), points on the half-way planes
+// (local 0.5: the block's side chosen on a tie), on cell faces, -0, and far out (cells of 2^22).
+TEST(ShadingProcedural, VoronoiF1NearestCellsFirstAsTheFullLoop) {
+  uint64_t state = 4242;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(state >> 40) / static_cast<float>(1 << 24);
+  };
+  auto bits = [](float f) {
+    uint32_t b;
+    std::memcpy(&b, &f, 4);
+    return b;
+  };
+  const float randomness_of[5] = {1.0f, 0.7f, 0.0f, 0.05f, 1.0f};
+  for (int i = 0; i < 40000; ++i) {
+    Vec4 p;
+    for (int k = 0; k < 3; ++k) {
+      switch ((i / 5 + k) % 6) {
+        case 0: p[k] = std::floor((next() - 0.5f) * 16.0f) + 0.5f; break;  // half-way
+        case 1: p[k] = std::floor((next() - 0.5f) * 16.0f); break;         // a cell face
+        case 2: p[k] = -0.0f; break;
+        case 3: p[k] = (next() - 0.5f) * 8388608.0f; break;                   // cells of up to 2^22
+        default: p[k] = (next() - 0.5f) * 40.0f; break;
+      }
+    }
+    const float randomness = randomness_of[i % 5];
+    float cell[3], local[3];
+    for (int k = 0; k < 3; ++k) cell[k] = std::floor(p[k]), local[k] = p[k] - cell[k];
+    float best = 8.0f, best_pos[3] = {0, 0, 0};
+    Vec3 best_color;
+    for (int idx = 0; idx < 27; ++idx) {
+      const float o[3] = {static_cast<float>(idx % 3 - 1), static_cast<float>(idx / 3 % 3 - 1),
+                          static_cast<float>(idx / 9 - 1)};
+      const Vec3 h = hash_float3_to_float3(Vec3(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]));
+      float pp[3], sum = 0.0f;
+      for (int k = 0; k < 3; ++k) {
+        pp[k] = o[k] + h[k] * randomness;
+        const float t = pp[k] - local[k];
+        sum += t * t;
+      }
+      const float d = std::sqrt(sum);
+      if (d < best) {
+        best = d, best_color = h;
+        for (int k = 0; k < 3; ++k) best_pos[k] = pp[k] + cell[k];
+      }
+    }
+    const VoronoiOut o = voronoi(VoronoiFeature::F1, VoronoiMetric::Euclidean, p, 3, 0.0f, 0.5f, randomness);
+    ASSERT_EQ(bits(o.distance), bits(best)) << "at (" << p[0] << ", " << p[1] << ", " << p[2] << "), randomness "
+                                            << randomness;
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_EQ(bits(o.color[k]), bits(best_color[k])) << "colour at point " << i;
+      ASSERT_EQ(bits(o.position[k]), bits(best_pos[k])) << "position at point " << i;
+    }
+  }
+}
+
+// Checker's parity test (procedural.cpp: a ^ b ^ c) against checker.h's formula as written.
+TEST(ShadingProcedural, CheckerAsCyclesFormula) {
+  uint64_t state = 99;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(state >> 40) / static_cast<float>(1 << 24);
+  };
+  for (int i = 0; i < 100000; ++i) {
+    Vec3 p;
+    for (int k = 0; k < 3; ++k) p[k] = (next() - 0.5f) * (i % 2 ? 20.0f : 2e5f) + (i % 3 == 0 ? std::round(next() * 8.0f) : 0.0f);
+    Vec3 q = p;
+    for (int k = 0; k < 3; ++k) q[k] = (q[k] + 0.000001f) * 0.999999f;
+    const int xi = std::abs(static_cast<int>(std::floor(q.x))), yi = std::abs(static_cast<int>(std::floor(q.y)));
+    const int zi = std::abs(static_cast<int>(std::floor(q.z)));
+    const float expected = ((xi % 2 == yi % 2) == static_cast<bool>(zi % 2)) ? 1.0f : 0.0f;
+    ASSERT_EQ(checker(p), expected) << "at (" << p.x << ", " << p.y << ", " << p.z << ")";
+  }
+}
+
 TEST(ShadingHash, VectorLanesAreTheScalarHashes) {
   u32x8 k[4];
   for (int j = 0; j < 4; ++j)
