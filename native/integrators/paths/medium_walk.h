@@ -3,6 +3,9 @@
 // went in each medium, and per-channel transmittance from those lengths.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+
 #include "media/medium.h"
 #include "scene/scene.h"
 
@@ -25,6 +28,21 @@ struct ShadowChannels {
 // share it; a transparent bounce is not a bounce for their depth (RayState::next).
 inline bool transparent_done(int transparent_bounces, const RayState& state) {
   return state.transparent > 0 && state.transparent >= transparent_bounces;
+}
+
+// Cycles' transparency of a camera path that escaped to a transparent background after
+// transparent bounces only: the average of its throughput (integrate_background adds
+// average(throughput) to the transparent pass; alpha = 1 - it), in [0, 1], over the path's
+// channels (RGB, or its wavelengths). The camera-path loop and the photon methods' eye walk
+// share it.
+template <class P>
+float path_transparency(const P& path) {
+  const ChannelValues w = path.channel_weights();
+  const int n = path.channels();
+  float sum = 0;
+  for (int k = 0; k < n; ++k) sum += w[k];
+  const float t = n > 0 ? sum / n : 1.0f;
+  return std::isfinite(t) ? std::clamp(t, 0.0f, 1.0f) : 1.0f;
 }
 
 // The shadow test of next-event estimation: the per-channel transmittance from a vertex to a

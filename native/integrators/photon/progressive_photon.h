@@ -240,6 +240,7 @@ class ProgressivePhotonMapping : public Integrator {
     VisiblePoint vp;        // the measurement point (material -1: none)
     float path_length = 0;  // distance travelled to it (initial radius)
     bool escaped = false;   // the camera ray left the scene with film_transparent: no background
+    float transparent = 0;  // escaped: its transparency (path_transparency)
   };
   // SPPM's camera path: through specular and glossy vertices by BSDF sampling (Russian roulette
   // from rr_depth) to the first photon-diffuse vertex, where it takes NEE when photons skip
@@ -262,6 +263,7 @@ class ProgressivePhotonMapping : public Integrator {
     VisiblePoint vp;        // the measurement point (material -1: none)
     float path_length = 0;  // distance travelled to it (initial radius)
     bool escaped = false;   // the camera ray left the scene with film_transparent: no background
+    float transparent = 0;  // escaped: its transparency (path_transparency; a red pane's 1/3)
     int n_beams = 0;        // camera segments through scattering media (media only)
     std::array<EyeBeam, kMaxBeams> beams;
     float beam_length = 0;  // distance travelled to the first beam's middle (initial cylinder radius)
@@ -485,7 +487,10 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     // which no photon covers, so nothing is counted twice.
     if (!hit) {
       const int env = lights.environment();
-      if (depth == 0 && (film_transparent_ || ray.held_out)) out.escaped = true;  // a holdout: black
+      if (depth == 0 && (film_transparent_ || ray.held_out)) {  // a holdout: black
+        out.escaped = true;  // after transparent bounces only: no background, alpha 1 - transparency
+        out.transparent = path_transparency(c);
+      }
       else if (env >= 0 && lights.lights()[env].visible_to(kind)) c.environment(lights.environment_radiance(ray), env);
       break;
     }
@@ -581,6 +586,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
   out.vp = end.vp;
   out.path_length = end.path_length;
   out.escaped = end.escaped;
+  out.transparent = end.transparent;
   return out;
 }
 
