@@ -231,10 +231,11 @@ TEST(SceneUpdate, MovedLampRendersAsAFreshBuild) {
   EXPECT_NONFATAL_FAILURE(expect_close(moved, pt(build(kBoxA))), "values");
 }
 
-// A cut-out box (alpha: Embree's filter functions on the instanced triangles, and the same on
-// shadow rays). Alpha from a texture of one black and one white texel cuts each face in two
-// where u = 0.5: the coverage (0 or 1) is looked up at the hit's uv, from the barycentrics in the
-// mesh's index order, so the moved box must cut exactly where the fresh one does, mirrored too.
+// A cut-out box (alpha: a Mix with a Transparent BSDF, whose factor is looked up at the hit; shadow
+// rays pass by Embree's filter functions on the instanced triangles). Alpha from a texture of one
+// black and one white texel cuts each face in two where u = 0.5: the alpha (0 or 1) is looked up
+// at the hit's uv, from the barycentrics in the mesh's index order, so the moved box must cut
+// exactly where the fresh one does, mirrored too.
 TEST(SceneUpdate, MovedCutOutMeshRendersAsAFreshBuild) {
   const std::string tex = testing::TempDir() + "gp_scene_update_alpha.ppm";
   {
@@ -256,9 +257,9 @@ TEST(SceneUpdate, MovedCutOutMeshRendersAsAFreshBuild) {
   }
 }
 
-// Constant alpha 0.5: whether a ray stops is a hash of the ray, which for an instanced mesh is
-// the ray in object space, so the moved box makes other (equally likely) choices than a fresh
-// build: the images agree statistically. Means over the image of 64 passes at 12x9: the fresh
+// Constant alpha 0.5 (a Mix with a Transparent BSDF: paths pick it by weight; it was a cut-out
+// decided by a hash of the ray, which for an instanced mesh is the ray in object space): the
+// images agree statistically. Means over the image of 64 passes at 12x9: the fresh
 // and the moved render within 1.5 % (their difference measured 0.5 %), while the opaque box's
 // render is 8 % off (measured), so the test can tell a box that lost its alpha.
 TEST(SceneUpdate, MovedHalfTransparentMeshRendersAsAFreshBuildOnAverage) {
