@@ -281,6 +281,10 @@ class ProgressivePhotonMapping : public Integrator {
   // wavelengths, from the same run of its node graph.
   Bsdf eye_bsdf(RgbEye& c, const SurfaceHit& hit) const;
   Bsdf eye_bsdf(SpectralEye& c, const SurfaceHit& hit) const;
+  // The Transparent BSDF closures' weight at the hit per channel (Bsdf::transparency; spectral:
+  // at each wavelength).
+  ChannelValues eye_transparency(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf) const;
+  ChannelValues eye_transparency(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf) const;
   RGB eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
               const Vec2& u2, int64_t& rays, const ShadowTest* shadow) const;
   std::optional<BsdfSample> eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf,
@@ -503,7 +507,38 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
     hooks.vertex(*hit, wo, bsdf);
-    if (bsdf.is_diffuse_for_photons(threshold_)) {
+    bool measure = bsdf.is_diffuse_for_photons(threshold_);
+    // A photon-diffuse surface with a Transparent BSDF in its mix (a leaf's Alpha: Cycles' Mix of
+    // a Transparent BSDF and the rest): with probability q, the closure's mean weight, the path
+    // passes straight through (a transparent bounce, weight T / q per channel, as a BSDF sample
+    // of that closure), else it is measured here weighted 1 / (1 - q) (the measurement and its
+    // NEE evaluate the other closures only). Without this the mix's see-through part was lost.
+    std::optional<BsdfSample> through;
+    if (measure && scene_.material(hit->material).transparent_shadow()) {
+      ChannelValues T = eye_transparency(c, *hit, bsdf);
+      float mean = 0;
+      for (int k = 0; k < c.channels(); ++k) mean += T[k];
+      const float q = std::min(mean / c.channels(), 0.999f);
+      if (q > 0.0f) {
+        if (rng.uniform() < q) {
+          for (int k = 0; k < c.channels(); ++k) T[k] /= q;
+          c.medium_weight(T);
+          BsdfSample pass;
+          pass.f = RGB(1.0f);
+          pass.wi = -wo;
+          pass.pdf = 1.0f;
+          pass.delta = pass.transmission = true;
+          pass.lobe = kRayTransmission;
+          through = pass;
+          measure = false;
+        } else {
+          ChannelValues w;
+          w.fill(1.0f / (1.0f - q));
+          c.medium_weight(w);
+        }
+      }
+    }
+    if (measure) {
       if (emission_only) break;
       // ---- Measurement point; direct light by NEE when photons skip it ----
       if (nee_ && !lights.empty()) {
@@ -523,10 +558,13 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
       hooks.gather(*hit);
       break;
     }
-    // ---- Specular or glossy vertex: continue by BSDF sampling ----
-    const float uc = rng.uniform();
-    const Vec2 u(rng.uniform(), rng.uniform());
-    const std::optional<BsdfSample> bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
+    // ---- Specular or glossy vertex (or a transparent pass drawn above): continue by BSDF sampling ----
+    std::optional<BsdfSample> bs = through;
+    if (!bs) {
+      const float uc = rng.uniform();
+      const Vec2 u(rng.uniform(), rng.uniform());
+      bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
+    }
     if (!bs) break;
     const Material& material = scene_.material(hit->material);
     // A light object, a volume boundary (a clear Transparent BSDF, which shadow rays pass
@@ -569,6 +607,10 @@ inline std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(RgbEye& c
   return bs;
 }
 inline Bsdf ProgressivePhotonMapping::eye_bsdf(RgbEye&, const SurfaceHit& hit) const { return scene_.bsdf(hit); }
+inline ChannelValues ProgressivePhotonMapping::eye_transparency(RgbEye&, const SurfaceHit&, const Bsdf& bsdf) const {
+  const RGB t = bsdf.transparency();
+  return {t.r, t.g, t.b};
+}
 inline bool ProgressivePhotonMapping::eye_survive(RgbEye& c, float u, float* survival) const {
   return russian_roulette(c.beta, u, survival);
 }

@@ -169,6 +169,12 @@ std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, 
   return bs;
 }
 
+ChannelValues ProgressivePhotonMapping::eye_transparency(SpectralEye& c, const SurfaceHit& hit, const Bsdf&) const {
+  ChannelValues t{};
+  for (int k = 0; k < c.C; ++k) t[k] = scene_.bsdf(c.mk[k], hit).transparency()[0];
+  return t;
+}
+
 Bsdf ProgressivePhotonMapping::eye_bsdf(SpectralEye& c, const SurfaceHit& hit) const {
   const Material& m = scene_.material(hit.material);
   if (!m.graph || !pass_spectra_.per_point(hit.material)) {
