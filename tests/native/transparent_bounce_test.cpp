@@ -71,14 +71,17 @@ TEST(TransparentBounce, TenPanesPassWithinTheTransparentLimitWhateverMaxDepth) {
 }
 
 TEST(TransparentBounce, TheLastAllowedTransparentBounceStillSeesTheNextSurface) {
-  // Cycles: the 10th transparent bounce with transparent_max_bounce 10 flags the path to end on
-  // the next surface after its emission (the wall: seen); with 9 the 9th flags it and the 10th
-  // pane ends it (black), as with 4.
+  // Measured in Blender 3.4's Cycles (ten clear panes, min_transparent_bounces 16, 4 samples):
+  // the wall shows with Transparent 9, 10, 11 and not with 4 to 8. So the path that made the 10th
+  // pass with a limit of 9 still sees the wall's emission; with 8 the 10th pane ends it (black),
+  // as with 4. (This test once asserted black at 9, against Cycles.)
   for (const char* method : {"pt", "spt", "sppm", "gpt", "sgpt", "msppm"}) {
     for (const char* pane : {kClear, kGrey}) {
-      const RGB ten = image_mean(render(method, scene_from(panes_scene(pane, 10)), 1, params_for(method)));
-      EXPECT_GT(ten.r, 0.5f) << method << " " << pane;
-      for (int limit : {9, 4}) {
+      for (int limit : {10, 9}) {
+        const RGB seen = image_mean(render(method, scene_from(panes_scene(pane, limit)), 1, params_for(method)));
+        EXPECT_GT(seen.r, 0.5f) << method << " " << pane << " limit " << limit;
+      }
+      for (int limit : {8, 4}) {
         const RGB cut = image_mean(render(method, scene_from(panes_scene(pane, limit)), 1, params_for(method)));
         EXPECT_EQ(cut.r, 0.0f) << method << " " << pane << " limit " << limit;
         EXPECT_EQ(cut.g, 0.0f) << method << " " << pane << " limit " << limit;

@@ -40,8 +40,9 @@ Msppm::Msppm(const Scene& scene, const Params& params)
   if (photons_per_pass_ == 0) photons_per_pass_ = static_cast<int64_t>(n);  // §9.5
   px_.assign(n, PixelState{});
   // A camera path's vertices: max_depth_ bounces and, in a scene with Transparent BSDFs that
-  // shadow rays pass, up to transparent_bounces passes through them, which count no bounce.
-  eye_stride_ = max_depth_ + (scene.has_transparent_shadows() ? std::max(scene.transparent_bounces, 0) : 0);
+  // shadow rays pass, up to transparent_bounces + 1 passes through them (transparent_done), which
+  // count no bounce.
+  eye_stride_ = max_depth_ + (scene.has_transparent_shadows() ? std::max(scene.transparent_bounces, 0) + 1 : 0);
   eye_.assign(n * eye_stride_, EyeVertex{});
   eye_count_.assign(n, 0);
   eye_origin_.assign(n, Vec3());
