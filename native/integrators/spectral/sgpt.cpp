@@ -491,7 +491,9 @@ void SpectralSample::trace_base(Ray ray) {
     ray.camera = camera;
     const Scatter s = v.delta ? delta_scatter(b, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(b, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;
-    v.rr = mat.is_pass_through() ? 1.0f : survival(depth, beta);  // a light object crossed: no roulette (as spt)
+    // Roulette by the vertex's index, as the offsets take it (survival(k, ...)), not by depth,
+    // which a transparent pass does not advance.
+    v.rr = mat.is_pass_through() ? 1.0f : survival(base.v.size() - 1, beta);  // a light object crossed: no roulette (as spt)
     if (v.rr < 1.0f && rng_.uniform() >= v.rr) {
       v.scattered = false;  // roulette ended the path after NEE at this vertex
       break;
