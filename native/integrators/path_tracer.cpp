@@ -193,24 +193,24 @@ struct RgbPath {
 }  // namespace
 
 template <class S>
-RGB PathTracer::Li(Ray ray, S& sampler, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
+RGB PathTracer::Li(Ray ray, S& sampler, RayCounts& rays, float* transparent, const std::optional<SurfaceHit>* first) const {
   RgbPath path(scene_, clamp_direct_, clamp_indirect_, &media_);
-  return camera_path_radiance(scene_, settings_, ray, sampler, rays, path, first, escaped);
+  return camera_path_radiance(scene_, settings_, ray, sampler, rays, path, first, transparent);
 }
-template RGB PathTracer::Li(Ray, SobolSampler&, RayCounts&, bool*, const std::optional<SurfaceHit>*) const;
-template RGB PathTracer::Li(Ray, IndependentSampler&, RayCounts&, bool*, const std::optional<SurfaceHit>*) const;
+template RGB PathTracer::Li(Ray, SobolSampler&, RayCounts&, float*, const std::optional<SurfaceHit>*) const;
+template RGB PathTracer::Li(Ray, IndependentSampler&, RayCounts&, float*, const std::optional<SurfaceHit>*) const;
 
-RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped, const std::optional<SurfaceHit>* first) const {
+RGB PathTracer::Li(Ray ray, Rng& rng, RayCounts& rays, float* transparent, const std::optional<SurfaceHit>* first) const {
   IndependentSampler sampler{rng};
-  return Li(ray, sampler, rays, escaped, first);
+  return Li(ray, sampler, rays, transparent, first);
 }
 
 void PathTracer::iterate(ProgressSink* sink) {
   estimate_.run_camera_pass(scene_, seed_, tile_size_, threads_, sink, stats_, pattern_,
                             [this](const Ray& ray, auto& rng, RayCounts& rays, const std::optional<SurfaceHit>* first) {
-                              bool escaped = false;
-                              const RGB L = Li(ray, rng, rays, &escaped, first);
-                              return PixelSample{L, escaped ? 0.0f : 1.0f};
+                              float transparent = 0.0f;  // Cycles' transparent pass: alpha 1 - it
+                              const RGB L = Li(ray, rng, rays, &transparent, first);
+                              return PixelSample{L, 1.0f - transparent};
                             });
 }
 

@@ -34,14 +34,15 @@ class PathTracer : public Integrator {
   void develop(Film& film) const override;
 
   // Radiance along one camera ray (exposed for tests); counts the rays it traces. With
-  // film_transparent, a camera ray that escapes gives 0 and sets *escaped.
+  // film_transparent, a camera ray that escapes (after transparent bounces only) gives 0 and sets
+  // *transparent to its transparency (paths/medium_walk.h path_transparency; 0 otherwise).
   // `first`, when given, is the closest hit of `ray` already traced (a tile's camera rays are
   // traced together, Scene::intersect_coherent).
-  RGB Li(Ray ray, Rng& rng, RayCounts& rays, bool* escaped = nullptr,
+  RGB Li(Ray ray, Rng& rng, RayCounts& rays, float* transparent = nullptr,
          const std::optional<SurfaceHit>* first = nullptr) const;
   // The same with the path's numbers from a sampler (core/sampler.h), as iterate() draws them.
   template <class S>
-  RGB Li(Ray ray, S& sampler, RayCounts& rays, bool* escaped = nullptr,
+  RGB Li(Ray ray, S& sampler, RayCounts& rays, float* transparent = nullptr,
          const std::optional<SurfaceHit>* first = nullptr) const;
 
  private:

@@ -137,15 +137,11 @@ struct Material {
 
   // ---- Textured inputs (an empty TextureRef: the constant above) ----
   // Looked up at the hit's uv by Bsdf (colour, roughness, mix factor; in a mix, each
-  // component's own) and by the scene (alpha, normal map, bump: the top-level material's).
+  // component's own) and by the scene (normal map, bump: the top-level material's). (The scene
+  // format's `alpha` is a Mix with a Transparent BSDF, made by the loader: scene/loader.cpp.)
   TextureRef color_tex;      // replaces `color`
   TextureRef roughness_tex;  // replaces `roughness` (GGX alpha)
   TextureRef factor_tex;     // replaces `mix_factor`
-  // Coverage (Principled Alpha, a Mix with a Transparent BSDF): the surface is there with
-  // probability alpha and otherwise let through by every ray (Cycles' transparency, as a
-  // stochastic cut-out: scene/accel).
-  float alpha = 1.0f;
-  TextureRef alpha_tex;      // replaces `alpha`
   // Tangent-space normal map (Blender's Normal Map node): n = normalize(2 c - 1) in the frame
   // (tangent, bitangent, shading normal), blended toward the shading normal by strength.
   TextureRef normal_tex;
@@ -158,7 +154,7 @@ struct Material {
   // ---- Node graph (shading/graph.h): the program compiled from the material's `nodes`, and
   // the inputs linked into it (read per shading point by bsdf_params and the scene) ----
   std::shared_ptr<const shading::ShaderProgram> graph;
-  GraphInput color_in, roughness_in, factor_in, ior_in, alpha_in, normal_in, emission_in, strength_in, holdout_in;
+  GraphInput color_in, roughness_in, factor_in, ior_in, normal_in, emission_in, strength_in, holdout_in;
   GraphInput specular_tint_in, sheen_in, sheen_tint_in, clearcoat_in;  // principled / clearcoat
   GraphInput anisotropy_in, rotation_in, tangent_in;  // anisotropic lobes
 
@@ -187,7 +183,6 @@ struct Material {
   // hit's whole shading context (position, object, tangents), not its uv alone.
   bool runs_graph() const { return graph || (mix_a && mix_a->runs_graph()) || (mix_b && mix_b->runs_graph()); }
   bool holds_out_partly() const { return !holdout && (holdout_weight > 0.0f || holdout_in); }
-  bool has_coverage() const { return alpha < 1.0f || alpha_tex || alpha_in; }
   bool emission_from_graph() const { return emission_in || strength_in; }
 
   // The constant emission (a graph-driven one: its average over the surface, set by the scene).

@@ -32,19 +32,12 @@ void Accelerator::record_rays(RayRecorder* recorder) { g_recorder.store(recorder
 
 // Per-triangle ray visibility of one mesh, for its filter functions.
 struct TriangleVisibility {
-  // kHiddenFromCamera | kNoShadow | kPartial | kHiddenFrom<lobe> | kTransparentShadow per triangle
+  // kHiddenFromCamera | kNoShadow | kHiddenFrom<lobe> | kTransparentShadow per triangle
   std::vector<uint8_t> flags;
-  // kPartial triangles: their material's coverage (Material::alpha / alpha_tex) at the hit's
-  // uv, with the mesh's uvs and indices (copies: the accelerator owns what its filters read).
-  std::vector<uint32_t> material_ids, indices;
-  std::vector<Vec2> uvs;
-  std::vector<float> alpha;          // per material id
-  std::vector<TextureRef> alpha_tex;  // per material id
-  // An Alpha linked into the material's node graph: evaluated at the hit (uv and position).
-  std::vector<std::shared_ptr<const shading::ShaderProgram>> alpha_graph;
-  std::vector<shading::InputSource> alpha_source;
 };
-constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2, kPartial = 4;
+// (Bit 4 was an alpha cut-out's: Principled Alpha is now a Mix with a Transparent BSDF, whose
+// shadow rays kTransparentShadow lets through.)
+constexpr uint8_t kHiddenFromCamera = 1, kNoShadow = 2;
 // Hidden from bounce rays of a kind: the Ray::bounce bit shifted past the flags above.
 constexpr int kLobeShift = 2;  // kRayDiffuse (2) -> 8, kRayGlossy (4) -> 16, kRayTransmission (8) -> 32
 constexpr uint8_t kHiddenFromLobes = kAllLobes << kLobeShift;
@@ -75,8 +68,7 @@ uint8_t hidden_flag(const Ray& ray) {
 // nothing has moved; once something has, `object[i]` (its own BVH in object space, instanced as
 // instance i of the top level) when mesh i has moved, else `unmoved` (one BVH of the meshes never
 // moved, instanced unmoved as instance `unmoved_id`). The geometry ID is the mesh index in all
-// three, so a hit's geomID is the mesh index whichever level it came from (and the alpha
-// filters hash the same IDs as in the flat scene).
+// three, so a hit's geomID is the mesh index whichever level it came from.
 struct Accelerator::Impl {
   static constexpr uint8_t kNotBuilt = 2;
   RTCDevice device = nullptr;
@@ -99,48 +91,6 @@ struct Accelerator::Impl {
 };
 
 namespace {
-uint32_t float_bits(float f) {
-  uint32_t b;
-  std::memcpy(&b, &f, 4);
-  return b;
-}
-
-// Whether a ray stops at a partially covered triangle: with probability alpha (Cycles'
-// transparency as a stochastic cut-out, unbiased for every estimator). The uniform number is a
-// hash of the ray and the triangle, so the decision is the same whichever way Embree visits
-// the hit, and independent between rays.
-bool covered(const TriangleVisibility& vis, const RTCFilterFunctionNArguments* args, unsigned i, unsigned prim) {
-  const uint32_t mat = vis.material_ids[prim];
-  float alpha = vis.alpha[mat];
-  if (const TextureRef& tex = vis.alpha_tex[mat]) {
-    const float b1 = RTCHitN_u(args->hit, args->N, i), b2 = RTCHitN_v(args->hit, args->N, i);
-    const uint32_t* t = &vis.indices[3 * prim];
-    const Vec2 uv = vis.uvs.empty() ? Vec2(b1, b2) : vis.uvs[t[0]] * (1 - b1 - b2) + vis.uvs[t[1]] * b1 + vis.uvs[t[2]] * b2;
-    alpha = tex.value(uv);
-  } else if (const auto& graph = vis.alpha_graph[mat]) {
-    const float b1 = RTCHitN_u(args->hit, args->N, i), b2 = RTCHitN_v(args->hit, args->N, i);
-    const uint32_t* t = &vis.indices[3 * prim];
-    RTCRayN* r = args->ray;
-    shading::ShadingContext ctx = shading::ShadingContext::at_uv(
-        vis.uvs.empty() ? Vec2(b1, b2) : vis.uvs[t[0]] * (1 - b1 - b2) + vis.uvs[t[1]] * b1 + vis.uvs[t[2]] * b2);
-    const float tf = RTCRayN_tfar(r, args->N, i);
-    ctx.P = Vec3(RTCRayN_org_x(r, args->N, i), RTCRayN_org_y(r, args->N, i), RTCRayN_org_z(r, args->N, i)) +
-            Vec3(RTCRayN_dir_x(r, args->N, i), RTCRayN_dir_y(r, args->N, i), RTCRayN_dir_z(r, args->N, i)) * tf;
-    ctx.bary = Vec2(b1, b2);
-    alpha = graph->evaluate(ctx, vis.alpha_source[mat]).x;
-    if (!std::isfinite(alpha)) alpha = 1.0f;
-  }
-  if (alpha >= 1.0f) return true;
-  if (!(alpha > 0.0f)) return false;
-  RTCRayN* r = args->ray;  // (Embree's accessors take a non-const pointer; nothing is written)
-  const unsigned n = args->N;
-  const uint64_t a = (uint64_t(float_bits(RTCRayN_org_x(r, n, i))) << 32) ^ float_bits(RTCRayN_dir_x(r, n, i));
-  const uint64_t b = (uint64_t(float_bits(RTCRayN_org_y(r, n, i))) << 32) ^ float_bits(RTCRayN_dir_y(r, n, i));
-  const uint64_t c = (uint64_t(float_bits(RTCRayN_org_z(r, n, i))) << 32) ^ float_bits(RTCRayN_dir_z(r, n, i));
-  const uint64_t h = mix_bits(a ^ mix_bits(b ^ mix_bits(c ^ (uint64_t(prim) << 20) ^ RTCHitN_geomID(args->hit, n, i))));
-  const float u = static_cast<float>(h >> 40) * 0x1p-24f;
-  return u < alpha;
-}
 
 void reject_where(const RTCFilterFunctionNArguments* args, uint8_t flag) {
   const auto* vis = static_cast<const TriangleVisibility*>(args->geometryUserPtr);
@@ -148,7 +98,7 @@ void reject_where(const RTCFilterFunctionNArguments* args, uint8_t flag) {
     if (args->valid[i] != -1) continue;
     const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
     const uint8_t f = vis->flags[prim];
-    if ((f & flag) || ((f & kPartial) && !covered(*vis, args, i, prim))) args->valid[i] = 0;
+    if (f & flag) args->valid[i] = 0;
   }
 }
 void intersect_filter(const RTCFilterFunctionNArguments* args) {
@@ -161,7 +111,7 @@ void shadow_filter(const RTCFilterFunctionNArguments* args) {
     if (args->valid[i] != -1) continue;
     const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
     const uint8_t f = vis->flags[prim];
-    if ((f & kNoShadow) || ((f & kPartial) && !covered(*vis, args, i, prim))) {
+    if (f & kNoShadow) {
       args->valid[i] = 0;
     } else if (f & c->through & kTransparentShadow) {
       args->valid[i] = 0;
@@ -247,26 +197,15 @@ RTCGeometry make_geometry(RTCDevice device, const std::vector<const std::vector<
     for (size_t t = 0; t < m.triangle_count() && t < m.material_ids.size(); ++t) {
       const Material& mat = (*materials)[m.material_ids[t]];
       vis->flags[t] = (mat.visible_to_camera ? 0 : kHiddenFromCamera) | (mat.casts_shadow ? 0 : kNoShadow) |
-                      (mat.has_coverage() ? kPartial : 0) | (mat.transparent_shadow() ? kTransparentShadow : 0) |
+                      (mat.transparent_shadow() ? kTransparentShadow : 0) |
                       static_cast<uint8_t>((~mat.visible_lobes & kAllLobes) << kLobeShift);
       any |= vis->flags[t];
     }
-    if (any & kPartial) {  // alpha cut-out: the filters look up the coverage at the hit's uv
-      vis->material_ids = m.material_ids;
-      vis->indices = m.indices;
-      vis->uvs = m.uvs;
-      for (const Material& mat : *materials) {
-        vis->alpha.push_back(mat.alpha);
-        vis->alpha_tex.push_back(mat.alpha_tex);
-        vis->alpha_graph.push_back(mat.alpha_in ? mat.graph : nullptr);
-        vis->alpha_source.push_back(mat.alpha_in.source);
-      }
-    }
     if (any) {
       rtcSetGeometryUserData(g, vis.get());
-      if (any & (kHiddenFromCamera | kPartial | kHiddenFromLobes)) rtcSetGeometryIntersectFilterFunction(g, intersect_filter);
+      if (any & (kHiddenFromCamera | kHiddenFromLobes)) rtcSetGeometryIntersectFilterFunction(g, intersect_filter);
       // (Only meshes with such triangles pay for a filter: a scene without them traces as before.)
-      if (any & (kNoShadow | kPartial | kTransparentShadow)) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
+      if (any & (kNoShadow | kTransparentShadow)) rtcSetGeometryOccludedFilterFunction(g, shadow_filter);
       keep = std::move(vis);
     }
   }

@@ -59,8 +59,7 @@ class Accelerator {
   // blocks the ray; *crossed says whether it met a transparent one on the way (only then need
   // the caller find them: intersect_shadow). One any-hit query, as occluded().
   bool occluded_opaque(const Ray& ray, bool* crossed) const;
-  // The closest surface a shadow ray meets, surfaces that cast no shadow let through (coverage
-  // cut-outs decided as occluded() decides them for the same origin and direction).
+  // The closest surface a shadow ray meets, surfaces that cast no shadow let through.
   bool intersect_shadow(const Ray& ray, RawHit& hit) const;
   // The same queries for n rays at once through Embree's stream interface (rtcIntersect1M,
   // rtcOccluded1M): found[i] / blocked[i] and hits[i] as intersect() / occluded() of rays[i].

@@ -204,7 +204,8 @@ class Loader : private JsonReader {
           scene_.warnings.add("unknown key", fmt::format("{}: {}", file_, sub(mpath, k.key())));
       // Textured inputs keep their texture's mean in the constant (spectral modes, mix fallbacks).
       // ---- Inputs linked into the material's node graph (docs/scene-format.md "Node graphs") ----
-      load_graph_inputs(m, mpath, mat);
+      PendingAlpha alpha{.index = scene_.materials.size(), .path = sub(mpath, "alpha")};
+      load_graph_inputs(m, mpath, mat, &alpha.in);
       if (const json* c = find(m, "color"); c && !shading::is_link(*c)) {
         if (is_texture(*c)) mat.color_tex = load_texture_ref(*c, sub(mpath, "color"), true, {}, nullptr, &mat.color);
         else mat.color = get_color(*c, sub(mpath, "color"));
@@ -215,8 +216,8 @@ class Loader : private JsonReader {
         mat.roughness = std::min(mat.roughness, 1.0f);
       }
       if (const json* a = find(m, "alpha"); a && !shading::is_link(*a)) {
-        if (is_texture(*a)) mat.alpha_tex = load_texture_ref(*a, sub(mpath, "alpha"), false, {});
-        else mat.alpha = get_in_range(*a, sub(mpath, "alpha"), 0.0f, 1.0f);
+        if (is_texture(*a)) alpha.tex = load_texture_ref(*a, sub(mpath, "alpha"), false, {});
+        else alpha.value = get_in_range(*a, sub(mpath, "alpha"), 0.0f, 1.0f);
       }
       if (const json* n = find(m, "normal_map")) {
         const std::string npath = sub(mpath, "normal_map");
@@ -276,6 +277,7 @@ class Loader : private JsonReader {
         mat.emission = spectral_lines_rgb(mat.emission_lines, mat.emission_fwhm);  // luminance 1
       }
       prepare_material(mat);
+      if (alpha.value < 1.0f || alpha.tex || alpha.in) pending_alpha_.push_back(std::move(alpha));
       material_index_[mat.name] = static_cast<uint32_t>(scene_.materials.size());
       scene_.materials.push_back(std::move(mat));
     }
@@ -283,11 +285,85 @@ class Loader : private JsonReader {
     // cycle is an error).
     std::vector<int> state(scene_.materials.size(), 0);  // 0 unresolved, 1 resolving, 2 done
     for (const MixRef& r : mix_refs_) resolve_mix(r, state);
+    // `alpha` last, on the resolved material (a component copied into a mix keeps none, as
+    // before: alpha is the whole material's).
+    for (const PendingAlpha& a : pending_alpha_) apply_alpha(a);
+  }
+
+  // ---- `alpha`: Cycles' Principled Alpha, a Mix Shader of a Transparent BSDF (weight 1 - alpha)
+  // and the rest (weight alpha) with the emission inside (Cycles 3.4 shader_nodes.cpp
+  // PrincipledBsdfNode::expand). The material becomes that mix, so every method treats it as any
+  // Mix with a Transparent BSDF: paths pick the transparent closure by its weight (a transparent
+  // bounce), shadow rays pass filtered by it. (It was a stochastic coverage cut-out.) ----
+  struct PendingAlpha {
+    size_t index = 0;
+    std::string path;
+    float value = 1.0f;
+    TextureRef tex;
+    GraphInput in;
+  };
+  std::vector<PendingAlpha> pending_alpha_;
+
+  void apply_alpha(const PendingAlpha& a) {
+    Material& m = scene_.materials[a.index];
+    // The opaque part: the material's closures, without what is the whole surface's.
+    Material opaque = m;
+    opaque.name = m.name + "/~opaque";
+    opaque.emission = RGB(0.0f);
+    opaque.emission_lines.clear();
+    opaque.emission_in = opaque.strength_in = GraphInput();
+    opaque.visible_to_camera = opaque.casts_shadow = true;
+    opaque.holdout = false;
+    opaque.holdout_weight = 0.0f;
+    opaque.holdout_in = GraphInput();
+    opaque.interior = -1;
+    opaque.visible_lobes = kAllLobes;
+    opaque.normal_tex = opaque.bump_tex = TextureRef();
+    Material clear;  // a white Transparent BSDF (the loader's "transparent")
+    clear.name = m.name + "/~transparent";
+    clear.type = MaterialType::Dielectric;
+    clear.color = RGB(1.0f);
+    clear.ior = 1.0f;
+    Material mix;
+    mix.name = m.name;
+    mix.type = MaterialType::Mix;
+    mix.mix_factor = a.value;
+    mix.factor_tex = a.tex;
+    mix.factor_in = a.in;
+    mix.graph = m.graph;
+    mix.roughness = opaque.roughness;
+    mix.color = opaque.color * a.value + RGB(1.0f - a.value);  // the fallback colour, as resolve_mix's
+    // Emission is inside the mix in Cycles: weighted by alpha.
+    mix.emission = m.emission;
+    mix.emission_lines = m.emission_lines;
+    mix.emission_fwhm = m.emission_fwhm;
+    mix.emission_strength = m.emission_strength * a.value;
+    mix.emission_in = m.emission_in;
+    mix.strength_in = m.strength_in;
+    mix.two_sided = m.two_sided;
+    if ((a.tex || a.in || m.strength_in) && (m.is_emissive() || m.emission_from_graph()))
+      scene_.warnings.add("emission not weighted by a textured or linked alpha (write the mix, its emission weighted)",
+                          fmt::format("{}: {}", file_, a.path));
+    mix.visible_to_camera = m.visible_to_camera;
+    mix.casts_shadow = m.casts_shadow;
+    mix.holdout = m.holdout;
+    mix.holdout_weight = m.holdout_weight;
+    mix.holdout_in = m.holdout_in;
+    mix.interior = m.interior;
+    mix.visible_lobes = m.visible_lobes;
+    mix.normal_tex = m.normal_tex;
+    mix.normal_strength = m.normal_strength;
+    mix.bump_tex = m.bump_tex;
+    mix.bump_strength = m.bump_strength;
+    mix.bump_distance = m.bump_distance;
+    mix.mix_a = std::make_shared<const Material>(std::move(clear));
+    mix.mix_b = std::make_shared<const Material>(std::move(opaque));
+    m = std::move(mix);
   }
 
   // The material's `nodes` table compiled for the inputs that link into it. A link without a
   // table, or a malformed table, fails naming the file, the material and the node.
-  void load_graph_inputs(const json& m, const std::string& mpath, Material& mat) {
+  void load_graph_inputs(const json& m, const std::string& mpath, Material& mat, GraphInput* alpha_in) {
     using shading::SocketType;
     struct Want {
       const char* key;
@@ -296,7 +372,7 @@ class Loader : private JsonReader {
     };
     const Want wants[] = {{"color", SocketType::Color, &mat.color_in},       {"roughness", SocketType::Float, &mat.roughness_in},
                           {"factor", SocketType::Float, &mat.factor_in},     {"ior", SocketType::Float, &mat.ior_in},
-                          {"alpha", SocketType::Float, &mat.alpha_in},       {"normal", SocketType::Vector, &mat.normal_in},
+                          {"alpha", SocketType::Float, alpha_in},            {"normal", SocketType::Vector, &mat.normal_in},
                           {"emission", SocketType::Color, &mat.emission_in}, {"strength", SocketType::Float, &mat.strength_in},
                           {"holdout", SocketType::Float, &mat.holdout_in},
                           {"specular_tint", SocketType::Float, &mat.specular_tint_in}, {"sheen", SocketType::Float, &mat.sheen_in},

@@ -102,13 +102,13 @@ void expect_same(const Film& a, const Film& b) {
 // statistical test could tell: every value within 1e-4 relative, but for a few paths that a
 // last-bit difference sends another way (a ray grazing an edge, a Russian roulette at the
 // threshold), at most 1 % of the values.
-void expect_close(const Film& a, const Film& b) {
+void expect_close(const Film& a, const Film& b, size_t per_cent = 1) {
   const auto& pa = a.pass(pass::kCombined).data;
   const auto& pb = b.pass(pass::kCombined).data;
   ASSERT_EQ(pa.size(), pb.size());
   size_t off = 0;
   for (size_t i = 0; i < pa.size(); ++i) off += !(std::abs(pa[i] - pb[i]) <= 1e-4f * std::abs(pb[i]) + 1e-7f);
-  EXPECT_LE(off, pa.size() / 100) << "of " << pa.size() << " values";
+  EXPECT_LE(off, pa.size() * per_cent / 100) << "of " << pa.size() << " values";
 }
 
 double mean(const Film& f) {
@@ -231,10 +231,11 @@ TEST(SceneUpdate, MovedLampRendersAsAFreshBuild) {
   EXPECT_NONFATAL_FAILURE(expect_close(moved, pt(build(kBoxA))), "values");
 }
 
-// A cut-out box (alpha: Embree's filter functions on the instanced triangles, and the same on
-// shadow rays). Alpha from a texture of one black and one white texel cuts each face in two
-// where u = 0.5: the coverage (0 or 1) is looked up at the hit's uv, from the barycentrics in the
-// mesh's index order, so the moved box must cut exactly where the fresh one does, mirrored too.
+// A cut-out box (alpha: a Mix with a Transparent BSDF, whose factor is looked up at the hit; shadow
+// rays pass by Embree's filter functions on the instanced triangles). Alpha from a texture of one
+// black and one white texel cuts each face in two where u = 0.5: the alpha (0 or 1) is looked up
+// at the hit's uv, from the barycentrics in the mesh's index order, so the moved box must cut
+// exactly where the fresh one does, mirrored too.
 TEST(SceneUpdate, MovedCutOutMeshRendersAsAFreshBuild) {
   const std::string tex = testing::TempDir() + "gp_scene_update_alpha.ppm";
   {
@@ -251,14 +252,18 @@ TEST(SceneUpdate, MovedCutOutMeshRendersAsAFreshBuild) {
     s.set_mesh_transform(kBox, to);
     s.commit();
     const Film moved = pt(s);
-    expect_close(moved, pt(build(to, desc)));
-    EXPECT_NONFATAL_FAILURE(expect_close(moved, pt(build(to))), "values");  // the cut shows
+    // 3 %: a path through the cut half now goes on from the hit (a transparent pass, a new ray
+    // from a point that differs in its last bits) where Embree's cut-out filter let the same ray
+    // through, so more paths diverge (measured: 24 of 1296 values); the opaque box differs in
+    // hundreds.
+    expect_close(moved, pt(build(to, desc)), 3);
+    EXPECT_NONFATAL_FAILURE(expect_close(moved, pt(build(to)), 3), "values");  // the cut shows
   }
 }
 
-// Constant alpha 0.5: whether a ray stops is a hash of the ray, which for an instanced mesh is
-// the ray in object space, so the moved box makes other (equally likely) choices than a fresh
-// build: the images agree statistically. Means over the image of 64 passes at 12x9: the fresh
+// Constant alpha 0.5 (a Mix with a Transparent BSDF: paths pick it by weight; it was a cut-out
+// decided by a hash of the ray, which for an instanced mesh is the ray in object space): the
+// images agree statistically. Means over the image of 64 passes at 12x9: the fresh
 // and the moved render within 1.5 % (their difference measured 0.5 %), while the opaque box's
 // render is 8 % off (measured), so the test can tell a box that lost its alpha.
 TEST(SceneUpdate, MovedHalfTransparentMeshRendersAsAFreshBuildOnAverage) {

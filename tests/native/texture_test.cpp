@@ -391,47 +391,6 @@ TEST(NormalMap, GradientPathTracingShiftsShadeAsTheBase) {
   EXPECT_LT(std::abs(mean - expected) / se, 4.0);
 }
 
-TEST(Alpha, CutOutLetsRaysThroughInProportion) {
-  Scene s;
-  Material m;
-  m.name = "leaf";
-  m.alpha = 0.3f;
-  s.materials.push_back(m);
-  Material cut = m;
-  cut.name = "cut";
-  cut.alpha = 1.0f;
-  // Coverage texture: left half 0 (a hole), right half 1.
-  cut.alpha_tex.image = image(2, 1, {1, 1, 1, 0, 1, 1, 1, 1});
-  cut.alpha_tex.channel = TextureChannel::A;
-  cut.alpha_tex.filter = TextureFilter::Closest;
-  s.materials.push_back(cut);
-  Mesh q = make_quad_corners(Vec3(-1, -1, 0), Vec3(1, -1, 0), Vec3(1, 1, 0), Vec3(-1, 1, 0), 0);
-  Mesh r = make_quad_corners(Vec3(-1, -1, -1), Vec3(1, -1, -1), Vec3(1, 1, -1), Vec3(-1, 1, -1), 1);
-  r.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-  s.meshes = {q};
-  s.finalize();
-  int blocked = 0, hits = 0;
-  const int n = 20000;
-  Rng rng(7, 1);
-  for (int i = 0; i < n; ++i) {
-    const Vec3 o(rng.uniform() * 1.6f - 0.8f, rng.uniform() * 1.6f - 0.8f, 1);
-    blocked += s.occluded(Ray(o, Vec3(0, 0, -1), 0, 2));
-    hits += s.intersect(Ray(o, Vec3(0.01f, 0, -1))).has_value();
-  }
-  const double sigma = std::sqrt(0.3 * 0.7 / n);
-  EXPECT_NEAR(blocked / double(n), 0.3, 4 * sigma);
-  EXPECT_NEAR(hits / double(n), 0.3, 4 * sigma);
-  // The textured cut-out: exactly the covered half blocks.
-  Scene t;
-  t.materials = {m, cut};
-  t.meshes = {r};
-  t.finalize();
-  EXPECT_FALSE(t.occluded(Ray(Vec3(-0.5f, 0, 0), Vec3(0, 0, -1), 0, 2)));
-  EXPECT_TRUE(t.occluded(Ray(Vec3(0.5f, 0, 0), Vec3(0, 0, -1), 0, 2)));
-  EXPECT_FALSE(t.intersect(Ray(Vec3(-0.5f, 0, 0), Vec3(0, 0, -1))).has_value());
-  EXPECT_TRUE(t.intersect(Ray(Vec3(0.5f, 0, 0), Vec3(0, 0, -1))).has_value());
-}
-
 TEST(TexturedScene, BadTextureReferencesNameTheirPath) {
   auto load = [](const std::string& tex) {
     return load_scene_from_string(furnace_scene(R"({"type": "diffuse", "color": )" + tex + "}"), ".", "bad.json");

@@ -111,6 +111,41 @@ TEST(TransparentShadow, MixWeighsTheTransparentClosure) {
   expect_ratio(a, b, RGB(0.75f, 0.15f, 0.075f), 1e-4f, "mix 0.25");
 }
 
+TEST(TransparentShadow, AlphaIsAMixWithAWhiteTransparentBsdf) {
+  // Cycles 3.4's Principled Alpha a (shader_nodes.cpp PrincipledBsdfNode::expand): a Mix Shader
+  // of a Transparent BSDF (weight 1 - a) and the rest (weight a), the emission inside it. The
+  // scene format's `alpha` loads as that mix, so a shadow ray keeps exactly 1 - a (it was a
+  // stochastic cut-out: 0.75 only on average) and the emission is weighted by a.
+  const std::string leaf = R"({"type": "diffuse", "color": 0.8, "alpha": 0.25, "visible_to_camera": false})";
+  const Scene shadowed = scene_from(pane_scene(leaf));
+  const Scene open = scene_from(pane_scene(red_pane(false)));
+  ASSERT_TRUE(shadowed.has_transparent_shadows());
+  const RGB b = image_mean(render("pt", open, 4, seeded(2)));
+  expect_ratio(image_mean(render("pt", shadowed, 4, seeded(2))), b, RGB(0.75f), 1e-4f, "alpha 0.25, pt");
+  // Every method renders it as the mix written out (the photon methods' indirect light off the
+  // leaf's diffuse part included): sppm and msppm bit for bit.
+  std::string mix = pane_scene(R"({"type": "mix", "a": "clear", "b": "leaf", "factor": 0.25, "visible_to_camera": false})");
+  mix.replace(mix.find(R"("materials": {)"), 14,
+              R"("materials": {"clear": {"type": "transparent", "color": 1}, "leaf": {"type": "diffuse", "color": 0.8}, )");
+  const Scene written = scene_from(mix);
+  for (const char* method : {"sppm", "msppm"}) {
+    const RGB a = image_mean(render(method, shadowed, 2, photon_params(5000, 3)));
+    const RGB w = image_mean(render(method, written, 2, photon_params(5000, 3)));
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a[k], w[k]) << method << " channel " << k;
+  }
+  const Scene glow = scene_from(pane_scene(R"({"type": "diffuse", "alpha": 0.3, "emission": [1, 1, 1], "strength": 2})"));
+  for (const Material& m : glow.materials)
+    if (m.name == "pane") {
+      EXPECT_EQ(m.type, MaterialType::Mix);
+      ASSERT_TRUE(m.mix_a && m.mix_b);
+      EXPECT_TRUE(m.mix_a->has_transparent_closure());
+      EXPECT_EQ(m.mix_b->type, MaterialType::Diffuse);
+      EXPECT_FLOAT_EQ(m.mix_factor, 0.3f);
+      EXPECT_NEAR(m.radiance().r, 0.6f, 1e-6f);
+      EXPECT_TRUE(m.mix_b->radiance().is_black());
+    }
+}
+
 TEST(TransparentShadow, TransparentBouncesLimitTheSurfacesCrossed) {
   // Two red panes: the shadow ray crosses at most max(transparent_bounces - 0 - 1, 0) of them
   // (Cycles' integrate_shadow_max_transparent_hits): 3 lets both through (red squared), 2 one,

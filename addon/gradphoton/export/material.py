@@ -44,7 +44,8 @@ Cycles 3.4 keeps it: camera and bounce paths pick it by its mix weight (a transp
 counted against Light Paths > Transparent only), next-event estimation lights the other closures
 at every hit, and shadow rays pass filtered by its weight, up to Light Paths > Transparent
 bounces. (It was once a stochastic coverage cut-out for a white one: noisier, docs/blender.md.)
-Coverage (alpha) belongs to the whole material (lifted out of mix parts; the first found wins).
+Principled BSDF's Alpha a is Cycles 3.4's: a Mix Shader (factor a) of a white Transparent BSDF and
+the Principled BSDF with its emission (shader_nodes.cpp PrincipledBsdfNode::expand), the same mix.
 Normals are per closure, as Cycles' closures each have their own (the `normal` key: a link to a
 Normal Map or Bump node, or any vector output).
 
@@ -61,8 +62,6 @@ from .nodes import NodeGraph, SHADER
 from .volume import export_volume, volume_socket
 
 DEFAULT = "__gradphoton_default"
-# Keys that belong to the whole material, not to one layer of it (lifted out of mix parts).
-SURFACE_KEYS = ("alpha",)
 GREY = {"type": "diffuse", "color": 0.8}
 
 
@@ -332,12 +331,13 @@ class MaterialExporter:
             weights = (self.g.math("SUBTRACT", 1.0, t, clamp=True, hint="fac"), t)
         pairs = [self._shader_in(s, path) for s in sockets]
         parts = [self._sub(p, depth) for p in pairs]
+        return self._combine(parts, weights, t, node, path, ("a", "b"))
+
+    def _combine(self, parts, weights, t, node, path, labels):
+        """The core's mix (t: its factor) or add (t None) of two parts with their weights: holdout
+        and emission lifted into it, weighted (the Mix / Add Shader, and Principled Alpha's mix)."""
+        add = t is None
         holdout = self._holdout_weight(parts, weights)
-        lifted = {}
-        for d in parts:
-            for key in SURFACE_KEYS:
-                if key in d:
-                    lifted.setdefault(key, d.pop(key))
         # Emission inside a mix, weighted like the BSDFs, is carried by the mix itself (the
         # core takes a mix's emission from the mix, not from its parts).
         emission = None
@@ -349,12 +349,11 @@ class MaterialExporter:
             for key in ("emission", "strength", "two_sided"):
                 d.pop(key, None)
         out = {"type": "add" if add else "mix",
-               "a": self._part(parts[0], node, path, "a"), "b": self._part(parts[1], node, path, "b")}
+               "a": self._part(parts[0], node, path, labels[0]), "b": self._part(parts[1], node, path, labels[1])}
         if not add:
             out["factor"] = t
         if emission is not None and _positive(emission):
             out.update({"emission": emission, "strength": 1.0, "two_sided": True})
-        out.update(lifted)
         if holdout is not None:
             out["holdout"] = holdout
         return out
@@ -453,9 +452,17 @@ class MaterialExporter:
         strength = self._num(node, path, "Emission Strength")
         if _positive(strength) and _positive(emission):
             d = dict(d, emission=emission, strength=g.math("MAXIMUM", strength, 0.0, hint="strength"), two_sided=True)
-        coverage = self._clamp01(self._num(node, path, "Alpha"), "coverage")
-        if _is_link(coverage) or coverage < 1.0:
-            d["alpha"] = coverage
+        # Alpha a: Cycles 3.4 makes the Principled BSDF (its emission included) the second closure of
+        # a Mix Shader of factor a whose first is a white Transparent BSDF, where Alpha is linked or
+        # below 1 (shader_nodes.cpp PrincipledBsdfNode::expand; the mix clamps a to [0, 1]). The
+        # core's mix with a transparent closure is exactly that, in every method: paths pick the
+        # Transparent BSDF by its weight 1 - a (a transparent bounce), shadow rays pass filtered by
+        # it. (It was a stochastic coverage cut-out, the core's `alpha`.)
+        a = self._clamp01(self._num(node, path, "Alpha"), "alpha")
+        if _is_link(a) or a < 1.0:
+            clear = {"type": "transparent", "color": [1.0, 1.0, 1.0]}
+            d = self._combine([clear, d], (g.math("SUBTRACT", 1.0, a, clamp=True, hint="alpha"), a), a, node, path,
+                              ("transparent", "surface"))
         return d
 
     def _dispersion(self, d, mat):

@@ -128,11 +128,12 @@ void equiangular_next_event(const LightSet& lights, const Ray& ray, float t_end,
 }
 
 // Follows `ray` from the camera (its closest hit `first`, when given, already traced); returns
-// false when the camera ray escaped with a transparent film or met a holdout (Ray::held_out: the
-// pixel's sample is then uncovered and black), true otherwise. `sampler` gives the path's numbers
+// the sample's transparency (Cycles' transparent pass, alpha = 1 - it): 0 where the path met the
+// scene; where the camera ray escaped, after transparent bounces only, with a transparent film
+// or past a holdout (Ray::held_out), the average of its throughput, with no background. `sampler` gives the path's numbers
 // by dimension (core/sampler.h: IndependentSampler or SobolSampler), the camera's taken before.
 template <class P, class S>
-bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray, S& sampler, RayCounts& rays, P& path,
+float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray, S& sampler, RayCounts& rays, P& path,
                        const std::optional<SurfaceHit>* first = nullptr) {
   // Motion blur: the whole path at its camera ray's shutter time (drawn once per camera path by
   // start_pixel), which every ray, hit and light sample on the path then takes (core/math.h).
@@ -209,7 +210,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       // with phase sampling (the phase function as the BSDF of a medium vertex) ----
       path.medium_weight(segment->scatter_weight(t_scatter));
       const Vec3 p = ray.at(t_scatter);
-      if (depth + 1 >= s.max_depth) return true;
+      if (depth + 1 >= s.max_depth) return 0.0f;
       if (!lights.empty()) {
         const float u_light = sampler.get1d(path_dim(vertex, kDimLight));
         const Vec2 u2 = sampler.get2d(path_dim(vertex, kDimLight2));
@@ -234,7 +235,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       const Vec3 wi = segment->sample_phase(ray.d, u_lobe, u);
       const float cos_theta = dot(ray.d, wi);
       const float pdf = segment->phase_pdf(cos_theta);
-      if (!(pdf > 0)) return true;
+      if (!(pdf > 0)) return 0.0f;
       ChannelValues ratio = segment->phase(cos_theta);
       for (float& r : ratio) r /= pdf;
       path.medium_scattered(p, pdf, ratio);
@@ -242,21 +243,25 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       const RayState state = ray.state.volume_next();
       ray = Ray(p, wi);  // a volume ray: every surface is there for it
       ray.state = state;
-      if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return true;
+      if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return 0.0f;
       continue;
     }
     if (segment) path.medium_weight(segment->pass_weight(hit ? hit->t : kInfinity));
 
     if (!hit) {
-      if (depth == 0 && (s.film_transparent || ray.held_out)) return false;  // a holdout: black, uncovered
+      // A camera ray that leaves the scene after transparent bounces only (depth 0) sees no
+      // background with a transparent film (Cycles' PATH_RAY_TRANSPARENT_BACKGROUND): the
+      // sample's transparency is the average of its throughput (integrate_background: a red
+      // pane leaves 1/3, alpha 2/3, no colour). A holdout leaves the camera's throughput, 1.
+      if (depth == 0 && (s.film_transparent || ray.held_out)) return path_transparency(path);
       path.environment(depth, ray);
-      return true;
+      return 0.0f;
     }
     if (hit->light >= 0) path.area_light(depth, *hit, ray);
     // Light Paths > Transparent reached: the ray that made the last allowed transparent bounce
     // sees this surface's emission and ends here (Cycles' PATH_RAY_TERMINATE_ON_NEXT_SURFACE,
     // path_state.h path_state_next).
-    if (transparent_done(scene.transparent_bounces, ray.state)) return true;
+    if (transparent_done(scene.transparent_bounces, ray.state)) return 0.0f;
     // ---- A pass-through surface: the path goes on as if it were not there, keeping its kind of
     // ray, not counting a bounce. A clear Transparent BSDF counts a transparent bounce (Cycles'
     // LABEL_TRANSPARENT); a light object (no shadow: Cycles' lights are not geometry) and a
@@ -282,10 +287,10 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
       --depth;
       continue;
     }
-    if (depth + 1 >= s.max_depth || volume_done) return true;
-    if (!path.prepare(*hit)) return true;
+    if (depth + 1 >= s.max_depth || volume_done) return 0.0f;
+    if (!path.prepare(*hit)) return 0.0f;
     const Vec3 wo = hit->frame.to_local(-ray.d);
-    if (wo.z == 0) return true;
+    if (wo.z == 0) return 0.0f;
 
     // ---- Emitter sampling (next-event estimation). A light lit only by BSDF rays (the World
     // hidden from some kinds, lobe_split.h) is not sampled.
@@ -304,7 +309,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     const float uc = sampler.get1d(path_dim(vertex, kDimLobe));
     const Vec2 u = sampler.get2d(path_dim(vertex, kDimScatter2));
     const std::optional<BsdfSample> bs = path.scatter(*hit, wo, uc, u);
-    if (!bs) return true;
+    if (!bs) return 0.0f;
     const Vec3 wi = hit->frame.to_world(bs->wi);
     // A sample through a surface with an interior medium (glass of murky water) crosses it.
     if (media && material.interior >= 0 && (dot(wi, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
@@ -328,18 +333,18 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     }
 
     // ---- Russian roulette ----
-    if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return true;
+    if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return 0.0f;
   }
 }
 
-// The radiance of one camera path (path.L after trace_camera_path), with whether it covered its
-// pixel (not escaped to a transparent background) and its shadow rays counted: the path
-// tracers' Li, RGB and spectral.
+// The radiance of one camera path (path.L after trace_camera_path), with its transparency (0:
+// it covered its pixel; trace_camera_path) and its shadow rays counted: the path tracers' Li,
+// RGB and spectral.
 template <typename P, typename S>
 auto camera_path_radiance(const Scene& scene, const CameraPathSettings& s, Ray ray, S& sampler, RayCounts& rays, P& path,
-                          const std::optional<SurfaceHit>* first, bool* escaped) {
-  const bool covered = trace_camera_path(scene, s, ray, sampler, rays, path, first);
-  if (escaped) *escaped = !covered;
+                          const std::optional<SurfaceHit>* first, float* transparent) {
+  const float t = trace_camera_path(scene, s, ray, sampler, rays, path, first);
+  if (transparent) *transparent = t;
   rays.shadow += path.shadow_rays;
   return path.L;
 }

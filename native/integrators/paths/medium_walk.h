@@ -3,6 +3,9 @@
 // went in each medium, and per-channel transmittance from those lengths.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+
 #include "media/medium.h"
 #include "scene/scene.h"
 
@@ -18,13 +21,32 @@ struct ShadowChannels {
 };
 
 // Whether a ray of Light Path state `state` ends at the next surface it meets, after that
-// surface's emission: its transparent bounces reached Light Paths > Transparent
-// (Scene::transparent_bounces; Cycles sets PATH_RAY_TERMINATE_ON_NEXT_SURFACE once
-// transparent_bounce >= transparent_max_bounce after a transparent bounce, path_state.h
-// path_state_next). The camera-path loop, the photon methods' eye walk and gpt's base path
-// share it; a transparent bounce is not a bounce for their depth (RayState::next).
+// surface's emission: its transparent bounces passed Light Paths > Transparent
+// (Scene::transparent_bounces; Cycles' PATH_RAY_TERMINATE_ON_NEXT_SURFACE, path_state.h
+// path_state_next). Measured in Blender 3.4's Cycles (issue 30): ten clear panes before an
+// emitter show it with Transparent 9 and hide it with 8, so the ray that made the
+// (transparent_bounces + 1)-th pass still sees the next surface's emission; and with
+// Transparent 1 a floor seen through one pane is shaded as usual (its shadow rays then cross
+// none, ShadowTest). Every camera-path walk shares it (the camera-path loop, the photon methods'
+// eye walk, gpt's, sgpt's and msppm's); a transparent bounce is not a bounce for their depth
+// (RayState::next).
 inline bool transparent_done(int transparent_bounces, const RayState& state) {
-  return state.transparent > 0 && state.transparent >= transparent_bounces;
+  return state.transparent > 0 && state.transparent > transparent_bounces;
+}
+
+// Cycles' transparency of a camera path that escaped to a transparent background after
+// transparent bounces only: the average of its throughput (integrate_background adds
+// average(throughput) to the transparent pass; alpha = 1 - it), in [0, 1], over the path's
+// channels (RGB, or its wavelengths). The camera-path loop and the photon methods' eye walk
+// share it.
+template <class P>
+float path_transparency(const P& path) {
+  const ChannelValues w = path.channel_weights();
+  const int n = path.channels();
+  float sum = 0;
+  for (int k = 0; k < n; ++k) sum += w[k];
+  const float t = n > 0 ? sum / n : 1.0f;
+  return std::isfinite(t) ? std::clamp(t, 0.0f, 1.0f) : 1.0f;
 }
 
 // The shadow test of next-event estimation: the per-channel transmittance from a vertex to a

@@ -39,7 +39,11 @@ Msppm::Msppm(const Scene& scene, const Params& params)
   const size_t n = static_cast<size_t>(width_) * height_;
   if (photons_per_pass_ == 0) photons_per_pass_ = static_cast<int64_t>(n);  // §9.5
   px_.assign(n, PixelState{});
-  eye_.assign(n * max_depth_, EyeVertex{});
+  // A camera path's vertices: max_depth_ bounces and, in a scene with Transparent BSDFs that
+  // shadow rays pass, up to transparent_bounces + 1 passes through them (transparent_done), which
+  // count no bounce.
+  eye_stride_ = max_depth_ + (scene.has_transparent_shadows() ? std::max(scene.transparent_bounces, 0) + 1 : 0);
+  eye_.assign(n * eye_stride_, EyeVertex{});
   eye_count_.assign(n, 0);
   eye_origin_.assign(n, Vec3());
   pass_direct_.assign(n, RGB(0.0f));
@@ -85,8 +89,8 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
       [&](const Tile& tile) {
         int64_t rays = 0, invalid = 0;
         std::vector<PathVertex> y;
-        std::vector<double> cy(static_cast<size_t>(max_depth_) + 2, 0.0);  // c_j of the path so far
-        std::vector<EyeVertex> scratch(static_cast<size_t>(max_depth_));   // vertices of the extra PT paths
+        std::vector<double> cy(static_cast<size_t>(eye_stride_) + 2, 0.0);  // c_j of the path so far
+        std::vector<EyeVertex> scratch(static_cast<size_t>(eye_stride_));   // vertices of the extra PT paths
         // One camera path from `film`/`lens` samples of `rng`: weighted PT contribution returned,
         // vertices written to ev[0 .. count). `ratio` = n_pm / n_pt (see light_weight). With
         // `beams` (the pixel's measurement path, in media), its segments through scattering media
@@ -177,6 +181,9 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
                   y.pop_back();
                 }
               }
+              // Light Paths > Transparent reached: the surface's emission is seen, the path ends
+              // (as paths/camera_path.h and trace_eye).
+              if (transparent_done(scene_.transparent_bounces, ray.state) || count >= eye_stride_) break;
               const Bsdf bsdf = scene_.bsdf(*hit);
               if (bsdf.is_black()) break;
               const Vec3 wo = hit->frame.to_local(-ray.d);
@@ -258,7 +265,9 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
               const auto bs = bsdf.sample(wo, uc, u);
               if (!bs || bs->pdf <= 0 || bs->f.is_black()) break;
               const Material& material = scene_.material(hit->material);
-              const bool crossed = material.is_pass_through();  // a light object, a volume boundary
+              // A light object, a volume boundary (a clear Transparent BSDF, which shadow rays pass
+              // filtered, is a transparent pass below, as trace_eye's).
+              const bool crossed = material.is_pass_through() && !material.transparent_shadow();
               const Vec3 wi_world = hit->frame.to_world(bs->wi);
               // A sample through a surface with an interior medium (glass of murky water, a volume
               // boundary) crosses it.
@@ -280,6 +289,10 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
                 e.crossed = true;
                 y.pop_back();
                 if (split_lobes) prev.beta *= bs->f * (std::abs(bs->wi.z) / bs->pdf);
+                // A transparent bounce, counted against Light Paths > Transparent only (the ray's
+                // state counts it, scattered_ray), not a bounce: Cycles' path_state_next, as the
+                // other methods.
+                --depth;
               } else {
                 past_mergeable = past_mergeable || e.mergeable;
                 kind = bs->lobe;
@@ -320,7 +333,7 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
             Rng rng = Rng::for_key(seed_, scene_.camera.pixel_key(px, py), pass);
             int count = 0;
             float first_r = 0;
-            RGB Ld = trace(rng, px, py, ratio, &eye_[pixel * max_depth_], count, first_r, eye_origin_[pixel],
+            RGB Ld = trace(rng, px, py, ratio, &eye_[pixel * eye_stride_], count, first_r, eye_origin_[pixel],
                            media_ ? &beams_[pixel * kMaxBeams] : nullptr, media_ ? &n_beams_[pixel] : nullptr,
                            media_ ? &first_vr_[pixel] : nullptr);
             eye_count_[pixel] = count;
@@ -490,7 +503,7 @@ void Msppm::iterate(ProgressSink* sink) {
   double max_r2 = 0, sum_rq = 0, n_q = 0;
   for (size_t i = 0; i < n_pixels; ++i) {
     if (!(pass_npm_[i] > 0)) continue;
-    const EyeVertex* ev = &eye_[i * max_depth_];
+    const EyeVertex* ev = &eye_[i * eye_stride_];
     bool any = false;
     for (int j = 0; j < eye_count_[i] && !any; ++j) any = ev[j].mergeable;
     if (!any) continue;
@@ -504,9 +517,9 @@ void Msppm::iterate(ProgressSink* sink) {
   if (have_photons) grid_.build(photons_, 2.0f * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
   std::atomic<int64_t> points{0}, found{0};
   parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    std::vector<PathVertex> ycam(static_cast<size_t>(max_depth_) + 1), ytmp(ycam.size());
-    std::vector<double> cpre(static_cast<size_t>(max_depth_) + 1), ctmp(cpre.size());
-    std::vector<int> at(static_cast<size_t>(max_depth_));
+    std::vector<PathVertex> ycam(static_cast<size_t>(eye_stride_) + 1), ytmp(ycam.size());
+    std::vector<double> cpre(static_cast<size_t>(eye_stride_) + 1), ctmp(cpre.size());
+    std::vector<int> at(static_cast<size_t>(eye_stride_));
     std::vector<const Photon*> hits;
     int64_t local_points = 0, local_found = 0;
     for (size_t i = lo; i < hi; ++i) {
@@ -516,7 +529,7 @@ void Msppm::iterate(ProgressSink* sink) {
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       const double npm = pass_npm_[i];
       if (!(npm > 0)) continue;  // weight 0 for every photon (pass 0, see eye_pass)
-      const EyeVertex* ev = &eye_[i * max_depth_];
+      const EyeVertex* ev = &eye_[i * eye_stride_];
       // The camera path as path vertices y_0 .. y_n, those it crossed (EyeVertex::crossed) left
       // out, and its prefix sums c_j; at[a]: the index of ev[a] in it (a crossed one: where it
       // would be, as the end of the paths that merge there).

@@ -269,7 +269,8 @@ class Msppm : public Integrator {
   std::vector<std::vector<PhotonTail>> chunk_tails_;
   std::vector<std::vector<Photon>> chunk_photons_;
   std::vector<PhotonPathRecord> chunk_records_;
-  std::vector<EyeVertex> eye_;                    // max_depth_ per pixel
+  std::vector<EyeVertex> eye_;                    // eye_stride_ per pixel
+  int eye_stride_ = 0;                            // max_depth_ + the transparent passes a path may make
   std::vector<int> eye_count_;
   std::vector<Vec3> eye_origin_;
   std::vector<RGB> pass_direct_;

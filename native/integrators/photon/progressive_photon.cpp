@@ -189,6 +189,7 @@ bool ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, bool 
             path.vp = end.vp;
             path.path_length = end.path_length;
             path.escaped = end.escaped;
+            path.transparent = end.transparent;
             store_beams(pixel, end, ext);
             if (!path.Ld.is_finite()) {
               ++invalid;
@@ -199,7 +200,9 @@ bool ProgressivePhotonMapping::eye_pass(uint64_t pass, ProgressSink* sink, bool 
               path.vp.material = -1;
             }
             pass_direct_[pixel] = path.Ld;
-            pass_covered_[pixel] = path.escaped ? 0.0f : first.coverage[k];  // a Holdout in a mix: 1 - weight
+            // Alpha: 1 - the transparency of a path that escaped after transparent bounces only
+            // (paths/medium_walk.h path_transparency), times 1 - a Holdout's weight in a mix.
+            pass_covered_[pixel] = (path.escaped ? 1.0f - path.transparent : 1.0f) * first.coverage[k];
             vp_[pixel] = path.vp;
             first_r_[pixel] = path.vp.material >= 0 ? footprint_radius(path.path_length, ext) : 0.0f;
           }

@@ -240,6 +240,7 @@ class ProgressivePhotonMapping : public Integrator {
     VisiblePoint vp;        // the measurement point (material -1: none)
     float path_length = 0;  // distance travelled to it (initial radius)
     bool escaped = false;   // the camera ray left the scene with film_transparent: no background
+    float transparent = 0;  // escaped: its transparency (path_transparency)
   };
   // SPPM's camera path: through specular and glossy vertices by BSDF sampling (Russian roulette
   // from rr_depth) to the first photon-diffuse vertex, where it takes NEE when photons skip
@@ -262,6 +263,7 @@ class ProgressivePhotonMapping : public Integrator {
     VisiblePoint vp;        // the measurement point (material -1: none)
     float path_length = 0;  // distance travelled to it (initial radius)
     bool escaped = false;   // the camera ray left the scene with film_transparent: no background
+    float transparent = 0;  // escaped: its transparency (path_transparency; a red pane's 1/3)
     int n_beams = 0;        // camera segments through scattering media (media only)
     std::array<EyeBeam, kMaxBeams> beams;
     float beam_length = 0;  // distance travelled to the first beam's middle (initial cylinder radius)
@@ -279,6 +281,10 @@ class ProgressivePhotonMapping : public Integrator {
   // wavelengths, from the same run of its node graph.
   Bsdf eye_bsdf(RgbEye& c, const SurfaceHit& hit) const;
   Bsdf eye_bsdf(SpectralEye& c, const SurfaceHit& hit) const;
+  // The Transparent BSDF closures' weight at the hit per channel (Bsdf::transparency; spectral:
+  // at each wavelength).
+  ChannelValues eye_transparency(RgbEye& c, const SurfaceHit& hit, const Bsdf& bsdf) const;
+  ChannelValues eye_transparency(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf) const;
   RGB eye_nee(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf, const Vec3& wo, float u_light,
               const Vec2& u2, int64_t& rays, const ShadowTest* shadow) const;
   std::optional<BsdfSample> eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf& bsdf,
@@ -485,7 +491,10 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     // which no photon covers, so nothing is counted twice.
     if (!hit) {
       const int env = lights.environment();
-      if (depth == 0 && (film_transparent_ || ray.held_out)) out.escaped = true;  // a holdout: black
+      if (depth == 0 && (film_transparent_ || ray.held_out)) {  // a holdout: black
+        out.escaped = true;  // after transparent bounces only: no background, alpha 1 - transparency
+        out.transparent = path_transparency(c);
+      }
       else if (env >= 0 && lights.lights()[env].visible_to(kind)) c.environment(lights.environment_radiance(ray), env);
       break;
     }
@@ -498,7 +507,38 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) break;
     hooks.vertex(*hit, wo, bsdf);
-    if (bsdf.is_diffuse_for_photons(threshold_)) {
+    bool measure = bsdf.is_diffuse_for_photons(threshold_);
+    // A photon-diffuse surface with a Transparent BSDF in its mix (a leaf's Alpha: Cycles' Mix of
+    // a Transparent BSDF and the rest): with probability q, the closure's mean weight, the path
+    // passes straight through (a transparent bounce, weight T / q per channel, as a BSDF sample
+    // of that closure), else it is measured here weighted 1 / (1 - q) (the measurement and its
+    // NEE evaluate the other closures only). Without this the mix's see-through part was lost.
+    std::optional<BsdfSample> through;
+    if (measure && scene_.material(hit->material).transparent_shadow()) {
+      ChannelValues T = eye_transparency(c, *hit, bsdf);
+      float mean = 0;
+      for (int k = 0; k < c.channels(); ++k) mean += T[k];
+      const float q = std::min(mean / c.channels(), 0.999f);
+      if (q > 0.0f) {
+        if (rng.uniform() < q) {
+          for (int k = 0; k < c.channels(); ++k) T[k] /= q;
+          c.medium_weight(T);
+          BsdfSample pass;
+          pass.f = RGB(1.0f);
+          pass.wi = -wo;
+          pass.pdf = 1.0f;
+          pass.delta = pass.transmission = true;
+          pass.lobe = kRayTransmission;
+          through = pass;
+          measure = false;
+        } else {
+          ChannelValues w;
+          w.fill(1.0f / (1.0f - q));
+          c.medium_weight(w);
+        }
+      }
+    }
+    if (measure) {
       if (emission_only) break;
       // ---- Measurement point; direct light by NEE when photons skip it ----
       if (nee_ && !lights.empty()) {
@@ -518,10 +558,13 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
       hooks.gather(*hit);
       break;
     }
-    // ---- Specular or glossy vertex: continue by BSDF sampling ----
-    const float uc = rng.uniform();
-    const Vec2 u(rng.uniform(), rng.uniform());
-    const std::optional<BsdfSample> bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
+    // ---- Specular or glossy vertex (or a transparent pass drawn above): continue by BSDF sampling ----
+    std::optional<BsdfSample> bs = through;
+    if (!bs) {
+      const float uc = rng.uniform();
+      const Vec2 u(rng.uniform(), rng.uniform());
+      bs = eye_scatter(c, *hit, bsdf, wo, uc, u);
+    }
     if (!bs) break;
     const Material& material = scene_.material(hit->material);
     // A light object, a volume boundary (a clear Transparent BSDF, which shadow rays pass
@@ -564,6 +607,10 @@ inline std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(RgbEye& c
   return bs;
 }
 inline Bsdf ProgressivePhotonMapping::eye_bsdf(RgbEye&, const SurfaceHit& hit) const { return scene_.bsdf(hit); }
+inline ChannelValues ProgressivePhotonMapping::eye_transparency(RgbEye&, const SurfaceHit&, const Bsdf& bsdf) const {
+  const RGB t = bsdf.transparency();
+  return {t.r, t.g, t.b};
+}
 inline bool ProgressivePhotonMapping::eye_survive(RgbEye& c, float u, float* survival) const {
   return russian_roulette(c.beta, u, survival);
 }
@@ -581,6 +628,7 @@ ProgressivePhotonMapping::EyePath ProgressivePhotonMapping::trace_eye_path(Ray r
   out.vp = end.vp;
   out.path_length = end.path_length;
   out.escaped = end.escaped;
+  out.transparent = end.transparent;
   return out;
 }
 

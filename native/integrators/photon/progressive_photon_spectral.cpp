@@ -169,6 +169,12 @@ std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, 
   return bs;
 }
 
+ChannelValues ProgressivePhotonMapping::eye_transparency(SpectralEye& c, const SurfaceHit& hit, const Bsdf&) const {
+  ChannelValues t{};
+  for (int k = 0; k < c.C; ++k) t[k] = scene_.bsdf(c.mk[k], hit).transparency()[0];
+  return t;
+}
+
 Bsdf ProgressivePhotonMapping::eye_bsdf(SpectralEye& c, const SurfaceHit& hit) const {
   const Material& m = scene_.material(hit.material);
   if (!m.graph || !pass_spectra_.per_point(hit.material)) {
@@ -233,7 +239,8 @@ bool ProgressivePhotonMapping::spectral_eye_pass(uint64_t pass, ProgressSink* si
               vp.material = -1;
             }
             pass_direct_[pixel] = Lrgb;
-            pass_covered_[pixel] = escaped ? 0.0f : first.coverage[i];  // a Holdout in a mix: 1 - weight
+            // As the RGB eye pass: 1 - an escaped path's transparency, times 1 - a mixed Holdout's weight.
+            pass_covered_[pixel] = (escaped ? 1.0f - end.transparent : 1.0f) * first.coverage[i];
             vp_[pixel] = vp;
             vp_beta_[pixel] = beta;
             vp_hero_[pixel] = hero_only ? 1 : 0;

@@ -442,7 +442,9 @@ void SpectralSample::trace_base(Ray ray) {
     bv.hit = *hit;
     bv.wo = hit->frame.to_local(-ray.d);
     base.v.push_back(bv);
-    if (depth + 1 >= s_.max_depth) break;
+    // Light Paths > Transparent reached: this surface's emission is seen and the path ends
+    // (Cycles' PATH_RAY_TERMINATE_ON_NEXT_SURFACE, as paths/camera_path.h).
+    if (depth + 1 >= s_.max_depth || transparent_done(scene.transparent_bounces, ray.state)) break;
     const Material& mat = scene.material(hit->material);
     if (scene.bsdf(*hit).is_black() || bv.wo.z == 0) break;
     const Bsdf b = scene.bsdf(monochromatic(mat, s_.spectra.albedo[hit->material], hit->uv, lambda_), *hit);
@@ -479,21 +481,27 @@ void SpectralSample::trace_base(Ray ray) {
     // kind, so both paths of a pair see the same surfaces); a light object keeps the kind.
     v.kind = mat.is_pass_through() ? ray.bounce : bs->lobe;
     const bool camera = ray.camera && mat.is_pass_through();
-    const RayState state = mat.is_pass_through()
-                               ? ray.state
-                               : next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
+    RayState state = mat.is_pass_through()
+                         ? ray.state
+                         : next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
+    if (v.transparent && mat.is_pass_through() && mat.interior < 0) ++state.transparent;  // a clear pane (as camera_path.h)
     ray = Ray(offset_ray_origin(hit->p, hit->ng, wi), wi);
     ray.bounce = v.kind;
     ray.state = state;
     ray.camera = camera;
     const Scatter s = v.delta ? delta_scatter(b, v.wo, v.wi, v.transmission, v.uc, v.u) : smooth_scatter(b, v.wo, v.wi);
     beta *= s.f_cos / s.pdf;
-    v.rr = mat.is_pass_through() ? 1.0f : survival(depth, beta);  // a light object crossed: no roulette (as spt)
+    // Roulette by the vertex's index, as the offsets take it (survival(k, ...)), not by depth,
+    // which a transparent pass does not advance.
+    v.rr = mat.is_pass_through() ? 1.0f : survival(base.v.size() - 1, beta);  // a light object crossed: no roulette (as spt)
     if (v.rr < 1.0f && rng_.uniform() >= v.rr) {
       v.scattered = false;  // roulette ended the path after NEE at this vertex
       break;
     }
     beta /= v.rr;
+    // A pass through a Transparent BSDF counts against Light Paths > Transparent only, not as a
+    // bounce (Cycles' path_state_next; the ray's state counted it), as in every other method.
+    if (v.transparent) --depth;
   }
   K_ = base.v.size() + (base.escaped ? 1 : 0);
 }

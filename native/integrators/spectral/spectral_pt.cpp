@@ -357,19 +357,19 @@ struct SpectralPath {
 
 template <class S>
 SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, S& sampler, RayCounts& rays,
-                                      const std::optional<SurfaceHit>* first, bool* escaped) const {
+                                      const std::optional<SurfaceHit>* first, float* transparent) const {
   SpectralPath path(scene_, spectra_, wl);
-  return camera_path_radiance(scene_, settings_, ray, sampler, rays, path, first, escaped);
+  return camera_path_radiance(scene_, settings_, ray, sampler, rays, path, first, transparent);
 }
 template SpectralValues SpectralPathTracer::Li(Ray, const SampledWavelengths&, SobolSampler&, RayCounts&,
-                                               const std::optional<SurfaceHit>*, bool*) const;
+                                               const std::optional<SurfaceHit>*, float*) const;
 template SpectralValues SpectralPathTracer::Li(Ray, const SampledWavelengths&, IndependentSampler&, RayCounts&,
-                                               const std::optional<SurfaceHit>*, bool*) const;
+                                               const std::optional<SurfaceHit>*, float*) const;
 
 SpectralValues SpectralPathTracer::Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
-                                      const std::optional<SurfaceHit>* first, bool* escaped) const {
+                                      const std::optional<SurfaceHit>* first, float* transparent) const {
   IndependentSampler sampler{rng};
-  return Li(ray, wl, sampler, rays, first, escaped);
+  return Li(ray, wl, sampler, rays, first, transparent);
 }
 
 void SpectralPathTracer::iterate(ProgressSink* sink) {
@@ -378,9 +378,9 @@ void SpectralPathTracer::iterate(ProgressSink* sink) {
                               // The hero wavelength: a camera dimension of the pattern.
                               const SampledWavelengths wl =
                                   SampledWavelengths::sample_uniform(rng.get1d(kDimWavelength), count_);
-                              bool escaped = false;
-                              const RGB L = sample_to_rgb(Li(ray, wl, rng, rays, first, &escaped), wl);
-                              return PixelSample{L, escaped ? 0.0f : 1.0f};
+                              float transparent = 0.0f;  // Cycles' transparent pass: alpha 1 - it
+                              const RGB L = sample_to_rgb(Li(ray, wl, rng, rays, first, &transparent), wl);
+                              return PixelSample{L, 1.0f - transparent};
                             });
 }
 

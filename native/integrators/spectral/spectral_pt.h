@@ -49,13 +49,14 @@ class SpectralPathTracer : public Integrator {
   int wavelengths() const { return count_; }
   // Spectral radiance at the wavelengths `wl` along one camera ray (exposed for tests).
   // `first`, when given, is the closest hit of `ray` already traced (trace_camera_rays).
-  // With film_transparent, a camera ray that escapes gives 0 and sets *escaped.
+  // With film_transparent, a camera ray that escapes (after transparent bounces only) gives 0 and
+  // sets *transparent to its transparency (paths/medium_walk.h path_transparency; 0 otherwise).
   SpectralValues Li(Ray ray, const SampledWavelengths& wl, Rng& rng, RayCounts& rays,
-                    const std::optional<SurfaceHit>* first = nullptr, bool* escaped = nullptr) const;
+                    const std::optional<SurfaceHit>* first = nullptr, float* transparent = nullptr) const;
   // The same with the path's numbers from a sampler (core/sampler.h), as iterate() draws them.
   template <class S>
   SpectralValues Li(Ray ray, const SampledWavelengths& wl, S& sampler, RayCounts& rays,
-                    const std::optional<SurfaceHit>* first = nullptr, bool* escaped = nullptr) const;
+                    const std::optional<SurfaceHit>* first = nullptr, float* transparent = nullptr) const;
 
  private:
   const Scene& scene_;
