@@ -132,6 +132,8 @@ class Gpm : public ProgressivePhotonMapping {
   void develop(Film& film) const override;
   // Tests: trace every pixel's offsets in the eye pass (the lazy rule's reference image).
   void set_eager_offsets(bool eager) { eager_all_offsets_ = eager; }
+  // Tests: `photons` 0 takes SPPM's ramp, not gpm_photons_per_pass (regressions found with it).
+  void set_ramp_photons(bool ramp) { ramp_photons_ = ramp; }
 
   // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
@@ -234,9 +236,11 @@ class Gpm : public ProgressivePhotonMapping {
   RGB reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& pdf) const;
 
   ReconOptions recon_;
+  bool ramp_photons_ = false;
   GpmPassWork last_work_;  // the last pass's, for the next pass's photon count (gpm_photons_per_pass)
   int64_t photons_next(uint64_t pass) const {
-    return photons_per_pass_ > 0 || pass == 0 ? photons_for_pass(pass) : gpm_photons_per_pass(last_work_, width_, height_, pass);
+    return photons_per_pass_ > 0 || pass == 0 || ramp_photons_ ? photons_for_pass(pass)
+                                                                : gpm_photons_per_pass(last_work_, width_, height_, pass);
   }
   std::vector<std::array<OffsetPoint, 4>> off_;
   std::vector<PhotonOrigin> origins_;
