@@ -99,9 +99,9 @@ ParamDecl photons_ramp() {
 }
 // GPM's own photons per pass (issue 34): its primal is SPPM's image at the same parameters, not
 // at both methods' defaults. 0: from the second pass, as many as keep the counted eye work a
-// quarter of a pass, never below SPPM's ramp (gpm.h gpm_photons_per_pass).
+// half of a pass, never below SPPM's ramp (gpm.h gpm_photons_per_pass).
 ParamDecl gpm_photons() {
-  return photons(0, "100 000, then as many as keep the eye pass a quarter of a pass (at least SPPM's 100 000 "
+  return photons(0, "100 000, then as many as keep the eye pass half of a pass (at least SPPM's 100 000 "
                     "doubling every 8 passes, at most 4 000 000)");
 }
 ParamDecl alpha(double d, const char* reference) {

@@ -777,17 +777,17 @@ TEST(Gpm, DirectLightInThePrimalDomainKeepsTheGradientsUnbiased) {
   EXPECT_NE(on.pass(pass::kGradientX).data, off.pass(pass::kGradientX).data);
 }
 
-// Photons per pass with `photons` 0 (issue 34; gpm.h gpm_photons_per_pass): three photons' work
-// per unit of eye work, so that the eye pass is a quarter of a pass; never below SPPM's ramp, at
+// Photons per pass with `photons` 0 (issue 34; gpm.h gpm_photons_per_pass): as much photon work
+// as the last pass's eye work, so that the eye pass is half a pass; never below SPPM's ramp, at
 // most 4 000 000 emitted and 1 000 000 stored at the last pass's stored share.
-TEST(Gpm, PhotonsPerPassKeepTheEyePassAQuarterOfAPass) {
+TEST(Gpm, PhotonsPerPassKeepTheEyePassHalfAPass) {
   GpmPassWork w{.eye_rays = 1000000, .photon_rays = 100000, .emitted = 100000, .stored = 1000};
   const double eye = w.eye_work(), per_photon = w.photon_work() / 100000.0;
   const int64_t n = gpm_photons_per_pass(w, 384, 288, 5);
-  EXPECT_NEAR(static_cast<double>(n), 3 * eye / per_photon, 1.0);
-  // The next pass at that count: its eye work a quarter of the pass's.
+  EXPECT_NEAR(static_cast<double>(n), eye / per_photon, 1.0);
+  // The next pass at that count: its eye work half the pass's.
   const double share = eye / (eye + static_cast<double>(n) * per_photon);
-  EXPECT_NEAR(share, 0.25, 1e-6);
+  EXPECT_NEAR(share, 0.5, 1e-6);
   // Gather work counts as photon work: a costlier gather, fewer photons.
   GpmPassWork walked = w;
   walked.shift_rays = 400000;
@@ -813,7 +813,7 @@ TEST(Gpm, PhotonsPerPassKeepTheEyePassAQuarterOfAPass) {
 // the first take more than the ramp; counted work, not time, so a seed gives the same image bit
 // for bit, at any thread count; a given `photons` still sets every pass.
 TEST(Gpm, PhotonsPerPassFollowTheCountedEyeWorkDeterministically) {
-  const Scene s = test_scene("sun-caustic", 96, 72);
+  const Scene s = test_scene("sun-caustic", 192, 144);
   Params p = photon_params(0, 3, 1);
   Film a, b;
   auto first = run("gpm", s, 3, p);
@@ -826,7 +826,7 @@ TEST(Gpm, PhotonsPerPassFollowTheCountedEyeWorkDeterministically) {
   const auto& extra = first->stats().extra;
   const double traced = extra.at("photons traced");
   EXPECT_EQ(traced, second->stats().extra.at("photons traced"));
-  std::printf("sun-caustic 96x72, 3 passes: %.0f photons traced (the ramp: 300 000), eye work share %.3f\n", traced,
+  std::printf("sun-caustic 192x144, 3 passes: %.0f photons traced (the ramp: 300 000), eye work share %.3f\n", traced,
               extra.at("eye work share (last)"));
   EXPECT_GT(traced, 300000.0 * 1.2);
   Params given = photon_params(100000, 3, 2);

