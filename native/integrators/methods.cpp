@@ -98,10 +98,12 @@ ParamDecl photons_ramp() {
   return photons(0, "100 000, doubling every 8 passes up to two per pixel (at most 1 000 000)");
 }
 // GPM's own photons per pass (issue 34): its primal is SPPM's image at the same parameters, not
-// necessarily at both methods' defaults. 0: SPPM's ramp, until the equal-time sweep of
-// `scripts/bench_gpm.py error` (docs/gradient.md "Photons per pass") sets a count here.
-constexpr int64_t kGpmPhotonsPerPass = 0;
-ParamDecl gpm_photons() { return kGpmPhotonsPerPass > 0 ? photons(kGpmPhotonsPerPass) : photons_ramp(); }
+// at both methods' defaults. 0: from the second pass, as many as keep the counted eye work a
+// half of a pass, never below SPPM's ramp (gpm.h gpm_photons_per_pass).
+ParamDecl gpm_photons() {
+  return photons(0, "100 000, then as many as keep the eye pass half of a pass (at least SPPM's 100 000 "
+                    "doubling every 8 passes, at most 4 000 000)");
+}
 ParamDecl alpha(double d, const char* reference) {
   return {.name = "alpha", .type = ParamType::Float, .default_value = d, .min = 0, .max = 1, .min_open = true,
           .max_open = true, .label = "Alpha",

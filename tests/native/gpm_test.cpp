@@ -676,8 +676,10 @@ TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACurvedReceiver) {
 // by bisecting a 128 s convergence run). Such shifts fail now (gpm.cpp kMaxShadingCorrection).
 TEST(Gpm, ChainsGrazingAFacetDoNotMakeOutlierGradients) {
   const Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-glass.json");
-  Params p = photon_params(0, 6);  // the default photons (the ramp), as the run that found it
-  auto g = run("gpm", s, 17, p);
+  Params p = photon_params(0, 6);  // the ramp (then the default), as the run that found it
+  auto g = make_integrator("gpm", s, p);
+  dynamic_cast<Gpm&>(*g).set_ramp_photons(true);
+  for (int pass = 0; pass < 17; ++pass) g->iterate(nullptr);
   Film f;
   g->develop(f);
   const auto& c = f.pass(pass::kCombined).data;
@@ -773,6 +775,63 @@ TEST(Gpm, DirectLightInThePrimalDomainKeepsTheGradientsUnbiased) {
   run("gpm", s, 3, p)->develop(on);
   EXPECT_EQ(on.pass(pass::kPrimal).data, off.pass(pass::kPrimal).data);
   EXPECT_NE(on.pass(pass::kGradientX).data, off.pass(pass::kGradientX).data);
+}
+
+// Photons per pass with `photons` 0 (issue 34; gpm.h gpm_photons_per_pass): as much photon work
+// as the last pass's eye work, so that the eye pass is half a pass; never below SPPM's ramp, at
+// most 4 000 000 emitted and 1 000 000 stored at the last pass's stored share.
+TEST(Gpm, PhotonsPerPassKeepTheEyePassHalfAPass) {
+  GpmPassWork w{.eye_rays = 1000000, .photon_rays = 100000, .emitted = 100000, .stored = 1000};
+  const double eye = w.eye_work(), per_photon = w.photon_work() / 100000.0;
+  const int64_t n = gpm_photons_per_pass(w, 384, 288, 5);
+  EXPECT_NEAR(static_cast<double>(n), eye / per_photon, 1.0);
+  // The next pass at that count: its eye work half the pass's.
+  const double share = eye / (eye + static_cast<double>(n) * per_photon);
+  EXPECT_NEAR(share, 0.5, 1e-6);
+  // Gather work counts as photon work: a costlier gather, fewer photons.
+  GpmPassWork walked = w;
+  walked.shift_rays = 400000;
+  walked.walk_iterations = 100000;
+  EXPECT_LT(gpm_photons_per_pass(walked, 384, 288, 5), n);
+  // Not below the ramp: a cheap eye pass.
+  GpmPassWork cheap = w;
+  cheap.eye_rays = 1000;
+  EXPECT_EQ(gpm_photons_per_pass(cheap, 384, 288, 5), auto_photons_per_pass(384, 288, 5));
+  EXPECT_EQ(gpm_photons_per_pass(cheap, 512, 512, 40), auto_photons_per_pass(512, 512, 40));
+  // At most 4 000 000 emitted, and 1 000 000 stored at the last pass's share.
+  GpmPassWork heavy = w;
+  heavy.eye_rays = 1000000000;
+  EXPECT_EQ(gpm_photons_per_pass(heavy, 384, 288, 5), 4000000);
+  heavy.stored = 50000;  // half of the emitted photons stored: 2 000 000 emitted store 1 000 000
+  EXPECT_EQ(gpm_photons_per_pass(heavy, 384, 288, 5), 2000000);
+  // Nothing emitted or nothing traced: the ramp.
+  EXPECT_EQ(gpm_photons_per_pass(GpmPassWork{.eye_rays = 1000000}, 384, 288, 3), auto_photons_per_pass(384, 288, 3));
+}
+
+// The rule in a render: sun-caustic's eye pass (five camera paths and their shadow rays per pixel)
+// outweighs its photons' work (a sun's photons are stored only after the ball), so passes after
+// the first take more than the ramp; counted work, not time, so a seed gives the same image bit
+// for bit, at any thread count; a given `photons` still sets every pass.
+TEST(Gpm, PhotonsPerPassFollowTheCountedEyeWorkDeterministically) {
+  const Scene s = test_scene("sun-caustic", 192, 144);
+  Params p = photon_params(0, 3, 1);
+  Film a, b;
+  auto first = run("gpm", s, 3, p);
+  first->develop(a);
+  p.set("threads", 2);
+  auto second = run("gpm", s, 3, p);
+  second->develop(b);
+  for (auto name : {pass::kCombined, pass::kPrimal, pass::kGradientX, pass::kGradientY})
+    EXPECT_EQ(a.pass(name).data, b.pass(name).data) << name;
+  const auto& extra = first->stats().extra;
+  const double traced = extra.at("photons traced");
+  EXPECT_EQ(traced, second->stats().extra.at("photons traced"));
+  std::printf("sun-caustic 192x144, 3 passes: %.0f photons traced (the ramp: 300 000), eye work share %.3f\n", traced,
+              extra.at("eye work share (last)"));
+  EXPECT_GT(traced, 300000.0 * 1.2);
+  Params given = photon_params(100000, 3, 2);
+  auto fixed = run("gpm", s, 3, given);
+  EXPECT_EQ(fixed->stats().extra.at("photons traced"), 300000.0);
 }
 
 TEST(Gpm, RejectsBadParameters) {

@@ -98,6 +98,30 @@
 
 namespace gp {
 
+// ---- Photons per pass with `photons` 0 (issue 34) ----
+// A GPM eye pass (five camera paths per pixel, their next-event shots, further camera paths) is a
+// fixed cost per pass that more photons spread over more light. With `photons` 0 each pass after
+// the first takes as many photons as make the last pass's eye work half a pass (kEyeShare: the
+// issue asked for a quarter, which lost at equal work):
+//   eye / (eye + N * per_photon) = 1/2  ->  N = eye / per_photon,
+// never below SPPM's ramp (auto_photons_per_pass), at most kMaxEmitted, and at most as many as
+// would store kMaxStored photons at the last pass's stored share (memory: the ramp's largest pass).
+// Work is counted, not timed, so that a seed gives the same image on any machine and at any
+// load (and merged runs stay runs of their own seeds): rays, stored photons and walk iterations
+// weighted by their instructions per item (gpm.cpp; docs/gradient.md "Photons per pass that
+// follow the eye pass's work").
+struct GpmPassWork {
+  int64_t eye_rays = 0;       // rays of the eye pass: camera paths, offsets, shadow rays, further paths
+  int64_t photon_rays = 0;    // photon tracing's closest-hit rays
+  int64_t shift_rays = 0;     // the gather's: step-1 rays, walk projections, offset replays
+  int64_t walk_iterations = 0;
+  int64_t emitted = 0, stored = 0;  // the pass's photons
+  // In eye rays (kGpm*Weight, gpm.cpp).
+  double eye_work() const;
+  double photon_work() const;
+};
+int64_t gpm_photons_per_pass(const GpmPassWork& last, int width, int height, uint64_t pass);
+
 class Gpm : public ProgressivePhotonMapping {
  public:
   Gpm(const Scene& scene, const Params& params);
@@ -109,6 +133,8 @@ class Gpm : public ProgressivePhotonMapping {
   void develop(Film& film) const override;
   // Tests: trace every pixel's offsets in the eye pass (the lazy rule's reference image).
   void set_eager_offsets(bool eager) { eager_all_offsets_ = eager; }
+  // Tests: `photons` 0 takes SPPM's ramp, not gpm_photons_per_pass (regressions found with it).
+  void set_ramp_photons(bool ramp) { ramp_photons_ = ramp; }
 
   // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
@@ -211,6 +237,12 @@ class Gpm : public ProgressivePhotonMapping {
   RGB reconnection_factor(const PhotonChain& chain, const Vec3& dir, double& pdf) const;
 
   ReconOptions recon_;
+  bool ramp_photons_ = false;
+  GpmPassWork last_work_;  // the last pass's, for the next pass's photon count (gpm_photons_per_pass)
+  int64_t photons_next(uint64_t pass) const {
+    return photons_per_pass_ > 0 || pass == 0 || ramp_photons_ ? photons_for_pass(pass)
+                                                                : gpm_photons_per_pass(last_work_, width_, height_, pass);
+  }
   std::vector<std::array<OffsetPoint, 4>> off_;
   std::vector<PhotonOrigin> origins_;
   std::vector<PhotonChain> chains_;
