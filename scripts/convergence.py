@@ -19,6 +19,12 @@ do not overwrite each other:
     scripts/convergence.py --scenes door-ajar --methods pt sppm sppm-adaptive --scale 0.5 \
         --checkpoints 2,4,8,16,32 --ref-passes 8192 --csv adaptive.csv
 
+--ref-files A B scores against two EXRs rendered elsewhere (a reference too long to render here,
+its two halves with different seeds), as --ref-split does:
+
+    scripts/convergence.py --scenes volumetric-caustic --scale 1 --methods pt sppm msppm \
+        --checkpoints 5,10,20,40,60 --ref-files /work/refs/volumetric-caustic-ref-100000[34].exr
+
 A reference rendered by `sppm` with its own radius rule shares SPPM's blur of edges, which
 can favour SPPM at long budgets; `--ref-method sppm:photons=200000,footprint=0.15,alpha=0.99999`
 (a fixed radius of 0.15 pixel) has almost none, at more noise that --ref-split removes in
@@ -135,6 +141,9 @@ def main():
     ap.add_argument("--ref-split", action="store_true",
                     help="render a second reference with seed ref-seed + 1, diff against the mean of the two "
                          "and also report relMSE less the reference's own noise (column relmse_excess)")
+    ap.add_argument("--ref-files", nargs=2, type=pathlib.Path, metavar=("A", "B"),
+                    help="score against these two EXRs (halves of one reference rendered with different seeds, "
+                         "at the runs' size) as --ref-split does, instead of rendering a reference; one scene only")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scale", type=float, default=0.5, help="image size relative to the scene's camera")
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "docs" / "convergence")
@@ -145,6 +154,12 @@ def main():
                     help="gradphoton binary of the methods' runs (another build's, to compare before/after); "
                          "references always come from this checkout's build")
     args = ap.parse_args()
+    if args.ref_files and len(args.scenes) != 1:
+        ap.error("--ref-files goes with one scene")
+    for path in args.ref_files or []:
+        if not path.is_file():
+            ap.error(f"--ref-files: {path} does not exist")
+    args.ref_split = args.ref_split or bool(args.ref_files)
 
     checkpoints = [float(t) for t in args.checkpoints.split(",")]
     work = ROOT / "build" / "convergence"
@@ -152,8 +167,11 @@ def main():
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for scene in args.scenes:
-        ref = reference(scene, args)
-        split = SplitReference.from_files(ref, reference(scene, args, args.ref_seed + 1)) if args.ref_split else None
+        if args.ref_files:
+            ref, split = args.ref_files[0], SplitReference.from_files(*args.ref_files)
+        else:
+            ref = reference(scene, args)
+            split = SplitReference.from_files(ref, reference(scene, args, args.ref_seed + 1)) if args.ref_split else None
         cmds = [[args.cli, "render", ROOT / "scenes" / f"{scene}.json", *method_args(method),
                  "--time", max(checkpoints), "--checkpoints", ",".join(f"{t:g}" for t in checkpoints),
                  "--seed", args.seed, "-o", work / f"{scene}-{file_tag(method)}.exr", *size_args(scene, args)]

@@ -7,8 +7,14 @@ The core loads and tessellates the file (so every shape and OBJ comes out exactl
 sees it); this script turns its meshes, materials, lights and camera into Blender data with
 the inverse of the addon's export conversions (addon/gradphoton/export/): GGX alpha back to
 Blender roughness (sqrt), intensity I back to watts 4 pi I, one-sided emission kept through the
-material's gradphoton setting. The saved file uses gradphoton as its render engine.
+material's gradphoton setting, a point or spot light's radius as its Radius (shadow_soft_size).
+The World's medium (`world_medium`, homogeneous) becomes the World's Volume output (Volume Scatter
+plus Volume Absorption, Cycles' coefficients) and `volume_bounces` Light Paths > Volume (no limit:
+the bounces' 30); media inside meshes are not converted (a message says so). The camera keeps the
+file's clip distances (Blender's default Clip Start of 0.1 m would hide the fog in front of it).
+The saved file uses gradphoton as its render engine.
 """
+import json
 import math
 import os
 import sys
@@ -95,7 +101,7 @@ def _light(scene, l):
     kind = {"point": 'POINT', "spot": 'SPOT', "sun": 'SUN'}[l["type"]]
     la = bpy.data.lights.new(l["name"], kind)
     la.color = color
-    la.shadow_soft_size = 0.0
+    la.shadow_soft_size = l.get("radius", 0.0)
     if kind == 'SUN':
         la.energy = peak  # irradiance, W/m^2
         la.angle = 0.0
@@ -132,12 +138,55 @@ def _camera(scene, c):
     if hasattr(scene, "cycles"):
         scene.cycles.pixel_filter_type = kinds.get(f["type"], 'BOX')
         scene.cycles.filter_width = f["width"]
+    # Blender's Clip Start has a minimum of 1e-6 m; the file's default 0 means no clipping.
+    cam.clip_start = max(1e-6, c["clip_start"])
+    cam.clip_end = c["clip_end"] if math.isfinite(c["clip_end"]) else 1e5
     ob = bpy.data.objects.new("Camera", cam)
     ob.matrix_world = Matrix([list(r) for r in c["matrix"]])
     scene.collection.objects.link(ob)
     scene.camera = ob
     scene.render.resolution_x, scene.render.resolution_y = c["width"], c["height"]
     scene.render.resolution_percentage = 100
+
+
+def _coefficient(v):
+    return [float(v)] * 3 if isinstance(v, (int, float)) else [float(x) for x in v]
+
+
+def _world_medium(scene, desc):
+    """The file's World medium as the World's Volume output: Volume Scatter (colour sigma_s / d,
+    density d = max sigma_s, Anisotropy g) plus Volume Absorption (sigma_a = (1 - colour) density,
+    as Cycles' volume_absorption_setup), or nothing when the file has none."""
+    name = desc.get("world_medium")
+    if not name:
+        return
+    m = desc.get("media", {})[name]
+    if any(k in m for k in ("grid", "density_grid", "vdb", "file")):
+        print(f"json_to_blend: the World medium '{name}' is a grid medium: not converted")
+        return
+    sigma_s, sigma_a = _coefficient(m.get("sigma_s", 0.0)), _coefficient(m.get("sigma_a", 0.0))
+    world = scene.world or bpy.data.worlds.new("World")
+    scene.world = world
+    world.use_nodes = True
+    nt = world.node_tree
+    add = nt.nodes.new("ShaderNodeAddShader")
+    scatter = nt.nodes.new("ShaderNodeVolumeScatter")
+    d = max(sigma_s)
+    scatter.inputs["Density"].default_value = d
+    scatter.inputs["Color"].default_value = tuple(x / d if d > 0 else 0.0 for x in sigma_s) + (1.0,)
+    scatter.inputs["Anisotropy"].default_value = float(m.get("g", 0.0))
+    absorb = nt.nodes.new("ShaderNodeVolumeAbsorption")
+    da = max(sigma_a)
+    absorb.inputs["Density"].default_value = da
+    absorb.inputs["Color"].default_value = tuple(1.0 - x / da if da > 0 else 1.0 for x in sigma_a) + (1.0,)
+    nt.links.new(scatter.outputs[0], add.inputs[0])
+    nt.links.new(absorb.outputs[0], add.inputs[1])
+    nt.links.new(add.outputs[0], nt.nodes["World Output"].inputs["Volume"])
+    if "emission" in m:
+        print(f"json_to_blend: the World medium '{name}''s emission is not converted")
+    if hasattr(scene, "cycles"):
+        vb = desc.get("volume_bounces", -1)
+        scene.cycles.volume_bounces = vb if vb >= 0 else 30
 
 
 def build(json_path, scene=None):
@@ -160,6 +209,11 @@ def build(json_path, scene=None):
         scene.world.use_nodes = True
         scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
     _camera(scene, s.camera())
+    with open(json_path) as f:
+        desc = json.load(f)
+    _world_medium(scene, desc)
+    if any("interior" in m for m in desc.get("materials", {}).values() if isinstance(m, dict)):
+        print("json_to_blend: media inside meshes (`interior`) are not converted")
     scene.render.engine = "GRADPHOTON"
     return scene
 

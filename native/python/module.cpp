@@ -537,6 +537,7 @@ void bind_scene(py::module_& m) {
           d["direction"] = py::make_tuple(l.direction.x, l.direction.y, l.direction.z);
           d["spot_cos_half"] = l.spot_cos_half;
           d["spot_smooth"] = l.spot_smooth;
+          d["radius"] = l.radius;  // point/spot: Blender's light radius (a disk facing the shading point)
           out.append(d);
         }
         return out;

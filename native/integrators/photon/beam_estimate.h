@@ -9,14 +9,18 @@
 // T the transmittance from it to the photon's foot on the segment, f_p the phase function between
 // the photon's direction of travel and the direction towards the camera, and Phi_p the photon's
 // power, which already carries sigma_s(x_p) (photon_walk.h: the free flight's weight
-// sigma_s T / pdf). gather_beam visits those photons with T and f_p; the caller sums.
+// sigma_s T / pdf). gather_beam visits those photons with T and f_p; gather_pixel_beams runs one
+// pass's gather over every pixel's segments (first radius, photon grid, sums M and the flux).
 #pragma once
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <vector>
+
+#include "core/parallel.h"
 
 #include "integrators/photon/photon_hash.h"
 #include "integrators/photon/photon_tracer.h"
@@ -169,6 +173,72 @@ void gather_beam(const PhotonHashGrid& grid, const Bounds3& box, const EyeBeam& 
       visit(ph, T, f);
     });
   }
+}
+
+// ---- One pass's beam gather over every pixel (SPPM's and MSPPM's volume_gather) ----
+// A pixel's camera segments of this pass: `stride` slots a pixel in `beams`, n[i] of them used;
+// first_vr[i] the footprint radius at the first one's middle (FirstCylinder's lower bound).
+struct PixelBeams {
+  const std::vector<EyeBeam>& beams;
+  int stride;
+  const std::vector<uint8_t>& n;
+  const std::vector<float>& first_vr;
+};
+
+// The beam radiance estimate's sums of one pass over every pixel: out_m[i] the volume photons M
+// within pixel i's cylinder along all its segments, out_phi[i] sum_p power(b, p, T, f) (the
+// caller's weighting: beta T f Phi_p in RGB, the wavelengths' to RGB in spectral SPPM). Both
+// enter progressive_beam_update (eq. 5.37-5.39, 5.12). vr2(i) -> double&: pixel i's cylinder
+// R^2, set here on the first pass it has segments (`radius` if > 0, else FirstCylinder's rule);
+// 0 leaves the pixel out. The photons are hashed into `grid` (exact, cells of 2 sqrt(2) R_max).
+// cancelled (may be empty) is polled every kPollPixels pixels: the sums are then partial and
+// the caller abandons the pass.
+template <class PixelR2, class ChannelsOf, class Power>
+void gather_pixel_beams(const Scene& scene, const std::vector<Photon>& volume, PhotonHashGrid& grid,
+                        const PixelBeams& pixels, double radius, PixelR2&& vr2, uint64_t seed, uint64_t pass,
+                        int threads, int C, const std::function<bool()>& cancelled, ChannelsOf&& channels_of,
+                        Power&& power, std::vector<float>& out_m, std::vector<RGB>& out_phi) {
+  constexpr size_t kPollPixels = 4096;
+  const size_t n_pixels = pixels.n.size();
+  Bounds3 box;  // the photons' bounds: beams are searched only where photons are
+  for (const Photon& ph : volume) box.extend(ph.p);
+  // The cylinder's first radius: `radius` if given, else FirstCylinder's rule.
+  const FirstCylinder first(scene, volume, box);
+  for (size_t i = 0; i < n_pixels; ++i) {
+    if (pixels.n[i] == 0 || vr2(i) > 0) continue;
+    if (radius > 0) vr2(i) = radius * radius;
+    else if (first.valid()) vr2(i) = first.r2(&pixels.beams[i * pixels.stride], pixels.n[i], pixels.first_vr[i]);
+  }
+  double max_r2 = 0;
+  for (size_t i = 0; i < n_pixels; ++i)
+    if (pixels.n[i] > 0) max_r2 = std::max(max_r2, vr2(i));
+  const float max_r = static_cast<float>(std::sqrt(max_r2));
+  const bool have = !volume.empty() && max_r > 0;
+  if (have) grid.build(volume, 2.0f * std::sqrt(2.0f) * max_r, PhotonHashMode::Exact, seed, pass, threads, 0, cancelled);
+  parallel_for(n_pixels, threads, [&](size_t lo, size_t hi) {
+    // Grid media: the transmittance along a beam by one ratio-tracking walk per grid medium, read
+    // at every photon's foot (TransmittanceSteps); kept for their capacity.
+    std::array<TransmittanceSteps, kMaxBeamMedia> steps;
+    for (size_t i = lo; i < hi; ++i) {
+      if (i % kPollPixels == 0 && cancelled && cancelled()) return;  // abandoned pass (the caller checks)
+      out_m[i] = 0;
+      out_phi[i] = RGB(0.0f);
+      if (!have || pixels.n[i] == 0 || !(vr2(i) > 0)) continue;
+      const float R = static_cast<float>(std::sqrt(vr2(i)));
+      double m = 0;
+      RGB phi(0.0f);
+      for (int k = 0; k < pixels.n[i]; ++k) {
+        const EyeBeam& b = pixels.beams[i * pixels.stride + k];
+        gather_beam(grid, box, b, R, C, 0xbea0 + pass, steps, channels_of,
+                    [&](const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
+                      m += 1;
+                      phi += power(b, ph, T, f);
+                    });
+      }
+      out_m[i] = static_cast<float>(m);
+      out_phi[i] = phi;
+    }
+  });
 }
 
 }  // namespace gp

@@ -691,46 +691,17 @@ RGB Msppm::pixel_radiance(size_t i) const {
   return L;
 }
 
-// ---- The beam radiance estimate of the pixels' beams (beam_estimate.h, as SPPM's) ----
+// ---- The beam radiance estimate of the pixels' beams (beam_estimate.h's gather_pixel_beams, SPPM's) ----
+// No cancellation inside: the pass's update follows unconditionally (iterate).
 void Msppm::volume_gather(uint64_t pass) {
-  const size_t n_pixels = px_.size();
-  Bounds3 box;  // the photons' bounds: beams are searched only where photons are
-  for (const Photon& ph : volume_photons_) box.extend(ph.p);
-  // The cylinder's first radius: `radius` if given, else FirstCylinder's rule.
-  const FirstCylinder first(scene_, volume_photons_, box);
-  for (size_t i = 0; i < n_pixels; ++i) {
-    if (n_beams_[i] == 0 || px_[i].vr2 > 0) continue;
-    if (radius_ > 0) px_[i].vr2 = radius_ * radius_;
-    else if (first.valid()) px_[i].vr2 = first.r2(&beams_[i * kMaxBeams], n_beams_[i], first_vr_[i]);
-  }
-  double max_r2 = 0;
-  for (size_t i = 0; i < n_pixels; ++i)
-    if (n_beams_[i] > 0) max_r2 = std::max(max_r2, px_[i].vr2);
-  const float max_r = static_cast<float>(std::sqrt(max_r2));
-  const bool have = !volume_photons_.empty() && max_r > 0;
-  if (have) volume_grid_.build(volume_photons_, 2.0f * std::sqrt(2.0f) * max_r, PhotonHashMode::Exact, seed_, pass, threads_);
-  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    std::array<TransmittanceSteps, kMaxBeamMedia> steps;  // grid media's walks, kept for their capacity
-    for (size_t i = lo; i < hi; ++i) {
-      gather_vm_[i] = 0;
-      gather_vphi_[i] = RGB(0.0f);
-      if (!have || n_beams_[i] == 0 || !(px_[i].vr2 > 0)) continue;
-      const float R = static_cast<float>(std::sqrt(px_[i].vr2));
-      double m = 0;
-      RGB phi(0.0f);
-      for (int k = 0; k < n_beams_[i]; ++k) {
-        const EyeBeam& b = beams_[i * kMaxBeams + k];
-        gather_beam(volume_grid_, box, b, R, 3, 0xbea0 + pass, steps,
-                    [&](int med) -> const MediumChannels& { return media_rgb_[med]; },
-                    [&](const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
-                      m += 1;
-                      phi += RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
-                    });
-      }
-      gather_vm_[i] = static_cast<float>(m);
-      gather_vphi_[i] = phi;
-    }
-  });
+  gather_pixel_beams(
+      scene_, volume_photons_, volume_grid_, PixelBeams{beams_, kMaxBeams, n_beams_, first_vr_}, radius_,
+      [&](size_t i) -> double& { return px_[i].vr2; }, seed_, pass, threads_, 3, {},
+      [&](int med) -> const MediumChannels& { return media_rgb_[med]; },
+      [](const EyeBeam& b, const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
+        return RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
+      },
+      gather_vm_, gather_vphi_);
 }
 
 void Msppm::develop(Film& film) const {

@@ -684,63 +684,26 @@ void ProgressivePhotonMapping::develop(Film& film) const {
 namespace gp {
 
 // ---- The beam radiance estimate (Jarosz et al. 2008) with a progressive radius (thesis §5.6) ----
-// beam_estimate.h's gather over every pixel's segments; the flux sum (tau) and the count M found
-// here enter the same update as the surface's (eq. 5.37-5.39: N + alpha M photons kept within the
+// beam_estimate.h's gather over every pixel's segments (gather_pixel_beams, MSPPM's too); the flux
+// sum (tau) and the count M found here enter the same update as the surface's (eq. 5.37-5.39: N + alpha M photons kept within the
 // shrunk cylinder; tau scaled by the same ratio, eq. 5.12).
 void ProgressivePhotonMapping::volume_gather(uint64_t pass, const std::function<bool()>& cancelled) {
-  const size_t n_pixels = px_.size();
-  Bounds3 box;  // the photons' bounds: beams are searched only where photons are
-  for (const Photon& ph : volume_photons_) box.extend(ph.p);
-  // The cylinder's first radius (no `radius` given): FirstCylinder's rule.
-  if (const FirstCylinder first(scene_, volume_photons_, box); first.valid()) {
-    for (size_t i = 0; i < n_pixels; ++i) {
-      if (n_beams_[i] == 0 || px_[i].vr2 > 0) continue;
-      if (const double r2 = first.r2(&beams_[i * kMaxBeams], n_beams_[i], first_vr_[i]); r2 > 0) px_[i].vr2 = r2;
-    }
-  }
-  double max_r2 = 0;
-  for (size_t i = 0; i < n_pixels; ++i)
-    if (n_beams_[i] > 0) max_r2 = std::max(max_r2, px_[i].vr2);
-  const float max_r = static_cast<float>(std::sqrt(max_r2));
-  const bool have = !volume_photons_.empty() && max_r > 0;
-  if (have) {
-    volume_grid_.build(volume_photons_, 2.0f * std::sqrt(2.0f) * max_r, PhotonHashMode::Exact, seed_, pass, threads_,
-                       0, cancelled);
-  }
   const int C = channels();
-  parallel_for(n_pixels, threads_, [&](size_t lo, size_t hi) {
-    // Grid media: the transmittance along a beam by one ratio-tracking walk per grid medium, read
-    // at every photon's foot (TransmittanceSteps); kept for their capacity.
-    std::array<TransmittanceSteps, kMaxBeamMedia> steps;
-    for (size_t i = lo; i < hi; ++i) {
-      if (i % kCancelPollPixels == 0 && cancelled()) return;  // abandoned pass (iterate checks)
-      gather_vm_[i] = 0;
-      gather_vphi_[i] = RGB(0.0f);
-      if (!have || n_beams_[i] == 0 || !(px_[i].vr2 > 0)) continue;
-      const float R = static_cast<float>(std::sqrt(px_[i].vr2));
-      double m = 0;
-      RGB phi(0.0f);
-      for (int k = 0; k < n_beams_[i]; ++k) {
-        const EyeBeam& b = beams_[i * kMaxBeams + k];
-        gather_beam(volume_grid_, box, b, R, C, 0xbea0 + pass, steps,
-                    [&](int med) -> const MediumChannels& { return medium_channels(med); },
-                    [&](const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
-                      m += 1;
-                      if (spectral_) {
-                        const SpectralValues& power = volume_power_[ph.index];
-                        SpectralValues c{};
-                        for (int w = 0; w < C; ++w) c[w] = b.beta[w] * T[w] * f[w] * power[w];
-                        if (volume_hero_[ph.index] && !b.hero_only) c[0] *= static_cast<float>(C);  // C once per full path
-                        phi += spectral_to_rgb(c);
-                      } else {
-                        phi += RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
-                      }
-                    });
-      }
-      gather_vm_[i] = static_cast<float>(m);
-      gather_vphi_[i] = phi;
-    }
-  });
+  gather_pixel_beams(
+      scene_, volume_photons_, volume_grid_, PixelBeams{beams_, kMaxBeams, n_beams_, first_vr_}, radius_,
+      [&](size_t i) -> double& { return px_[i].vr2; }, seed_, pass, threads_, C, cancelled,
+      [&](int med) -> const MediumChannels& { return medium_channels(med); },
+      [&](const EyeBeam& b, const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
+        if (spectral_) {
+          const SpectralValues& power = volume_power_[ph.index];
+          SpectralValues c{};
+          for (int w = 0; w < C; ++w) c[w] = b.beta[w] * T[w] * f[w] * power[w];
+          if (volume_hero_[ph.index] && !b.hero_only) c[0] *= static_cast<float>(C);  // C once per full path
+          return spectral_to_rgb(c);
+        }
+        return RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;
+      },
+      gather_vm_, gather_vphi_);
 }
 
 }  // namespace gp
