@@ -157,7 +157,8 @@ TEST(Spectrum, StoredCoefficientTableIsTheFit) {
   const float zn = tb::kZ[16];
   const RGB node(8.0f / 23.0f * zn, zn, 12.0f / 23.0f * zn);
   const RGB back = RgbSpectrum::reflectance_interpolated(node).to_rgb();
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(back[c], node[c], 2e-4) << c;
+  // Measured 3.6e-7 (the fit's 1e-6 tolerance); off the nodes the table is within 0.0055.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(back[c], node[c], 1e-5) << c;
 }
 
 }  // namespace
