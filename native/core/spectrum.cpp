@@ -1,7 +1,8 @@
 #include "core/spectrum.h"
 
+#include "core/spectrum_table.h"
+
 #include <Eigen/Dense>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -134,68 +135,65 @@ Eigen::Vector3d fit_coefficients(const Eigen::Vector3d& target, Eigen::Vector3d 
 
 // ---- Jakob & Hanika's coefficient table (their §4), for colours met per hit ----
 //
-// Three tables, one per largest RGB component l, over (x, y, z): z = that component on a grid
-// dense near 0 and 1 (smoothstep, as theirs), x and y the next two components (cyclically)
-// divided by z, uniform. Each entry is fitted by continuation from its neighbour (a row of x
-// cold from grey at z index kRes / 5, then along x, then up and down z), to 1e-6 in RGB. Below
-// the first non-zero z the spectrum is the one there scaled down (z = 0 is black, which no
-// sigmoid reaches): RGB is linear in the scale, so the colour stays exact. Built once, on
-// first use.
-constexpr int kTableRes = 24;
+// Each entry is fitted by continuation from its neighbour (a row of x cold from grey at z index
+// kRes / 5, then along x, then up and down z), to 1e-6 in RGB. Below the first non-zero z the
+// spectrum is the one there scaled down (z = 0 is black, which no sigmoid reaches): RGB is
+// linear in the scale, so the colour stays exact. Run at build time (core/spectrum_table.h).
 constexpr double kTableTolerance = 1e-12;
 
 double smoothstep(double x) { return x * x * (3.0 - 2.0 * x); }
 
-struct CoefficientTable {
-  std::array<float, kTableRes> z;
-  std::vector<float> c;  // [l][k (z)][j (y)][i (x)][3]; k = 0 unused
-
-  static size_t at(int l, int k, int j, int i) {
-    return 3 * (((static_cast<size_t>(l) * kTableRes + k) * kTableRes + j) * kTableRes + i);
-  }
-  static Eigen::Vector3d rgb_of(int l, double x, double y, double z) {
-    Eigen::Vector3d rgb;
-    rgb[l] = z;
-    rgb[(l + 1) % 3] = x * z;
-    rgb[(l + 2) % 3] = y * z;
-    return rgb;
-  }
-
-  CoefficientTable() : c(3 * 3 * kTableRes * kTableRes * kTableRes) {
-    for (int k = 0; k < kTableRes; ++k) z[k] = static_cast<float>(smoothstep(double(k) / (kTableRes - 1)));
-    const int k0 = kTableRes / 5;
-    auto store = [this](int l, int k, int j, int i, const Eigen::Vector3d& v) {
-      for (int d = 0; d < 3; ++d) c[at(l, k, j, i) + d] = static_cast<float>(v[d]);
-    };
-    auto grid = [](int n) { return double(n) / (kTableRes - 1); };
-    // One task per (l, j): its row along x at k0, then each x's column along z.
-    tbb::parallel_for(0, 3 * kTableRes, [&](int task) {
-      const int l = task / kTableRes, j = task % kTableRes;
-      Eigen::Vector3d row(0, 0, 0);
-      for (int i = 0; i < kTableRes; ++i) {
-        row = fit_coefficients(rgb_of(l, grid(i), grid(j), z[k0]), row, i == 0 ? 16 : 2, kTableTolerance);
-        store(l, k0, j, i, row);
-        Eigen::Vector3d v = row;
-        for (int k = k0 + 1; k < kTableRes; ++k) {
-          v = fit_coefficients(rgb_of(l, grid(i), grid(j), z[k]), v, 1, kTableTolerance);
-          store(l, k, j, i, v);
-        }
-        v = row;
-        for (int k = k0 - 1; k >= 1; --k) {
-          v = fit_coefficients(rgb_of(l, grid(i), grid(j), z[k]), v, 1, kTableTolerance);
-          store(l, k, j, i, v);
-        }
-      }
-    });
-  }
-};
-
-const CoefficientTable& coefficient_table() {
-  static const CoefficientTable t;
-  return t;
+Eigen::Vector3d table_rgb_of(int l, double x, double y, double z) {
+  Eigen::Vector3d rgb;
+  rgb[l] = z;
+  rgb[(l + 1) % 3] = x * z;
+  rgb[(l + 2) % 3] = y * z;
+  return rgb;
 }
 
 }  // namespace
+
+namespace spectrum_table {
+
+std::array<float, kRes> fit_z_grid() {
+  std::array<float, kRes> z;
+  for (int k = 0; k < kRes; ++k) z[k] = static_cast<float>(smoothstep(double(k) / (kRes - 1)));
+  return z;
+}
+
+// One (l, j): its row along x at k0, then each x's column along z.
+void fit_coefficient_slice(int l, int j, float* c) {
+  const std::array<float, kRes> z = fit_z_grid();
+  const int k0 = kRes / 5;
+  auto store = [&](int k, int i, const Eigen::Vector3d& v) {
+    for (int d = 0; d < 3; ++d) c[index(l, k, j, i) + d] = static_cast<float>(v[d]);
+  };
+  auto grid = [](int n) { return double(n) / (kRes - 1); };
+  Eigen::Vector3d row(0, 0, 0);
+  for (int i = 0; i < kRes; ++i) {
+    row = fit_coefficients(table_rgb_of(l, grid(i), grid(j), z[k0]), row, i == 0 ? 16 : 2, kTableTolerance);
+    store(k0, i, row);
+    Eigen::Vector3d v = row;
+    for (int k = k0 + 1; k < kRes; ++k) {
+      v = fit_coefficients(table_rgb_of(l, grid(i), grid(j), z[k]), v, 1, kTableTolerance);
+      store(k, i, v);
+    }
+    v = row;
+    for (int k = k0 - 1; k >= 1; --k) {
+      v = fit_coefficients(table_rgb_of(l, grid(i), grid(j), z[k]), v, 1, kTableTolerance);
+      store(k, i, v);
+    }
+  }
+}
+
+std::vector<float> fit_coefficient_table() {
+  std::vector<float> c(kSize, 0.0f);
+  for (int l = 0; l < 3; ++l)
+    for (int j = 0; j < kRes; ++j) fit_coefficient_slice(l, j, c.data());
+  return c;
+}
+
+}  // namespace spectrum_table
 
 float wrap_wavelength(float lambda) {
   float l = std::fmod(lambda - kLambdaMin, kLambdaRange);
@@ -271,50 +269,12 @@ RgbSpectrum RgbSpectrum::reflectance(const RGB& in) {
   return s;
 }
 
-RgbSpectrum RgbSpectrum::reflectance_interpolated(const RGB& in) {
-  RgbSpectrum s;
-  const float rgb[3] = {clamp(in.r, 0, 1), clamp(in.g, 0, 1), clamp(in.b, 0, 1)};
-  if (rgb[0] == rgb[1] && rgb[1] == rgb[2]) {  // greys are exact, as reflectance()
-    s.value_ = rgb[0];
-    return s;
-  }
-  const int l = rgb[0] >= rgb[1] ? (rgb[0] >= rgb[2] ? 0 : 2) : (rgb[1] >= rgb[2] ? 1 : 2);
-  const float z = rgb[l];  // > 0: not a grey
-  const CoefficientTable& tb = coefficient_table();
-  constexpr int n = kTableRes - 1;
-  const float fx = rgb[(l + 1) % 3] / z * n, fy = rgb[(l + 2) % 3] / z * n;
-  const int i = std::min(static_cast<int>(fx), n - 1), j = std::min(static_cast<int>(fy), n - 1);
-  // Below z[1]: the spectrum at z[1], scaled by z / z[1].
-  const int k = std::clamp(static_cast<int>(std::upper_bound(tb.z.begin(), tb.z.end(), z) - tb.z.begin()) - 1, 1, n - 1);
-  const float tx = fx - i, ty = fy - j, tz = std::max(0.0f, (z - tb.z[k]) / (tb.z[k + 1] - tb.z[k]));
-  if (z < tb.z[1]) s.scale_ = z / tb.z[1];
-  float c[3] = {0, 0, 0};
-  for (int dk = 0; dk < 2; ++dk)
-    for (int dj = 0; dj < 2; ++dj)
-      for (int di = 0; di < 2; ++di) {
-        const float w = (dk ? tz : 1 - tz) * (dj ? ty : 1 - ty) * (di ? tx : 1 - tx);
-        const float* e = &tb.c[CoefficientTable::at(l, k + dk, j + dj, i + di)];
-        for (int d = 0; d < 3; ++d) c[d] += w * e[d];
-      }
-  s.constant_ = false;
-  s.c0_ = c[0];
-  s.c1_ = c[1];
-  s.c2_ = c[2];
-  return s;
-}
-
 RgbSpectrum RgbSpectrum::illuminant(const RGB& rgb) {
   const float m = std::max(0.0f, rgb.max_component());
   if (m <= 0) return reflectance(RGB(0.0f));
   RgbSpectrum s = reflectance(rgb / m);
   s.scale_ = m;
   return s;
-}
-
-RgbSpectrum RgbSpectrum::illuminant_interpolated(const RGB& rgb) {
-  const float m = std::max(0.0f, rgb.max_component());
-  if (!(m > 0) || !std::isfinite(m)) return reflectance(RGB(0.0f));
-  return reflectance_interpolated(rgb / m).scaled(m);
 }
 
 std::optional<std::vector<SpectralLine>> spectral_line_preset(const std::string& name) {

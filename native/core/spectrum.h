@@ -10,7 +10,8 @@
 //    Upsampling"), s(lambda) = sigmoid(c0 t^2 + c1 t + c2). Constant colours of materials and
 //    lights are fitted here, once per colour, by the same Gauss–Newton optimisation with
 //    continuation from grey that produces their table; colours met per hit (image textures,
-//    mix components) read the coefficients off their 3D table, built here on first use.
+//    mix components) read the coefficients off their 3D table, fitted by the same code at build
+//    time and compiled in (core/spectrum_table.h).
 //    Greys (white included) are exact constants.
 //  - White point: the spectral pipeline is normalised so that the constant spectrum 1 maps to
 //    RGB (1, 1, 1) (Bradford adaptation of the fit's equal-energy white to D65, then the
@@ -101,7 +102,8 @@ class RgbSpectrum {
   static RgbSpectrum reflectance(const RGB& rgb);
   // The same upsampling for colours met per hit (a texel, a mix component's colour): the fit's
   // coefficients interpolated in Jakob & Hanika's table (§4) instead of a fit (~1 ms); greys
-  // exact. The table (24^3 x 3 entries) is fitted on first use, in well under a second.
+  // exact. The table (3 x 24^3 entries of 3 coefficients) is fitted at build time and compiled
+  // in (core/spectrum_table.h): nothing to load, no fit in the process.
   static RgbSpectrum reflectance_interpolated(const RGB& rgb);
   // Unbounded spectrum for emission: scale * reflectance(rgb / scale) with scale = max(rgb).
   static RgbSpectrum illuminant(const RGB& rgb);
