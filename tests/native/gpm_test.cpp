@@ -19,6 +19,7 @@
 #include "io/metrics.h"
 #include "reconstruction/poisson.h"
 #include "scene/loader.h"
+#include "gradient_test_util.h"
 #include "render_for_tests.h"
 
 namespace gp {
@@ -569,10 +570,7 @@ GradientBias gradient_bias_on_caustic(int seeds, const std::string& light, int64
       {"name": "ball", "type": "sphere", "center": [0, 0, 0.7], "radius": 0.3, "segments": 64, "material": "glass"}],
     "camera": {"position": [0.9, -0.9, 1.0], "look_at": [0, 0, 0.0], "fov": 20, "width": 16, "height": 16}})",
                                          ".", "caustic-gradients");
-  const int w = 16, h = 16;
-  const size_t n = static_cast<size_t>(w) * h;
-  // Per pair (x and y, summed over RGB): running sums of G - dP and of its square.
-  std::vector<double> sx(2 * n, 0.0), sxx(2 * n, 0.0);
+  GradientPairChi2 stat(16, 16);
   GradientBias out;
   for (int seed = 1; seed <= seeds; ++seed) {
     Params p = photon_params(photons, seed, 1);
@@ -582,27 +580,11 @@ GradientBias gradient_bias_on_caustic(int seeds, const std::string& light, int64
     Film f;
     g->develop(f);
     out.walks += g->stats().extra.count("manifold walks") ? g->stats().extra.at("manifold walks") : 0.0;
-    const auto& P = f.pass(pass::kPrimal).data;
-    const auto& GX = f.pass(pass::kGradientX).data;
-    const auto& GY = f.pass(pass::kGradientY).data;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x;
-        double ex = 0, ey = 0;
-        for (int c = 0; c < 3; ++c) {
-          if (x + 1 < w) ex += GX[3 * i + c] - (P[3 * (i + 1) + c] - P[3 * i + c]);
-          if (y + 1 < h) ey += GY[3 * i + c] - (P[3 * (i + w) + c] - P[3 * i + c]);
-        }
-        sx[i] += ex, sxx[i] += ex * ex;
-        sx[n + i] += ey, sxx[n + i] += ey * ey;
-      }
+    stat.add(f);
   }
-  for (size_t k = 0; k < 2 * n; ++k) {
-    const double mean = sx[k] / seeds, var = (sxx[k] / seeds - mean * mean) * seeds / (seeds - 1.0);
-    if (!(var > 1e-20)) continue;  // a pair no photon reached (or the image border)
-    out.chi2 += mean * mean / (var / seeds);
-    ++out.pairs;
-  }
+  const GradientPairChi2::Result r = stat.result();
+  out.chi2 = r.chi2;
+  out.pairs = r.pairs;
   return out;
 }
 
