@@ -409,15 +409,7 @@ void GradientDomainMlt::develop(Film& film) const {
     }
     std::vector<double> dx, dy;
     forward_differences(image, width_, height_, 3, &dx, &dy);
-    Pass& comb = film.add_pass(pass::kCombined, 3);
-    Pass& prim = film.add_pass(pass::kPrimal, 3);
-    Pass& gx = film.add_pass(pass::kGradientX, 3);
-    Pass& gy = film.add_pass(pass::kGradientY, 3);
-    for (size_t k = 0; k < 3 * n; ++k) {
-      comb.data[k] = prim.data[k] = static_cast<float>(image[k]);
-      gx.data[k] = static_cast<float>(dx[k]);
-      gy.data[k] = static_cast<float>(dy[k]);
-    }
+    write_gradient_passes(film, 3 * n, [&](size_t k) { return std::array<double, 4>{image[k], image[k], dx[k], dy[k]}; });
     Pass& dens = film.add_pass(pass::kSampleDensity, 1);
     std::fill(dens.data.begin(), dens.data.end(), 0.0f);
     return;
