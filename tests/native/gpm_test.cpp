@@ -549,10 +549,14 @@ TEST(Gpm, CausticsFromPointSpotAndSunLights) {
 // gives 20 standard deviations here (47 at 300 seeds).
 // Checked to fail (300 seeds, 4000 photons; correct: 1.7 sd): the offset photon's power without
 // the chain's emission/BSDF ratio (133 sd), or without the walk's Jacobian (1197 sd).
-struct GradientBias {
-  double chi2 = 0;
-  int pairs = 0;
+struct GradientBias : GradientPairChi2::Result {
   double walks = 0;
+  // Prints the statistic under `label`; returns how many standard deviations chi2 is above its mean.
+  double report(const std::string& label) const {
+    std::printf("%s: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", label.c_str(), chi2, pairs,
+                excess(), walks);
+    return excess();
+  }
 };
 constexpr const char* kSpotLight = R"({"type": "spot", "position": [0.05, 0.02, 2.0], "direction": [0, 0, -1],
                                       "spot_size": 34, "spot_blend": 1, "intensity": 8})";
@@ -582,9 +586,7 @@ GradientBias gradient_bias_on_caustic(int seeds, const std::string& light, int64
     out.walks += g->stats().extra.count("manifold walks") ? g->stats().extra.at("manifold walks") : 0.0;
     stat.add(f);
   }
-  const GradientPairChi2::Result r = stat.result();
-  out.chi2 = r.chi2;
-  out.pairs = r.pairs;
+  static_cast<GradientPairChi2::Result&>(out) = stat.result();
   return out;
 }
 
@@ -592,9 +594,7 @@ TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACaustic) {
   // The sun lights the whole floor: ten times the photons for as many on the caustic.
   for (auto [light, photons] : {std::pair{kSpotLight, 3000}, std::pair{kSunLight, 30000}}) {
     const GradientBias b = gradient_bias_on_caustic(120, light, photons);
-    const double excess = (b.chi2 - b.pairs) / std::sqrt(2.0 * b.pairs);  // standard deviations
-    std::printf("%s: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", light, b.chi2, b.pairs, excess,
-                b.walks);
+    const double excess = b.report(light);
     EXPECT_GT(b.walks, 1000.0) << light;
     EXPECT_GT(b.pairs, 300) << light;
     EXPECT_LT(excess, 4.0) << light;
@@ -610,9 +610,7 @@ TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACaustic) {
 TEST(Gpm, NoManifoldWalkThroughAMultiscatterGlass) {
   const std::string glass = R"({"type": "dielectric", "ior": 1.5, "roughness": 0.03, "distribution": "multi_ggx"})";
   const GradientBias b = gradient_bias_on_caustic(60, kSpotLight, 3000, kFlatFloor, glass);
-  const double excess = (b.chi2 - b.pairs) / std::sqrt(2.0 * b.pairs);
-  std::printf("multiscatter glass: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", b.chi2, b.pairs,
-              excess, b.walks);
+  const double excess = b.report("multiscatter glass");
   EXPECT_EQ(b.walks, 0.0);
   EXPECT_GT(b.pairs, 100);
   EXPECT_LT(excess, 4.0);
@@ -643,9 +641,7 @@ TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACurvedReceiver) {
   const GradientBias b = gradient_bias_on_caustic(
       120, kSpotLight, 3000,
       R"({"name": "floor", "type": "sphere", "center": [0, 0, -0.15], "radius": 0.15, "segments": 128, "material": "white"})");
-  const double excess = (b.chi2 - b.pairs) / std::sqrt(2.0 * b.pairs);
-  std::printf("curved receiver: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", b.chi2, b.pairs,
-              excess, b.walks);
+  const double excess = b.report("curved receiver");
   EXPECT_GT(b.walks, 1000.0);
   EXPECT_GT(b.pairs, 50);
   EXPECT_LT(excess, 4.0);

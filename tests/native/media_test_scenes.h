@@ -4,7 +4,10 @@
 // a World haze and a denser coloured smoke ball) whose haze and image size each test picks.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
+#include <cstdio>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -47,6 +50,12 @@ inline RGB pt_median(const Scene& s, int passes, const std::vector<uint64_t>& se
     m[c] = v[v.size() / 2];
   }
   return m;
+}
+
+// A method's image mean `m` within `tol` of pt's per channel; `what`: the scene and the method.
+inline void expect_near_pt(const RGB& m, const RGB& pt, double tol, const std::string& what) {
+  std::printf("%s / pt %.4f %.4f %.4f\n", what.c_str(), m.r / pt.r, m.g / pt.g, m.b / pt.b);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(m[c] / pt[c], 1.0, tol) << what << " channel " << c << ": " << m[c] << " vs " << pt[c];
 }
 
 // A closed room (a two-sided diffuse box, the camera inside, a point light) filled with haze (a
