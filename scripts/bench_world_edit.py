@@ -3,7 +3,9 @@ sync.py's plan applies after a World change), for a World graph lit by an HDRI: 
 (Background <- MixRGB Multiply tint <- Environment Texture <- Mapping <- Texture Coordinate: a
 colour from a node, which only the graph route says) edited by a Mapping rotation, a
 Strength, sent unchanged (a material edit re-sends the World), and by a colour multiplier
-(which changes the sampling: baked again). Best of --repeat per edit, seconds.
+(which changes the sampling: baked again); then that Background inside a Mix with a constant
+one (a sum of Backgrounds: world_graph.h's terms) edited by its Strength, the constant one's
+colour and the Mix factor. Best of --repeat per edit, seconds.
 
     /usr/bin/python3 scripts/bench_world_edit.py [--build build] [--hdri forest.exr] [--repeat 5]
 
@@ -38,6 +40,14 @@ def world(rot_z=0.0, strength=1.0, tint=1.0):
                       "tc": {"type": "ShaderNodeTexCoord"}}}
 
 
+def mixed(strength=1.0, colour=0.4, factor=0.3):
+    """The graph above inside a Mix Shader with a constant Background."""
+    env = world(strength=strength)
+    env["surface"] = {"type": "mix", "factor": factor, "a": env["surface"],
+                      "b": {"type": "background", "color": [colour, colour * 0.8, colour * 0.5], "strength": 2.0}}
+    return env
+
+
 def description(env):
     return json.dumps({"materials": MATERIALS, "environment": env})
 
@@ -55,10 +65,15 @@ edits = {
     "unchanged": lambda i: world(),
     "colour (bakes again)": lambda i: world(tint=1.0 + 0.1 * (i + 1)),
 }
-for name, make in edits.items():
+mixed_edits = {
+    "strength inside a Mix": lambda i: mixed(strength=1.0 + 0.1 * (i + 1)),
+    "constant colour inside a Mix": lambda i: mixed(colour=0.4 + 0.05 * (i + 1)),
+    "Mix factor": lambda i: mixed(factor=0.3 + 0.05 * (i + 1)),
+}
+for name, make, first in [(n, m, world) for n, m in edits.items()] + [(n, m, mixed) for n, m in mixed_edits.items()]:
     best = 1e9
     for i in range(a.repeat):
-        scene.update_description(description(world()))  # back to the first World
+        scene.update_description(description(first()))  # back to the first World
         d = description(make(i))
         t0 = time.perf_counter()
         scene.update_description(d)

@@ -11,38 +11,82 @@
 
 namespace gp {
 
-BakedDirections bake_directions(int W, int H, int S, int threads, const std::function<RGB(const Vec3&)>& radiance) {
-  std::vector<float> f(size_t(W) * H);
-  std::vector<RGB> rows(H, RGB(0.0f));
+BakedTerms bake_direction_terms(int W, int H, int S, int threads, int K,
+                                const std::function<void(const Vec3&, RGB*)>& radiance) {
+  BakedTerms t;
+  t.W = W;
+  t.H = H;
+  t.luminance.assign(size_t(K), std::vector<float>(size_t(W) * H));
+  std::vector<RGB> rows(size_t(H) * K, RGB(0.0f));  // per row and term: the sum of its cells
   parallel_for(static_cast<size_t>(H), threads, [&](size_t j0, size_t j1) {
+    std::vector<RGB> value(static_cast<size_t>(K)), c(static_cast<size_t>(K));
     for (size_t j = j0; j != j1; ++j) {
-      RGB row(0.0f);
       for (int i = 0; i < W; ++i) {
-        RGB c(0.0f);
+        std::fill(c.begin(), c.end(), RGB(0.0f));
         for (int sj = 0; sj < S; ++sj)
-          for (int si = 0; si < S; ++si)
-            c += radiance(EnvironmentMap::equirectangular_direction(Vec2((i + (si + 0.5f) / S) / W, (j + (sj + 0.5f) / S) / H)));
-        c = c * (1.0f / float(S * S));
-        row += c;
-        f[j * W + i] = c.luminance();
+          for (int si = 0; si < S; ++si) {
+            radiance(EnvironmentMap::equirectangular_direction(Vec2((i + (si + 0.5f) / S) / W, (j + (sj + 0.5f) / S) / H)),
+                     value.data());
+            for (int k = 0; k < K; ++k) c[k] += value[k];
+          }
+        for (int k = 0; k < K; ++k) {
+          c[k] = c[k] * (1.0f / float(S * S));
+          rows[j * K + k] += c[k];
+          t.luminance[k][j * W + i] = c[k].luminance();
+        }
       }
-      rows[j] = row;
     }
   });
-  double mean = 0, sum[3] = {0, 0, 0};
+  t.integral.assign(size_t(K), {0.0, 0.0, 0.0});
   for (int j = 0; j < H; ++j) {
     const double band = std::abs(std::cos(M_PI * j / H) - std::cos(M_PI * (j + 1) / H));  // solid angle / 2pi
-    for (int k = 0; k < 3; ++k) sum[k] += rows[j][k] * 2.0 * M_PI * band / W;
+    for (int k = 0; k < K; ++k)
+      for (int ch = 0; ch < 3; ++ch) t.integral[k][ch] += rows[j * K + k][ch] * 2.0 * M_PI * band / W;
+    t.uniform_integral += static_cast<float>(W) * 2.0 * M_PI * band / W;
+  }
+  return t;
+}
+
+BakedDirections combine_direction_terms(const BakedTerms& t, const std::vector<float>& weights, RGB constant) {
+  const int W = t.W, H = t.H;
+  const size_t K = t.luminance.size();
+  if (weights.size() != K) throw std::invalid_argument("combine_direction_terms: one weight per term");
+  const float lc = constant.luminance();
+  std::vector<float> f(size_t(W) * H);
+  double mean = 0;
+  for (int j = 0; j < H; ++j) {
     const float st = std::sin(kPi * (j + 0.5f) / H);
     for (int i = 0; i < W; ++i) {
-      f[j * W + i] *= st;
-      mean += f[j * W + i];
+      const size_t c = size_t(j) * W + i;
+      float v = 0.0f;
+      for (size_t k = 0; k < K; ++k) v += weights[k] * t.luminance[k][c];
+      if (lc != 0.0f) v += lc;
+      f[c] = std::isfinite(v) ? std::max(v, 0.0f) * st : 0.0f;  // (an overflowing weight lights nothing, as eval)
+      mean += f[c];
     }
   }
   mean /= double(W) * H;
   for (float& v : f) v = std::max(v, static_cast<float>(1e-3 * mean));
   if (!(mean > 0)) std::fill(f.begin(), f.end(), 1.0f);  // black to light samples: uniform
+  double sum[3] = {0, 0, 0};
+  for (int ch = 0; ch < 3; ++ch) {
+    for (size_t k = 0; k < K; ++k) sum[ch] += weights[k] * t.integral[k][ch];
+    if (constant[ch] != 0.0f) sum[ch] += constant[ch] * t.uniform_integral;
+    sum[ch] = std::isfinite(float(sum[ch])) ? std::max(sum[ch], 0.0) : 0.0;
+  }
   return {PiecewiseConstant2D(f.data(), W, H), RGB(float(sum[0]), float(sum[1]), float(sum[2]))};
+}
+
+size_t BakedTerms::bytes() const {
+  size_t n = 0;
+  for (const auto& l : luminance) n += l.size() * sizeof(float);
+  return n;
+}
+
+BakedDirections bake_directions(int W, int H, int S, int threads, const std::function<RGB(const Vec3&)>& radiance) {
+  // One term of weight 1: the same floats as summing it alone.
+  const BakedTerms t = bake_direction_terms(W, H, S, threads, 1, [&](const Vec3& d, RGB* out) { out[0] = radiance(d); });
+  return combine_direction_terms(t, {1.0f}, RGB(0.0f));
 }
 
 bool BakedDirections::sample(Vec2 u, Vec3* dir) const {

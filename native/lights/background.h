@@ -9,6 +9,7 @@
 // one mixture density).
 #pragma once
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -35,6 +36,26 @@ struct BakedDirections {
   float density(const Vec3& dir) const;
 };
 BakedDirections bake_directions(int W, int H, int S, int threads, const std::function<RGB(const Vec3&)>& radiance);
+
+// K direction functions baked together over one such grid (one call gives all K values, so a
+// World graph's program runs once per direction): per term its cells' luminance and its
+// integral, kept so that a weighted sum of the terms is baked again without evaluating them
+// (a World graph whose Mix / Add of Backgrounds is re-weighted: world_graph.h).
+struct BakedTerms {
+  int W = 0, H = 0;
+  std::vector<std::vector<float>> luminance;      // per term: W x H cells (the means of S x S values)
+  std::vector<std::array<double, 3>> integral;    // per term: over the sphere
+  double uniform_integral = 0;                    // 1 over the sphere by the same quadrature (about 4 pi)
+  size_t bytes() const;
+};
+// `radiance(d, out)` writes the K terms' values at unit direction d to out[0 .. K-1].
+BakedTerms bake_direction_terms(int W, int H, int S, int threads, int K,
+                                const std::function<void(const Vec3&, RGB*)>& radiance);
+// The bake of sum_k weights[k] x term k + `constant` (a uniform radiance): bake_directions'
+// grid and integral of that sum (luminance is linear: the same cells up to float rounding; bit
+// for bit bake_directions' for one term of weight 1 and no constant). Cells whose weighted sum
+// is negative count as black.
+BakedDirections combine_direction_terms(const BakedTerms& terms, const std::vector<float>& weights, RGB constant);
 
 class BackgroundTerm {
  public:

@@ -2,6 +2,7 @@
 
 #include "core/frame.h"
 #include "lights/world_graph.h"
+#include "textures/normal_mapping.h"
 
 namespace gp {
 
@@ -285,6 +286,11 @@ RGB EmissionGraph::at(const Light& l, const Vec3& p, const Vec3& wo, const RaySt
   if (object && l.motion && !l.motion->transform.empty()) ctx.set_object_at(*object, l.motion->transform.at(shutter_time()));
   ctx.prim = prim;
   ctx.camera = camera;
+  // The triangle's surface tangents where the graph reads them (Normal Map, Bump, Geometry's
+  // Tangent), as Scene::shading_context gives a surface's: without them a bumped or normal-mapped
+  // emission read the plain normal (test_nodes_render_more.py against Cycles).
+  if (program->reads_tangents() && !triangle_dpduv(l.p0, l.p1, l.p2, uv0, uv1, uv2, &ctx.dPdu, &ctx.dPdv))
+    ctx.dPdu = ctx.dPdv = Vec3(0.0f);
   if (ray) ctx.ray = *ray;
   thread_local std::vector<Vec3> regs;
   regs.resize(program->num_registers());

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <set>
@@ -116,6 +117,31 @@ Vec3 mat_apply_t(const float m[3][3], const Vec3& v) {
           m[0][2] * v.x + m[1][2] * v.y + m[2][2] * v.z};
 }
 
+// Erases what only weighs a term of the sum under closure `c` (WorldGraph::split_terms' walk):
+// the constant factors of Mixes, the constant strengths of Backgrounds and the colours of those
+// whose colour is constant too (a uniform term). A Mix of linked factor or a Background of
+// linked strength is a term whole: kept as it is.
+void strip_weights(json& c, int depth) {
+  if (!c.is_object() || depth > 64) return;  // (the loader bounds the depth already)
+  auto linked = [&](const char* key) {
+    const auto it = c.find(key);
+    return it != c.end() && shading::is_link(*it);
+  };
+  const std::string t = type_of(c);
+  if (t == "mix" || t == "add") {
+    if (t == "mix") {
+      if (linked("factor")) return;
+      c.erase("factor");
+    }
+    for (const char* child : {"a", "b"})
+      if (auto it = c.find(child); it != c.end()) strip_weights(*it, depth + 1);
+  } else if (t == "background") {
+    if (linked("strength")) return;
+    c.erase("strength");
+    if (!linked("color")) c.erase("color");
+  }
+}
+
 // Cycles' angle between unit vectors, accurate for small angles (util/math: precise_angle).
 double precise_angle(const Vec3& a, const Vec3& b) { return 2.0 * std::atan2(double(length(a - b)), double(length(a + b))); }
 
@@ -201,6 +227,17 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
     }
   }
   f.key = canon.dump() + "\n" + images;
+  // A sum of constant weights at the root (WorldGraph::split_terms): the key less its weights.
+  if (canon.is_object() && canon.contains("surface")) {
+    json terms = canon;
+    json& root = terms["surface"];
+    const std::string rt = type_of(root);
+    const auto fac = root.is_object() ? root.find("factor") : root.end();
+    if (rt == "add" || (rt == "mix" && (fac == root.end() || !shading::is_link(*fac)))) {
+      strip_weights(root, 0);
+      f.terms_key = terms.dump() + "\n" + images;
+    }
+  }
   // Nishita suns: a Sky Texture reading the direction (Vector unlinked, or the Texture
   // Coordinate's) or the Mapping above (sign F d); its sun in the World at F^T (sign sun).
   f.suns_complete = true;
@@ -238,9 +275,24 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
   return f;
 }
 
-// ---- The shared bake ----
+// ---- The shared bakes ----
+
+// The graph's terms baked (WorldGraph::Term): what its sampling is combined from by the terms'
+// weights. Shared by the graphs of one terms_key (sums) while a WorldBake holds it.
+struct WorldTermsBake {
+  BakedTerms grid;     // without the sun discs that `cones` sample
+  float frame[3][3];   // the graph's it was baked for
+  float strength = 1.0f;
+  struct Cone {
+    Vec3 dir;  // in the baked graph's World
+    double half = 0, one_minus_cos = 0;
+    std::vector<RGB> integral;  // per term: its value over the cone
+  };
+  std::vector<Cone> cones;
+};
 
 struct WorldBake {
+  std::shared_ptr<const WorldTermsBake> terms;  // kept for re-weighting (sums only)
   BakedDirections grid;  // without the sun discs that `cones` sample
   float frame[3][3];     // the graph's it was baked for
   float strength = 1.0f;
@@ -257,6 +309,27 @@ struct WorldBake {
 namespace {
 std::mutex g_bake_mutex;
 std::map<std::string, std::weak_ptr<const WorldBake>> g_bakes;
+std::map<std::string, std::weak_ptr<const WorldTermsBake>> g_terms;  // by terms_key
+
+// The first one in for `key` kept (a bake runs parallel work outside the lock: two threads may
+// make the same one); `made` stored when none is alive. Returns the one to use.
+template <class T>
+std::shared_ptr<const T> keep_first(std::map<std::string, std::weak_ptr<const T>>& cache, const std::string& key,
+                                    std::shared_ptr<const T> made) {
+  std::lock_guard lock(g_bake_mutex);
+  auto& slot = cache[key];
+  if (auto other = slot.lock()) return other;
+  slot = made;
+  for (auto it = cache.begin(); it != cache.end();) it = it->second.expired() ? cache.erase(it) : std::next(it);
+  return made;
+}
+
+template <class T>
+std::shared_ptr<const T> find_alive(const std::map<std::string, std::weak_ptr<const T>>& cache, const std::string& key) {
+  std::lock_guard lock(g_bake_mutex);
+  const auto it = cache.find(key);
+  return it == cache.end() ? nullptr : it->second.lock();
+}
 
 Vec3 sample_cone(const Vec3& axis, double one_minus_cos_max, Vec2 u) {
   // Uniform in the cone: 1 - cos(theta) uniform in [0, 1 - cos(half)].
@@ -305,45 +378,81 @@ WorldGraph::WorldGraph(std::shared_ptr<const shading::ShaderProgram> program, st
     camera_ = *camera;
     has_camera_ = true;
   }
+  split_terms();
   const int width = sampling_width > 0 ? sampling_width : 1024;  // Cycles' default map resolution
   if (!frame) {
-    baked_ = bake(width, WorldGraphFrame());
+    baked_ = combine(bake_terms(width, WorldGraphFrame()), false);
     return;
   }
-  // Share the bake of an equal key: built outside the lock (a bake runs parallel work, which
+  // Share the bake of an equal key; else re-weight the terms' bake of an equal terms_key (a
+  // sum's weights edited); else bake. Built outside the lock (a bake runs parallel work, which
   // must not wait on a lock another bake holds), the first one in kept.
   const std::string key = frame->key + "\n" + std::to_string(width);
-  {
-    std::lock_guard lock(g_bake_mutex);
-    if (auto it = g_bakes.find(key); it != g_bakes.end()) baked_ = it->second.lock();
-  }
+  baked_ = find_alive(g_bakes, key);
+  reused_ = baked_ != nullptr;
   if (!baked_) {
-    auto made = bake(width, *frame);
-    std::lock_guard lock(g_bake_mutex);
-    auto& slot = g_bakes[key];
-    if (auto other = slot.lock()) {
-      baked_ = other;
-    } else {
-      baked_ = made;
-      slot = made;
-      for (auto it = g_bakes.begin(); it != g_bakes.end();) it = it->second.expired() ? g_bakes.erase(it) : std::next(it);
-      return;
+    const std::string terms_key = frame->terms_key.empty() ? "" : frame->terms_key + "\n" + std::to_string(width);
+    std::shared_ptr<const WorldTermsBake> terms;
+    if (!terms_key.empty()) terms = find_alive(g_terms, terms_key);
+    reused_terms_ = terms != nullptr;
+    if (!terms) {
+      terms = bake_terms(width, *frame);
+      if (!terms_key.empty()) {
+        const auto kept = keep_first(g_terms, terms_key, terms);
+        reused_terms_ = kept != terms;
+        terms = kept;
+      }
     }
+    const auto made = combine(terms, !terms_key.empty());
+    baked_ = keep_first(g_bakes, key, made);
+    reused_ = baked_ != made;
   }
   // A bake made for the graph turned by F0 with strength s0: this one is s1 g(F1 d) =
-  // (s1 / s0) x that graph along F0^T F1 d (a rotation: the density moves, unscaled).
-  reused_ = true;
-  scale_ = frame->strength / baked_->strength;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      float q = 0;
-      for (int k = 0; k < 3; ++k) q += baked_->frame[k][i] * frame->frame[k][j];
-      q_[i][j] = q;
-    }
+  // (s1 / s0) x that graph along F0^T F1 d (a rotation: the density moves, unscaled). A bake of
+  // this graph's own frame (the same rotation, or terms re-weighted in it) is used as it is, so
+  // that it samples bit for bit as a fresh bake (F^T F is the identity only up to rounding).
+  if (reused_) scale_ = frame->strength / baked_->strength;
+  if ((reused_ || reused_terms_) && std::memcmp(baked_->frame, frame->frame, sizeof frame->frame) != 0) {
+    turned_ = true;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        float q = 0;
+        for (int k = 0; k < 3; ++k) q += baked_->frame[k][i] * frame->frame[k][j];
+        q_[i][j] = q;
+      }
+  }
 }
 
-Vec3 WorldGraph::to_bake(const Vec3& d) const { return reused_ ? normalize(mat_apply(q_, d)) : d; }
-Vec3 WorldGraph::from_bake(const Vec3& v) const { return reused_ ? normalize(mat_apply_t(q_, v)) : v; }
+void WorldGraph::split_terms() {
+  // The root an Add or a Mix of constant factor: the sum of the terms below (svm closure
+  // weights: Add passes its weight to both, Mix (1 - f) and f with f clamped as closure() does).
+  const WorldClosure& root = closures_.back();
+  const bool sum = root.kind == WorldClosure::Kind::Add || (root.kind == WorldClosure::Kind::Mix && !root.fac_linked);
+  if (!sum) {
+    terms_ = {Term{int(closures_.size()) - 1, false, 1.0f}};
+    return;
+  }
+  std::function<void(int, float)> walk = [&](int i, float w) {
+    const WorldClosure& c = closures_[size_t(i)];
+    if (c.kind == WorldClosure::Kind::Add) {
+      walk(c.a, w);
+      walk(c.b, w);
+    } else if (c.kind == WorldClosure::Kind::Mix && !c.fac_linked) {
+      const float f = std::isfinite(c.fac_constant) ? std::clamp(c.fac_constant, 0.0f, 1.0f) : 0.0f;
+      walk(c.a, w * (1.0f - f));
+      walk(c.b, w * f);
+    } else if (c.kind == WorldClosure::Kind::Background && !c.strength_linked) {
+      if (c.color_linked) terms_.push_back(Term{i, true, c.strength_constant * w});
+      else constant_ += c.color_constant * (c.strength_constant * w);
+    } else {
+      terms_.push_back(Term{i, false, w});  // (a Mix of linked factor, a Background of linked strength)
+    }
+  };
+  walk(int(closures_.size()) - 1, 1.0f);
+}
+
+Vec3 WorldGraph::to_bake(const Vec3& d) const { return turned_ ? normalize(mat_apply(q_, d)) : d; }
+Vec3 WorldGraph::from_bake(const Vec3& v) const { return turned_ ? normalize(mat_apply_t(q_, v)) : v; }
 
 RGB WorldGraph::integral() const { return baked_->integral * scale_; }
 int WorldGraph::sampling_width() const { return baked_->grid.grid.nu(); }
@@ -373,55 +482,102 @@ RGB WorldGraph::closure(int i, const Vec3* regs) const {
   return RGB(0.0f);
 }
 
-RGB WorldGraph::eval(const Vec3& dir, const RayState& ray) const {
+// The node program's registers for a ray of state `ray` leaving the scene along `dir` (this
+// thread's, valid until its next run; null without a program).
+const Vec3* WorldGraph::run(const Vec3& dir, const RayState& ray) const {
+  if (!program_) return nullptr;
   thread_local std::vector<Vec3> regs;
   shading::ShadingContext ctx = shading::ShadingContext::direction(dir);
   ctx.ray = ray;
   ctx.camera = has_camera_ ? &camera_ : nullptr;
-  const Vec3* r = nullptr;
-  if (program_) {
-    regs.resize(program_->num_registers());
-    program_->run(ctx, regs.data());
-    r = regs.data();
-  }
-  RGB L = closure(int(closures_.size()) - 1, r);
-  // A negative strength or colour (allowed by Blender) lights nothing here; NaN never leaves.
+  regs.resize(program_->num_registers());
+  program_->run(ctx, regs.data());
+  return regs.data();
+}
+
+namespace {
+// A negative strength or colour (allowed by Blender) lights nothing here; NaN never leaves.
+RGB lit(RGB L) {
   for (int k = 0; k < 3; ++k)
     if (!(L[k] > 0.0f) || !std::isfinite(L[k])) L[k] = 0.0f;
   return L;
 }
+}  // namespace
 
-std::shared_ptr<const WorldBake> WorldGraph::bake(int width, const WorldGraphFrame& frame) const {
-  auto b = std::make_shared<WorldBake>();
+RGB WorldGraph::eval(const Vec3& dir, const RayState& ray) const {
+  return lit(closure(int(closures_.size()) - 1, run(dir, ray)));
+}
+
+std::shared_ptr<const WorldTermsBake> WorldGraph::bake_terms(int width, const WorldGraphFrame& frame) const {
+  auto t = std::make_shared<WorldTermsBake>();
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) b->frame[i][j] = frame.frame[i][j];
-  b->strength = frame.strength;
+    for (int j = 0; j < 3; ++j) t->frame[i][j] = frame.frame[i][j];
+  t->strength = frame.strength;
+  // Each term's value as a light sample sees the World (no path flags): one program run for all.
+  const auto values = [this](const Vec3& d, RGB* out) {
+    const Vec3* regs = run(d, RayState());
+    for (size_t k = 0; k < terms_.size(); ++k) {
+      const Term& term = terms_[k];
+      const WorldClosure& c = closures_[size_t(term.closure)];
+      out[k] = lit(term.colour ? RGB(regs[c.color.reg].x, regs[c.color.reg].y, regs[c.color.reg].z)
+                               : closure(term.closure, regs));
+    }
+  };
   // W x W/2 equirectangular cells (environment_map.h's orientation), each the mean of S x S
-  // evaluations as a light sample sees the World (2 x 2 up to 1024 columns: a small bright
-  // feature is less likely to fall between them). Sun discs the cones sample are left out.
+  // evaluations (2 x 2 up to 1024 columns: a small bright feature is less likely to fall
+  // between them). Sun discs the cones sample are left out.
   const int W = std::clamp(width, 4, 8192), H = std::max(2, W / 2);
   const int S = W <= 1024 ? 2 : 1;
   const bool cones = !frame.suns.empty();
-  b->grid = bake_directions(W, H, S, 0, [this, cones](const Vec3& d) {
-    if (!cones) return eval(d);
+  const int K = static_cast<int>(terms_.size());
+  t->grid = bake_direction_terms(W, H, S, 0, K, [&values, cones](const Vec3& d, RGB* out) {
+    if (!cones) return values(d, out);
     SkySunDiscsOff off;
-    return eval(d);
+    values(d, out);
   });
-  b->integral = b->grid.integral;
-  // Each sun's power: the graph's mean radiance over a stratified grid of its cone.
-  std::vector<float> power;
+  // Each sun's light per term: the mean over a stratified grid of its cone.
+  std::vector<RGB> v(size_t(K) + 1);
   for (const WorldGraphFrame::Sun& s : frame.suns) {
-    WorldBake::Cone c;
+    WorldTermsBake::Cone c;
     c.dir = s.direction;
     c.half = 0.5 * s.size;
     c.one_minus_cos = 2.0 * std::sin(0.5 * c.half) * std::sin(0.5 * c.half);
     if (!(c.one_minus_cos > 0)) continue;
     const int n = 24;
-    RGB sum(0.0f);
+    c.integral.assign(size_t(K), RGB(0.0f));
     for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) sum += eval(sample_cone(c.dir, c.one_minus_cos, Vec2((i + 0.5f) / n, (j + 0.5f) / n)));
-    const RGB integral = sum * static_cast<float>(2.0 * M_PI * c.one_minus_cos / (n * n));
+      for (int j = 0; j < n; ++j) {
+        values(sample_cone(c.dir, c.one_minus_cos, Vec2((i + 0.5f) / n, (j + 0.5f) / n)), v.data());
+        for (int k = 0; k < K; ++k) c.integral[size_t(k)] += v[size_t(k)];
+      }
+    for (RGB& integral : c.integral) integral = integral * static_cast<float>(2.0 * M_PI * c.one_minus_cos / (n * n));
+    t->cones.push_back(std::move(c));
+  }
+  return t;
+}
+
+std::shared_ptr<const WorldBake> WorldGraph::combine(std::shared_ptr<const WorldTermsBake> terms, bool keep) const {
+  const WorldTermsBake& t = *terms;
+  auto b = std::make_shared<WorldBake>();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) b->frame[i][j] = t.frame[i][j];
+  b->strength = t.strength;
+  std::vector<float> weights;
+  for (const Term& term : terms_) weights.push_back(term.weight);
+  b->grid = combine_direction_terms(t.grid, weights, constant_);
+  b->integral = b->grid.integral;
+  // Each sun's power: its terms' light over the cone, weighted (a uniform term: its colour x
+  // the cone's solid angle).
+  std::vector<float> power;
+  for (const WorldTermsBake::Cone& tc : t.cones) {
+    RGB integral(0.0f);
+    for (size_t k = 0; k < weights.size(); ++k) integral += tc.integral[k] * weights[k];
+    if (!constant_.is_black()) integral += constant_ * static_cast<float>(2.0 * M_PI * tc.one_minus_cos);
     if (!(integral.average() > 0) || !std::isfinite(integral.average())) continue;  // below the horizon: dark
+    WorldBake::Cone c;
+    c.dir = tc.dir;
+    c.half = tc.half;
+    c.one_minus_cos = tc.one_minus_cos;
     b->integral += integral;
     power.push_back(integral.average());
     b->cones.push_back(c);
@@ -432,6 +588,7 @@ std::shared_ptr<const WorldBake> WorldGraph::bake(int width, const WorldGraphFra
     b->p_cones += b->cones[i].p;
   }
   if (!(b->p_cones < 1.0f)) b->p_cones = 0.0f, b->cones.clear();  // (a black sky: the sums round)
+  if (keep) b->terms = std::move(terms);  // (it lives while a graph samples by it)
   return b;
 }
 

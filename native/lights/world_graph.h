@@ -29,8 +29,15 @@
 // turning the direction (Texture Coordinate Generated/Object) in front of every texture that
 // reads it, the root a Background of constant strength -- keys without F and the strength, so
 // turning the HDRI or changing the strength reuses the grid: its frame turned by F0^T F1, its
-// integral scaled by s1 / s0. Any other edit bakes again (the images stay loaded: the texture
-// store shares them while the previous scene holds them).
+// integral scaled by s1 / s0. A graph whose root is an Add or a Mix of constant factor is a
+// weighted sum of terms -- each Background of constant strength (its colour; a constant colour
+// is a uniform term), each Mix of linked factor and each Background of linked strength below
+// those (the subtree) -- and is baked term by term (BakedTerms): its key without the factors,
+// the strengths and the constant colours names the terms' bake, so a strength, factor or
+// constant colour edit anywhere in that sum re-weights it (milliseconds) instead of baking the
+// graph again; a fresh bake of such a graph goes the same way, so both sample alike bit for
+// bit. Any other edit bakes again (the images stay loaded: the texture store shares them while
+// the previous scene holds them).
 #pragma once
 
 #include <memory>
@@ -74,13 +81,18 @@ struct WorldGraphFrame {
   };
   std::vector<Sun> suns;
   bool suns_complete = false;
+  // The key of the terms' bake, less the weights (see above); empty when the root is not such
+  // a sum.
+  std::string terms_key;
 };
 // The frame of the World graph `env` ({"type": "graph", "nodes", "surface"}); `images`
 // identifies the images its nodes read (their content is part of the key).
 WorldGraphFrame world_graph_frame(const nlohmann::json& env, const std::string& images);
 
-// A bake shared by the World graphs of one key (world_graph.cpp's cache).
+// A bake shared by the World graphs of one key, and the terms' bake shared by those of one
+// terms_key (world_graph.cpp's caches).
 struct WorldBake;
+struct WorldTermsBake;
 
 class WorldGraph final : public BackgroundTerm {
  public:
@@ -105,11 +117,27 @@ class WorldGraph final : public BackgroundTerm {
   // Whether this graph reuses a bake made for another (an edit in place), and the probability
   // that sample() draws from a sun's cone (0 without one).
   bool reused_bake() const { return reused_; }
+  // Whether its sampling was re-weighted from the terms' bake made for another graph (a
+  // strength, factor or constant colour edit inside a Mix / Add), and how many terms the graph
+  // is baked as (1: the graph whole; 0: only constants).
+  bool reused_terms() const { return reused_terms_; }
+  int baked_terms() const { return static_cast<int>(terms_.size()); }
   float sun_probability() const;
 
  private:
+  // A term of the sum the graph is baked as: closure `closure`'s value (`colour`: a Background's
+  // colour alone, its strength in the weight), times `weight` (the factors and strengths above it).
+  struct Term {
+    int closure = -1;
+    bool colour = false;
+    float weight = 1.0f;
+  };
+  void split_terms();
+  const Vec3* run(const Vec3& dir, const RayState& ray) const;
   RGB closure(int i, const Vec3* regs) const;
-  std::shared_ptr<const WorldBake> bake(int width, const WorldGraphFrame& frame) const;
+  std::shared_ptr<const WorldTermsBake> bake_terms(int width, const WorldGraphFrame& frame) const;
+  // The sampling of this graph's weights from `terms` (kept in it when `keep`: a sum's).
+  std::shared_ptr<const WorldBake> combine(std::shared_ptr<const WorldTermsBake> terms, bool keep) const;
   Vec3 to_bake(const Vec3& d) const;    // world direction -> the bake's world (q_ d)
   Vec3 from_bake(const Vec3& v) const;  // q_^T v
   std::shared_ptr<const shading::ShaderProgram> program_;
@@ -120,7 +148,10 @@ class WorldGraph final : public BackgroundTerm {
   std::shared_ptr<const WorldBake> baked_;  // the sampling grid and sun cones, as light samples see the World
   float q_[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};  // F_bake^T F_this: a rotation
   float scale_ = 1.0f;                                 // strength / the bake's strength
-  bool reused_ = false;
+  bool reused_ = false, reused_terms_ = false;
+  bool turned_ = false;  // q_ applies (the bake's frame is not this graph's)
+  std::vector<Term> terms_;  // the graph whole when its root is not a sum of constant weights
+  RGB constant_{0.0f};       // the sum's uniform part: its constant-colour Backgrounds
 };
 
 // While one lives on a thread, the World evaluated there is seen by a ray from `origin` (Cycles'

@@ -622,7 +622,7 @@ void bind_builder(py::module_& m) {
               const std::vector<std::string>& materials, const py::object& material_ids, const py::object& normals,
               const py::object& uvs, const py::object& matrices, const std::vector<std::string>& instance_names,
               const py::object& motion, const py::object& motion_positions, const py::object& attributes,
-              const py::object& default_color) {
+              const py::object& default_color, const std::vector<std::optional<uint32_t>>& instance_random_ids) {
              MeshArrays in;
              in.name = name;
              in.materials = materials;
@@ -656,6 +656,7 @@ void bind_builder(py::module_& m) {
              // An empty (0, 4, 4) array means no copy at all (None means one, untransformed).
              if (!matrices.is_none() && in.instances.empty()) return;
              in.instance_names = instance_names;
+             in.instance_random_ids = instance_random_ids;
              // Motion blur: (K, S, 4, 4) object-to-world matrices over the shutter, (S', N, 3) positions.
              if (!motion.is_none()) {
                auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(motion);
@@ -698,10 +699,12 @@ void bind_builder(py::module_& m) {
            py::arg("matrices") = py::none(), py::arg("instance_names") = std::vector<std::string>(),
            py::arg("motion") = py::none(), py::arg("motion_positions") = py::none(), py::arg("attributes") = py::none(),
            py::arg("default_color") = py::none(),
+           py::arg("instance_random_ids") = std::vector<std::optional<uint32_t>>(),
            "Add a mesh: positions float32 (N,3), indices uint32 (M,3), material names with optional uint32 "
            "material_ids (M,), optional float32 normals (N,3) and uvs (N,2), optional (K,4,4) object-to-world "
            "matrices (one world-space copy per matrix); motion blur: optional motion (K,S,4,4), each instance's "
            "S >= 2 matrices over the shutter, and motion_positions float32 (S',N,3), object-space vertices per step; "
+           "optional instance_random_ids (K,) of int or None, Object Info's Random per instance (None: the name's hash); "
            "optional attributes [(name, 'point' | 'corner' | 'face', float32 (N,) or (N,k))] for Color Attribute / "
            "Attribute nodes, with default_color naming the render colour attribute")
       .def_property_readonly("triangle_count", &SceneBuilder::triangle_count)

@@ -45,6 +45,8 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
     if (!std::isfinite(in.positions[k])) fail(fmt::format("vertex {} is not finite", k / 3));
   if (!in.instance_names.empty() && in.instance_names.size() != in.instances.size())
     fail(fmt::format("{} instance names for {} instances", in.instance_names.size(), in.instances.size()));
+  if (!in.instance_random_ids.empty() && in.instance_random_ids.size() != std::max<size_t>(1, in.instances.size()))
+    fail(fmt::format("{} instance random ids for {} instances", in.instance_random_ids.size(), in.instances.size()));
 
   std::vector<Transform> instances = in.instances;
   if (instances.empty()) instances.emplace_back();
@@ -76,6 +78,7 @@ void SceneBuilder::add_mesh(const MeshArrays& in) {
     p.materials = in.materials;
     Mesh& m = p.mesh;
     m.name = in.instance_names.empty() ? in.name : in.instance_names[i];
+    if (!in.instance_random_ids.empty()) m.random_id = in.instance_random_ids[i];
     m.indices.assign(in.indices, in.indices + 3 * nt);
     const std::vector<Transform> no_motion;
     const std::vector<Transform>& motion = in.motion.empty() ? no_motion : in.motion[i];

@@ -32,6 +32,8 @@ struct MeshArrays {
   // Object-to-world matrices (row-major 4x4, affine). Empty = one copy, identity.
   std::vector<Transform> instances;
   std::vector<std::string> instance_names;  // optional, one per instance (default: name)
+  // Optional, one per instance: Object Info's Random id (Mesh::random_id; unset: by name).
+  std::vector<std::optional<uint32_t>> instance_random_ids;
   // Motion blur (docs/scene-format.md): per instance its S >= 2 object-to-world matrices over the
   // shutter (empty: none; `instances` stays the frame's own); an instance whose matrices are all
   // equal is static. Deformation: motion_steps >= 2 object-space vertex arrays, each

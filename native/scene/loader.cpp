@@ -799,7 +799,8 @@ class Loader : private JsonReader {
     const std::string type = get_string(need(o, "type", path), sub(path, "type"));
     std::string name = path;
     if (const json* n = find(o, "name")) name = get_string(*n, sub(path, "name"));
-    const std::initializer_list<std::string_view> common = {"type", "name", "material", "transform", "motion"};
+    const std::initializer_list<std::string_view> common = {"type", "name", "material", "transform", "motion",
+                                                             "random_id"};
     auto keys = [&](std::initializer_list<std::string_view> extra) {
       std::vector<std::string_view> all(common);
       all.insert(all.end(), extra);
@@ -880,6 +881,11 @@ class Loader : private JsonReader {
       fail(sub(path, "type"), fmt::format("unknown object type '{}' (known: mesh, obj, sphere, quad, box, torus, disk)", type));
     }
     mesh.name = name;
+    if (const json* r = find(o, "random_id")) {  // Object Info's Random id (Mesh::random_id)
+      if (!r->is_number_unsigned() || r->get<uint64_t>() > 0xFFFFFFFFull)
+        fail(sub(path, "random_id"), "must be an integer in [0, 4294967295]");
+      mesh.random_id = r->get<uint32_t>();
+    }
     const json* motion = find(o, "motion");
     const json* deform = type == "mesh" ? find(o, "motion_positions") : nullptr;
     if (motion || deform) {

@@ -137,8 +137,10 @@ void Scene::build_shading_objects() {
     } else {
       for (const Vec3& p : m.positions) o.bounds.extend(o.to_object.point(p));
     }
-    // Object Info's Random: Cycles hashes the object's name (hash_uint2(BLI_hash_string(name), 0)).
-    o.random = shading::uint_to_float_incl(shading::hash_uint2(shading::hash_string_x31(m.name.c_str()), 0u));
+    // Object Info's Random (Cycles, blender/object.cpp): an instance's random id, else the hash
+    // of the object's name (hash_uint2(hash_string(name), 0)), as a float in [0, 1].
+    o.random = shading::uint_to_float_incl(
+        m.random_id ? *m.random_id : shading::hash_uint2(shading::hash_string_x37(m.name.c_str()), 0u));
     if (m.attributes && !m.attributes->list.empty()) {
       o.attributes = m.attributes.get();
       o.indices = m.indices.data();

@@ -43,6 +43,9 @@ struct Mesh {
   // Named attributes (colour attributes, generic ones) for Color Attribute / Attribute nodes;
   // shared by the copies of an instanced mesh. Null: none.
   std::shared_ptr<const shading::MeshAttributes> attributes;
+  // Object Info's Random as Cycles sets it (blender/object.cpp): an instance's own random id
+  // (Blender's DepsgraphObjectInstance.random_id); unset, the hash of the object's name.
+  std::optional<uint32_t> random_id;
   size_t triangle_count() const { return indices.size() / 3; }
   // Object space and object-to-world matrix of a mesh given as arrays (null for meshes of scene
   // files, which cannot be moved by Scene::set_mesh_transform).

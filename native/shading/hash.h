@@ -176,10 +176,12 @@ GP_VECTOR_INLINE f32x8 uint_to_float_incl_v(const u32x8& n) {
 GP_VECTOR_INLINE u32x8 float_bits_v(const f32x8& f) { return (u32x8)f; }
 #pragma GCC diagnostic pop
 
-// Blender's BLI_hash_string (x31: h = h * 31 + c), which names an object's random number.
-inline uint32_t hash_string_x31(const char* s) {
+// Cycles' hash_string (util/hash.h: h = h * 37 + c), which names an object's random number
+// (measured against Cycles 3.4: Object Info Random of "Plane" is 0.13576; x31, Blender's own
+// BLI_hash_string, gave 0.5985).
+inline uint32_t hash_string_x37(const char* s) {
   uint32_t h = 0;
-  for (; *s; ++s) h = (h << 5) - h + static_cast<uint8_t>(*s);
+  for (; *s; ++s) h = h * 37u + static_cast<uint8_t>(*s);
   return h;
 }
 

@@ -130,18 +130,35 @@ def test_camera_inside_a_volume_cube_at_cycles_brightness(empty_scene, out_dir):
     too (CameraMedia, paths/medium_stack.h). The image mean within 1 % of Cycles': measured 0.9982,
     1.0019 over the panel's window (256 samples). With camera rays started in the World's medium
     alone (before) the image read 1.7596 of Cycles', 2.3244 over the panel."""
-    scene = empty_scene
+    camera_in_murk(empty_scene, out_dir, "a cube")
+
+
+def test_camera_inside_a_cube_hidden_from_the_camera_at_cycles_brightness(empty_scene, out_dir):
+    """The same cube with Object > Visibility > Camera off: Cycles finds the camera's volumes with
+    a ray of camera visibility (integrator_volume_stack_init, PATH_RAY_CAMERA), so the cube is not
+    around the camera and its camera rays pass the cube's faces without entering it: no murk on
+    them (nor on the rays that leave the cube from inside). gradphoton's CameraMedia traces its
+    probes as camera rays too: measured 1.0006 of Cycles, 1.0001 over the panel (256 samples);
+    with the cube on the camera's stack (before) 0.5514, 0.4296 over the panel."""
+    camera_in_murk(empty_scene, out_dir, "a cube hidden from the camera", hidden=True)
+
+
+def camera_in_murk(scene, out_dir, what, hidden=False):
+    """The camera inside a murk cube before a panel (above): gradphoton's whole image's mean and
+    the panel window's within 1 % of Cycles'."""
     scenes.set_world(scene, (0.5, 0.55, 0.6), 0.4)
     scenes.add_plane(scene, "Floor", 20.0, scenes.diffuse_material("Floor", (0.6, 0.6, 0.6)))
     pv = volume_material("Murk", "ShaderNodeVolumePrincipled", **{
         "Color": (0.8, 0.7, 0.5, 1), "Density": 0.35, "Anisotropy": 0.2, "Absorption Color": (0.4, 0.3, 0.2, 1)})
-    add_cube(scene, "Murk", 6.0, pv, (0, 0, 2.7))  # z from -0.3 to 5.7: the floor inside, not on a face
+    cube = add_cube(scene, "Murk", 6.0, pv, (0, 0, 2.7))  # z from -0.3 to 5.7: the floor inside, not on a face
+    cube.visible_camera = not hidden
     panel = scenes.add_plane(scene, "Panel", 2.0, scenes.emission_material("Panel", 4.0, (1.0, 0.9, 0.7)), (0, 2.0, 1.2))
     panel.rotation_euler = (math.radians(90), 0, 0)  # facing -Y, toward the camera
     sun = scenes.add_light(scene, "Sun", 'SUN', None, 2.0, {"angle": 0.0}, (2, -1, 4))
     scenes.look_at(sun, (0, 0, 0))
     scenes.add_camera(scene, (0, -2.0, 1.4), (0, 2.0, 1.0), lens=30.0)
-    scenes.volume_at_cycles_brightness(scene, out_dir, "camera inside a cube", "panel", (40, 30))  # seen through the murk
+    # The window: the panel seen through the murk.
+    scenes.volume_at_cycles_brightness(scene, out_dir, f"camera inside {what}", "panel", (40, 30))
 
 
 def test_method_without_media_says_so(empty_scene):

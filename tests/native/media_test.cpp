@@ -424,6 +424,35 @@ TEST(MediaPathTracing, ACameraInsideAMediumSeesThroughIt) {
   }
 }
 
+TEST(MediaPathTracing, ACameraInsideAMediumHiddenFromTheCameraSeesNoFog) {
+  // Cycles 3.4 finds the camera's media with a ray of camera visibility
+  // (integrator_volume_stack_init: PATH_RAY_CAMERA): a Volume box whose object is hidden from
+  // the camera is not around it, and camera rays pass its boundary without entering it, so the
+  // emitter is seen through no ink at all (every method's eye paths start in CameraMedia). The
+  // World's medium is always around the camera (Cycles' background volume): here, none.
+  const std::string hidden = R"({"type": "volume", "interior": "ink", "visible_to_camera": false})";
+  const Scene inside = scene_from(camera_in_box(0.5f, 2.5f, "", "[0.5, 1.0, 2.0]", hidden));
+  auto expect_clear = [](const RGB& m, const std::string& what) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(m[c], 1.0, 1e-3) << what << ", channel " << c;
+  };
+  expect_clear(image_mean(render_pt(inside, 4)), "pt");
+  Params sppm;
+  sppm.set("seed", 1);
+  sppm.set("photons", 1000);
+  expect_clear(image_mean(render("sppm", inside, 2, sppm)), "sppm");
+  expect_clear(image_mean(render("msppm", inside, 2, sppm)), "msppm");
+  // The stack carried from the eye to a thin lens, and found per path for a moving camera.
+  expect_clear(image_mean(render_pt(scene_from(camera_in_box(0.5f, 2.5f, R"(, "aperture_radius": 0.05, "focus_distance": 2)",
+                                                             "[0.5, 1.0, 2.0]", hidden)),
+                                    4)),
+               "a thin lens");
+  expect_clear(image_mean(render_pt(scene_from(camera_in_box(0.5f, 2.5f,
+                                                             R"(, "motion": [[1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 2, 0, 0, 0, 1], [1, 0, 0, 0.3, 0, 1, 0, 0, 0, 0, 1, 2, 0, 0, 0, 1]])",
+                                                             "[0.5, 1.0, 2.0]", hidden)),
+                                    4)),
+               "a moving camera");
+}
+
 TEST(MediaSceneFormat, ErrorsNameTheFileAndTheKey) {
   auto error_of = [](const std::string& json) -> std::string {
     try {

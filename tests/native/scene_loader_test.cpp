@@ -408,6 +408,21 @@ TEST(SceneLoader, InlineMeshWithPerTriangleMaterialsNormalsUvsAndTransform) {
   EXPECT_FLOAT_EQ(m.uvs[2].x, 1.0f);
 }
 
+// Object Info's Random: an object's own "random_id" (an instanced copy's, from Blender), else the
+// hash of its name as Cycles hashes it (hash_string, h * 37 + c: "Plane" -> 0.13576, measured).
+TEST(SceneLoader, ObjectInfoRandomFromRandomIdOrTheName) {
+  Scene s = from_text(scene_text(R"({"name": "Plane", "type": "quad", "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"},
+      {"name": "Copy", "type": "quad", "u": [1, 0, 0], "v": [0, 1, 0], "material": "white", "random_id": 3221225472})"));
+  s.finalize();
+  ASSERT_EQ(s.shading_objects().size(), 2u);
+  EXPECT_NEAR(s.shading_objects()[0].random, 0.13576f, 1e-5f);
+  EXPECT_NEAR(s.shading_objects()[1].random, 0.75f, 1e-6f);
+  const std::string bad = scene_error([] {
+    from_text(scene_text(R"({"type": "quad", "u": [1, 0, 0], "v": [0, 1, 0], "material": "white", "random_id": -1})"));
+  });
+  EXPECT_NE(bad.find("/objects/0/random_id: must be an integer"), std::string::npos) << bad;
+}
+
 // ---- Loader: errors name the file and the JSON path ----
 
 TEST(SceneLoader, MissingSceneFileNamesTheFile) {

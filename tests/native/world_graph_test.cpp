@@ -263,6 +263,91 @@ TEST(WorldGraphEdit, OtherEditsBakeAgain) {
   EXPECT_TRUE(graph_of(m2)->reused_bake());
 }
 
+// A sum of Backgrounds under a Mix of constant factor (`root` "mix") or an Add: the HDRI's
+// Background (strength `hdri`; a term), an Add of a constant-colour Background (strength
+// `constant`: the uniform part) and a Mix of linked factor (a term whole), and a Background of
+// linked strength (a term whole). `extra` more nodes (a key apart, same light). `whole`: the
+// same light as one term (the sum under a Mix whose factor is a Value node of 1).
+std::string sum_world(const std::string& root, float factor, float hdri, float constant, const std::string& extra = "",
+                      bool whole = false) {
+  const std::string fac = root == "mix" ? fmt::format(R"("factor": {},)", factor) : "";
+  const std::string wrap = whole ? R"({"type": "mix", "factor": {"link": "one", "output": "Value"},
+      "a": {"type": "background", "strength": 0}, "b": )" : "";
+  return fmt::format(R"({{"type": "graph", "sampling_resolution": 64,
+    "surface": {}{{"type": "{}", {}
+      "a": {{"type": "background", "strength": {}, "color": {{"link": "env", "output": "Color"}}}},
+      "b": {{"type": "add",
+             "a": {{"type": "add", "a": {{"type": "background", "strength": {}, "color": [0.9, 0.5, 0.2]}},
+                                 "b": {{"type": "background", "color": [0.1, 0.2, 0.1],
+                                        "strength": {{"link": "grad", "output": "Fac"}}}}}},
+             "b": {{"type": "mix", "factor": {{"link": "grad", "output": "Fac"}},
+                    "a": {{"type": "background", "color": [0.1, 0.1, 0.4]}},
+                    "b": {{"type": "background", "strength": 0.5, "color": {{"link": "env", "output": "Color"}}}}}}}}}}{},
+    "nodes": {{"env": {{"type": "ShaderNodeTexEnvironment", "props": {{"image": "{}"}}}},
+              "one": {{"type": "ShaderNodeValue", "inputs": {{"Value": 1.0}}}},
+              "grad": {{"type": "ShaderNodeTexGradient"}}{}}}}})",
+                     wrap, root, fac, hdri, constant, whole ? "}" : "", hdri_file(), extra);
+}
+
+TEST(WorldGraphEdit, WeightsInsideAMixOrAddReuseTheTermsAndEqualAFreshBake) {
+  Params p;
+  p.set("seed", 5);
+  for (const std::string root : {"mix", "add"}) {
+    SCOPED_TRACE(root);
+    const Scene first = floor_under(sum_world(root, 0.3f, 1.0f, 2.0f));
+    const auto g0 = graph_of(first);
+    EXPECT_FALSE(g0->reused_terms());
+    EXPECT_EQ(g0->baked_terms(), 3);  // the HDRI's Background, the linked strength, the linked Mix
+    // A strength inside the sum, the constant Background's and the factor edited: re-weighted.
+    const Scene edited = floor_under(sum_world(root, 0.8f, 2.5f, 0.25f));
+    const auto e = graph_of(edited);
+    EXPECT_TRUE(e->reused_terms());
+    EXPECT_FALSE(e->reused_bake());
+    // The same World baked afresh (an unused node makes its keys others).
+    const Scene fresh_scene = floor_under(sum_world(root, 0.8f, 2.5f, 0.25f, R"(, "unused": {"type": "ShaderNodeValue"})"));
+    const auto f = graph_of(fresh_scene);
+    EXPECT_FALSE(f->reused_terms());
+    EXPECT_FALSE(f->reused_bake());
+    // Sampled alike bit for bit: the power, the density, the samples.
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(e->integral()[k], f->integral()[k]) << k;
+    // The weights are the graph's: its power as the graph baked whole (one term) gives it, up to
+    // float rounding (the same cells and quadrature).
+    const Scene whole_scene = floor_under(sum_world(root, 0.8f, 2.5f, 0.25f, "", true));
+    const auto w = graph_of(whole_scene);
+    ASSERT_EQ(w->baked_terms(), 1);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(e->integral()[k] / w->integral()[k], 1.0, 1e-5) << k;
+    Rng rng(31, 0);
+    int moved = 0;
+    for (int i = 0; i < 20000; ++i) {
+      const Vec2 u(rng.uniform(), rng.uniform());
+      const Vec3 d = sample_uniform_sphere(u);
+      ASSERT_EQ(e->pdf(d), f->pdf(d)) << i;
+      ASSERT_NEAR(e->pdf(d) / w->pdf(d), 1.0f, 1e-4f) << i;  // the whole graph's density, up to rounding
+      moved += std::abs(e->pdf(d) / g0->pdf(d) - 1.0f) > 1e-3f;
+      Vec3 de, df;
+      float pe = 0, pf = 0;
+      ASSERT_EQ(e->sample(u, &de, &pe), f->sample(u, &df, &pf));
+      ASSERT_EQ(pe, pf);
+      ASSERT_EQ(de.x, df.x);
+      ASSERT_EQ(de.y, df.y);
+      ASSERT_EQ(de.z, df.z);
+    }
+    EXPECT_GT(moved, 20000 / 2);  // the weights moved the density: not the first World's
+    // The same image, bit for bit.
+    const Film a = render("pt", edited, 2, p), b = render("pt", fresh_scene, 2, p);
+    for (int y = 0; y < a.height(); ++y)
+      for (int x = 0; x < a.width(); ++x) {
+        const RGB ca = a.rgb(pass::kCombined, x, y), cb = b.rgb(pass::kCombined, x, y);
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(ca[k], cb[k]) << x << " " << y;
+      }
+    // The sum's sampler against its density (chi-square).
+    const Chi2Result r = chi2_of(*e, 200000, 24, 48, 40);
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_GT(r.p_value, 1e-4) << "chi2 " << r.statistic << " dof " << r.dof;
+    EXPECT_NEAR(r.pdf_integral, 1.0, 0.01);
+  }
+}
+
 // ---- Texture Coordinate's Object with an object, in the World ----
 
 TEST(WorldGraph, ObjectCoordinatesOfAnObjectMoveTheDirectionAsAPoint) {

@@ -56,7 +56,8 @@ class ExportedScene:
                 extra["motion_positions"] = m.motion_positions
             b.add_mesh(m.name, m.positions, m.indices, m.materials, material_ids=m.material_ids,
                        normals=m.normals, uvs=m.uvs, matrices=np.stack(m.matrices), instance_names=m.instance_names,
-                       attributes=m.attributes, default_color=m.default_color, **extra)
+                       attributes=m.attributes, default_color=m.default_color,
+                       instance_random_ids=m.instance_random_ids, **extra)
         return b.finalize()
 
     def to_json(self):
@@ -66,6 +67,9 @@ class ExportedScene:
         for m in self.meshes:
             for k, (matrix, name) in enumerate(zip(m.matrices, m.instance_names)):
                 o = {"name": name, "type": "mesh", "positions": m.positions.tolist(), "indices": m.indices.tolist()}
+                rid = m.instance_random_ids[k] if k < len(m.instance_random_ids) else None
+                if rid is not None:
+                    o["random_id"] = rid
                 steps = m.motion[k] if m.motion is not None else None
                 if steps is not None and not (steps == steps[0]).all():
                     o["motion"] = [{"matrix": t.reshape(16).tolist()} for t in steps]

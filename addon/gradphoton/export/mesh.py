@@ -34,6 +34,9 @@ class MeshRecord:
         self.materials = []
         self.matrices = []
         self.instance_names = []
+        # Object Info's Random per instance: Blender's random id of an instanced copy, None for
+        # an object itself (the core hashes its name, as Cycles does).
+        self.instance_random_ids = []
         self.triangle_count = 0
         # Motion blur (export/motion.py): (K, S, 4, 4) object-to-world matrices of each instance
         # over the shutter, and (S', N, 3) positions of a deforming mesh; None when static.
@@ -46,7 +49,7 @@ class MeshRecord:
         """The same arrays and materials with no instances (a record split by motion steps)."""
         c = MeshRecord(self.name)
         c.__dict__.update(self.__dict__)
-        c.matrices, c.instance_names, c.motion = [], [], None
+        c.matrices, c.instance_names, c.instance_random_ids, c.motion = [], [], [], None
         return c
 
 
@@ -238,6 +241,7 @@ def add_instance(records, inst, mats, warnings, export_uvs, cache=None, motion=N
     rec.matrices.append(matrix)
     n = len(rec.matrices)
     rec.instance_names.append(ob.name if n == 1 else f"{ob.name} [{n - 1}]")
+    rec.instance_random_ids.append(inst.random_id & 0xFFFFFFFF if inst.is_instance else None)
     if motion is not None and rec.triangle_count > 0:
         motion.add_instance(inst, rec, n - 1)
 

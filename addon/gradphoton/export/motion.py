@@ -321,6 +321,8 @@ def _subrecord(rec, indices, motions, steps):
     matrices = [rec.matrices[i] for i in indices]
     names = [rec.instance_names[i] for i in indices]
     sub.matrices, sub.instance_names = matrices, names
+    if rec.instance_random_ids:
+        sub.instance_random_ids = [rec.instance_random_ids[i] for i in indices]
     sub.motion = np.stack([motions[i] if i in motions else np.repeat(rec.matrices[i][None], steps, axis=0)
                            for i in indices]).astype(np.float32)
     return sub

@@ -15,7 +15,7 @@ const std::array<Vec3, 3> kProbe = {normalize(Vec3(0.2113f, 0.3419f, 0.9155f)), 
 constexpr int kMaxCrossings = 256;  // a ray crosses at most this many surfaces (no hang on bad meshes)
 }  // namespace
 
-MediumStack medium_stack_at(const Scene& scene, const Vec3& p) {
+MediumStack medium_stack_at(const Scene& scene, const Vec3& p, bool camera) {
   MediumStack stack = scene.initial_medium_stack();
   // Per probe: (mesh, medium) -> boundaries left minus boundaries entered along the ray to the
   // open. A closed mesh around p is left once more than entered (Cycles' rule: a ray leaves a
@@ -28,7 +28,9 @@ MediumStack medium_stack_at(const Scene& scene, const Vec3& p) {
     const Vec3 d = kProbe[k];
     Vec3 o = p;
     for (int crossing = 0; crossing < kMaxCrossings; ++crossing) {
-      const std::optional<SurfacePoint> hit = scene.intersect_point(Ray(o, d));
+      Ray ray(o, d);
+      ray.camera = camera;  // surfaces hidden from camera rays let the camera's probe through
+      const std::optional<SurfacePoint> hit = scene.intersect_point(ray);
       if (!hit) break;
       const int medium = scene.material(hit->material).interior;
       if (medium >= 0) {
@@ -50,14 +52,17 @@ MediumStack medium_stack_at(const Scene& scene, const Vec3& p) {
 
 namespace {
 // The boundaries of meshes with an interior medium between `from` and `to`, crossed in `stack`
-// (a stack carried along a segment, as Cycles' integrator_volume_stack_update_for_subsurface).
+// (a stack carried along a segment, as Cycles' integrator_volume_stack_update_for_subsurface),
+// seen as a camera ray sees them (CameraMedia: camera-ray visibility).
 void cross_between(const Scene& scene, MediumStack& stack, const Vec3& from, const Vec3& to) {
   float remaining = length(to - from);
   if (!(remaining > 0)) return;
   const Vec3 d = (to - from) / remaining;
   Vec3 o = from;
   for (int crossing = 0; crossing < kMaxCrossings; ++crossing) {
-    const std::optional<SurfacePoint> hit = scene.intersect_point(Ray(o, d, 0.0f, remaining));
+    Ray ray(o, d, 0.0f, remaining);
+    ray.camera = true;
+    const std::optional<SurfacePoint> hit = scene.intersect_point(ray);
     if (!hit) return;
     const int medium = scene.material(hit->material).interior;
     if (medium >= 0) stack.cross(hit->mesh, medium, dot(d, hit->ng) < 0);
@@ -93,11 +98,14 @@ CameraMedia::CameraMedia(const Scene& scene) {
     origins.extend(eye - r);
     origins.extend(eye + r);
   }
-  // The meshes with an interior medium whose bounds meet that region (a moving one always).
+  // The meshes with an interior medium visible to camera rays whose bounds meet that region (a
+  // moving one always).
   bool near = false, moving = !cam.motion.empty();
   for (const Mesh& mesh : scene.meshes) {
-    if (std::none_of(mesh.material_ids.begin(), mesh.material_ids.end(),
-                     [&](uint32_t id) { return scene.material(static_cast<int>(id)).interior >= 0; }))
+    if (std::none_of(mesh.material_ids.begin(), mesh.material_ids.end(), [&](uint32_t id) {
+          const Material& m = scene.material(static_cast<int>(id));
+          return m.interior >= 0 && m.visible_to_camera;
+        }))
       continue;
     if (mesh.motion) {
       near = moving = true;
@@ -115,7 +123,7 @@ CameraMedia::CameraMedia(const Scene& scene) {
   }
   mode_ = Mode::FromEye;
   eye_ = cam.camera_to_world.point({0, 0, 0});
-  eye_stack_ = medium_stack_at(scene, eye_);
+  eye_stack_ = medium_stack_at(scene, eye_, true);
 }
 
 MediumStack CameraMedia::at(const Scene& scene, const Ray& ray) const {
@@ -130,7 +138,7 @@ MediumStack CameraMedia::at(const Scene& scene, const Ray& ray) const {
     case Mode::Probe:
       break;
   }
-  return medium_stack_at(scene, ray.o);
+  return medium_stack_at(scene, ray.o, true);
 }
 
 LightMedia::LightMedia(const Scene& scene) : world_(scene.initial_medium_stack()) {

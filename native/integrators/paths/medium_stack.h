@@ -16,8 +16,11 @@ namespace gp {
 // The World's medium and those of the closed meshes around p whose material has an interior
 // medium (Material::interior): a mesh is around p when a ray from p leaves it once more than it
 // enters it (Cycles' rule: a ray leaves a medium through the back of its boundary), by the
-// majority of three rays.
-MediumStack medium_stack_at(const Scene& scene, const Vec3& p);
+// majority of three rays. `camera`: as the camera's stack, traced as camera rays (Cycles'
+// integrator_volume_stack_init traces with PATH_RAY_CAMERA visibility): a mesh whose material
+// is hidden from camera rays (Material::visible_to_camera) is not around p; the World's medium
+// always is, as Cycles' background volume.
+MediumStack medium_stack_at(const Scene& scene, const Vec3& p, bool camera = false);
 
 // The media camera rays start in. Cycles finds them per camera ray at the ray's origin, on the
 // near clip plane (integrator_volume_stack_init, kernel/integrator/intersect_volume_stack.h: one
@@ -25,7 +28,10 @@ MediumStack medium_stack_at(const Scene& scene, const Vec3& p);
 // Camera::device_update_volume (scene/camera.cpp) finds a volume object's bounds touching those
 // of the clip plane; so a camera inside a Volume cube or under murky water sees through that
 // medium from its first segment, and a volume boundary the clip start leaves behind counts as
-// crossed. Here the same stack at each camera ray's origin, at the least cost the scene allows:
+// crossed. That ray is traced with camera-ray visibility: a Volume cube hidden from the camera
+// (Object > Visibility > Camera off) is not around it, so camera rays see no fog inside it (and
+// enter it neither, as they pass its boundary); the World's volume always is.
+// Here the same stack at each camera ray's origin, at the least cost the scene allows:
 //   - the World's alone when no medium mesh's bounds come near any camera ray's origin over the
 //     shutter (the usual scene: no work per ray);
 //   - else, when neither the camera nor a medium mesh moves, the stack at the camera's eye found
