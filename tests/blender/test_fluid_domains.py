@@ -9,7 +9,7 @@ import numpy as np
 import scenes
 from gradphoton import native
 from gradphoton.export import export_scene
-from test_volumes import cycles_then_pt, volume_material, window_ratios
+from test_volumes import volume_material
 
 
 def export_current():
@@ -105,18 +105,9 @@ def test_smoke_domain_at_cycles_brightness(empty_scene, out_dir):
     sun = scenes.add_light(scene, "Sun", 'SUN', None, 3.0, {"angle": 0.0}, (2, -1, 4))
     scenes.look_at(sun, (0, 0, 0))
     scenes.add_camera(scene, (0, -6, 2.0), (0, 0, 1.2), lens=40.0)
-    scene.render.resolution_x, scene.render.resolution_y = 40, 30
-    samples, bounces = int(os.environ.get("SMOKE_SPP", 256)), 8
-    scenes.configure_cycles(scene, samples, bounces)
-    scene.cycles.volume_bounces = bounces
-    scene.cycles.volume_step_rate = 0.25  # fine ray marching: Cycles' own bias well under 1 %
-    a, b = cycles_then_pt(scene, out_dir, samples, bounces)
-    ratio, ratio_mid = window_ratios(a, b)
     # How much the smoke darkens its window against the same view without it (the test's power).
-    print(f"VOLUME smoke domain: gradphoton/cycles = {ratio:.4f} (plume window {ratio_mid:.4f}); "
-          f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
-    assert abs(ratio - 1) < 0.02, ratio
-    assert abs(ratio_mid - 1) < 0.02, ratio_mid
+    scenes.volume_at_cycles_brightness(scene, out_dir, "smoke domain", "plume", (40, 30), samples=int(os.environ.get("SMOKE_SPP", 256)),
+                                       tol=0.02, volume_step_rate=0.25)
 
 
 def fire_material():
@@ -164,14 +155,5 @@ def test_fire_domain_at_cycles_brightness(empty_scene, out_dir):
     add_smoke(scene, os.path.join(str(out_dir), "cache"), fire_material(), frames=6, flow_type='BOTH',
               smoke_color=(1.0, 0.3, 0.1))
     scenes.add_camera(scene, (0, -6, 2.0), (0, 0, 1.2), lens=40.0)
-    scene.render.resolution_x, scene.render.resolution_y = 40, 30
-    samples, bounces = int(os.environ.get("SMOKE_SPP", 256)), 8
-    scenes.configure_cycles(scene, samples, bounces)
-    scene.cycles.volume_bounces = bounces
-    scene.cycles.volume_step_rate = 0.25
-    a, b = cycles_then_pt(scene, out_dir, samples, bounces)
-    ratio, ratio_mid = window_ratios(a, b)
-    print(f"VOLUME fire domain: gradphoton/cycles = {ratio:.4f} (plume window {ratio_mid:.4f}); "
-          f"gradphoton {a.reshape(-1, 3).mean(0).round(4)}, cycles {b.reshape(-1, 3).mean(0).round(4)}")
-    assert abs(ratio - 1) < 0.02, ratio
-    assert abs(ratio_mid - 1) < 0.02, ratio_mid
+    scenes.volume_at_cycles_brightness(scene, out_dir, "fire domain", "plume", (40, 30), samples=int(os.environ.get("SMOKE_SPP", 256)),
+                                       tol=0.02, volume_step_rate=0.25)

@@ -1,13 +1,10 @@
 """Transparent shadows (the core's paths/medium_walk.h ShadowTest): shadow rays pass a Transparent
 BSDF multiplied by its closure weight at the hit, as Cycles 3.4's do (shade_shadow.h), up to
 Light Paths > Max Bounces > Transparent, which the exporter writes as `transparent_bounces`."""
-import os
-
 import bpy
 import numpy as np
 
 import scenes
-from gradphoton import native
 from gradphoton.export import export_scene
 
 TINT = (0.35, 0.9, 0.5)  # the leaf's transmitted colour: the shadow's colour where the leaf is open
@@ -58,12 +55,7 @@ def test_checkered_leaf_shadow_at_cycles_brightness(empty_scene, out_dir):
     leaf_scene(empty_scene)
     samples, bounces = 64, 8
     scenes.configure_cycles(empty_scene, samples, bounces)
-    cycles = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "c.exr")))["combined"]
-    empty_scene.render.engine = 'GRADPHOTON'
-    g = empty_scene.gradphoton
-    g.method, g.stop_rule, g.passes, g.pt.max_bounces = 'pt', 'PASSES', samples, bounces
-    ours = native.get().read_exr(scenes.render_to_exr(empty_scene, os.path.join(str(out_dir), "g.exr")))["combined"]
-    a, b = ours[..., :3].astype(np.float64), cycles[..., :3].astype(np.float64)
+    a, b = scenes.cycles_then_pt(empty_scene, out_dir, samples, bounces)
     ratio = a.sum() / b.sum()
     per_channel = a.reshape(-1, 3).mean(0) / b.reshape(-1, 3).mean(0)
     print(f"LEAF checkered transparent shadow: gradphoton/cycles = {ratio:.4f}, per channel {per_channel.round(4)}; "

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/progress.h"
 #include "integrators/methods.h"
 #include "integrators/gradient/gdmlt.h"
 #include "io/metrics.h"
@@ -182,6 +183,60 @@ TEST(GradientDomainMlt, RejectsBadParameters) {
 
 namespace gp {
 namespace {
+
+// A sink that asks for a pause at every chance (Blender's F12 window asking for images as often
+// as it can).
+class PauseAlways : public ProgressSink {
+ public:
+  bool pause() override { return true; }
+};
+
+// The bootstrap (one gradient sample per pixel, about a gpt pass: 7 s at 1920 x 1080) pauses
+// between its blocks of samples as the passes do between chains' polls, so Blender publishes
+// images during it: develop() then shows its samples so far over the whole film (finite, more
+// pixels lit at each call, no chain sample yet), and the calls after go on to the image, the
+// statistics and the passes of an unpaused render, bit for bit. 64 x 48 pixels: three blocks of
+// kCancelPoll samples, one a call, the third call going on into the first pass (64 chains of 48
+// mutations, too few for a poll), the fourth the second pass.
+TEST(GradientDomainMlt, APausedBootstrapGivesTheUnpausedImage) {
+  const Scene s = scene_sized("cornell-box.json", 64, 48);
+  auto whole = run(s, "gdmlt", 2, 11, 1);
+  auto paused = run(s, "gdmlt", 0, 11, 1);
+  PauseAlways sink;
+  int calls = 0;
+  std::vector<int> lit;
+  while (paused->stats().passes < 2 && calls < 100) {
+    paused->iterate(&sink);
+    ++calls;
+    if (paused->stats().passes == 0) {
+      Film f;
+      paused->develop(f);
+      int n = 0;
+      for (size_t i = 0; i < f.pixel_count(); ++i) {
+        const RGB c = f.rgb(pass::kCombined, static_cast<int>(i % 64), static_cast<int>(i / 64));
+        ASSERT_TRUE(c.is_finite());
+        n += c.max_component() > 0;
+      }
+      for (float v : f.pass(pass::kSampleDensity).data) ASSERT_EQ(v, 0.0f);
+      lit.push_back(n);
+    }
+  }
+  EXPECT_EQ(calls, 4);
+  ASSERT_EQ(lit.size(), 2u);  // the first two calls each did one block and paused
+  EXPECT_GT(lit[0], 0);
+  EXPECT_GT(lit[1], lit[0]);
+  const Stats& a = paused->stats();
+  const Stats& b = whole->stats();
+  EXPECT_EQ(a.rays, b.rays);
+  EXPECT_EQ(a.shadow_rays, b.shadow_rays);
+  EXPECT_EQ(a.paths, b.paths);
+  EXPECT_EQ(a.invalid_samples, b.invalid_samples);
+  Film fa, fb;
+  paused->develop(fa);
+  whole->develop(fb);
+  for (auto name : {pass::kCombined, pass::kPrimal, pass::kGradientX, pass::kGradientY, pass::kSampleDensity})
+    EXPECT_EQ(fa.pass(name).data, fb.pass(name).data) << name;
+}
 
 TEST(PrimarySampleChain, FirstEvaluationIsTheRngStreamAndRejectRestoresTheState) {
   // The chains' start states replay bootstrap samples drawn with RngSampler: the first

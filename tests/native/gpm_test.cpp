@@ -19,6 +19,7 @@
 #include "io/metrics.h"
 #include "reconstruction/poisson.h"
 #include "scene/loader.h"
+#include "gradient_test_util.h"
 #include "render_for_tests.h"
 
 namespace gp {
@@ -548,10 +549,14 @@ TEST(Gpm, CausticsFromPointSpotAndSunLights) {
 // gives 20 standard deviations here (47 at 300 seeds).
 // Checked to fail (300 seeds, 4000 photons; correct: 1.7 sd): the offset photon's power without
 // the chain's emission/BSDF ratio (133 sd), or without the walk's Jacobian (1197 sd).
-struct GradientBias {
-  double chi2 = 0;
-  int pairs = 0;
+struct GradientBias : GradientPairChi2::Result {
   double walks = 0;
+  // Prints the statistic under `label`; returns how many standard deviations chi2 is above its mean.
+  double report(const std::string& label) const {
+    std::printf("%s: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", label.c_str(), chi2, pairs,
+                excess(), walks);
+    return excess();
+  }
 };
 constexpr const char* kSpotLight = R"({"type": "spot", "position": [0.05, 0.02, 2.0], "direction": [0, 0, -1],
                                       "spot_size": 34, "spot_blend": 1, "intensity": 8})";
@@ -569,10 +574,7 @@ GradientBias gradient_bias_on_caustic(int seeds, const std::string& light, int64
       {"name": "ball", "type": "sphere", "center": [0, 0, 0.7], "radius": 0.3, "segments": 64, "material": "glass"}],
     "camera": {"position": [0.9, -0.9, 1.0], "look_at": [0, 0, 0.0], "fov": 20, "width": 16, "height": 16}})",
                                          ".", "caustic-gradients");
-  const int w = 16, h = 16;
-  const size_t n = static_cast<size_t>(w) * h;
-  // Per pair (x and y, summed over RGB): running sums of G - dP and of its square.
-  std::vector<double> sx(2 * n, 0.0), sxx(2 * n, 0.0);
+  GradientPairChi2 stat(16, 16);
   GradientBias out;
   for (int seed = 1; seed <= seeds; ++seed) {
     Params p = photon_params(photons, seed, 1);
@@ -582,27 +584,9 @@ GradientBias gradient_bias_on_caustic(int seeds, const std::string& light, int64
     Film f;
     g->develop(f);
     out.walks += g->stats().extra.count("manifold walks") ? g->stats().extra.at("manifold walks") : 0.0;
-    const auto& P = f.pass(pass::kPrimal).data;
-    const auto& GX = f.pass(pass::kGradientX).data;
-    const auto& GY = f.pass(pass::kGradientY).data;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x;
-        double ex = 0, ey = 0;
-        for (int c = 0; c < 3; ++c) {
-          if (x + 1 < w) ex += GX[3 * i + c] - (P[3 * (i + 1) + c] - P[3 * i + c]);
-          if (y + 1 < h) ey += GY[3 * i + c] - (P[3 * (i + w) + c] - P[3 * i + c]);
-        }
-        sx[i] += ex, sxx[i] += ex * ex;
-        sx[n + i] += ey, sxx[n + i] += ey * ey;
-      }
+    stat.add(f);
   }
-  for (size_t k = 0; k < 2 * n; ++k) {
-    const double mean = sx[k] / seeds, var = (sxx[k] / seeds - mean * mean) * seeds / (seeds - 1.0);
-    if (!(var > 1e-20)) continue;  // a pair no photon reached (or the image border)
-    out.chi2 += mean * mean / (var / seeds);
-    ++out.pairs;
-  }
+  static_cast<GradientPairChi2::Result&>(out) = stat.result();
   return out;
 }
 
@@ -610,9 +594,7 @@ TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACaustic) {
   // The sun lights the whole floor: ten times the photons for as many on the caustic.
   for (auto [light, photons] : {std::pair{kSpotLight, 3000}, std::pair{kSunLight, 30000}}) {
     const GradientBias b = gradient_bias_on_caustic(120, light, photons);
-    const double excess = (b.chi2 - b.pairs) / std::sqrt(2.0 * b.pairs);  // standard deviations
-    std::printf("%s: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", light, b.chi2, b.pairs, excess,
-                b.walks);
+    const double excess = b.report(light);
     EXPECT_GT(b.walks, 1000.0) << light;
     EXPECT_GT(b.pairs, 300) << light;
     EXPECT_LT(excess, 4.0) << light;
@@ -628,9 +610,7 @@ TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACaustic) {
 TEST(Gpm, NoManifoldWalkThroughAMultiscatterGlass) {
   const std::string glass = R"({"type": "dielectric", "ior": 1.5, "roughness": 0.03, "distribution": "multi_ggx"})";
   const GradientBias b = gradient_bias_on_caustic(60, kSpotLight, 3000, kFlatFloor, glass);
-  const double excess = (b.chi2 - b.pairs) / std::sqrt(2.0 * b.pairs);
-  std::printf("multiscatter glass: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", b.chi2, b.pairs,
-              excess, b.walks);
+  const double excess = b.report("multiscatter glass");
   EXPECT_EQ(b.walks, 0.0);
   EXPECT_GT(b.pairs, 100);
   EXPECT_LT(excess, 4.0);
@@ -661,9 +641,7 @@ TEST(Gpm, ExpectedGradientIsTheExpectedPrimalDifferenceOnACurvedReceiver) {
   const GradientBias b = gradient_bias_on_caustic(
       120, kSpotLight, 3000,
       R"({"name": "floor", "type": "sphere", "center": [0, 0, -0.15], "radius": 0.15, "segments": 128, "material": "white"})");
-  const double excess = (b.chi2 - b.pairs) / std::sqrt(2.0 * b.pairs);
-  std::printf("curved receiver: chi2 %.1f over %d pairs (%.1f sd from its mean), %.0f walks\n", b.chi2, b.pairs,
-              excess, b.walks);
+  const double excess = b.report("curved receiver");
   EXPECT_GT(b.walks, 1000.0);
   EXPECT_GT(b.pairs, 50);
   EXPECT_LT(excess, 4.0);

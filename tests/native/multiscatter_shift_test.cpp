@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "gradient_test_util.h"
 #include "render_for_tests.h"
 
 namespace gp {
@@ -67,9 +68,8 @@ TEST(MultiscatterShift, GptGradientsAreThePrimalsExpectedDifferences) {
         {"type": "quad", "center": [0.05, 0.02, 2.0], "u": [0, 0.3, 0], "v": [0.3, 0, 0], "material": "lamp"},
         {"type": "sphere", "center": [0, 0, 0.7], "radius": 0.3, "segments": 48, "material": "glass"}],
       "camera": {"position": [0.9, -0.9, 1.0], "look_at": [0, 0, 0.2], "fov": 35, "width": 16, "height": 16}})");
-    const int w = 16, h = 16, seeds = 200;
-    const size_t n = static_cast<size_t>(w) * h;
-    std::vector<double> sx(2 * n, 0.0), sxx(2 * n, 0.0);
+    const int seeds = 200;
+    GradientPairChi2 stat(16, 16);
     for (int seed = 1; seed <= seeds; ++seed) {
       Params p;
       p.set("seed", seed);
@@ -78,30 +78,11 @@ TEST(MultiscatterShift, GptGradientsAreThePrimalsExpectedDifferences) {
       g->iterate(nullptr);
       Film f;
       g->develop(f);
-      const auto& P = f.pass(pass::kPrimal).data;
-      const auto& GX = f.pass(pass::kGradientX).data;
-      const auto& GY = f.pass(pass::kGradientY).data;
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-          const size_t i = static_cast<size_t>(y) * w + x;
-          double ex = 0, ey = 0;
-          for (int c = 0; c < 3; ++c) {
-            if (x + 1 < w) ex += GX[3 * i + c] - (P[3 * (i + 1) + c] - P[3 * i + c]);
-            if (y + 1 < h) ey += GY[3 * i + c] - (P[3 * (i + w) + c] - P[3 * i + c]);
-          }
-          sx[i] += ex, sxx[i] += ex * ex;
-          sx[n + i] += ey, sxx[n + i] += ey * ey;
-        }
+      stat.add(f);
     }
-    double chi2 = 0;
-    int pairs = 0;
-    for (size_t k = 0; k < 2 * n; ++k) {
-      const double mean = sx[k] / seeds, var = (sxx[k] / seeds - mean * mean) * seeds / (seeds - 1.0);
-      if (!(var > 1e-20)) continue;
-      chi2 += mean * mean / (var / seeds);
-      ++pairs;
-    }
-    const double excess = (chi2 - pairs) / std::sqrt(2.0 * pairs);
+    const GradientPairChi2::Result r = stat.result();
+    const double chi2 = r.chi2, excess = r.excess();
+    const int pairs = r.pairs;
     std::printf("alpha %.2f: gpt chi2 %.1f over %d pairs (%.1f sd from its mean)\n", alpha, chi2, pairs, excess);
     EXPECT_GT(pairs, 200) << alpha;
     EXPECT_LT(excess, 4.0) << alpha;

@@ -111,7 +111,9 @@ def test_a_metropolis_pass_pauses_with_every_splat_so_far_and_goes_on_to_the_sam
     """iterate(seconds): gdmlt's passes (62 s at 1920 x 1080) stop at a chain's cancel poll when
     asked, so Blender publishes images within them; develop() then shows every chain's splats so
     far, the open pass's too, over the whole film (Method.paused_pass_covers_image); the next
-    call goes on with the same chains, so the passes and the image are bit for bit whole ones'."""
+    call goes on with the same chains, so the passes and the image are bit for bit whole ones'.
+    The bootstrap before them pauses between its blocks of samples too, its images those
+    samples' plain Monte Carlo estimate over the whole film."""
     scene = _native.load_scene(CORNELL)
     scene.width, scene.height = 64, 48
     # 2 chains of 3072 mutations a pass: cancel polls before their 1024th, 2048th and 3072nd.
@@ -121,7 +123,7 @@ def test_a_metropolis_pass_pauses_with_every_splat_so_far_and_goes_on_to_the_sam
     whole = _native.Session(scene, "gdmlt", params)
     whole.run(passes=2)
     paused = _native.Session(scene, "gdmlt", params)
-    calls, lit = 0, []
+    calls, lit, boot_lit = 0, [], []
     while paused.stats.get("passes", 0) < 2:
         paused.iterate(seconds=1e-9)  # pause at the first chance
         calls += 1
@@ -130,10 +132,16 @@ def test_a_metropolis_pass_pauses_with_every_splat_so_far_and_goes_on_to_the_sam
         assert all(np.isfinite(v).all() for v in images.values())
         if paused.stats["passes"] == 0:
             lit.append(int((images["sample_density"] > 0).sum()))
+            if len(lit) <= 2:  # the bootstrap's: its samples so far, more pixels at each
+                boot_lit.append(int((images["combined"] > 0).any(axis=2).sum()))
         assert calls < 100
-    # Per pass: 1023 mutations a call (chain 0's polls, then chain 1's), the last call the rest.
-    assert calls == 2 * 7
-    assert 0 < lit[0] < lit[1] < lit[3]  # the open pass's chain states, more at each image
+    # The bootstrap first (3072 samples: blocks of 1024, one a call, the third call going on into
+    # the pass); then per pass 1023 mutations a call (chain 0's polls, then chain 1's), the last
+    # call the rest.
+    assert calls == 2 * 7 + 2
+    assert lit[0] == lit[1] == 0  # the bootstrap's images: no chain state yet
+    assert 0 < boot_lit[0] < boot_lit[1]
+    assert 0 < lit[2] < lit[3] < lit[5]  # the open pass's chain states, more at each image
     counts = lambda st: {k: v for k, v in st.items() if "seconds" not in k}  # noqa: E731
     assert counts(paused.stats) == counts(whole.stats)
     for name, image in whole.develop().items():

@@ -10,6 +10,7 @@
 
 #include "core/parallel.h"
 #include "core/sampler.h"
+#include "reconstruction/poisson.h"
 
 namespace gp {
 
@@ -178,29 +179,63 @@ GradientDomainMlt::State GradientDomainMlt::evaluate(Sampler& sampler, RayCounts
 bool GradientDomainMlt::bootstrap(ProgressSink* sink) {
   // ---- b from uniform samples, and start states in proportion to T ----
   const size_t n = static_cast<size_t>(bootstrap_per_pixel_) * width_ * height_;
-  std::vector<double> t(n, 0.0);
-  std::vector<std::pair<int, RGB>> direct(n, {0, RGB(0.0f)});
+  const size_t blocks = (n + kCancelPoll - 1) / kCancelPoll;
+  if (!boot_) {
+    boot_ = std::make_unique<OpenBootstrap>();
+    boot_->t.assign(n, 0.0);
+    boot_->direct.assign(n, {0, RGB(0.0f)});
+    boot_->primal.assign(n, RGB(0.0f));
+    boot_->done.assign(blocks, 0);
+  }
+  OpenBootstrap& boot = *boot_;
+  std::vector<double>& t = boot.t;
   std::atomic<int64_t> closest{0}, shadow{0}, invalid{0};
-  std::atomic<bool> stopped{false};
-  parallel_for(n, threads_, [&](size_t begin, size_t end) {
+  std::atomic<size_t> blocks_now{0}, samples_now{0};  // blocks and samples this call did
+  std::atomic<bool> stopped{false}, paused{false};
+  // Blocks in order, each one whole; a pause (asked between blocks, after one this call at
+  // least, so that a caller pausing at once still moves on) leaves the rest for the next call.
+  parallel_for(blocks, threads_, [&](size_t begin, size_t end) {
     RayCounts rays;
-    for (size_t i = begin; i < end; ++i) {
-      if ((i - begin) % kCancelPoll == 0 && (stopped || (sink && sink->cancelled()))) {
+    for (size_t k = begin; k < end; ++k) {
+      if (boot.done[k]) continue;  // done before a pause
+      if (stopped || paused) break;
+      if (sink && sink->cancelled()) {
         stopped = true;
         break;
       }
-      Rng rng = Rng::for_key(seed_, i, kBootstrapKey);
-      RngSampler sampler(rng);
-      const State st = evaluate(sampler, rays, nullptr);
-      const double ti = st.target;
-      if (ti < 0) ++invalid;
-      t[i] = std::max(ti, 0.0);
-      if (ti >= 0) direct[i] = {st.pixel, st.sample.direct};
+      if (sink && blocks_now.load() > 0 && sink->pause()) {
+        paused = true;
+        break;
+      }
+      for (size_t i = k * kCancelPoll; i < std::min(n, (k + 1) * kCancelPoll); ++i) {
+        Rng rng = Rng::for_key(seed_, i, kBootstrapKey);
+        RngSampler sampler(rng);
+        const State st = evaluate(sampler, rays, nullptr);
+        const double ti = st.target;
+        if (ti < 0) ++invalid;
+        t[i] = std::max(ti, 0.0);
+        if (ti >= 0) {
+          boot.direct[i] = {st.pixel, st.sample.direct};
+          boot.primal[i] = st.sample.primal;
+        }
+      }
+      boot.done[k] = 1;
+      blocks_now.fetch_add(1);
+      samples_now.fetch_add(std::min(n, (k + 1) * kCancelPoll) - k * kCancelPoll);
     }
     closest += rays.closest;
     shadow += rays.shadow;
   });
-  if (stopped) return false;
+  if (stopped) {
+    boot_.reset();
+    return false;
+  }
+  boot.closest += closest;
+  boot.shadow += shadow;
+  boot.invalid += invalid;
+  boot.samples_done += samples_now;
+  if (paused) return false;
+  const std::vector<std::pair<int, RGB>>& direct = boot.direct;
   std::vector<double> cdf(n);
   double sum = 0;
   for (size_t i = 0; i < n; ++i) cdf[i] = (sum += t[i]);
@@ -232,16 +267,20 @@ bool GradientDomainMlt::bootstrap(ProgressSink* sink) {
     chains_.push_back(Chain{std::move(sampler), std::move(first)});
   }
   stats_.paths += static_cast<int64_t>(n) + chain_count_;
-  stats_.rays += closest + shadow + rays.closest + rays.shadow;
-  stats_.shadow_rays += shadow + rays.shadow;
-  stats_.invalid_samples += invalid;
+  stats_.rays += boot.closest + boot.shadow + rays.closest + rays.shadow;
+  stats_.shadow_rays += boot.shadow + rays.shadow;
+  stats_.invalid_samples += boot.invalid;
+  boot_.reset();
   started_ = true;
   return true;
 }
 
 void GradientDomainMlt::iterate(ProgressSink* sink) {
   const auto start = std::chrono::steady_clock::now();
-  if (!started_ && !bootstrap(sink)) return;
+  if (!started_ && !bootstrap(sink)) {
+    if (boot_) stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return;
+  }
   const int64_t total = static_cast<int64_t>(mutations_) * width_ * height_;
   if (!open_) {  // a new pass
     open_ = std::make_unique<OpenPass>();
@@ -353,6 +392,28 @@ void GradientDomainMlt::iterate(ProgressSink* sink) {
 void GradientDomainMlt::develop(Film& film) const {
   if (film.width() != width_ || film.height() != height_) film = Film(width_, height_);
   const size_t n = static_cast<size_t>(width_) * height_;
+  if (boot_) {
+    // A paused bootstrap: its uniform samples so far as a plain Monte Carlo image over the whole
+    // film (each sample's pixel uniform: n / samples done each), no reconstruction; the gradient
+    // passes are its forward differences, the sample density nothing yet.
+    std::vector<double> image(3 * n, 0.0);
+    const OpenBootstrap& boot = *boot_;
+    const double w = boot.samples_done ? static_cast<double>(n) / boot.samples_done : 0.0;
+    for (size_t k = 0; k < boot.done.size(); ++k) {
+      if (!boot.done[k]) continue;
+      for (size_t i = k * kCancelPoll; i < std::min(boot.t.size(), (k + 1) * kCancelPoll); ++i) {
+        const auto& [p, d] = boot.direct[i];
+        const RGB c = boot.primal[i] + d;
+        for (int ch = 0; ch < 3; ++ch) image[3 * static_cast<size_t>(p) + ch] += c[ch] * w;
+      }
+    }
+    std::vector<double> dx, dy;
+    forward_differences(image, width_, height_, 3, &dx, &dy);
+    write_gradient_passes(film, 3 * n, [&](size_t k) { return std::array<double, 4>{image[k], image[k], dx[k], dy[k]}; });
+    Pass& dens = film.add_pass(pass::kSampleDensity, 1);
+    std::fill(dens.data.begin(), dens.data.end(), 0.0f);
+    return;
+  }
   // A paused pass's chains so far count with the passes before (OpenPass).
   int64_t mutations = mutations_done_, b_count = b_count_, uniform_count = uniform_count_;
   double b_sum = b_sum_;

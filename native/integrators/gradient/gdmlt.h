@@ -149,7 +149,8 @@ class GradientDomainMlt : public Integrator {
   };
   // Evaluates the sampler's current proposal (film position, lens, gpt path sample).
   State evaluate(Sampler& sampler, RayCounts& rays, std::map<std::string, double>* failures) const;
-  // False when `sink` cancelled it (nothing kept: the next pass starts it again).
+  // False when `sink` cancelled it (nothing kept: the next pass starts it again) or asked for a
+  // pause (ProgressSink::pause: the samples done so far kept in boot_, the next call goes on).
   bool bootstrap(ProgressSink* sink);
   static constexpr int64_t kCancelPoll = 1024;  // mutations / bootstrap samples between cancel polls
 
@@ -177,6 +178,18 @@ class GradientDomainMlt : public Integrator {
     double b_now = 1;
   };
   std::unique_ptr<OpenPass> open_;
+  // The bootstrap a pause left open (Blender's F12 window shows develop()'s image of its samples
+  // so far): its samples, done in blocks of kCancelPoll (each sample draws its own stream, so the
+  // blocks' order does not change them), and the rays they traced; null when none is open.
+  struct OpenBootstrap {
+    std::vector<double> t;                      // T of each sample (0: invalid)
+    std::vector<std::pair<int, RGB>> direct;    // its pixel and delta-only light
+    std::vector<RGB> primal;                    // its primal (the preview's, with `direct`)
+    std::vector<uint8_t> done;                  // per block
+    size_t samples_done = 0;
+    int64_t closest = 0, shadow = 0, invalid = 0;
+  };
+  std::unique_ptr<OpenBootstrap> boot_;
 };
 
 }  // namespace gp

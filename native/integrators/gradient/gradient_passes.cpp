@@ -23,16 +23,9 @@ void develop_gradient_passes(Film& film, const std::vector<double>& primal, cons
   const std::vector<double> rec = screened_poisson(primal, gx, gy, width, height, 3, r);  // eq. 3
   std::vector<double> dx, dy;
   forward_differences(kept_out, width, height, 3, &dx, &dy);
-  Pass& comb = film.add_pass(pass::kCombined, 3);
-  Pass& prim = film.add_pass(pass::kPrimal, 3);
-  Pass& px = film.add_pass(pass::kGradientX, 3);
-  Pass& py = film.add_pass(pass::kGradientY, 3);
-  for (size_t k = 0; k < primal.size(); ++k) {
-    comb.data[k] = static_cast<float>(rec[k] + kept_comb[k]);
-    prim.data[k] = static_cast<float>(primal[k] + kept_out[k]);
-    px.data[k] = static_cast<float>(gx[k] + dx[k]);
-    py.data[k] = static_cast<float>(gy[k] + dy[k]);
-  }
+  write_gradient_passes(film, primal.size(), [&](size_t k) {
+    return std::array<double, 4>{rec[k] + kept_comb[k], primal[k] + kept_out[k], gx[k] + dx[k], gy[k] + dy[k]};
+  });
 }
 
 }  // namespace gp

@@ -43,7 +43,9 @@ Msppm::Msppm(const Scene& scene, const Params& params)
   // shadow rays pass, up to transparent_bounces + 1 passes through them (transparent_done), which
   // count no bounce.
   eye_stride_ = max_depth_ + (scene.has_transparent_shadows() ? std::max(scene.transparent_bounces, 0) + 1 : 0);
-  eye_.assign(n * eye_stride_, EyeVertex{});
+  const size_t tiles_x = (width_ + tile_size_ - 1) / tile_size_, tiles_y = (height_ + tile_size_ - 1) / tile_size_;
+  tile_eye_.resize(tiles_x * tiles_y);
+  eye_at_.assign(n, 0);
   eye_count_.assign(n, 0);
   eye_origin_.assign(n, Vec3());
   pass_direct_.assign(n, RGB(0.0f));
@@ -64,10 +66,37 @@ Msppm::Msppm(const Scene& scene, const Params& params)
     for (const Medium& m : scene.media) media_rgb_.push_back(rgb_channels(m));
     beams_.assign(n * kMaxBeams, EyeBeam{});
     n_beams_.assign(n, 0);
+    vpx_.assign(n, VolumeState{});
     first_vr_.assign(n, 0.0f);
     gather_vm_.assign(n, 0.0f);
     gather_vphi_.assign(n, RGB(0.0f));
   }
+}
+
+Msppm::PathVertex Msppm::path_vertex(const EyeVertex& e) {
+  PathVertex v;
+  v.p = e.p;
+  v.ng = e.ng;
+  v.frame = &e.frame;
+  v.material = e.material;
+  v.uv = e.uv;
+  v.delta = e.delta;
+  v.mergeable = e.mergeable;
+  return v;
+}
+
+const Msppm::PhotonTail& Msppm::tail(uint32_t index) const {
+  // The chunk holding the block's first photon, or one after it (a chunk is rarely shorter than
+  // a block: then a few steps).
+  size_t c = tail_block_[index >> kTailBlockBits];
+  while (tail_base_[c + 1] <= index) ++c;
+  return chunk_tails_[c][index - tail_base_[c]];
+}
+
+size_t Msppm::tile_of(size_t pixel) const {
+  const size_t tiles_x = (width_ + tile_size_ - 1) / tile_size_;
+  const size_t x = pixel % width_, y = pixel / width_;
+  return (y / tile_size_) * tiles_x + x / tile_size_;
 }
 
 double Msppm::n_pm(size_t pixel) const {
@@ -91,6 +120,8 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
         std::vector<PathVertex> y;
         std::vector<double> cy(static_cast<size_t>(eye_stride_) + 2, 0.0);  // c_j of the path so far
         std::vector<EyeVertex> scratch(static_cast<size_t>(eye_stride_));   // vertices of the extra PT paths
+        std::vector<EyeVertex> path(static_cast<size_t>(eye_stride_));      // the measurement path's
+        std::vector<EyeVertex> list;                                        // the tile's paths
         // One camera path from `film`/`lens` samples of `rng`: weighted PT contribution returned,
         // vertices written to ev[0 .. count). `ratio` = n_pm / n_pt (see light_weight). With
         // `beams` (the pixel's measurement path, in media), its segments through scattering media
@@ -201,14 +232,7 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
               e.mergeable = !e.delta;  // no diffuse/glossy classification (thesis §9.6)
               e.crossed = false;
               if (e.mergeable && first_r == 0) first_r = 2.0f * scene_.camera.pixel_footprint(path_length);
-              PathVertex sv;
-              sv.p = e.p;
-              sv.ng = e.ng;
-              sv.frame = &e.frame;
-              sv.material = e.material;
-              sv.uv = e.uv;
-              sv.delta = e.delta;
-              sv.mergeable = e.mergeable;
+              PathVertex sv = path_vertex(e);
               y.push_back(sv);
               {
                 // c_j = B_{j-1} / E_j for the new vertex y_j (see camera_prefix).
@@ -333,9 +357,11 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
             Rng rng = Rng::for_key(seed_, scene_.camera.pixel_key(px, py), pass);
             int count = 0;
             float first_r = 0;
-            RGB Ld = trace(rng, px, py, ratio, &eye_[pixel * eye_stride_], count, first_r, eye_origin_[pixel],
+            RGB Ld = trace(rng, px, py, ratio, path.data(), count, first_r, eye_origin_[pixel],
                            media_ ? &beams_[pixel * kMaxBeams] : nullptr, media_ ? &n_beams_[pixel] : nullptr,
                            media_ ? &first_vr_[pixel] : nullptr);
+            eye_at_[pixel] = static_cast<uint32_t>(list.size());
+            list.insert(list.end(), path.begin(), path.begin() + count);
             eye_count_[pixel] = count;
             first_r_[pixel] = first_r;
             // The other n_pt - 1 path-tracing samples (§9.5 step 5), their own random stream.
@@ -350,6 +376,8 @@ bool Msppm::eye_pass(uint64_t pass, ProgressSink* sink, bool may_pause, std::ato
             pass_traced_[pixel] = traced;
             pass_direct_[pixel] = Ld / static_cast<float>(npt);  // (1 / n_i) sum_j w_i f / p_i (eq. 9.5)
           }
+        // The tile's list at its size (a longer one than the tile had before reallocates once).
+        tile_eye_[tile_of(static_cast<size_t>(tile.y0) * width_ + tile.x0)].assign(list.begin(), list.end());
         rays_out += rays;
         invalid_out += invalid;
       });
@@ -362,36 +390,44 @@ void Msppm::photon_pass(uint64_t pass, PhotonPassStats& stats) {
   const size_t n_chunks = static_cast<size_t>((count + chunk - 1) / chunk);
   if (chunk_photons_.size() < n_chunks) {
     chunk_photons_.resize(n_chunks);
-    chunk_records_.resize(n_chunks);
     chunk_tails_.resize(n_chunks);
   }
   if (media_ && chunk_volume_.size() < n_chunks) chunk_volume_.resize(n_chunks);
   std::atomic<int64_t> rays{0}, invalid{0};
   parallel_for(n_chunks, threads_, [&](size_t lo, size_t hi) {
     int64_t r = 0, inv = 0;
+    // A chunk's whole photon paths, needed only until its tails are made: one record per worker,
+    // not one kept per chunk (docs/adaptive-and-msppm.md "Memory").
+    PhotonPathRecord record;
     for (size_t c = lo; c < hi; ++c) {
       chunk_photons_[c].clear();
-      chunk_records_[c].clear();
+      record.clear();
       if (media_) chunk_volume_[c].clear();
       Rng rng = Rng::for_key(seed_ ^ 0x6d7370706dULL, c, pass);
       RngSamples u(rng);
       const int64_t begin = static_cast<int64_t>(c) * chunk, end = std::min(count, begin + chunk);
       for (int64_t k = begin; k < end; ++k)
-        r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &chunk_records_[c], nullptr, nullptr,
+        r += tracer_.trace_path(u, 0, chunk_photons_[c], inv, &record, nullptr, nullptr,
                                 media_ ? &chunk_volume_[c] : nullptr);
-      photon_tails(chunk_records_[c], chunk_tails_[c]);  // light-side sums, once per path vertex
+      photon_tails(record, chunk_tails_[c]);  // light-side sums, once per path vertex
     }
     rays += r;
     invalid += inv;
   });
-  // Photons and their tails in chunk order; a photon's `index` is its position (its tail).
+  // Photons in chunk order; a photon's `index` is its position, its tail found in its chunk's
+  // list (tail(): not copied into one list beside them, 128 bytes a photon).
   photons_.clear();
-  tails_.clear();
+  tail_base_.assign(1, 0);
   for (size_t c = 0; c < n_chunks; ++c) {
     photons_.insert(photons_.end(), chunk_photons_[c].begin(), chunk_photons_[c].end());
-    tails_.insert(tails_.end(), chunk_tails_[c].begin(), chunk_tails_[c].end());
+    tail_base_.push_back(photons_.size());
   }
   for (size_t i = 0; i < photons_.size(); ++i) photons_[i].index = static_cast<uint32_t>(i);
+  tail_block_.assign((photons_.size() >> kTailBlockBits) + 1, 0);
+  for (size_t b = 0, c = 0; b < tail_block_.size(); ++b) {
+    while (c + 1 < n_chunks && tail_base_[c + 1] <= (b << kTailBlockBits)) ++c;
+    tail_block_[b] = static_cast<uint32_t>(c);
+  }
   if (media_) concatenate_chunks(chunk_volume_, n_chunks, threads_, volume_photons_);
   stats.emitted = count;
   stats.stored = static_cast<int64_t>(photons_.size());
@@ -503,7 +539,7 @@ void Msppm::iterate(ProgressSink* sink) {
   double max_r2 = 0, sum_rq = 0, n_q = 0;
   for (size_t i = 0; i < n_pixels; ++i) {
     if (!(pass_npm_[i] > 0)) continue;
-    const EyeVertex* ev = &eye_[i * eye_stride_];
+    const EyeVertex* ev = eye_vertices(i);
     bool any = false;
     for (int j = 0; j < eye_count_[i] && !any; ++j) any = ev[j].mergeable;
     if (!any) continue;
@@ -529,22 +565,11 @@ void Msppm::iterate(ProgressSink* sink) {
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
       const double npm = pass_npm_[i];
       if (!(npm > 0)) continue;  // weight 0 for every photon (pass 0, see eye_pass)
-      const EyeVertex* ev = &eye_[i * eye_stride_];
+      const EyeVertex* ev = eye_vertices(i);
       // The camera path as path vertices y_0 .. y_n, those it crossed (EyeVertex::crossed) left
       // out, and its prefix sums c_j; at[a]: the index of ev[a] in it (a crossed one: where it
       // would be, as the end of the paths that merge there).
       const int count = eye_count_[i];
-      auto path_vertex = [&](const EyeVertex& e) {
-        PathVertex v;
-        v.p = e.p;
-        v.ng = e.ng;
-        v.frame = &e.frame;
-        v.material = e.material;
-        v.uv = e.uv;
-        v.delta = e.delta;
-        v.mergeable = e.mergeable;
-        return v;
-      };
       ycam[0] = PathVertex();
       ycam[0].p = eye_origin_[i];
       int n = 0;
@@ -589,13 +614,13 @@ void Msppm::iterate(ProgressSink* sink) {
           const Vec3 wi = e.frame.to_local(ph.wi);
           if (!same_hemisphere(wo, wi)) return;
           m += 1;
-          const char* tp = reinterpret_cast<const char*>(&tails_[ph.index]);
+          const char* tp = reinterpret_cast<const char*>(&tail(ph.index));
           __builtin_prefetch(tp);
           __builtin_prefetch(tp + 64);
           hits.push_back(&ph);
         });
         for (const Photon* ph : hits) {
-          const PhotonTail& tail = tails_[ph->index];
+          const PhotonTail& tail = this->tail(ph->index);
           if (tail.through_medium && j > medium_merges) continue;  // another vertex's path
           // The photon's lobes (the kinds that see where it came from, photon_tracer.cpp), and a
           // normal map's bent cosine (gather_shading_correction), as SPPM's gather.
@@ -641,7 +666,7 @@ void Msppm::iterate(ProgressSink* sink) {
     s.n = u.n_new;
     s.r2 = u.r2_new;
     if (media_)  // the beam radiance estimate's radius and flux
-      bad += progressive_beam_update(s.vn, s.vr2, s.vtau, gather_vphi_[i], gather_vm_[i], alpha_);
+      bad += progressive_beam_update(vpx_[i].vn, vpx_[i].vr2, vpx_[i].vtau, gather_vphi_[i], gather_vm_[i], alpha_);
   }
   stats_.passes += 1;
 
@@ -671,7 +696,7 @@ void Msppm::iterate(ProgressSink* sink) {
   stats_.extra["path tracing share"] = pt + pm > 0 ? pt / (pt + pm) : 0.0;
   if (media_) {  // the beam radiance estimate's figures, as SPPM's
     double sum_vr = 0, n_vr = 0;
-    for (const PixelState& s : px_)
+    for (const VolumeState& s : vpx_)
       if (s.vr2 > 0) { sum_vr += std::sqrt(s.vr2); n_vr += 1; }
     stats_.extra["volume photons stored"] += static_cast<double>(volume_photons_.size());
     stats_.extra["average cylinder radius"] = n_vr > 0 ? sum_vr / n_vr : 0.0;
@@ -683,10 +708,11 @@ RGB Msppm::pixel_radiance(size_t i) const {
   // direct: per pass the mean of its n_pt weighted path-tracing samples, summed over passes.
   const PixelState& s = px_[i];
   RGB L = progressive_radiance(s.direct, s.tau, s.r2, stats_.passes, emitted_total_);
-  if (media_ && s.vr2 > 0 && emitted_total_ > 0) {
+  if (media_ && vpx_[i].vr2 > 0 && emitted_total_ > 0) {
     // The beam radiance estimate: the cylinder's flux over pi R^2 and the photons emitted (§5.6).
-    const double k = 1.0 / (static_cast<double>(emitted_total_) * M_PI * s.vr2);
-    for (int c = 0; c < 3; ++c) L[c] += static_cast<float>(s.vtau[c] * k);
+    const VolumeState& v = vpx_[i];
+    const double k = 1.0 / (static_cast<double>(emitted_total_) * M_PI * v.vr2);
+    for (int c = 0; c < 3; ++c) L[c] += static_cast<float>(v.vtau[c] * k);
   }
   return L;
 }
@@ -696,7 +722,7 @@ RGB Msppm::pixel_radiance(size_t i) const {
 void Msppm::volume_gather(uint64_t pass) {
   gather_pixel_beams(
       scene_, volume_photons_, volume_grid_, PixelBeams{beams_, kMaxBeams, n_beams_, first_vr_}, radius_,
-      [&](size_t i) -> double& { return px_[i].vr2; }, seed_, pass, threads_, 3, {},
+      [&](size_t i) -> double& { return vpx_[i].vr2; }, seed_, pass, threads_, 3, {},
       [&](int med) -> const MediumChannels& { return media_rgb_[med]; },
       [](const EyeBeam& b, const Photon& ph, const ChannelValues& T, const ChannelValues& f) {
         return RGB(b.beta[0] * T[0] * f[0], b.beta[1] * T[1] * f[1], b.beta[2] * T[2] * f[2]) * ph.power;

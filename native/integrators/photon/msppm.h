@@ -241,10 +241,15 @@ class Msppm : public Integrator {
     double tau[3] = {0, 0, 0};
     double direct[3] = {0, 0, 0};  // per pass the mean of its weighted path-tracing samples, summed
     double found_sum = 0, r2_sum = 0;  // photons found and R^2, summed over the passes that gathered
-    // The beam radiance estimate's cylinder radius, count and flux (thesis eq. 5.39, 5.12; media).
+  };
+  // The beam radiance estimate's cylinder radius, count and flux (thesis eq. 5.39, 5.12): scenes
+  // with media only (vpx_), so that the others hold none of it.
+  struct VolumeState {
     double vr2 = 0, vn = 0, vtau[3] = {0, 0, 0};
   };
 
+  // A camera-path vertex as a path vertex for the weights (its frame by pointer: `e` outlives it).
+  static PathVertex path_vertex(const EyeVertex& e);
   double n_pm(size_t pixel) const;  // N_e pi R^2 of the density-estimation technique
   // The camera paths of the pass over the tiles not done yet (PausableTiles: with `may_pause`,
   // it stops when the sink asks and returns false; the next call goes on).
@@ -265,12 +270,25 @@ class Msppm : public Integrator {
   PhotonTracer tracer_;
   PhotonHashGrid grid_;
   std::vector<Photon> photons_;
-  std::vector<PhotonTail> tails_;                 // per photon of photons_
-  std::vector<std::vector<PhotonTail>> chunk_tails_;
+  std::vector<std::vector<PhotonTail>> chunk_tails_;  // per photon of chunk_photons_
+  // Photon i's tail: chunk c holds photons_[tail_base_[c] .. tail_base_[c + 1]); tail_block_[b]
+  // is the chunk of photon b * 2^kTailBlockBits.
+  static constexpr int kTailBlockBits = 10;
+  std::vector<size_t> tail_base_;
+  std::vector<uint32_t> tail_block_;
+  const PhotonTail& tail(uint32_t index) const;
   std::vector<std::vector<Photon>> chunk_photons_;
-  std::vector<PhotonPathRecord> chunk_records_;
-  std::vector<EyeVertex> eye_;                    // eye_stride_ per pixel
-  int eye_stride_ = 0;                            // max_depth_ + the transparent passes a path may make
+  // max_depth_ bounces and, in a scene with Transparent BSDFs that shadow rays pass, up to
+  // transparent_bounces + 1 passes through them (transparent_done): a camera path's most vertices.
+  int eye_stride_ = 0;
+  // This pass's camera-path vertices, a list per tile (PausableTiles' order): its pixels' paths
+  // one after the other, each as long as it went (not max_depth_ per pixel, which reserved
+  // 1.8 kB per pixel for paths of a few vertices: docs/adaptive-and-msppm.md "Memory"); eye_at_[i]:
+  // pixel i's first vertex in its tile's list.
+  std::vector<std::vector<EyeVertex>> tile_eye_;
+  std::vector<uint32_t> eye_at_;
+  size_t tile_of(size_t pixel) const;
+  const EyeVertex* eye_vertices(size_t pixel) const { return tile_eye_[tile_of(pixel)].data() + eye_at_[pixel]; }
   std::vector<int> eye_count_;
   std::vector<Vec3> eye_origin_;
   std::vector<RGB> pass_direct_;
@@ -292,6 +310,7 @@ class Msppm : public Integrator {
   std::vector<MediumChannels> media_rgb_;  // Scene::media at R, G, B
   std::vector<EyeBeam> beams_;             // kMaxBeams per pixel, this pass's
   std::vector<uint8_t> n_beams_;
+  std::vector<VolumeState> vpx_;           // per pixel
   std::vector<float> first_vr_;            // footprint radius at the first beam's middle
   std::vector<Photon> volume_photons_;     // this pass's
   std::vector<std::vector<Photon>> chunk_volume_;
