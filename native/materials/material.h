@@ -69,6 +69,10 @@ struct Material {
   // Conductor: how its reflectance varies with the angle (ConductorFresnel; Principled uses `ior`).
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   Microfacet distribution = Microfacet::GGX;  // conductor, dielectric, principled: the microfacet distribution
+  // Blender's Sharp distribution (Glossy, Glass, Refraction BSDF): roughness 0, and Cycles 3.4's
+  // singular closures (Reflection, Refraction, Sharp Glass), which Filter Glossy leaves sharp
+  // (bsdf.h ClosureFilter). GGX at roughness 0 is blurred.
+  bool sharp = false;
   // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
   // Principled (Cycles 3.4's Principled BSDF, non-metal): `color` the base colour, `roughness`
   // the specular lobe's GGX alpha (its square root drives the diffuse retro-reflection), `ior`

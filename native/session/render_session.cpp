@@ -51,6 +51,15 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
                                           "of the shutter ({} blur it)",
                                           method, fmt::join(with_blur, ", ")));
   }
+  if (scene_->filters_caustics() && !find_method(method).supports.caustics) {
+    std::vector<std::string> with;
+    for (const Method& m : methods())
+      if (m.supports.caustics) with.push_back(m.name);
+    feature_report_.push_back(fmt::format("method '{}' does not honour Light Paths > Caustics (Filter Glossy, "
+                                          "Reflective and Refractive Caustics): it renders caustics unfiltered "
+                                          "({} honour them)",
+                                          method, fmt::join(with, ", ")));
+  }
   aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
 }
 
