@@ -68,14 +68,18 @@ GREY = {"type": "diffuse", "color": 0.8}
 
 
 # Blender 3.4's Distribution enum -> the core's `distribution` (material.h Microfacet); GGX is
-# the core's default. Sharp is Cycles 3.4's singular closure whatever the Roughness: alpha 0.
-_DISTRIBUTIONS = {'BECKMANN': "beckmann", 'ASHIKHMIN_SHIRLEY': "ashikhmin_shirley", 'MULTI_GGX': "multi_ggx"}
+# the core's default. Sharp is Cycles 3.4's singular closure whatever the Roughness: alpha 0, and
+# left sharp by Filter Glossy (the core's "sharp", Material::sharp), where GGX at 0 is blurred.
+_DISTRIBUTIONS = {'BECKMANN': "beckmann", 'ASHIKHMIN_SHIRLEY': "ashikhmin_shirley", 'MULTI_GGX': "multi_ggx",
+                  'SHARP': "sharp"}
 
 
 def _distribution(d, node):
     distribution = getattr(node, "distribution", 'GGX')
     if distribution == 'SHARP':
         d["roughness"] = 0.0
+        if d.get("type") not in ("conductor", "dielectric", "refraction"):
+            return  # a Principled has no Sharp (GGX at 0)
     name = _DISTRIBUTIONS.get(distribution)
     if name is not None:
         d["distribution"] = name
