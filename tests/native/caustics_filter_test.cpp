@@ -1,0 +1,138 @@
+// Light Paths > Caustics (Scene::filter_glossy, caustics_reflective, caustics_refractive), as
+// Cycles 3.4 applies them in its camera paths and the shared camera-path loop does for pt, spt
+// and spt-hero (paths/camera_path.h, materials/bsdf.h ClosureFilter):
+//   - Filter Glossy blurs what a diffuse bounce's ray meets: a sharp mirror's caustic spreads;
+//   - Reflective / Refractive off drop the glossy / refractive closures a diffuse bounce's ray
+//     meets: the caustic goes, leaving the direct light alone.
+// The methods that do not honour them say so by their declarations (Method::supports.caustics).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+#include "render_for_tests.h"
+#include "session/render_session.h"
+
+namespace gp {
+namespace {
+
+std::string settings(float filter_glossy, bool reflective, bool refractive) {
+  return R"("filter_glossy": )" + std::to_string(filter_glossy) + R"(, "caustics_reflective": )" +
+         (reflective ? "true" : "false") + R"(, "caustics_refractive": )" + (refractive ? "true" : "false");
+}
+
+// A floor (z = 0) lit only through a smooth mirror (GGX at roughness 0; z = 2, facing down) by a lamp between them (a
+// 0.5 m square at z = 1, emitting up only). The lamp hides its own mirror image from the floor
+// below it: with a sharp mirror the square |x|, |y| < 0.25 under it gets no light at all (its
+// umbra; the virtual lamp is at z = 3: a floor point x0 reaches it across z = 1 at 2 x0 / 3 + x_lamp / 3),
+// the floor beside it the lamp's reflection. The camera
+// looks straight down at the floor around (cx, 0) from z = 0.5: cx = 0 sees only the umbra.
+std::string mirror_scene(float cx, const std::string& light_paths, const std::string& distribution = "ggx") {
+  const std::string x = std::to_string(cx);
+  return R"({"camera": {"position": [)" + x + R"(, 0, 0.5], "look_at": [)" + x + R"(, 0, 0], "up": [0, 1, 0], "fov": 40,
+      "width": 12, "height": 12},
+    "materials": {"floor": {"type": "diffuse", "color": 0.5},
+      "mirror": {"type": "conductor", "color": 1, "roughness": 0, "fresnel": false, "distribution": ")" +
+         distribution + R"("},
+      "lamp": {"type": "emission", "emission": [1, 1, 1], "strength": 40}},
+    "lights": [], )" + light_paths + R"(,
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [4, 0, 0], "v": [0, 4, 0], "material": "floor"},
+      {"type": "quad", "center": [0, 0, 2], "u": [4, 0, 0], "v": [0, -4, 0], "material": "mirror"},
+      {"type": "quad", "center": [0, 0, 1], "u": [0.25, 0, 0], "v": [0, 0.25, 0], "material": "lamp"}]})";
+}
+
+// A glass ball (radius 0.5 at z = 1) on a floor under a lamp (a 1 m square at z = 3 facing
+// down): the floor under the ball is in its umbra for shadow rays, lit only by the caustic. The
+// camera, beside the ball and below it, sees only that part of the floor (|x| < 0.12, -0.2 < y < 0.3).
+std::string glass_scene(const std::string& light_paths) {
+  return R"({"camera": {"position": [0, -0.6, 0.4], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 20,
+      "width": 12, "height": 12},
+    "materials": {"floor": {"type": "diffuse", "color": 0.5},
+      "glass": {"type": "dielectric", "ior": 1.5, "roughness": 0},
+      "lamp": {"type": "emission", "emission": [1, 1, 1], "strength": 20}},
+    "lights": [], )" + light_paths + R"(,
+    "objects": [{"type": "quad", "center": [0, 0, 0], "u": [4, 0, 0], "v": [0, 4, 0], "material": "floor"},
+      {"type": "sphere", "center": [0, 0, 1], "radius": 0.5, "segments": 48, "material": "glass"},
+      {"type": "quad", "center": [0, 0, 3], "u": [0.5, 0, 0], "v": [0, -0.5, 0], "material": "lamp"}]})";
+}
+
+// max_depth: the scene's caustic paths and no longer ones (camera, floor, mirror, lamp: 3 segments;
+// through the glass ball: 4), so that no diffuse interreflection lights the umbras.
+Params params_for(const std::string& method, int max_depth) {
+  Params p;
+  p.set("seed", 7);
+  p.set("max_depth", max_depth);
+  if (method == "spt") p.set("spectral", std::string("spectral"));
+  return p;
+}
+
+float mean_of(const std::string& method, const std::string& json, int passes) {
+  const bool mirror = json.find("\"mirror\"") != std::string::npos;
+  const RGB m = image_mean(render(method, scene_from(json), passes, params_for(method, mirror ? 3 : 4)));
+  return (m.r + m.g + m.b) / 3.0f;
+}
+
+TEST(CausticsFilter, FilterGlossySpreadsASharpMirrorsCausticIntoTheLampsUmbra) {
+  for (const char* method : {"pt", "spt"}) {
+    const int passes = std::string(method) == "pt" ? 64 : 32;
+    const float lit_off = mean_of(method, mirror_scene(0.8f, settings(0, true, true)), passes);
+    const float umbra_off = mean_of(method, mirror_scene(0.0f, settings(0, true, true)), passes);
+    const float umbra_on = mean_of(method, mirror_scene(0.0f, settings(1, true, true)), passes);
+    const float lit_on = mean_of(method, mirror_scene(0.8f, settings(1, true, true)), passes);
+    std::printf("%s: beside the lamp %.4f (filter glossy 1: %.4f), its umbra %.4f (filter glossy 1: %.4f)\n", method,
+                lit_off, lit_on, umbra_off, umbra_on);
+    EXPECT_GT(lit_off, 0.05f) << method;       // the sharp caustic beside the lamp
+    EXPECT_EQ(umbra_off, 0.0f) << method;      // none under it without the filter: exactly black
+    EXPECT_GT(umbra_on, 0.05f * lit_off) << method;  // the blurred mirror spreads it there
+    EXPECT_GT(lit_on, 0.05f) << method;
+    // Blender's Sharp distribution is Cycles' singular closure, which Filter Glossy leaves sharp.
+    EXPECT_EQ(mean_of(method, mirror_scene(0.0f, settings(1, true, true), "sharp"), passes), 0.0f) << method;
+  }
+}
+
+TEST(CausticsFilter, CausticsSwitchesRemoveTheCausticLeavingTheDirectLight) {
+  for (const char* method : {"pt", "spt"}) {
+    const int passes = std::string(method) == "pt" ? 64 : 32;
+    // The mirror: the floor's only light is the reflective caustic; its direct light is 0.
+    const float mirror_on = mean_of(method, mirror_scene(0.8f, settings(0, true, true)), passes);
+    const float mirror_off = mean_of(method, mirror_scene(0.8f, settings(0, false, true)), passes);
+    const float mirror_refr_off = mean_of(method, mirror_scene(0.8f, settings(0, true, false)), passes);
+    // The glass ball: the floor under it is in its shadow, lit through it only.
+    const float glass_on = mean_of(method, glass_scene(settings(0, true, true)), passes);
+    const float glass_off = mean_of(method, glass_scene(settings(0, true, false)), passes);
+    const float glass_both_off = mean_of(method, glass_scene(settings(0, false, false)), passes);
+    const float glass_refl_off = mean_of(method, glass_scene(settings(0, false, true)), passes);
+    std::printf("%s: mirror caustic %.4f, reflective off %.4f, refractive off %.4f; glass caustic %.4f, refractive "
+                "off %.4f, both off %.4f, reflective off %.4f\n",
+                method, mirror_on, mirror_off, mirror_refr_off, glass_on, glass_off, glass_both_off, glass_refl_off);
+    EXPECT_GT(mirror_on, 0.05f) << method;
+    EXPECT_EQ(mirror_off, 0.0f) << method;                         // the direct light alone: 0
+    EXPECT_NEAR(mirror_refr_off, mirror_on, 1e-6f) << method;      // a mirror refracts nothing
+    EXPECT_GT(glass_on, 0.05f) << method;
+    EXPECT_EQ(glass_both_off, 0.0f) << method;                     // in the ball's shadow: 0
+    // The refractive caustic is gone; what is left is the ball's reflection of the lit floor.
+    EXPECT_LT(glass_off, 0.1f * glass_on) << method;
+    EXPECT_GT(glass_refl_off, 0.5f * glass_on) << method;          // refraction kept
+  }
+}
+
+TEST(CausticsFilter, MethodsThatDoNotHonourThemSaySo) {
+  auto scene = std::make_shared<const Scene>(scene_from(mirror_scene(0.8f, settings(1, true, true))));
+  auto said = [&](const std::string& method) {
+    RenderSession session(scene, method, method == "sppm" ? photon_params(1000, 5) : Params());
+    for (const std::string& line : session.feature_report())
+      if (line.find("Light Paths > Caustics") != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_FALSE(said("pt"));
+  EXPECT_TRUE(said("sppm"));
+  EXPECT_TRUE(said("gpt"));
+  // A scene that filters nothing says nothing.
+  auto plain = std::make_shared<const Scene>(scene_from(mirror_scene(0.8f, settings(0, true, true))));
+  RenderSession session(plain, "sppm", photon_params(1000, 5));
+  for (const std::string& line : session.feature_report())
+    EXPECT_EQ(line.find("Light Paths > Caustics"), std::string::npos) << line;
+}
+
+}  // namespace
+}  // namespace gp
