@@ -1646,6 +1646,12 @@ bool is_transparent_closure(const BsdfParams& p) {
 }
 }  // namespace
 
+// Cycles 3.4 (integrator/surface_shader.h surface_shader_prepare_closures, closure/bsdf.h
+// bsdf_blur, svm/svm_closure.h). Material::sharp is Cycles' singular closure, which bsdf_blur
+// leaves alone; Blender's Sharp node is one only with its Roughness linked to a varying value:
+// unlinked, Cycles compiles it to GGX at 0 while Filter Glossy is on (scene/shader_nodes.cpp
+// simplify_settings), which is blurred (the exporter writes "sharp" for the linked case only;
+// Blender 3.4.1 renders Sharp and GGX at 0 bit for bit alike under Filter Glossy 1).
 void filter_closures(BsdfParams& p, const ClosureFilter& f) {
   if (!f.active()) return;
   if (p.type == MaterialType::Mix) {
@@ -1660,6 +1666,11 @@ void filter_closures(BsdfParams& p, const ClosureFilter& f) {
   }
   if (is_transparent_closure(p)) return;
   p.lobes = f.lobes;
+  // A Multiscatter GGX glass is one closure, reflection and refraction together: Cycles drops it
+  // only where both switches drop (svm_closure.h, CLOSURE_BSDF_MICROFACET_MULTI_GGX_GLASS_ID).
+  if (p.type == MaterialType::Dielectric && p.distribution == Microfacet::MultiGGX && !p.refraction_only &&
+      (f.lobes & (kRayGlossy | kRayTransmission)))
+    p.lobes |= kRayGlossy | kRayTransmission;
   if (!(f.blur_alpha > 0.0f) || p.sharp) return;
   switch (p.type) {
     case MaterialType::Conductor:
@@ -1690,10 +1701,19 @@ std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, Transpo
   if (s && p_.lobes != kAllLobes) {
     if (!(s->lobe & p_.lobes)) return std::nullopt;
     // A lobe kept: a non-Dirac direction's f and pdf are those of the lobes kept (a principled or
-    // plastic sample returns its whole mixture's).
-    if (!s->delta && !s->stochastic) {
-      s->f = eval(wo, s->wi, mode);
-      s->pdf = pdf(wo, s->wi);
+    // plastic sample returns its whole mixture's). A random walk's sample keeps its weight
+    // (the picked lobe's own, over its probability) with the kept lobes' stand-in pdf, the one
+    // next-event estimation's MIS reads (pdf()).
+    if (!s->delta) {
+      if (s->stochastic) {
+        const float cos_i = abs_cos_theta(s->wi);
+        const RGB weight = s->f * (cos_i / s->pdf);
+        s->pdf = pdf(wo, s->wi);
+        s->f = weight * (s->pdf / cos_i);
+      } else {
+        s->f = eval(wo, s->wi, mode);
+        s->pdf = pdf(wo, s->wi);
+      }
       if (!valid_sample(s->f, s->pdf)) return std::nullopt;
     }
   }
