@@ -90,18 +90,21 @@ struct BsdfParams {
 
 // Cycles 3.4's Light Paths > Caustics at one shading point of a camera path, which the path so
 // far decides (paths/camera_path.h):
-//   Filter Glossy (shader_eval.h shader_prepare_surface_closures): with the smallest BSDF or
+//   Filter Glossy (integrator/surface_shader.h surface_shader_prepare_closures): with the smallest BSDF or
 //   phase pdf of the path's non-singular bounces so far p_min and Filter Glossy g > 0, where
 //   p_min / g < 1 every microfacet closure's alpha is raised to at least
 //   blur_alpha = 0.5 sqrt(1 - p_min / g) (bsdf.h bsdf_blur: GGX, Beckmann, Ashikhmin-Shirley,
-//   Multiscatter GGX, clearcoat; each axis of an anisotropic one). Cycles' sharp closures
-//   (Reflection, Refraction, Sharp Glass: Material::sharp) and the Transparent BSDF are not
-//   blurred; nor is the scene format's plastic (not a Cycles closure: its coat albedo table is
-//   the material's).
+//   Multiscatter GGX, clearcoat; each axis of an anisotropic one). Cycles' singular closures
+//   (Reflection, Refraction, Sharp Glass: Material::sharp, a Sharp node whose Roughness is
+//   linked; an unlinked Sharp is GGX at 0 under Filter Glossy, shader_nodes.cpp) and the
+//   Transparent BSDF are not blurred; nor is the scene format's plastic (not a Cycles closure:
+//   its coat albedo table is the material's).
 //   Caustics (svm_closure.h, __CAUSTICS_TRICKS__): where the ray that met the surface left a
-//   diffuse bounce (PATH_RAY_DIFFUSE: the last bounce, not an earlier one), Reflective off
-//   drops glossy reflection closures and Refractive off refraction ones: `lobes` without
-//   kRayGlossy / kRayTransmission. The Transparent BSDF is kept.
+//   diffuse bounce (PATH_RAY_DIFFUSE: the last bounce, not an earlier one; a transparent pass
+//   keeps it, a volume scatter clears it), Reflective off drops glossy reflection closures and
+//   Refractive off refraction ones: `lobes` without kRayGlossy / kRayTransmission. A
+//   Multiscatter GGX glass is one closure of both: dropped only with both off. The Transparent
+//   BSDF is kept.
 struct ClosureFilter {
   float blur_alpha = 0.0f;
   uint8_t lobes = kAllLobes;

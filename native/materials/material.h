@@ -69,9 +69,10 @@ struct Material {
   // Conductor: how its reflectance varies with the angle (ConductorFresnel; Principled uses `ior`).
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   Microfacet distribution = Microfacet::GGX;  // conductor, dielectric, principled: the microfacet distribution
-  // Blender's Sharp distribution (Glossy, Glass, Refraction BSDF): roughness 0, and Cycles 3.4's
-  // singular closures (Reflection, Refraction, Sharp Glass), which Filter Glossy leaves sharp
-  // (bsdf.h ClosureFilter). GGX at roughness 0 is blurred.
+  // Cycles 3.4's singular closures (Reflection, Refraction, Sharp Glass): roughness 0, and left
+  // sharp by Filter Glossy (bsdf.h ClosureFilter), where GGX at 0 is blurred. Blender's Sharp
+  // distribution compiles to them only when its Roughness input is linked to a varying value;
+  // an unlinked one is GGX at 0 once Filter Glossy is on (shader_nodes.cpp simplify_settings).
   bool sharp = false;
   // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
   // Principled (Cycles 3.4's Principled BSDF, non-metal): `color` the base colour, `roughness`

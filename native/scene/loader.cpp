@@ -195,7 +195,8 @@ class Loader : private JsonReader {
           fail(dpath, fmt::format("unknown distribution '{}' for a {} (known: {})", v, type, names));
         }
         mat.distribution = it2->second;
-        // Blender's Sharp: roughness 0 whatever is given (below), Cycles' singular closure (Material::sharp).
+        // "sharp": roughness 0 whatever is given (below), Cycles' singular closure (Material::sharp: a
+        // Blender Sharp with its Roughness linked; an unlinked one exports as GGX at 0).
         mat.sharp = v == "sharp";
       }
       if (type == "conductor" || type == "principled") {

@@ -294,7 +294,7 @@ bool trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray,
     if (depth + 1 >= s.max_depth || volume_done) return true;
     ClosureFilter filter;
     if (filter_closures) {
-      // Filter Glossy g: blur where p_min / g < 1 (Cycles stores 1 / g: shader_eval.h).
+      // Filter Glossy g: blur where p_min / g < 1 (Cycles stores 1 / g: surface_shader.h).
       if (scene.filter_glossy > 0.0f && min_ray_pdf < scene.filter_glossy)
         filter.blur_alpha = 0.5f * std::sqrt(1.0f - min_ray_pdf / scene.filter_glossy);
       if (ray.bounce == kRayDiffuse) {  // Cycles' PATH_RAY_DIFFUSE: the last bounce's kind only
