@@ -7,9 +7,11 @@
 // The methods that do not honour them say so by their declarations (Method::supports.caustics).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 
+#include "materials/bsdf.h"
 #include "render_for_tests.h"
 #include "session/render_session.h"
 
@@ -115,6 +117,51 @@ TEST(CausticsFilter, CausticsSwitchesRemoveTheCausticLeavingTheDirectLight) {
     EXPECT_LT(glass_off, 0.1f * glass_on) << method;
     EXPECT_GT(glass_refl_off, 0.5f * glass_on) << method;          // refraction kept
   }
+}
+
+// A caustics switch on Multiscatter GGX lobes (random walks, whose samples carry a weight and a
+// stand-in pdf): a principled's kept (diffuse) samples report the kept lobes' pdf, the density
+// next-event estimation's MIS reads; a Multiscatter GGX glass, one Cycles closure of both lobes
+// (svm_closure.h), is kept whole with one switch off and dropped with both.
+TEST(CausticsFilter, RandomWalkLobesUnderTheSwitches) {
+  auto samples = [](const Material& m, uint8_t lobes, int* glossy, int* transmitted, bool check_pdf) {
+    Bsdf bsdf(m);
+    ClosureFilter f;
+    f.lobes = lobes;
+    bsdf.filter(f);
+    const Vec3 wo = normalize(Vec3(0.3f, 0.1f, 0.9f));
+    int n = 0;
+    for (int i = 0; i < 256; ++i) {
+      const float a = i * 0.618034f, b = i * 0.414214f;
+      const auto s = bsdf.sample(wo, (i + 0.5f) / 256.0f, Vec2(a - std::floor(a), b - std::floor(b)));
+      if (!s) continue;
+      ++n;
+      if (s->lobe == kRayGlossy) ++*glossy;
+      if (s->lobe == kRayTransmission) ++*transmitted;
+      if (check_pdf) EXPECT_NEAR(s->pdf, bsdf.pdf(wo, s->wi), 1e-4f * s->pdf) << i;
+    }
+    return n;
+  };
+  Material principled;
+  principled.type = MaterialType::Principled;
+  principled.color = RGB(0.6f);
+  principled.roughness = 0.3f;
+  principled.distribution = Microfacet::MultiGGX;
+  int glossy = 0, transmitted = 0;
+  EXPECT_GT(samples(principled, kAllLobes & ~kRayGlossy, &glossy, &transmitted, true), 64);
+  EXPECT_EQ(glossy, 0);
+  Material glass;
+  glass.type = MaterialType::Dielectric;
+  glass.color = RGB(1.0f);
+  glass.roughness = 0.3f;
+  glass.distribution = Microfacet::MultiGGX;
+  for (uint8_t dropped : {kRayGlossy, kRayTransmission}) {
+    glossy = transmitted = 0;
+    EXPECT_GT(samples(glass, kAllLobes & ~dropped, &glossy, &transmitted, false), 128) << int(dropped);
+    EXPECT_GT(glossy, 0) << int(dropped);  // reflection kept with refraction off, and the other way
+    EXPECT_GT(transmitted, 0) << int(dropped);
+  }
+  EXPECT_EQ(samples(glass, kRayDiffuse, &glossy, &transmitted, false), 0);
 }
 
 // Filter Glossy is path tracing's noise-reduction knob, on (1.0) in nearly every Blender scene:
