@@ -5,7 +5,8 @@ long Cycles reference: image means and relMSE.
 
     blender -b --factory-startup --python scripts/bench_hdri.py -- \
         [--size 320] [--seconds 60] [--ref-samples 16384] [--bounces 8] [--threads 2] \
-        [--hdri /path/other.exr] [--out /tmp/bench_hdri] [--reference /path/ref.exr [--reference-only]]
+        [--hdri /path/other.exr] [--out /tmp/bench_hdri] [--reference /path/ref.exr [--reference-only]] \
+        [--samples N] [--filter-glossy G] [--reference-filter-glossy R]
 
 relMSE = mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01). The target (issue 31):
 gradphoton's relMSE at 60 s within 1.5x of Cycles' at 60 s, image means within 1 %. Run it on
@@ -14,7 +15,15 @@ is a smoke run. `--reference F` reuses the reference F when it exists (else rend
 long reference can be rendered once, at any time (its time does not matter), and the timed renders
 later on a quiet machine. Cycles renders to a time limit (Render > Performance > Time Limit), gradphoton to
 its Stop rule "Time", both with `--threads` threads, no denoising, no adaptive sampling, no
-clamping, equal bounce limits (Cycles max_bounces B, gradphoton max_depth B + 1)."""
+clamping, equal bounce limits (Cycles max_bounces B, gradphoton max_depth B + 1).
+
+`--samples N` renders both at N samples per pixel instead of for a time (an equal-samples
+comparison, which load does not skew). `--filter-glossy G` sets Light Paths > Caustics > Filter
+Glossy (Cycles' blur_glossy, which the exporter passes on) to G for both timed renders. The
+reference is rendered with Filter Glossy R (`--reference-filter-glossy`, default 0: unfiltered, as
+tests/blender/scenes.py configure_cycles): G > 0 against R = 0 measures the filter's bias plus
+noise; G = R measures noise against Cycles' own filtered image (render that reference apart, with
+`--reference F --reference-only --reference-filter-glossy R`, as for the unfiltered one)."""
 import os
 import sys
 import time
@@ -39,6 +48,8 @@ BOUNCES, THREADS = arg("--bounces", 8), arg("--threads", 2)
 HDRI = arg("--hdri", "", str)
 OUT = arg("--out", "/tmp/bench_hdri", str)
 REF_FILE = arg("--reference", "", str)
+SAMPLES, FILTER_GLOSSY = arg("--samples", 0), arg("--filter-glossy", 0.0, float)
+REF_FILTER_GLOSSY = arg("--reference-filter-glossy", 0.0, float)
 os.makedirs(OUT, exist_ok=True)
 addon_utils.enable("gradphoton", default_set=False)
 import scenes  # noqa: E402
@@ -75,16 +86,21 @@ nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
 nt.links.new(env.outputs["Color"], bg.inputs["Color"])
 
 
-def render(name, engine, samples=None, seconds=None):
+def render(name, engine, samples=None, seconds=None, filter_glossy=0.0):
     if engine == "CYCLES":
         scenes.configure_cycles(scene, samples or 1 << 20, BOUNCES)
         scene.render.threads = THREADS
         scene.cycles.time_limit = seconds or 0.0
+        scene.cycles.blur_glossy = filter_glossy  # Light Paths > Caustics > Filter Glossy
     else:
         scene.render.engine = "GRADPHOTON"
+        scene.cycles.blur_glossy = filter_glossy  # exported as the scene's filter_glossy
         g = scene.gradphoton
         g.method, g.threads, g.max_depth = "pt", THREADS, BOUNCES + 1
-        g.stop_rule, g.time_limit = 'TIME', seconds
+        if samples:
+            g.stop_rule, g.passes = 'PASSES', samples
+        else:
+            g.stop_rule, g.time_limit = 'TIME', seconds
     t0 = time.perf_counter()
     path = scenes.render_to_exr(scene, os.path.join(OUT, f"{name}.exr"))
     t = time.perf_counter() - t0
@@ -101,15 +117,20 @@ if REF_FILE and os.path.exists(REF_FILE):
     ref, t_ref = native.get().read_exr(REF_FILE)["combined"][..., :3].astype(np.float64), float("nan")
     print(f"BENCH reference read from {REF_FILE}")
 else:
-    ref, t_ref = render("reference", "CYCLES", samples=REF)
+    ref, t_ref = render("reference", "CYCLES", samples=REF, filter_glossy=REF_FILTER_GLOSSY)
     if REF_FILE:
         import shutil
         shutil.copyfile(os.path.join(OUT, "reference.exr"), REF_FILE)
 if "--reference-only" in args:
-    print(f"BENCH reference: Cycles {REF} spp in {t_ref:.1f} s")
+    print(f"BENCH reference: Cycles {REF} spp (filter glossy {REF_FILTER_GLOSSY:g}) in {t_ref:.1f} s")
     sys.exit(0)
-cyc, t_cyc = render("cycles", "CYCLES", seconds=SECONDS)
-ours, t_ours = render("gradphoton", "GRADPHOTON", seconds=SECONDS)
+if SAMPLES:
+    cyc, t_cyc = render("cycles", "CYCLES", samples=SAMPLES, filter_glossy=FILTER_GLOSSY)
+    ours, t_ours = render("gradphoton", "GRADPHOTON", samples=SAMPLES, filter_glossy=FILTER_GLOSSY)
+else:
+    cyc, t_cyc = render("cycles", "CYCLES", seconds=SECONDS, filter_glossy=FILTER_GLOSSY)
+    ours, t_ours = render("gradphoton", "GRADPHOTON", seconds=SECONDS, filter_glossy=FILTER_GLOSSY)
+print(f"BENCH filter glossy {FILTER_GLOSSY:g} (reference: {REF_FILTER_GLOSSY:g}); " + (f"{SAMPLES} samples each" if SAMPLES else f"{SECONDS:g} s each"))
 m_ref = ref.reshape(-1, 3).mean(0)
 for name, img, t in (("Cycles", cyc, t_cyc), ("gradphoton pt", ours, t_ours)):
     m = img.reshape(-1, 3).mean(0)
@@ -117,5 +138,5 @@ for name, img, t in (("Cycles", cyc, t_cyc), ("gradphoton pt", ours, t_ours)):
           f"relMSE {rel_mse(img, ref):.5f}")
 print(f"BENCH reference: Cycles {REF} spp in {t_ref:.1f} s, mean {np.round(m_ref, 5)}")
 r = rel_mse(ours, ref) / max(rel_mse(cyc, ref), 1e-30)
-print(f"BENCH relMSE gradphoton / Cycles at {SECONDS:g} s: {r:.3f} (target <= 1.5); "
+print(f"BENCH relMSE gradphoton / Cycles at " + (f"{SAMPLES} spp" if SAMPLES else f"{SECONDS:g} s") + f": {r:.3f} (target <= 1.5); "
       f"load average now {os.getloadavg()[0]:.2f}")

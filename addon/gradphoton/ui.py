@@ -167,6 +167,30 @@ GRADPHOTON_PT_reconstruction = _params_panel("GRADPHOTON_PT_reconstruction", "Re
 GRADPHOTON_PT_light_paths = _params_panel("GRADPHOTON_PT_light_paths", "Light Paths", "Light Paths", parent=None)
 GRADPHOTON_PT_clamping = _params_panel("GRADPHOTON_PT_clamping", "Clamping", "Clamping",
                                        parent="GRADPHOTON_PT_light_paths")
+
+
+class GRADPHOTON_PT_light_paths_caustics(GradphotonPanel, bpy.types.Panel):
+    """Light Paths > Caustics as Cycles draws it (its own panel hangs under Cycles' Light Paths,
+    which gradphoton replaces): Cycles' settings, which pt, spt and spt-hero honour."""
+    bl_label = "Caustics"
+    bl_context = "render"
+    bl_parent_id = "GRADPHOTON_PT_light_paths"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        c = cycles_settings(context.scene)
+        if c is None:
+            layout.label(text="Caustics are Cycles' settings: enable the Cycles add-on", icon='ERROR')
+            return
+        d = native.method_description(context.scene.gradphoton.method)  # Method::supports.caustics
+        layout.active = d is None or d.get("supports", {}).get("caustics", False)
+        layout.column().prop(c, "blur_glossy")
+        col = layout.column(heading="Caustics", align=True)
+        col.prop(c, "caustics_reflective", text="Reflective")
+        col.prop(c, "caustics_refractive", text="Refractive")
+
+
 PARAM_PANELS = (GRADPHOTON_PT_photons, GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction, GRADPHOTON_PT_spectral,
                 GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping)
 
@@ -546,7 +570,7 @@ class GRADPHOTON_WORLD_PT_ray_visibility(GradphotonPanel, bpy.types.Panel):
 
 _classes = (GRADPHOTON_PT_render, GRADPHOTON_PT_spectral, GRADPHOTON_PT_viewport, GRADPHOTON_PT_photons,
             GRADPHOTON_PT_metropolis, GRADPHOTON_PT_reconstruction, GRADPHOTON_PT_light_paths, GRADPHOTON_PT_clamping,
-            GRADPHOTON_PT_film, GRADPHOTON_PT_film_pixel_filter, GRADPHOTON_PT_film_transparency,
+            GRADPHOTON_PT_light_paths_caustics, GRADPHOTON_PT_film, GRADPHOTON_PT_film_pixel_filter, GRADPHOTON_PT_film_transparency,
             GRADPHOTON_RENDER_PT_motion_blur, GRADPHOTON_RENDER_PT_motion_blur_curve, GRADPHOTON_OBJECT_PT_motion_blur,
             GRADPHOTON_PT_performance, GRADPHOTON_PT_report, GRADPHOTON_PT_passes, GRADPHOTON_PT_material,
             GRADPHOTON_LIGHT_PT_light, GRADPHOTON_OBJECT_PT_visibility_ray_visibility, GRADPHOTON_WORLD_PT_ray_visibility)

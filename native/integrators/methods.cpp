@@ -238,7 +238,7 @@ std::vector<Method> make_methods() {
                  if (use_spectral(spectral_mode(p), s)) return std::make_unique<SpectralPathTracer>(s, p, true);
                  return std::make_unique<PathTracer>(s, p);
                },
-               .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
+               .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true, .caustics = true}, .holdout = true});
   m.push_back({.name = "ppm", .label = "Photon Mapping",
                .summary = "progressive photon mapping: camera paths once, photons every pass (thesis ch. 5)",
                .tooltip = "Caustics and light through glass, sharpening as it renders; camera paths traced once "
@@ -400,13 +400,13 @@ std::vector<Method> make_methods() {
                .tooltip = "Path tracing by wavelength, for rainbows through dispersive glass (one wavelength per "
                           "path, Cauchy dispersion)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(1), film_transparent(), sampling_pattern()}, common()}),
-               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
+               .make = spt(false), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true, .caustics = true}, .holdout = true});
   m.push_back({.name = "spt-hero", .label = "Spectral PT Hero",
                .summary = "spectral path tracing with hero wavelengths (Wilkie et al. 2014)",
                .tooltip = "Spectral path tracing with four wavelengths per path: less colour noise (hero "
                           "wavelengths, Wilkie et al. 2014)",
                .params = join({{max_depth(32), rr_depth(), spectral(), wavelengths(4), film_transparent(), sampling_pattern()}, common()}),
-               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true}, .holdout = true});
+               .make = spt(true), .passes = {always(pass::kCombined), alpha_pass()}, .supports = {.media = true, .motion_blur = true, .grid_media = true, .caustics = true}, .holdout = true});
   m.push_back({.name = "sgpt", .label = "Spectral Gradient",
                .summary = "spectral gradient sampling: spectral shifts, 1D screened Poisson (Petitjean et al. 2018)",
                .tooltip = "Spectral path tracing with a smooth reconstruction across wavelengths (spectral "

@@ -50,6 +50,10 @@ struct SceneFeatures {
   bool media = false, motion_blur = false;
   bool grid_media = false;  // heterogeneous (OpenVDB) media too, not homogeneous ones only
   bool environment_map = true;  // an image World: every method samples it (lights/environment_map.h)
+  // Light Paths > Caustics (Filter Glossy, Reflective / Refractive caustics: Scene::filter_glossy):
+  // the camera paths of pt, spt and spt-hero (paths/camera_path.h). The photon and gradient
+  // methods, which exist to render caustics, render them unfiltered.
+  bool caustics = false;
 };
 
 // What a method is, in one place: front ends (CLI help, Python, Blender's method menu, panels,

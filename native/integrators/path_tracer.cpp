@@ -90,8 +90,9 @@ struct RgbPath {
                            depth == 0 ? 0.0f : lights.pdf_area(hit.light, prev_p, hit.p, ray.d)),
                    depth <= 1);
   }
-  bool prepare(const SurfaceHit& hit) {
+  bool prepare(const SurfaceHit& hit, const ClosureFilter& filter) {
     bsdf.emplace(scene.bsdf(hit));
+    if (filter.active()) bsdf->filter(filter);
     return !bsdf->is_black();
   }
   bool is_delta() const { return bsdf->is_delta(); }

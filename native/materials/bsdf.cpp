@@ -1301,7 +1301,8 @@ RGB principled_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, float g
   if (!same_hemisphere(wo, wi)) return RGB(0.0f);
   RGB f(0.0f);
   if (lobes & kRayDiffuse) {
-    f += m.color * (kInvPi * burley_diffuse(std::sqrt(std::max(0.0f, m.roughness)), wo, wi) * g);
+    const float r = m.diffuse_roughness >= 0.0f ? m.diffuse_roughness : m.roughness;  // unblurred (filter_closures)
+    f += m.color * (kInvPi * burley_diffuse(std::sqrt(std::max(0.0f, r)), wo, wi) * g);
     if (m.sheen > 0.0f) f += principled_sheen_eval(m, wo, wi) * g;
   }
   if (lobes & kRayGlossy) f += principled_spec_eval(m, wo, wi);
@@ -1568,6 +1569,7 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bo
   p.roughness = m.roughness_tex ? clamp(m.roughness_tex.value(uv), 0.0f, 1.0f) : m.roughness;
   p.conductor_fresnel = m.conductor_fresnel;
   p.distribution = m.distribution;
+  p.sharp = m.sharp;
   p.ior = m.ior;
   p.specular_tint = m.specular_tint;
   p.sheen = m.sheen;
@@ -1623,8 +1625,69 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bo
   return p;
 }
 
+namespace {
+// Cycles' bsdf_blur of one microfacet closure (bsdf_microfacet_ggx_blur and its kin): each axis's
+// alpha raised to at least `alpha`; an anisotropic lobe's two axes written back in the
+// Anisotropic BSDF convention (anisotropic_alphas: alpha = sqrt(ax ay), 1 - an = sqrt(ax / ay)).
+void blur_closure(BsdfParams& p, float alpha) {
+  if (!is_anisotropic(p)) {
+    p.roughness = std::max(p.roughness, alpha);
+    return;
+  }
+  float ax, ay;
+  anisotropic_alphas(p.roughness, p.anisotropy, &ax, &ay);
+  ax = std::max(ax, alpha);
+  ay = std::max(ay, alpha);
+  p.roughness = std::sqrt(ax * ay);
+  p.anisotropy = ax <= ay ? 1.0f - std::sqrt(ax / ay) : std::sqrt(ay / ax) - 1.0f;
+}
+// Blender's Transparent BSDF (the loader's "transparent": a smooth dielectric of IOR 1): Cycles'
+// caustics switches and Filter Glossy leave it as it is.
+bool is_transparent_closure(const BsdfParams& p) {
+  return p.type == MaterialType::Dielectric && p.ior == 1.0f && p.roughness == 0.0f && !p.refraction_only;
+}
+}  // namespace
+
+// Cycles 3.4 (integrator/surface_shader.h surface_shader_prepare_closures, closure/bsdf.h
+// bsdf_blur, svm/svm_closure.h). Material::sharp is Cycles' singular closure, which bsdf_blur
+// leaves alone; Blender's Sharp node is one only with its Roughness linked to a varying value:
+// unlinked, Cycles compiles it to GGX at 0 while Filter Glossy is on (scene/shader_nodes.cpp
+// simplify_settings), which is blurred (the exporter writes "sharp" for the linked case only;
+// Blender 3.4.1 renders Sharp and GGX at 0 bit for bit alike under Filter Glossy 1).
+void filter_closures(BsdfParams& p, const ClosureFilter& f) {
+  if (!f.active()) return;
+  if (p.type == MaterialType::Mix) {
+    // Each closure of the mix on its own, as Cycles filters closures (hand-made parameters
+    // without parts look their components up per call, unfiltered: not a shading point's).
+    if (!p.parts) return;
+    auto parts = std::make_shared<MixComponents>(*p.parts);
+    filter_closures(parts->a, f);
+    filter_closures(parts->b, f);
+    p.parts = std::move(parts);
+    return;
+  }
+  if (is_transparent_closure(p)) return;
+  p.lobes = f.lobes;
+  // A Multiscatter GGX glass is one closure, reflection and refraction together: Cycles drops it
+  // only where both switches drop (svm_closure.h, CLOSURE_BSDF_MICROFACET_MULTI_GGX_GLASS_ID).
+  if (p.type == MaterialType::Dielectric && p.distribution == Microfacet::MultiGGX && !p.refraction_only &&
+      (f.lobes & (kRayGlossy | kRayTransmission)))
+    p.lobes |= kRayGlossy | kRayTransmission;
+  if (!(f.blur_alpha > 0.0f) || p.sharp) return;
+  switch (p.type) {
+    case MaterialType::Conductor:
+    case MaterialType::Dielectric:
+    case MaterialType::Clearcoat: blur_closure(p, f.blur_alpha); break;
+    case MaterialType::Principled:  // the specular lobe's alpha; the Burley diffuse keeps its roughness
+      if (p.diffuse_roughness < 0.0f) p.diffuse_roughness = p.roughness;
+      blur_closure(p, f.blur_alpha);
+      break;
+    default: break;  // diffuse, translucent, velvet (no microfacets); plastic (bsdf.h ClosureFilter)
+  }
+}
+
 RGB Bsdf::eval(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t lobes) const {
-  return wrong_side(wo, wi) ? RGB(0.0f) : eval_lobes(wo, wi, mode, lobes);
+  return wrong_side(wo, wi) ? RGB(0.0f) : eval_lobes(wo, wi, mode, lobes & p_.lobes);
 }
 
 namespace {
@@ -1635,6 +1698,27 @@ uint8_t dielectric_lobe(const Vec3& wo, const Vec3& wi) { return wo.z * wi.z > 0
 std::optional<BsdfSample> Bsdf::sample(const Vec3& wo, float uc, Vec2 u, TransportMode mode) const {
   auto s = sample_lobes(wo, uc, u, mode);
   if (s && wrong_side(wo, s->wi)) return std::nullopt;
+  // A lobe the caustics switches dropped (filter_closures): no sample, so that the surviving
+  // samples have pdf()'s density restricted to the lobes kept.
+  if (s && p_.lobes != kAllLobes) {
+    if (!(s->lobe & p_.lobes)) return std::nullopt;
+    // A lobe kept: a non-Dirac direction's f and pdf are those of the lobes kept (a principled or
+    // plastic sample returns its whole mixture's). A random walk's sample keeps its weight
+    // (the picked lobe's own, over its probability) with the kept lobes' stand-in pdf, the one
+    // next-event estimation's MIS reads (pdf()).
+    if (!s->delta) {
+      if (s->stochastic) {
+        const float cos_i = abs_cos_theta(s->wi);
+        const RGB weight = s->f * (cos_i / s->pdf);
+        s->pdf = pdf(wo, s->wi);
+        s->f = weight * (s->pdf / cos_i);
+      } else {
+        s->f = eval(wo, s->wi, mode);
+        s->pdf = pdf(wo, s->wi);
+      }
+      if (!valid_sample(s->f, s->pdf)) return std::nullopt;
+    }
+  }
   return s;
 }
 
@@ -1672,6 +1756,7 @@ RGB Bsdf::eval_lobes(const Vec3& wo, const Vec3& wi, TransportMode mode, uint8_t
 }
 
 float Bsdf::pdf(const Vec3& wo, const Vec3& wi, uint8_t lobes) const {
+  lobes &= p_.lobes;  // the caustics switches' (filter_closures)
   switch (kind()) {
     case MaterialType::Diffuse: return (lobes & kRayDiffuse) ? diffuse_pdf(wo, wi) : 0.0f;
     case MaterialType::Conductor:

@@ -79,7 +79,39 @@ struct BsdfParams {
   // Cycles' SVM writes every closure of a shader once per shading point). Null for other types
   // and for parameters made by hand (the components are then looked up per call).
   std::shared_ptr<const MixComponents> parts;
+  // Cycles' Light Paths > Caustics at this point (filter_closures): the kinds of lobe kept (one
+  // dropped scatters nothing: eval and pdf leave it out, a sample of it is no sample), and a
+  // Principled's diffuse roughness where Filter Glossy raised `roughness` for its specular lobe
+  // alone (-1: `roughness`).
+  uint8_t lobes = kAllLobes;
+  float diffuse_roughness = -1.0f;
+  bool sharp = false;  // Material::sharp
 };
+
+// Cycles 3.4's Light Paths > Caustics at one shading point of a camera path, which the path so
+// far decides (paths/camera_path.h):
+//   Filter Glossy (integrator/surface_shader.h surface_shader_prepare_closures): with the smallest BSDF or
+//   phase pdf of the path's non-singular bounces so far p_min and Filter Glossy g > 0, where
+//   p_min / g < 1 every microfacet closure's alpha is raised to at least
+//   blur_alpha = 0.5 sqrt(1 - p_min / g) (bsdf.h bsdf_blur: GGX, Beckmann, Ashikhmin-Shirley,
+//   Multiscatter GGX, clearcoat; each axis of an anisotropic one). Cycles' singular closures
+//   (Reflection, Refraction, Sharp Glass: Material::sharp, a Sharp node whose Roughness is
+//   linked; an unlinked Sharp is GGX at 0 under Filter Glossy, shader_nodes.cpp) and the
+//   Transparent BSDF are not blurred; nor is the scene format's plastic (not a Cycles closure:
+//   its coat albedo table is the material's).
+//   Caustics (svm_closure.h, __CAUSTICS_TRICKS__): where the ray that met the surface left a
+//   diffuse bounce (PATH_RAY_DIFFUSE: the last bounce, not an earlier one; a transparent pass
+//   keeps it, a volume scatter clears it), Reflective off drops glossy reflection closures and
+//   Refractive off refraction ones: `lobes` without kRayGlossy / kRayTransmission. A
+//   Multiscatter GGX glass is one closure of both: dropped only with both off. The Transparent
+//   BSDF is kept.
+struct ClosureFilter {
+  float blur_alpha = 0.0f;
+  uint8_t lobes = kAllLobes;
+  bool active() const { return blur_alpha > 0.0f || lobes != kAllLobes; }
+};
+// `f` applied to the parameters at a point (a mix's components with them, copied).
+void filter_closures(BsdfParams& p, const ClosureFilter& f);
 
 // The components of a mix at one shading point: their RGB parameters (with their own parts)
 // and, where made for the spectral methods, their colours' spectra, upsampled once per point
@@ -152,6 +184,8 @@ class Bsdf {
   }
   // The parameters it evaluates (type, IOR, colour at this point).
   const BsdfParams& params() const { return p_; }
+  // Cycles' Light Paths > Caustics at this point of a camera path (filter_closures).
+  void filter(const ClosureFilter& f) { filter_closures(p_, f); }
   Bsdf component(const Material* m) const;  // a mix's part, with the surface's normals
 
  private:

@@ -69,6 +69,11 @@ struct Material {
   // Conductor: how its reflectance varies with the angle (ConductorFresnel; Principled uses `ior`).
   ConductorFresnel conductor_fresnel = ConductorFresnel::Schlick;
   Microfacet distribution = Microfacet::GGX;  // conductor, dielectric, principled: the microfacet distribution
+  // Cycles 3.4's singular closures (Reflection, Refraction, Sharp Glass): roughness 0, and left
+  // sharp by Filter Glossy (bsdf.h ClosureFilter), where GGX at 0 is blurred. Blender's Sharp
+  // distribution compiles to them only when its Roughness input is linked to a varying value;
+  // an unlinked one is GGX at 0 once Filter Glossy is on (shader_nodes.cpp simplify_settings).
+  bool sharp = false;
   // Plastic: `color` is the diffuse albedo, `roughness` the coat's GGX alpha, `ior` the coat's.
   // Principled (Cycles 3.4's Principled BSDF, non-metal): `color` the base colour, `roughness`
   // the specular lobe's GGX alpha (its square root drives the diffuse retro-reflection), `ior`

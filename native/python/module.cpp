@@ -286,7 +286,8 @@ py::dict method_description(const std::string& name) {
   d["stats"] = stats;
   d["supports"] = py::dict(py::arg("media") = m.supports.media, py::arg("motion_blur") = m.supports.motion_blur,
                            py::arg("grid_media") = m.supports.grid_media,
-                           py::arg("environment_map") = m.supports.environment_map);
+                           py::arg("environment_map") = m.supports.environment_map,
+                           py::arg("caustics") = m.supports.caustics);
   d["lobe_visibility"] = py::dict(py::arg("surfaces") = m.lobe_visibility.surfaces,
                                   py::arg("lights") = m.lobe_visibility.lights);
   d["per_pixel"] = m.per_pixel;
@@ -337,7 +338,7 @@ void bind_methods(py::module_& m) {
         "The method as it declares itself: {'name', 'label', 'summary', 'tooltip', 'passes': [(name, "
         "when_param, or_holdout: also on a scene that holds out)], 'error_estimate', 'merge': {'keeps_bias', 'reconstructs'}, 'stats': [(key, label, "
         "format)] (a key with '*' sums the keys it matches), 'supports': {'media', 'motion_blur', 'grid_media', "
-        "'environment_map'}, 'lobe_visibility', 'per_pixel', 'paused_pass_covers_image' (a pass paused part-way "
+        "'environment_map', 'caustics'}, 'lobe_visibility', 'per_pixel', 'paused_pass_covers_image' (a pass paused part-way "
         "develops to an image of every pixel)}");
   m.def("method_info", &method_info, py::arg("method"), py::arg("params") = py::dict(),
         "What a method writes with these params, from its declaration: {'passes': names its develop() writes, "

@@ -166,6 +166,9 @@ void update_description(Scene& scene, const std::string& json_text) {
   scene.world_medium = next.world_medium;
   scene.volume_bounces = next.volume_bounces;
   scene.transparent_bounces = next.transparent_bounces;
+  scene.filter_glossy = next.filter_glossy;
+  scene.caustics_reflective = next.caustics_reflective;
+  scene.caustics_refractive = next.caustics_refractive;
   if (has_camera) scene.camera = next.camera;
   scene.warnings = std::move(next.warnings);
   for (size_t mi = 0; mi < scene.meshes.size(); ++mi)

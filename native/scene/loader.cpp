@@ -53,7 +53,8 @@ class Loader : private JsonReader {
   void load(const json& root) {
     if (!root.is_object()) fail("", fmt::format("the scene must be a JSON object, not {}", root.type_name()));
     check_keys(root, "", {"description", "camera", "media", "materials", "objects", "lights", "environment",
-                          "world_medium", "volume_bounces", "transparent_bounces"});
+                          "world_medium", "volume_bounces", "transparent_bounces", "filter_glossy",
+                          "caustics_reflective", "caustics_refractive"});
     if (const json* d = find(root, "description")) get_string(*d, "/description");
     if (const json* m = find(root, "media")) load_media(*m, "/media");
     if (const json* w = find(root, "world_medium")) scene_.world_medium = medium_by_name(*w, "/world_medium");
@@ -61,6 +62,10 @@ class Loader : private JsonReader {
     // Light Paths > Max Bounces > Transparent (Blender's range 0-1024; Cycles' default 8).
     if (const json* v = find(root, "transparent_bounces"))
       scene_.transparent_bounces = int(get_int(*v, "/transparent_bounces", 0, 1024));
+    // Light Paths > Caustics (Scene::filter_glossy; Blender's Filter Glossy range 0-10).
+    if (const json* v = find(root, "filter_glossy")) scene_.filter_glossy = get_in_range(*v, "/filter_glossy", 0.0f, 10.0f);
+    if (const json* v = find(root, "caustics_reflective")) scene_.caustics_reflective = get_bool(*v, "/caustics_reflective");
+    if (const json* v = find(root, "caustics_refractive")) scene_.caustics_refractive = get_bool(*v, "/caustics_refractive");
     if (const json* m = find(root, "materials")) load_materials(*m, "/materials");
     if (const json* c = find(root, "camera")) load_camera(*c, "/camera");
     if (const json* o = find(root, "objects")) {
@@ -179,6 +184,7 @@ class Loader : private JsonReader {
         // Beckmann, Principled GGX / Multiscatter GGX.
         const std::string dpath = sub(mpath, "distribution"), v = get_string(*d, dpath);
         std::vector<std::pair<std::string_view, Microfacet>> known = {{"ggx", Microfacet::GGX}};
+        if (type == "conductor" || type == "dielectric" || type == "refraction") known.push_back({"sharp", Microfacet::GGX});
         if (type != "principled") known.push_back({"beckmann", Microfacet::Beckmann});
         if (type == "conductor") known.push_back({"ashikhmin_shirley", Microfacet::AshikhminShirley});
         if (type != "refraction") known.push_back({"multi_ggx", Microfacet::MultiGGX});
@@ -189,6 +195,9 @@ class Loader : private JsonReader {
           fail(dpath, fmt::format("unknown distribution '{}' for a {} (known: {})", v, type, names));
         }
         mat.distribution = it2->second;
+        // "sharp": roughness 0 whatever is given (below), Cycles' singular closure (Material::sharp: a
+        // Blender Sharp with its Roughness linked; an unlinked one exports as GGX at 0).
+        mat.sharp = v == "sharp";
       }
       if (type == "conductor" || type == "principled") {
         // Anisotropy (Cycles' Anisotropic BSDF convention), its rotation (turns) and tangent.
@@ -214,6 +223,10 @@ class Loader : private JsonReader {
         if (is_texture(*r)) mat.roughness_tex = load_texture_ref(*r, sub(mpath, "roughness"), false, {}, &mat.roughness);
         else mat.roughness = get_in_range(*r, sub(mpath, "roughness"), 0.0f, 1.0f);
         mat.roughness = std::min(mat.roughness, 1.0f);
+      }
+      if (mat.sharp) {
+        mat.roughness = 0.0f;
+        mat.roughness_tex = TextureRef();
       }
       if (const json* a = find(m, "alpha"); a && !shading::is_link(*a)) {
         if (is_texture(*a)) alpha.tex = load_texture_ref(*a, sub(mpath, "alpha"), false, {});

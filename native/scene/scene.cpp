@@ -342,6 +342,8 @@ void Scene::build_lights() {
       std::any_of(materials.begin(), materials.end(), [](const Material& m) { return m.transparent_shadow(); });
   if (transparent_bounces < 0)
     throw std::runtime_error(fmt::format("{}: transparent_bounces is {} (at least 0)", source, transparent_bounces));
+  if (!(filter_glossy >= 0.0f && std::isfinite(filter_glossy)))
+    throw std::runtime_error(fmt::format("{}: filter_glossy is {} (a finite number, at least 0)", source, filter_glossy));
   auto grid = [&](int m) { return m >= 0 && m < static_cast<int>(media.size()) && !media[m].is_homogeneous(); };
   has_grid_media_ = grid(world_medium) ||
                     std::any_of(materials.begin(), materials.end(), [&](const Material& m) { return grid(m.interior); });

@@ -176,6 +176,14 @@ class Scene {
   // transparent surfaces (intersect_shadow.h, integrate_shadow_max_transparent_hits); beyond,
   // it is blocked (paths/medium_walk.h ShadowTest).
   int transparent_bounces = 8;
+  // Light Paths > Caustics (Cycles 3.4's path regularisation), honoured by the camera paths of
+  // pt, spt and spt-hero (paths/camera_path.h): Filter Glossy (0: off; Blender's default 1.0)
+  // raises the microfacet roughness of closures a path reaches after unlikely bounces, and the
+  // Reflective / Refractive switches off drop glossy / transmission closures a diffuse bounce's
+  // ray meets. A plain scene file filters nothing (docs/scene-format.md).
+  float filter_glossy = 0.0f;
+  bool caustics_reflective = true, caustics_refractive = true;
+  bool filters_caustics() const { return filter_glossy > 0.0f || !caustics_reflective || !caustics_refractive; }
   Camera camera;
   std::string source;         // file the scene came from (for messages)
   Warnings warnings;          // counted load warnings

@@ -51,6 +51,18 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
                                           "of the shutter ({} blur it)",
                                           method, fmt::join(with_blur, ", ")));
   }
+  // Light Paths > Caustics: Filter Glossy is path tracing's noise-reduction knob (Blender's
+  // default 1.0 is on in nearly every scene), which the photon and gradient methods have no use
+  // for: they say nothing of it (docs/blender.md). A caustics switch turned off is a request
+  // they do not honour: said once.
+  if ((!scene_->caustics_reflective || !scene_->caustics_refractive) && !find_method(method).supports.caustics) {
+    std::vector<std::string> with;
+    for (const Method& m : methods())
+      if (m.supports.caustics) with.push_back(m.name);
+    feature_report_.push_back(fmt::format("method '{}' renders reflective and refractive caustics whatever Light "
+                                          "Paths > Caustics says (only {} leave them out)",
+                                          method, fmt::join(with, ", ")));
+  }
   aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
 }
 

@@ -284,10 +284,12 @@ class _Layout:
 NOT_PARAMETERS = {"method", "stop_rule", "time_limit", "passes", "target_error", "error_time_limit", "export_uvs",
                   "viewport_method", "viewport_passes", "use_animated_seed", "motion_blur_lights"}
 BLENDER_RENDER_SETTINGS = {"use_persistent_data", "use_motion_blur", "motion_blur_shutter"}
-# Cycles' Film and Motion Blur settings gradphoton reads (Film > Exposure, Pixel Filter; Motion
-# Blur > Position, Rolling Shutter): not method parameters.
+# Cycles' Film, Motion Blur and Light Paths > Caustics settings gradphoton reads (Film > Exposure,
+# Pixel Filter; Motion Blur > Position, Rolling Shutter; Filter Glossy, Reflective and Refractive
+# Caustics): not method parameters.
 CYCLES_FILM_SETTINGS = {"film_exposure", "pixel_filter_type", "filter_width", "motion_blur_position",
-                        "rolling_shutter_type", "rolling_shutter_duration"}
+                        "rolling_shutter_type", "rolling_shutter_duration", "blur_glossy", "caustics_reflective",
+                        "caustics_refractive"}
 
 
 def drawn_parameters(scene, method):

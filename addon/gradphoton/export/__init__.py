@@ -158,6 +158,14 @@ def export_scene(depsgraph, *, export_uvs=False, mesh_cache=None, method=None, f
     cycles = getattr(scene, "cycles", None)
     if cycles is not None and hasattr(cycles, "transparent_max_bounces"):
         out.description["transparent_bounces"] = int(cycles.transparent_max_bounces)
+    # Light Paths > Caustics (Cycles' blur_glossy, caustics_reflective, caustics_refractive;
+    # Cycles' defaults 1.0 / on / on): honoured by pt, spt and spt-hero as Cycles does, said by the
+    # other methods (the core's feature_report). Without the Cycles add-on the core's defaults
+    # (nothing filtered) hold.
+    if cycles is not None and hasattr(cycles, "blur_glossy"):
+        out.description["filter_glossy"] = float(cycles.blur_glossy)
+        out.description["caustics_reflective"] = bool(cycles.caustics_reflective)
+        out.description["caustics_refractive"] = bool(cycles.caustics_refractive)
     method = method or (settings.method if settings else "pt")
     visibility.check_method(out.description, method, w)
     if sampler is not None:  # last: every other read is of the frame itself

@@ -67,14 +67,23 @@ GREY = {"type": "diffuse", "color": 0.8}
 
 
 # Blender 3.4's Distribution enum -> the core's `distribution` (material.h Microfacet); GGX is
-# the core's default. Sharp is Cycles 3.4's singular closure whatever the Roughness: alpha 0.
+# the core's default. Sharp is alpha 0 whatever the Roughness. Cycles 3.4 compiles it to GGX at 0
+# while Filter Glossy is on (shader_nodes.cpp simplify_settings: blurred like any GGX), unless its
+# Roughness is linked to a value that does not fold to a constant: then it stays the singular
+# closure, never blurred (the core's "sharp", Material::sharp). Measured in Blender 3.4.1: Sharp
+# and GGX at 0 render bit for bit alike under Filter Glossy 1; Sharp with a Noise Texture on
+# Roughness renders as Sharp without the filter.
 _DISTRIBUTIONS = {'BECKMANN': "beckmann", 'ASHIKHMIN_SHIRLEY': "ashikhmin_shirley", 'MULTI_GGX': "multi_ggx"}
 
 
 def _distribution(d, node):
     distribution = getattr(node, "distribution", 'GGX')
     if distribution == 'SHARP':
+        linked = _is_link(d.get("roughness"))
         d["roughness"] = 0.0
+        if linked and d.get("type") in ("conductor", "dielectric", "refraction"):
+            d["distribution"] = "sharp"
+        return
     name = _DISTRIBUTIONS.get(distribution)
     if name is not None:
         d["distribution"] = name

@@ -10,7 +10,9 @@
 //   void disk_light(int depth, int light, const RGB& Le, float pdf);  // a point/spot disk hit
 //   void environment(int depth, const Ray& ray);                       // the ray left the scene
 //   void area_light(int depth, const SurfaceHit& hit, const Ray& ray); // an emissive triangle
-//   bool prepare(const SurfaceHit& hit);        // the BSDF(s) at the hit; false: black, end
+//   bool prepare(const SurfaceHit& hit, const ClosureFilter& filter);
+//                                               // the BSDF(s) at the hit, filtered (Light Paths >
+//                                               // Caustics, materials/bsdf.h); false: black, end
 //   bool is_delta() const;                      // no next-event estimation
 //   void next_event(int depth, const SurfaceHit& hit, const Vec3& wo, const LightSample& ls,
 //                   const ShadowTest& shadow);
@@ -154,6 +156,12 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
   // next surface that is not a pass-through one, with that surface's emission.
   int volume_scatters = 0;
   bool volume_done = false;
+  // Light Paths > Caustics (Scene::filter_glossy, caustics_*; materials/bsdf.h ClosureFilter):
+  // the smallest pdf of the path's non-singular bounces so far (Cycles' min_ray_pdf, lowered by
+  // BSDF and phase samples, not by a transparent pass; a singular one's stand-in pdf 1e6 would
+  // lower it only below Filter Glossy 1e-6), and whether the ray left a diffuse bounce.
+  float min_ray_pdf = kInfinity;
+  const bool filter_closures = scene.filters_caustics();
   // The segment's index for the sampler's dimensions (path_dim): unlike depth it also counts
   // pass-through segments, so no dimension is used twice on one path.
   for (int depth = 0, vertex = 0;; ++depth, ++vertex) {
@@ -236,6 +244,7 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
       const float cos_theta = dot(ray.d, wi);
       const float pdf = segment->phase_pdf(cos_theta);
       if (!(pdf > 0)) return 0.0f;
+      min_ray_pdf = std::min(min_ray_pdf, pdf);
       ChannelValues ratio = segment->phase(cos_theta);
       for (float& r : ratio) r /= pdf;
       path.medium_scattered(p, pdf, ratio);
@@ -288,7 +297,17 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
       continue;
     }
     if (depth + 1 >= s.max_depth || volume_done) return 0.0f;
-    if (!path.prepare(*hit)) return 0.0f;
+    ClosureFilter filter;
+    if (filter_closures) {
+      // Filter Glossy g: blur where p_min / g < 1 (Cycles stores 1 / g: surface_shader.h).
+      if (scene.filter_glossy > 0.0f && min_ray_pdf < scene.filter_glossy)
+        filter.blur_alpha = 0.5f * std::sqrt(1.0f - min_ray_pdf / scene.filter_glossy);
+      if (ray.bounce == kRayDiffuse) {  // Cycles' PATH_RAY_DIFFUSE: the last bounce's kind only
+        if (!scene.caustics_reflective) filter.lobes &= ~kRayGlossy;
+        if (!scene.caustics_refractive) filter.lobes &= ~kRayTransmission;
+      }
+    }
+    if (!path.prepare(*hit, filter)) return 0.0f;
     const Vec3 wo = hit->frame.to_local(-ray.d);
     if (wo.z == 0) return 0.0f;
 
@@ -314,6 +333,7 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
     // A sample through a surface with an interior medium (glass of murky water) crosses it.
     if (media && material.interior >= 0 && (dot(wi, hit->ng) < 0) == (dot(ray.d, hit->ng) < 0))
       stack.cross(hit->mesh, material.interior, dot(ray.d, hit->ng) < 0);
+    if (!bs->delta && !is_transparent_pass(*bs)) min_ray_pdf = std::min(min_ray_pdf, bs->pdf);
     const RayState state = next_ray_state(ray.state, bs->lobe, bs->transmission, bs->delta, bs->eta);
     if (is_transparent_pass(*bs)) {
       // Through a Transparent BSDF: a transparent bounce, not a bounce (Cycles' path_state_next

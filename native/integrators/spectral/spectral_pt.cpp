@@ -182,13 +182,14 @@ struct SpectralPath {
     add_bounce_emission(spec, lights.lights()[hit.light].visible_lobes,
                         specular_bounce ? 0.0f : lights.pdf_area(hit.light, prev_p, hit.p, ray.d));
   }
-  bool prepare(const SurfaceHit& hit) {
+  bool prepare(const SurfaceHit& hit, const ClosureFilter& filter) {
     const Material& base = scene.material(hit.material);
     dispersive = is_dispersive(base);
     // Textures and node graphs read once, at the hit's full shading context.
     const SpectralSurface surface(base, scene.shading_context(hit), &spectra.albedo[hit.material]);
     for (int k = 0; k < C; ++k) {
       mk[k] = surface.at(wl.lambda[k]);
+      filter_closures(mk[k], filter);  // Light Paths > Caustics (camera_path.h)
       bk[k] = scene.bsdf(mk[k], hit);  // with the hit's normals (a normal map's bump shadowing)
     }
     // The RGB parameters the surface already holds (its graph run once per hit, not again).
