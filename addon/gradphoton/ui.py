@@ -179,9 +179,8 @@ class GRADPHOTON_PT_light_paths_caustics(GradphotonPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = _split(self.layout)
-        c = cycles_settings(context.scene)
+        c = cycles_settings_or_note(context.scene, layout, "Caustics are")
         if c is None:
-            layout.label(text="Caustics are Cycles' settings: enable the Cycles add-on", icon='ERROR')
             return
         d = native.method_description(context.scene.gradphoton.method)  # Method::supports.caustics
         layout.active = d is None or d.get("supports", {}).get("caustics", False)
@@ -201,6 +200,15 @@ def cycles_settings(scene):
     return getattr(scene, "cycles", None)
 
 
+def cycles_settings_or_note(scene, layout, what):
+    """cycles_settings(scene), or None with a line in `layout` saying that `what` (e.g. "Caustics
+    are") Cycles' settings, which need the Cycles add-on."""
+    c = cycles_settings(scene)
+    if c is None:
+        layout.label(text=f"{what} Cycles' settings: enable the Cycles add-on", icon='ERROR')
+    return c
+
+
 class GRADPHOTON_PT_film(GradphotonPanel, bpy.types.Panel):
     """Cycles' Film panel: Exposure (every method: the image is scaled when it reaches Blender),
     with Pixel Filter and Transparent below. The settings are Cycles' own, so a scene renders
@@ -211,9 +219,8 @@ class GRADPHOTON_PT_film(GradphotonPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = _split(self.layout)
-        c = cycles_settings(context.scene)
+        c = cycles_settings_or_note(context.scene, layout, "Exposure and Pixel Filter are")
         if c is None:
-            layout.label(text="Exposure and Pixel Filter are Cycles' settings: enable the Cycles add-on", icon='ERROR')
             return
         layout.prop(c, "film_exposure")
 

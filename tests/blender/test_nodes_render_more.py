@@ -10,7 +10,7 @@ so its finite differences are exact whatever step a renderer takes.
 """
 import pytest
 
-from test_nodes_render import check_plane, gradient
+from test_nodes_render import _texture, check_plane, gradient
 
 
 def _new(nt, kind, **settings):
@@ -30,18 +30,6 @@ def _colour_of_vector(nt, socket, scale=0.5, offset=0.5):
     ma.inputs[1].default_value = (scale,) * 3
     ma.inputs[2].default_value = (offset,) * 3
     return ma.outputs[0]
-
-
-def _texture(kind, output, **settings):
-    def build(nt, vec):
-        mapping = _new(nt, "ShaderNodeMapping")
-        mapping.inputs["Scale"].default_value = (2.0, 2.0, 2.0)
-        mapping.inputs["Location"].default_value = (0.3, -0.2, 0.45)
-        nt.links.new(vec, mapping.inputs["Vector"])
-        t = _new(nt, kind, **settings)
-        nt.links.new(mapping.outputs[0], t.inputs["Vector"])
-        return t.outputs[output]
-    return build
 
 
 def rgb_curves(nt, vec):
