@@ -40,7 +40,8 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
   } else if (scene_->has_media() && find_method(method).error_estimate) {
     // The error model of thesis ch. 6 is the surface disc's; the beam estimate has none yet.
     feature_report_.push_back(fmt::format("method '{}' estimates no error with participating media: its error pass "
-                                          "is 0 and --target-error needs a time or pass limit (docs/photon-mapping.md)",
+                                          "is 0, and a Target Error stop (--target-error) also needs a time or pass limit "
+                                          "(docs/photon-mapping.md)",
                                           method));
   }
   if (scene_->has_motion() && !find_method(method).supports.motion_blur) {
