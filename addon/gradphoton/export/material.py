@@ -277,6 +277,11 @@ class MaterialExporter:
                  "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
                  "ior": self.g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")}
             _distribution(d, node)
+            if kind == 'ShaderNodeBsdfGlass' and d.get("distribution") != "multi_ggx":
+                # Cycles 3.4 (svm/closure.h) splits Glass of GGX, Beckmann and Sharp into a reflection
+                # and a refraction closure weighted by the Fresnel at the shading normal, F and 1 - F;
+                # Multiscatter GGX glass stays one closure with its Fresnel per microfacet.
+                d["fresnel"] = "normal"
             return self._with_normal(d, node, path)
         if kind == 'ShaderNodeHoldout':
             # Cycles' Holdout closure: the surface is cut out of the image (no colour, alpha 0) where
@@ -442,6 +447,15 @@ class MaterialExporter:
                                    "ior": g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")},
                                   node, path)
         _distribution(glass, node)
+        # Cycles 3.4 (svm_closure.h, principled): single-scatter GGX glass (GGX, or any distribution
+        # at Roughness <= 0.05) is a reflection closure weighted by the Fresnel at the shading
+        # normal and a refraction closure weighted by 1 - that (as the Glass BSDF); Multiscatter
+        # GGX glass above 0.05 is one closure with its Fresnel per microfacet.
+        r = self._num(node, path, "Roughness")
+        if glass.get("distribution") == "multi_ggx" and not _is_link(r) and r <= 5e-2:
+            del glass["distribution"]
+        if glass.get("distribution") != "multi_ggx":
+            glass["fresnel"] = "normal"
         if not _is_link(t_glass) and t_glass >= 1.0:
             d = glass
         elif _positive(t_glass):
