@@ -1095,7 +1095,15 @@ float dielectric_pdf_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo,
   // Lobe selection probability: Fresnel at the microfacet.
   const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
   const float Fn = normal_fresnel(m, wo);
-  const float R = lobe_R(m, F, Fn), T = lobe_T(m, F, Fn);
+  float R = lobe_R(m, F, Fn), T = lobe_T(m, F, Fn);
+  if (m.fresnel_at_normal) {
+    // The split's R + T is Fn, not 1, on a microfacet in total internal
+    // reflection (T = 0): the sampler then picks reflection for sure.
+    const float sum = R + T;
+    if (sum <= 0) return 0.0f;
+    R /= sum;
+    T /= sum;
+  }
   if (reflect_pair) {
     const float wo_dot_wm = absdot(wo, wm);
     if (wo_dot_wm == 0) return 0.0f;
