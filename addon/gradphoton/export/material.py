@@ -7,7 +7,9 @@ material's node table (export/nodes.py writes the table: groups flattened, rerou
 nodes resolved, as Cycles reads the tree). Closures:
 
   - Diffuse BSDF (its Roughness: Cycles' Oren-Nayar sigma), Glossy / Anisotropic BSDF (the core's
-    conductor without Fresnel, as Cycles' Glossy), Glass BSDF (dielectric), Refraction BSDF (its
+    conductor without Fresnel, as Cycles' Glossy), Glass BSDF (dielectric; GGX, Beckmann and Sharp
+    with "fresnel": "normal", Cycles 3.4's split into reflection and refraction closures weighted
+    by the Fresnel at the shading normal), Refraction BSDF (its
     refraction lobe alone), Transparent (any colour), Translucent, Velvet, Emission (two-sided, as
     in Cycles), Mix Shader and Add Shader of any of these, nested; every Distribution each node has
     in Blender 3.4 (GGX, Beckmann, Ashikhmin-Shirley, Multiscatter GGX: the core's `distribution`);
