@@ -1417,6 +1417,10 @@ TEST(BsdfReference, CyclesGlassIsNormalFresnelTimesLobesWithoutFresnel) {
           if (!ref.is_black()) ++transmissions;
         }
       }
+      // Photons see the adjoint of what camera paths see: importance from wo equals radiance
+      // from wi (the split is not reciprocal in radiance alone: Fn of one side).
+      ASSERT_LT(rel_diff(b.eval(wo, wi, TransportMode::Importance), b.eval(wi, wo, TransportMode::Radiance), 1e-6f),
+                2e-3f);
       // Samples carry eval's f (the camera side's Fn) and pdf()'s density, in both modes.
       for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
         const auto s = b.sample(wo, rng.uniform(), Vec2(rng.uniform(), rng.uniform()), mode);
