@@ -968,10 +968,31 @@ bool dielectric_is_smooth(const BsdfParams& m) { return m.roughness < kSmoothAlp
 // CLOSURE_BSDF_REFRACTION_ID and the microfacet refraction closures, weighted by the closure
 // weight alone) has no reflection and a refraction lobe without Fresnel, T = 1, except that
 // total internal reflection (F = 1) absorbs.
-float lobe_R(const BsdfParams& m, float F) { return m.refraction_only ? 0.0f : F; }
-float lobe_T(const BsdfParams& m, float F) {
+//
+// With fresnel_at_normal (Cycles 3.4's Glass BSDF of GGX / Beckmann / Sharp, svm/closure.h: a
+// reflection closure weighted by Fn and a refraction-only closure weighted by 1 - Fn, Fn =
+// fresnel_dielectric_cos(dot(N, I), eta) at the shading normal for the camera-side direction I)
+// R = Fn, T = 1 - Fn, and a microfacet in total internal reflection (F = 1) still refracts
+// nothing (Cycles' refraction sampler returns no direction there). Fn < 0 means "not given".
+float lobe_R(const BsdfParams& m, float F, float Fn = -1.0f) {
+  if (m.refraction_only) return 0.0f;
+  return m.fresnel_at_normal && Fn >= 0.0f ? Fn : F;
+}
+float lobe_T(const BsdfParams& m, float F, float Fn = -1.0f) {
   if (m.refraction_only) return F < 1.0f ? 1.0f : 0.0f;
+  if (m.fresnel_at_normal && Fn >= 0.0f) return F < 1.0f ? 1.0f - Fn : 0.0f;
   return 1.0f - F;
+}
+
+// Fn of the glass split for direction w (the local z is the shading normal; a w inside the
+// surface sees the inverse IOR, as Cycles' eta on a backfacing hit). Eval weights the lobes by
+// Fn of the camera-side direction (wo for radiance, wi for importance: Cycles' I is the camera
+// path's); lobe selection in sample and pdf uses Fn of the given wo, which f / pdf corrects.
+float normal_fresnel(const BsdfParams& m, const Vec3& w) {
+  return m.fresnel_at_normal ? fresnel_dielectric(cos_theta(w), m.ior) : -1.0f;
+}
+const Vec3& camera_side(const Vec3& wo, const Vec3& wi, TransportMode mode) {
+  return mode == TransportMode::Radiance ? wo : wi;
 }
 
 // Generalized half vector of a reflection or refraction pair, [Walter07] eq. 16 in pbrt-v4's
@@ -1031,6 +1052,18 @@ std::optional<BsdfSample> dielectric_sample_smooth(const BsdfParams& m, const Ve
   return s;
 }
 
+// Masking-shadowing of a rough glass: Cycles 3.4's microfacet closures (bsdf_microfacet.h
+// eval_reflect / eval_transmit, isotropic and anisotropic alike) take the separable G1(wo) G1(wi),
+// which the glass split (fresnel_at_normal) follows; the core's own GGX glass the height-correlated
+// G ([Heitz14] eq. 99). Beckmann's G is separable either way.
+template <class Dist>
+float glass_G(const BsdfParams& m, const Dist& d, const Vec3& wo, const Vec3& wi) {
+  if constexpr (std::is_same_v<Dist, Ggx>) {
+    if (m.fresnel_at_normal) return d.G1(wo) * d.G1(wi);
+  }
+  return d.G(wo, wi);
+}
+
 template <class Dist>
 RGB dielectric_eval_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo, const Vec3& wi, TransportMode mode) {
   Vec3 wm;
@@ -1038,16 +1071,17 @@ RGB dielectric_eval_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo, 
   bool reflect_pair;
   if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return RGB(0.0f);
   const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
+  const float Fn = normal_fresnel(m, camera_side(wo, wi, mode));
   const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
   if (reflect_pair) {
     // [Walter07] eq. 20.
-    return m.color * (ggx.D(wm) * ggx.G(wo, wi) * lobe_R(m, F) / std::abs(4.0f * cos_i * cos_o));
+    return m.color * (ggx.D(wm) * glass_G(m, ggx, wo, wi) * lobe_R(m, F, Fn) / std::abs(4.0f * cos_i * cos_o));
   }
   // [Walter07] eq. 21 divided through by eta_o^2 (pbrt-v4's form). This is the importance
   // (adjoint) BTDF; radiance reaching wo's medium scales by 1/etap^2 ([Veach97] §5.2).
   const float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * cos_i * cos_o;
   if (denom == 0) return RGB(0.0f);
-  float ft = ggx.D(wm) * lobe_T(m, F) * ggx.G(wo, wi) * std::abs(dot(wi, wm) * dot(wo, wm) / denom);
+  float ft = ggx.D(wm) * lobe_T(m, F, Fn) * glass_G(m, ggx, wo, wi) * std::abs(dot(wi, wm) * dot(wo, wm) / denom);
   if (mode == TransportMode::Radiance) ft /= sqr(etap);
   return m.color * ft;
 }
@@ -1060,7 +1094,16 @@ float dielectric_pdf_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo,
   if (!dielectric_half_vector(m, wo, wi, &wm, &etap, &reflect_pair)) return 0.0f;
   // Lobe selection probability: Fresnel at the microfacet.
   const float F = dielectric_fresnel(m, wo, wi, wm, reflect_pair);
-  const float R = lobe_R(m, F), T = lobe_T(m, F);
+  const float Fn = normal_fresnel(m, wo);
+  float R = lobe_R(m, F, Fn), T = lobe_T(m, F, Fn);
+  if (m.fresnel_at_normal) {
+    // The split's R + T is Fn, not 1, on a microfacet in total internal
+    // reflection (T = 0): the sampler then picks reflection for sure.
+    const float sum = R + T;
+    if (sum <= 0) return 0.0f;
+    R /= sum;
+    T /= sum;
+  }
   if (reflect_pair) {
     const float wo_dot_wm = absdot(wo, wm);
     if (wo_dot_wm == 0) return 0.0f;
@@ -1084,16 +1127,20 @@ std::optional<BsdfSample> dielectric_sample_rough(const BsdfParams& m, const Dis
   // which scatters nothing (eval and pdf are 0 there too); visible normals never do.
   if (!Dist::kVisibleNormals && wo_dot_wm * wo.z < 0) return std::nullopt;
   const float F = fresnel_dielectric(wo_dot_wm, m.ior);
-  const float R = lobe_R(m, F), T = lobe_T(m, F);
+  const float Fn = normal_fresnel(m, wo);
+  const float R = lobe_R(m, F, Fn), T = lobe_T(m, F, Fn);
+  if (R + T == 0) return std::nullopt;
   const float cos_o = cos_theta(wo);
   BsdfSample s;
   if (uc < R / (R + T)) {
     const Vec3 wi = reflect(wo, wm);
     if (!same_hemisphere(wo, wi)) return std::nullopt;
     const float cos_i = cos_theta(wi);
+    // The value's weight is Fn of the camera side (eval), the selection's R of wo's.
+    const float R_f = lobe_R(m, F, normal_fresnel(m, camera_side(wo, wi, mode)));
     s.wi = wi;
-    s.pdf = ggx.D_visible(wo, wm) / (4.0f * std::abs(wo_dot_wm)) * R / (R + T);        // eq. 14
-    s.f = m.color * (ggx.D(wm) * ggx.G(wo, wi) * R / std::abs(4.0f * cos_i * cos_o));  // eq. 20
+    s.pdf = ggx.D_visible(wo, wm) / (4.0f * std::abs(wo_dot_wm)) * R / (R + T);          // eq. 14
+    s.f = m.color * (ggx.D(wm) * glass_G(m, ggx, wo, wi) * R_f / std::abs(4.0f * cos_i * cos_o));  // eq. 20
   } else {
     Vec3 wi;
     float etap = 1.0f;
@@ -1101,14 +1148,16 @@ std::optional<BsdfSample> dielectric_sample_rough(const BsdfParams& m, const Dis
     if (same_hemisphere(wo, wi) || wi.z == 0) return std::nullopt;
     // T as eval() computes it (from the outside direction); it differs from the selection
     // probability above only by round-off near the critical angle, and cancels in f / pdf.
-    const float T_pair = lobe_T(m, dielectric_fresnel(m, wo, wi, wm, false));
+    const float F_pair = dielectric_fresnel(m, wo, wi, wm, false);
+    const float T_pair = lobe_T(m, F_pair, Fn);
+    const float T_f = lobe_T(m, F_pair, normal_fresnel(m, camera_side(wo, wi, mode)));  // eval's weight
     const float cos_i = cos_theta(wi);
     const float wi_dot_wm = dot(wi, wm);
     const float denom = sqr(wi_dot_wm + wo_dot_wm / etap);
     if (denom == 0) return std::nullopt;
     const float dwm_dwi = std::abs(wi_dot_wm) / denom;  // [Walter07] eq. 17
     s.pdf = ggx.D_visible(wo, wm) * dwm_dwi * T_pair;
-    float ft = T_pair * ggx.D(wm) * ggx.G(wo, wi) *  // [Walter07] eq. 21
+    float ft = T_f * ggx.D(wm) * glass_G(m, ggx, wo, wi) *  // [Walter07] eq. 21
                std::abs(wi_dot_wm * wo_dot_wm / (cos_i * cos_o * denom));
     if (mode == TransportMode::Radiance) ft /= sqr(etap);
     s.wi = wi;
@@ -1577,6 +1626,7 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bo
   p.clearcoat = m.clearcoat;
   p.anisotropy = m.anisotropy;
   p.refraction_only = m.refraction_only;
+  p.fresnel_at_normal = m.fresnel_at_normal;
   p.coat_albedo = m.coat_albedo.get();
   p.mix_factor = m.factor_tex ? m.factor_tex.value(uv) : m.mix_factor;
   p.mix_add = m.mix_add;

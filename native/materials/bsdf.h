@@ -61,6 +61,7 @@ struct BsdfParams {
   float specular_tint_lum = 0.0f, sheen_tint_lum = 0.0f;
   float anisotropy = 0.0f;  // Material::anisotropy (local x is the tangent)
   bool refraction_only = false;  // Material::refraction_only
+  bool fresnel_at_normal = false;  // Material::fresnel_at_normal
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
   float mix_factor = 0.5f;
   bool mix_add = false;

@@ -98,6 +98,13 @@ struct Material {
   // Dielectric: only the refraction lobe, without Fresnel weighting (Cycles 3.4's Refraction
   // BSDF: all light refracts, none reflects; total internal reflection absorbs).
   bool refraction_only = false;
+  // Dielectric: Cycles 3.4's Glass BSDF (GGX, Beckmann, Sharp) as its SVM builds it
+  // (svm/closure.h): a reflection closure and a refraction-only closure, neither with a Fresnel
+  // of its own, weighted by F and 1 - F, F the dielectric Fresnel at the shading normal for the
+  // direction toward the camera (fresnel_dielectric_cos(dot(N, I), eta)). Off: Walter et al.'s
+  // Fresnel per microfacet (the scene format's default; Multiscatter GGX glass is one closure
+  // with its own per-microfacet Fresnel in Cycles too and ignores this).
+  bool fresnel_at_normal = false;
   // Emitted radiance (W sr^-1 m^-2) = emission * strength; any type may emit.
   RGB emission{0.0f};
   float emission_strength = 0.0f;

@@ -105,7 +105,16 @@ class Loader : private JsonReader {
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
-        keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe", "distribution"});
+        keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe", "distribution", "fresnel"});
+        // "fresnel": "microfacet" (Walter et al.'s, the default) or "normal" (Cycles 3.4's Glass
+        // BSDF split, Material::fresnel_at_normal).
+        if (const json* f = find(m, "fresnel")) {
+          const std::string fpath = sub(mpath, "fresnel");
+          const std::string v = get_string(*f, fpath);
+          if (v == "normal") mat.fresnel_at_normal = true;
+          else if (v != "microfacet")
+            fail(fpath, fmt::format("unknown dielectric Fresnel '{}' (known: \"microfacet\", \"normal\")", v));
+        }
       } else if (type == "transparent") {
         // Blender's Transparent BSDF: straight through, tinted: a smooth dielectric of IOR 1.
         mat.type = MaterialType::Dielectric;

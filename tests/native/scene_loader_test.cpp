@@ -758,6 +758,24 @@ TEST(SceneLoader, DistributionsAsEachBlenderClosureHasThem) {
   EXPECT_NE(glass.find("known: ggx, sharp, beckmann, multi_ggx"), std::string::npos) << glass;
 }
 
+TEST(SceneLoader, DielectricFresnelIsMicrofacetUnlessCyclesSplitAsked) {
+  const Scene s = from_text(R"({"materials": {
+      "walter": {"type": "dielectric", "roughness": 0.3},
+      "micro": {"type": "dielectric", "roughness": 0.3, "fresnel": "microfacet"},
+      "cycles": {"type": "dielectric", "roughness": 0.3, "fresnel": "normal"}},
+    "objects": [{"type": "sphere", "center": [0, 0, 1], "radius": 1, "material": "walter"}]})");
+  for (const Material& m : s.materials) EXPECT_EQ(m.fresnel_at_normal, m.name == "cycles") << m.name;
+  EXPECT_EQ(s.warnings.count("unknown key"), 0u);
+  const std::string bad = scene_error([] {
+    from_text(R"({"materials": {"g": {"type": "dielectric", "fresnel": "schlick"}}})");
+  });
+  EXPECT_NE(bad.find("/materials/g/fresnel: unknown dielectric Fresnel 'schlick'"), std::string::npos) << bad;
+  const std::string not_string = scene_error([] {
+    from_text(R"({"materials": {"g": {"type": "dielectric", "fresnel": true}}})");
+  });
+  EXPECT_NE(not_string.find("/materials/g/fresnel"), std::string::npos) << not_string;
+}
+
 TEST(SceneLoader, PrincipledLobesAndClearcoat) {
   const Scene s = from_text(R"({"camera": {"position": [0, -5, 1], "look_at": [0, 0, 1], "width": 8, "height": 8},
     "materials": {

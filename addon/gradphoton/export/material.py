@@ -7,7 +7,9 @@ material's node table (export/nodes.py writes the table: groups flattened, rerou
 nodes resolved, as Cycles reads the tree). Closures:
 
   - Diffuse BSDF (its Roughness: Cycles' Oren-Nayar sigma), Glossy / Anisotropic BSDF (the core's
-    conductor without Fresnel, as Cycles' Glossy), Glass BSDF (dielectric), Refraction BSDF (its
+    conductor without Fresnel, as Cycles' Glossy), Glass BSDF (dielectric; GGX, Beckmann and Sharp
+    with "fresnel": "normal", Cycles 3.4's split into reflection and refraction closures weighted
+    by the Fresnel at the shading normal), Refraction BSDF (its
     refraction lobe alone), Transparent (any colour), Translucent, Velvet, Emission (two-sided, as
     in Cycles), Mix Shader and Add Shader of any of these, nested; every Distribution each node has
     in Blender 3.4 (GGX, Beckmann, Ashikhmin-Shirley, Multiscatter GGX: the core's `distribution`);
@@ -277,6 +279,11 @@ class MaterialExporter:
                  "roughness": self._square(self._num(node, path, "Roughness"), "alpha"),
                  "ior": self.g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")}
             _distribution(d, node)
+            if kind == 'ShaderNodeBsdfGlass' and d.get("distribution") != "multi_ggx":
+                # Cycles 3.4 (svm/closure.h) splits Glass of GGX, Beckmann and Sharp into a reflection
+                # and a refraction closure weighted by the Fresnel at the shading normal, F and 1 - F;
+                # Multiscatter GGX glass stays one closure with its Fresnel per microfacet.
+                d["fresnel"] = "normal"
             return self._with_normal(d, node, path)
         if kind == 'ShaderNodeHoldout':
             # Cycles' Holdout closure: the surface is cut out of the image (no colour, alpha 0) where
@@ -442,6 +449,15 @@ class MaterialExporter:
                                    "ior": g.math("MAXIMUM", self._num(node, path, "IOR"), 1e-3, hint="ior")},
                                   node, path)
         _distribution(glass, node)
+        # Cycles 3.4 (svm_closure.h, principled): single-scatter GGX glass (GGX, or any distribution
+        # at Roughness <= 0.05) is a reflection closure weighted by the Fresnel at the shading
+        # normal and a refraction closure weighted by 1 - that (as the Glass BSDF); Multiscatter
+        # GGX glass above 0.05 is one closure with its Fresnel per microfacet.
+        r = self._num(node, path, "Roughness")
+        if glass.get("distribution") == "multi_ggx" and not _is_link(r) and r <= 5e-2:
+            del glass["distribution"]
+        if glass.get("distribution") != "multi_ggx":
+            glass["fresnel"] = "normal"
         if not _is_link(t_glass) and t_glass >= 1.0:
             d = glass
         elif _positive(t_glass):
