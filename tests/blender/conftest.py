@@ -29,6 +29,7 @@ def empty_scene():
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 24, 100
     scene.render.use_border = False
     scene.render.use_motion_blur = False  # the motion blur tests turn it on
+    scene.render.film_transparent = False  # the Film > Transparent tests turn it on
     # Settings persist in the scene across tests: start each from the addon's defaults.
     for prop in scene.gradphoton.bl_rna.properties:
         if prop.identifier != "rna_type":
