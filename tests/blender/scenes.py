@@ -32,6 +32,27 @@ def _node_material(name):
     return m, nt, nt.nodes.new("ShaderNodeOutputMaterial")
 
 
+def new_node(nt, kind, **settings):
+    """A node of `kind` in node tree `nt`; each setting is an input's default value where the node
+    has an input of that name, else a property of the node (distribution, blend_type, ...)."""
+    n = nt.nodes.new(kind)
+    for k, v in settings.items():
+        if k in n.inputs:
+            n.inputs[k].default_value = v
+        else:
+            setattr(n, k, v)
+    return n
+
+
+def closure_material(name, kind, distribution, inputs):
+    """A material whose Surface is one closure node of `kind` with `distribution` and `inputs`
+    (socket name -> value)."""
+    m, nt, out = _node_material(name)
+    n = new_node(nt, kind, distribution=distribution, **inputs)
+    nt.links.new(n.outputs[0], out.inputs["Surface"])
+    return m
+
+
 def diffuse_material(name, color=(0.8, 0.8, 0.8)):
     m, nt, out = _node_material(name)
     d = nt.nodes.new("ShaderNodeBsdfDiffuse")

@@ -38,12 +38,7 @@ CASES = {
 
 
 def sphere_scene(scene, kind, distribution, inputs):
-    m, nt, out = scenes._node_material("Sphere")
-    n = nt.nodes.new(kind)
-    n.distribution = distribution
-    for k, v in inputs.items():
-        n.inputs[k].default_value = v
-    nt.links.new(n.outputs[0], out.inputs["Surface"])
+    m = scenes.closure_material("Sphere", kind, distribution, inputs)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.0, location=(0, 0, 1))
     bpy.ops.object.shade_smooth()
     bpy.context.active_object.data.materials.append(m)
@@ -83,12 +78,7 @@ def test_exporter_writes_the_distribution(empty_scene, case):
     from gradphoton.export.material import MaterialExporter
     from gradphoton.export.warnings import Warnings
     kind, distribution, inputs = CASES[case]
-    m, nt, out = scenes._node_material("M")
-    n = nt.nodes.new(kind)
-    n.distribution = distribution
-    for k, v in inputs.items():
-        n.inputs[k].default_value = v
-    nt.links.new(n.outputs[0], out.inputs["Surface"])
+    m = scenes.closure_material("M", kind, distribution, inputs)
     table, w = {}, Warnings()
     d = MaterialExporter(table, w).convert(m)
     assert d["distribution"] == {'MULTI_GGX': "multi_ggx", 'BECKMANN': "beckmann"}[distribution]

@@ -120,12 +120,7 @@ def _texture(kind, output, **settings):
         mapping.inputs["Scale"].default_value = (2.0, 2.0, 2.0)
         mapping.inputs["Location"].default_value = (0.3, -0.2, 0.45)
         nt.links.new(vec, mapping.inputs["Vector"])
-        t = nt.nodes.new(kind)
-        for k, v in settings.items():
-            if k in t.inputs:
-                t.inputs[k].default_value = v
-            else:
-                setattr(t, k, v)
+        t = scenes.new_node(nt, kind, **settings)
         nt.links.new(mapping.outputs[0], t.inputs["Vector"])
         return t.outputs[output]
     return build

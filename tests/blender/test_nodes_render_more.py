@@ -10,22 +10,14 @@ so its finite differences are exact whatever step a renderer takes.
 """
 import pytest
 
+import scenes
 from test_nodes_render import _texture, check_plane, gradient
 
-
-def _new(nt, kind, **settings):
-    n = nt.nodes.new(kind)
-    for k, v in settings.items():
-        if k in n.inputs:
-            n.inputs[k].default_value = v
-        else:
-            setattr(n, k, v)
-    return n
 
 
 def _colour_of_vector(nt, socket, scale=0.5, offset=0.5):
     """A vector in [-1, 1] shown as a colour in [0, 1] (v * scale + offset)."""
-    ma = _new(nt, "ShaderNodeVectorMath", operation='MULTIPLY_ADD')
+    ma = scenes.new_node(nt, "ShaderNodeVectorMath", operation='MULTIPLY_ADD')
     nt.links.new(socket, ma.inputs[0])
     ma.inputs[1].default_value = (scale,) * 3
     ma.inputs[2].default_value = (offset,) * 3
@@ -33,7 +25,7 @@ def _colour_of_vector(nt, socket, scale=0.5, offset=0.5):
 
 
 def rgb_curves(nt, vec):
-    c = _new(nt, "ShaderNodeRGBCurve")
+    c = scenes.new_node(nt, "ShaderNodeRGBCurve")
     m = c.mapping
     m.curves[3].points.new(0.4, 0.7)   # C: every channel
     m.curves[0].points.new(0.3, 0.1)   # R
@@ -45,21 +37,21 @@ def rgb_curves(nt, vec):
 
 
 def float_curve(nt, vec):
-    sep = _new(nt, "ShaderNodeSeparateXYZ")
+    sep = scenes.new_node(nt, "ShaderNodeSeparateXYZ")
     nt.links.new(vec, sep.inputs[0])
-    c = _new(nt, "ShaderNodeFloatCurve")
+    c = scenes.new_node(nt, "ShaderNodeFloatCurve")
     c.mapping.curves[0].points.new(0.35, 0.8)
     c.mapping.curves[0].points[0].location = (0.0, 0.1)
     c.mapping.update()
     nt.links.new(sep.outputs[0], c.inputs["Value"])
-    comb = _new(nt, "ShaderNodeCombineXYZ")
+    comb = scenes.new_node(nt, "ShaderNodeCombineXYZ")
     nt.links.new(c.outputs[0], comb.inputs[0])
     nt.links.new(sep.outputs[1], comb.inputs[1])
     return comb.outputs[0]
 
 
 def vector_curves(nt, vec):
-    c = _new(nt, "ShaderNodeVectorCurve")
+    c = scenes.new_node(nt, "ShaderNodeVectorCurve")
     c.mapping.curves[0].points.new(0.2, 0.6)    # X over Blender's -1..1 range
     c.mapping.curves[1].points.new(0.5, -0.3)   # Y
     c.mapping.update()
@@ -69,15 +61,15 @@ def vector_curves(nt, vec):
 
 def legacy_rgb_hsv(nt, vec):
     """Blender's older Separate/Combine RGB and HSV (kept in 3.4 for old files)."""
-    sep = _new(nt, "ShaderNodeSeparateRGB")
+    sep = scenes.new_node(nt, "ShaderNodeSeparateRGB")
     nt.links.new(gradient(nt, vec), sep.inputs[0])
-    hsv = _new(nt, "ShaderNodeCombineHSV")
+    hsv = scenes.new_node(nt, "ShaderNodeCombineHSV")
     nt.links.new(sep.outputs["R"], hsv.inputs["H"])
     nt.links.new(sep.outputs["G"], hsv.inputs["S"])
     nt.links.new(sep.outputs["B"], hsv.inputs["V"])
-    sep2 = _new(nt, "ShaderNodeSeparateHSV")
+    sep2 = scenes.new_node(nt, "ShaderNodeSeparateHSV")
     nt.links.new(hsv.outputs[0], sep2.inputs[0])
-    rgb = _new(nt, "ShaderNodeCombineRGB")
+    rgb = scenes.new_node(nt, "ShaderNodeCombineRGB")
     nt.links.new(sep2.outputs["V"], rgb.inputs["R"])
     nt.links.new(sep2.outputs["H"], rgb.inputs["G"])
     nt.links.new(hsv.outputs[0], rgb.inputs["B"])  # a colour read as a float: its average
@@ -86,15 +78,15 @@ def legacy_rgb_hsv(nt, vec):
 
 def colour_family(nt, vec):
     """Invert, Gamma, Bright/Contrast and RGB to BW chained on the gradient."""
-    inv = _new(nt, "ShaderNodeInvert", Fac=0.7)
+    inv = scenes.new_node(nt, "ShaderNodeInvert", Fac=0.7)
     nt.links.new(gradient(nt, vec), inv.inputs["Color"])
-    gam = _new(nt, "ShaderNodeGamma", Gamma=1.7)
+    gam = scenes.new_node(nt, "ShaderNodeGamma", Gamma=1.7)
     nt.links.new(inv.outputs[0], gam.inputs["Color"])
-    bc = _new(nt, "ShaderNodeBrightContrast", Bright=0.1, Contrast=0.4)
+    bc = scenes.new_node(nt, "ShaderNodeBrightContrast", Bright=0.1, Contrast=0.4)
     nt.links.new(gam.outputs[0], bc.inputs["Color"])
-    bw = _new(nt, "ShaderNodeRGBToBW")
+    bw = scenes.new_node(nt, "ShaderNodeRGBToBW")
     nt.links.new(bc.outputs[0], bw.inputs[0])
-    mix = _new(nt, "ShaderNodeMixRGB", blend_type='MULTIPLY', use_clamp=True)
+    mix = scenes.new_node(nt, "ShaderNodeMixRGB", blend_type='MULTIPLY', use_clamp=True)
     mix.inputs["Fac"].default_value = 0.5
     nt.links.new(bw.outputs[0], mix.inputs["Color1"])
     nt.links.new(bc.outputs[0], mix.inputs["Color2"])
@@ -102,37 +94,37 @@ def colour_family(nt, vec):
 
 
 def geometry_position(nt, vec):
-    g = _new(nt, "ShaderNodeNewGeometry")
+    g = scenes.new_node(nt, "ShaderNodeNewGeometry")
     return _colour_of_vector(nt, g.outputs["Position"], 0.4, 0.5)
 
 
 def uv_map(nt, vec):
-    u = _new(nt, "ShaderNodeUVMap", uv_map="UVMap")
+    u = scenes.new_node(nt, "ShaderNodeUVMap", uv_map="UVMap")
     return u.outputs[0]
 
 
 def object_info(nt, vec):
     """Object Info's Location and Random (Cycles hashes the object's name)."""
-    o = _new(nt, "ShaderNodeObjectInfo")
-    comb = _new(nt, "ShaderNodeCombineXYZ")
-    sep = _new(nt, "ShaderNodeSeparateXYZ")
+    o = scenes.new_node(nt, "ShaderNodeObjectInfo")
+    comb = scenes.new_node(nt, "ShaderNodeCombineXYZ")
+    sep = scenes.new_node(nt, "ShaderNodeSeparateXYZ")
     nt.links.new(o.outputs["Location"], sep.inputs[0])
-    add = _new(nt, "ShaderNodeMath", operation='ADD')
+    add = scenes.new_node(nt, "ShaderNodeMath", operation='ADD')
     nt.links.new(sep.outputs[0], add.inputs[0])
     nt.links.new(o.outputs["Random"], add.inputs[1])
     nt.links.new(add.outputs[0], comb.inputs[0])
     nt.links.new(o.outputs["Random"], comb.inputs[1])
-    u = _new(nt, "ShaderNodeSeparateXYZ")
+    u = scenes.new_node(nt, "ShaderNodeSeparateXYZ")
     nt.links.new(vec, u.inputs[0])
     nt.links.new(u.outputs[0], comb.inputs[2])  # so that the image varies
     return comb.outputs[0]
 
 
 def vector_transform(nt, vec):
-    g = _new(nt, "ShaderNodeNewGeometry")
-    t = _new(nt, "ShaderNodeVectorTransform", vector_type='POINT', convert_from='WORLD', convert_to='CAMERA')
+    g = scenes.new_node(nt, "ShaderNodeNewGeometry")
+    t = scenes.new_node(nt, "ShaderNodeVectorTransform", vector_type='POINT', convert_from='WORLD', convert_to='CAMERA')
     nt.links.new(g.outputs["Position"], t.inputs[0])
-    scale = _new(nt, "ShaderNodeVectorMath", operation='MULTIPLY')
+    scale = scenes.new_node(nt, "ShaderNodeVectorMath", operation='MULTIPLY')
     scale.inputs[1].default_value = (0.4, 0.4, 0.1)
     nt.links.new(t.outputs[0], scale.inputs[0])
     return _colour_of_vector(nt, scale.outputs[0], 1.0, 0.5)
@@ -140,15 +132,15 @@ def vector_transform(nt, vec):
 
 def _linear_height(nt):
     """h = 0.3 u + 0.2 v: linear, so every finite difference of it is exact."""
-    tc = _new(nt, "ShaderNodeTexCoord")
-    dot = _new(nt, "ShaderNodeVectorMath", operation='DOT_PRODUCT')
+    tc = scenes.new_node(nt, "ShaderNodeTexCoord")
+    dot = scenes.new_node(nt, "ShaderNodeVectorMath", operation='DOT_PRODUCT')
     dot.inputs[1].default_value = (0.3, 0.2, 0.0)
     nt.links.new(tc.outputs["UV"], dot.inputs[0])
     return dot.outputs["Value"]
 
 
 def _bump(nt):
-    b = _new(nt, "ShaderNodeBump", Strength=0.8, Distance=0.7)
+    b = scenes.new_node(nt, "ShaderNodeBump", Strength=0.8, Distance=0.7)
     nt.links.new(_linear_height(nt), b.inputs["Height"])
     return b
 
@@ -159,12 +151,12 @@ def bump(nt, vec):
 
 def normal_map(nt, vec):
     """A tangent-space normal map of a colour linear in the UVs."""
-    tc = _new(nt, "ShaderNodeTexCoord")
-    ma = _new(nt, "ShaderNodeVectorMath", operation='MULTIPLY_ADD')
+    tc = scenes.new_node(nt, "ShaderNodeTexCoord")
+    ma = scenes.new_node(nt, "ShaderNodeVectorMath", operation='MULTIPLY_ADD')
     ma.inputs[1].default_value = (0.4, -0.3, 0.0)
     ma.inputs[2].default_value = (0.3, 0.65, 0.9)
     nt.links.new(tc.outputs["UV"], ma.inputs[0])
-    nm = _new(nt, "ShaderNodeNormalMap", space='TANGENT', uv_map="UVMap", Strength=0.9)
+    nm = scenes.new_node(nt, "ShaderNodeNormalMap", space='TANGENT', uv_map="UVMap", Strength=0.9)
     nt.links.new(ma.outputs[0], nm.inputs["Color"])
     return _colour_of_vector(nt, nm.outputs[0])
 
@@ -172,15 +164,15 @@ def normal_map(nt, vec):
 def fresnel_layer_weight(nt, vec):
     """Fresnel (IOR 1.45) and Layer Weight (Blend 0.3: Fresnel, Facing) of a bumped normal."""
     n = _bump(nt).outputs[0]
-    fr = _new(nt, "ShaderNodeFresnel", IOR=1.45)
+    fr = scenes.new_node(nt, "ShaderNodeFresnel", IOR=1.45)
     nt.links.new(n, fr.inputs["Normal"])
-    lw = _new(nt, "ShaderNodeLayerWeight", Blend=0.3)
+    lw = scenes.new_node(nt, "ShaderNodeLayerWeight", Blend=0.3)
     nt.links.new(n, lw.inputs["Normal"])
-    comb = _new(nt, "ShaderNodeCombineXYZ")
+    comb = scenes.new_node(nt, "ShaderNodeCombineXYZ")
     nt.links.new(fr.outputs[0], comb.inputs[0])
     nt.links.new(lw.outputs["Fresnel"], comb.inputs[1])
     nt.links.new(lw.outputs["Facing"], comb.inputs[2])
-    mul = _new(nt, "ShaderNodeVectorMath", operation='MULTIPLY')  # a bigger range to compare
+    mul = scenes.new_node(nt, "ShaderNodeVectorMath", operation='MULTIPLY')  # a bigger range to compare
     mul.inputs[1].default_value = (4.0, 4.0, 4.0)
     nt.links.new(comb.outputs[0], mul.inputs[0])
     return mul.outputs[0]
@@ -218,7 +210,6 @@ def test_object_info_random_of_instances_against_cycles(empty_scene, out_dir):
     of one emitting plane, and the plane itself, in one row; every tile's value as Cycles'."""
     import bpy
     import numpy as np
-    import scenes
     from test_nodes_render import render_plane
     scene = empty_scene
     scenes.set_world(scene)

@@ -36,12 +36,7 @@ CASES = {
 
 
 def glass_scene(scene, kind, distribution, inputs):
-    m, nt, out = scenes._node_material("Glass")
-    n = nt.nodes.new(kind)
-    n.distribution = distribution
-    for k, v in inputs.items():
-        n.inputs[k].default_value = v
-    nt.links.new(n.outputs[0], out.inputs["Surface"])
+    m = scenes.closure_material("Glass", kind, distribution, inputs)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0, location=(0, 0, 1))
     bpy.ops.object.shade_smooth()
     bpy.context.active_object.data.materials.append(m)
@@ -75,12 +70,7 @@ def test_exporter_writes_the_glass_split(empty_scene, case):
     from gradphoton.export.warnings import Warnings
     kind, distribution, inputs = CASES[case]
     for dist, split in ((distribution, True), ('MULTI_GGX', False)):
-        m, nt, out = scenes._node_material("M")
-        n = nt.nodes.new(kind)
-        n.distribution = dist
-        for k, v in inputs.items():
-            n.inputs[k].default_value = v
-        nt.links.new(n.outputs[0], out.inputs["Surface"])
+        m = scenes.closure_material("M", kind, dist, inputs)
         table, w = {}, Warnings()
         d = MaterialExporter(table, w).convert(m)
         assert d["type"] == "dielectric", d
