@@ -32,10 +32,13 @@ for t in "${targets[@]}"; do
   # build and 5-11 s under ASan on a loaded 2-core machine); -rss_limit_mb: libFuzzer's default cap.
   # vdb: OpenVDB 10 leaks the node it was reading when a corrupt file's topology throws
   # (tree/RootNode.h, readTopology: a `new` before the read that fails), inside the library;
-  # one leak per failed load, so leak detection is off for that target (ASan/UBSan stay on).
+  # one leak per failed load, so leak detection is off for that target (ASan/UBSan stay on):
+  # libFuzzer's per-input check (-detect_leaks=0) and LeakSanitizer's at exit (ASAN_OPTIONS), which
+  # otherwise reports the leaks of the run's corrupt inputs and fails it on the last input.
   extra=()
-  [ "$t" = vdb ] && extra=(-detect_leaks=0)
-  if build-fuzz/fuzz/fuzz_"$t" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 "${extra[@]}" \
+  asan=${ASAN_OPTIONS:-}
+  [ "$t" = vdb ] && extra=(-detect_leaks=0) && asan="${asan:+$asan:}detect_leaks=0"
+  if ASAN_OPTIONS="$asan" build-fuzz/fuzz/fuzz_"$t" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 "${extra[@]}" \
       -dict="fuzz/$t.dict" -artifact_prefix="build-fuzz/artifacts/$t-" -print_final_stats=1 "$@" \
       "build-fuzz/corpus/$t" "fuzz/corpus/$t" >"$log" 2>&1; then
     crashes=0
