@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 
 #include "core/frame.h"
 #include "integrators/shift/manifold.h"
@@ -126,6 +127,46 @@ TEST(Manifold, WalkReachesATargetOnTheFloor) {
   const ManifoldWalk bad = manifold_walk(scene, base, Vec3(0, 0, 0), Vec3(2.5f, 2.5f, 0), 1e-5f, 5);
   EXPECT_FALSE(bad.ok());
   EXPECT_EQ(bad.failure, ShiftFailure::WalkNotConverged);
+}
+
+// The 2x2 and 4x4 solve of one- and two-vertex chains' tangent maps is Eigen's PartialPivLU and
+// solve to the bit (the walks, and so GPM's images, are the same as with Eigen's): random
+// systems, ones whose pivots tie or need every row swap, a zero column (singular), tiny entries.
+TEST(Manifold, SmallTangentSolveIsEigensLuToTheBit) {
+  uint64_t state = 12345;
+  auto uniform = [&state] {  // splitmix64
+    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1p-53 * 2.0 - 1.0;
+  };
+  int solved = 0, refused = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const int n = trial % 2 ? 4 : 2;
+    double a[16], b[8];  // column-major
+    for (int c = 0; c < n; ++c)
+      for (int r = 0; r < n; ++r) a[c * n + r] = uniform() * (trial % 7 == 0 ? 1e-80 : 3.0);
+    for (double& v : b) v = uniform();
+    if (trial % 11 == 0)  // singular: a zero column
+      for (int r = 0; r < n; ++r) a[(trial % n) * n + r] = 0;
+    if (trial % 13 == 0) a[1] = -a[0];  // a tie for the first pivot
+    if (trial % 17 == 0)                // every column pivots below the first row
+      for (int c = 0; c < n; ++c) a[c * n] *= 1e-9;
+    if (trial % 19 == 0) a[0] = 1, a[1] = 0, a[n] = 0, a[n + 1] = 1;  // an identity block: no swaps
+    double t_small[8], t_eigen[8];
+    const bool ok = small_tangent_solve(n, a, b, t_small);
+    ASSERT_EQ(ok, eigen_tangent_solve(n, a, b, t_eigen)) << "trial " << trial;
+    if (!ok) {
+      ++refused;
+      continue;
+    }
+    ++solved;
+    for (int i = 0; i < 2 * n; ++i)
+      ASSERT_EQ(std::memcmp(&t_small[i], &t_eigen[i], sizeof(double)), 0)
+          << "trial " << trial << " n " << n << " entry " << i << ": " << t_small[i] << " vs " << t_eigen[i];
+  }
+  EXPECT_GT(solved, 3000);
+  EXPECT_GT(refused, 100);
 }
 
 // |d omega_i / d o| (eq. 9's reparameterisation) against finite differences of wi(o).

@@ -140,6 +140,87 @@ bool chain_surfaces(const Scene& scene, const ManifoldChain& c, Surfaces& out) {
   return out[c.count].ng.allFinite();
 }
 
+}  // namespace
+
+// Eigen's PartialPivLU of a matrix sized at run time, and its solve, go through machinery made
+// for large matrices (blocked LU, packed triangular solves): for the 2x2 and 4x4 systems of one-
+// and two-vertex chains that was a third of tangent_map's instructions (callgrind, cornell-glass).
+// Here are the very operations Eigen 3.4 performs on them, in its order, and nothing else, so the
+// tangent map is the same to the bit (manifold_test checks it against Eigen):
+//  - PartialPivLU (LU/PartialPivLU.h, partial_lu_impl::unblocked_lu, sizes below 16): per
+//    column k, the first row of largest |a| below the diagonal is the pivot (strict >), the rows
+//    are swapped, the column below is divided by the pivot, and the trailing block takes
+//    a_rc -= a_rk a_kc;
+//  - the determinant as the diagonal's product from the first element on, its sign aside;
+//  - solve (PartialPivLU::_solve_impl): the transpositions applied to B in order, then
+//    triangular_solve_matrix (products/TriangularSolverMatrix.h, column-major, OnTheLeft) whose
+//    first panel (4 wide with SSE2 doubles) holds the whole system: unit lower, forward,
+//    x_r -= x_i l_ri; upper, backward, x_i *= 1 / u_ii, then x_r -= x_i u_ri.
+// (Built with FMA contraction, -march=native, either side may fuse a - b c: the test would say.)
+bool eigen_tangent_solve(int n, const double* a, const double* b, double* t) {
+  const SquareMatrix A = Eigen::Map<const Eigen::MatrixXd>(a, n, n);
+  const TangentMap B = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 2>>(b, n, 2);
+  const Eigen::PartialPivLU<SquareMatrix> lu(A);
+  if (!(std::abs(lu.determinant()) > 1e-300)) return false;
+  const TangentMap T = -lu.solve(B);
+  if (!T.allFinite()) return false;
+  for (int c = 0; c < 2; ++c)
+    for (int r = 0; r < n; ++r) t[c * n + r] = T(r, c);
+  return true;
+}
+
+bool small_tangent_solve(int n, const double* a, const double* b, double* t) {
+  double lu[kSmallSolve][kSmallSolve];  // [row][column]
+  double x[kSmallSolve][2];
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c) lu[r][c] = a[c * n + r];
+    x[r][0] = b[r];
+    x[r][1] = b[n + r];
+  }
+  int transposition[kSmallSolve];
+  for (int k = 0; k < n; ++k) {
+    int p = k;
+    double biggest = std::abs(lu[k][k]);
+    for (int r = k + 1; r < n; ++r)
+      if (std::abs(lu[r][k]) > biggest) {
+        biggest = std::abs(lu[r][k]);
+        p = r;
+      }
+    transposition[k] = p;
+    if (biggest != 0.0) {
+      if (p != k)
+        for (int c = 0; c < n; ++c) std::swap(lu[k][c], lu[p][c]);
+      for (int r = k + 1; r < n; ++r) lu[r][k] /= lu[k][k];
+    }
+    for (int c = k + 1; c < n; ++c)
+      for (int r = k + 1; r < n; ++r) lu[r][c] -= lu[k][c] * lu[r][k];
+  }
+  double det = lu[0][0];
+  for (int i = 1; i < n; ++i) det *= lu[i][i];
+  if (!(std::abs(det) > 1e-300)) return false;  // as tangent_map's test of Eigen's determinant
+  for (int k = 0; k < n; ++k)
+    if (transposition[k] != k) std::swap(x[k], x[transposition[k]]);
+  for (int j = 0; j < 2; ++j) {
+    for (int i = 0; i < n; ++i) {  // unit lower
+      const double bi = x[i][j];
+      for (int r = i + 1; r < n; ++r) x[r][j] -= bi * lu[r][i];
+    }
+    for (int i = n - 1; i >= 0; --i) {  // upper
+      x[i][j] *= 1.0 / lu[i][i];
+      const double bi = x[i][j];
+      for (int r = 0; r < i; ++r) x[r][j] -= bi * lu[r][i];
+    }
+  }
+  for (int j = 0; j < 2; ++j)
+    for (int r = 0; r < n; ++r) {
+      t[j * n + r] = -x[r][j];
+      if (!std::isfinite(t[j * n + r])) return false;
+    }
+  return true;
+}
+
+namespace {
+
 // Tangent map T = -A^{-1} B (JM12 eq. 7): the motion of x_1..x_k (2k rows) per unit motion of
 // the endpoint in its tangent plane (2 columns). nullopt when A is singular.
 std::optional<TangentMap> tangent_map(const Scene& scene, const ManifoldChain& c,
@@ -166,12 +247,17 @@ std::optional<TangentMap> tangent_map(const Scene& scene, const ManifoldChain& c
       M.block<1, 2>(2 * j + r, 2 * (j + 1)) = d.segment<2>(4).transpose();
     }
   }
-  const SquareMatrix A = M.leftCols(2 * k);
-  const TangentMap B = M.rightCols(2);
-  const Eigen::PartialPivLU<SquareMatrix> lu(A);
-  if (!(std::abs(lu.determinant()) > 1e-300)) return std::nullopt;
-  TangentMap T = -lu.solve(B);
-  if (!T.allFinite()) return std::nullopt;
+  const int n = 2 * k;
+  double a[kMaxRows * kMaxRows], b[2 * kMaxRows], t[2 * kMaxRows];  // column-major
+  for (int c = 0; c < n; ++c)
+    for (int r = 0; r < n; ++r) a[c * n + r] = M(r, c);
+  for (int c = 0; c < 2; ++c)
+    for (int r = 0; r < n; ++r) b[c * n + r] = M(r, n + c);
+  // One or two vertices (a mirror, a glass ball: most chains) by the small solve.
+  if (!(n <= kSmallSolve ? small_tangent_solve(n, a, b, t) : eigen_tangent_solve(n, a, b, t))) return std::nullopt;
+  TangentMap T(n, 2);
+  for (int c = 0; c < 2; ++c)
+    for (int r = 0; r < n; ++r) T(r, c) = t[c * n + r];
   return T;
 }
 

@@ -123,6 +123,14 @@ ManifoldWalk manifold_walk(const Scene& scene, const ManifoldChain& base, const 
                            float tolerance, int max_iterations);
 
 
+// T = -A^{-1} B for the constraint system of a chain of one or two vertices (A n x n, B n x 2,
+// n <= kSmallSolve, column-major), as tangent_map solves it: false where |det A| <= 1e-300 or T
+// is not finite. The same to the bit as Eigen's PartialPivLU and its solve (manifold.cpp).
+inline constexpr int kSmallSolve = 4;
+bool small_tangent_solve(int n, const double* a, const double* b, double* t);
+// The same by Eigen's PartialPivLU, for any n <= 2 kMaxChainVertices (longer chains).
+bool eigen_tangent_solve(int n, const double* a, const double* b, double* t);
+
 // Solid-angle Jacobian |d omega_i / d o| of a glossy vertex's outgoing direction wi with respect
 // to the tangential components o of its (unit, local) half-vector h, for incoming wo:
 // |d omega_h / d o| = 1 / |h.z|, times |d omega_i / d omega_h| = 4 |wo.h| (reflection) or
