@@ -225,6 +225,25 @@ RGB LightSet::environment_radiance(const Ray& ray) const {
   return l.map ? l.map->eval(ray.d, state) : l.emit;
 }
 
+RGB LightSet::environment_radiance(const Ray& ray, float* pdf) const {
+  if (environment_ < 0) {
+    *pdf = 0.0f;
+    return RGB(0.0f);
+  }
+  const Light& l = lights_[environment_];
+  if (!l.map || (ray.camera && l.camera_override)) {
+    *pdf = pdf_environment(ray.d);
+    return environment_radiance(ray);
+  }
+  RayState state = ray.state;  // as environment_radiance(ray) sees it
+  if (ray.camera) state.flags |= kPathCamera;
+  const WorldRayOrigin origin(ray.o);
+  float pdf_dir = 0;
+  const RGB Le = l.map->eval_pdf(ray.d, state, &pdf_dir);  // one projection for both
+  *pdf = select_.pmf(environment_) * pdf_dir;
+  return Le;
+}
+
 int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, float* pdf) const {
   int found = -1;
   for (int i : disk_lights_) {
