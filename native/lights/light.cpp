@@ -159,8 +159,7 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
       case LightType::Environment:
         if (l.map) {  // the map's luminance x sin(theta) distribution (environment_map.h)
           float pdf_dir = 0;
-          if (!l.map->sample(u, &s.wi, &pdf_dir)) return std::nullopt;
-          s.L = l.map->eval(s.wi);
+          if (!l.map->sample_eval(u, &s.wi, &pdf_dir, &s.L)) return std::nullopt;
           s.pdf = pmf * pdf_dir;
           return s;
         }
