@@ -74,14 +74,20 @@ struct RgbPath {
   void environment(int depth, const Ray& ray) {
     const int env = lights.environment();
     if (env < 0 || !(depth > 0 || lights.lights()[env].visible_to_camera)) return;
-    const RGB Le = lights.environment_radiance(ray);
     const Light& world = lights.lights()[env];
     // A World lit only by BSDF rays is not sampled by next-event estimation: a phase-sampled
     // ray finds it with full weight.
-    L += clamped(depth > 0 && world.lit_by_bsdf_rays_only()
-                     ? (medium_vertex ? beta * Le : prev.weigh_world(Le, world.visible_lobes, specular_bounce, beta))
-                     : emitted(depth, Le, world.visible_lobes, lights.pdf_environment(ray.d)),
-                 depth <= 1);
+    if (depth > 0 && world.lit_by_bsdf_rays_only()) {
+      const RGB Le = lights.environment_radiance(ray);
+      L += clamped(medium_vertex ? beta * Le : prev.weigh_world(Le, world.visible_lobes, specular_bounce, beta), depth <= 1);
+      return;
+    }
+    // The light's density only where MIS weighs the hit (emitted(): not for the camera ray or
+    // after a singular bounce), from the same projection of the direction as the radiance.
+    float pdf_light = 0.0f;
+    const RGB Le = depth > 0 && !specular_bounce ? lights.environment_radiance(ray, &pdf_light)
+                                                 : lights.environment_radiance(ray);
+    L += clamped(emitted(depth, Le, world.visible_lobes, pdf_light), depth <= 1);
   }
   void area_light(int depth, const SurfaceHit& hit, const Ray& ray) {
     const RGB Le = lights.area_radiance(hit.light, -ray.d, hit.p, &hit.ray);

@@ -69,6 +69,19 @@ class BackgroundTerm {
   virtual bool sample(Vec2 u, Vec3* dir, float* pdf) const = 0;
   // The density sample() gives `dir`, per solid angle.
   virtual float pdf(const Vec3& dir) const = 0;
+  // sample() with the radiance eval() gives the direction drawn: a term that knows the point it
+  // drew (an image's texel position) looks it up there instead of projecting the direction back.
+  virtual bool sample_eval(Vec2 u, Vec3* dir, float* pdf, RGB* radiance) const {
+    if (!sample(u, dir, pdf)) return false;
+    *radiance = eval(*dir);
+    return true;
+  }
+  // eval(dir, ray) and pdf(dir) together (a BSDF ray that left the scene, weighed by MIS): one
+  // projection of the direction where the term can share it.
+  virtual RGB eval_pdf(const Vec3& dir, const RayState& ray, float* pdf) const {
+    *pdf = this->pdf(dir);
+    return eval(dir, ray);
+  }
   // The radiance's integral over the sphere (the light's power, for light selection and for
   // picking a term of a sum).
   virtual RGB integral() const = 0;

@@ -266,19 +266,41 @@ Vec3 EnvironmentMap::map_vector(const Vec3& d) const {
           a[2][0] * d.x + a[2][1] * d.y + a[2][2] * d.z};
 }
 
-RGB EnvironmentMap::eval(const Vec3& dir) const {
+bool EnvironmentMap::project(const Vec3& dir, Vec2* uv, float* jac, float* len) const {
   const Vec3 v = map_vector(dir);
-  const float len = length(v);
-  if (!(len > 0) || !std::isfinite(len)) return RGB(0.0f);
-  const Vec3 m = v / len;
-  const Vec2 uv = options_.projection == EnvProjection::Equirectangular ? equirectangular_uv(m) : mirror_ball_uv(m);
+  *len = length(v);
+  if (!(*len > 0) || !std::isfinite(*len)) return false;
+  const Vec3 m = v / *len;
+  if (options_.projection == EnvProjection::Equirectangular) {
+    *uv = equirectangular_uv(m);
+    *jac = 2.0f * kPi * kPi * std::sqrt(std::max(0.0f, 1.0f - m.z * m.z));
+  } else {
+    *uv = mirror_ball_uv(m);
+    *jac = 16.0f;
+  }
+  return true;
+}
+
+RGB EnvironmentMap::radiance_at(Vec2 uv) const {
   RGB c = image_->lookup(uv, TextureWrap::Repeat, options_.filter).rgb * options_.scale;
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(c[k])) c[k] = 0.0f;
   return c;
 }
 
-bool EnvironmentMap::sample(Vec2 u, Vec3* dir, float* pdf) const {
+float EnvironmentMap::density_at(Vec2 uv, float jac, float len) const {
+  if (!(jac > 0)) return 0.0f;
+  const float p = sampling_->distribution.pdf(uv) / jac * det_ / (len * len * len);
+  return std::isfinite(p) ? p : 0.0f;
+}
+
+RGB EnvironmentMap::eval(const Vec3& dir) const {
+  Vec2 uv;
+  float jac, len;
+  return project(dir, &uv, &jac, &len) ? radiance_at(uv) : RGB(0.0f);
+}
+
+bool EnvironmentMap::sample_uv(Vec2 u, Vec3* dir, float* pdf, Vec2* uv_out) const {
   float pdf_uv = 0;
   const Vec2 uv = sampling_->distribution.sample(u, &pdf_uv);
   if (!(pdf_uv > 0)) return false;
@@ -301,26 +323,38 @@ bool EnvironmentMap::sample(Vec2 u, Vec3* dir, float* pdf) const {
   *dir = w / len;
   // Density of d = normalize(A^-1 m): p_m |det A| / |A d|^3, and |A d| = 1 / |A^-1 m|.
   *pdf = pdf_uv / jac * det_ * len * len * len;
+  *uv_out = uv;
   return std::isfinite(*pdf) && *pdf > 0;
 }
 
-float EnvironmentMap::pdf(const Vec3& dir) const {
-  const Vec3 v = map_vector(dir);
-  const float len = length(v);
-  if (!(len > 0) || !std::isfinite(len)) return 0.0f;
-  const Vec3 m = v / len;
+bool EnvironmentMap::sample(Vec2 u, Vec3* dir, float* pdf) const {
   Vec2 uv;
-  float jac;
-  if (options_.projection == EnvProjection::Equirectangular) {
-    uv = equirectangular_uv(m);
-    jac = 2.0f * kPi * kPi * std::sqrt(std::max(0.0f, 1.0f - m.z * m.z));
-  } else {
-    uv = mirror_ball_uv(m);
-    jac = 16.0f;
+  return sample_uv(u, dir, pdf, &uv);
+}
+
+bool EnvironmentMap::sample_eval(Vec2 u, Vec3* dir, float* pdf, RGB* radiance) const {
+  Vec2 uv;
+  if (!sample_uv(u, dir, pdf, &uv)) return false;
+  // The texel position drawn: projecting *dir back would give uv again up to float rounding.
+  *radiance = radiance_at(uv);
+  return true;
+}
+
+float EnvironmentMap::pdf(const Vec3& dir) const {
+  Vec2 uv;
+  float jac, len;
+  return project(dir, &uv, &jac, &len) ? density_at(uv, jac, len) : 0.0f;
+}
+
+RGB EnvironmentMap::eval_pdf(const Vec3& dir, const RayState&, float* pdf) const {
+  Vec2 uv;
+  float jac, len;
+  if (!project(dir, &uv, &jac, &len)) {
+    *pdf = 0.0f;
+    return RGB(0.0f);
   }
-  if (!(jac > 0)) return 0.0f;
-  const float p = sampling_->distribution.pdf(uv) / jac * det_ / (len * len * len);
-  return std::isfinite(p) ? p : 0.0f;
+  *pdf = density_at(uv, jac, len);
+  return radiance_at(uv);
 }
 
 RGB EnvironmentMap::integral() const { return sampling_->integral * options_.scale; }

@@ -51,6 +51,10 @@ class EnvironmentMap final : public BackgroundTerm {
   bool sample(Vec2 u, Vec3* dir, float* pdf) const override;
   // The density sample() gives unit world direction `dir`, per solid angle.
   float pdf(const Vec3& dir) const override;
+  // The radiance at the image point sample() drew (no projection back from the direction).
+  bool sample_eval(Vec2 u, Vec3* dir, float* pdf, RGB* radiance) const override;
+  // eval and pdf from one projection of `dir` (the same values as each alone).
+  RGB eval_pdf(const Vec3& dir, const RayState& ray, float* pdf) const override;
   // Integral of the radiance over the sphere (W m^-2 sr^-1 x sr), of the map in its own frame
   // times scale: the light's power, for light selection.
   RGB integral() const override;
@@ -72,6 +76,13 @@ class EnvironmentMap final : public BackgroundTerm {
 
  private:
   Vec3 map_vector(const Vec3& d) const;  // to_map d
+  // Where unit world direction `dir` falls: its image uv, the solid angle per unit uv area
+  // there (jac) and |to_map dir| (len); false for a degenerate direction.
+  bool project(const Vec3& dir, Vec2* uv, float* jac, float* len) const;
+  RGB radiance_at(Vec2 uv) const;                         // the filtered image x scale, non-finite as 0
+  float density_at(Vec2 uv, float jac, float len) const;  // pdf() from project()'s values
+  // sample()'s body: the direction, its density, and the image point it came from.
+  bool sample_uv(Vec2 u, Vec3* dir, float* pdf, Vec2* uv) const;
   std::shared_ptr<const TextureImage> image_;
   EnvironmentMapOptions options_;
   float from_map_[3][3];  // inverse of to_map

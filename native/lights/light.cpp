@@ -159,8 +159,7 @@ std::optional<LightSample> LightSet::sample_li(const Vec3& p, float u_select, Ve
       case LightType::Environment:
         if (l.map) {  // the map's luminance x sin(theta) distribution (environment_map.h)
           float pdf_dir = 0;
-          if (!l.map->sample(u, &s.wi, &pdf_dir)) return std::nullopt;
-          s.L = l.map->eval(s.wi);
+          if (!l.map->sample_eval(u, &s.wi, &pdf_dir, &s.L)) return std::nullopt;
           s.pdf = pmf * pdf_dir;
           return s;
         }
@@ -223,6 +222,25 @@ RGB LightSet::environment_radiance(const Ray& ray) const {
   const WorldRayOrigin origin(ray.o);  // Window of an orthographic camera's rays (world_graph.h)
   if (ray.camera && l.camera_override) return l.camera_map ? l.camera_map->eval(ray.d, state) : l.camera_emit;
   return l.map ? l.map->eval(ray.d, state) : l.emit;
+}
+
+RGB LightSet::environment_radiance(const Ray& ray, float* pdf) const {
+  if (environment_ < 0) {
+    *pdf = 0.0f;
+    return RGB(0.0f);
+  }
+  const Light& l = lights_[environment_];
+  if (!l.map || (ray.camera && l.camera_override)) {
+    *pdf = pdf_environment(ray.d);
+    return environment_radiance(ray);
+  }
+  RayState state = ray.state;  // as environment_radiance(ray) sees it
+  if (ray.camera) state.flags |= kPathCamera;
+  const WorldRayOrigin origin(ray.o);
+  float pdf_dir = 0;
+  const RGB Le = l.map->eval_pdf(ray.d, state, &pdf_dir);  // one projection for both
+  *pdf = select_.pmf(environment_) * pdf_dir;
+  return Le;
 }
 
 int LightSet::intersect_disk(const Ray& ray, float tmax, float* t_hit, RGB* L, float* pdf) const {

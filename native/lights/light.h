@@ -165,6 +165,9 @@ class LightSet {
   // The same for a path's ray leaving the scene: a World graph (world_graph.h) sees its Light
   // Path state (Ray::state; a camera ray is one whatever its state says).
   RGB environment_radiance(const Ray& ray) const;
+  // The same with pdf_environment(ray.d) in *pdf (a bounce ray's MIS weight), sharing the
+  // map's projection of the direction.
+  RGB environment_radiance(const Ray& ray, float* pdf) const;
   // True when the environment's radiance depends on direction (an image or sky): the spectral
   // methods then upsample each value they find instead of one spectrum for the light.
   bool environment_textured() const { return environment_ >= 0 && (lights_[environment_].map || lights_[environment_].camera_map); }

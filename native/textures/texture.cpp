@@ -71,9 +71,20 @@ RGBA TextureImage::lookup(Vec2 uv, TextureWrap wrap, TextureFilter filter) const
   const float x0f = std::floor(fx), y0f = std::floor(fy);
   const float tx = fx - x0f, ty = fy - y0f;
   const int x0 = static_cast<int>(x0f), y0 = static_cast<int>(y0f);
+  const float wa = (1 - tx) * (1 - ty), wb = tx * (1 - ty), wc = (1 - tx) * ty, wd = tx * ty;
+  if (wrap != TextureWrap::Clip) {
+    // Every texel exists: each axis wrapped once, not per texel (the World's map takes this
+    // path at every environment hit and light sample; the same sums as below).
+    const size_t xa = wrap_index(x0, width, wrap), xb = wrap_index(x0 + 1, width, wrap);
+    const size_t ya = wrap_index(y0, height, wrap), yb = wrap_index(y0 + 1, height, wrap);
+    const float* r0 = &rgba[4 * ya * width];
+    const float* r1 = &rgba[4 * yb * width];
+    const float *a = r0 + 4 * xa, *b = r0 + 4 * xb, *c = r1 + 4 * xa, *d = r1 + 4 * xb;
+    auto mix = [&](int k) { return a[k] * wa + b[k] * wb + c[k] * wc + d[k] * wd; };
+    return decoded({RGB(mix(0), mix(1), mix(2)), mix(3)});
+  }
   const RGBA a = texel_or_zero(*this, x0, y0, wrap), b = texel_or_zero(*this, x0 + 1, y0, wrap);
   const RGBA c = texel_or_zero(*this, x0, y0 + 1, wrap), d = texel_or_zero(*this, x0 + 1, y0 + 1, wrap);
-  const float wa = (1 - tx) * (1 - ty), wb = tx * (1 - ty), wc = (1 - tx) * ty, wd = tx * ty;
   return decoded({a.rgb * wa + b.rgb * wb + c.rgb * wc + d.rgb * wd, a.a * wa + b.a * wb + c.a * wc + d.a * wd});
 }
 

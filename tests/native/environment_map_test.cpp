@@ -171,6 +171,50 @@ TEST(EnvironmentMap, SampledDensityIsPdfAndCoversTheMap) {
   EXPECT_EQ(missed, 0);
 }
 
+TEST(EnvironmentMap, JointQueriesEqualTheSeparateOnes) {
+  // eval_pdf (a BSDF ray that left the scene) is eval and pdf bit for bit, from one projection;
+  // sample_eval's radiance is eval of the direction drawn (looked up at the drawn image point:
+  // the same up to the float rounding of projecting the direction back), in every filter and
+  // both projections, under a rotation and a shear.
+  auto img = sky_image(64, 32);
+  EnvironmentMapOptions shear = rotated(10, 20, 30);
+  shear.to_map[0][1] += 0.6f;
+  shear.to_map[2][2] *= 0.5f;
+  Rng rng(5, 0);
+  int compared = 0;
+  for (EnvProjection proj : {EnvProjection::Equirectangular, EnvProjection::MirrorBall})
+    for (TextureFilter filter : {TextureFilter::Closest, TextureFilter::Linear, TextureFilter::Cubic})
+      for (const EnvironmentMapOptions& base : {rotated(10, 20, 30), shear}) {
+        EnvironmentMapOptions o = base;
+        o.projection = proj;
+        o.filter = filter;
+        o.scale = RGB(1.5f, 1.0f, 0.5f);
+        const EnvironmentMap map(img, o);
+        for (int i = 0; i < 4000; ++i) {
+          const Vec3 d = sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform()));
+          float pdf = -1;
+          const RGB c = map.eval_pdf(d, RayState{}, &pdf);
+          const RGB e = map.eval(d);
+          ASSERT_EQ(pdf, map.pdf(d));
+          ASSERT_TRUE(c.r == e.r && c.g == e.g && c.b == e.b);
+          Vec3 ds;
+          float pdf_s, pdf_s2;
+          RGB Ls;
+          const Vec2 u(rng.uniform(), rng.uniform());
+          const bool ok = map.sample_eval(u, &ds, &pdf_s, &Ls);
+          Vec3 ds2;
+          ASSERT_EQ(ok, map.sample(u, &ds2, &pdf_s2));
+          if (!ok) continue;
+          ASSERT_TRUE(ds.x == ds2.x && ds.y == ds2.y && ds.z == ds2.z && pdf_s == pdf_s2);
+          if (filter == TextureFilter::Closest) continue;  // a texel edge may fall either way
+          const RGB Le = map.eval(ds);
+          for (int k = 0; k < 3; ++k) ASSERT_NEAR(Ls[k], Le[k], 1e-3f * (1.0f + Le[k]));
+          ++compared;
+        }
+      }
+  EXPECT_GT(compared, 10000);
+}
+
 // ---- In the renderer ----
 
 const char* kBallOnFloor = R"("camera": {"position": [0, -4, 1.5], "look_at": [0, 0, 0.4], "fov": 40, "width": 24, "height": 24},

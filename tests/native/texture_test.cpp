@@ -5,6 +5,7 @@
 // proportion).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -65,6 +66,34 @@ TEST(Texture, BilinearLookupMatchesHandComputedValues) {
   t.scale = 0.5f;
   t.square = true;
   EXPECT_FLOAT_EQ(t.value(Vec2(0.625f, 0.75f)), 1.0f);  // (2 * 0.5)^2
+}
+
+TEST(Texture, BilinearWrapsEveryTexelAsTheClipPathDoes) {
+  // Repeat and Extend look the four texels up with each axis wrapped once (a fast path); the
+  // same weights through the per-texel path, written out here, across edges and far tiles.
+  std::vector<float> px;
+  for (int i = 0; i < 5 * 3; ++i) px.insert(px.end(), {float(i), float(i * i % 7), 0.5f * i, 1.0f - 0.05f * i});
+  auto img = image(5, 3, px);
+  auto wrapped = [](int i, int n, TextureWrap w) { return w == TextureWrap::Repeat ? ((i % n) + n) % n : std::clamp(i, 0, n - 1); };
+  Rng rng(9, 0);
+  for (TextureWrap w : {TextureWrap::Repeat, TextureWrap::Extend})
+    for (int t = 0; t < 2000; ++t) {
+      const Vec2 uv(4.0f * rng.uniform() - 2.0f, 4.0f * rng.uniform() - 2.0f);
+      const float fx = uv.x * 5 - 0.5f, fy = uv.y * 3 - 0.5f;
+      const float x0f = std::floor(fx), y0f = std::floor(fy), tx = fx - x0f, ty = fy - y0f;
+      const int x0 = int(x0f), y0 = int(y0f);
+      const float wt[4] = {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
+      const int xs[4] = {x0, x0 + 1, x0, x0 + 1}, ys[4] = {y0, y0, y0 + 1, y0 + 1};
+      float want[4] = {0, 0, 0, 0};
+      for (int k = 0; k < 4; ++k) {
+        const RGBA c = img->texel(wrapped(xs[k], 5, w), wrapped(ys[k], 3, w));
+        const float ch[4] = {c.rgb.r, c.rgb.g, c.rgb.b, c.a};
+        for (int j = 0; j < 4; ++j) want[j] += ch[j] * wt[k];
+      }
+      const RGBA got = img->lookup(uv, w, TextureFilter::Linear);
+      const float g[4] = {got.rgb.r, got.rgb.g, got.rgb.b, got.a};
+      for (int j = 0; j < 4; ++j) ASSERT_FLOAT_EQ(g[j], want[j]) << uv.x << " " << uv.y << " channel " << j;
+    }
 }
 
 TEST(Texture, SrgbTexelsBecomeLinearAndDataStaysAsIs) {
