@@ -70,6 +70,9 @@ class PropReader {
   std::vector<std::string>* warnings_;
 };
 
+// The register unused outputs are written to: the first (GraphCompiler::compile makes it so).
+inline constexpr uint32_t kTrashRegister = 0;
+
 struct EvalArgs;
 struct NodeType {
   const char* idname;
@@ -96,7 +99,7 @@ struct EvalArgs {
     const Vec3& r = regs[s.reg];
     return __builtin_expect(s.conv == Conversion::None, 1) ? r.x : as_float(r, s.conv);
   }
-  bool used(int j) const { return outs[j] != prog.trash_; }
+  bool used(int j) const { return outs[j] != kTrashRegister; }  // (one load, no program read)
   void out(int j, const Vec3& x) const { regs[outs[j]] = x; }
   void out(int j, float x) const { regs[outs[j]] = Vec3(x); }
   // Bump: the height input evaluated at a moved shading point.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "shading/graph.h"
+#include "shading/thread_registers.h"
 #include "shading_test_util.h"
 
 namespace gp::shading {
@@ -140,6 +141,43 @@ TEST(ShadingGraph, WorldContextWithOnlyADirection) {
                           "g", "Fac", SocketType::Float);
   const ShadingContext w = ShadingContext::direction(normalize(Vec3(0.6f, 0.8f, 0.0f)));
   EXPECT_NEAR(c.f(w), 0.6f, 1e-6);  // Generated of the World is the direction
+}
+
+// run_in_thread_registers keeps each program's constants in the thread's file for it (no copy
+// per run): the values of run() over fresh registers, for more programs in turn than the thread
+// keeps files (each replaced one filled again), and for a new program compiled where a released
+// one was (its file is never taken for the new one's).
+TEST(ShadingGraph, ThreadRegistersAreWhatRunGives) {
+  auto make = [](float k) {
+    // A constant colour (its own register) mixed with the uv: a stale constant shows in the value.
+    return compile_output(R"({"tc": {"type": "ShaderNodeTexCoord"},
+      "mix": {"type": "ShaderNodeMixRGB", "props": {"blend_type": "ADD"},
+              "inputs": {"Fac": 1.0, "Color1": {"link": "tc", "output": "UV"}, "Color2": [)" +
+                              std::to_string(k) + ", " + std::to_string(2 * k) + R"(, 0.5]}}})",
+                          "mix", "Color");
+  };
+  std::vector<test::Compiled> programs;
+  for (int i = 0; i < 11; ++i) programs.push_back(make(0.125f * static_cast<float>(i + 1)));
+  ShadingContext ctx;
+  for (int round = 0; round < 3; ++round)
+    for (size_t i = 0; i < programs.size(); i += (round == 1 ? 3 : 1)) {
+      ctx.uv = Vec2(0.01f * static_cast<float>(i), 0.25f * static_cast<float>(round));
+      const uint64_t runs = ShaderProgram::runs_on_this_thread();
+      const Vec3* regs = run_in_thread_registers(programs[i].program, ctx);
+      EXPECT_EQ(ShaderProgram::runs_on_this_thread(), runs + 1);
+      const Vec3 want = programs[i].at(ctx);  // run() over registers filled from the constants
+      const Vec3 got = regs[programs[i].source.reg];
+      EXPECT_EQ(got.x, want.x) << "program " << i << ", round " << round;
+      EXPECT_EQ(got.y, want.y) << "program " << i << ", round " << round;
+      EXPECT_EQ(got.z, want.z) << "program " << i << ", round " << round;
+    }
+  // Released programs and new ones made in their place (often at the same address).
+  for (int i = 0; i < 20; ++i) {
+    programs[0] = test::Compiled{};  // released first, so that the new one may take its memory
+    programs[0] = make(3.0f + static_cast<float>(i));
+    const Vec3* regs = run_in_thread_registers(programs[0].program, ctx);
+    EXPECT_EQ(regs[programs[0].source.reg].x, programs[0].at(ctx).x) << i;
+  }
 }
 
 TEST(ShadingGraph, SupportedTypesListed) {
