@@ -1,8 +1,8 @@
 // Per-thread register files of compiled node graphs (graph.h) that keep a program's constants
-// between its runs on a thread: a run then writes only its ops' outputs, with no copy of the
-// constants first (ShaderProgram::run copies them every time). Ops never write a constant
-// register (folded ops are gone from the program; inputs are only read), so a file filled once
-// stays right for every later run of the same program.
+// between its runs on a thread: a run then sets back only the registers ops write (their
+// outputs, a few) to their initial values, where ShaderProgram::run copies every register in
+// (the constants are most of them). Ops never write a constant register (folded ops are gone from
+// the program; inputs are only read), so the file starts each run as run()'s does.
 #pragma once
 
 #include <memory>
