@@ -125,10 +125,6 @@ namespace {
 struct ThreadRegisters {
   std::weak_ptr<const ShaderProgram> program;
   std::vector<Vec3> regs;
-  // The runs [first, end) of registers an op may write (not constant): set back to their
-  // initial values before each run, as run()'s copy does, so that an output an op leaves
-  // unwritten on some path (a missing attribute layer, say) reads what it reads under run().
-  std::vector<std::pair<uint32_t, uint32_t>> writable;
 };
 // Enough for the materials a path meets in turn (a mix's components included); more alternating
 // programs only copy their constants again, as run() does.
@@ -144,26 +140,11 @@ const Vec3* run_in_thread_registers(const std::shared_ptr<const ShaderProgram>& 
       file = &f;
       break;
     }
-  const std::vector<Vec3>& initial = program->constants();
   if (!file) {
     file = &tl_files[tl_next_file];
     tl_next_file = (tl_next_file + 1) % kThreadRegisterFiles;
     file->program = program;
-    file->regs.assign(initial.begin(), initial.end());
-    file->writable.clear();
-    const uint32_t n = static_cast<uint32_t>(initial.size());
-    for (uint32_t r = 0; r < n;) {
-      if (program->is_constant(InputSource{r, Conversion::None})) {
-        ++r;
-        continue;
-      }
-      const uint32_t first = r;
-      while (r < n && !program->is_constant(InputSource{r, Conversion::None})) ++r;
-      file->writable.emplace_back(first, r);
-    }
-  } else {
-    for (const auto& [first, end] : file->writable)
-      for (uint32_t r = first; r < end; ++r) file->regs[r] = initial[r];
+    file->regs.assign(program->constants().begin(), program->constants().end());
   }
   ++tl_runs;
   OpRunner::run_ops(*program, ctx, file->regs.data());

@@ -78,6 +78,9 @@ struct NodeType {
   const char* idname;
   std::vector<SocketDesc> inputs, outputs;
   void (*parse)(const PropReader&, NodeProps&) = nullptr;
+  // Writes each output the program reads (EvalArgs::used) on every run, whatever the inputs (an
+  // early return writes them first), or on none: the thread register files keep the last run's
+  // values (thread_registers.h), so an output written on some runs only would read a stale one.
   void (*eval)(EvalArgs&) = nullptr;
   bool reads_context = false;  // never constant-folded (input nodes, bump)
   int height_input = -1;       // Bump: the input re-evaluated at offset points

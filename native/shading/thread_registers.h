@@ -1,8 +1,9 @@
-// Per-thread register files of compiled node graphs (graph.h) that keep a program's constants
-// between its runs on a thread: a run then sets back only the registers ops write (their
-// outputs, a few) to their initial values, where ShaderProgram::run copies every register in
-// (the constants are most of them). Ops never write a constant register (folded ops are gone from
-// the program; inputs are only read), so the file starts each run as run()'s does.
+// Per-thread register files of compiled node graphs (graph.h) that keep a program's registers
+// between its runs on a thread: a run writes only its ops' outputs, with no copy of the
+// constants first (ShaderProgram::run copies every register in). Ops never write a constant
+// register (folded ops are gone from the program; inputs are only read), and every node writes
+// each of its read outputs on every run or on none (node_types.h NodeType::eval), so a run's
+// values are run()'s.
 #pragma once
 
 #include <memory>
