@@ -30,6 +30,7 @@
 #include "core/frame.h"
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "shading/thread_registers.h"
 #include "materials/spectral_material.h"
 
 namespace gp {
@@ -1633,12 +1634,10 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bo
   p.mix_a = m.mix_a.get();
   p.mix_b = m.mix_b.get();
   if (m.graph) {
-    // One run of the material's node graph gives every linked input (Cycles' SVM per shader).
-    thread_local std::vector<Vec3> regs;
-    // Grown, never shrunk: materials with different register counts alternate hit by hit, and
-    // resizing down and up again zero-filled the registers each time (run() fills them).
-    if (regs.size() < m.graph->num_registers()) regs.resize(m.graph->num_registers());
-    m.graph->run(ctx, regs.data());
+    // One run of the material's node graph gives every linked input (Cycles' SVM per shader),
+    // in the thread's register file for this program, which keeps its constants from the last
+    // run (no copy per hit). Read before a mix's components run theirs (below).
+    const Vec3* regs = shading::run_in_thread_registers(m.graph, ctx);
     auto value = [&](const GraphInput& g) { return shading::as_float(regs[g.source.reg], g.source.conv); };
     if (m.color_in) {
       const Vec3& c = regs[m.color_in.source.reg];

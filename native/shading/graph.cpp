@@ -10,6 +10,7 @@
 #include <unordered_map>
 
 #include "shading/node_types.h"
+#include "shading/thread_registers.h"
 
 namespace gp::shading {
 
@@ -99,15 +100,55 @@ thread_local uint64_t tl_runs = 0;
 }  // namespace
 uint64_t ShaderProgram::runs_on_this_thread() { return tl_runs; }
 
+// The ops in order over registers already holding the constants (graph.h's friend).
+struct OpRunner {
+  static void run_ops(const ShaderProgram& p, const ShadingContext& ctx, Vec3* regs) {
+    const InputSource* in = p.inputs_.data();
+    const uint32_t* outs = p.outputs_.data();
+    for (const Op& op : p.ops_) {
+      EvalArgs a{p, op, ctx, regs, in + op.first_in, outs + op.first_out};
+      op.type->eval(a);
+    }
+  }
+};
+
 void ShaderProgram::run(const ShadingContext& ctx, Vec3* regs) const {
   ++tl_runs;
   std::copy(constants_.begin(), constants_.end(), regs);
-  const InputSource* in = inputs_.data();
-  const uint32_t* outs = outputs_.data();
-  for (const Op& op : ops_) {
-    EvalArgs a{*this, op, ctx, regs, in + op.first_in, outs + op.first_out};
-    op.type->eval(a);
+  OpRunner::run_ops(*this, ctx, regs);
+}
+
+namespace {
+// One program's register file on a thread. The weak pointer names the program by its control
+// block, which it keeps allocated: no later program can take a released one's identity, so a
+// file found is that program's (an expired entry is never matched, only replaced).
+struct ThreadRegisters {
+  std::weak_ptr<const ShaderProgram> program;
+  std::vector<Vec3> regs;
+};
+// Enough for the materials a path meets in turn (a mix's components included); more alternating
+// programs only copy their constants again, as run() does.
+constexpr int kThreadRegisterFiles = 8;
+thread_local ThreadRegisters tl_files[kThreadRegisterFiles];
+thread_local int tl_next_file = 0;
+}  // namespace
+
+const Vec3* run_in_thread_registers(const std::shared_ptr<const ShaderProgram>& program, const ShadingContext& ctx) {
+  ThreadRegisters* file = nullptr;
+  for (ThreadRegisters& f : tl_files)
+    if (!f.program.owner_before(program) && !program.owner_before(f.program)) {  // same control block
+      file = &f;
+      break;
+    }
+  if (!file) {
+    file = &tl_files[tl_next_file];
+    tl_next_file = (tl_next_file + 1) % kThreadRegisterFiles;
+    file->program = program;
+    file->regs.assign(program->constants().begin(), program->constants().end());
   }
+  ++tl_runs;
+  OpRunner::run_ops(*program, ctx, file->regs.data());
+  return file->regs.data();
 }
 
 Vec3 ShaderProgram::evaluate(const ShadingContext& ctx, InputSource source) const {
@@ -354,7 +395,8 @@ std::shared_ptr<const ShaderProgram> GraphCompiler::compile() {
     is_const.push_back(c);
     return static_cast<uint32_t>(regs.size() - 1);
   };
-  const uint32_t trash = new_reg(Vec3(0.0f), false);
+  const uint32_t trash = new_reg(Vec3(0.0f), false);  // the first: kTrashRegister (EvalArgs::used)
+  static_assert(kTrashRegister == 0);
   prog->trash_ = trash;
   std::vector<std::vector<uint32_t>> out_reg(n);
   for (int v : order) {

@@ -70,11 +70,17 @@ class PropReader {
   std::vector<std::string>* warnings_;
 };
 
+// The register unused outputs are written to: the first (GraphCompiler::compile makes it so).
+inline constexpr uint32_t kTrashRegister = 0;
+
 struct EvalArgs;
 struct NodeType {
   const char* idname;
   std::vector<SocketDesc> inputs, outputs;
   void (*parse)(const PropReader&, NodeProps&) = nullptr;
+  // Writes each output the program reads (EvalArgs::used) on every run, whatever the inputs (an
+  // early return writes them first), or on none: the thread register files keep the last run's
+  // values (thread_registers.h), so an output written on some runs only would read a stale one.
   void (*eval)(EvalArgs&) = nullptr;
   bool reads_context = false;  // never constant-folded (input nodes, bump)
   int height_input = -1;       // Bump: the input re-evaluated at offset points
@@ -96,7 +102,7 @@ struct EvalArgs {
     const Vec3& r = regs[s.reg];
     return __builtin_expect(s.conv == Conversion::None, 1) ? r.x : as_float(r, s.conv);
   }
-  bool used(int j) const { return outs[j] != prog.trash_; }
+  bool used(int j) const { return outs[j] != kTrashRegister; }  // (one load, no program read)
   void out(int j, const Vec3& x) const { regs[outs[j]] = x; }
   void out(int j, float x) const { regs[outs[j]] = Vec3(x); }
   // Bump: the height input evaluated at a moved shading point.

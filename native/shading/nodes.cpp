@@ -506,8 +506,8 @@ void eval_tex_noise(EvalArgs& a) {  // svm/noisetex.h (3.4)
   const int dims = a.op.props.mode;
   float value;
   Vec3 color;
-  noise_texture(point_of(a.v(0) * scale, a.f(1) * scale, dims), dims, a.f(3), a.f(4), a.f(5), a.used(1), &value,
-                &color);
+  const float w = dims == 1 || dims == 4 ? a.f(1) * scale : 0.0f;  // W: 1D and 4D only (point_of)
+  noise_texture(point_of(a.v(0) * scale, w, dims), dims, a.f(3), a.f(4), a.f(5), a.used(1), &value, &color);
   a.out(0, value);
   if (a.used(1)) a.out(1, color);
 }
@@ -517,6 +517,8 @@ void parse_voronoi(const PropReader& r, NodeProps& p) {
   p.mode2 = r.choice("feature", {"F1", "F2", "SMOOTH_F1", "DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"}, 0);
   p.mode3 = r.choice("distance", {"EUCLIDEAN", "MANHATTAN", "CHEBYCHEV", "MINKOWSKI"}, 0);
 }
+// Position and W of a Voronoi result (the point over the scale), where they are read.
+void write_voronoi_position(EvalArgs& a, const VoronoiOut& o, int dims, float scale);
 void eval_tex_voronoi(EvalArgs& a) {  // svm/voronoi.h svm_node_tex_voronoi
   const int dims = a.op.props.mode;
   const float scale = a.f(2);
@@ -524,9 +526,14 @@ void eval_tex_voronoi(EvalArgs& a) {  // svm/voronoi.h svm_node_tex_voronoi
   const float randomness = std::clamp(a.f(5), 0.0f, 1.0f);
   const VoronoiOut o = voronoi(static_cast<VoronoiFeature>(a.op.props.mode2),
                                static_cast<VoronoiMetric>(a.op.props.mode3),
-                               point_of(a.v(0) * scale, a.f(1) * scale, dims), dims, smoothness, a.f(4), randomness);
+                               point_of(a.v(0) * scale, dims == 1 || dims == 4 ? a.f(1) * scale : 0.0f, dims), dims,
+                               smoothness, a.f(4), randomness);
   a.out(0, o.distance);
   a.out(1, o.color);
+  if (a.used(2) || a.used(3)) write_voronoi_position(a, o, dims, scale);
+  a.out(4, o.radius);
+}
+void write_voronoi_position(EvalArgs& a, const VoronoiOut& o, int dims, float scale) {
   Vec3 pos;
   float w = 0.0f;
   switch (dims) {
@@ -540,7 +547,6 @@ void eval_tex_voronoi(EvalArgs& a) {  // svm/voronoi.h svm_node_tex_voronoi
   }
   a.out(2, pos);
   a.out(3, w);
-  a.out(4, o.radius);
 }
 
 void parse_musgrave(const PropReader& r, NodeProps& p) {
@@ -1348,7 +1354,8 @@ float map_range_1(int interp, bool clamp, float value, float from_min, float fro
 void eval_map_range(EvalArgs& a) {
   const NodeProps& p = a.op.props;
   if (p.mode == 0) {
-    a.out(0, map_range_1(p.mode2, p.flag, a.f(0), a.f(1), a.f(2), a.f(3), a.f(4), a.f(5), false));
+    const float steps = p.mode2 == 1 ? a.f(5) : 0.0f;  // read by Stepped alone
+    a.out(0, map_range_1(p.mode2, p.flag, a.f(0), a.f(1), a.f(2), a.f(3), a.f(4), steps, false));
   } else {
     const Vec3 v = a.v(6), fmin = a.v(7), fmax = a.v(8), tmin = a.v(9), tmax = a.v(10), steps = a.v(11);
     Vec3 r;

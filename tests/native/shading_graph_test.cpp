@@ -2,7 +2,12 @@
 // only what the outputs need and folds constants; conversions between socket types.
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <vector>
+
 #include "shading/graph.h"
+#include "shading/node_types.h"
+#include "shading/thread_registers.h"
 #include "shading_test_util.h"
 
 namespace gp::shading {
@@ -140,6 +145,99 @@ TEST(ShadingGraph, WorldContextWithOnlyADirection) {
                           "g", "Fac", SocketType::Float);
   const ShadingContext w = ShadingContext::direction(normalize(Vec3(0.6f, 0.8f, 0.0f)));
   EXPECT_NEAR(c.f(w), 0.6f, 1e-6);  // Generated of the World is the direction
+}
+
+// run_in_thread_registers keeps each program's constants in the thread's file for it (no copy
+// per run): the values of run() over fresh registers, for more programs in turn than the thread
+// keeps files (each replaced one filled again), and for a new program compiled where a released
+// one was (its file is never taken for the new one's).
+TEST(ShadingGraph, ThreadRegistersAreWhatRunGives) {
+  auto make = [](float k) {
+    // A constant colour (its own register) mixed with the uv: a stale constant shows in the value.
+    return compile_output(R"({"tc": {"type": "ShaderNodeTexCoord"},
+      "mix": {"type": "ShaderNodeMixRGB", "props": {"blend_type": "ADD"},
+              "inputs": {"Fac": 1.0, "Color1": {"link": "tc", "output": "UV"}, "Color2": [)" +
+                              std::to_string(k) + ", " + std::to_string(2 * k) + R"(, 0.5]}}})",
+                          "mix", "Color");
+  };
+  std::vector<test::Compiled> programs;
+  for (int i = 0; i < 11; ++i) programs.push_back(make(0.125f * static_cast<float>(i + 1)));
+  ShadingContext ctx;
+  for (int round = 0; round < 3; ++round)
+    for (size_t i = 0; i < programs.size(); i += (round == 1 ? 3 : 1)) {
+      ctx.uv = Vec2(0.01f * static_cast<float>(i), 0.25f * static_cast<float>(round));
+      const uint64_t runs = ShaderProgram::runs_on_this_thread();
+      const Vec3* regs = run_in_thread_registers(programs[i].program, ctx);
+      EXPECT_EQ(ShaderProgram::runs_on_this_thread(), runs + 1);
+      const Vec3 want = programs[i].at(ctx);  // run() over registers filled from the constants
+      const Vec3 got = regs[programs[i].source.reg];
+      EXPECT_EQ(got.x, want.x) << "program " << i << ", round " << round;
+      EXPECT_EQ(got.y, want.y) << "program " << i << ", round " << round;
+      EXPECT_EQ(got.z, want.z) << "program " << i << ", round " << round;
+      // The whole file as run() leaves fresh registers (constants and outputs; register 0, the
+      // outputs nothing reads, apart).
+      std::vector<Vec3> fresh(programs[i].program->num_registers(), Vec3(-7.0f));
+      programs[i].program->run(ctx, fresh.data());
+      EXPECT_EQ(std::memcmp(fresh.data() + 1, run_in_thread_registers(programs[i].program, ctx) + 1,
+                            (fresh.size() - 1) * sizeof(Vec3)), 0)
+          << "program " << i << ", round " << round;
+    }
+  // Released programs and new ones made in their place (often at the same address).
+  for (int i = 0; i < 20; ++i) {
+    programs[0] = test::Compiled{};  // released first, so that the new one may take its memory
+    programs[0] = make(3.0f + static_cast<float>(i));
+    const Vec3* regs = run_in_thread_registers(programs[0].program, ctx);
+    EXPECT_EQ(regs[programs[0].source.reg].x, programs[0].at(ctx).x) << i;
+  }
+}
+
+// What the thread register files rely on (node_types.h NodeType::eval): every node type writes
+// each output the program reads on every run or on none. Each type with every input linked to
+// the shading point (Texture Coordinate's Object, so that inputs vary and nothing folds) and
+// every output read, run at points that take different paths (signs, zero, a World direction,
+// backfacing, ray flags): the thread's file is after each run what run() makes of fresh
+// registers, byte for byte.
+TEST(ShadingGraph, EveryNodeWritesItsReadOutputsOnEveryRun) {
+  std::vector<ShadingContext> points;
+  const Vec3 ps[] = {{0.3f, -0.7f, 0.2f}, {0.0f, 0.0f, 0.0f}, {-2.5f, 1.5f, 3.25f}, {0.51f, 0.49f, -0.01f}};
+  for (int i = 0; i < 4; ++i) {
+    ShadingContext c;
+    c.P = ps[i];
+    c.uv = Vec2(ps[i].x, ps[i].y);
+    c.N = normalize(Vec3(0.2f * static_cast<float>(i) - 0.3f, 0.5f, 1.0f));
+    c.I = normalize(Vec3(0.1f, -0.4f * static_cast<float>(i), 1.0f));
+    c.backfacing = i % 2 == 1;
+    c.ray.flags = static_cast<uint16_t>(i == 2 ? 0 : 1u << i);
+    points.push_back(c);
+  }
+  points.push_back(ShadingContext::direction(normalize(Vec3(0.6f, 0.0f, -0.8f))));
+  int checked = 0;
+  for (const NodeType& t : node_types()) {
+    nlohmann::json node = {{"type", t.idname}, {"inputs", nlohmann::json::object()}};
+    for (const SocketDesc& in : t.inputs) node["inputs"][in.id] = {{"link", "tc"}, {"output", "Object"}};
+    nlohmann::json nodes = {{"tc", {{"type", "ShaderNodeTexCoord"}}}, {"n", node}};
+    std::shared_ptr<const ShaderProgram> prog;
+    try {
+      GraphCompiler g("M", nodes, nullptr);
+      for (const SocketDesc& out : t.outputs) g.link(nlohmann::json{{"link", "n"}, {"output", out.id}}, out.type);
+      prog = g.compile();
+    } catch (const GraphError&) {
+      continue;  // needs properties (an image, a ramp's table): covered by its own tests
+    }
+    ++checked;
+    std::vector<Vec3> fresh(prog->num_registers());
+    for (int round = 0; round < 2; ++round)
+      for (size_t i = 0; i < points.size(); ++i) {
+        const size_t k = round == 0 ? i : points.size() - 1 - i;  // each path after each other one
+        const Vec3* file = run_in_thread_registers(prog, points[k]);
+        std::fill(fresh.begin(), fresh.end(), Vec3(-7.0f));
+        prog->run(points[k], fresh.data());
+        // (Register 0 takes the outputs nothing reads: never read, not compared.)
+        EXPECT_EQ(std::memcmp(fresh.data() + 1, file + 1, (fresh.size() - 1) * sizeof(Vec3)), 0)
+            << t.idname << " at point " << k;
+      }
+  }
+  EXPECT_GT(checked, 40);
 }
 
 TEST(ShadingGraph, SupportedTypesListed) {
