@@ -1490,6 +1490,27 @@ TEST(BsdfReference, PrincipledGlassReflectionIsWhiteUnlessTinted) {
   }
   EXPECT_GT(reflections, 200);
   EXPECT_GT(transmissions, 1000);
+  // Multiscatter GGX: the walk's reflections white, its refractions red. Walks that leave on
+  // wo's side carry, in green, most of white's weight (a Glass BSDF's carry 0.15 of it or less).
+  Material walk = cycles_glass(0.3f, Microfacet::MultiGGX, red);
+  walk.fresnel_at_normal = false;
+  Material pwalk = walk;
+  pwalk.principled_glass = true;
+  Material white = walk;
+  white.color = RGB(1.0f);
+  double g_glass = 0, g_principled = 0, g_white = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 wo = wo_at(0.7f);
+    const float uc = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    const auto a = Bsdf(walk).sample(wo, uc, u), b = Bsdf(pwalk).sample(wo, uc, u), c = Bsdf(white).sample(wo, uc, u);
+    if (!a || !b || !c || a->transmission) continue;
+    g_glass += a->f.g / a->pdf, g_principled += b->f.g / b->pdf, g_white += c->f.g / c->pdf;
+  }
+  std::printf("reflected green: glass %.4f, principled %.4f, white %.4f\n", g_glass, g_principled, g_white);
+  EXPECT_GT(g_white, 0.0);
+  EXPECT_LE(g_glass, 0.16 * g_white);
+  EXPECT_GT(g_principled, 0.8 * g_white);
 }
 
 // Cycles 3.4's GGX reflection masks by the separable G1(wo) G1(wi) (bsdf_microfacet.h): the
