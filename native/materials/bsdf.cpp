@@ -45,6 +45,7 @@ struct Ggx {
   static constexpr bool kVisibleNormals = true;  // sample_visible draws only normals facing w
   float alpha;
   float alpha_y = -1.0f;
+  bool separable = false;  // isotropic G as G1(wo) G1(wi) (BsdfParams::separable_masking)
 
   // Normal distribution, [Walter07] eq. 33, written as alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2)
   // with sin^2 = x^2 + y^2 so that it stays accurate near the pole (1 - z^2 would cancel).
@@ -77,9 +78,10 @@ struct Ggx {
 
   // Height-correlated masking-shadowing, [Heitz14] eq. 99; anisotropic, the separable
   // G1(wo) G1(wi) of Cycles 3.4's anisotropic branch (bsdf_microfacet.h eval_reflect), which a
-  // strongly stretched lobe tells apart (alpha_y 0.8: 3.5 % brighter correlated).
+  // strongly stretched lobe tells apart (alpha_y 0.8: 3.5 % brighter correlated). `separable`:
+  // the isotropic case as Cycles 3.4 computes it too ("eq. 34" G1o G1i in the same function).
   float G(const Vec3& wo, const Vec3& wi) const {
-    if (alpha_y >= 0) return G1(wo) * G1(wi);
+    if (alpha_y >= 0 || separable) return G1(wo) * G1(wi);
     return 1.0f / (1.0f + lambda(wo) + lambda(wi));
   }
 
@@ -136,9 +138,9 @@ bool is_anisotropic(const BsdfParams& m) { return std::abs(m.anisotropy) > 1e-4f
 
 // The GGX distribution of a conductor's or principled's lobe.
 Ggx ggx_of(const BsdfParams& m) {
-  if (!is_anisotropic(m)) return Ggx{m.roughness};
   Ggx g{m.roughness};
-  anisotropic_alphas(m.roughness, m.anisotropy, &g.alpha, &g.alpha_y);
+  g.separable = m.separable_masking;
+  if (is_anisotropic(m)) anisotropic_alphas(m.roughness, m.anisotropy, &g.alpha, &g.alpha_y);
   return g;
 }
 
@@ -559,25 +561,52 @@ std::optional<WalkExit> walk_sample_reflect(const Ggx& g, const Vec3& a, const F
   return std::nullopt;
 }
 
+// The colour of one scattering of a dielectric walk: the glass colour at every one (Blender's
+// Glass BSDF), or for Cycles 3.4's Principled glass (BsdfParams::principled_glass) the colour at
+// refractions and the reflection colour (dielectric_reflection_color) at reflections, as its
+// multiscatter glass walk with use_fresnel tints them (bsdf_microfacet_multi_impl.h: `color` on
+// a refraction, interpolate_fresnel_color on a reflection). `interior`: the walk's start (wo's
+// side, `outside` true) is inside the glass.
+struct DielectricWalkTint {
+  const BsdfParams& m;
+  bool interior;
+  // A reflection on the walk's current side at |cos| c to its microfacet.
+  RGB reflection(float c, bool outside) const {
+    if (!m.principled_glass) return m.color;
+    return dielectric_reflection_color(m, outside != interior ? c : -c);  // < 0: from inside
+  }
+  RGB refraction() const { return m.color; }
+};
+
 // One scattering of a dielectric walk at microfacet normal wm (u picks reflection or
 // refraction): a refracted ray crosses to the other side, where the walk goes on in the mirrored
-// frame (direction and height negated, `outside` flipped).
-void walk_step_dielectric(const Ggx& g, WalkRay& r, const Vec3& wm, float eta, float u, bool& outside) {
+// frame (direction and height negated, `outside` flipped). Returns the scattering's colour.
+RGB walk_step_dielectric(const Ggx& g, WalkRay& r, const Vec3& wm, float eta, float u, bool& outside,
+                         const DielectricWalkTint& tint) {
   bool refracted;
+  const float c = -dot(r.w, wm);
   Vec3 w = walk_scatter_dielectric(-r.w, wm, outside ? eta : 1.0f / eta, u, &refracted);
+  const RGB color = refracted ? tint.refraction() : tint.reflection(c, outside);
   if (refracted) {
     outside = !outside;
     w = -w;
     r.h = -r.h;
   }
   r.turn(g, w);
+  return color;
+}
+
+// The cosine of a walk ray arriving along r.w with the microfacet that reflects it into o.
+float walk_reflection_cos(const WalkRay& r, const Vec3& o) {
+  const Vec3 d = o - r.w;
+  return length_squared(d) > 0 ? std::max(0.0f, -dot(r.w, normalize(d))) : 0.0f;
 }
 
 // f(a, b) |b.z| of a dielectric microsurface (a up, relative IOR eta below; the importance
-// form, as dielectric_eval's) tinted by colour at every scattering, estimated by one walk. The
-// walk below the interface sees the microsurface mirrored (direction and height negated, IOR
-// inverted), as [Heitz16] §6 and Cycles.
-RGB walk_eval_dielectric(const Ggx& g, Vec3 a, Vec3 b, float eta, const RGB& color, Rng& rng) {
+// form, as dielectric_eval's) tinted at every scattering (DielectricWalkTint), estimated by one
+// walk. The walk below the interface sees the microsurface mirrored (direction and height
+// negated, IOR inverted), as [Heitz16] §6 and Cycles.
+RGB walk_eval_dielectric(const Ggx& g, Vec3 a, Vec3 b, float eta, const DielectricWalkTint& tint, Rng& rng) {
   bool swapped = false;
   if (b.z > 0.0f && b.z < a.z) {  // reflection only: refraction is not symmetric in (a, b)
     std::swap(a, b);
@@ -595,7 +624,7 @@ RGB walk_eval_dielectric(const Ggx& g, Vec3 a, Vec3 b, float eta, const RGB& col
   single *= b_outside ? area / (lambda_b + area)
                       : area * std::exp(std::lgamma(area) + std::lgamma(lambda_b + 1.0f) - std::lgamma(area + lambda_b + 1.0f));
   // The colour once per scattering: tc holds it for the walk's scatterings so far.
-  RGB fc = color * single;
+  RGB fc = (b_outside ? tint.reflection(walk_reflection_cos(r, b), true) : tint.refraction()) * single;
   RGB tc(1.0f);
   bool outside = true;
   for (int order = 0; order < kWalkOrders; ++order) {
@@ -605,20 +634,21 @@ RGB walk_eval_dielectric(const Ggx& g, Vec3 a, Vec3 b, float eta, const RGB& col
     if (order > 0) {
       const float phase = outside ? walk_phase_dielectric(g, r, b, b_outside, eta)
                                   : walk_phase_dielectric(g, r, -b, !b_outside, 1.0f / eta);
-      fc += tc * color * (phase * walk_G1(b_up, walk_C1(outside == b_outside ? r.h : -r.h), lambda_b));
+      // The last scattering toward b: a reflection where the walk is on b's side.
+      const RGB last = outside == b_outside ? tint.reflection(walk_reflection_cos(r, outside ? b : -b), outside)
+                                            : tint.refraction();
+      fc += tc * last * (phase * walk_G1(b_up, walk_C1(outside == b_outside ? r.h : -r.h), lambda_b));
     }
-    if (order + 1 < kWalkOrders) {
-      walk_step_dielectric(g, r, wm, eta, rng.uniform(), outside);
-      tc *= color;
-    }
+    if (order + 1 < kWalkOrders) tc *= walk_step_dielectric(g, r, wm, eta, rng.uniform(), outside, tint);
   }
   if (swapped) fc *= a.z / b.z;
   return fc;
 }
 
 // One walk from a (up) on a dielectric microsurface: where it escapes (either side) and its
-// throughput (colour per scattering).
-std::optional<WalkExit> walk_sample_dielectric(const Ggx& g, const Vec3& a, float eta, const RGB& color, Rng& rng) {
+// throughput (a colour per scattering, DielectricWalkTint).
+std::optional<WalkExit> walk_sample_dielectric(const Ggx& g, const Vec3& a, float eta, const DielectricWalkTint& tint,
+                                               Rng& rng) {
   WalkRay r;
   r.turn(g, -a);
   RGB throughput(1.0f);
@@ -627,8 +657,7 @@ std::optional<WalkExit> walk_sample_dielectric(const Ggx& g, const Vec3& a, floa
     if (!walk_height(r, rng.uniform())) return WalkExit{outside ? r.w : -r.w, throughput};
     const float u1 = rng.uniform(), u2 = rng.uniform();
     const Vec3 wm = g.sample_visible_from(-r.w, Vec2(u1, u2));
-    walk_step_dielectric(g, r, wm, eta, rng.uniform(), outside);
-    throughput *= color;
+    throughput *= walk_step_dielectric(g, r, wm, eta, rng.uniform(), outside, tint);
   }
   return std::nullopt;
 }
@@ -684,7 +713,8 @@ RGB dielectric_multi_eval(const BsdfParams& m, const Vec3& wo, const Vec3& wi, T
   const DielectricSide d = dielectric_side(m, wo, wi);
   if (d.wo.z == 0 || d.wi.z == 0) return RGB(0.0f);
   Rng rng = walk_rng(walk_key(m.walk_salt, d.wo, d.wi));
-  RGB f = walk_eval_dielectric(Ggx{m.roughness}, d.wo, d.wi, d.eta, m.color, rng) / std::abs(d.wi.z);
+  RGB f = walk_eval_dielectric(Ggx{m.roughness}, d.wo, d.wi, d.eta, DielectricWalkTint{m, d.side < 0}, rng) /
+          std::abs(d.wi.z);
   // Radiance crossing into wo's medium scales by 1 / etap^2 ([Veach97] §5.2), etap = eta here.
   if (d.wi.z < 0 && mode == TransportMode::Radiance) f = f / sqr(d.eta);
   return f;
@@ -702,7 +732,7 @@ std::optional<BsdfSample> dielectric_multi_sample(const BsdfParams& m, const Vec
   const DielectricSide d = dielectric_side(m, wo, wo);
   Rng rng = walk_rng(walk_key(m.walk_salt ^ kSampleSalt, d.wo, Vec3(u.x, u.y, uc)));
   const Ggx g{m.roughness};
-  const auto exit = walk_sample_dielectric(g, d.wo, d.eta, m.color, rng);
+  const auto exit = walk_sample_dielectric(g, d.wo, d.eta, DielectricWalkTint{m, d.side < 0}, rng);
   if (!exit || exit->w.z == 0) return std::nullopt;
   BsdfSample s;
   s.transmission = exit->w.z < 0;
@@ -1025,6 +1055,22 @@ float dielectric_fresnel(const BsdfParams& m, const Vec3& wo, const Vec3& wi, co
   return fresnel_dielectric(dot(w, wm), m.ior);
 }
 
+}  // namespace
+
+// The colour of a glass's reflection at the signed cosine cos_h of the reflecting direction to
+// the microfacet (or shading) normal: the glass colour (Blender's Glass BSDF tints reflection
+// and refraction alike), or, with principled_glass, Cycles 3.4's Principled glass (svm/closure.h:
+// its reflection closure's cspec0 = Base Color * Specular Tint + (1 - Specular Tint), blended
+// toward white by bsdf_util.h's interpolate_fresnel_color at L.H with the glass's IOR, while the
+// Base Color weights the refraction closure alone): white at Specular Tint 0.
+RGB dielectric_reflection_color(const BsdfParams& m, float cos_h) {
+  if (!m.principled_glass) return m.color;
+  const RGB cspec0 = m.color * m.specular_tint + RGB(1.0f - m.specular_tint);
+  return fresnel_principled_metal(cspec0, m.ior, cos_h);  // inside (cos_h < 0): the inverse IOR
+}
+
+namespace {
+
 std::optional<BsdfSample> dielectric_sample_smooth(const BsdfParams& m, const Vec3& wo, float uc,
                                                    TransportMode mode) {
   if (wo.z == 0) return std::nullopt;
@@ -1035,7 +1081,7 @@ std::optional<BsdfSample> dielectric_sample_smooth(const BsdfParams& m, const Ve
   if (uc < R / (R + T)) {
     // Specular reflection: f = R / |cos| chosen with probability R.
     s.wi = mirror_z(wo);
-    s.f = m.color * (R / abs_cos_theta(s.wi));
+    s.f = dielectric_reflection_color(m, cos_theta(wo)) * (R / abs_cos_theta(s.wi));
     s.pdf = R / (R + T);
     return s;
   }
@@ -1076,7 +1122,8 @@ RGB dielectric_eval_rough(const BsdfParams& m, const Dist& ggx, const Vec3& wo, 
   const float cos_o = cos_theta(wo), cos_i = cos_theta(wi);
   if (reflect_pair) {
     // [Walter07] eq. 20.
-    return m.color * (ggx.D(wm) * glass_G(m, ggx, wo, wi) * lobe_R(m, F, Fn) / std::abs(4.0f * cos_i * cos_o));
+    return dielectric_reflection_color(m, dot(wo, wm)) *
+           (ggx.D(wm) * glass_G(m, ggx, wo, wi) * lobe_R(m, F, Fn) / std::abs(4.0f * cos_i * cos_o));
   }
   // [Walter07] eq. 21 divided through by eta_o^2 (pbrt-v4's form). This is the importance
   // (adjoint) BTDF; radiance reaching wo's medium scales by 1/etap^2 ([Veach97] §5.2).
@@ -1141,7 +1188,8 @@ std::optional<BsdfSample> dielectric_sample_rough(const BsdfParams& m, const Dis
     const float R_f = lobe_R(m, F, normal_fresnel(m, camera_side(wo, wi, mode)));
     s.wi = wi;
     s.pdf = ggx.D_visible(wo, wm) / (4.0f * std::abs(wo_dot_wm)) * R / (R + T);          // eq. 14
-    s.f = m.color * (ggx.D(wm) * glass_G(m, ggx, wo, wi) * R_f / std::abs(4.0f * cos_i * cos_o));  // eq. 20
+    s.f = dielectric_reflection_color(m, dot(wo, wm)) *
+          (ggx.D(wm) * glass_G(m, ggx, wo, wi) * R_f / std::abs(4.0f * cos_i * cos_o));  // eq. 20
   } else {
     Vec3 wi;
     float etap = 1.0f;
@@ -1628,6 +1676,8 @@ BsdfParams bsdf_params(const Material& m, const shading::ShadingContext& ctx, bo
   p.anisotropy = m.anisotropy;
   p.refraction_only = m.refraction_only;
   p.fresnel_at_normal = m.fresnel_at_normal;
+  p.principled_glass = m.principled_glass;
+  p.separable_masking = m.separable_masking;
   p.coat_albedo = m.coat_albedo.get();
   p.mix_factor = m.factor_tex ? m.factor_tex.value(uv) : m.mix_factor;
   p.mix_add = m.mix_add;

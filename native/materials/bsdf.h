@@ -62,6 +62,8 @@ struct BsdfParams {
   float anisotropy = 0.0f;  // Material::anisotropy (local x is the tangent)
   bool refraction_only = false;  // Material::refraction_only
   bool fresnel_at_normal = false;  // Material::fresnel_at_normal
+  bool principled_glass = false;   // Material::principled_glass (reads specular_tint)
+  bool separable_masking = false;  // Material::separable_masking
   const std::vector<float>* coat_albedo = nullptr;  // plastic (Material::coat_albedo)
   float mix_factor = 0.5f;
   bool mix_add = false;
@@ -235,5 +237,10 @@ void prepare_material(Material& m);
 // Fresnel reflectance of a dielectric interface for cos_i (signed: < 0 means from inside)
 // and relative IOR eta = n_inside / n_outside.
 float fresnel_dielectric(float cos_i, float eta);
+
+// The colour of a dielectric's reflection at the signed cosine cos_h of the reflected direction
+// to the microfacet (or shading) normal: its colour, or Cycles 3.4's Principled glass's
+// (BsdfParams::principled_glass).
+RGB dielectric_reflection_color(const BsdfParams& m, float cos_h);
 
 }  // namespace gp

@@ -105,6 +105,16 @@ struct Material {
   // Fresnel per microfacet (the scene format's default; Multiscatter GGX glass is one closure
   // with its own per-microfacet Fresnel in Cycles too and ignores this).
   bool fresnel_at_normal = false;
+  // Dielectric: Cycles 3.4's Principled glass (svm/closure.h): the colour tints the refraction
+  // only; the reflection is white blended toward the colour by specular_tint through Cycles'
+  // interpolate_fresnel_color (bsdf.cpp dielectric_reflection_color). Off: the colour tints
+  // both (Blender's Glass BSDF; the scene format's default).
+  bool principled_glass = false;
+  // Conductor and principled GGX lobes: Smith's masking-shadowing as the separable G1(wo) G1(wi)
+  // (Cycles 3.4's bsdf_microfacet.h, what the Blender exporter writes) instead of the
+  // height-correlated G ([Heitz14] eq. 99, the scene format's default). Anisotropic GGX is
+  // separable either way, Beckmann always is, Multiscatter GGX's walk is its own.
+  bool separable_masking = false;
   // Emitted radiance (W sr^-1 m^-2) = emission * strength; any type may emit.
   RGB emission{0.0f};
   float emission_strength = 0.0f;

@@ -100,12 +100,19 @@ class Loader : private JsonReader {
         keys.insert(keys.end(), {"color", "roughness"});  // roughness: Oren-Nayar sigma (bsdf.cpp)
       } else if (type == "conductor") {
         mat.type = MaterialType::Conductor;
-        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior", "distribution"});
+        keys.insert(keys.end(), {"color", "roughness", "fresnel", "ior", "distribution", "masking"});
         if (const json* f = find(m, "fresnel")) mat.conductor_fresnel = load_conductor_fresnel(*f, sub(mpath, "fresnel"));
       } else if (type == "dielectric") {
         mat.type = MaterialType::Dielectric;
         mat.color = RGB(1.0f);
-        keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe", "distribution", "fresnel"});
+        keys.insert(keys.end(), {"color", "ior", "roughness", "cauchy_b", "abbe", "distribution", "fresnel",
+                                 "specular_tint"});
+        // "specular_tint" (Cycles 3.4's Principled glass, Material::principled_glass): its presence
+        // leaves the reflection white, tinted toward "color" by its value (a link: load_graph_inputs).
+        if (const json* v = find(m, "specular_tint")) {
+          mat.principled_glass = true;
+          if (!shading::is_link(*v)) mat.specular_tint = get_in_range(*v, sub(mpath, "specular_tint"), 0.0f, 1.0f);
+        }
         // "fresnel": "microfacet" (Walter et al.'s, the default) or "normal" (Cycles 3.4's Glass
         // BSDF split, Material::fresnel_at_normal).
         if (const json* f = find(m, "fresnel")) {
@@ -150,7 +157,7 @@ class Loader : private JsonReader {
       } else if (type == "plastic" || type == "principled") {
         mat.type = type == "plastic" ? MaterialType::Plastic : MaterialType::Principled;
         keys.insert(keys.end(), {"color", "roughness", "ior"});
-        if (type == "principled") keys.push_back("distribution");
+        if (type == "principled") keys.insert(keys.end(), {"distribution", "masking"});
         if (type == "principled") {
           // Cycles' Specular Tint, Sheen and Sheen Tint (constants here; links: load_graph_inputs).
           keys.insert(keys.end(), {"specular_tint", "sheen", "sheen_tint"});
@@ -186,6 +193,14 @@ class Loader : private JsonReader {
         fail(sub(mpath, "type"),
              fmt::format("unknown material type '{}' (known: diffuse, conductor, dielectric, emission, plastic, "
                          "principled, clearcoat, mix, add, transparent, refraction, translucent, velvet, volume)", type));
+      }
+      if (const json* k = find(m, "masking"); k && std::find(keys.begin(), keys.end(), "masking") != keys.end()) {
+        // "correlated" (the height-correlated Smith G, the default) or "separable" (Cycles 3.4's
+        // G1 G1, Material::separable_masking).
+        const std::string kpath = sub(mpath, "masking"), v = get_string(*k, kpath);
+        if (v == "separable") mat.separable_masking = true;
+        else if (v != "correlated")
+          fail(kpath, fmt::format("unknown masking '{}' (known: \"correlated\", \"separable\")", v));
       }
       if (const json* d = find(m, "distribution"); d && std::find(keys.begin(), keys.end(), "distribution") != keys.end()) {
         // Blender's microfacet distributions (material.h Microfacet), those each closure has in

@@ -9,7 +9,7 @@ import scenes
 from test_cycles_brightness import relmse, render_both
 
 SIZE = (48, 36)
-MEAN_TOL = 0.01  # the 1 %; measured (2026-11-27) 1.0000-1.0065, GGX's own 1.0045 / 1.0070
+MEAN_TOL = 0.01  # the 1 %; measured (2026-11-27) 0.9996-1.0031, GGX's own 1.0015 / 1.0000 (separable masking)
 RELMSE = 0.016   # measured at most 0.0082
 
 

@@ -1447,6 +1447,100 @@ TEST(BsdfReference, CyclesGlassIsNormalFresnelTimesLobesWithoutFresnel) {
     }
 }
 
+// Cycles 3.4's Principled glass (svm/closure.h): the Base Color weights the refraction only; the
+// reflection's colour is cspec0 = mix(white, Base Color, Specular Tint) blended toward white by
+// interpolate_fresnel_color at L.H. The Glass BSDF (principled_glass off) tints both.
+TEST(BsdfReference, PrincipledGlassReflectionIsWhiteUnlessTinted) {
+  const RGB red(0.8f, 0.15f, 0.05f);
+  Rng rng(37, 0);
+  int reflections = 0, transmissions = 0;
+  for (float alpha : {0.0f, 0.09f}) {
+    Material glass = cycles_glass(alpha, Microfacet::GGX, red);
+    Material principled = glass;
+    principled.principled_glass = true;
+    Material tinted = principled;
+    tinted.specular_tint = 0.7f;
+    const Bsdf bg(glass), bp(principled), bt(tinted);
+    for (int i = 0; i < 2000; ++i) {
+      const Vec3 wo = random_direction(rng);
+      const float uc = rng.uniform();
+      const Vec2 u(rng.uniform(), rng.uniform());
+      const auto g = bg.sample(wo, uc, u), p = bp.sample(wo, uc, u), t = bt.sample(wo, uc, u);
+      ASSERT_EQ(g.has_value(), p.has_value());
+      if (!g) continue;
+      ASSERT_EQ(g->wi.z, p->wi.z);  // the colour changes no lobe choice nor direction
+      if (g->transmission) {  // refraction: tinted alike
+        ASSERT_LT(rel_diff(g->f, p->f, 1e-6f), 1e-5f);
+        ++transmissions;
+        continue;
+      }
+      ++reflections;
+      const float grey = g->f.r / red.r;  // the reflection's magnitude without its colour
+      ASSERT_LT(rel_diff(p->f, RGB(grey), 1e-6f), 1e-4f);  // white
+      // Tinted: cspec0 blended toward white by FH = (F(cos_h) - F0) / (1 - F0), cos_h = wo.wm.
+      // From inside (wo.z < 0) the Fresnel sees the inverse IOR: the signed cosine.
+      const float cos_h = absdot(wo, normalize(wo + t->wi)) * (wo.z > 0 ? 1.0f : -1.0f);
+      const float f0 = fresnel_dielectric(1.0f, 1.5f);
+      const float fh = (fresnel_dielectric(cos_h, 1.5f) - f0) / (1.0f - f0);
+      const RGB cspec0 = red * 0.7f + RGB(0.3f);
+      ASSERT_LT(rel_diff(t->f, (cspec0 * (1.0f - fh) + RGB(fh)) * grey, 1e-6f), 2e-3f);
+      // Eval agrees with the sample (rough lobes).
+      if (alpha > 0.0f) ASSERT_LT(rel_diff(bp.eval(wo, p->wi), p->f, 1e-6f), 2e-3f);
+    }
+  }
+  EXPECT_GT(reflections, 200);
+  EXPECT_GT(transmissions, 1000);
+  // Multiscatter GGX: the walk's reflections white, its refractions red. Walks that leave on
+  // wo's side carry, in green, most of white's weight (a Glass BSDF's carry 0.15 of it or less).
+  Material walk = cycles_glass(0.3f, Microfacet::MultiGGX, red);
+  walk.fresnel_at_normal = false;
+  Material pwalk = walk;
+  pwalk.principled_glass = true;
+  Material white = walk;
+  white.color = RGB(1.0f);
+  double g_glass = 0, g_principled = 0, g_white = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 wo = wo_at(0.7f);
+    const float uc = rng.uniform();
+    const Vec2 u(rng.uniform(), rng.uniform());
+    const auto a = Bsdf(walk).sample(wo, uc, u), b = Bsdf(pwalk).sample(wo, uc, u), c = Bsdf(white).sample(wo, uc, u);
+    if (!a || !b || !c || a->transmission) continue;
+    g_glass += a->f.g / a->pdf, g_principled += b->f.g / b->pdf, g_white += c->f.g / c->pdf;
+  }
+  std::printf("reflected green: glass %.4f, principled %.4f, white %.4f\n", g_glass, g_principled, g_white);
+  EXPECT_GT(g_white, 0.0);
+  EXPECT_LE(g_glass, 0.16 * g_white);
+  EXPECT_GT(g_principled, 0.8 * g_white);
+}
+
+// Cycles 3.4's GGX reflection masks by the separable G1(wo) G1(wi) (bsdf_microfacet.h): the
+// conductor's separable_masking; the default is the height-correlated G ([Heitz14] eq. 99).
+TEST(BsdfReference, SeparableMaskingIsG1TimesG1) {
+  Rng rng(41, 0);
+  Material correlated = make(MaterialType::Conductor, 0.5f, RGB(0.9f, 0.7f, 0.5f));
+  correlated.conductor_fresnel = ConductorFresnel::None;
+  Material separable = correlated;
+  separable.separable_masking = true;
+  const Bsdf bc(correlated), bs(separable);
+  int n = 0;
+  for (int i = 0; i < 4000; ++i) {
+    Vec3 wo = random_direction(rng), wi = random_direction(rng);
+    if (wo.z < 0) wo = -wo;
+    if (wi.z < 0) wi = -wi;
+    const double g1o = walter::G1(walter::to_d3(wo), 0.5), g1i = walter::G1(walter::to_d3(wi), 0.5);
+    // G1 G1 / G_correlated = G1o G1i (1 / G1o + 1 / G1i - 1).
+    const float ratio = static_cast<float>(g1o * g1i * (1 / g1o + 1 / g1i - 1));
+    const RGB c = bc.eval(wo, wi), s = bs.eval(wo, wi);
+    if (c.is_black()) continue;
+    ASSERT_LT(rel_diff(s, c * ratio, 1e-6f), 2e-3f);
+    EXPECT_LE(ratio, 1.0f + 1e-5f);
+    const auto smp = bs.sample(wo, 0.5f, Vec2(rng.uniform(), rng.uniform()));
+    if (smp) ASSERT_LT(rel_diff(smp->f, bs.eval(wo, smp->wi), 1e-6f), 2e-3f);
+    ++n;
+  }
+  EXPECT_GT(n, 3000);
+}
+
 TEST(Bsdf, TransparentIsATintedDeltaPassThrough) {
   const Bsdf red(transparent(RGB(1.0f, 0.1f, 0.1f)));
   EXPECT_TRUE(red.is_delta());
@@ -1863,6 +1957,10 @@ TEST(Multiscatter, SampleAndEvalAreOneBsdf) {
   const Material glossy = multi(MaterialType::Conductor, 0.6f, RGB(0.9f, 0.6f, 0.3f));
   const Material white = multi(MaterialType::Conductor, 1.0f);
   const Material glass = multi(MaterialType::Dielectric, 0.5f, RGB(0.9f, 0.8f, 0.7f));
+  // Cycles' Principled glass: refractions tinted red, reflections by cspec0's Fresnel blend.
+  Material pglass = multi(MaterialType::Dielectric, 0.5f, RGB(0.8f, 0.15f, 0.05f));
+  pglass.principled_glass = true;
+  pglass.specular_tint = 0.6f;
   const struct {
     const char* name;
     Material m;
@@ -1881,6 +1979,8 @@ TEST(Multiscatter, SampleAndEvalAreOneBsdf) {
       {"glass outside, importance", glass, 0.6f, TransportMode::Importance},
       {"glass inside, radiance", glass, -0.8f, TransportMode::Radiance},
       {"glass inside, importance", glass, -0.3f, TransportMode::Importance},
+      {"principled glass outside, radiance", pglass, 0.6f, TransportMode::Radiance},
+      {"principled glass inside, radiance", pglass, -0.8f, TransportMode::Radiance},
   };
   uint64_t seed = 700;
   for (const auto& c : cases) {

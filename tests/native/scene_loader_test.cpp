@@ -776,6 +776,35 @@ TEST(SceneLoader, DielectricFresnelIsMicrofacetUnlessCyclesSplitAsked) {
   EXPECT_NE(not_string.find("/materials/g/fresnel"), std::string::npos) << not_string;
 }
 
+TEST(SceneLoader, PrincipledGlassAndSeparableMaskingAreAskedFor) {
+  const Scene s = from_text(R"({"materials": {
+      "glass": {"type": "dielectric", "roughness": 0.3, "color": [0.8, 0.1, 0.1]},
+      "pglass": {"type": "dielectric", "roughness": 0.3, "color": [0.8, 0.1, 0.1], "specular_tint": 0.25},
+      "metal": {"type": "conductor", "roughness": 0.3},
+      "cmetal": {"type": "conductor", "roughness": 0.3, "masking": "correlated"},
+      "smetal": {"type": "conductor", "roughness": 0.3, "masking": "separable"},
+      "splastic": {"type": "principled", "roughness": 0.3, "masking": "separable"}},
+    "objects": [{"type": "sphere", "center": [0, 0, 1], "radius": 1, "material": "glass"}]})");
+  for (const Material& m : s.materials) {
+    EXPECT_EQ(m.principled_glass, m.name == "pglass") << m.name;
+    EXPECT_EQ(m.separable_masking, m.name == "smetal" || m.name == "splastic") << m.name;
+    if (m.name == "pglass") EXPECT_FLOAT_EQ(m.specular_tint, 0.25f);
+  }
+  EXPECT_EQ(s.warnings.count("unknown key"), 0u);
+  const std::string bad = scene_error([] {
+    from_text(R"({"materials": {"g": {"type": "conductor", "masking": "smith"}}})");
+  });
+  EXPECT_NE(bad.find("/materials/g/masking: unknown masking 'smith'"), std::string::npos) << bad;
+  const std::string range = scene_error([] {
+    from_text(R"({"materials": {"g": {"type": "dielectric", "specular_tint": 2}}})");
+  });
+  EXPECT_NE(range.find("/materials/g/specular_tint"), std::string::npos) << range;
+  // Not a key of glass: masking (its own G follows "fresnel").
+  const Scene w = from_text(R"({"materials": {"g": {"type": "dielectric", "masking": "separable"}},
+    "objects": [{"type": "sphere", "center": [0, 0, 1], "radius": 1, "material": "g"}]})");
+  EXPECT_EQ(w.warnings.count("unknown key"), 1u);
+}
+
 TEST(SceneLoader, PrincipledLobesAndClearcoat) {
   const Scene s = from_text(R"({"camera": {"position": [0, -5, 1], "look_at": [0, 0, 1], "width": 8, "height": 8},
     "materials": {

@@ -89,6 +89,11 @@ def _distribution(d, node):
     name = _DISTRIBUTIONS.get(distribution)
     if name is not None:
         d["distribution"] = name
+    elif distribution == 'GGX' and d.get("type") in ("conductor", "principled"):
+        # Cycles 3.4's GGX reflection (bsdf_microfacet.h eval_reflect, Glossy and Principled's
+        # specular and metal lobes) masks by the separable G1(wo) G1(wi), not the core's default
+        # height-correlated G.
+        d["masking"] = "separable"
 
 
 def _is_link(v):
@@ -458,6 +463,10 @@ class MaterialExporter:
             del glass["distribution"]
         if glass.get("distribution") != "multi_ggx":
             glass["fresnel"] = "normal"
+        # Cycles 3.4 (svm/closure.h): the Base Color weights Principled glass's refraction only; its
+        # reflection is white, tinted toward the Base Color by Specular Tint through the Fresnel
+        # blend (cspec0). The dielectric's "specular_tint" asks for that (the Glass BSDF tints both).
+        glass["specular_tint"] = spec_tint
         if not _is_link(t_glass) and t_glass >= 1.0:
             d = glass
         elif _positive(t_glass):

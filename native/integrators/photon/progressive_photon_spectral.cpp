@@ -52,7 +52,8 @@ bool scatter_factors(const Scene& scene, const SurfaceHit& hit, const BsdfParams
         f = b.eval(wo, bs.wi, mode)[0];
       }
     } else if (!bs.transmission) {  // smooth dispersive reflection: the same mirror direction
-      f = mk[k].color.r * fresnel_dielectric(cos_theta(wo), mk[k].ior) / std::abs(bs.wi.z);
+      f = dielectric_reflection_color(mk[k], cos_theta(wo)).r * fresnel_dielectric(cos_theta(wo), mk[k].ior) /
+          std::abs(bs.wi.z);
     } else {  // smooth dispersive refraction: no other wavelength goes this way
       f = 0;
       refracted = true;

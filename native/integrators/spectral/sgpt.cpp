@@ -68,7 +68,7 @@ Scatter delta_scatter(const Bsdf& b, const Vec3& wo, const Vec3& wi, bool transm
   if (m.type == MaterialType::Dielectric) {
     const float R = fresnel_dielectric(cos_theta(wo), m.ior);
     if (!transmission) {
-      s.f_cos = m.color.r * R;
+      s.f_cos = dielectric_reflection_color(m, cos_theta(wo)).r * R;
       s.pdf = R;
     } else {
       const Etas e = dielectric_etas(m.ior, wo.z, true);

@@ -262,7 +262,7 @@ struct SpectralPath {
         pdf[k] = b.pdf(wo, bs->wi);
       } else if (!bs->transmission) {  // smooth dispersive reflection: same mirror direction
         const float R = fresnel_dielectric(cos_theta(wo), mk[k].ior);
-        f[k] = mk[k].color.r * R / std::abs(bs->wi.z);
+        f[k] = dielectric_reflection_color(mk[k], cos_theta(wo)).r * R / std::abs(bs->wi.z);
         pdf[k] = R;  // lobe selection probability R / (R + T)
       } else {  // smooth dispersive refraction: no other wavelength goes this way
         f[k] = 0.0f;
