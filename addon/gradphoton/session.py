@@ -367,6 +367,10 @@ class RenderSession:
                 self.report('WARNING', f"gradphoton: {line}", defer=True)
         for line in self.session.feature_report:  # a scene feature the method leaves out (media)
             self.report('WARNING', f"gradphoton: {line}", defer=True)
+        if settings.stop_rule == 'ERROR':  # what Target Error asks that the method cannot give (media)
+            for line in self.session.stop_report(seconds=getattr(settings, "error_time_limit", 0.0),
+                                                 target_error=settings.target_error):
+                self.report('WARNING', f"gradphoton: {line}", defer=True)
         if scene.render.film_transparent and (FILM_TRANSPARENT in self.session.unused_params
                                               or FILM_TRANSPARENT not in params):
             self.report('WARNING', f"gradphoton: {self.session.method} has no transparent film: "
@@ -430,10 +434,12 @@ class RenderSession:
                     break
                 if done:
                     if progress.timed_out(error):
-                        self.report('INFO', f"gradphoton: Time Limit reached at estimated error {error or 0:.4f} "
+                        at = (f"at estimated error {error:.4f}" if error is not None and error >= 0
+                              else "without an error estimate")
+                        self.report('INFO', f"gradphoton: Time Limit reached {at} "
                                             f"(Target Error {progress.target:g})", defer=True)
                     break
-                if progress.rule == 'ERROR' and error < 0 and n >= 1:
+                if progress.rule == 'ERROR' and error < 0 and n >= 1 and progress.error_seconds <= 0:
                     self.report('ERROR', f"gradphoton: method '{settings.method}' has no error estimate; "
                                          "choose a time or pass stop rule")
                     break

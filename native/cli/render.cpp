@@ -180,6 +180,7 @@ int run_render(const RenderArgs& a) {
   stop.passes = a.passes;
   stop.target_error = a.target_error;
   if (stop.seconds <= 0 && stop.passes <= 0 && stop.target_error <= 0) stop.passes = 16;
+  for (const auto& line : session.stop_report(stop)) fmt::print(stderr, "warning: {}\n", line);
   CliProgress progress(session, a.checkpoints, a.out);
   g_sink = &progress;
   std::signal(SIGINT, on_sigint);

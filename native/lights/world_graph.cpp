@@ -279,13 +279,20 @@ WorldGraphFrame world_graph_frame(const json& env, const std::string& images) {
 
 // The graph's terms baked (WorldGraph::Term): what its sampling is combined from by the terms'
 // weights. Shared by the graphs of one terms_key (sums) while a WorldBake holds it.
-struct WorldTermsBake {
-  BakedTerms grid;     // without the sun discs that `cones` sample
-  float frame[3][3];   // the graph's it was baked for
+// What both bakes keep of the frame they were baked for, and of a sun's cone: written once.
+struct BakedFrame {
+  float frame[3][3];  // the graph's it was baked for
   float strength = 1.0f;
-  struct Cone {
-    Vec3 dir;  // in the baked graph's World
-    double half = 0, one_minus_cos = 0;
+};
+struct SunCone {
+  Vec3 dir;  // in the baked graph's World
+  double half = 0, one_minus_cos = 0;
+};
+
+struct WorldTermsBake {
+  BakedTerms grid;  // without the sun discs that `cones` sample
+  BakedFrame at;
+  struct Cone : SunCone {
     std::vector<RGB> integral;  // per term: its value over the cone
   };
   std::vector<Cone> cones;
@@ -294,12 +301,9 @@ struct WorldTermsBake {
 struct WorldBake {
   std::shared_ptr<const WorldTermsBake> terms;  // kept for re-weighting (sums only)
   BakedDirections grid;  // without the sun discs that `cones` sample
-  float frame[3][3];     // the graph's it was baked for
-  float strength = 1.0f;
-  struct Cone {
-    Vec3 dir;                  // in the baked graph's World
-    double half = 0, one_minus_cos = 0;
-    float p = 0;               // probability of this cone in sample()
+  BakedFrame at;
+  struct Cone : SunCone {
+    float p = 0;  // probability of this cone in sample()
   };
   std::vector<Cone> cones;
   float p_cones = 0;
@@ -411,13 +415,13 @@ WorldGraph::WorldGraph(std::shared_ptr<const shading::ShaderProgram> program, st
   // (s1 / s0) x that graph along F0^T F1 d (a rotation: the density moves, unscaled). A bake of
   // this graph's own frame (the same rotation, or terms re-weighted in it) is used as it is, so
   // that it samples bit for bit as a fresh bake (F^T F is the identity only up to rounding).
-  if (reused_) scale_ = frame->strength / baked_->strength;
-  if ((reused_ || reused_terms_) && std::memcmp(baked_->frame, frame->frame, sizeof frame->frame) != 0) {
+  if (reused_) scale_ = frame->strength / baked_->at.strength;
+  if ((reused_ || reused_terms_) && std::memcmp(baked_->at.frame, frame->frame, sizeof frame->frame) != 0) {
     turned_ = true;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
         float q = 0;
-        for (int k = 0; k < 3; ++k) q += baked_->frame[k][i] * frame->frame[k][j];
+        for (int k = 0; k < 3; ++k) q += baked_->at.frame[k][i] * frame->frame[k][j];
         q_[i][j] = q;
       }
   }
@@ -510,9 +514,8 @@ RGB WorldGraph::eval(const Vec3& dir, const RayState& ray) const {
 
 std::shared_ptr<const WorldTermsBake> WorldGraph::bake_terms(int width, const WorldGraphFrame& frame) const {
   auto t = std::make_shared<WorldTermsBake>();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) t->frame[i][j] = frame.frame[i][j];
-  t->strength = frame.strength;
+  std::memcpy(t->at.frame, frame.frame, sizeof t->at.frame);
+  t->at.strength = frame.strength;
   // Each term's value as a light sample sees the World (no path flags): one program run for all.
   const auto values = [this](const Vec3& d, RGB* out) {
     const Vec3* regs = run(d, RayState());
@@ -559,9 +562,7 @@ std::shared_ptr<const WorldTermsBake> WorldGraph::bake_terms(int width, const Wo
 std::shared_ptr<const WorldBake> WorldGraph::combine(std::shared_ptr<const WorldTermsBake> terms, bool keep) const {
   const WorldTermsBake& t = *terms;
   auto b = std::make_shared<WorldBake>();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) b->frame[i][j] = t.frame[i][j];
-  b->strength = t.strength;
+  b->at = t.at;
   std::vector<float> weights;
   for (const Term& term : terms_) weights.push_back(term.weight);
   b->grid = combine_direction_terms(t.grid, weights, constant_);
@@ -575,9 +576,7 @@ std::shared_ptr<const WorldBake> WorldGraph::combine(std::shared_ptr<const World
     if (!constant_.is_black()) integral += constant_ * static_cast<float>(2.0 * M_PI * tc.one_minus_cos);
     if (!(integral.average() > 0) || !std::isfinite(integral.average())) continue;  // below the horizon: dark
     WorldBake::Cone c;
-    c.dir = tc.dir;
-    c.half = tc.half;
-    c.one_minus_cos = tc.one_minus_cos;
+    static_cast<SunCone&>(c) = tc;
     b->integral += integral;
     power.push_back(integral.average());
     b->cones.push_back(c);

@@ -227,6 +227,9 @@ class Session {
   bool stale() const { return session_.stale(); }
   const std::vector<std::string>& unused_report() const { return session_.unused_report(); }
   const std::vector<std::string>& feature_report() const { return session_.feature_report(); }
+  std::vector<std::string> stop_report(double seconds, int64_t passes, double target_error) const {
+    return session_.stop_report(StopRule{seconds, passes, target_error});
+  }
   const std::vector<std::string>& passes() const { return session_.passes(); }
   std::string method() const { return session_.integrator().name(); }
   double estimated_error() const { return session_.integrator().estimated_error(); }
@@ -746,6 +749,10 @@ void bind_session(py::module_& m) {
                              "with these settings")
       .def_property_readonly("feature_report", &Session::feature_report,
                              "One line per scene feature the method leaves out (participating media), naming it")
+      .def("stop_report", &Session::stop_report, py::arg("seconds") = 0.0, py::arg("passes") = 0,
+           py::arg("target_error") = 0.0,
+           "One line per thing this stop rule asks that the method cannot give on this scene (a Target Error "
+           "with media)")
       .def_property_readonly("passes", &Session::passes,
                              "The passes develop() writes, as the method declares them for these params on this "
                              "scene ('alpha' with Film > Transparent or a holdout in the scene), the auxiliary "

@@ -37,12 +37,6 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
     feature_report_.push_back(fmt::format("method '{}' does not render grid (OpenVDB) media yet: the scene's media "
                                           "are left out and only its surfaces render ({} render them)",
                                           method, fmt::join(with_grids, ", ")));
-  } else if (scene_->has_media() && find_method(method).error_estimate) {
-    // The error model of thesis ch. 6 is the surface disc's; the beam estimate has none yet.
-    feature_report_.push_back(fmt::format("method '{}' estimates no error with participating media: its error pass "
-                                          "is 0, and a Target Error stop (--target-error) also needs a time or pass limit "
-                                          "(docs/photon-mapping.md)",
-                                          method));
   }
   if (scene_->has_motion() && !find_method(method).supports.motion_blur) {
     std::vector<std::string> with_blur;
@@ -65,6 +59,19 @@ RenderSession::RenderSession(std::shared_ptr<const Scene> scene, const std::stri
                                           method, fmt::join(with, ", ")));
   }
   aov_ = std::make_unique<AovEstimator>(*scene_, params_.get<uint64_t>("seed", 0), params_.get<int>("threads", 0));
+}
+
+std::vector<std::string> RenderSession::stop_report(const StopRule& stop) const {
+  std::vector<std::string> lines;
+  // The error model of thesis ch. 6 is the surface disc's; the beam estimate has none yet. Said
+  // only to a render whose stop asks for it (a Target Error): run_progressive refuses one with no
+  // other limit, so this one stops on its time or pass limit.
+  if (stop.target_error > 0 && scene_->has_media() && method().error_estimate)
+    lines.push_back(fmt::format("method '{}' estimates no error with participating media: the Target Error "
+                                "is never reached and the render stops on its time or pass limit; the error pass "
+                                "is 0 (docs/photon-mapping.md)",
+                                integrator_->name()));
+  return lines;
 }
 
 void RenderSession::check_fresh() const {

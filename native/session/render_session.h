@@ -53,6 +53,9 @@ class RenderSession {
   // Warnings on scene features the method leaves out ("method 'sppm' does not render
   // participating media yet: ..."), for every front end to show.
   const std::vector<std::string>& feature_report() const { return feature_report_; }
+  // Warnings on what a stop rule asks of this method and scene that it cannot give (a Target
+  // Error where media leave it without an error estimate), for every front end to show.
+  std::vector<std::string> stop_report(const StopRule& stop) const;
   // The passes the method's develop() writes with these parameters on this scene, as it declares
   // them (Method::passes_with: alpha with a transparent film or a holdout), the auxiliary ones aside.
   const std::vector<std::string>& passes() const { return passes_; }

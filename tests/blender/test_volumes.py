@@ -169,6 +169,28 @@ def test_method_without_media_says_so(empty_scene):
     assert native.get().Session(ex.build(native.get()), "pt", {"seed": 1}).feature_report == []
 
 
+
+def test_media_error_warning_only_for_a_target_error(empty_scene):
+    """SPPM renders media but estimates no error there (thesis ch. 6 models the surface disc):
+    said to a render whose stop is a Target Error, which then runs to its Time Limit, and not to
+    a Time or Samples render (it was one line on every render of such a scene)."""
+    from gradphoton import session
+    volume_cube_scene(empty_scene)
+    empty_scene.render.resolution_x, empty_scene.render.resolution_y = 32, 24
+    s = empty_scene.gradphoton
+    s.method = "sppm"
+    s.sppm.use_auto_photons, s.sppm.photons = False, 2000
+    s.stop_rule, s.passes = "PASSES", 2
+    bpy.ops.render.render()
+    said = [m for _, m in session.REPORTS if "estimates no error" in m]
+    assert said == [], session.REPORTS
+    s.stop_rule, s.target_error, s.error_time_limit = "ERROR", 1e-4, 0.5
+    bpy.ops.render.render()
+    said = [m for _, m in session.REPORTS if "estimates no error" in m]
+    assert len(said) == 1 and "method 'sppm'" in said[0], session.REPORTS
+    assert any("Time Limit reached" in m for _, m in session.REPORTS), session.REPORTS  # ran on, no error break
+    assert not any(level == 'ERROR' for level, _ in session.REPORTS), session.REPORTS
+
 # ---- Volume objects: a .vdb file's grids (export/volume_object.py) ----
 
 def write_blob_vdb(path, n=12):

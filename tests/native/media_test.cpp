@@ -484,12 +484,20 @@ TEST(MediaMethods, MethodsWithoutMediaSayItOnceNamingThemselves) {
     Params p;
     p.set("seed", 1);
     RenderSession session(scene, m.name, p);
-    if (m.supports.media && m.error_estimate) {  // ppm, sppm: media rendered, no error estimate
-      ASSERT_EQ(session.feature_report().size(), 1u) << m.name;
-      EXPECT_NE(session.feature_report()[0].find("method '" + m.name + "' estimates no error with participating media"),
-                std::string::npos);
-    } else if (m.supports.media) {
+    if (m.supports.media) {
+      // Media rendered: nothing to say, unless a Target Error asks an estimate the method
+      // cannot make there (ppm, sppm): then only to that stop rule, not to a time or pass one.
       EXPECT_TRUE(session.feature_report().empty()) << m.name;
+      EXPECT_TRUE(session.stop_report(StopRule{60, 0, 0}).empty()) << m.name;
+      EXPECT_TRUE(session.stop_report(StopRule{0, 16, 0}).empty()) << m.name;
+      const auto lines = session.stop_report(StopRule{60, 0, 0.01});
+      if (m.error_estimate) {
+        ASSERT_EQ(lines.size(), 1u) << m.name;
+        EXPECT_NE(lines[0].find("method '" + m.name + "' estimates no error with participating media"),
+                  std::string::npos);
+      } else {
+        EXPECT_TRUE(lines.empty()) << m.name;
+      }
     } else {
       ASSERT_EQ(session.feature_report().size(), 1u) << m.name;
       EXPECT_NE(session.feature_report()[0].find("method '" + m.name + "' does not render participating media"),

@@ -71,7 +71,13 @@ double Msppm::mis_weight(const std::vector<PathVertex>& y, int technique, double
     } else if (l.type == LightType::Environment) {
       p_nee = lights.pdf_environment(-lv.dir);
     } else {
-      p_nee = pmf;  // delta lights: the selection probability (the delta left out)
+      // Delta lights: the selection probability (the delta left out). A point or spot light of
+      // radius r is a disk here: next-event estimation draws a point of the disk facing y_{k-1}
+      // and the photon one of the disk across its direction (light.cpp, emission_origin), both
+      // at 1 / (pi r^2), which cancels as the delta does; the two disks differ by an angle of
+      // order r / |y_{k-1} - centre|. The weights stay a partition of unity (every technique
+      // computes them from the same path), so only their balance is off by that order.
+      p_nee = pmf;
     }
   }
   const bool hit_ok = lv.light >= 0 && (lights.lights()[lv.light].type == LightType::Area ||
