@@ -71,9 +71,11 @@ TEST(PhotonGatherSide, BothSidesOnlyWhereTheBsdfTransmits) {
   EXPECT_FALSE(Bsdf(diffuse).transmits());
 }
 
-// Each photon method's image mean against pt's. Headroom: at these passes the photon methods'
-// means sit within 3 % of pt's (the radius' blur of a smooth illumination is small; their noise
-// over the 576 pixels is about 1 %); without the far side's photons they read 0.1-0.6 of it.
+// Each photon method's image mean against pt's within 4 %: measured 0.982-1.016 at these seeds
+// and passes (the radius' blur of a smooth illumination is small; the rest is their noise over
+// 576 pixels), so 2.2x headroom. Without the far side's photons the ball read 0.05 of pt (0.82 in
+// MSPPM, whose path tracing keeps its share) and the screen 0 in PPM, 0.12 in MSPPM (SPPM and
+// GPM light it by next-event estimation, which the lamp right behind it leaves nothing to).
 // GPM's image is its L2 reconstruction here, which keeps the primal's (its own gather's) mean:
 // the default L1 one is not mean-preserving on so few noisy passes (this ball at 16 passes: 0.92
 // of pt with L1, 0.9993 with L2, L1 1.005 at 64 passes).
@@ -92,7 +94,7 @@ void expect_matches_pt(const Scene& scene, const char* what) {
     if (*c.spectral) p.set("spectral", std::string(c.spectral));
     if (std::string(c.method) == "gpm") p.set("recon", std::string("l2"));
     const double mean = mean_luminance(render(c.method, scene, c.passes, p));
-    EXPECT_NEAR(mean / ref, 1.0, 0.03) << what << ": " << c.method << " " << c.spectral << " reads " << mean
+    EXPECT_NEAR(mean / ref, 1.0, 0.04) << what << ": " << c.method << " " << c.spectral << " reads " << mean
                                        << " where pt reads " << ref;
   }
 }
