@@ -1993,6 +1993,18 @@ bool Bsdf::is_delta() const {
   }
 }
 
+bool Bsdf::transmits() const {
+  switch (kind()) {
+    case MaterialType::Dielectric: return !dielectric_is_smooth(p_);
+    case MaterialType::Translucent: return true;
+    case MaterialType::Mix: {
+      const MixParts p = mix_parts(p_);
+      return (p.scale_a > 0 && component(p_.mix_a).transmits()) || (p.scale_b > 0 && component(p_.mix_b).transmits());
+    }
+    default: return false;
+  }
+}
+
 bool Bsdf::is_stochastic() const {
   switch (kind()) {
     case MaterialType::Conductor:

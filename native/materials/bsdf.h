@@ -163,6 +163,11 @@ class Bsdf {
   // True when every lobe is a Dirac delta (conductor/dielectric with roughness < kSmoothAlpha,
   // or a dielectric of IOR 1, which only passes light straight through): eval/pdf are zero.
   bool is_delta() const;
+  // True when a non-Dirac lobe carries light from one side of the surface to the other (a rough
+  // dielectric, Translucent, a mix with one): a photon gather there takes both sides' photons
+  // (photon_gather_side, integrators/photon/photon_estimate.h). Dirac transmission (smooth glass,
+  // a Transparent BSDF) is no such lobe: eval() is zero for it.
+  bool transmits() const;
   // True when the BSDF scatters nothing (emission-only material).
   bool is_black() const;
   // Cycles' shader_bsdf_transparency: the summed weights of the material's Transparent BSDF

@@ -10,6 +10,7 @@
 #include "core/sampling.h"
 #include "integrators/shift/photon_shift.h"
 #include "materials/bsdf.h"
+#include "integrators/photon/photon_estimate.h"
 
 namespace gp {
 
@@ -520,8 +521,9 @@ static bool photon_reversible(const Scene& scene, const Vec3& z, const Frame& fr
   return bh && length_squared(bh->p - y) <= tol * tol;
 }
 
-Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                                      const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf, int64_t& rays) const {
+Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, bool o_transmits, float R,
+                                      const Photon& ph, const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf,
+                                      int64_t& rays) const {
   PhotonShift out;
   // Per-kind switches: a last segment where the photon tracer chose between crossing a surface
   // and scattering there (a surface hidden from some of the segment's kinds) is not shifted, on
@@ -546,7 +548,8 @@ Gpm::PhotonShift Gpm::shift_dd_photon(const VisiblePoint& vp, const OffsetPoint&
   out.wi_gather = o.frame.to_local(-wi_prev);
   // Outside the kernel the offset contributes 0 with weight 1, as a failed shift does: known
   // before the reversibility ray, which it saves.
-  if (!(length_squared(yh.p - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac > 0)) return out;
+  if (!(length_squared(yh.p - o.p) <= R * R && photon_gather_side(o_transmits, o.wo, out.wi_gather) && jac > 0))
+    return out;
   const float tol = kReversibleTolerance * R;
   if (length_squared(yh.p - s1.y_star) > tol * tol &&
       !photon_reversible(scene_, vp.p, vp.frame, o.p, o.frame, ph.p, yh.p, org.p, org.ng, tol, rays)) {
@@ -639,9 +642,9 @@ const Gpm::ChainBase& Gpm::chain_base(const Photon& ph, const PhotonOrigin& org,
   return local;
 }
 
-Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                                         const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
-                                         int64_t& rays, WalkStats& walk_stats) const {
+Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, bool o_transmits, float R,
+                                         const Photon& ph, const PhotonOrigin& org, const PhotonChain& chain,
+                                         const ChainBase& base, int64_t& rays, WalkStats& walk_stats) const {
   PhotonShift out;
   auto failed = [&out](ShiftFailure f) {
     out.failure = f;
@@ -688,7 +691,8 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
     return failed(ShiftFailure::NotReversible);
   const ChainThroughput& through = walk.through;
   out.wi_gather = o.frame.to_local(through.wi_end);
-  if (!(length_squared(c.end - o.p) <= R * R && same_hemisphere(o.wo, out.wi_gather) && jac6 > 0)) return out;
+  if (!(length_squared(c.end - o.p) <= R * R && photon_gather_side(o_transmits, o.wo, out.wi_gather) && jac6 > 0))
+    return out;
   double pdf = 0;
   const RGB g = reconnection_factor(chain, normalize(c.v[0].p - c.start), pdf);
   if (!through.ok || g.is_black()) return out;  // the offset path carries nothing
@@ -825,9 +829,11 @@ void Gpm::iterate(ProgressSink* sink) {
       // first use rather than once per photon and direction: with a node graph, each build
       // evaluates the material's program.
       std::array<std::optional<Bsdf>, 4> off_bsdf;
+      std::array<bool, 4> off_transmits{};  // Bsdf::transmits of each, with it
+      const bool transmits = bsdf.transmits();
       grid_.query(vp.p, std::max(R_primal, R), [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
-        if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
+        if (!photon_gather_side(transmits, vp.wo, wi)) return;  // the far side of a thin wall
         // Only the lobes that see where the photon came from (Photon::lobes, photon_tracer.cpp),
         // with a normal map's bent cosine, as SPPM's gather (so the primal stays its image).
         const float shading = gather_shading_correction(ph.wi, vp.n_smooth, vp.frame.n);
@@ -867,15 +873,20 @@ void Gpm::iterate(ProgressSink* sink) {
           if (o.ok()) {
             ++local_shifts;
             if (chain && !base) base = &chain_base(ph, org, local_base);
-            const PhotonShift sh = chain ? shift_chain_photon(vp, o, R, ph, org, *chain, *base, local_rays, walk_stats)
-                                         : shift_dd_photon(vp, o, R, ph, org, org_bsdf, local_rays);
+            if (!off_bsdf[d]) {
+              off_bsdf[d].emplace(scene_.bsdf(o.material, o.uv, o.frame, o.ng, o.n_smooth));
+              off_transmits[d] = off_bsdf[d]->transmits();
+            }
+            const bool o_transmits = off_transmits[d];
+            const PhotonShift sh =
+                chain ? shift_chain_photon(vp, o, o_transmits, R, ph, org, *chain, *base, local_rays, walk_stats)
+                      : shift_dd_photon(vp, o, o_transmits, R, ph, org, org_bsdf, local_rays);
             if (sh.failure != ShiftFailure::None) {
               ++fail_count[static_cast<int>(sh.failure)];
             } else if (sh.in_kernel) {
               // The base path's kernel (same radius) around the offset gather point, whose BSDF
               // and bent cosine are the base's counterparts (its normals, bump shadowing).
               const float o_shading = gather_shading_correction(o.frame.to_world(sh.wi_gather), o.n_smooth, o.frame.n);
-              if (!off_bsdf[d]) off_bsdf[d].emplace(scene_.bsdf(o.material, o.uv, o.frame, o.ng, o.n_smooth));
               c_off = o.beta * off_bsdf[d]->eval(o.wo, sh.wi_gather, TransportMode::Radiance, ph.lobes) * sh.power *
                       (weight * o_shading);
               // ---- MIS, eq. 11: ratio = p(Ty)p(Tz)|T'(y)T'(z)| / (p(y)p(z)) ----

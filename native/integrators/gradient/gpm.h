@@ -205,7 +205,7 @@ class Gpm : public ProgressivePhotonMapping {
   // point and what it carries there.
   struct PhotonShift {
     ShiftFailure failure = ShiftFailure::None;
-    bool in_kernel = false;  // y'_s within the base's radius of z'_t, on its visible side
+    bool in_kernel = false;  // y'_s within the base's radius of z'_t, on a side it gathers
     RGB power{0.0f};         // f(y')|T'(y)| / p(y): the offset photon's power in the base's measure
     Vec3 wi_gather;          // local direction at z'_t towards y'_{s-1}
     double ratio_y = 0;      // p(T y)|T'(y)| / p(y) of eq. 11 (light subpath)
@@ -223,12 +223,15 @@ class Gpm : public ProgressivePhotonMapping {
   };
   // Step 1 (eq. 5-6) and the DD reconnection of step 2.
   // org_bsdf: y_{s-1}'s BSDF, built on the first call for the photon and kept for its other offsets.
-  PhotonShift shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                              const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf, int64_t& rays) const;
+  // o_transmits: the offset gather point's BSDF transmits (Bsdf::transmits): an offset photon on
+  // its far side is in its kernel too (photon_gather_side, as the base's gather).
+  PhotonShift shift_dd_photon(const VisiblePoint& vp, const OffsetPoint& o, bool o_transmits, float R,
+                              const Photon& ph, const PhotonOrigin& org, std::optional<Bsdf>& org_bsdf,
+                              int64_t& rays) const;
   // Step 1 and the manifold walk of step 2 for specular and glossy chains (eq. 7-10).
-  PhotonShift shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, float R, const Photon& ph,
-                                 const PhotonOrigin& org, const PhotonChain& chain, const ChainBase& base,
-                                 int64_t& rays, WalkStats& walk_stats) const;
+  PhotonShift shift_chain_photon(const VisiblePoint& vp, const OffsetPoint& o, bool o_transmits, float R,
+                                 const Photon& ph, const PhotonOrigin& org, const PhotonChain& chain,
+                                 const ChainBase& base, int64_t& rays, WalkStats& walk_stats) const;
   // The chain's ChainBase, from this pass's cache (evaluated by the first thread that needs it;
   // a thread that finds it being evaluated elsewhere evaluates its own copy into `local`).
   const ChainBase& chain_base(const Photon& ph, const PhotonOrigin& org, ChainBase& local) const;

@@ -610,9 +610,10 @@ void Msppm::iterate(ProgressSink* sink) {
         // tail, a cache miss each: found photons are collected and their tails prefetched
         // while the query goes on, then weighted.
         hits.clear();
+        const bool transmits = bsdf.transmits();
         grid_.query(e.p, R, [&](const Photon& ph, float, float) {
           const Vec3 wi = e.frame.to_local(ph.wi);
-          if (!same_hemisphere(wo, wi)) return;
+          if (!photon_gather_side(transmits, wo, wi)) return;
           m += 1;
           const char* tp = reinterpret_cast<const char*>(&tail(ph.index));
           __builtin_prefetch(tp);

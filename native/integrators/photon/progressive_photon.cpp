@@ -325,13 +325,14 @@ void ProgressivePhotonMapping::iterate(ProgressSink* sink) {
       const Bsdf bsdf = scene_.bsdf(vp.material, vp.uv, vp.p, vp.frame.to_world(vp.wo), vp.frame, vp.ng,
                                     vp.n_smooth);  // as Scene::bsdf(hit)
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
+      const bool transmits = bsdf.transmits();
       double m = 0, lap = 0, foreign = 0, mu = 0, mv = 0;
       RGB phi(0.0f);
       const float off_plane = kOffPlane * R;
       const Frame geo = boundary_frame(vp);
       grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
-        if (!same_hemisphere(vp.wo, wi)) return;  // the far side of a thin wall
+        if (!photon_gather_side(transmits, vp.wo, wi)) return;  // the far side of a thin wall
         m += weight;
         const float shading = gather_shading_correction(ph.wi, vp.n_smooth, vp.frame.n);  // a map's bent cosine, as pt
         const RGB contrib = vp.beta * gathered_f(bsdf, vp.wo, wi, ph.lobes, ph.world_share) * ph.power *

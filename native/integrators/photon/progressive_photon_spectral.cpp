@@ -21,6 +21,7 @@
 #include "integrators/photon/photon_walk.h"
 #include "integrators/photon/progressive_photon.h"
 #include "materials/bsdf.h"
+#include "integrators/photon/photon_estimate.h"
 
 namespace gp {
 
@@ -419,11 +420,14 @@ void ProgressivePhotonMapping::spectral_gather(const std::function<bool()>& canc
       const SpectralValues& beta = vp_beta_[i];
       const bool eye_hero = vp_hero_[i] != 0;
       const float R = static_cast<float>(std::sqrt(px_[i].r2));
+      // Both sides where the point's BSDF transmits (at the hero wavelength: the lobes are the
+      // same at every one).
+      const bool transmits = bk[0]->transmits();
       double m = 0, lap = 0;
       RGB phi(0.0f);
       grid_.query(vp.p, R, [&](const Photon& ph, float d2, float weight) {
         const Vec3 wi = vp.frame.to_local(ph.wi);
-        if (!same_hemisphere(vp.wo, wi)) return;
+        if (!photon_gather_side(transmits, vp.wo, wi)) return;
         m += weight;
         const SpectralValues& power = photon_power_[ph.index];
         SpectralValues c{};
