@@ -91,6 +91,17 @@ The measurement the lead runs on a quiet 16-core machine (nothing else running; 
 average), about 4 scenes x 11 renders x 60 s plus the references:
   scripts/bench_gpm.py error --budgets 8,60 --threads 2 --photons 100000,250000,500000,1000000 \\
       --scenes torus-glass:256x256 cornell-glass sun-caustic cornell-box --ref-passes 4000
+Equal counted work instead of equal time (`--passes N`, for a shared machine, where seconds mean
+little): gpm's configurations render N passes each, no snapshots, and the table prints each
+run's counted work (`eye work` + `photon work` of the render's statistics, in eye rays: gpm.h
+GpmPassWork), so runs compare at equal work where the work matches (GPM's photon rule keeps a
+pass's photon work equal to its eye work, so a change to the gather's cost alone keeps the work
+of N passes; one that changes the eye pass needs N scaled by the work printed). sppm has no
+counted work and is left out. Both modes print relMSE without the worst 0.1 % of pixels too
+(`trim`): a caustic's focus decides a few pixels by which photons happened to land there, and
+that column shows whether a difference is more than those pixels.
+  scripts/bench_gpm.py error --passes 100 --photons "" --scenes sun-caustic \
+      --config "gpm-L1 footprint 0.75=gpm:recon=l1,gradient_footprint=0.75" --reference sun-caustic=A.exr,B.exr
 A tiny check that it works: scripts/bench_gpm.py error --budgets 1,2 --scenes torus-glass:32x32 \\
       --photons 10000 --ref-passes 20
 """
@@ -142,6 +153,8 @@ def main_error(argv):
     ap.add_argument("--scenes", nargs="+", default=["torus-glass:256x256", "cornell-glass", "sun-caustic", "cornell-box"])
     ap.add_argument("--budgets", default="8,60", help="render seconds, comma separated (snapshots of one render)")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--passes", type=int, default=0,
+                    help="render gpm's configurations for this many passes (counted work) instead of --budgets")
     ap.add_argument("--photons", default="100000,250000,500000,1000000",
                     help="photons per pass swept for gpm l1 and l2 (empty: defaults only)")
     ap.add_argument("--seeds", default="1", help="render seeds, comma separated (each a full set of renders)")
@@ -166,6 +179,9 @@ def main_error(argv):
     for p in sweep:
         configs += [(f"gpm-L1 {p}", f"gpm:recon=l1,photons={p}"), (f"gpm-L2 {p}", f"gpm:recon=l2,photons={p}")]
     configs += [tuple(c.split("=", 1)) for c in opts.config]
+    if opts.passes:
+        configs = [c for c in configs if not c[1].startswith("sppm")]
+        budgets = [0.0]  # one image per run, at its last pass
     given = dict(r.split("=", 1) for r in opts.reference)
     opts.out.mkdir(parents=True, exist_ok=True)
     print(f"load average {os.getloadavg()[0]:.2f} at the start; {opts.threads} threads; one render at a time")
@@ -180,36 +196,47 @@ def main_error(argv):
             ref = SplitReference(a, a)  # one file: no noise term
         for seed in (int(s) for s in opts.seeds.split(",")):
             for label, method in configs:
-                out = opts.out / f"{name}-{w}x{h}-{tag(method)}-seed{seed}.exr"
-                text = run_logged([opts.cli, "render", ROOT / "scenes" / f"{name}.json", *method_args(method),
-                                   "--time", max(budgets), "--checkpoints", ",".join(f"{t:g}" for t in budgets),
+                stop = ["--passes", opts.passes] if opts.passes else \
+                    ["--time", max(budgets), "--checkpoints", ",".join(f"{t:g}" for t in budgets)]
+                out = opts.out / f"{name}-{w}x{h}-{tag(method)}-{'p%d' % opts.passes if opts.passes else 't'}-seed{seed}.exr"
+                text = run_logged([opts.cli, "render", ROOT / "scenes" / f"{name}.json", *method_args(method), *stop,
                                    "--param", f"threads={opts.threads}", "--seed", seed, "--width", w, "--height", h,
                                    "-o", out])
                 # The whole render's statistics: passes, and the eye pass's share of a pass (the
                 # issue's aim: under a quarter).
                 stat = lambda key: float((re.search(rf"^{key}\s+([0-9.e+-]+)", text, re.M) or [0, "nan"])[1])
                 passes, eye_share = stat("passes"), stat("eye seconds") / stat("seconds")
+                work = stat("eye work") + stat("photon work")  # counted, in eye rays (gpm only)
                 for t in budgets:
-                    snap = out.with_name(f"{out.stem}.{t:g}s.exr")
+                    snap = out if opts.passes else out.with_name(f"{out.stem}.{t:g}s.exr")
                     if not snap.exists():
                         continue
-                    raw, excess = ref.errors(read_combined(snap))
+                    image = read_combined(snap)
+                    raw, excess = ref.errors(image)
                     rows.append({"scene": name, "size": f"{w}x{h}", "seed": seed, "config": label, "method": method,
                                  "seconds": t, "relmse": raw, "relmse_excess": excess,
-                                 "passes_at_end": passes, "eye_share": round(eye_share, 3),
+                                 "relmse_trim": ref.trimmed(image), "passes_at_end": passes,
+                                 "eye_share": round(eye_share, 3), "work_M": round(work / 1e6, 2),
+                                 "eye_work_share": round(stat("eye work") / work, 3) if work > 0 else float("nan"),
                                  "load": round(os.getloadavg()[0], 2)})
         # The scene's table: mean over seeds of relMSE less the reference's noise, and gpm / sppm.
-        mean = {}
+        mean, trim = {}, {}
         for label, _ in configs:
             for t in budgets:
-                v = [r["relmse_excess"] for r in rows if r["scene"] == name and r["config"] == label and r["seconds"] == t]
-                mean[label, t] = statistics.mean(v) if v else float("nan")
-        print(f"\n{name} {w}x{h}: relMSE less the reference's noise (and / sppm's), load {os.getloadavg()[0]:.2f}")
-        print(f"{'config':18}" + "".join(f"{f'{t:g} s':>20}" for t in budgets) + "   passes  eye share")
+                sel = [r for r in rows if r["scene"] == name and r["config"] == label and r["seconds"] == t]
+                mean[label, t] = statistics.mean(r["relmse_excess"] for r in sel) if sel else float("nan")
+                trim[label, t] = statistics.mean(r["relmse_trim"] for r in sel) if sel else float("nan")
+        base = "sppm" if not opts.passes else configs[0][0]
+        print(f"\n{name} {w}x{h}: relMSE less the reference's noise (and / {base}'s), and without the worst 0.1 % "
+              f"of pixels (trim), load {os.getloadavg()[0]:.2f}")
+        cols = [f"{opts.passes} passes"] if opts.passes else [f"{t:g} s" for t in budgets]
+        print(f"{'config':18}" + "".join(f"{c:>20}{'trim':>10}" for c in cols) + "   passes  eye share  work (M)")
         for label, _ in configs:
-            cells = "".join(f"{mean[label, t]:11.5f} ({mean[label, t] / mean['sppm', t]:5.2f})" for t in budgets)
+            cells = "".join(f"{mean[label, t]:11.5f} ({mean[label, t] / mean[base, t]:5.2f}){trim[label, t]:10.5f}"
+                            for t in budgets)
             last = [r for r in rows if r["scene"] == name and r["config"] == label]
-            tail = f"   {last[-1]['passes_at_end']:6.0f}  {last[-1]['eye_share']:9.2f}" if last else ""
+            tail = (f"   {last[-1]['passes_at_end']:6.0f}  {last[-1]['eye_share']:9.2f}  {last[-1]['work_M']:8.1f}"
+                    if last else "")
             print(f"{label:18}{cells}{tail}", flush=True)
     path = opts.out / opts.csv
     with open(path, "w", newline="") as f:

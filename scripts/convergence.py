@@ -102,6 +102,17 @@ class SplitReference:
         raw = (x - self.ref) ** 2 / self.norm
         return float(raw.mean()), float((raw - self.noise / self.norm).mean())
 
+    def trimmed(self, x, share=0.001):
+        """The second of errors(x) without the `share` pixels of largest raw error (their terms
+        left out, the mean still over all pixels): whether a difference is more than a few
+        pixels that a caustic's focus decides by which photons landed there."""
+        import numpy as np
+        raw = ((x - self.ref) ** 2 / self.norm).reshape(-1, x.shape[-1]).mean(axis=1)
+        excess = ((x - self.ref) ** 2 - self.noise) / self.norm
+        excess = excess.reshape(-1, x.shape[-1]).mean(axis=1)
+        keep = np.argsort(raw)[: int(raw.size * (1 - share))]
+        return float(excess[keep].sum() / raw.size)
+
 
 def read_combined(path):
     """The combined pass of an EXR, float64, via the native module's reader."""

@@ -27,3 +27,19 @@ def test_split_reference_removes_the_reference_noise():
     # Identical halves: no noise to remove, both numbers equal.
     same = convergence.SplitReference(truth, truth)
     assert same.errors(x)[0] == same.errors(x)[1]
+
+
+def test_trimmed_leaves_out_the_few_worst_pixels_only():
+    # A caustic's focus: one pixel 10x off holds most of the error; trimming one pixel's share
+    # drops exactly its term and keeps every other pixel's, averaged over all pixels.
+    rng = np.random.default_rng(11)
+    h, w = 40, 50
+    truth = rng.uniform(0.05, 2.0, (h, w, 3))
+    x = truth + rng.normal(0, 0.03, (h, w, 3)) * truth
+    same = convergence.SplitReference(truth, truth)
+    x[17, 23] = 10.0 * truth[17, 23]
+    full = same.errors(x)[1]
+    focus = float(((x[17, 23] - truth[17, 23]) ** 2 / (truth[17, 23] ** 2 + 0.001)).mean()) / (h * w)
+    assert focus > 0.9 * full  # the one pixel is nearly all of the error
+    assert abs(same.trimmed(x, share=0.5 / (h * w)) - (full - focus)) < 1e-12
+    assert same.trimmed(x, share=0.0) == full
