@@ -936,6 +936,43 @@ void eval_mix(EvalArgs& a) {
   }
 }
 
+// Specialised Mix (NodeType::specialize): a colour mix whose blend is a lerp to a second colour
+// (Mix, Add, Multiply, Subtract), blend()'s expressions with the switches decided at compile
+// time; `Plain`: the factor needs no conversion.
+template <int Mode, bool ClampFactor, bool ClampResult, bool Plain>
+void eval_mix_color_lerp(EvalArgs& a) {
+  float t = Plain ? a.x(0) : a.f(0);
+  if (ClampFactor) t = saturate(t);
+  const Vec3 c1 = a.v(6), c2 = a.v(7);
+  const Vec3 to = Mode == kMix ? c2 : Mode == kAdd ? c1 + c2 : Mode == kMultiply ? mul(c1, c2) : c1 - c2;
+  Vec3 c = lerp3(c1, to, t);
+  if (ClampResult) c = saturate3(c);
+  a.out(2, c);
+}
+template <int Mode, bool CF, bool CR>
+EvalFn pick_mix_plain(bool plain) {
+  return plain ? eval_mix_color_lerp<Mode, CF, CR, true> : eval_mix_color_lerp<Mode, CF, CR, false>;
+}
+template <int Mode, bool CF>
+EvalFn pick_mix_clamp_result(bool cr, bool plain) {
+  return cr ? pick_mix_plain<Mode, CF, true>(plain) : pick_mix_plain<Mode, CF, false>(plain);
+}
+template <int Mode>
+EvalFn pick_mix(const NodeProps& p, bool plain) {
+  return p.flag ? pick_mix_clamp_result<Mode, true>(p.flag2, plain) : pick_mix_clamp_result<Mode, false>(p.flag2, plain);
+}
+EvalFn specialize_mix(const NodeProps& p, const InputSource* in) {
+  if (p.mode != 2) return nullptr;  // colour only
+  const bool plain = in[0].conv == Conversion::None;
+  switch (p.mode2) {
+    case kMix: return pick_mix<kMix>(p, plain);
+    case kAdd: return pick_mix<kAdd>(p, plain);
+    case kMultiply: return pick_mix<kMultiply>(p, plain);
+    case kSubtract: return pick_mix<kSubtract>(p, plain);
+    default: return nullptr;
+  }
+}
+
 // Color Ramp: Blender's BKE_colorband_evaluate sampled into Cycles' 256-entry table
 // (blender/shader.cpp, RAMP_TABLE_SIZE), read as kernel/svm/ramp.h rgb_ramp_lookup.
 constexpr int kRampTableSize = 256;
@@ -1364,6 +1401,21 @@ void eval_map_range(EvalArgs& a) {
   }
 }
 
+// Specialised Map Range (NodeType::specialize): Float, Linear, the interpolation switch decided
+// at compile time; `Plain`: its five inputs need no conversion.
+template <bool Clamp, bool Plain>
+void eval_map_range_linear(EvalArgs& a) {
+  auto f = [&](int i) { return Plain ? a.x(i) : a.f(i); };
+  a.out(0, map_range_1(0, Clamp, f(0), f(1), f(2), f(3), f(4), 0.0f, false));
+}
+EvalFn specialize_map_range(const NodeProps& p, const InputSource* in) {
+  if (p.mode != 0 || p.mode2 != 0) return nullptr;
+  bool plain = true;
+  for (int i = 0; i < 5; ++i) plain = plain && in[i].conv == Conversion::None;
+  if (p.flag) return plain ? eval_map_range_linear<true, true> : eval_map_range_linear<true, false>;
+  return plain ? eval_map_range_linear<false, true> : eval_map_range_linear<false, false>;
+}
+
 void parse_clamp(const PropReader& r, NodeProps& p) { p.mode = r.choice("clamp_type", {"MINMAX", "RANGE"}, 0); }
 void eval_clamp(EvalArgs& a) {  // svm/clamp.h
   const float v = a.f(0), lo = a.f(1), hi = a.f(2);
@@ -1704,6 +1756,10 @@ std::vector<NodeType> make_types() {
        eval_displacement, true});
   add({"ShaderNodeVectorTransform", {in_v("Vector", 0.5f, 0.5f, 0.5f)}, {out_v("Vector")}, parse_vector_transform,
        eval_vector_transform, true});
+  for (NodeType& n : t) {
+    if (std::string(n.idname) == "ShaderNodeMix") n.specialize = specialize_mix;
+    if (std::string(n.idname) == "ShaderNodeMapRange") n.specialize = specialize_map_range;
+  }
   std::sort(t.begin(), t.end(), [](const NodeType& x, const NodeType& y) { return std::string(x.idname) < y.idname; });
   return t;
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <random>
 #include <vector>
 
 #include "shading/graph.h"
@@ -238,6 +239,58 @@ TEST(ShadingGraph, EveryNodeWritesItsReadOutputsOnEveryRun) {
       }
   }
   EXPECT_GT(checked, 40);
+}
+
+// Specialised ops (NodeType::specialize: Mix's lerp blends, Map Range's Float Linear) give what
+// the node's general evaluation gives, to the bit: each graph compiled with and without them and
+// run at the same random points. Factors and values reach the node as plain floats or through
+// a conversion (vector -> float), over [-0.5, 1.5] so that the clamps act.
+TEST(ShadingGraph, SpecialisedOpsAreTheGeneralOnes) {
+  auto build = [](const std::string& nodes, const std::string& node, const std::string& output, bool specialize) {
+    GraphCompiler g("M", nlohmann::json::parse(nodes), nullptr);
+    const int root = g.link(nlohmann::json{{"link", node}, {"output", output}}, SocketType::Color);
+    g.set_specialize(specialize);
+    test::Compiled c;
+    c.program = g.compile();
+    c.source = g.source(root);
+    return c;
+  };
+  const std::string inputs = R"("tc": {"type": "ShaderNodeTexCoord"},
+      "xyz": {"type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": "tc", "output": "UV"}}},)";
+  const std::string plain = R"({"link": "xyz", "output": "X"})", converted = R"({"link": "tc", "output": "UV"})";
+  std::vector<std::string> graphs;
+  for (const char* blend : {"MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN"})
+    for (const char* cf : {"true", "false"})
+      for (const char* cr : {"true", "false"})
+        for (const std::string& fac : {plain, converted})
+          graphs.push_back(inputs + R"("n": {"type": "ShaderNodeMix", "props": {"data_type": "RGBA", "blend_type": ")" +
+                           blend + R"(", "clamp_factor": )" + cf + R"(, "clamp_result": )" + cr +
+                           R"(}, "inputs": {"Factor_Float": )" + fac +
+                           R"(, "A_Color": {"link": "tc", "output": "Object"}, "B_Color": {"link": "tc", "output": "UV"}}}})");
+  for (const char* clamp : {"true", "false"})
+    for (const std::string& value : {plain, converted})
+      for (const std::string& from_max : {std::string("0.7"), std::string("0.2"), plain})  // 0.2: from_min == from_max
+        for (const char* interp : {"LINEAR", "STEPPED"})
+          graphs.push_back(inputs + R"("n": {"type": "ShaderNodeMapRange", "props": {"clamp": )" + clamp +
+                           R"(, "interpolation_type": ")" + interp + R"("}, "inputs": {"Value": )" + value +
+                           R"(, "From Min": 0.2, "From Max": )" + from_max + R"(, "To Min": 0.9, "To Max": -0.3}}})");
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-0.5f, 1.5f);
+  for (const std::string& body : graphs) {
+    const std::string nodes = "{" + body;
+    const bool mix = body.find("ShaderNodeMix") != std::string::npos;
+    const test::Compiled fast = build(nodes, "n", mix ? "Result_Color" : "Result", true);
+    const test::Compiled general = build(nodes, "n", mix ? "Result_Color" : "Result", false);
+    ShadingContext ctx;
+    for (int i = 0; i < 200; ++i) {
+      ctx.uv = Vec2(u(rng), u(rng));
+      ctx.P = Vec3(u(rng), u(rng), u(rng));
+      const Vec3 a = fast.at(ctx), b = general.at(ctx);
+      ASSERT_EQ(std::memcmp(&a, &b, sizeof(Vec3)), 0) << nodes << " at uv " << ctx.uv.x << ", " << ctx.uv.y << ": "
+                                                      << a.x << " " << a.y << " " << a.z << " against " << b.x << " "
+                                                      << b.y << " " << b.z;
+    }
+  }
 }
 
 TEST(ShadingGraph, SupportedTypesListed) {
