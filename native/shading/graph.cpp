@@ -524,7 +524,9 @@ std::shared_ptr<const ShaderProgram> GraphCompiler::compile() {
     prog->reads_tangents_ = prog->reads_tangents_ || op.type->reads_tangents;
     // The node's specialised evaluation for its properties and inputs, where it has one.
     const EvalFn fast = g.specialize && op.type->specialize
-                            ? op.type->specialize(op.props, prog->inputs_.data() + op.first_in) : nullptr;
+                            ? op.type->specialize(op.props, prog->inputs_.data() + op.first_in,
+                                                prog->outputs_.data() + op.first_out)
+                            : nullptr;
     op.eval = fast ? fast : op.type->eval;
   }
   prog->constants_ = std::move(regs);

@@ -258,7 +258,7 @@ TEST(ShadingGraph, SpecialisedOpsAreTheGeneralOnes) {
   const std::string inputs = R"("tc": {"type": "ShaderNodeTexCoord"},
       "xyz": {"type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": "tc", "output": "UV"}}},)";
   const std::string plain = R"({"link": "xyz", "output": "X"})", converted = R"({"link": "tc", "output": "UV"})";
-  std::vector<std::string> graphs;
+  std::vector<std::pair<std::string, std::string>> graphs;  // (nodes, output of node n)
   for (const char* blend : {"MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN"})
     for (const char* cf : {"true", "false"})
       for (const char* cr : {"true", "false"})
@@ -266,25 +266,50 @@ TEST(ShadingGraph, SpecialisedOpsAreTheGeneralOnes) {
           graphs.push_back(inputs + R"("n": {"type": "ShaderNodeMix", "props": {"data_type": "RGBA", "blend_type": ")" +
                            blend + R"(", "clamp_factor": )" + cf + R"(, "clamp_result": )" + cr +
                            R"(}, "inputs": {"Factor_Float": )" + fac +
-                           R"(, "A_Color": {"link": "tc", "output": "Object"}, "B_Color": {"link": "tc", "output": "UV"}}}})");
+                           R"(, "A_Color": {"link": "tc", "output": "Object"}, "B_Color": {"link": "tc", "output": "UV"}}}})",
+                          "Result_Color");
   for (const char* clamp : {"true", "false"})
     for (const std::string& value : {plain, converted})
       for (const std::string& from_max : {std::string("0.7"), std::string("0.2"), plain})  // 0.2: from_min == from_max
         for (const char* interp : {"LINEAR", "STEPPED"})
           graphs.push_back(inputs + R"("n": {"type": "ShaderNodeMapRange", "props": {"clamp": )" + clamp +
                            R"(, "interpolation_type": ")" + interp + R"("}, "inputs": {"Value": )" + value +
-                           R"(, "From Min": 0.2, "From Max": )" + from_max + R"(, "To Min": 0.9, "To Max": -0.3}}})");
+                           R"(, "From Min": 0.2, "From Max": )" + from_max + R"(, "To Min": 0.9, "To Max": -0.3}}})",
+                          "Result");
+  for (const char* dims : {"3D", "2D"})
+    for (const std::string& scale : {plain, converted, std::string("2.5")})
+      for (const char* out : {"Fac", "Color"})
+        graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeTexNoise", "props": {"noise_dimensions": ")" + dims +
+                                R"("}, "inputs": {"Vector": {"link": "tc", "output": "Object"}, "Scale": )" + scale +
+                                R"(, "Detail": 2.0, "Distortion": 0.3}}})",
+                            out);
+  // Texture Coordinate read at UV, at Object, at both (through a Mix), at UV with Generated.
+  const std::string tc_mix = R"("n": {"type": "ShaderNodeMix", "props": {"data_type": "RGBA"}, "inputs": {"A_Color": )";
+  graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeTexCoord"}})", "UV");
+  graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeTexCoord"}})", "Object");
+  graphs.emplace_back(inputs + tc_mix + R"({"link": "tc", "output": "UV"}, "B_Color": {"link": "tc", "output": "Object"}}}})",
+                      "Result_Color");
+  graphs.emplace_back(inputs + tc_mix + R"({"link": "tc", "output": "UV"}, "B_Color": {"link": "tc", "output": "Generated"}}}})",
+                      "Result_Color");
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-0.5f, 1.5f);
-  for (const std::string& body : graphs) {
+  // An object (Object coordinates through its inverse transform) on half the points, the World
+  // (no surface) on a quarter.
+  ShadingObject object;
+  object.to_world = Transform::translate(Vec3(0.3f, -0.2f, 0.1f)) * Transform::scale(Vec3(1.5f, 0.5f, 2.0f));
+  object.to_object = invert_affine(object.to_world);
+  object.bounds.extend(Vec3(-1.0f, -2.0f, 0.0f));
+  object.bounds.extend(Vec3(1.0f, 1.0f, 3.0f));
+  for (const auto& [body, output] : graphs) {
     const std::string nodes = "{" + body;
-    const bool mix = body.find("ShaderNodeMix") != std::string::npos;
-    const test::Compiled fast = build(nodes, "n", mix ? "Result_Color" : "Result", true);
-    const test::Compiled general = build(nodes, "n", mix ? "Result_Color" : "Result", false);
+    const test::Compiled fast = build(nodes, "n", output, true);
+    const test::Compiled general = build(nodes, "n", output, false);
     ShadingContext ctx;
     for (int i = 0; i < 200; ++i) {
       ctx.uv = Vec2(u(rng), u(rng));
       ctx.P = Vec3(u(rng), u(rng), u(rng));
+      ctx.object = i % 2 ? &object : nullptr;
+      ctx.surface = i % 4 != 3;
       const Vec3 a = fast.at(ctx), b = general.at(ctx);
       ASSERT_EQ(std::memcmp(&a, &b, sizeof(Vec3)), 0) << nodes << " at uv " << ctx.uv.x << ", " << ctx.uv.y << ": "
                                                       << a.x << " " << a.y << " " << a.z << " against " << b.x << " "
