@@ -263,7 +263,7 @@ TEST(ShadingGraph, SpecialisedOpsAreTheGeneralOnes) {
     for (const char* cf : {"true", "false"})
       for (const char* cr : {"true", "false"})
         for (const std::string& fac : {plain, converted})
-          graphs.push_back(inputs + R"("n": {"type": "ShaderNodeMix", "props": {"data_type": "RGBA", "blend_type": ")" +
+          graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeMix", "props": {"data_type": "RGBA", "blend_type": ")" +
                            blend + R"(", "clamp_factor": )" + cf + R"(, "clamp_result": )" + cr +
                            R"(}, "inputs": {"Factor_Float": )" + fac +
                            R"(, "A_Color": {"link": "tc", "output": "Object"}, "B_Color": {"link": "tc", "output": "UV"}}}})",
@@ -272,7 +272,7 @@ TEST(ShadingGraph, SpecialisedOpsAreTheGeneralOnes) {
     for (const std::string& value : {plain, converted})
       for (const std::string& from_max : {std::string("0.7"), std::string("0.2"), plain})  // 0.2: from_min == from_max
         for (const char* interp : {"LINEAR", "STEPPED"})
-          graphs.push_back(inputs + R"("n": {"type": "ShaderNodeMapRange", "props": {"clamp": )" + clamp +
+          graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeMapRange", "props": {"clamp": )" + clamp +
                            R"(, "interpolation_type": ")" + interp + R"("}, "inputs": {"Value": )" + value +
                            R"(, "From Min": 0.2, "From Max": )" + from_max + R"(, "To Min": 0.9, "To Max": -0.3}}})",
                           "Result");
@@ -311,9 +311,11 @@ TEST(ShadingGraph, SpecialisedOpsAreTheGeneralOnes) {
       ctx.object = i % 2 ? &object : nullptr;
       ctx.surface = i % 4 != 3;
       const Vec3 a = fast.at(ctx), b = general.at(ctx);
-      ASSERT_EQ(std::memcmp(&a, &b, sizeof(Vec3)), 0) << nodes << " at uv " << ctx.uv.x << ", " << ctx.uv.y << ": "
+      const bool same = std::memcmp(&a, &b, sizeof(Vec3)) == 0;
+      EXPECT_TRUE(same) << nodes << " at uv " << ctx.uv.x << ", " << ctx.uv.y << ": "
                                                       << a.x << " " << a.y << " " << a.z << " against " << b.x << " "
                                                       << b.y << " " << b.z;
+      if (!same) break;  // one message per graph
     }
   }
 }
