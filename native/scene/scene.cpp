@@ -149,16 +149,12 @@ void Scene::build_shading_objects() {
 }
 
 shading::ShadingContext Scene::shading_context(const SurfacePoint& h, const Vec3& wo, const Vec3& n_smooth) const {
-  shading::ShadingContext c;
-  c.P = h.p;
-  c.I = wo;
-  c.camera = shading_camera_.get();
-  c.uv = h.uv;
-  c.bary = h.bary;
   // Cycles' ShaderData: normals face the incoming ray, `backfacing` says whether they were flipped.
-  c.backfacing = dot(h.ng, wo) < 0;
-  c.Ng = c.backfacing ? -h.ng : h.ng;
-  c.N = dot(n_smooth, c.Ng) < 0 ? -n_smooth : n_smooth;
+  // (Built in place, each field written once: no zero-fill of the whole context first.)
+  const bool backfacing = dot(h.ng, wo) < 0;
+  const Vec3 ng = backfacing ? -h.ng : h.ng;
+  shading::ShadingContext c(h.p, dot(n_smooth, ng) < 0 ? -n_smooth : n_smooth, ng, wo, h.uv, h.bary,
+                            shading_camera_.get(), backfacing);
   if (h.mesh >= 0) {
     const Mesh& m = meshes[h.mesh];
     // The tangents only where a graph reads them (Bump, Normal Map, Geometry's Tangent): the

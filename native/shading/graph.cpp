@@ -92,7 +92,7 @@ float EvalArgs::height_at(const ShadingContext& moved) const {
 void ShaderProgram::run_op(uint32_t i, const ShadingContext& ctx, Vec3* regs) const {
   const Op& op = ops_[i];
   EvalArgs a{*this, op, ctx, regs, inputs_.data() + op.first_in, outputs_.data() + op.first_out};
-  op.type->eval(a);
+  (op.eval ? op.eval : op.type->eval)(a);  // (constant folding runs ops before Op::eval is set)
 }
 
 namespace {
@@ -107,7 +107,7 @@ struct OpRunner {
     const uint32_t* outs = p.outputs_.data();
     for (const Op& op : p.ops_) {
       EvalArgs a{p, op, ctx, regs, in + op.first_in, outs + op.first_out};
-      op.type->eval(a);
+      op.eval(a);
     }
   }
 };
@@ -187,6 +187,7 @@ struct GraphCompiler::Impl {
   };
   std::vector<Root> roots;
   std::vector<InputSource> root_sources;
+  bool specialize = true;  // set_specialize
 
   std::string where(const std::string& node) const { return fmt::format("material '{}', node '{}'", material, node); }
   [[noreturn]] void fail(const std::string& node, const std::string& msg) const {
@@ -343,6 +344,7 @@ int GraphCompiler::link(const json& link, SocketType want) {
 }
 
 InputSource GraphCompiler::source(int root) const { return impl_->root_sources.at(root); }
+void GraphCompiler::set_specialize(bool on) { impl_->specialize = on; }
 
 namespace {
 Conversion conversion(SocketType from, SocketType to) {
@@ -518,7 +520,15 @@ std::shared_ptr<const ShaderProgram> GraphCompiler::compile() {
     prog->sub_ops_.insert(prog->sub_ops_.end(), subs.begin(), subs.end());
   }
 
-  for (const Op& op : prog->ops_) prog->reads_tangents_ = prog->reads_tangents_ || op.type->reads_tangents;
+  for (Op& op : prog->ops_) {
+    prog->reads_tangents_ = prog->reads_tangents_ || op.type->reads_tangents;
+    // The node's specialised evaluation for its properties and inputs, where it has one.
+    const EvalFn fast = g.specialize && op.type->specialize
+                            ? op.type->specialize(op.props, prog->inputs_.data() + op.first_in,
+                                                prog->outputs_.data() + op.first_out)
+                            : nullptr;
+    op.eval = fast ? fast : op.type->eval;
+  }
   prog->constants_ = std::move(regs);
   prog->is_constant_ = std::move(is_const);
   g.root_sources.clear();

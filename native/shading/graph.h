@@ -96,6 +96,13 @@ struct ShadingContext {
     object_at_time = std::move(placed);
   }
 
+  ShadingContext() = default;
+  // A surface hit's context, each field written once (Scene::shading_context: the default
+  // members then overwritten cost a zero-fill of the whole context per graph run).
+  ShadingContext(const Vec3& P_, const Vec3& N_, const Vec3& Ng_, const Vec3& I_, Vec2 uv_, Vec2 bary_,
+                 const ShadingCamera* camera_, bool backfacing_)
+      : P(P_), N(N_), Ng(Ng_), I(I_), uv(uv_), bary(bary_), camera(camera_), backfacing(backfacing_) {}
+
   // A context for a direction only (World shaders): P = dir, I = -dir.
   static ShadingContext direction(const Vec3& dir) {
     ShadingContext c;
@@ -146,8 +153,14 @@ struct InputSource {
   Conversion conv = Conversion::None;
 };
 
+struct EvalArgs;
+using EvalFn = void (*)(EvalArgs&);
+
 struct Op {
   const NodeType* type = nullptr;
+  // What runs the op: type->eval, or the node's version specialised at compile time for its
+  // properties and inputs (NodeType::specialize: the same maths without the mode switches).
+  EvalFn eval = nullptr;
   NodeProps props;
   uint32_t first_in = 0, first_out = 0;  // into ShaderProgram::inputs_ / outputs_
   // Bump and Normal Map nodes re-run the ops upstream of their height input (bump_ops_).
@@ -224,6 +237,9 @@ class GraphCompiler {
   int link(const nlohmann::json& link, SocketType want);
   std::shared_ptr<const ShaderProgram> compile();
   InputSource source(int root) const;
+  // Whether ops may run a node's specialised evaluation (default: yes); off, every op runs its
+  // node type's general one (tests compare the two).
+  void set_specialize(bool on);
   // Warnings met while reading (unsupported property values approximated, image problems).
   const std::vector<std::string>& warnings() const;
 

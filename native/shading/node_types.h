@@ -85,6 +85,11 @@ struct NodeType {
   bool reads_context = false;  // never constant-folded (input nodes, bump)
   int height_input = -1;       // Bump: the input re-evaluated at offset points
   bool reads_tangents = false; // reads the context's dPdu / dPdv (ShaderProgram::reads_tangents)
+  // A faster eval for an op of these properties, inputs and outputs (`in`: its input sources,
+  // `outs`: its output registers, kTrashRegister where unread), giving
+  // bit for bit what `eval` gives, or null (graph.cpp sets Op::eval from it; set after the
+  // table's aggregate initialisers, which stop at reads_tangents).
+  EvalFn (*specialize)(const NodeProps&, const InputSource* in, const uint32_t* outs) = nullptr;
 };
 
 // The evaluation of one op: its inputs read (converted) and outputs written. `in` and `outs`
@@ -97,6 +102,8 @@ struct EvalArgs {
   const InputSource* in;
   const uint32_t* outs;
   Vec3 v(int i) const { return regs[in[i].reg]; }
+  // A float input known (at compile time) to need no conversion: f(i) without the test.
+  float x(int i) const { return regs[in[i].reg].x; }
   float f(int i) const {
     const InputSource& s = in[i];
     const Vec3& r = regs[s.reg];

@@ -492,6 +492,24 @@ Vec4 point_of(const Vec3& v, float w, int dims) {
   return r;
 }
 const std::initializer_list<const char*> kDims = {"1D", "2D", "3D", "4D"};
+// Specialised Texture Coordinate (NodeType::specialize): no object, only UV and Object read
+// (which, decided at compile time).
+template <bool UV, bool Object>
+void eval_tex_coord_uv_object(EvalArgs& a) {
+  const ShadingContext& c = a.ctx;
+  if (UV) a.out(2, Vec3(c.uv.x, c.uv.y, 0.0f));
+  if (Object) a.out(3, c.surface ? object_point(c, c.P) : c.P);
+}
+EvalFn specialize_tex_coord(const NodeProps& p, const InputSource*, const uint32_t* outs) {
+  if (p.flag) return nullptr;  // an object's matrix
+  for (int j : {0, 1, 4, 5, 6})
+    if (outs[j] != kTrashRegister) return nullptr;
+  const bool uv = outs[2] != kTrashRegister, object = outs[3] != kTrashRegister;
+  if (uv && object) return eval_tex_coord_uv_object<true, true>;
+  if (uv) return eval_tex_coord_uv_object<true, false>;
+  if (object) return eval_tex_coord_uv_object<false, true>;
+  return nullptr;
+}
 void parse_dims(const PropReader& r, NodeProps& p, const char* key) { p.mode = r.choice(key, kDims, 2) + 1; }
 
 void eval_tex_checker(EvalArgs& a) {  // svm/checker.h
@@ -510,6 +528,27 @@ void eval_tex_noise(EvalArgs& a) {  // svm/noisetex.h (3.4)
   noise_texture(point_of(a.v(0) * scale, w, dims), dims, a.f(3), a.f(4), a.f(5), a.used(1), &value, &color);
   a.out(0, value);
   if (a.used(1)) a.out(1, color);
+}
+
+// Specialised Noise (NodeType::specialize): 3D, whether Color is read decided at compile time;
+// `Plain`: Scale, Detail, Roughness and Distortion need no conversion.
+template <bool Plain, bool Color>
+void eval_tex_noise3(EvalArgs& a) {
+  auto f = [&](int i) { return Plain ? a.x(i) : a.f(i); };
+  const float scale = f(2);
+  float value;
+  Vec3 color;
+  noise_texture(point_of(a.v(0) * scale, 0.0f, 3), 3, f(3), f(4), f(5), Color, &value, &color);
+  a.out(0, value);
+  if (Color) a.out(1, color);
+}
+EvalFn specialize_noise(const NodeProps& p, const InputSource* in, const uint32_t* outs) {
+  if (p.mode != 3) return nullptr;
+  bool plain = true;
+  for (int i = 2; i < 6; ++i) plain = plain && in[i].conv == Conversion::None;
+  const bool color = outs[1] != kTrashRegister;
+  if (plain) return color ? eval_tex_noise3<true, true> : eval_tex_noise3<true, false>;
+  return color ? eval_tex_noise3<false, true> : eval_tex_noise3<false, false>;
 }
 
 void parse_voronoi(const PropReader& r, NodeProps& p) {
@@ -933,6 +972,43 @@ void eval_mix(EvalArgs& a) {
       a.out(2, c);
       return;
     }
+  }
+}
+
+// Specialised Mix (NodeType::specialize): a colour mix whose blend is a lerp to a second colour
+// (Mix, Add, Multiply, Subtract), blend()'s expressions with the switches decided at compile
+// time; `Plain`: the factor needs no conversion.
+template <int Mode, bool ClampFactor, bool ClampResult, bool Plain>
+void eval_mix_color_lerp(EvalArgs& a) {
+  float t = Plain ? a.x(0) : a.f(0);
+  if (ClampFactor) t = saturate(t);
+  const Vec3 c1 = a.v(6), c2 = a.v(7);
+  const Vec3 to = Mode == kMix ? c2 : Mode == kAdd ? c1 + c2 : Mode == kMultiply ? mul(c1, c2) : c1 - c2;
+  Vec3 c = lerp3(c1, to, t);
+  if (ClampResult) c = saturate3(c);
+  a.out(2, c);
+}
+template <int Mode, bool CF, bool CR>
+EvalFn pick_mix_plain(bool plain) {
+  return plain ? eval_mix_color_lerp<Mode, CF, CR, true> : eval_mix_color_lerp<Mode, CF, CR, false>;
+}
+template <int Mode, bool CF>
+EvalFn pick_mix_clamp_result(bool cr, bool plain) {
+  return cr ? pick_mix_plain<Mode, CF, true>(plain) : pick_mix_plain<Mode, CF, false>(plain);
+}
+template <int Mode>
+EvalFn pick_mix(const NodeProps& p, bool plain) {
+  return p.flag ? pick_mix_clamp_result<Mode, true>(p.flag2, plain) : pick_mix_clamp_result<Mode, false>(p.flag2, plain);
+}
+EvalFn specialize_mix(const NodeProps& p, const InputSource* in, const uint32_t*) {
+  if (p.mode != 2) return nullptr;  // colour only
+  const bool plain = in[0].conv == Conversion::None;
+  switch (p.mode2) {
+    case kMix: return pick_mix<kMix>(p, plain);
+    case kAdd: return pick_mix<kAdd>(p, plain);
+    case kMultiply: return pick_mix<kMultiply>(p, plain);
+    case kSubtract: return pick_mix<kSubtract>(p, plain);
+    default: return nullptr;
   }
 }
 
@@ -1364,6 +1440,21 @@ void eval_map_range(EvalArgs& a) {
   }
 }
 
+// Specialised Map Range (NodeType::specialize): Float, Linear, the interpolation switch decided
+// at compile time; `Plain`: its five inputs need no conversion.
+template <bool Clamp, bool Plain>
+void eval_map_range_linear(EvalArgs& a) {
+  auto f = [&](int i) { return Plain ? a.x(i) : a.f(i); };
+  a.out(0, map_range_1(0, Clamp, f(0), f(1), f(2), f(3), f(4), 0.0f, false));
+}
+EvalFn specialize_map_range(const NodeProps& p, const InputSource* in, const uint32_t*) {
+  if (p.mode != 0 || p.mode2 != 0) return nullptr;
+  bool plain = true;
+  for (int i = 0; i < 5; ++i) plain = plain && in[i].conv == Conversion::None;
+  if (p.flag) return plain ? eval_map_range_linear<true, true> : eval_map_range_linear<true, false>;
+  return plain ? eval_map_range_linear<false, true> : eval_map_range_linear<false, false>;
+}
+
 void parse_clamp(const PropReader& r, NodeProps& p) { p.mode = r.choice("clamp_type", {"MINMAX", "RANGE"}, 0); }
 void eval_clamp(EvalArgs& a) {  // svm/clamp.h
   const float v = a.f(0), lo = a.f(1), hi = a.f(2);
@@ -1704,6 +1795,12 @@ std::vector<NodeType> make_types() {
        eval_displacement, true});
   add({"ShaderNodeVectorTransform", {in_v("Vector", 0.5f, 0.5f, 0.5f)}, {out_v("Vector")}, parse_vector_transform,
        eval_vector_transform, true});
+  for (NodeType& n : t) {
+    if (std::string(n.idname) == "ShaderNodeMix") n.specialize = specialize_mix;
+    if (std::string(n.idname) == "ShaderNodeMapRange") n.specialize = specialize_map_range;
+    if (std::string(n.idname) == "ShaderNodeTexNoise") n.specialize = specialize_noise;
+    if (std::string(n.idname) == "ShaderNodeTexCoord") n.specialize = specialize_tex_coord;
+  }
   std::sort(t.begin(), t.end(), [](const NodeType& x, const NodeType& y) { return std::string(x.idname) < y.idname; });
   return t;
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <random>
 #include <vector>
 
 #include "shading/graph.h"
@@ -238,6 +239,85 @@ TEST(ShadingGraph, EveryNodeWritesItsReadOutputsOnEveryRun) {
       }
   }
   EXPECT_GT(checked, 40);
+}
+
+// Specialised ops (NodeType::specialize: Mix's lerp blends, Map Range's Float Linear) give what
+// the node's general evaluation gives, to the bit: each graph compiled with and without them and
+// run at the same random points. Factors and values reach the node as plain floats or through
+// a conversion (vector -> float), over [-0.5, 1.5] so that the clamps act.
+TEST(ShadingGraph, SpecialisedOpsAreTheGeneralOnes) {
+  auto build = [](const std::string& nodes, const std::string& node, const std::string& output, bool specialize) {
+    GraphCompiler g("M", nlohmann::json::parse(nodes), nullptr);
+    const int root = g.link(nlohmann::json{{"link", node}, {"output", output}}, SocketType::Color);
+    g.set_specialize(specialize);
+    test::Compiled c;
+    c.program = g.compile();
+    c.source = g.source(root);
+    return c;
+  };
+  const std::string inputs = R"("tc": {"type": "ShaderNodeTexCoord"},
+      "xyz": {"type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": "tc", "output": "UV"}}},)";
+  const std::string plain = R"({"link": "xyz", "output": "X"})", converted = R"({"link": "tc", "output": "UV"})";
+  std::vector<std::pair<std::string, std::string>> graphs;  // (nodes, output of node n)
+  for (const char* blend : {"MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN"})
+    for (const char* cf : {"true", "false"})
+      for (const char* cr : {"true", "false"})
+        for (const std::string& fac : {plain, converted})
+          graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeMix", "props": {"data_type": "RGBA", "blend_type": ")" +
+                           blend + R"(", "clamp_factor": )" + cf + R"(, "clamp_result": )" + cr +
+                           R"(}, "inputs": {"Factor_Float": )" + fac +
+                           R"(, "A_Color": {"link": "tc", "output": "Object"}, "B_Color": {"link": "tc", "output": "UV"}}}})",
+                          "Result_Color");
+  for (const char* clamp : {"true", "false"})
+    for (const std::string& value : {plain, converted})
+      for (const std::string& from_max : {std::string("0.7"), std::string("0.2"), plain})  // 0.2: from_min == from_max
+        for (const char* interp : {"LINEAR", "STEPPED"})
+          graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeMapRange", "props": {"clamp": )" + clamp +
+                           R"(, "interpolation_type": ")" + interp + R"("}, "inputs": {"Value": )" + value +
+                           R"(, "From Min": 0.2, "From Max": )" + from_max + R"(, "To Min": 0.9, "To Max": -0.3}}})",
+                          "Result");
+  for (const char* dims : {"3D", "2D"})
+    for (const std::string& scale : {plain, converted, std::string("2.5")})
+      for (const char* out : {"Fac", "Color"})
+        graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeTexNoise", "props": {"noise_dimensions": ")" + dims +
+                                R"("}, "inputs": {"Vector": {"link": "tc", "output": "Object"}, "Scale": )" + scale +
+                                R"(, "Detail": 2.0, "Distortion": 0.3}}})",
+                            out);
+  // Texture Coordinate read at UV, at Object, at both (through a Mix), at UV with Generated.
+  const std::string tc_mix = R"("n": {"type": "ShaderNodeMix", "props": {"data_type": "RGBA"}, "inputs": {"A_Color": )";
+  graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeTexCoord"}})", "UV");
+  graphs.emplace_back(inputs + R"("n": {"type": "ShaderNodeTexCoord"}})", "Object");
+  graphs.emplace_back(inputs + tc_mix + R"({"link": "tc", "output": "UV"}, "B_Color": {"link": "tc", "output": "Object"}}}})",
+                      "Result_Color");
+  graphs.emplace_back(inputs + tc_mix + R"({"link": "tc", "output": "UV"}, "B_Color": {"link": "tc", "output": "Generated"}}}})",
+                      "Result_Color");
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-0.5f, 1.5f);
+  // An object (Object coordinates through its inverse transform) on half the points, the World
+  // (no surface) on a quarter.
+  ShadingObject object;
+  object.to_world = Transform::translate(Vec3(0.3f, -0.2f, 0.1f)) * Transform::scale(Vec3(1.5f, 0.5f, 2.0f));
+  object.to_object = invert_affine(object.to_world);
+  object.bounds.extend(Vec3(-1.0f, -2.0f, 0.0f));
+  object.bounds.extend(Vec3(1.0f, 1.0f, 3.0f));
+  for (const auto& [body, output] : graphs) {
+    const std::string nodes = "{" + body;
+    const test::Compiled fast = build(nodes, "n", output, true);
+    const test::Compiled general = build(nodes, "n", output, false);
+    ShadingContext ctx;
+    for (int i = 0; i < 200; ++i) {
+      ctx.uv = Vec2(u(rng), u(rng));
+      ctx.P = Vec3(u(rng), u(rng), u(rng));
+      ctx.object = i % 2 ? &object : nullptr;
+      ctx.surface = i % 4 != 3;
+      const Vec3 a = fast.at(ctx), b = general.at(ctx);
+      const bool same = std::memcmp(&a, &b, sizeof(Vec3)) == 0;
+      EXPECT_TRUE(same) << nodes << " at uv " << ctx.uv.x << ", " << ctx.uv.y << ": "
+                                                      << a.x << " " << a.y << " " << a.z << " against " << b.x << " "
+                                                      << b.y << " " << b.z;
+      if (!same) break;  // one message per graph
+    }
+  }
 }
 
 TEST(ShadingGraph, SupportedTypesListed) {
