@@ -81,6 +81,18 @@ def add_mesh_object(scene, name, verts, faces, material=None):
     return ob
 
 
+def sphere_on_grey_floor(scene, material, camera, target):
+    """A smooth unit sphere of `material` resting on a grey diffuse floor under a small point light
+    (radius 0.25) in a grey World: the rough glass and metal comparisons with Cycles."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0, location=(0, 0, 1))
+    bpy.ops.object.shade_smooth()
+    bpy.context.active_object.data.materials.append(material)
+    add_plane(scene, "Floor", 8.0, diffuse_material("Floor", (0.5, 0.5, 0.5)))
+    add_light(scene, "Point", 'POINT', None, 400.0, {"shadow_soft_size": 0.25}, (1.5, -1.5, 3.5))
+    set_world(scene, (0.5, 0.5, 0.5), 1.0)
+    add_camera(scene, camera, target, lens=35.0)
+
+
 def add_plane(scene, name, size, material=None, location=(0, 0, 0)):
     s = size / 2
     ob = add_mesh_object(scene, name, [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [(0, 1, 2, 3)], material)

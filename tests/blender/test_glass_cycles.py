@@ -16,7 +16,6 @@ dropped): the red glass's G and B 0.64-0.86 of Cycles', relMSE 0.022-0.071; the 
 sphere 1.0149 (relMSE 1.1e-3). Roughness 0.5 passes either way (the G differ by 0.1 % there)."""
 import pytest
 
-import bpy
 import scenes
 from test_cycles_brightness import relmse, render_both
 from test_rough_glass import glass_scene
@@ -54,13 +53,7 @@ def test_coloured_principled_glass_against_cycles(empty_scene, out_dir, case):
 def metal_sphere(scene, roughness):
     m = scenes.closure_material("Metal", "ShaderNodeBsdfGlossy", 'GGX',
                                 {"Roughness": roughness, "Color": (0.9, 0.7, 0.5, 1.0)})
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0, location=(0, 0, 1))
-    bpy.ops.object.shade_smooth()
-    bpy.context.active_object.data.materials.append(m)
-    scenes.add_plane(scene, "Floor", 8.0, scenes.diffuse_material("Floor", (0.5, 0.5, 0.5)))
-    scenes.add_light(scene, "Point", 'POINT', None, 400.0, {"shadow_soft_size": 0.25}, (1.5, -1.5, 3.5))
-    scenes.set_world(scene, (0.5, 0.5, 0.5), 1.0)
-    scenes.add_camera(scene, (0, -2.6, 1.2), (0, 0, 1.0), lens=35.0)
+    scenes.sphere_on_grey_floor(scene, m, (0, -2.6, 1.2), (0, 0, 1.0))
 
 
 @pytest.mark.parametrize("roughness", [0.5, 0.8])

@@ -14,7 +14,6 @@ largest measured (docs/blender.md). Seen failing with Walter's per-microfacet Fr
 exporter's "fresnel" key dropped): GGX 0.5 centre 1.0126."""
 import pytest
 
-import bpy
 import scenes
 from test_cycles_brightness import relmse, render_both
 
@@ -37,13 +36,7 @@ CASES = {
 
 def glass_scene(scene, kind, distribution, inputs):
     m = scenes.closure_material("Glass", kind, distribution, inputs)
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0, location=(0, 0, 1))
-    bpy.ops.object.shade_smooth()
-    bpy.context.active_object.data.materials.append(m)
-    scenes.add_plane(scene, "Floor", 8.0, scenes.diffuse_material("Floor", (0.5, 0.5, 0.5)))
-    scenes.add_light(scene, "Point", 'POINT', None, 400.0, {"shadow_soft_size": 0.25}, (1.5, -1.5, 3.5))
-    scenes.set_world(scene, (0.5, 0.5, 0.5), 1.0)
-    scenes.add_camera(scene, (0, -2.3, 1.2), (0, 0, 0.95), lens=35.0)
+    scenes.sphere_on_grey_floor(scene, m, (0, -2.3, 1.2), (0, 0, 0.95))
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
