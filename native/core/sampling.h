@@ -44,6 +44,13 @@ inline bool russian_roulette(RGB& beta, float u, float* survival = nullptr) {
   return true;
 }
 
+// Russian roulette's survival probability on a camera path (paths/camera_path.h: pt, spt,
+// spt-hero) of largest throughput channel m, taken with the 1/eta^2 radiance scaling of its
+// refractions divided out (pbrt-v4's etaScale: inside a clear glass ball m stays 1, not 1/1.5^2)
+// and no 0.95 cap (max_depth ends paths): survivors keep a weight near 1 (docs/benchmarks.md,
+// issue 31: a glass ball under an HDRI).
+inline float camera_path_survival(float m) { return std::min(1.0f, m); }
+
 // Piecewise-constant discrete distribution: sample an index with probability w_i / sum(w).
 class DiscreteDistribution {
  public:

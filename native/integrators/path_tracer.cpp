@@ -146,9 +146,10 @@ struct RgbPath {
     prev_p = hit.p;
     return bs;
   }
-  bool survive(float u) {
-    float survival = 1.0f;
-    if (!russian_roulette(beta, u, &survival)) return false;
+  bool survive(float u, float eta_scale) {
+    const float survival = camera_path_survival(beta.max_component() * eta_scale);
+    if (!(u < survival)) return false;
+    beta = beta / survival;
     prev.beta = prev.beta / survival;
     return true;
   }

@@ -9,6 +9,7 @@
 #include <sys/resource.h>
 
 #include <cmath>
+#include <tuple>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -349,14 +350,16 @@ TEST(GridMediaPathTracing, AlbedoOneGridInUniformEnvironmentIsInvisible) {
         R"({"sigma_s": 1, "g": -0.3, "grid": {"file": ")" + file +
             R"(", "density_grid": "density", "color_grid": "color", "density": 1.5, "absorption_color": [0.2, 0.5, 0.9]}})"}) {
     const Scene s = scene_from(scene_head + medium + "}}");
-    for (const char* method : {"pt", "spt-hero"}) {
+    // Measured spread of one render's mean (16 seeds, the first medium): pt at 48 spp 0.8 % of
+    // the red channel, spt-hero 2.6 % (its wavelengths see different densities); spt-hero runs
+    // 4x the samples (1.3 %). Bounds: 2 % for pt, 5 % for spt-hero (about 4 standard deviations).
+    for (const auto& [method, passes, bound] : {std::tuple{"pt", 48, 0.02}, std::tuple{"spt-hero", 192, 0.05}}) {
       bool finite = false;
-      const RGB m = image_mean(render_pt(s, 48, method), &finite);
+      const RGB m = image_mean(render_pt(s, passes, method), &finite);
       EXPECT_TRUE(finite);
-      // 48 spp over 256 pixels: a few per mille of noise; 2 % headroom.
-      EXPECT_NEAR(m.r, 0.5, 0.01) << method << " " << medium;
-      EXPECT_NEAR(m.g, 1.0, 0.02) << method << " " << medium;
-      EXPECT_NEAR(m.b, 2.0, 0.04) << method << " " << medium;
+      EXPECT_NEAR(m.r, 0.5, 0.5 * bound) << method << " " << medium;
+      EXPECT_NEAR(m.g, 1.0, 1.0 * bound) << method << " " << medium;
+      EXPECT_NEAR(m.b, 2.0, 2.0 * bound) << method << " " << medium;
     }
   }
 }

@@ -18,7 +18,9 @@
 //                   const ShadowTest& shadow);
 //   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u);
 //                                               // updates the throughput; nullopt: end
-//   bool survive(float u);                      // Russian roulette: false ends the path
+//   bool survive(float u, float eta_scale);     // Russian roulette: false ends the path; its
+//                                               // probability from the throughput times
+//                                               // eta_scale (camera_path_survival)
 //
 // next_event's shadow ray goes through a ShadowTest (paths/medium_walk.h): Scene::occluded in a
 // scene without media or transparent surfaces, else the transmittance through the media and the
@@ -162,6 +164,17 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
   // lower it only below Filter Glossy 1e-6), and whether the ray left a diffuse bounce.
   float min_ray_pdf = kInfinity;
   const bool filter_closures = scene.filters_caustics();
+  // Russian roulette, as Cycles places it (integrator_intersect_terminate): decided where the
+  // next ray meets a surface or scatters in a medium, after the emission it found, so a ray that
+  // leaves the scene (to an HDRI's sun, through glass) is never ended by it. Its probability reads
+  // the throughput times eta_scale, the product of eta^2 over the path's refractions, which
+  // divides out the radiance scaling 1/eta^2 that a refraction into glass puts in the throughput
+  // (pbrt-v4's etaScale; Cycles leaves that factor out of its throughput altogether): a path
+  // inside a clear glass ball survives as one outside it does. Before, the roulette came right
+  // after each scatter, from min(0.95, throughput) with the 1/2.25: a glass ball's relMSE
+  // at equal samples was 2.2x Cycles' (docs/benchmarks.md, issue 31).
+  float eta_scale = 1.0f;
+  bool roulette_pending = false;
   // The segment's index for the sampler's dimensions (path_dim): unlike depth it also counts
   // pass-through segments, so no dimension is used twice on one path.
   for (int depth = 0, vertex = 0;; ++depth, ++vertex) {
@@ -219,6 +232,10 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
       path.medium_weight(segment->scatter_weight(t_scatter));
       const Vec3 p = ray.at(t_scatter);
       if (depth + 1 >= s.max_depth) return 0.0f;
+      if (roulette_pending) {
+        roulette_pending = false;
+        if (!path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)), eta_scale)) return 0.0f;
+      }
       if (!lights.empty()) {
         const float u_light = sampler.get1d(path_dim(vertex, kDimLight));
         const Vec2 u2 = sampler.get2d(path_dim(vertex, kDimLight2));
@@ -252,7 +269,7 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
       const RayState state = ray.state.volume_next();
       ray = Ray(p, wi);  // a volume ray: every surface is there for it
       ray.state = state;
-      if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return 0.0f;
+      roulette_pending = depth + 1 >= s.rr_depth;  // Russian roulette at the next vertex
       continue;
     }
     if (segment) path.medium_weight(segment->pass_weight(hit ? hit->t : kInfinity));
@@ -297,6 +314,10 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
       continue;
     }
     if (depth + 1 >= s.max_depth || volume_done) return 0.0f;
+    if (roulette_pending) {
+      roulette_pending = false;
+      if (!path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)), eta_scale)) return 0.0f;
+    }
     ClosureFilter filter;
     if (filter_closures) {
       // Filter Glossy g: blur where p_min / g < 1 (Cycles stores 1 / g: surface_shader.h).
@@ -352,8 +373,9 @@ float trace_camera_path(const Scene& scene, const CameraPathSettings& s, Ray ray
       ray.state = state;      // Light Path's view of it (Cycles' path_state_next)
     }
 
-    // ---- Russian roulette ----
-    if (depth + 1 >= s.rr_depth && !path.survive(sampler.get1d(path_dim(vertex, kDimRoulette)))) return 0.0f;
+    if (bs->transmission) eta_scale *= sqr(bs->eta);  // 1 through a Transparent BSDF
+    // ---- Russian roulette: at the next vertex, if the ray meets one ----
+    roulette_pending = depth + 1 >= s.rr_depth;
   }
 }
 

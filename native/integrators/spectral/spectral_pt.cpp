@@ -290,15 +290,15 @@ struct SpectralPath {
     return bs;
   }
   // Russian roulette on the MIS-weighted throughput.
-  bool survive(float u_rr) {
+  bool survive(float u_rr, float eta_scale) {
     const float ru = mean(r_u, C);
     float bmax = 0;
     for (int k = 0; k < C; ++k) bmax = std::max(bmax, beta[k]);
-    const float q = std::max(0.05f, 1.0f - (ru > 0 ? bmax / ru : 0.0f));
-    if (u_rr < q) return false;
+    const float survival = camera_path_survival(ru > 0 ? bmax / ru * eta_scale : 0.0f);
+    if (!(u_rr < survival)) return false;
     for (int k = 0; k < C; ++k) {
-      beta[k] /= 1.0f - q;
-      prev.beta[k] /= 1.0f - q;
+      beta[k] /= survival;
+      prev.beta[k] /= survival;
     }
     return true;
   }
