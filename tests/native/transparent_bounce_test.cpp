@@ -170,7 +170,7 @@ TEST(FilmTransparent, ATintedPaneBeforeTheWorldLeavesOneMinusTheAverageOfItsColo
       EXPECT_EQ(a.colour.r + a.colour.g + a.colour.b, 0.0f) << what;  // no background
     }
   });
-  EXPECT_GE(spectral_runs, 4);  // spt, spt-hero, ppm and sppm in spectral mode
+  EXPECT_GE(spectral_runs, 4);  // spt, spt-hero, and pt and sppm in spectral mode (at least)
 }
 
 // The same panes' colours as a Transparent BSDF mixed half and half with a diffuse one (a leaf's
