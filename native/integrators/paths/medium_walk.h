@@ -39,8 +39,8 @@ inline bool transparent_done(int transparent_bounces, const RayState& state) {
 // Transparent BSDF closures, carried beside its spectral throughput for its transparency only
 // (path_transparency). Cycles averages the RGB throughput of a path that escaped after transparent
 // bounces only (a red pane: 1/3, alpha 2/3); the mean of a wavelength bundle's throughput
-// estimates the mean of the pane's upsampled spectrum instead (alpha 0.43 in spt, 0.59 in
-// spt-hero, 0.57 in spectral sppm). So a pass multiplies in the closure's RGB colour, before
+// estimates the mean of the pane's upsampled spectrum instead (a red pane's alpha read 0.43 in
+// spt and spt-hero, 0.28 in spectral sppm: FilmTransparent's test). So a pass multiplies in the closure's RGB colour, before
 // upsampling, over the hero's pick probability (the RGB BSDF sampled with the hero's numbers:
 // closure picks depend on mix factors, not on colours, so it takes the same closure); the
 // colour itself keeps its spectral throughput. Media and Russian roulette scale it by their
