@@ -50,9 +50,9 @@ inline bool transparent_done(int transparent_bounces, const RayState& state) {
 class RgbTransparency {
  public:
   // A BSDF sample drawn at the path's vertex: a transparent pass (materials/bsdf.h's
-  // is_transparent_pass) multiplies in the RGB BSDF `rgb`'s weight for the same numbers
-  // (rgb: null where the material has no Transparent BSDF); any other sample ends the
-  // transparent walk (the path no longer counts towards the transparency).
+  // is_transparent_pass) multiplies in the hit's RGB BSDF `rgb`'s weight for the same numbers;
+  // any other sample ends the transparent walk (the path no longer counts towards the
+  // transparency).
   void scatter(const Bsdf* rgb, const Vec3& wo, float uc, Vec2 u, const BsdfSample& bs) {
     if (!walking_) return;
     if (!is_transparent_pass(bs)) {

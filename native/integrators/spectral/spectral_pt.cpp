@@ -116,7 +116,8 @@ struct SpectralPath {
   bool medium_vertex = false;          // the ray was scattered by a medium (every light sees it)
   std::vector<MediumChannels> media;   // the scene's media at the path's wavelengths
   // Film > Transparent: the RGB weight of the camera's transparent passes (paths/medium_walk.h),
-  // and the RGB BSDF of the hit while that walk lasts, where the material has a Transparent BSDF.
+  // and the RGB BSDF of the hit while that walk lasts (a glass whose IOR a graph drives may be a
+  // transparent pass at a hit: Material::has_transparent_closure does not know).
   RgbTransparency alpha;
   std::optional<Bsdf> rgb_bsdf;
 
@@ -199,7 +200,7 @@ struct SpectralPath {
     // The RGB parameters the surface already holds (its graph run once per hit, not again).
     rgb_bsdf.emplace(surface.rgb());
     const bool black = rgb_bsdf->is_black();
-    if (!alpha.walking() || !base.has_transparent_closure()) rgb_bsdf.reset();
+    if (!alpha.walking()) rgb_bsdf.reset();  // kept for the camera's walk only
     return !black;
   }
   bool is_delta() const { return bk[0]->is_delta(); }
