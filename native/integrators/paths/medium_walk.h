@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "media/medium.h"
 #include "scene/scene.h"
@@ -34,18 +35,73 @@ inline bool transparent_done(int transparent_bounces, const RayState& state) {
   return state.transparent > 0 && state.transparent > transparent_bounces;
 }
 
+// Film > Transparent in the spectral methods: the RGB weight of a camera path's passes through
+// Transparent BSDF closures, carried beside its spectral throughput for its transparency only
+// (path_transparency). Cycles averages the RGB throughput of a path that escaped after transparent
+// bounces only (a red pane: 1/3, alpha 2/3); the mean of a wavelength bundle's throughput
+// estimates the mean of the pane's upsampled spectrum instead (a red pane's alpha read 0.43 in
+// spt and spt-hero, 0.28 in spectral sppm: FilmTransparent's test). So a pass multiplies in the closure's RGB colour, before
+// upsampling, over the hero's pick probability (the RGB BSDF sampled with the hero's numbers:
+// closure picks depend on mix factors, not on colours, so it takes the same closure); the
+// colour itself keeps its spectral throughput. Media and Russian roulette scale it by their
+// factor's mean over the path's wavelengths (exact for grey media; a coloured medium's
+// transparency stays its spectral mean, as before). The camera-path loop's spectral path
+// (spectral/spectral_pt.cpp) and the photon methods' spectral eye walk hold one each.
+class RgbTransparency {
+ public:
+  // A BSDF sample drawn at the path's vertex: a transparent pass (materials/bsdf.h's
+  // is_transparent_pass) multiplies in the hit's RGB BSDF `rgb`'s weight for the same numbers;
+  // any other sample ends the transparent walk (the path no longer counts towards the
+  // transparency).
+  void scatter(const Bsdf* rgb, const Vec3& wo, float uc, Vec2 u, const BsdfSample& bs) {
+    if (!walking_) return;
+    if (!is_transparent_pass(bs)) {
+      walking_ = false;
+      return;
+    }
+    const std::optional<BsdfSample> s = rgb ? rgb->sample(wo, uc, u) : std::nullopt;
+    weight_ *= s && is_transparent_pass(*s) && s->pdf > 0 ? s->f * (std::abs(s->wi.z) / s->pdf) : RGB(0.0f);
+  }
+  // A transparent pass weighed by RGB factor w (the photon methods' eye walk's pass through a
+  // photon-diffuse surface's Transparent BSDF: its RGB weight over the pass's probability).
+  void pass(const RGB& w) {
+    if (walking_) weight_ *= w;
+  }
+  // A factor per channel of the path (media's transmittance): its mean over them.
+  void scale(const ChannelValues& w, int n) {
+    if (!walking_ || n <= 0) return;
+    float sum = 0;
+    for (int k = 0; k < n; ++k) sum += w[k];
+    weight_ *= sum / n;
+  }
+  void scale(float f) { weight_ *= f; }
+  // The path left the camera's walk (a medium scattered it).
+  void end() { walking_ = false; }
+  bool walking() const { return walking_; }
+  float average() const { return weight_.average(); }
+
+ private:
+  RGB weight_{1.0f};
+  bool walking_ = true;  // only transparent passes so far
+};
+
 // Cycles' transparency of a camera path that escaped to a transparent background after
 // transparent bounces only: the average of its throughput (integrate_background adds
-// average(throughput) to the transparent pass; alpha = 1 - it), in [0, 1], over the path's
-// channels (RGB, or its wavelengths). The camera-path loop and the photon methods' eye walk
-// share it.
+// average(throughput) to the transparent pass; alpha = 1 - it), in [0, 1], over RGB: an RGB
+// path's channels, or a spectral path's RgbTransparency (rgb_transparency()). The camera-path
+// loop and the photon methods' eye walk share it.
 template <class P>
 float path_transparency(const P& path) {
-  const ChannelValues w = path.channel_weights();
-  const int n = path.channels();
-  float sum = 0;
-  for (int k = 0; k < n; ++k) sum += w[k];
-  const float t = n > 0 ? sum / n : 1.0f;
+  float t;
+  if constexpr (requires { path.rgb_transparency(); }) {
+    t = path.rgb_transparency().average();
+  } else {
+    const ChannelValues w = path.channel_weights();
+    const int n = path.channels();
+    float sum = 0;
+    for (int k = 0; k < n; ++k) sum += w[k];
+    t = n > 0 ? sum / n : 1.0f;
+  }
   return std::isfinite(t) ? std::clamp(t, 0.0f, 1.0f) : 1.0f;
 }
 

@@ -450,6 +450,7 @@ struct RgbEye {
   void medium_weight(const ChannelValues& w) { beta *= RGB(w[0], w[1], w[2]); }
   void medium_emission(const ChannelValues& e) { Ld += beta * RGB(e[0], e[1], e[2]); }
   bool is_hero_only() const { return false; }
+  void transparent_weight(const ChannelValues& t, const RGB&) { medium_weight(t); }  // t is RGB here
 };
 
 template <class Colour, class Hooks>
@@ -513,16 +514,21 @@ ProgressivePhotonMapping::EyeEnd ProgressivePhotonMapping::trace_eye(Ray ray, Rn
     // passes straight through (a transparent bounce, weight T / q per channel, as a BSDF sample
     // of that closure), else it is measured here weighted 1 / (1 - q) (the measurement and its
     // NEE evaluate the other closures only). Without this the mix's see-through part was lost.
+    // q is the RGB weight's mean in the spectral eye too (bsdf: eye_bsdf's RGB BSDF), as Cycles
+    // picks the closure: the pass's RGB weight is then 1 / q times the closure's colour, whose
+    // mean, the path's transparency (RgbTransparency), is 1, never above it; the wavelengths'
+    // mean (used before) left a green pane's mix weight above 1, clamped, alpha 0.85 for 0.75.
     std::optional<BsdfSample> through;
     if (measure && scene_.material(hit->material).transparent_shadow()) {
       ChannelValues T = eye_transparency(c, *hit, bsdf);
+      const RGB rgb = bsdf.transparency();
       float mean = 0;
-      for (int k = 0; k < c.channels(); ++k) mean += T[k];
-      const float q = std::min(mean / c.channels(), 0.999f);
+      for (const float t : {rgb.r, rgb.g, rgb.b}) mean += t;
+      const float q = std::min(mean / 3, 0.999f);
       if (q > 0.0f) {
         if (rng.uniform() < q) {
           for (int k = 0; k < c.channels(); ++k) T[k] /= q;
-          c.medium_weight(T);
+          c.transparent_weight(T, rgb * (1.0f / q));
           BsdfSample pass;
           pass.f = RGB(1.0f);
           pass.wi = -wo;

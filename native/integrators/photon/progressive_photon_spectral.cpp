@@ -120,7 +120,19 @@ struct SpectralEye {
   int channels() const { return C; }
   const MediumChannels& medium_channels(int m) const { return (*media)[m]; }
   ChannelValues channel_weights() const { return beta_channels(beta, C); }
-  void medium_weight(const ChannelValues& w) { scale_by_channels(beta, w, C); }
+  void medium_weight(const ChannelValues& w) {
+    scale_by_channels(beta, w, C);
+    alpha.scale(w, C);
+  }
+  // Film > Transparent: the RGB weight of the camera's transparent passes (paths/medium_walk.h).
+  RgbTransparency alpha;
+  const RgbTransparency& rgb_transparency() const { return alpha; }  // path_transparency
+  // A pass through a photon-diffuse surface's Transparent BSDF (trace_eye): t per wavelength, rgb
+  // the same weight from the closure's RGB colour.
+  void transparent_weight(const ChannelValues& t, const RGB& rgb) {
+    scale_by_channels(beta, t, C);
+    alpha.pass(rgb);
+  }
   void medium_emission(const ChannelValues& e) {
     for (int k = 0; k < C; ++k) Ld[k] += beta[k] * e[k];
   }
@@ -160,10 +172,11 @@ RGB ProgressivePhotonMapping::eye_nee(SpectralEye& c, const SurfaceHit& hit, con
   return RGB(0.0f);  // no hooks watch the spectral eye path
 }
 
-std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf&,
+std::optional<BsdfSample> ProgressivePhotonMapping::eye_scatter(SpectralEye& c, const SurfaceHit& hit, const Bsdf& rgb,
                                                                 const Vec3& wo, float uc, Vec2 u) const {
   const auto bs = scene_.bsdf(c.mk[0], hit).sample(wo, uc, u);
   if (!bs || bs->pdf <= 0) return std::nullopt;
+  c.alpha.scatter(&rgb, wo, uc, u, *bs);  // eye_bsdf's RGB BSDF of the same hit
   SpectralValues factor{};
   if (!scatter_factors(scene_, hit, c.mk, c.C, wo, *bs, uc, u, TransportMode::Radiance, factor, c.hero_only))
     return std::nullopt;
@@ -199,6 +212,7 @@ bool ProgressivePhotonMapping::eye_survive(SpectralEye& c, float u, float*) cons
   const float q = std::max(0.05f, 1.0f - bmax);
   if (u < q) return false;
   for (int k = 0; k < c.C; ++k) c.beta[k] /= 1.0f - q;
+  c.alpha.scale(1.0f / (1.0f - q));
   return true;
 }
 

@@ -115,6 +115,11 @@ struct SpectralPath {
   int64_t shadow_rays = 0;
   bool medium_vertex = false;          // the ray was scattered by a medium (every light sees it)
   std::vector<MediumChannels> media;   // the scene's media at the path's wavelengths
+  // Film > Transparent: the RGB weight of the camera's transparent passes (paths/medium_walk.h),
+  // and the RGB BSDF of the hit while that walk lasts (a glass whose IOR a graph drives may be a
+  // transparent pass at a hit: Material::has_transparent_closure does not know).
+  RgbTransparency alpha;
+  std::optional<Bsdf> rgb_bsdf;
 
   SpectralPath(const Scene& s, const SceneSpectra& sp, const SampledWavelengths& w)
       : scene(s), lights(s.light_set()), spectra(sp), wl(w), C(w.count), split_lobes(s.lights_hidden_from_some_lobes()) {
@@ -193,7 +198,10 @@ struct SpectralPath {
       bk[k] = scene.bsdf(mk[k], hit);  // with the hit's normals (a normal map's bump shadowing)
     }
     // The RGB parameters the surface already holds (its graph run once per hit, not again).
-    return !Bsdf(surface.rgb()).is_black();
+    rgb_bsdf.emplace(surface.rgb());
+    const bool black = rgb_bsdf->is_black();
+    if (!alpha.walking()) rgb_bsdf.reset();  // kept for the camera's walk only
+    return !black;
   }
   bool is_delta() const { return bk[0]->is_delta(); }
   // A light hidden from some kinds of bounce ray lights only the lobes of the kinds it is
@@ -228,6 +236,7 @@ struct SpectralPath {
   std::optional<BsdfSample> scatter(const SurfaceHit& hit, const Vec3& wo, float uc, Vec2 u) {
     const auto bs = bk[0]->sample(wo, uc, u);
     if (!bs || bs->pdf <= 0) return std::nullopt;
+    alpha.scatter(rgb_bsdf ? &*rgb_bsdf : nullptr, wo, uc, u, *bs);
     // Through a Transparent BSDF: the MIS state of the vertex before it stays (as RgbPath).
     const bool transparent = is_transparent_pass(*bs) && scene.material(hit.material).transparent_shadow();
     if (split_lobes && !transparent) {
@@ -300,6 +309,7 @@ struct SpectralPath {
       beta[k] /= survival;
       prev.beta[k] /= survival;
     }
+    alpha.scale(1.0f / (1.0f - q));
     return true;
   }
 
@@ -313,17 +323,21 @@ struct SpectralPath {
     return {.count = C, .lambda = wl.lambda.data(), .media = media.empty() ? nullptr : media.data(), .state = state};
   }
   ChannelValues channel_weights() const { return beta_channels(beta, C); }
+  const RgbTransparency& rgb_transparency() const { return alpha; }  // path_transparency
   struct Saved {
     SpectralValues beta, prev_beta;
+    RgbTransparency alpha;
   };
-  Saved save() const { return {beta, prev.beta}; }
+  Saved save() const { return {beta, prev.beta, alpha}; }
   void restore(const Saved& s) {
     beta = s.beta;
     prev.beta = s.prev_beta;
+    alpha = s.alpha;
   }
   void medium_weight(const ChannelValues& w) {
     scale_by_channels(beta, w, C);
     scale_by_channels(prev.beta, w, C);
+    alpha.scale(w, C);
   }
   // Emission found by the ray only (the BSDF strategy's full weight, as add_emission).
   void medium_emission(int, const ChannelValues& e) {
@@ -348,6 +362,7 @@ struct SpectralPath {
       beta[k] *= ratio[k];
       r_l[k] = r_u[k] / phase_pdf;
     }
+    alpha.end();
     specular_bounce = false;
     medium_vertex = true;
     prev_p = p;
