@@ -786,6 +786,26 @@ TEST(Gpm, PhotonsPerPassKeepTheEyePassHalfAPass) {
   EXPECT_EQ(gpm_photons_per_pass(GpmPassWork{.eye_rays = 1000000}, 384, 288, 3), auto_photons_per_pass(384, 288, 3));
 }
 
+// The rule's constants (gpm.h GpmPhotonRule): the eye share it aims for, and the fraction of
+// SPPM's ramp it never goes below; the count is a function of the last pass's counted work only.
+TEST(Gpm, PhotonRuleAimsAtItsEyeShareAboveItsFloor) {
+  // Costly photons (a walked gather): the rule's count is below SPPM's ramp at 512x512, pass 10.
+  GpmPassWork w{.eye_rays = 2000000, .photon_rays = 200000, .shift_rays = 1000000, .walk_iterations = 200000,
+                .emitted = 100000, .stored = 50000};
+  const double eye = w.eye_work(), per_photon = w.photon_work() / 100000.0;
+  const int64_t ramp = auto_photons_per_pass(512, 512, 10);
+  for (const double share : {0.25, 0.5, 0.6}) {
+    const int64_t n = gpm_photons_per_pass(w, 512, 512, 10, {.eye_share = share, .ramp_floor = 0.0});
+    EXPECT_NEAR(static_cast<double>(n), (1 - share) / share * eye / per_photon, 1.0) << share;
+    EXPECT_NEAR(eye / (eye + static_cast<double>(n) * per_photon), share, 1e-5) << share;
+    EXPECT_EQ(n, gpm_photons_per_pass(w, 512, 512, 10, {.eye_share = share, .ramp_floor = 0.0}));  // no state
+  }
+  const int64_t free = gpm_photons_per_pass(w, 512, 512, 10, {.eye_share = 0.5, .ramp_floor = 0.0});
+  ASSERT_LT(free, ramp / 2);  // the case the floor decides
+  EXPECT_EQ(gpm_photons_per_pass(w, 512, 512, 10, {.eye_share = 0.5, .ramp_floor = 1.0}), ramp);
+  EXPECT_EQ(gpm_photons_per_pass(w, 512, 512, 10, {.eye_share = 0.5, .ramp_floor = 0.5}), ramp / 2);
+}
+
 // The rule in a render: sun-caustic's eye pass (five camera paths and their shadow rays per pixel)
 // outweighs its photons' work (a sun's photons are stored only after the ball), so passes after
 // the first take more than the ramp; counted work, not time, so a seed gives the same image bit

@@ -86,6 +86,9 @@ constexpr double kWalkIterationWeight = 0.5;
 // The eye pass's share of a pass. The issue asked for a quarter; at equal counted work a half
 // gave sun-caustic 0.58x the ramp's relMSE and a quarter 1.2-3.5x (two seeds, docs/gradient.md).
 constexpr double kEyeShare = 0.5;
+// The fraction of SPPM's ramp (100 000 doubling every 8 passes up to two per pixel) the count
+// never goes below.
+constexpr double kRampFloor = 1.0;
 constexpr int64_t kMaxEmitted = 4000000;         // a pass stays a few eye passes long at most
 constexpr double kMaxStored = 1000000;           // the ramp's largest pass stores at most this many
 }  // namespace
@@ -96,14 +99,16 @@ double GpmPassWork::photon_work() const {
          kShiftRayWeight * static_cast<double>(shift_rays) + kWalkIterationWeight * static_cast<double>(walk_iterations);
 }
 
-int64_t gpm_photons_per_pass(const GpmPassWork& last, int width, int height, uint64_t pass) {
+GpmPhotonRule default_gpm_photon_rule() { return {.eye_share = kEyeShare, .ramp_floor = kRampFloor}; }
+
+int64_t gpm_photons_per_pass(const GpmPassWork& last, int width, int height, uint64_t pass, const GpmPhotonRule& rule) {
   const int64_t ramp = auto_photons_per_pass(width, height, pass);
   const double per_photon = last.emitted > 0 ? last.photon_work() / static_cast<double>(last.emitted) : 0.0;
   if (!(per_photon > 0)) return ramp;  // nothing measured (no photon reached the scene): the ramp
-  double n = (1.0 - kEyeShare) / kEyeShare * last.eye_work() / per_photon;
+  double n = (1.0 - rule.eye_share) / rule.eye_share * last.eye_work() / per_photon;
   n = std::min(n, static_cast<double>(kMaxEmitted));
   if (last.stored > 0) n = std::min(n, kMaxStored * static_cast<double>(last.emitted) / static_cast<double>(last.stored));
-  return std::max(ramp, static_cast<int64_t>(n));
+  return std::max(static_cast<int64_t>(rule.ramp_floor * static_cast<double>(ramp)), static_cast<int64_t>(n));
 }
 
 // ---- Eye pass: SPPM's camera paths (same random numbers) and their half-vector-copy offsets ----

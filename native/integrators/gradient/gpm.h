@@ -120,7 +120,16 @@ struct GpmPassWork {
   double eye_work() const;
   double photon_work() const;
 };
-int64_t gpm_photons_per_pass(const GpmPassWork& last, int width, int height, uint64_t pass);
+// The rule's two constants (gpm.cpp kEyeShare, kRampFloor are the defaults; tests and equal-work
+// sweeps set others): the eye pass's target share of a pass's counted work, and the fraction of
+// SPPM's ramp the count never goes below.
+struct GpmPhotonRule {
+  double eye_share;
+  double ramp_floor;
+};
+GpmPhotonRule default_gpm_photon_rule();
+int64_t gpm_photons_per_pass(const GpmPassWork& last, int width, int height, uint64_t pass,
+                             const GpmPhotonRule& rule = default_gpm_photon_rule());
 
 class Gpm : public ProgressivePhotonMapping {
  public:
@@ -135,6 +144,7 @@ class Gpm : public ProgressivePhotonMapping {
   void set_eager_offsets(bool eager) { eager_all_offsets_ = eager; }
   // Tests: `photons` 0 takes SPPM's ramp, not gpm_photons_per_pass (regressions found with it).
   void set_ramp_photons(bool ramp) { ramp_photons_ = ramp; }
+  void set_photon_rule(const GpmPhotonRule& rule) { photon_rule_ = rule; }
 
   // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
@@ -242,9 +252,10 @@ class Gpm : public ProgressivePhotonMapping {
   ReconOptions recon_;
   bool ramp_photons_ = false;
   GpmPassWork last_work_;  // the last pass's, for the next pass's photon count (gpm_photons_per_pass)
+  GpmPhotonRule photon_rule_ = default_gpm_photon_rule();
   int64_t photons_next(uint64_t pass) const {
     return photons_per_pass_ > 0 || pass == 0 || ramp_photons_ ? photons_for_pass(pass)
-                                                                : gpm_photons_per_pass(last_work_, width_, height_, pass);
+                                                                : gpm_photons_per_pass(last_work_, width_, height_, pass, photon_rule_);
   }
   std::vector<std::array<OffsetPoint, 4>> off_;
   std::vector<PhotonOrigin> origins_;
