@@ -309,7 +309,7 @@ struct SpectralPath {
       beta[k] /= survival;
       prev.beta[k] /= survival;
     }
-    alpha.scale(1.0f / (1.0f - q));
+    alpha.scale(1.0f / survival);
     return true;
   }
 
