@@ -31,19 +31,10 @@ sys.path.insert(0, str(ROOT / "build" / "python"))
 
 
 def parse_config(text):
+    """'label=method:k=v,...' -> (label, method, params) (interleaved.py's method spec)."""
+    from interleaved import parse_spec
     label, _, spec = text.partition("=")
-    method, _, kv = spec.partition(":")
-    params = {}
-    for item in filter(None, kv.split(",")):
-        k, _, v = item.partition("=")
-        try:
-            params[k] = int(v)
-        except ValueError:
-            try:
-                params[k] = float(v)
-            except ValueError:
-                params[k] = {"true": True, "false": False}.get(v, v)
-    return label, method, params
+    return (label, *parse_spec(spec))
 
 
 def render(native, scene_path, size, method, params, seed, levels, threads):

@@ -25,6 +25,7 @@ from gradphoton import _native  # noqa: E402
 
 
 def parse_spec(spec):
+    """'method:k=v,k=v' -> (method, {k: int, float, bool or str})."""
     name, _, rest = spec.partition(":")
     params = {}
     for kv in filter(None, rest.split(",")):
@@ -35,7 +36,7 @@ def parse_spec(spec):
             try:
                 params[k] = float(v)
             except ValueError:
-                params[k] = v
+                params[k] = {"true": True, "false": False}.get(v, v)
     return name, params
 
 
