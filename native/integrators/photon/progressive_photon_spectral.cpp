@@ -74,10 +74,15 @@ bool scatter_factors(const Scene& scene, const SurfaceHit& hit, const BsdfParams
 }  // namespace
 
 SampledWavelengths ProgressivePhotonMapping::pass_wavelengths(uint64_t pass) const {
-  // The hero of pass j: van der Corput point j (base 2) shifted by one random offset per render
-  // (Cranley-Patterson rotation). Each pass's hero stays uniform, but the passes stratify the
-  // spectrum: a dispersive caustic, which is the hero's alone, gets its colour right in far
-  // fewer passes than with independent heroes.
+  // The hero of pass j: van der Corput point j (base 2) scaled to one comb spacing 1/C, shifted
+  // by one random offset per render (Cranley-Patterson rotation). Each pass's hero stays uniform,
+  // but the passes stratify the spectrum: a dispersive caustic, which is the hero's alone, gets
+  // its colour right in far fewer passes than with independent heroes. The scaling matters:
+  // sample_uniform places the other C - 1 wavelengths at the hero + k/C, so heroes that differ by
+  // a multiple of 1/C give the same set, and the unscaled points of passes 0..C-1 (0, 1/2, 1/4,
+  // 3/4 for C = 4) did: every pixel of the first C passes saw the same C wavelengths (red.json:
+  // 0.13 for 0.34 after 4 passes, panes.json a negative red mean). Scaled, the first 2^k passes'
+  // sets interleave into C 2^k evenly spaced wavelengths.
   uint32_t bits = static_cast<uint32_t>(pass);
   bits = (bits << 16) | (bits >> 16);
   bits = ((bits & 0x00ff00ffu) << 8) | ((bits & 0xff00ff00u) >> 8);
@@ -85,7 +90,7 @@ SampledWavelengths ProgressivePhotonMapping::pass_wavelengths(uint64_t pass) con
   bits = ((bits & 0x33333333u) << 2) | ((bits & 0xccccccccu) >> 2);
   bits = ((bits & 0x55555555u) << 1) | ((bits & 0xaaaaaaaau) >> 1);
   Rng rng = Rng::for_key(seed_ ^ 0x7370656374726cULL, 0, 0x776cULL);
-  double u = bits * 0x1p-32 + rng.uniform();
+  double u = bits * 0x1p-32 / wl_.count + rng.uniform();
   u -= std::floor(u);
   return SampledWavelengths::sample_uniform(std::min(static_cast<float>(u), 0x1.fffffep-1f), wl_.count);
 }
