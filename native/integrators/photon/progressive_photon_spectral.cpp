@@ -17,6 +17,7 @@
 
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "core/sobol.h"
 #include "integrators/lobe_split.h"
 #include "integrators/photon/photon_walk.h"
 #include "integrators/photon/progressive_photon.h"
@@ -74,23 +75,25 @@ bool scatter_factors(const Scene& scene, const SurfaceHit& hit, const BsdfParams
 }  // namespace
 
 SampledWavelengths ProgressivePhotonMapping::pass_wavelengths(uint64_t pass) const {
-  // The hero of pass j: van der Corput point j (base 2) scaled to one comb spacing 1/C, shifted
-  // by one random offset per render (Cranley-Patterson rotation). Each pass's hero stays uniform,
-  // but the passes stratify the spectrum: a dispersive caustic, which is the hero's alone, gets
-  // its colour right in far fewer passes than with independent heroes. The scaling matters:
-  // sample_uniform places the other C - 1 wavelengths at the hero + k/C, so heroes that differ by
-  // a multiple of 1/C give the same set, and the unscaled points of passes 0..C-1 (0, 1/2, 1/4,
-  // 3/4 for C = 4) did: every pixel of the first C passes saw the same C wavelengths (red.json:
-  // 0.13 for 0.34 after 4 passes, panes.json a negative red mean). Scaled, the first 2^k passes'
-  // sets interleave into C 2^k evenly spaced wavelengths.
-  uint32_t bits = static_cast<uint32_t>(pass);
-  bits = (bits << 16) | (bits >> 16);
-  bits = ((bits & 0x00ff00ffu) << 8) | ((bits & 0xff00ff00u) >> 8);
-  bits = ((bits & 0x0f0f0f0fu) << 4) | ((bits & 0xf0f0f0f0u) >> 4);
-  bits = ((bits & 0x33333333u) << 2) | ((bits & 0xccccccccu) >> 2);
-  bits = ((bits & 0x55555555u) << 1) | ((bits & 0xaaaaaaaau) >> 1);
+  // sample_uniform places the other C - 1 wavelengths at the hero + k/C, so a pass's set is
+  // fixed by the hero modulo 1/C (its offset within the comb) and the hero is the set's member
+  // floor(C u). Both are stratified over the passes, by the (0,2)-sequence of Sobol dimensions
+  // 0 and 1 (core/sobol.h), shifted by one random offset per render (Cranley-Patterson
+  // rotation; each pass's hero stays uniform):
+  //  - the offset is van der Corput point j / C: the first 2^k passes' sets interleave into
+  //    C 2^k evenly spaced wavelengths. The heroes were van der Corput point j itself, whose
+  //    first C points (0, 1/2, 1/4, 3/4 for C = 4) differ by multiples of 1/C: every pixel of
+  //    the first C passes saw the same C wavelengths (red.json: red 0.13 for spt's 0.34 after
+  //    4 passes; panes.json: a negative red mean);
+  //  - the member is Sobol dimension 1's point j, times C: the hero, (member + offset) / C, then
+  //    has one point in each 1/2^k of the spectrum over the first 2^k passes (the pair is a
+  //    net), so light that only the hero carries (a dispersive caustic) sees the whole spectrum,
+  //    as with van der Corput heroes (with the offset alone the hero stays within 1/C of it).
+  const uint32_t x = reverse_bits(static_cast<uint32_t>(pass));  // Sobol dimension 0 (van der Corput)
+  const uint32_t y = reverse_bits(sobol_reversed(x, 1));          // Sobol dimension 1
+  const int C = wl_.count;
   Rng rng = Rng::for_key(seed_ ^ 0x7370656374726cULL, 0, 0x776cULL);
-  double u = bits * 0x1p-32 / wl_.count + rng.uniform();
+  double u = (std::floor(y * 0x1p-32 * C) + x * 0x1p-32) / C + rng.uniform();
   u -= std::floor(u);
   return SampledWavelengths::sample_uniform(std::min(static_cast<float>(u), 0x1.fffffep-1f), wl_.count);
 }
