@@ -75,6 +75,7 @@ ProgressivePhotonMapping::ProgressivePhotonMapping(const Scene& scene, const Par
     spectra_ = std::make_unique<SceneSpectra>(scene);
     const int c = params.get<int>("wavelengths");
     wl_.count = c;
+    dispersive_ = !first_dispersive_material(scene).empty();
     stats_.extra["spectral wavelengths"] = c;  // the CLI lists it: this run used spectral photons
     vp_beta_.assign(n, SpectralValues{});
     vp_hero_.assign(n, 0);

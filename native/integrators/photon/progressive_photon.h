@@ -362,6 +362,7 @@ class ProgressivePhotonMapping : public Integrator {
   // The eye pass's segments of `pixel` (and its first cylinder radius).
   void store_beams(size_t pixel, const EyeEnd& end, Vec2 half_extent);
   SampledWavelengths wl_;
+  bool dispersive_ = false;                 // a material disperses: paths may be hero-only (pass_wavelengths)
   std::array<RGB, kMaxWavelengths> wl_basis_;
   SpectraAtWavelengths pass_spectra_;       // materials and lights at wl_
   std::vector<SpectralValues> vp_beta_;     // eye throughput per pixel at wl_ (hero-only: x C)
