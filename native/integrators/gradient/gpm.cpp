@@ -29,10 +29,8 @@ constexpr float kSign[4] = {1, -1, 1, -1};
 constexpr float kReversibleTolerance = 1e-2f;
 
 // A chain vertex's adjoint shading-normal correction beyond this factor (or below its inverse)
-// fails the walked shift (shift_chain_photon); a base chain with such a correction is kept in the
-// primal domain (the gather, Gpm::iterate).
+// fails the walked shift (shift_chain_photon).
 constexpr double kMaxShadingCorrection = 10;
-bool grazing_correction(double corr) { return !(corr < kMaxShadingCorrection && corr > 1 / kMaxShadingCorrection); }
 
 // Failure counters: [0, kShiftFailureCount) sensor shifts, then as many for photon shifts.
 constexpr int kPhotonFailureBase = kShiftFailureCount;
@@ -666,7 +664,8 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   // "Sparse photons"). Such pairs fail, as a non-invertible shift does: offset 0, weight 1 on
   // this side, and the other side's base (the grazing chain) fails its shifts alike. The base's
   // is known before any ray; the offset's as soon as the walk has converged.
-  if (grazing_correction(base.prepared.through.correction)) return failed(ShiftFailure::NotInvertible);
+  const auto grazing = [](double corr) { return !(corr < kMaxShadingCorrection && corr > 1 / kMaxShadingCorrection); };
+  if (grazing(base.prepared.through.correction)) return failed(ShiftFailure::NotInvertible);
   // ---- Step 1: the offset photon y'_s, the candidate of eq. 5 projected onto the receiver ----
   if (org.branched) return failed(ShiftFailure::NotInvertible);  // as shift_dd_photon
   const Projected s1 = project_candidate(scene_, threshold_, vp.p, vp.frame, o.p, o.frame, ph.p, R, rays);
@@ -686,7 +685,7 @@ Gpm::PhotonShift Gpm::shift_chain_photon(const VisiblePoint& vp, const OffsetPoi
   walk_stats.iterations += walk.iterations;
   rays += static_cast<int64_t>(walk.iterations) * (chain.count + 1);
   if (!walk.ok()) return failed(walk.failure);
-  if (grazing_correction(walk.through.correction)) return failed(ShiftFailure::NotInvertible);
+  if (grazing(walk.through.correction)) return failed(ShiftFailure::NotInvertible);
   const ManifoldChain& c = walk.chain;
   if (!scene_.bsdf(walk.end_hit.material, walk.end_hit.uv).is_diffuse_for_photons(threshold_))
     return failed(ShiftFailure::NotInvertible);
@@ -848,17 +847,7 @@ void Gpm::iterate(ProgressSink* sink) {
         const PhotonOrigin& org = origins_[ph.index];
         const PhotonChain* chain =
             org.diffuse || org.chain < 0 || manifold_iterations_ == 0 ? nullptr : &chains_[org.chain];
-        std::optional<ChainBase> local_base;  // built only for a chain being evaluated by another thread
-        const ChainBase* base = chain ? &chain_base(ph, org, local_base.emplace()) : nullptr;
-        // A grazing chain (shift_chain_photon) fails its four shifts and every shift onto it, so
-        // in the gradient domain it would be a density estimate at the gradients' radius alone,
-        // a quarter of the primal's area: the photon tracer's correction (up to ~900 on
-        // cornell-glass's spheres) makes it a pixel three times its primal value after the
-        // reconstruction (docs/gradient.md "GPM's worst pixels"). Whether a chain grazes is a
-        // property of the photon's path alone, and the walk rejects offsets that graze by the
-        // same test, so it is kept apart like an unrecorded chain: a consistent split.
-        const bool grazing = base && base->ok && grazing_correction(base->prepared.through.correction);
-        const bool primal_domain = (!org.diffuse && !chain) || grazing;  // unrecorded: too long (gpm.h)
+        const bool primal_domain = !org.diffuse && !chain;  // too long to be recorded (gpm.h)
         if (d2 <= R_primal * R_primal) {  // the primal: SPPM's gather
           m += weight;
           phi += c;
@@ -868,7 +857,7 @@ void Gpm::iterate(ProgressSink* sink) {
         if (!(d2 <= R * R)) return;
         m_grad += weight;
         if (primal_domain) {
-          ++fail_count[static_cast<int>(grazing ? ShiftFailure::NotInvertible : ShiftFailure::SpecularChain)];
+          ++fail_count[static_cast<int>(ShiftFailure::SpecularChain)];
           return;
         }
         if (!offsets) {
@@ -878,7 +867,9 @@ void Gpm::iterate(ProgressSink* sink) {
         }
         gathered_shifts_[i] = 1;
         const auto& off = *offsets;
-        std::optional<Bsdf> org_bsdf;  // y_{s-1}'s BSDF, evaluated on the first offset that needs it (DD endings)
+        ChainBase local_base;
+        const ChainBase* base = nullptr;  // evaluated on the first offset that needs it
+        std::optional<Bsdf> org_bsdf;     // y_{s-1}'s BSDF, likewise (DD endings)
         for (int d = 0; d < 4; ++d) {
           const OffsetPoint& o = off[d];
           if (!o.exists) continue;
@@ -886,6 +877,7 @@ void Gpm::iterate(ProgressSink* sink) {
           float w = 1.0f;  // failed or non-reversible shift: this side alone samples the pair
           if (o.ok()) {
             ++local_shifts;
+            if (chain && !base) base = &chain_base(ph, org, local_base);
             if (!off_bsdf[d]) {
               off_bsdf[d].emplace(scene_.bsdf(o.material, o.uv, o.frame, o.ng, o.n_smooth));
               off_transmits[d] = off_bsdf[d]->transmits();

@@ -47,10 +47,6 @@
 //   - photons whose chain cannot be walked: longer than kMaxChainVertices, counted as "shift
 //     failed: specular chain not walkable" (a distant light's chain walks across its parallel
 //     beam, its direction held: manifold.h);
-//   - photons whose chain grazes a facet (its adjoint shading-normal correction beyond
-//     kMaxShadingCorrection, gpm.cpp): no shift from or onto such a chain is taken, so in the
-//     gradient domain they would be estimated at the gradients' radius alone (counted as "shift
-//     failed: not invertible", once per gathering pixel);
 //   - emission seen along the camera path (at depth 0 or after specular/glossy bounces).
 //     `combined` estimates it with `emission_samples` further camera paths per pixel and pass
 //     besides the gather path (each stops at its first photon-diffuse vertex: no NEE, no gather)
