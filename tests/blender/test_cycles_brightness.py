@@ -54,13 +54,13 @@ def render_both(scene, out_dir, case, samples, bounces):
     return ours, cycles
 
 
-def check(ours, cycles, case, bound):
+def check(ours, cycles, case, bound, mean_tolerance=MEAN_TOLERANCE):
     ratio = ours.sum() / cycles.sum()
     err = relmse(ours, cycles)
     print(f"BRIGHTNESS {case}: gradphoton/cycles = {ratio:.4f}, relMSE {err:.5f} "
           f"(gradphoton {ours.reshape(-1, 3).mean(0).round(4)}, cycles {cycles.reshape(-1, 3).mean(0).round(4)})")
     assert cycles.sum() > 1e-3
-    assert abs(ratio - 1) < MEAN_TOLERANCE, f"{case}: gradphoton/Cycles mean = {ratio:.4f}"
+    assert abs(ratio - 1) < mean_tolerance, f"{case}: gradphoton/Cycles mean = {ratio:.4f}"
     assert err < bound, f"{case}: relMSE {err:.5f} >= {bound}"
 
 
@@ -123,14 +123,16 @@ def test_cornell_materials_against_cycles(empty_scene, out_dir, case):
 # Measured: area light hidden from diffuse 0.9994 (relMSE 0.0078) at 1024 samples (at 256
 # 1.0069: the glossy-only light is noisy), point light hidden from glossy 1.0011 (0.0067) at 512
 # (1.0025 at 256). Cycles' own mean moves by 0.05 % (area, 1024) and 0.2 % (point, 256) between
-# seeds.
-VISIBILITY_CASES = {"area_hidden_from_diffuse": ("area", "visible_diffuse", 1024, 0.016),
-                    "point_hidden_from_glossy": ("point", "visible_glossy", 512, 0.014)}
+# seeds. The glossy-only area light's mean moves by 0.25 % between gradphoton's seeds at 1024
+# samples (seeds 1-4 against Cycles at 4096: 1.0003, 0.9948, 0.9971, 0.9978; the same within
+# 0.0005 without Russian roulette), so its mean is held to 1 % (4 of those), not 0.5 %.
+VISIBILITY_CASES = {"area_hidden_from_diffuse": ("area", "visible_diffuse", 1024, 0.016, 0.01),
+                    "point_hidden_from_glossy": ("point", "visible_glossy", 512, 0.014, MEAN_TOLERANCE)}
 
 
 @pytest.mark.parametrize("case", list(VISIBILITY_CASES))
 def test_light_ray_visibility_against_cycles(empty_scene, out_dir, case):
-    light, switch, samples, bound = VISIBILITY_CASES[case]
+    light, switch, samples, bound, mean_tolerance = VISIBILITY_CASES[case]
     scenes.cornell_lit(empty_scene, light)
     mix = scenes.mix_material("Mix")
     for name in ("Floor", "Back"):
@@ -140,7 +142,7 @@ def test_light_ray_visibility_against_cycles(empty_scene, out_dir, case):
     setattr(bpy.data.objects[light], switch, False)
     empty_scene.render.resolution_x, empty_scene.render.resolution_y = CORNELL_SIZE
     ours, cycles = render_both(empty_scene, str(out_dir), case, samples=samples, bounces=8)
-    check(ours, cycles, case, bound)
+    check(ours, cycles, case, bound, mean_tolerance)
 
 
 # World > Settings > Ray Visibility against Cycles 3.4: the floor scene's sky hidden from one kind
