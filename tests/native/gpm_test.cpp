@@ -197,6 +197,7 @@ struct LightEdgeCase {
   bool mirror;
   double q;  // the edge columns' share of the light
   int further, passes, seeds;
+  int further_max = -1;  // emission_samples_max (-1: as further, the same count in every pixel)
 };
 void check_light_edge_paths(const LightEdgeCase& c) {
   const double depth = c.mirror ? 3.0 : 1.0;  // of the light's image
@@ -213,26 +214,48 @@ void check_light_edge_paths(const LightEdgeCase& c) {
     "materials": {"mirror": {"type": "conductor", "color": 1}, "lamp": )" + lamp + R"(},
     "objects": [)" + objects + "]}");
   std::vector<Film> films;
+  // Per seed and pixel, sum over passes of 1 / (paths of the pass): a pixel's value is the mean
+  // of its passes' means, so its variance is q (1 - q) / passes^2 times that sum, whatever
+  // earlier passes chose for the counts (each pass's mean is unbiased given the earlier ones).
+  std::vector<std::vector<double>> inv_paths;
   for (int seed = 3; seed < 3 + c.seeds; ++seed) {
     Params p;
     p.set("seed", seed);
     p.set("photons", 1000);
     p.set("emission_samples", c.further);
-    films.push_back(render("gpm", s, c.passes, p));
+    p.set("emission_samples_max", c.further_max < 0 ? c.further : c.further_max);
+    auto integ = make_integrator("gpm", s, p);
+    const auto& counts = dynamic_cast<const Gpm&>(*integ).further_paths_per_pixel();
+    std::vector<int64_t> before(64, 0);
+    std::vector<double> inv(64, 0.0);
+    for (int pass = 0; pass < c.passes; ++pass) {
+      integ->iterate(nullptr);
+      for (int i = 0; i < 64; ++i) {
+        const int64_t n = counts[i] - before[i];
+        const bool edge_column = i % 8 == 2 || i % 8 == 5;  // where the light seen varies
+        if (c.further_max < 0 && edge_column) EXPECT_EQ(n, c.further) << c.name << " pixel " << i << " pass " << pass;
+        inv[i] += 1.0 / double(1 + n);
+        before[i] = counts[i];
+      }
+    }
+    inv_paths.push_back(inv);
+    films.emplace_back();
+    integ->develop(films.back());
   }
   // Per pass `primal` takes one camera path per pixel, `combined` 1 + further.
-  for (const auto& [name, paths] :
-       {std::pair{pass::kPrimal, c.passes}, std::pair{pass::kCombined, c.passes * (1 + c.further)}}) {
+  for (const bool primal : {true, false}) {
+    const auto name = primal ? pass::kPrimal : pass::kCombined;
     double z2 = 0, L_in = 0, L_out = 0;
     int edge = 0;
-    for (const Film& f : films)
+    for (size_t f_i = 0; f_i < films.size(); ++f_i)
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x) {
-        const float v = f.rgb(name, x, y).g;
+        const float v = films[f_i].rgb(name, x, y).g;
         if (x == 3 || x == 4) L_in += v / (16.0 * c.seeds);
         else if (x == 2 || x == 5) {
           const double L = 2.0;
-          z2 += (v - L * c.q) * (v - L * c.q) / (L * L * c.q * (1 - c.q) / paths);
+          const double inv = primal ? c.passes : inv_paths[f_i][y * 8 + x];
+          z2 += (v - L * c.q) * (v - L * c.q) / (L * L * c.q * (1 - c.q) * inv / (double(c.passes) * c.passes));
           ++edge;
         } else L_out = std::max(L_out, double(v));
       }
@@ -254,6 +277,68 @@ void check_light_edge_paths(const LightEdgeCase& c) {
 TEST(Gpm, FurtherCameraPathsEstimateTheLightSeenAlongThem) {
   check_light_edge_paths({"in a mirror", true, 0.3, 15, 8, 1});
   check_light_edge_paths({"seen directly", false, 0.05, 4, 8, 4});
+}
+
+// emission_samples_max: the pixels whose earlier paths saw the light vary take more further
+// paths; the edge's mean and variance follow the counts each pass took (z^2 about 1 with the
+// per-pass counts). Seen failing: the count chosen from the pass's own gather path (12 where it
+// saw the light, else 2: a pass's mean then leans to the gather path's value), z^2 2.12 seen
+// directly (+5.3 sd over 48 edge pixels).
+TEST(Gpm, FurtherCameraPathsWhereTheLightVariedKeepTheEdgeUnbiased) {
+  check_light_edge_paths({"in a mirror, 2 / 12", true, 0.3, 2, 12, 3, 12});
+  check_light_edge_paths({"seen directly, 2 / 12", false, 0.5, 2, 12, 3, 12});
+}
+
+// The counts follow what earlier passes found, and only that: a light seen directly, half of
+// columns 2 and 5 (its edges), all of 3 and 4, none of the rest (the light_edge scene above).
+// Pass 0 takes emission_samples everywhere; afterwards an edge pixel whose paths have seen the
+// light and missed it takes emission_samples_max, the light's inside and its neighbours
+// (a neighbour differs) emission_samples, columns 0 and 7 (nothing seen, nothing near) none. The
+// same counts at 1 and 2 threads. Seen failing: with the count at emission_samples whatever was
+// found (the 16 edge pixels took 8 * 2), and with every pixel at emission_samples_max (every
+// pixel took 8 * 12).
+TEST(Gpm, FurtherPathCountsFollowWhatEarlierPassesFound) {
+  const double pw = 2.0 * std::tan(5.0 * M_PI / 180.0) / 8.0;
+  const Scene s = scene_from(R"({
+    "camera": {"position": [0, 0, 2], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 10, "width": 8, "height": 8},
+    "materials": {"lamp": {"type": "emission", "emission": 1, "strength": 2, "two_sided": false, "visible_to_camera": true, "casts_shadow": false}},
+    "objects": [{"type": "quad", "center": [0, 0, 1], "u": [)" + std::to_string(1.5 * pw) + R"(, 0, 0], "v": [0, 1, 0], "material": "lamp"}]})");
+  const int passes = 8, base = 2, most = 12;
+  std::vector<int64_t> counts[2];
+  for (int t = 0; t < 2; ++t) {
+    Params p;
+    p.set("seed", 5);
+    p.set("photons", 1000);
+    p.set("threads", t + 1);
+    p.set("emission_samples", base);
+    p.set("emission_samples_max", most);
+    auto integ = run("gpm", s, passes, p);
+    counts[t] = dynamic_cast<const Gpm&>(*integ).further_paths_per_pixel();
+  }
+  EXPECT_EQ(counts[0], counts[1]);
+  int64_t edge_sum = 0;
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 8; ++x) std::printf(" %3lld", static_cast<long long>(counts[0][y * 8 + x]));
+    std::printf("\n");
+  }
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x) {
+      const int64_t n = counts[0][y * 8 + x];
+      if (x == 0 || x == 7) EXPECT_EQ(n, base) << x << "," << y;
+      else if (x == 1 || x == 3 || x == 4 || x == 6) {
+        // A pass is skipped after one in which the neighbouring edge saw only light (below).
+        EXPECT_GE(n, base * (passes - 1)) << x << "," << y;
+        EXPECT_LE(n, base * passes) << x << "," << y;
+      } else {
+        // An edge pixel's first three paths all hit or all missed with probability 1/4: it
+        // then waits a pass for its first variation (this seed: 10 of the 16 did not wait).
+        EXPECT_GE(n, base + (passes - 1) * most - (most - base)) << x << "," << y;
+        EXPECT_LE(n, base + (passes - 1) * most) << x << "," << y;
+        edge_sum += n;
+      }
+    }
+  std::printf("edge pixels' further paths: %lld of at most %d\n", static_cast<long long>(edge_sum),
+              16 * (base + (passes - 1) * most));
 }
 
 TEST(Gpm, ConvergesToThePathTracedCornellBox) {

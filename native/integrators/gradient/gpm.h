@@ -145,6 +145,8 @@ class Gpm : public ProgressivePhotonMapping {
   // Tests: `photons` 0 takes SPPM's ramp, not gpm_photons_per_pass (regressions found with it).
   void set_ramp_photons(bool ramp) { ramp_photons_ = ramp; }
   void set_photon_rule(const GpmPhotonRule& rule) { photon_rule_ = rule; }
+  // Tests: the further camera paths each pixel took (finite ones), over all passes so far.
+  const std::vector<int64_t>& further_paths_per_pixel() const { return further_per_pixel_; }
 
   // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
@@ -199,6 +201,7 @@ class Gpm : public ProgressivePhotonMapping {
   };
 
   bool takes_further_paths(size_t pixel, uint64_t pass) const;
+  int further_paths(size_t pixel, uint64_t pass) const;  // how many, from earlier passes (gpm.cpp)
   // Whether the eye pass traces the pixel's offsets, or leaves them to replay_offsets.
   bool eager_offsets(size_t pixel) const;
   std::array<OffsetPoint, 4> replay_offsets(size_t pixel, uint64_t pass, int64_t& rays, int64_t* fail_count) const;
@@ -273,6 +276,8 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
   std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
   int emission_samples_ = 0;                        // further camera paths per pixel and pass
+  int emission_samples_max_ = 0;                    // where the light seen has varied (>= the above)
+  std::vector<int64_t> further_per_pixel_;          // further paths traced (finite), all passes
   bool gradient_nee_ = true;                        // direct light by NEE in the gradient domain
   bool eager_all_offsets_ = false;                  // tests: every offset in the eye pass
   std::vector<uint8_t> offsets_ready_;              // off_[pixel] traced this pass
