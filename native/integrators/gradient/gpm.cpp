@@ -70,6 +70,32 @@ Gpm::Gpm(const Scene& scene, const Params& params)
   pass_nee_diff_.assign(n, {RGB(0.0f), RGB(0.0f), RGB(0.0f), RGB(0.0f)});
   pass_emission_.assign(n, EmissionSeen{});
   further_per_pixel_.assign(n, 0);
+  near_varied_.assign(n, 0);
+}
+
+// Which pixels lie within emission_spread_ pixels (a square) of one whose light seen has varied:
+// a row pass then a column pass of running counts, O(pixels) whatever the spread.
+void Gpm::update_near_varied() {
+  const int w = width_, h = height_, r = emission_spread_;
+  std::vector<uint8_t> row(px_.size(), 0);
+  for (int y = 0; y < h; ++y) {
+    int count = 0;  // varied pixels in [x - r, x + r] of this row
+    for (int x = 0; x < std::min(r, w); ++x) count += grad_[static_cast<size_t>(y) * w + x].emission_varies();
+    for (int x = 0; x < w; ++x) {
+      if (x + r < w) count += grad_[static_cast<size_t>(y) * w + x + r].emission_varies();
+      if (x - r - 1 >= 0) count -= grad_[static_cast<size_t>(y) * w + x - r - 1].emission_varies();
+      row[static_cast<size_t>(y) * w + x] = count > 0;
+    }
+  }
+  for (int x = 0; x < w; ++x) {
+    int count = 0;
+    for (int y = 0; y < std::min(r, h); ++y) count += row[static_cast<size_t>(y) * w + x];
+    for (int y = 0; y < h; ++y) {
+      if (y + r < h) count += row[static_cast<size_t>(y + r) * w + x];
+      if (y - r - 1 >= 0) count -= row[static_cast<size_t>(y - r - 1) * w + x];
+      near_varied_[static_cast<size_t>(y) * w + x] = count > 0;
+    }
+  }
 }
 
 // ---- Photons per pass (gpm.h gpm_photons_per_pass) ----
@@ -374,18 +400,19 @@ std::array<Gpm::OffsetPoint, 4> Gpm::replay_offsets(size_t pixel, uint64_t pass,
 // pass three times in four, and would otherwise be left with one path per pass), and pixels whose
 // gather paths went through specular or glossy surfaces (a light's rare image through glass).
 // Not the inside of an emitter, nor a sky, where more paths cost time and lower no variance.
-// How many: `emission_samples_max` where the pixel's own paths have seen its light vary (there
-// they lower a variance the earlier passes measured: the light's image in cornell-glass's mirror
-// and glass balls, an emitter's edge), `emission_samples` in the other pixels that take them (a
-// share kept where nothing has been seen yet, so that a rare image is found), none elsewhere.
-// The count depends on earlier passes only, so each pass's mean stays an unbiased average of its
-// own paths (the pass's weight in the pixel does not depend on its paths); 16 everywhere won on
-// cornell-glass and cost torus-glass 17-23 % at equal time, where few pixels see a light's image
-// (docs/gradient.md "Further paths where they found light").
+// How many, of the pixels that take them: `emission_samples_max` within emission_spread_ (48)
+// pixels of one whose light seen has varied between its earlier paths (the light's images in
+// cornell-glass's mirror and glass balls: their pixels that see an image rarely have not varied
+// yet, their neighbours in the ball have; an emitter's edge), `emission_samples` elsewhere (a
+// share kept where nothing has been seen yet, so that a rare image is found). The count depends
+// on earlier passes only, so each pass's mean stays an unbiased average of its own paths (the
+// pass's weight in the pixel does not depend on its paths). 16 everywhere won on cornell-glass
+// and cost torus-glass 17-23 % at equal time: its glass cube shows no image of the light, and
+// now keeps 4 (docs/gradient.md "Further paths where they found light": the spread measured).
 int Gpm::further_paths(size_t pixel, uint64_t pass) const {
   if (emission_samples_ == 0) return 0;
-  if (pass > 0 && grad_[pixel].emission_varies()) return emission_samples_max_;
-  return takes_further_paths(pixel, pass) ? emission_samples_ : 0;
+  if (!takes_further_paths(pixel, pass)) return 0;
+  return pass > 0 && near_varied_[pixel] ? emission_samples_max_ : emission_samples_;
 }
 
 bool Gpm::takes_further_paths(size_t pixel, uint64_t pass) const {
@@ -995,6 +1022,7 @@ void Gpm::iterate(ProgressSink* sink) {
     invalid_phi += bad;
     further_paths += further;
   });
+  if (emission_samples_max_ > emission_samples_) update_near_varied();
   end_pass(t_update, ps, rays + shift_rays, invalid + invalid_phi);  // SPPM's end of a pass
   last_work_ = {.eye_rays = rays, .photon_rays = ps.rays, .shift_rays = shift_rays,
                 .walk_iterations = walk_iterations, .emitted = ps.emitted, .stored = ps.stored};
