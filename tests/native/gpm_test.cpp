@@ -928,4 +928,49 @@ TEST(Gpm, RejectsBadParameters) {
 }
 
 }  // namespace
+// GPM's image where the further paths took the max (cornell-glass: the light's images in the
+// mirror and glass balls, the light's edges) keeps path tracing's mean, and main's rule's: the
+// max changes how many paths a pass averages, not what they estimate. Seen failing with each
+// pass's emission divided by 1 + emission_samples whatever the count (gpm / pt 3.00 and 2.84;
+// the edge test above too).
+TEST(Gpm, MeanWhereFurtherPathsTookTheMaxIsThePathTracedOne) {
+  Scene s = load_scene(std::string(GRADPHOTON_SOURCE_DIR) + "/scenes/cornell-glass.json");
+  s.camera.width = 64;
+  s.camera.height = 64;
+  const int passes = 16;
+  Params pr;
+  pr.set("seed", 99);
+  Film ref;
+  run("pt", s, 2048, pr)->develop(ref);
+  for (const int seed : {3, 4}) {
+    Params p = photon_params(20000, seed);
+    auto g = run("gpm", s, passes, p);
+    // The same passes with main's rule (4 everywhere), and SPPM, over the pixels that took the max.
+    p.set("emission_samples_max", 4);
+    Film f, f4, sp;
+    g->develop(f);
+    run("gpm", s, passes, p)->develop(f4);
+    run("sppm", s, passes, photon_params(20000, seed))->develop(sp);
+    const auto& counts = dynamic_cast<const Gpm&>(*g).further_paths_per_pixel();
+    double a = 0, a4 = 0, b = 0, c = 0;
+    int n = 0;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        if (counts[y * 64 + x] <= 4 * passes) continue;
+        a += f.rgb(pass::kCombined, x, y).luminance();
+        a4 += f4.rgb(pass::kCombined, x, y).luminance();
+        b += ref.rgb(pass::kCombined, x, y).luminance();
+        c += sp.rgb(pass::kCombined, x, y).luminance();
+        ++n;
+      }
+    std::printf("seed %d, %d pixels took the max: gpm / pt mean %.4f, with 4: %.4f, sppm / pt %.4f\n", seed, n,
+                a / b, a4 / b, c / b);
+    // Measured: seed 3 1.022 (with 4: 1.021, SPPM 0.999), seed 4 0.980 (0.992, 0.993): the light's
+    // images in the balls are few bright paths at 16 passes. About 2x headroom on both bounds.
+    EXPECT_GT(n, 50);
+    EXPECT_NEAR(a / b, 1.0, 0.04);
+    EXPECT_NEAR(a / a4, 1.0, 0.03);
+  }
+}
+
 }  // namespace gp
