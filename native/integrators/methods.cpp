@@ -330,6 +330,12 @@ std::vector<Method> make_methods() {
                        .description = "camera paths per pixel and pass, besides the gather path, for the light "
                                       "seen along them (emitters, their images in mirrors and glass); combined only",
                        .group = "Photons"},  // measured: docs/gradient.md "Emission"
+                      {.name = "emission_samples_max", .type = ParamType::Int, .default_value = 16, .min = 0, .max = 64,
+                       .label = "Emission Samples Max",
+                       .description = "further camera paths per pass, at least Emission Samples, in the pixels that "
+                                      "take them within 48 pixels of one whose light seen has varied (a light's image "
+                                      "in a mirror or glass, an emitter's edge); combined only",
+                       .group = "Photons"},  // measured: docs/gradient.md "Further paths where they found light"
                       {.name = "gradient_nee", .type = ParamType::Bool, .default_value = true,
                        .label = "Gradient Direct Light",
                        .description = "direct light by next-event estimation in the gradient domain (four offset "

@@ -51,7 +51,8 @@
 //     `combined` estimates it with `emission_samples` further camera paths per pixel and pass
 //     besides the gather path (each stops at its first photon-diffuse vertex: no NEE, no gather)
 //     in every pixel in the first pass, then in the pixels where it has varied between paths or
-//     whose gather paths went through specular or glossy surfaces,
+//     whose gather paths went through specular or glossy surfaces (`emission_samples_max` of them
+//     within 48 pixels of a pixel whose light seen has varied: gpm.cpp further_paths),
 //     because a GPM pass costs several SPPM passes and this part gains nothing from gradients:
 //     with one path per pass, the light and its images in mirrors and glass were as noisy as
 //     SPPM's at a third to a fifth of its passes (cornell-glass; docs/gradient.md "Emission").
@@ -145,6 +146,10 @@ class Gpm : public ProgressivePhotonMapping {
   // Tests: `photons` 0 takes SPPM's ramp, not gpm_photons_per_pass (regressions found with it).
   void set_ramp_photons(bool ramp) { ramp_photons_ = ramp; }
   void set_photon_rule(const GpmPhotonRule& rule) { photon_rule_ = rule; }
+  // Tests: the further camera paths each pixel took (finite ones), over all passes so far.
+  const std::vector<int64_t>& further_paths_per_pixel() const { return further_per_pixel_; }
+  // Tests: how near (pixels) a pixel whose light seen has varied makes others take the max.
+  void set_emission_spread(int pixels) { emission_spread_ = pixels; }
 
   // Offsets in the order the per-pixel sums are kept (as GradientPathTracer).
   enum Direction { kRight = 0, kLeft = 1, kDown = 2, kUp = 3 };
@@ -199,6 +204,7 @@ class Gpm : public ProgressivePhotonMapping {
   };
 
   bool takes_further_paths(size_t pixel, uint64_t pass) const;
+  int further_paths(size_t pixel, uint64_t pass) const;  // how many, from earlier passes (gpm.cpp)
   // Whether the eye pass traces the pixel's offsets, or leaves them to replay_offsets.
   bool eager_offsets(size_t pixel) const;
   std::array<OffsetPoint, 4> replay_offsets(size_t pixel, uint64_t pass, int64_t& rays, int64_t* fail_count) const;
@@ -273,6 +279,13 @@ class Gpm : public ProgressivePhotonMapping {
   std::vector<RGB> pass_nee_;                       // this pass's NEE light per pixel
   std::vector<std::array<RGB, 4>> pass_nee_diff_;   // and its differences
   int emission_samples_ = 0;                        // further camera paths per pixel and pass
+  int emission_samples_max_ = 0;                    // where the light seen has varied (>= the above)
+  std::vector<int64_t> further_per_pixel_;          // further paths traced (finite), all passes
+  // Pixels: how near one whose light seen has varied a pixel takes the max (a square; measured:
+  // 0 and 96 lost to 48 on cornell-glass, docs/gradient.md "Further paths where they found light").
+  int emission_spread_ = 48;
+  std::vector<uint8_t> near_varied_;                // within emission_spread_ of a varied pixel
+  void update_near_varied();
   bool gradient_nee_ = true;                        // direct light by NEE in the gradient domain
   bool eager_all_offsets_ = false;                  // tests: every offset in the eye pass
   std::vector<uint8_t> offsets_ready_;              // off_[pixel] traced this pass
