@@ -18,7 +18,6 @@ the mean over seeds per scene, configuration and work level.
 """
 import argparse
 import csv
-import json
 import os
 import pathlib
 import statistics
@@ -39,10 +38,8 @@ def parse_config(text):
 
 def render(native, scene_path, size, method, params, seed, levels, threads):
     """[(work, passes, photons, eye share of the work, combined image)] at each work level."""
-    desc = json.loads(pathlib.Path(scene_path).read_text())
-    if size:
-        desc["camera"]["width"], desc["camera"]["height"] = size
-    scene = native.load_scene_json(json.dumps(desc), str(pathlib.Path(scene_path).parent))
+    from interleaved import load_scene_at
+    scene = load_scene_at(str(scene_path), size)
     session = native.Session(scene, method, {**params, "seed": seed, "threads": threads})
     session.set_aux_passes(False)
     out, todo = [], sorted(levels)
@@ -99,23 +96,22 @@ def main():
     from convergence import SplitReference
     a, b = opts.reference.split(",")
     ref = SplitReference.from_files(a, b)
-    size = tuple(int(v) for v in opts.size.lower().split("x")) if opts.size else None
     levels = [float(w) for w in opts.work.split(",")]
     new = not os.path.exists(opts.csv)
     with open(opts.csv, "a", newline="") as f:
         wr = csv.writer(f)
         if new:
-            wr.writerow(["scene", "label", "method", "env", "seed", "level", "work_M", "passes", "photons",
+            wr.writerow(["scene", "label", "method", "seed", "level", "work_M", "passes", "photons",
                          "eye_share", "relmse_excess", "relmse_trim", "load", "seconds"])
         for seed in (int(s) for s in opts.seeds.split(",")):
             for text in opts.config:
                 label, method, params = parse_config(text)
                 t0 = time.time()
-                snaps = render(native, ROOT / "scenes" / f"{opts.scene}.json", size, method, params, seed, levels,
+                snaps = render(native, ROOT / "scenes" / f"{opts.scene}.json", opts.size, method, params, seed, levels,
                                opts.threads)
                 for level, (work, passes, photons, eye, image) in zip(levels, snaps):
                     _, excess = ref.errors(image)
-                    wr.writerow([opts.scene, label, text, os.environ.get("GP_GPM_RULE", ""), seed, level,
+                    wr.writerow([opts.scene, label, text, seed, level,
                                  round(work / 1e6, 2), passes, photons, round(eye, 3), excess, ref.trimmed(image),
                                  round(os.getloadavg()[0], 1), round(time.time() - t0, 1)])
                     print(f"{opts.scene} {label} seed {seed} {level} M: work {work / 1e6:.1f} passes {passes} "

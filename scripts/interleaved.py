@@ -41,10 +41,10 @@ def parse_spec(spec):
 
 
 def load_scene_at(path, size):
-    """The scene file with its camera resized to 'WxH'."""
-    w, h = (int(v) for v in size.split("x"))
+    """The scene file with its camera resized to 'WxH' (empty or None: the file's size)."""
     j = json.load(open(path))
-    j["camera"]["width"], j["camera"]["height"] = w, h
+    if size:
+        j["camera"]["width"], j["camera"]["height"] = (int(v) for v in size.lower().split("x"))
     return _native.load_scene_json(json.dumps(j), os.path.dirname(os.path.abspath(path)))
 
 
