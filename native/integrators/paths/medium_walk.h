@@ -35,6 +35,13 @@ inline bool transparent_done(int transparent_bounces, const RayState& state) {
   return state.transparent > 0 && state.transparent > transparent_bounces;
 }
 
+// The mean of a path's n channel values (RGB, or its wavelengths), n > 0.
+inline float channel_mean(const ChannelValues& w, int n) {
+  float sum = 0;
+  for (int k = 0; k < n; ++k) sum += w[k];
+  return sum / n;
+}
+
 // Film > Transparent in the spectral methods: the RGB weight of a camera path's passes through
 // Transparent BSDF closures, carried beside its spectral throughput for its transparency only
 // (path_transparency). Cycles averages the RGB throughput of a path that escaped after transparent
@@ -69,10 +76,7 @@ class RgbTransparency {
   }
   // A factor per channel of the path (media's transmittance): its mean over them.
   void scale(const ChannelValues& w, int n) {
-    if (!walking_ || n <= 0) return;
-    float sum = 0;
-    for (int k = 0; k < n; ++k) sum += w[k];
-    weight_ *= sum / n;
+    if (walking_ && n > 0) weight_ *= channel_mean(w, n);
   }
   void scale(float f) { weight_ *= f; }
   // The path left the camera's walk (a medium scattered it).
@@ -96,11 +100,8 @@ float path_transparency(const P& path) {
   if constexpr (requires { path.rgb_transparency(); }) {
     t = path.rgb_transparency().average();
   } else {
-    const ChannelValues w = path.channel_weights();
     const int n = path.channels();
-    float sum = 0;
-    for (int k = 0; k < n; ++k) sum += w[k];
-    t = n > 0 ? sum / n : 1.0f;
+    t = n > 0 ? channel_mean(path.channel_weights(), n) : 1.0f;
   }
   return std::isfinite(t) ? std::clamp(t, 0.0f, 1.0f) : 1.0f;
 }
